@@ -1,0 +1,81 @@
+"""Plain-data descriptions of a machine, for the CLI and for reports (engineering units)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .machine import Machine
+
+UM_PER_M = 1e6
+ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
+
+
+def machine_info(machine: Machine) -> dict:
+    """Axes, chains, error terms by kind, travels: what ``volerr info`` prints.
+
+    Travels are in mm (linear) or deg (rotary); each axis also reports its nominal
+    direction of motion of the tool relative to the workpiece at the travel centre.
+    """
+    spec = machine.spec
+    chains = machine.chains
+    axes = []
+    for axis, kind, (lo, hi) in zip(spec.axes, machine.axis_kinds, machine.travel):
+        factor = 1e3 if kind == "linear" else 180.0 / math.pi
+        axes.append({
+            "name": axis.name,
+            "joint": axis.joint,
+            "kind": kind,
+            "unit": "mm" if kind == "linear" else "deg",
+            "travel": [lo * factor, hi * factor],
+            "chain": "tool" if axis.name in chains["tool"] else "workpiece",
+            "sign": int(axis.sign),
+            "errors_frame": axis.frame,
+        })
+    by_kind: dict[str, list[str]] = {}
+    for term in machine.term_info():
+        by_kind.setdefault(term["kind"], []).append(term["component"])
+    # range of each component over its axis travel (other axes at mid travel)
+    travel = machine.travel
+    travel = np.where(np.isfinite(travel), travel, np.array([-math.pi, math.pi]))
+    sweeps = []
+    for j in range(len(machine.axes)):
+        q = np.tile(travel.mean(axis=1), (201, 1))
+        q[:, j] = np.linspace(travel[j, 0], travel[j, 1], 201)
+        sweeps.append(q)
+    values = machine.component_values(np.vstack(sweeps))
+    components = []
+    kinds: dict[str, list[str]] = {}
+    for term in machine.term_info():
+        kinds.setdefault(term["component"], []).append(term["kind"])
+    for k, name in enumerate(machine.components):
+        angular = name[1] in "ABC"
+        factor = ARCSEC_PER_RAD if angular else UM_PER_M
+        info = next(t for t in machine.term_info() if t["component"] == name)
+        components.append({
+            "name": name,
+            "owner": info["owner"],
+            "kinds": kinds[name],
+            "unit": "arcsec" if angular else "um",
+            "min": float(values[:, k].min() * factor),
+            "max": float(values[:, k].max() * factor),
+            "parameters": [p for t in machine.term_info() if t["component"] == name
+                           for p in t["parameters"]],
+        })
+    return {
+        "machine": machine.name,
+        "description": spec.description,
+        "source": spec.reference,
+        "spec": spec.source,
+        "urdf": str(spec.urdf),
+        "tool_frame": machine.tool_frame,
+        "workpiece_frame": machine.workpiece_frame,
+        "axes": axes,
+        "bodies": [{"name": b.name, "joint": b.joint} for b in spec.bodies],
+        "chains": {k: list(v) for k, v in chains.items()},
+        "terms_by_kind": by_kind,
+        "components": components,
+        "n_error_joints": len(machine.error_joints),
+        "n_parameters": len(machine.parameter_names),
+    }

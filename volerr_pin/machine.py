@@ -1,0 +1,431 @@
+"""The machine: URDF + error spec -> Pinocchio model with error joints -> volumetric error."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+import pinocchio as pin
+
+from . import kinematics as K
+from .errors import InputError, SpecError, URDFError
+from .spec import (DIRECTIONS, MachineSpec, axis_travel, component_name, load_spec,
+                   spec_from_urdf)
+from .terms import Context, Covariates
+from .urdf import URDF, Site, inject, load_urdf
+
+SPEC_FILE = "errors.toml"
+
+
+def machines_dir() -> Path:
+    """Folder of the bundled machines (``VOLERR_MACHINES`` overrides it)."""
+    env = os.environ.get("VOLERR_MACHINES")
+    if env:
+        return Path(env)
+    here = Path(__file__).resolve().parent
+    for candidate in (here.parent / "machines", here / "machines"):
+        if candidate.is_dir():
+            return candidate
+    return here.parent / "machines"
+
+
+def bundled_machines() -> list[str]:
+    """Names of the machines shipped with volerr_pin."""
+    root = machines_dir()
+    return sorted(p.name for p in root.iterdir() if (p / SPEC_FILE).is_file()) if root.is_dir() else []
+
+
+@dataclass(frozen=True)
+class _Component:
+    name: str
+    owner: str
+    axis_index: int | None      # index into Machine.axes, None for bodies and location errors
+    column: int                 # Pinocchio v-index of its error joint
+    chain_sign: float           # +1 tool chain, -1 workpiece chain
+    terms: tuple                # (TermSpec, slice into theta)
+
+
+class Machine:
+    """A machine tool (or robot) with error joints on every axis.
+
+    Immutable: ``theta`` returns a copy, :meth:`with_theta` returns a new machine.
+    Build it with :func:`load_machine`.
+    """
+
+    def __init__(self, spec: MachineSpec, urdf: URDF):
+        self._spec = spec
+        self._urdf = urdf
+        sites, owner_joint = [], {}
+        for axis in spec.axes:
+            owner_joint[axis.name] = (axis.joint, axis.reference)
+        for body in spec.bodies:
+            owner_joint[body.name] = (body.joint, body.reference)
+        located = sorted({c.owner for c in spec.components if c.location},
+                         key=list(owner_joint).index)
+        for owner in located:
+            joint, ref = owner_joint[owner]
+            sites.append(Site(f"loc_{owner}", joint, "before", ref,
+                              tuple(component_name(d, owner, True) for d in DIRECTIONS)))
+        for axis in spec.axes:
+            sites.append(Site(f"axis_{axis.name}", axis.joint,
+                              "after" if axis.frame == "moving" else "before", axis.reference,
+                              tuple(component_name(d, axis.name) for d in DIRECTIONS)))
+        for body in spec.bodies:
+            sites.append(Site(f"body_{body.name}", body.joint, "after", body.reference,
+                              tuple(component_name(d, body.name) for d in DIRECTIONS)))
+        taken = set(urdf.joints) | set(urdf.links)
+        for site in sites:
+            clash = taken & (set(site.names) | {f"{site.key}__err{i}" for i in range(7)})
+            if clash:
+                raise SpecError(f"{spec.source}: injected error joint names {sorted(clash)} "
+                                f"already exist in {urdf.source}")
+        self._sites = tuple(sites)
+        self._injected = inject(urdf, sites)
+        try:
+            model = pin.buildModelFromXML(self._injected.to_string())
+        except Exception as err:  # Pinocchio raises plain RuntimeError/ValueError
+            raise URDFError(f"{urdf.source}: Pinocchio cannot build the model: {err}") from err
+        for frame in (spec.tool_frame, spec.workpiece_frame):
+            if not model.existFrame(frame):
+                raise SpecError(f"{spec.source}: frame '{frame}' is not in the model")
+        self._model = model
+        error_names = [n for s in sites for n in s.names]
+        error_ids = {model.getJointId(n) for n in error_names}
+        self._chain = K.build_chain(model, spec.tool_frame, spec.workpiece_frame, error_ids)
+        op_sign = dict(zip(self._chain.joints, self._chain.sign))
+
+        def chain_sign(joint_name: str, what: str) -> float:
+            jid = model.getJointId(joint_name)
+            if jid not in op_sign:
+                raise SpecError(f"{spec.source}: {what} (joint '{joint_name}') does not lie between "
+                                f"the workpiece frame '{spec.workpiece_frame}' and the tool frame "
+                                f"'{spec.tool_frame}', so it cannot move the tool relative to the "
+                                "workpiece")
+            return float(op_sign[jid])
+
+        self._axis_cols = np.array([model.idx_vs[model.getJointId(a.joint)] for a in spec.axes])
+        self._axis_signs = np.array([a.sign for a in spec.axes])
+        self._axis_chain = tuple(chain_sign(a.joint, f"axis {a.name}") for a in spec.axes)
+        for site in sites:
+            chain_sign(site.names[0], f"error site {site.key}")
+        self._travel = np.array([axis_travel(urdf, a) for a in spec.axes], dtype=float).reshape(-1, 2)
+        axis_names = [a.name for a in spec.axes]
+        components, names, theta = [], [], []
+        for comp in spec.components:
+            jid = model.getJointId(comp.name)
+            spans = []
+            for tspec in comp.terms:
+                start = len(names)
+                names.extend(tspec.names(comp.name))
+                theta.extend(tspec.coefficients)
+                spans.append((tspec, slice(start, len(names))))
+            index = axis_names.index(comp.owner) if (comp.owner in axis_names and not comp.location) else None
+            components.append(_Component(comp.name, comp.owner, index, model.idx_vs[jid],
+                                         chain_sign(comp.name, f"error {comp.name}"), tuple(spans)))
+        self._components = tuple(components)
+        self._names = tuple(names)
+        self._theta = np.asarray(theta, dtype=float)
+        self._theta.flags.writeable = False
+
+    # ------------------------------------------------------------------ description
+    @property
+    def name(self) -> str:
+        return self._spec.name
+
+    @property
+    def spec(self) -> MachineSpec:
+        return self._spec
+
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """Axis names in the order of the columns of ``q``."""
+        return tuple(a.name for a in self._spec.axes)
+
+    @property
+    def axis_kinds(self) -> tuple[str, ...]:
+        """"linear" or "rotary" per axis (SI unit m or rad)."""
+        return tuple("linear" if self._urdf.joints[a.joint].type == "prismatic" else "rotary"
+                     for a in self._spec.axes)
+
+    @property
+    def travel(self) -> np.ndarray:
+        """(n_axes, 2) lower and upper NC travel, m or rad."""
+        return self._travel.copy()
+
+    @property
+    def chains(self) -> dict[str, tuple[str, ...]]:
+        """Axes carried by the tool chain and by the workpiece chain."""
+        return {
+            "tool": tuple(a for a, s in zip(self.axes, self._axis_chain) if s > 0),
+            "workpiece": tuple(a for a, s in zip(self.axes, self._axis_chain) if s < 0),
+        }
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the coefficients ``theta`` (e.g. ``EXX.c2``), in order."""
+        return self._names
+
+    @property
+    def theta(self) -> np.ndarray:
+        """Current coefficient values (SI), a copy."""
+        return np.array(self._theta)
+
+    @property
+    def components(self) -> tuple[str, ...]:
+        """Names of the component and location errors that have terms."""
+        return tuple(c.name for c in self._components)
+
+    @property
+    def error_joints(self) -> tuple[str, ...]:
+        """Names of all injected error joints (six per site)."""
+        return tuple(n for s in self._sites for n in s.names)
+
+    @property
+    def model(self) -> pin.Model:
+        """The Pinocchio model with error joints (a copy: the machine is immutable)."""
+        return pin.Model(self._model)
+
+    @property
+    def tool_frame(self) -> str:
+        return self._spec.tool_frame
+
+    @property
+    def workpiece_frame(self) -> str:
+        return self._spec.workpiece_frame
+
+    @property
+    def urdf(self) -> URDF:
+        """The nominal URDF as read."""
+        return self._urdf
+
+    def injected_urdf(self) -> str:
+        """The URDF with the error joints, as XML text.
+
+        Joint values: an axis joint takes ``sign * q``; an error joint takes the error value
+        on the tool chain and its negative on the workpiece chain (errors are defined as
+        motions of the tool relative to the workpiece).
+        """
+        return self._injected.to_string()
+
+    def with_theta(self, theta) -> "Machine":
+        """A copy of this machine with other coefficient values."""
+        theta = self._check_theta(theta)
+        other = object.__new__(Machine)
+        other.__dict__.update(self.__dict__)
+        other._theta = theta
+        other._theta.flags.writeable = False
+        return other
+
+    def term_info(self) -> list[dict]:
+        """One entry per term: component, owner, kind, coefficient names."""
+        out = []
+        for comp in self._components:
+            for tspec, span in comp.terms:
+                out.append({"component": comp.name, "owner": comp.owner, "kind": tspec.term.kind,
+                            "parameters": list(self._names[span])})
+        return out
+
+    # ------------------------------------------------------------------ evaluation
+    def _check_theta(self, theta) -> np.ndarray:
+        if theta is None:
+            return self._theta
+        theta = np.array(theta, dtype=float)
+        if theta.shape != (len(self._names),):
+            raise InputError(f"theta has shape {theta.shape}; expected ({len(self._names)},) "
+                             f"for the parameters of {self.name}")
+        bad = np.flatnonzero(~np.isfinite(theta))
+        if bad.size:
+            raise InputError(f"theta[{bad[0]}] ({self._names[bad[0]]}) is {theta[bad[0]]}")
+        return theta
+
+    def check_q(self, q, extrapolate: bool = False) -> np.ndarray:
+        """Convert ``q`` to a (N, n_axes) float array and check it; raises InputError."""
+        try:
+            q = np.array(q, dtype=float)
+        except (TypeError, ValueError) as err:
+            raise InputError(f"q must be numeric with shape (N, {len(self.axes)}): {err}") from None
+        if q.ndim == 1 and q.shape[0] == len(self.axes):
+            q = q[None, :]
+        if q.ndim != 2 or q.shape[1] != len(self.axes):
+            raise InputError(f"q has shape {q.shape}; expected (N, {len(self.axes)}) with columns "
+                             f"{', '.join(self.axes)}")
+        bad = np.argwhere(~np.isfinite(q))
+        if bad.size:
+            i, j = bad[0]
+            raise InputError(f"q[{i}, {j}] (axis {self.axes[j]}) is {q[i, j]}")
+        if not extrapolate:
+            span = self._travel[:, 1] - self._travel[:, 0]
+            tol = 1e-9 * np.where(np.isfinite(span), np.maximum(span, 1.0), 1.0)
+            outside = (q < self._travel[:, 0] - tol) | (q > self._travel[:, 1] + tol)
+            if outside.any():
+                i, j = np.argwhere(outside)[0]
+                unit = "m" if self.axis_kinds[j] == "linear" else "rad"
+                raise InputError(
+                    f"q[{i}, {j}] = {q[i, j]:.6g} {unit} is outside the travel of axis {self.axes[j]} "
+                    f"[{self._travel[j, 0]:.6g}, {self._travel[j, 1]:.6g}] {unit} "
+                    f"({int(outside.sum())} value(s) outside); pass extrapolate=True to evaluate there")
+        return q
+
+    def check_covariates(self, n: int, covariates: Mapping) -> Covariates:
+        """Check keyword covariates (see CONTRACT: t, temperatures, forces, directions)."""
+        known = {"t", "temperatures", "forces", "directions"}
+        unknown = sorted(set(covariates) - known)
+        if unknown:
+            raise InputError(f"unknown covariate(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+
+        def vector(name, value, shape):
+            try:
+                array = np.array(value, dtype=float)
+            except (TypeError, ValueError):
+                raise InputError(f"covariate '{name}' is not numeric") from None
+            if array.shape != shape:
+                raise InputError(f"covariate '{name}' has shape {array.shape}; expected {shape}")
+            bad = np.argwhere(~np.isfinite(array))
+            if bad.size:
+                raise InputError(f"covariate '{name}'[{', '.join(map(str, bad[0]))}] is not finite")
+            return array
+
+        t = covariates.get("t")
+        t = None if t is None else vector("t", t, (n,))
+        temps = {}
+        for sensor, values in dict(covariates.get("temperatures") or {}).items():
+            temps[str(sensor)] = vector(f"temperatures[{sensor!r}]", values, (n,))
+        forces = covariates.get("forces")
+        forces = None if forces is None else vector("forces", forces, (n, 3))
+        directions = covariates.get("directions")
+        if directions is not None:
+            directions = vector("directions", directions, (n, len(self.axes)))
+            if not np.all(np.isin(directions, (-1.0, 1.0))):
+                raise InputError("covariate 'directions' must hold only +1 and -1")
+        return Covariates(n, t, temps, forces, directions)
+
+    def joint_values(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
+        """(N, nv) values of all Pinocchio joints (axes and error joints) at ``q``."""
+        q = self.check_q(q, extrapolate)
+        theta = self._check_theta(theta)
+        cov = self.check_covariates(q.shape[0], covariates)
+        return self._joint_values(q, theta, cov)
+
+    def _joint_values(self, q: np.ndarray, theta: np.ndarray, cov: Covariates) -> np.ndarray:
+        values = np.zeros((q.shape[0], self._model.nv))
+        values[:, self._axis_cols] = q * self._axis_signs
+        components = self._component_values(q, theta, cov)
+        for k, comp in enumerate(self._components):
+            values[:, comp.column] += comp.chain_sign * components[:, k]
+        return values
+
+    def _component_values(self, q: np.ndarray, theta: np.ndarray, cov: Covariates) -> np.ndarray:
+        out = np.zeros((q.shape[0], len(self._components)))
+        for k, comp in enumerate(self._components):
+            if comp.axis_index is None:
+                ctx = Context(None, None, cov)
+            else:
+                ctx = Context(q[:, comp.axis_index], tuple(self._travel[comp.axis_index]), cov)
+            for tspec, span in comp.terms:
+                out[:, k] += tspec.term.basis(ctx) @ theta[span]
+        return out
+
+    def component_values(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
+        """(N, n_components) values of the component errors (order of :attr:`components`),
+        SI (m or rad), as motions of the tool relative to the workpiece."""
+        q = self.check_q(q, extrapolate)
+        theta = self._check_theta(theta)
+        cov = self.check_covariates(q.shape[0], covariates)
+        return self._component_values(q, theta, cov)
+
+    def volumetric_error(self, q, theta=None, *, order: int | None = None,
+                         extrapolate: bool = False, **covariates) -> np.ndarray:
+        """Pose error of the tool point relative to the workpiece, in the workpiece frame.
+
+        Parameters
+        ----------
+        q : (N, n_axes) array
+            Commanded NC positions, m for linear and rad for rotary axes (a single
+            (n_axes,) point gives a (6,) result).
+        theta : (P,) array, optional
+            Coefficients, SI; defaults to :attr:`theta`.
+        order : None or 1
+            None: exact (rotation part is the rotation vector of R_act R_nom^T);
+            1: first-order (linearised in the errors).
+        extrapolate : bool
+            Allow positions outside the travel.
+        **covariates
+            ``t`` (N,) s, ``temperatures`` {name: (N,)} degC, ``forces`` (N, 3) N,
+            ``directions`` (N, n_axes) of +1/-1.
+
+        Returns
+        -------
+        (N, 6) array
+            dx, dy, dz [m], rx, ry, rz [rad]: actual minus nominal.
+        """
+        single = np.ndim(q) == 1
+        if order not in (None, 1):
+            raise InputError(f"order must be None (exact) or 1 (first order), got {order!r}")
+        values = self.joint_values(q, theta, extrapolate=extrapolate, **covariates)
+        out = K.pose_error(self._chain, values, order)
+        return out[0] if single else out
+
+    def tool_poses(self, q, theta=None, *, nominal: bool = False, extrapolate: bool = False,
+                   **covariates) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 3, 3) rotations and (N, 3) positions [m] of the tool frame in the workpiece
+        frame, actual (default) or nominal."""
+        values = self.joint_values(q, theta, extrapolate=extrapolate, **covariates)
+        return K.relative_poses(self._chain, values, with_errors=not nominal)
+
+    def pinocchio_configuration(self, q, theta=None, *, extrapolate: bool = False,
+                                **covariates) -> np.ndarray:
+        """(N, nq) configurations of :attr:`model` for the points ``q``."""
+        values = self.joint_values(q, theta, extrapolate=extrapolate, **covariates)
+        return K.pinocchio_configuration(self._model, values)
+
+    def __repr__(self) -> str:
+        return (f"<Machine {self.name}: axes {', '.join(self.axes)}; {len(self._components)} error "
+                f"components, {len(self._names)} parameters>")
+
+
+def load_machine(machine: str | os.PathLike, *, tool_frame: str | None = None,
+                 workpiece_frame: str | None = None) -> Machine:
+    """Load a machine.
+
+    Parameters
+    ----------
+    machine : str or path
+        A bundled machine name (``"vmc500"``), a machine folder holding ``errors.toml``,
+        a spec file (``.toml``), or a bare URDF file (then ``tool_frame`` and
+        ``workpiece_frame`` are required and every movable joint between them gets six
+        zero-valued constant error terms).
+
+    Examples
+    --------
+    >>> import volerr_pin as vp
+    >>> m = vp.load_machine("vmc500")
+    >>> m.axes
+    ('X', 'Y', 'Z')
+    """
+    text = os.fspath(machine)
+    path = Path(text)
+    if path.suffix.lower() == ".urdf":
+        if tool_frame is None or workpiece_frame is None:
+            raise SpecError(f"{path}: a bare URDF needs tool_frame= and workpiece_frame=")
+        urdf = load_urdf(path)
+        return Machine(spec_from_urdf(urdf, tool_frame, workpiece_frame), urdf)
+    if path.suffix.lower() == ".toml":
+        spec_path = path
+    elif path.is_dir():
+        spec_path = path / SPEC_FILE
+    elif (machines_dir() / text / SPEC_FILE).is_file() and os.sep not in text:
+        spec_path = machines_dir() / text / SPEC_FILE
+    else:
+        known = ", ".join(bundled_machines())
+        raise SpecError(f"'{text}' is neither a bundled machine ({known}) nor a machine folder, "
+                        "spec (.toml) or URDF file")
+    if not spec_path.is_file():
+        raise SpecError(f"{spec_path}: no such spec file")
+    spec, urdf = load_spec(spec_path)
+    if tool_frame is not None or workpiece_frame is not None:
+        raise SpecError(f"{spec_path}: tool_frame/workpiece_frame are given by the spec; "
+                        "pass them only with a bare URDF")
+    return Machine(spec, urdf)

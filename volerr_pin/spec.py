@@ -1,0 +1,419 @@
+"""Machine error specifications (TOML) and their checked, immutable form.
+
+A spec names the URDF, the tool and workpiece frames, the machine axes (which URDF
+joint, NC sign) and the error components with their terms. Units are in the key names
+(``values_um``, ``value_arcsec``, ``positions_mm``). See ``docs/spec-format.md``.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import terms as T
+from .errors import SpecError
+from .units import scale, split_key
+from .urdf import URDF, load_urdf
+
+DIRECTIONS = ("X", "Y", "Z", "A", "B", "C")
+NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+COMPONENT_RE = re.compile(r"^E([XYZABC])(0?)_?([A-Za-z][A-Za-z0-9_]*)$")
+
+
+def component_name(direction: str, owner: str, location: bool = False) -> str:
+    """ISO 230-1 style name: ``EXX``, ``EC0Y``; owners longer than a letter get ``_``."""
+    return "E" + direction + ("0" if location else "") + (owner if len(owner) == 1 else "_" + owner)
+
+
+def parse_component_name(name: str) -> tuple[str, bool, str]:
+    """``"EC0Y"`` -> ``("C", True, "Y")``; raises ValueError when it is not a component name."""
+    match = COMPONENT_RE.match(name)
+    if not match:
+        raise ValueError(name)
+    direction, zero, owner = match.groups()
+    if component_name(direction, owner, bool(zero)) != name:
+        raise ValueError(name)
+    return direction, bool(zero), owner
+
+
+@dataclass(frozen=True)
+class AxisSpec:
+    """A machine axis: a URDF joint driven by an NC coordinate.
+
+    ``sign``: joint value = sign * NC position. ``frame``: "moving" puts the axis'
+    component errors after the joint, "fixed" before it (at the joint origin).
+    ``reference`` (m): point in that frame about which angular errors act.
+    """
+
+    name: str
+    joint: str
+    sign: float
+    frame: str
+    reference: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """A body without an axis (turret, spindle housing) that carries component errors."""
+
+    name: str
+    joint: str
+    reference: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class TermSpec:
+    prefix: str
+    term: T.Term
+    coefficients: np.ndarray  # SI
+
+    def names(self, component: str) -> tuple[str, ...]:
+        stem = f"{component}.{self.prefix}." if self.prefix else f"{component}."
+        return tuple(stem + local for local in self.term.local_names)
+
+
+@dataclass(frozen=True)
+class ComponentSpec:
+    """One component error (EXX, EC0Y, EXT ...) and its terms."""
+
+    name: str
+    direction: str
+    owner: str
+    location: bool
+    terms: tuple[TermSpec, ...]
+
+    @property
+    def quantity(self) -> str:
+        return "length" if self.direction in "XYZ" else "angle"
+
+
+@dataclass(frozen=True)
+class MachineSpec:
+    name: str
+    source: str
+    urdf: Path
+    tool_frame: str
+    workpiece_frame: str
+    axes: tuple[AxisSpec, ...]
+    bodies: tuple[BodySpec, ...]
+    components: tuple[ComponentSpec, ...]
+    description: str = ""
+    reference: str = ""     # where the machine comes from (paper, data set)
+    extra: dict | None = None
+
+
+MACHINE_KEYS = {"name", "urdf", "tool_frame", "workpiece_frame", "description", "source"}
+AXIS_KEYS = {"joint", "sign", "errors_frame", "reference_point"}
+BODY_KEYS = {"joint", "reference_point"}
+
+
+def _unknown(table: dict, allowed: set[str], where: str) -> None:
+    unknown = sorted(k for k in table if split_key(k)[0] not in allowed)
+    if unknown:
+        raise SpecError(f"{where}: unknown key(s) {', '.join(unknown)} "
+                        f"(allowed: {', '.join(sorted(allowed))})")
+
+
+def _unit_value(table: dict, stem: str, where: str, required: bool = True):
+    """Find ``stem_<unit>`` in ``table``; returns (value, unit) or (None, None)."""
+    found = [(k, split_key(k)[1]) for k in table if split_key(k) == (stem, split_key(k)[1])
+             and split_key(k)[1] is not None]
+    if len(found) > 1:
+        raise SpecError(f"{where}: both {found[0][0]} and {found[1][0]} given")
+    if not found:
+        if stem in table:
+            raise SpecError(f"{where}: key '{stem}' needs a unit suffix, e.g. '{stem}_um'")
+        if required:
+            raise SpecError(f"{where}: missing '{stem}_<unit>'")
+        return None, None
+    key, unit = found[0]
+    return table[key], unit
+
+
+def _numbers(value: Any, where: str, count: int | None = None) -> np.ndarray:
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise SpecError(f"{where}: expected numbers, got {value!r}") from None
+    if array.ndim != 1 or (count is not None and array.size != count):
+        raise SpecError(f"{where}: expected a list of {count or 'some'} numbers, got {value!r}")
+    if not np.all(np.isfinite(array)):
+        raise SpecError(f"{where}: values must be finite, got {value!r}")
+    return array
+
+
+def _point(table: dict, where: str) -> tuple[float, float, float]:
+    value, unit = _unit_value(table, "reference_point", where, required=False)
+    if value is None:
+        return (0.0, 0.0, 0.0)
+    factor = scale(unit, "length", f"{where}.reference_point_{unit}")
+    return tuple(float(v) for v in _numbers(value, f"{where}.reference_point_{unit}", 3) * factor)
+
+
+TERM_KEYS = {
+    "constant": {"kind", "value", "prefix"},
+    "legendre": {"kind", "coefficients", "prefix"},
+    "monomial": {"kind", "coefficients", "over", "position_unit", "prefix"},
+    "table": {"kind", "positions", "values", "interpolation", "boundary", "extrapolate", "prefix"},
+}
+
+
+def build_term(table: dict, where: str, quantity: str, position_quantity: str | None,
+               travel: tuple[float, float] | None) -> TermSpec:
+    """Build one term from its spec table (see module docs for the keys)."""
+    if not isinstance(table, dict):
+        raise SpecError(f"{where}: expected a table, got {table!r}")
+    kind = table.get("kind")
+    if kind not in T.KINDS:
+        raise SpecError(f"{where}: 'kind' must be one of {', '.join(T.KINDS)}, got {kind!r}")
+    _unknown(table, TERM_KEYS[kind], where)
+    prefix = table.get("prefix", "")
+    if prefix and not NAME_RE.match(prefix):
+        raise SpecError(f"{where}: prefix {prefix!r} is not a plain name")
+    if kind != "constant" and position_quantity is None:
+        raise SpecError(f"{where}: a {kind} term needs an axis position, but this component "
+                        "belongs to a body without an axis (use kind = 'constant')")
+    if kind == "constant":
+        value, unit = _unit_value(table, "value", where)
+        factor = scale(unit, quantity, f"{where}.value_{unit}")
+        if isinstance(value, (list, tuple)) or not isinstance(value, (int, float)):
+            raise SpecError(f"{where}.value_{unit}: expected a number, got {value!r}")
+        return TermSpec(prefix, T.Constant(unit, factor), np.array([float(value) * factor]))
+    if kind in ("legendre", "monomial"):
+        value, unit = _unit_value(table, "coefficients", where)
+        factor = scale(unit, quantity, f"{where}.coefficients_{unit}")
+        coefficients = _numbers(value, f"{where}.coefficients_{unit}")
+        if coefficients.size == 0:
+            raise SpecError(f"{where}.coefficients_{unit}: needs at least one coefficient")
+        over = table.get("over", "travel")
+        if kind == "legendre" and over != "travel":
+            raise SpecError(f"{where}: legendre polynomials are defined over the travel only")
+        if over not in ("travel", "position"):
+            raise SpecError(f"{where}.over: must be 'travel' or 'position', got {over!r}")
+        if over == "travel" and (travel is None or not np.all(np.isfinite(travel))):
+            raise SpecError(f"{where}: a polynomial over the travel needs a bounded travel")
+        position_unit, position_scale = None, 1.0
+        si = coefficients * factor
+        if over == "position":
+            position_unit = table.get("position_unit", "mm" if position_quantity == "length" else "deg")
+            position_scale = scale(position_unit, position_quantity, f"{where}.position_unit")
+            si = si / position_scale ** np.arange(coefficients.size)
+        term = T.Polynomial(coefficients.size - 1, kind, over, travel, unit, factor,
+                            position_unit, position_scale)
+        return TermSpec(prefix, term, si)
+    # table
+    positions, punit = _unit_value(table, "positions", where)
+    pscale = scale(punit, position_quantity, f"{where}.positions_{punit}")
+    nodes = _numbers(positions, f"{where}.positions_{punit}") * pscale
+    values, unit = _unit_value(table, "values", where)
+    factor = scale(unit, quantity, f"{where}.values_{unit}")
+    values = _numbers(values, f"{where}.values_{unit}")
+    interpolation = table.get("interpolation", "cubic")
+    if interpolation not in ("linear", "cubic"):
+        raise SpecError(f"{where}.interpolation: must be 'linear' or 'cubic', got {interpolation!r}")
+    minimum = 2 if interpolation == "linear" else 4
+    if nodes.size < minimum:
+        raise SpecError(f"{where}.positions_{punit}: {interpolation} interpolation needs at "
+                        f"least {minimum} positions, got {nodes.size}")
+    if values.size != nodes.size:
+        raise SpecError(f"{where}: {nodes.size} positions but {values.size} values")
+    if np.any(np.diff(nodes) <= 0):
+        raise SpecError(f"{where}.positions_{punit}: positions must be strictly increasing")
+    boundary = table.get("boundary", "not-a-knot")
+    if boundary not in ("not-a-knot", "natural"):
+        raise SpecError(f"{where}.boundary: must be 'not-a-knot' or 'natural', got {boundary!r}")
+    extrapolate = table.get("extrapolate", False)
+    if not isinstance(extrapolate, bool):
+        raise SpecError(f"{where}.extrapolate: must be true or false")
+    if travel is not None and not extrapolate:
+        tol = 1e-9 * max(1.0, abs(travel[1] - travel[0]))
+        if nodes[0] > travel[0] + tol or nodes[-1] < travel[1] - tol:
+            raise SpecError(
+                f"{where}: the table covers {nodes[0] / pscale:g}..{nodes[-1] / pscale:g} {punit} but the "
+                f"travel is {travel[0] / pscale:g}..{travel[1] / pscale:g} {punit}; extend it or set "
+                "extrapolate = true")
+    term = T.Table(nodes, interpolation, boundary, unit, factor, punit, pscale)
+    return TermSpec(prefix, term, values * factor)
+
+
+def read_toml(path: Path) -> dict:
+    try:
+        text = path.read_text()
+    except OSError as err:
+        raise SpecError(f"{path}: cannot read spec: {err.strerror}") from err
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SpecError(f"{path}: invalid TOML: {err}") from err
+
+
+def resolve_urdf(value: Any, base: Path, where: str) -> Path:
+    """A spec's ``urdf``: a path relative to the spec, or ``{package=..., path=...}``
+    naming a file inside an installed distribution (e.g. example-robot-data)."""
+    if isinstance(value, str):
+        return (base / value).resolve()
+    if isinstance(value, dict) and set(value) == {"package", "path"}:
+        from importlib import metadata
+
+        try:
+            dist = metadata.distribution(value["package"])
+        except metadata.PackageNotFoundError:
+            raise SpecError(f"{where}: package '{value['package']}' is not installed") from None
+        for file in dist.files or ():
+            if str(file).replace("\\", "/").endswith(value["path"]):
+                return Path(dist.locate_file(file)).resolve()
+        raise SpecError(f"{where}: package '{value['package']}' has no file '{value['path']}'")
+    raise SpecError(f"{where}: expected a path or {{package = ..., path = ...}}, got {value!r}")
+
+
+def axis_travel(urdf: URDF, axis: AxisSpec) -> tuple[float, float]:
+    """NC travel (lower, upper) of an axis, SI, from its joint limits and sign."""
+    joint = urdf.joints[axis.joint]
+    a, b = axis.sign * joint.lower, axis.sign * joint.upper
+    return (min(a, b), max(a, b))
+
+
+def _components(tables: dict, where: str, owners: dict[str, tuple[str | None, tuple | None]]
+                ) -> tuple[ComponentSpec, ...]:
+    """Components of ``[errors]``; ``owners`` maps owner name -> (position quantity, travel)."""
+    components = []
+    for name, table in tables.items():
+        here = f"{where}: errors.{name}"
+        try:
+            direction, location, owner = parse_component_name(name)
+        except ValueError:
+            raise SpecError(f"{here}: '{name}' is not a component error name such as EXX, EBY, "
+                            "EC0Y or EX_J1 (E + direction X/Y/Z/A/B/C + optional 0 + axis)") from None
+        if owner not in owners:
+            raise SpecError(f"{here}: '{owner}' is not an axis or body of this machine "
+                            f"(known: {', '.join(owners)})")
+        position_quantity, travel = owners[owner]
+        if location:
+            position_quantity = None  # location errors are constants (or covariate-driven)
+        if not isinstance(table, dict):
+            raise SpecError(f"{here}: expected a table")
+        quantity = "length" if direction in "XYZ" else "angle"
+        if "terms" in table:
+            if set(table) != {"terms"} or not isinstance(table["terms"], list):
+                raise SpecError(f"{here}: give either one term's keys or a 'terms' list, not both")
+            raw = table["terms"]
+        else:
+            raw = [table]
+        built = tuple(build_term(t, f"{here}" + (f".terms[{i}]" if "terms" in table else ""),
+                                 quantity, position_quantity, travel) for i, t in enumerate(raw))
+        names = [n for tspec in built for n in tspec.names(name)]
+        duplicates = sorted({n for n in names if names.count(n) > 1})
+        if duplicates:
+            raise SpecError(f"{here}: coefficient names {duplicates} repeat; give the terms "
+                            "distinct 'prefix' values")
+        components.append(ComponentSpec(name, direction, owner, location, built))
+    return tuple(components)
+
+
+def load_spec(path: str | Path) -> tuple[MachineSpec, URDF]:
+    """Read a machine error spec (TOML) and the URDF it names, checking both."""
+    path = Path(path)
+    data = read_toml(path)
+    where = str(path)
+    _unknown(data, {"format", "machine", "axes", "bodies", "errors", "provenance"}, where)
+    if data.get("format", 1) != 1:
+        raise SpecError(f"{where}: format {data.get('format')!r} is not supported (expected 1)")
+    machine = data.get("machine")
+    if not isinstance(machine, dict):
+        raise SpecError(f"{where}: missing [machine] table")
+    _unknown(machine, MACHINE_KEYS, f"{where}: [machine]")
+    for key in ("name", "urdf", "tool_frame", "workpiece_frame"):
+        if key not in machine:
+            raise SpecError(f"{where}: [machine] needs '{key}'")
+    urdf = load_urdf(resolve_urdf(machine["urdf"], path.parent, f"{where}: machine.urdf"))
+    for key in ("tool_frame", "workpiece_frame"):
+        if machine[key] not in urdf.links:
+            raise SpecError(f"{where}: machine.{key} = '{machine[key]}' is not a link of {urdf.source}")
+    axes, owners = [], {}
+    raw_axes = data.get("axes", {})
+    if not raw_axes:
+        raise SpecError(f"{where}: [axes] names no axis")
+    for name, table in raw_axes.items():
+        here = f"{where}: axes.{name}"
+        if not NAME_RE.match(name):
+            raise SpecError(f"{here}: axis names must be plain names like X or J1")
+        if not isinstance(table, dict) or "joint" not in table:
+            raise SpecError(f"{here}: needs joint = '<URDF joint name>'")
+        _unknown(table, AXIS_KEYS, here)
+        joint = table["joint"]
+        if joint not in urdf.joints:
+            raise SpecError(f"{here}: joint '{joint}' is not a joint of {urdf.source}")
+        jtype = urdf.joints[joint].type
+        if jtype not in ("prismatic", "revolute", "continuous"):
+            raise SpecError(f"{here}: joint '{joint}' is {jtype}; an axis must be prismatic, "
+                            "revolute or continuous")
+        sign = table.get("sign", 1)
+        if sign not in (1, -1):
+            raise SpecError(f"{here}.sign: must be 1 or -1, got {sign!r}")
+        frame = table.get("errors_frame", "moving" if jtype == "prismatic" else "fixed")
+        if frame not in ("moving", "fixed"):
+            raise SpecError(f"{here}.errors_frame: must be 'moving' or 'fixed', got {frame!r}")
+        axis = AxisSpec(name, joint, float(sign), frame, _point(table, here))
+        axes.append(axis)
+        owners[name] = ("length" if jtype == "prismatic" else "angle", axis_travel(urdf, axis))
+    bodies = []
+    for name, table in data.get("bodies", {}).items():
+        here = f"{where}: bodies.{name}"
+        if not NAME_RE.match(name) or name in owners:
+            raise SpecError(f"{here}: body names must be plain names distinct from the axes")
+        if not isinstance(table, dict) or "joint" not in table:
+            raise SpecError(f"{here}: needs joint = '<URDF joint name>'")
+        _unknown(table, BODY_KEYS, here)
+        if table["joint"] not in urdf.joints:
+            raise SpecError(f"{here}: joint '{table['joint']}' is not a joint of {urdf.source}")
+        bodies.append(BodySpec(name, table["joint"], _point(table, here)))
+        owners[name] = (None, None)
+    used = [a.joint for a in axes] + [b.joint for b in bodies]
+    if len(set(used)) != len(used):
+        raise SpecError(f"{where}: a URDF joint is used by two axes or bodies: {used}")
+    components = _components(data.get("errors", {}), where, owners)
+    extra = {k: v for k, v in data.items() if k == "provenance"}
+    spec = MachineSpec(str(machine["name"]), where, Path(urdf.source), machine["tool_frame"],
+                       machine["workpiece_frame"], tuple(axes), tuple(bodies), components,
+                       str(machine.get("description", "")), str(machine.get("source", "")),
+                       extra or None)
+    return spec, urdf
+
+
+def spec_from_urdf(urdf: URDF, tool_frame: str, workpiece_frame: str, name: str | None = None
+                   ) -> MachineSpec:
+    """Spec for a bare URDF: every movable joint between the frames is an axis named after
+    its joint, with six zero-valued constant error terms."""
+    for label, frame in (("tool_frame", tool_frame), ("workpiece_frame", workpiece_frame)):
+        if frame not in urdf.links:
+            raise SpecError(f"{urdf.source}: {label} '{frame}' is not a link "
+                            f"(links: {', '.join(urdf.links)})")
+    tool_path = urdf.path_to_root(tool_frame)
+    work_path = urdf.path_to_root(workpiece_frame)
+    common = {j.name for j in tool_path} & {j.name for j in work_path}
+    chain = [j for j in reversed(work_path) if j.name not in common]
+    chain += [j for j in reversed(tool_path) if j.name not in common]
+    axes, components = [], []
+    for joint in chain:
+        if joint.type not in ("prismatic", "revolute", "continuous"):
+            continue
+        if not NAME_RE.match(joint.name):
+            raise SpecError(f"{urdf.source}:{joint.line}: joint name '{joint.name}' cannot name an axis")
+        axes.append(AxisSpec(joint.name, joint.name, 1.0,
+                             "moving" if joint.type == "prismatic" else "fixed", (0.0, 0.0, 0.0)))
+        for direction in DIRECTIONS:
+            quantity = "length" if direction in "XYZ" else "angle"
+            unit = "um" if quantity == "length" else "urad"
+            term = T.Constant(unit, scale(unit, quantity, unit))
+            components.append(ComponentSpec(component_name(direction, joint.name), direction,
+                                            joint.name, False, (TermSpec("", term, np.zeros(1)),)))
+    if not axes:
+        raise SpecError(f"{urdf.source}: no prismatic or revolute joint lies between "
+                        f"'{workpiece_frame}' and '{tool_frame}'")
+    return MachineSpec(name or urdf.name or Path(urdf.source).stem, urdf.source, Path(urdf.source),
+                       tool_frame, workpiece_frame, tuple(axes), (), tuple(components))

@@ -1,0 +1,231 @@
+"""Error terms: functions of an axis position (and, later, covariates) with named coefficients.
+
+A component error (EXX, EC0Y, ...) is the sum of its terms. Every term here is linear
+in its coefficients, ``value = basis(context) @ coefficients``, which makes the
+sensitivities exact and cheap. Coefficients are SI (m or rad for the error; positions
+in m or rad). A term knows how to write itself back in the engineering units it was
+read in (:meth:`Term.to_spec`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Mapping
+
+import numpy as np
+from numpy.polynomial import legendre
+from scipy.interpolate import CubicSpline, make_interp_spline
+
+from .errors import SpecError
+
+
+@dataclass(frozen=True)
+class Covariates:
+    """Per-point covariates, already checked and in SI (see ``Machine.volumetric_error``).
+
+    Attributes
+    ----------
+    n : int
+        Number of points.
+    t : (N,) array or None
+        Time [s].
+    temperatures : mapping of str to (N,) arrays
+        Temperatures [degC] by sensor name.
+    forces : (N, 3) array or None
+        Process force at the tool [N].
+    directions : (N, n_axes) array or None
+        Approach direction of each axis, +1 or -1.
+    """
+
+    n: int
+    t: np.ndarray | None = None
+    temperatures: Mapping[str, np.ndarray] = field(default_factory=dict)
+    forces: np.ndarray | None = None
+    directions: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Context:
+    """What a term may look at when it is evaluated.
+
+    ``position`` is the NC position of the axis owning the component (m or rad), None for
+    components of bodies without an axis; ``travel`` its (lower, upper) range.
+    """
+
+    position: np.ndarray | None
+    travel: tuple[float, float] | None
+    covariates: Covariates
+
+    @property
+    def n(self) -> int:
+        return self.covariates.n
+
+
+class Term:
+    """Base class. Subclasses define ``local_names`` and :meth:`basis`."""
+
+    kind: str = ""
+    local_names: tuple[str, ...] = ()
+    needs_position: bool = True
+
+    @property
+    def size(self) -> int:
+        return len(self.local_names)
+
+    def basis(self, ctx: Context) -> np.ndarray:
+        """(N, P) matrix with ``value = basis @ coefficients``."""
+        raise NotImplementedError
+
+    def basis_derivative(self, ctx: Context) -> np.ndarray:
+        """(N, P) derivative of :meth:`basis` with respect to the axis position."""
+        raise NotImplementedError
+
+    def value(self, coefficients: np.ndarray, ctx: Context) -> np.ndarray:
+        return self.basis(ctx) @ coefficients
+
+    def to_spec(self, coefficients: np.ndarray) -> dict:
+        """The term as a spec table, in the units it was read in."""
+        raise NotImplementedError
+
+
+def _check_position(term: Term, ctx: Context, where: str) -> np.ndarray:
+    if ctx.position is None:
+        raise SpecError(f"{where}: a {term.kind} term needs an axis position, but its "
+                        "component belongs to a body without an axis")
+    return ctx.position
+
+
+@dataclass(frozen=True, eq=False)
+class Constant(Term):
+    """A constant error; one coefficient ``c0``."""
+
+    unit: str
+    unit_scale: float
+    kind = "constant"
+    local_names = ("c0",)
+    needs_position = False
+
+    def basis(self, ctx):
+        return np.ones((ctx.n, 1))
+
+    def basis_derivative(self, ctx):
+        return np.zeros((ctx.n, 1))
+
+    def to_spec(self, coefficients):
+        return {"kind": "constant", f"value_{self.unit}": float(coefficients[0] / self.unit_scale)}
+
+
+@dataclass(frozen=True, eq=False)
+class Polynomial(Term):
+    """Polynomial in the axis position.
+
+    ``basis`` is "legendre" (P_k(u)) or "monomial" (u**k); ``over`` is "travel"
+    (u = 2 (q - lower) / (upper - lower) - 1, in [-1, 1] over the travel) or, for
+    monomials, "position" (u = q in ``position_unit``). Coefficients c0..cN.
+    """
+
+    degree: int
+    family: str
+    over: str
+    travel: tuple[float, float] | None
+    unit: str
+    unit_scale: float
+    position_unit: str | None = None
+    position_scale: float = 1.0
+
+    @property
+    def kind(self):  # type: ignore[override]
+        return self.family
+
+    @property
+    def local_names(self):  # type: ignore[override]
+        return tuple(f"c{k}" for k in range(self.degree + 1))
+
+    def _u(self, ctx):
+        q = _check_position(self, ctx, self.family)
+        if self.over == "travel":
+            lo, hi = self.travel
+            return (2.0 * q - lo - hi) / (hi - lo), 2.0 / (hi - lo)
+        return q, 1.0
+
+    def basis(self, ctx):
+        u, _ = self._u(ctx)
+        if self.family == "legendre":
+            return legendre.legvander(u, self.degree)
+        return np.vander(u, self.degree + 1, increasing=True)
+
+    def basis_derivative(self, ctx):
+        u, du_dq = self._u(ctx)
+        out = np.zeros((u.size, self.degree + 1))
+        if self.family == "legendre":
+            for k in range(1, self.degree + 1):
+                coef = np.zeros(k + 1)
+                coef[k] = 1.0
+                out[:, k] = legendre.legval(u, legendre.legder(coef))
+        else:
+            for k in range(1, self.degree + 1):
+                out[:, k] = k * u ** (k - 1)
+        return out * du_dq
+
+    def to_spec(self, coefficients):
+        table = {"kind": self.family}
+        if self.family == "monomial":
+            table["over"] = self.over
+        coefficients = np.asarray(coefficients, float) / self.unit_scale
+        if self.over == "position":
+            table["position_unit"] = self.position_unit
+            # stored SI per metre**k; written per position_unit**k
+            coefficients = coefficients * self.position_scale ** np.arange(self.degree + 1)
+        table[f"coefficients_{self.unit}"] = [float(c) for c in coefficients]
+        return table
+
+
+@dataclass(frozen=True, eq=False)
+class Table(Term):
+    """Values at target positions (as a laser interferometer measures them), interpolated.
+
+    ``interpolation`` is "linear" or "cubic" (a cubic spline, ``boundary`` "not-a-knot" or
+    "natural"). Coefficients n0..nK are the values at the nodes. Outside the node range
+    the end pieces are extended, which only happens where extrapolation was asked for.
+    """
+
+    nodes: np.ndarray
+    interpolation: str
+    boundary: str
+    unit: str
+    unit_scale: float
+    position_unit: str
+    position_scale: float
+    kind = "table"
+
+    @property
+    def local_names(self):  # type: ignore[override]
+        return tuple(f"n{k}" for k in range(len(self.nodes)))
+
+    @cached_property
+    def _spline(self):
+        eye = np.eye(len(self.nodes))
+        if self.interpolation == "linear":
+            return make_interp_spline(self.nodes, eye, k=1)
+        return CubicSpline(self.nodes, eye, bc_type=self.boundary, extrapolate=True)
+
+    def basis(self, ctx):
+        return self._spline(_check_position(self, ctx, "table"))
+
+    def basis_derivative(self, ctx):
+        return self._spline.derivative()(_check_position(self, ctx, "table"))
+
+    def to_spec(self, coefficients):
+        table = {
+            "kind": "table",
+            "interpolation": self.interpolation,
+            f"positions_{self.position_unit}": [float(x / self.position_scale) for x in self.nodes],
+            f"values_{self.unit}": [float(c / self.unit_scale) for c in coefficients],
+        }
+        if self.interpolation == "cubic":
+            table["boundary"] = self.boundary
+        return table
+
+
+KINDS = ("constant", "legendre", "monomial", "table")
