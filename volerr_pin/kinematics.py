@@ -114,179 +114,212 @@ def build_chain(model: pin.Model, tool_frame: str, workpiece_frame: str,
         col=np.array([o[3] for o in ops], dtype=np.int64),
         sign=np.array([o[4] for o in ops], dtype=np.float64),
         is_error=np.array([o[5] in error_joints for o in ops], dtype=np.bool_),
-        end_R=np.ascontiguousarray(end.rotation), end_p=np.ascontiguousarray(end.translation),
+        end_R=np.ascontiguousarray(end.rotation[None]), end_p=np.ascontiguousarray(end.translation[None]),
         joints=tuple(o[5] for o in ops),
     )
 
 
-@numba.njit(cache=True, inline="always")
-def _apply_constant(R, p, CR, Cp):
-    q0 = p[0] + R[0, 0] * Cp[0] + R[0, 1] * Cp[1] + R[0, 2] * Cp[2]
-    q1 = p[1] + R[1, 0] * Cp[0] + R[1, 1] * Cp[1] + R[1, 2] * Cp[2]
-    q2 = p[2] + R[2, 0] * Cp[0] + R[2, 1] * Cp[1] + R[2, 2] * Cp[2]
-    p[0], p[1], p[2] = q0, q1, q2
-    for r in range(3):
-        a, b, c = R[r, 0], R[r, 1], R[r, 2]
-        R[r, 0] = a * CR[0, 0] + b * CR[1, 0] + c * CR[2, 0]
-        R[r, 1] = a * CR[0, 1] + b * CR[1, 1] + c * CR[2, 1]
-        R[r, 2] = a * CR[0, 2] + b * CR[1, 2] + c * CR[2, 2]
+@numba.njit(cache=True)
+def _sincos(v):
+    """sin and cos; a short series for the tiny angles of error joints (exact to rounding
+    for |v| < 1e-2: the first omitted terms are below 1e-26), libm otherwise."""
+    if abs(v) < 1e-2:
+        v2 = v * v
+        s = v * (1.0 - v2 / 6.0 * (1.0 - v2 / 20.0 * (1.0 - v2 / 42.0)))
+        c = 1.0 - v2 / 2.0 * (1.0 - v2 / 12.0 * (1.0 - v2 / 30.0 * (1.0 - v2 / 56.0)))
+        return s, c
+    return np.sin(v), np.cos(v)
 
 
-@numba.njit(cache=True, inline="always")
-def _apply_motion(R, p, kind, axis, v):
-    if kind <= PZ:
-        for r in range(3):
-            p[r] += v * R[r, kind]
-    elif kind <= RZ:
-        c, s = np.cos(v), np.sin(v)
-        i = (kind - RX + 1) % 3
-        j = (kind - RX + 2) % 3
-        # R @ Rot(axis k, v): columns i, j rotate (i, j, k cyclic)
-        for r in range(3):
-            a, b = R[r, i], R[r, j]
-            R[r, i] = c * a + s * b
-            R[r, j] = -s * a + c * b
-    elif kind == PG:
-        for r in range(3):
-            p[r] += v * (R[r, 0] * axis[0] + R[r, 1] * axis[1] + R[r, 2] * axis[2])
-    else:
-        c, s = np.cos(v), np.sin(v)
-        t = 1.0 - c
-        x, y, z = axis[0], axis[1], axis[2]
-        M = np.empty((3, 3))
-        M[0, 0], M[0, 1], M[0, 2] = t * x * x + c, t * x * y - s * z, t * x * z + s * y
-        M[1, 0], M[1, 1], M[1, 2] = t * x * y + s * z, t * y * y + c, t * y * z - s * x
-        M[2, 0], M[2, 1], M[2, 2] = t * x * z - s * y, t * y * z + s * x, t * z * z + c
-        for r in range(3):
-            a, b, cc = R[r, 0], R[r, 1], R[r, 2]
-            R[r, 0] = a * M[0, 0] + b * M[1, 0] + cc * M[2, 0]
-            R[r, 1] = a * M[0, 1] + b * M[1, 1] + cc * M[2, 1]
-            R[r, 2] = a * M[0, 2] + b * M[1, 2] + cc * M[2, 2]
+# Poses inside the kernels are (R, p) with R a 9-tuple (row-major) and p a 3-tuple: plain
+# scalars that stay in registers, no per-point allocation.
+
+@numba.njit(cache=True)
+def _compose_constant(R, p, C_R, C_p, k):
+    """(R, p) * (C_R[k], C_p[k]); arrays are indexed here, not sliced (no views in the loop)."""
+    p = (p[0] + R[0] * C_p[k, 0] + R[1] * C_p[k, 1] + R[2] * C_p[k, 2],
+         p[1] + R[3] * C_p[k, 0] + R[4] * C_p[k, 1] + R[5] * C_p[k, 2],
+         p[2] + R[6] * C_p[k, 0] + R[7] * C_p[k, 1] + R[8] * C_p[k, 2])
+    R = (R[0] * C_R[k, 0, 0] + R[1] * C_R[k, 1, 0] + R[2] * C_R[k, 2, 0],
+         R[0] * C_R[k, 0, 1] + R[1] * C_R[k, 1, 1] + R[2] * C_R[k, 2, 1],
+         R[0] * C_R[k, 0, 2] + R[1] * C_R[k, 1, 2] + R[2] * C_R[k, 2, 2],
+         R[3] * C_R[k, 0, 0] + R[4] * C_R[k, 1, 0] + R[5] * C_R[k, 2, 0],
+         R[3] * C_R[k, 0, 1] + R[4] * C_R[k, 1, 1] + R[5] * C_R[k, 2, 1],
+         R[3] * C_R[k, 0, 2] + R[4] * C_R[k, 1, 2] + R[5] * C_R[k, 2, 2],
+         R[6] * C_R[k, 0, 0] + R[7] * C_R[k, 1, 0] + R[8] * C_R[k, 2, 0],
+         R[6] * C_R[k, 0, 1] + R[7] * C_R[k, 1, 1] + R[8] * C_R[k, 2, 1],
+         R[6] * C_R[k, 0, 2] + R[7] * C_R[k, 1, 2] + R[8] * C_R[k, 2, 2])
+    return R, p
 
 
 @numba.njit(cache=True)
-def _pose(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p,
-          with_errors, R, p):
-    for r in range(3):
-        p[r] = 0.0
-        for c in range(3):
-            R[r, c] = 1.0 if r == c else 0.0
+def _compose_motion(R, p, kind, axis, k, v):
+    if kind == PX:
+        return R, (p[0] + v * R[0], p[1] + v * R[3], p[2] + v * R[6])
+    if kind == PY:
+        return R, (p[0] + v * R[1], p[1] + v * R[4], p[2] + v * R[7])
+    if kind == PZ:
+        return R, (p[0] + v * R[2], p[1] + v * R[5], p[2] + v * R[8])
+    if kind == PG:
+        a0, a1, a2 = axis[k, 0], axis[k, 1], axis[k, 2]
+        return R, (p[0] + v * (R[0] * a0 + R[1] * a1 + R[2] * a2),
+                   p[1] + v * (R[3] * a0 + R[4] * a1 + R[5] * a2),
+                   p[2] + v * (R[6] * a0 + R[7] * a1 + R[8] * a2))
+    s, c = _sincos(v)
+    if kind == RX:  # R @ Rx: columns 1, 2 rotate
+        return (R[0], c * R[1] + s * R[2], -s * R[1] + c * R[2],
+                R[3], c * R[4] + s * R[5], -s * R[4] + c * R[5],
+                R[6], c * R[7] + s * R[8], -s * R[7] + c * R[8]), p
+    if kind == RY:  # columns 2, 0 rotate
+        return (c * R[0] - s * R[2], R[1], s * R[0] + c * R[2],
+                c * R[3] - s * R[5], R[4], s * R[3] + c * R[5],
+                c * R[6] - s * R[8], R[7], s * R[6] + c * R[8]), p
+    if kind == RZ:  # columns 0, 1 rotate
+        return (c * R[0] + s * R[1], -s * R[0] + c * R[1], R[2],
+                c * R[3] + s * R[4], -s * R[3] + c * R[4], R[5],
+                c * R[6] + s * R[7], -s * R[6] + c * R[7], R[8]), p
+    t = 1.0 - c
+    x, y, z = axis[k, 0], axis[k, 1], axis[k, 2]
+    m00, m01, m02 = t * x * x + c, t * x * y - s * z, t * x * z + s * y
+    m10, m11, m12 = t * x * y + s * z, t * y * y + c, t * y * z - s * x
+    m20, m21, m22 = t * x * z - s * y, t * y * z + s * x, t * z * z + c
+    return (R[0] * m00 + R[1] * m10 + R[2] * m20, R[0] * m01 + R[1] * m11 + R[2] * m21,
+            R[0] * m02 + R[1] * m12 + R[2] * m22,
+            R[3] * m00 + R[4] * m10 + R[5] * m20, R[3] * m01 + R[4] * m11 + R[5] * m21,
+            R[3] * m02 + R[4] * m12 + R[5] * m22,
+            R[6] * m00 + R[7] * m10 + R[8] * m20, R[6] * m01 + R[7] * m11 + R[8] * m21,
+            R[6] * m02 + R[7] * m12 + R[8] * m22), p
+
+
+@numba.njit(cache=True)
+def _pose(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, with_errors):
+    R = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    p = (0.0, 0.0, 0.0)
     for k in range(kind.shape[0]):
         if not C_id[k]:
-            _apply_constant(R, p, C_R[k], C_p[k])
+            R, p = _compose_constant(R, p, C_R, C_p, k)
         if is_error[k] and not with_errors:
             continue
-        _apply_motion(R, p, kind[k], axis[k], sign[k] * values[i, col[k]])
-    _apply_constant(R, p, end_R, end_p)
+        R, p = _compose_motion(R, p, kind[k], axis, k, sign[k] * values[col[k], i])
+    return _compose_constant(R, p, end_R, end_p, 0)
 
 
 @numba.njit(cache=True)
-def _rotation_vector(R):
-    """log of a rotation matrix, accurate for tiny angles."""
-    wx = 0.5 * (R[2, 1] - R[1, 2])
-    wy = 0.5 * (R[0, 2] - R[2, 0])
-    wz = 0.5 * (R[1, 0] - R[0, 1])
+def _rotation_vector(D):
+    """log of a rotation matrix (9-tuple), accurate for tiny angles, valid up to pi."""
+    wx = 0.5 * (D[7] - D[5])
+    wy = 0.5 * (D[2] - D[6])
+    wz = 0.5 * (D[3] - D[1])
     s = np.sqrt(wx * wx + wy * wy + wz * wz)
-    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    if s < 1e-6:
-        f = 1.0 + s * s / 6.0 + 3.0 * s ** 4 / 40.0  # theta / sin(theta) as a series in sin
-        if c < 0.0:
-            return _rotation_vector_large(R)
+    c = 0.5 * (D[0] + D[4] + D[8] - 1.0)
+    if c > 0.0:
+        if s < 1e-6:
+            f = 1.0 + s * s / 6.0 + 3.0 * s ** 4 / 40.0  # theta / sin(theta), series in sin
+        else:
+            f = np.arctan2(s, c) / s
         return wx * f, wy * f, wz * f
-    theta = np.arctan2(s, c)
-    if c < -0.99:
-        return _rotation_vector_large(R)
-    f = theta / s
-    return wx * f, wy * f, wz * f
-
-
-@numba.njit(cache=True)
-def _rotation_vector_large(R):
-    # near pi: axis from the symmetric part
-    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
+    # beyond 90 degrees: axis from the symmetric part, sign from the skew part
     theta = np.arccos(max(-1.0, min(1.0, c)))
-    B = np.empty(3)
-    for k in range(3):
-        B[k] = np.sqrt(max(0.0, (R[k, k] - c) / (1.0 - c)))
-    k = np.argmax(B)
-    axis = np.empty(3)
-    axis[k] = B[k]
+    d = (D[0], D[4], D[8])
+    k = 0
+    if d[1] > d[k]:
+        k = 1
+    if d[2] > d[k]:
+        k = 2
+    a = [0.0, 0.0, 0.0]
+    a[k] = np.sqrt(max(0.0, (d[k] - c) / (1.0 - c)))
     for m in range(3):
         if m != k:
-            axis[m] = (R[k, m] + R[m, k]) / (2.0 * (1.0 - c) * B[k])
-    sx = R[2, 1] - R[1, 2]
-    sy = R[0, 2] - R[2, 0]
-    sz = R[1, 0] - R[0, 1]
-    if axis[0] * sx + axis[1] * sy + axis[2] * sz < 0.0:
-        axis = -axis
-    return axis[0] * theta, axis[1] * theta, axis[2] * theta
+            a[m] = (D[3 * k + m] + D[3 * m + k]) / (2.0 * (1.0 - c) * a[k])
+    if a[0] * wx + a[1] * wy + a[2] * wz < 0.0:
+        theta = -theta
+    return a[0] * theta, a[1] * theta, a[2] * theta
 
 
 @numba.njit(cache=True, parallel=True)
 def _exact_error(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, out):
-    n = values.shape[0]
+    n = values.shape[1]
     for i in numba.prange(n):
-        Ra = np.empty((3, 3))
-        pa = np.empty(3)
-        Rn = np.empty((3, 3))
-        pn = np.empty(3)
-        _pose(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, True, Ra, pa)
-        _pose(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, False, Rn, pn)
-        D = np.empty((3, 3))  # Ra @ Rn.T
-        for r in range(3):
-            for c in range(3):
-                D[r, c] = Ra[r, 0] * Rn[c, 0] + Ra[r, 1] * Rn[c, 1] + Ra[r, 2] * Rn[c, 2]
+        # actual and nominal poses in one pass over the chain
+        Ra = Rn = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+        pa = pn = (0.0, 0.0, 0.0)
+        for k in range(kind.shape[0]):
+            if not C_id[k]:
+                Ra, pa = _compose_constant(Ra, pa, C_R, C_p, k)
+                Rn, pn = _compose_constant(Rn, pn, C_R, C_p, k)
+            v = sign[k] * values[col[k], i]
+            Ra, pa = _compose_motion(Ra, pa, kind[k], axis, k, v)
+            if not is_error[k]:
+                Rn, pn = _compose_motion(Rn, pn, kind[k], axis, k, v)
+        Ra, pa = _compose_constant(Ra, pa, end_R, end_p, 0)
+        Rn, pn = _compose_constant(Rn, pn, end_R, end_p, 0)
+        D = (Ra[0] * Rn[0] + Ra[1] * Rn[1] + Ra[2] * Rn[2],
+             Ra[0] * Rn[3] + Ra[1] * Rn[4] + Ra[2] * Rn[5],
+             Ra[0] * Rn[6] + Ra[1] * Rn[7] + Ra[2] * Rn[8],
+             Ra[3] * Rn[0] + Ra[4] * Rn[1] + Ra[5] * Rn[2],
+             Ra[3] * Rn[3] + Ra[4] * Rn[4] + Ra[5] * Rn[5],
+             Ra[3] * Rn[6] + Ra[4] * Rn[7] + Ra[5] * Rn[8],
+             Ra[6] * Rn[0] + Ra[7] * Rn[1] + Ra[8] * Rn[2],
+             Ra[6] * Rn[3] + Ra[7] * Rn[4] + Ra[8] * Rn[5],
+             Ra[6] * Rn[6] + Ra[7] * Rn[7] + Ra[8] * Rn[8])
         rx, ry, rz = _rotation_vector(D)
         out[i, 0] = pa[0] - pn[0]
         out[i, 1] = pa[1] - pn[1]
         out[i, 2] = pa[2] - pn[2]
-        out[i, 3], out[i, 4], out[i, 5] = rx, ry, rz
+        out[i, 3] = rx
+        out[i, 4] = ry
+        out[i, 5] = rz
 
 
 @numba.njit(cache=True, parallel=True)
 def _first_order_error(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, out):
-    n = values.shape[0]
+    n = values.shape[1]
     for i in numba.prange(n):
-        R = np.eye(3)
-        p = np.zeros(3)
-        dp = np.zeros(3)
-        dth = np.zeros(3)
+        R = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+        p = (0.0, 0.0, 0.0)
+        dp0 = dp1 = dp2 = 0.0
+        dt0 = dt1 = dt2 = 0.0
         for k in range(kind.shape[0]):
             if not C_id[k]:
-                _apply_constant(R, p, C_R[k], C_p[k])
-            v = sign[k] * values[i, col[k]]
+                R, p = _compose_constant(R, p, C_R, C_p, k)
+            v = sign[k] * values[col[k], i]
             if not is_error[k]:
-                _apply_motion(R, p, kind[k], axis[k], v)
+                R, p = _compose_motion(R, p, kind[k], axis, k, v)
                 continue
-            kk = kind[k]
-            w0 = R[0, 0] * axis[k, 0] + R[0, 1] * axis[k, 1] + R[0, 2] * axis[k, 2]
-            w1 = R[1, 0] * axis[k, 0] + R[1, 1] * axis[k, 1] + R[1, 2] * axis[k, 2]
-            w2 = R[2, 0] * axis[k, 0] + R[2, 1] * axis[k, 1] + R[2, 2] * axis[k, 2]
-            if kk <= PZ or kk == PG:
-                dp[0] += v * w0
-                dp[1] += v * w1
-                dp[2] += v * w2
+            w0 = R[0] * axis[k, 0] + R[1] * axis[k, 1] + R[2] * axis[k, 2]
+            w1 = R[3] * axis[k, 0] + R[4] * axis[k, 1] + R[5] * axis[k, 2]
+            w2 = R[6] * axis[k, 0] + R[7] * axis[k, 1] + R[8] * axis[k, 2]
+            if kind[k] <= PZ or kind[k] == PG:
+                dp0 += v * w0
+                dp1 += v * w1
+                dp2 += v * w2
             else:  # rotation about the line through p along w: d p_tool = v w x (p_tool - p)
-                dth[0] += v * w0
-                dth[1] += v * w1
-                dth[2] += v * w2
-                dp[0] -= v * (w1 * p[2] - w2 * p[1])
-                dp[1] -= v * (w2 * p[0] - w0 * p[2])
-                dp[2] -= v * (w0 * p[1] - w1 * p[0])
-        _apply_constant(R, p, end_R, end_p)
-        out[i, 0] = dp[0] + dth[1] * p[2] - dth[2] * p[1]
-        out[i, 1] = dp[1] + dth[2] * p[0] - dth[0] * p[2]
-        out[i, 2] = dp[2] + dth[0] * p[1] - dth[1] * p[0]
-        out[i, 3], out[i, 4], out[i, 5] = dth[0], dth[1], dth[2]
+                dt0 += v * w0
+                dt1 += v * w1
+                dt2 += v * w2
+                dp0 -= v * (w1 * p[2] - w2 * p[1])
+                dp1 -= v * (w2 * p[0] - w0 * p[2])
+                dp2 -= v * (w0 * p[1] - w1 * p[0])
+        R, p = _compose_constant(R, p, end_R, end_p, 0)
+        out[i, 0] = dp0 + dt1 * p[2] - dt2 * p[1]
+        out[i, 1] = dp1 + dt2 * p[0] - dt0 * p[2]
+        out[i, 2] = dp2 + dt0 * p[1] - dt1 * p[0]
+        out[i, 3] = dt0
+        out[i, 4] = dt1
+        out[i, 5] = dt2
 
 
 @numba.njit(cache=True, parallel=True)
 def _poses(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, with_errors,
            out_R, out_p):
-    n = values.shape[0]
+    n = values.shape[1]
     for i in numba.prange(n):
-        _pose(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p,
-              with_errors, out_R[i], out_p[i])
+        R, p = _pose(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p,
+                     with_errors)
+        for r in range(3):
+            out_p[i, r] = p[r]
+            for c in range(3):
+                out_R[i, r, c] = R[3 * r + c]
 
 
 def _args(chain: Chain):
@@ -297,23 +330,24 @@ def _args(chain: Chain):
 def pose_error(chain: Chain, values: np.ndarray, order: int | None = None) -> np.ndarray:
     """(N, 6) error of the tool relative to the workpiece: dx, dy, dz [m], rx, ry, rz [rad].
 
-    ``values``: (N, nv) Pinocchio joint values. ``order=None`` is exact (rotation vector
-    of R_actual R_nominal^T); ``order=1`` is the first-order (linearised) error.
+    ``values``: (nv, N) Pinocchio joint values, one row per joint (points contiguous).
+    ``order=None`` is exact (rotation vector of R_actual R_nominal^T); ``order=1`` is the
+    first-order (linearised) error.
     """
     kernel = _exact_error if order is None else _first_order_error
-    out = np.empty((values.shape[0], 6))
-    for start in range(0, values.shape[0], CHUNK):
-        block = np.ascontiguousarray(values[start:start + CHUNK])
-        kernel(block, *_args(chain), out[start:start + CHUNK])
+    values = np.ascontiguousarray(values, dtype=float)
+    out = np.empty((values.shape[1], 6))
+    kernel(values, *_args(chain), out)
     return out
 
 
 def relative_poses(chain: Chain, values: np.ndarray, with_errors: bool = True
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 3, 3) rotations and (N, 3) positions of the tool frame in the workpiece frame."""
+    """(N, 3, 3) rotations and (N, 3) positions of the tool frame in the workpiece frame,
+    from (nv, N) joint values."""
     values = np.ascontiguousarray(values, dtype=float)
-    out_R = np.empty((values.shape[0], 3, 3))
-    out_p = np.empty((values.shape[0], 3))
+    out_R = np.empty((values.shape[1], 3, 3))
+    out_p = np.empty((values.shape[1], 3))
     _poses(values, *_args(chain), with_errors, out_R, out_p)
     return out_R, out_p
 

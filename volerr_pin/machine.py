@@ -307,25 +307,27 @@ class Machine:
         q = self.check_q(q, extrapolate)
         theta = self._check_theta(theta)
         cov = self.check_covariates(q.shape[0], covariates)
-        return self._joint_values(q, theta, cov)
+        return self._joint_values(q, theta, cov).T
 
     def _joint_values(self, q: np.ndarray, theta: np.ndarray, cov: Covariates) -> np.ndarray:
-        values = np.zeros((q.shape[0], self._model.nv))
-        values[:, self._axis_cols] = q * self._axis_signs
+        """(nv, N): one row per joint, points contiguous (the kernels' layout)."""
+        values = np.zeros((self._model.nv, q.shape[0]))
+        values[self._axis_cols] = (q * self._axis_signs).T
         components = self._component_values(q, theta, cov)
         for k, comp in enumerate(self._components):
-            values[:, comp.column] += comp.chain_sign * components[:, k]
+            values[comp.column] += comp.chain_sign * components[k]
         return values
 
     def _component_values(self, q: np.ndarray, theta: np.ndarray, cov: Covariates) -> np.ndarray:
-        out = np.zeros((q.shape[0], len(self._components)))
+        """(n_components, N) component error values, SI."""
+        out = np.zeros((len(self._components), q.shape[0]))
         for k, comp in enumerate(self._components):
             if comp.axis_index is None:
                 ctx = Context(None, None, cov)
             else:
                 ctx = Context(q[:, comp.axis_index], tuple(self._travel[comp.axis_index]), cov)
             for tspec, span in comp.terms:
-                out[:, k] += tspec.term.basis(ctx) @ theta[span]
+                out[k] += tspec.term.basis(ctx) @ theta[span]
         return out
 
     def component_values(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
@@ -334,7 +336,7 @@ class Machine:
         q = self.check_q(q, extrapolate)
         theta = self._check_theta(theta)
         cov = self.check_covariates(q.shape[0], covariates)
-        return self._component_values(q, theta, cov)
+        return self._component_values(q, theta, cov).T
 
     def volumetric_error(self, q, theta=None, *, order: int | None = None,
                          extrapolate: bool = False, **covariates) -> np.ndarray:
@@ -364,8 +366,14 @@ class Machine:
         single = np.ndim(q) == 1
         if order not in (None, 1):
             raise InputError(f"order must be None (exact) or 1 (first order), got {order!r}")
-        values = self.joint_values(q, theta, extrapolate=extrapolate, **covariates)
-        out = K.pose_error(self._chain, values, order)
+        q = self.check_q(q, extrapolate)
+        theta = self._check_theta(theta)
+        cov = self.check_covariates(q.shape[0], covariates)
+        out = np.empty((q.shape[0], 6))
+        for start in range(0, q.shape[0], K.CHUNK):  # bounded memory for millions of points
+            rows = slice(start, start + K.CHUNK)
+            values = self._joint_values(q[rows], theta, cov.take(rows))
+            out[rows] = K.pose_error(self._chain, values, order)
         return out[0] if single else out
 
     def tool_poses(self, q, theta=None, *, nominal: bool = False, extrapolate: bool = False,
@@ -373,7 +381,7 @@ class Machine:
         """(N, 3, 3) rotations and (N, 3) positions [m] of the tool frame in the workpiece
         frame, actual (default) or nominal."""
         values = self.joint_values(q, theta, extrapolate=extrapolate, **covariates)
-        return K.relative_poses(self._chain, values, with_errors=not nominal)
+        return K.relative_poses(self._chain, values.T, with_errors=not nominal)
 
     def pinocchio_configuration(self, q, theta=None, *, extrapolate: bool = False,
                                 **covariates) -> np.ndarray:

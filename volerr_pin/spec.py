@@ -26,8 +26,10 @@ COMPONENT_RE = re.compile(r"^E([XYZABC])(0?)_?([A-Za-z][A-Za-z0-9_]*)$")
 
 
 def component_name(direction: str, owner: str, location: bool = False) -> str:
-    """ISO 230-1 style name: ``EXX``, ``EC0Y``; owners longer than a letter get ``_``."""
-    return "E" + direction + ("0" if location else "") + (owner if len(owner) == 1 else "_" + owner)
+    """ISO 230-1 style name: ``EXX``, ``EC0Y``; owners other than one capital letter get ``_``
+    (``EX_J1``, ``EC_x``)."""
+    plain = len(owner) == 1 and owner.isupper()
+    return "E" + direction + ("0" if location else "") + (owner if plain else "_" + owner)
 
 
 def parse_component_name(name: str) -> tuple[str, bool, str]:

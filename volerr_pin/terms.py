@@ -44,6 +44,13 @@ class Covariates:
     forces: np.ndarray | None = None
     directions: np.ndarray | None = None
 
+    def take(self, rows: slice) -> "Covariates":
+        """The covariates of a contiguous block of points."""
+        cut = lambda a: None if a is None else a[rows]
+        n = len(range(*rows.indices(self.n)))
+        return Covariates(n, cut(self.t), {k: v[rows] for k, v in self.temperatures.items()},
+                          cut(self.forces), cut(self.directions))
+
 
 @dataclass(frozen=True)
 class Context:

@@ -1,0 +1,46 @@
+"""Shared helpers for the tests."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import volerr_pin as vp
+
+ALL_MACHINES = ["vmc500", "vmc700", "lathe_2axis", "cgm4000", "gear_roller", "ur5"]
+
+
+@pytest.fixture(scope="session")
+def machines():
+    return {name: vp.load_machine(name) for name in ALL_MACHINES}
+
+
+def random_q(machine, n, seed=0):
+    """Uniform random NC positions over the travel (SI)."""
+    rng = np.random.default_rng(seed)
+    travel = machine.travel
+    return travel[:, 0] + rng.random((n, len(machine.axes))) * (travel[:, 1] - travel[:, 0])
+
+
+def single(machine, component, value):
+    """theta with one component error equal to the constant ``value`` (SI), all else zero."""
+    theta = np.zeros(len(machine.parameter_names))
+    for term in machine.term_info():
+        if term["component"] != component:
+            continue
+        for name in term["parameters"]:
+            local = name.rsplit(".", 1)[1]
+            idx = machine.parameter_names.index(name)
+            if term["kind"] == "table" or local == "c0":
+                theta[idx] = value
+    assert np.any(theta), f"{component} has no term on {machine.name}"
+    return theta
+
+
+def rot(axis, angle):
+    c, s = np.cos(angle), np.sin(angle)
+    if axis == "x":
+        return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+    if axis == "y":
+        return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])

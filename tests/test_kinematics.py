@@ -1,0 +1,95 @@
+"""The batch evaluator against Pinocchio, identities, and exact-vs-first-order behaviour."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from volerr_pin import kinematics as K
+
+from conftest import ALL_MACHINES, random_q
+
+
+@pytest.mark.parametrize("name", ALL_MACHINES)
+def test_zero_errors_give_zero(machines, name):
+    m = machines[name]
+    q = random_q(m, 200, seed=1)
+    error = m.volumetric_error(q, np.zeros_like(m.theta))
+    assert np.abs(error).max() == 0.0
+
+
+@pytest.mark.parametrize("name", ALL_MACHINES)
+@pytest.mark.parametrize("scale", [1.0, 300.0])
+def test_batch_equals_pinocchio_per_point(machines, name, scale):
+    """Exact error from the compiled chain equals Pinocchio's frame placements, point by point.
+
+    ``scale`` 300 inflates the errors to millimetres / degrees, where second-order effects
+    are large, so the comparison also covers the exact (non-linearised) composition.
+    """
+    m = machines[name]
+    theta = m.theta * scale
+    q = random_q(m, 60, seed=2)
+    error = m.volumetric_error(q, theta)
+    model = m.model
+    actual = m.pinocchio_configuration(q, theta)
+    nominal = m.pinocchio_configuration(q, np.zeros_like(theta))
+    for i in range(len(q)):
+        a = K.relative_pose_pinocchio(model, m.tool_frame, m.workpiece_frame, actual[i])
+        n = K.relative_pose_pinocchio(model, m.tool_frame, m.workpiece_frame, nominal[i])
+        expected = np.r_[a.translation - n.translation, pin.log3(a.rotation @ n.rotation.T)]
+        np.testing.assert_allclose(error[i], expected, rtol=0, atol=1e-12)
+    R, p = m.tool_poses(q, theta)
+    for i in range(0, len(q), 7):
+        a = K.relative_pose_pinocchio(model, m.tool_frame, m.workpiece_frame, actual[i])
+        np.testing.assert_allclose(R[i], a.rotation, atol=1e-12)
+        np.testing.assert_allclose(p[i], a.translation, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ALL_MACHINES)
+def test_first_order_error_is_first_order(machines, name):
+    """exact - first order shrinks quadratically with the size of the errors."""
+    m = machines[name]
+    q = random_q(m, 100, seed=3)
+    gaps = []
+    for s in (100.0, 50.0, 25.0):
+        theta = m.theta * s
+        gaps.append(np.abs(m.volumetric_error(q, theta) - m.volumetric_error(q, theta, order=1)).max())
+    assert gaps[0] > 1e-12
+    ratios = np.array(gaps[:-1]) / np.array(gaps[1:])
+    np.testing.assert_allclose(ratios, 4.0, rtol=0.05)
+
+
+@pytest.mark.parametrize("name", ALL_MACHINES)
+def test_first_order_is_linear_in_errors(machines, name):
+    m = machines[name]
+    q = random_q(m, 50, seed=4)
+    a = m.volumetric_error(q, order=1)
+    b = m.volumetric_error(q, 2.5 * m.theta, order=1)
+    np.testing.assert_allclose(b, 2.5 * a, rtol=1e-12, atol=1e-18)
+
+
+@pytest.mark.parametrize("name", ALL_MACHINES)
+def test_nominal_tool_point_follows_nc_convention(machines, name):
+    """Commanding +X moves the nominal tool +x relative to the workpiece (linear axes)."""
+    m = machines[name]
+    centre = m.travel.mean(axis=1)
+    centre = np.where(np.isfinite(centre), centre, 0.0)
+    for j, (axis, kind) in enumerate(zip(m.axes, m.axis_kinds)):
+        if kind != "linear" or axis not in "XYZ":
+            continue
+        q = np.tile(centre, (2, 1))
+        q[1, j] += 1e-3
+        _, p = m.tool_poses(q, nominal=True)
+        step = p[1] - p[0]
+        expected = np.zeros(3)
+        expected["XYZ".index(axis)] = 1e-3
+        np.testing.assert_allclose(step, expected, atol=1e-15, err_msg=f"{name} axis {axis}")
+
+
+def test_large_input_is_chunked(machines):
+    m = machines["vmc500"]
+    q = random_q(m, K.CHUNK * 2 + 17, seed=5)
+    full = m.volumetric_error(q)
+    np.testing.assert_allclose(full[-17:], m.volumetric_error(q[-17:]), rtol=1e-14, atol=1e-18)
+    np.testing.assert_allclose(full[:5], m.volumetric_error(q[:5]), rtol=1e-14, atol=1e-18)

@@ -1,0 +1,100 @@
+"""Error terms: interpolation properties, derivatives, and writing back in spec units."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from volerr_pin import terms as T
+from volerr_pin.spec import build_term
+
+TRAVEL = (0.0, 0.5)
+
+
+def ctx(q):
+    q = np.asarray(q, dtype=float)
+    return T.Context(q, TRAVEL, T.Covariates(len(q)))
+
+
+def term(table, quantity="length", position="length"):
+    return build_term(table, "test", quantity, position, TRAVEL)
+
+
+Q = np.linspace(0.0, 0.5, 37)
+
+
+def test_legendre_basis_is_legendre():
+    t = term({"kind": "legendre", "coefficients_um": [1.0, 2.0, 3.0]})
+    u = 2 * Q / 0.5 - 1
+    expected = 1.0 + 2.0 * u + 3.0 * (3 * u**2 - 1) / 2
+    np.testing.assert_allclose(t.term.value(t.coefficients, ctx(Q)), expected * 1e-6, rtol=1e-14)
+
+
+def test_monomial_over_position_in_mm():
+    t = term({"kind": "monomial", "over": "position", "coefficients_um": [1.0, 0.02, -3e-5]})
+    mm = Q * 1e3
+    expected = (1.0 + 0.02 * mm - 3e-5 * mm**2) * 1e-6
+    np.testing.assert_allclose(t.term.value(t.coefficients, ctx(Q)), expected, rtol=1e-13, atol=1e-20)
+
+
+@pytest.mark.parametrize("table", [
+    {"kind": "legendre", "coefficients_arcsec": [0.5, -1.0, 2.0, 0.7]},
+    {"kind": "monomial", "coefficients_um": [0.0, 1.0, -2.0, 0.5]},
+    {"kind": "monomial", "over": "position", "coefficients_um": [0.0, 0.01, -2e-5]},
+    {"kind": "table", "interpolation": "cubic", "positions_mm": [0, 100, 250, 400, 500],
+     "values_um": [0.0, 1.0, -0.5, 2.0, 1.0]},
+    {"kind": "table", "interpolation": "cubic", "boundary": "natural",
+     "positions_mm": [0, 100, 250, 400, 500], "values_um": [0.0, 1.0, -0.5, 2.0, 1.0]},
+])
+def test_position_derivative_equals_finite_differences(table):
+    quantity = "angle" if "coefficients_arcsec" in table else "length"
+    t = term(table, quantity)
+    q = np.linspace(0.01, 0.49, 25)
+    h = 1e-6
+    fd = (t.term.basis(ctx(q + h)) - t.term.basis(ctx(q - h))) / (2 * h)
+    np.testing.assert_allclose(t.term.basis_derivative(ctx(q)), fd, rtol=1e-6, atol=1e-8)
+
+
+def test_tables_interpolate_their_nodes():
+    for interpolation in ("linear", "cubic"):
+        nodes = [0, 100, 200, 350, 500]
+        values = [0.0, 1.2, -0.4, 2.2, 3.0]
+        t = term({"kind": "table", "interpolation": interpolation, "positions_mm": nodes,
+                  "values_um": values})
+        got = t.term.value(t.coefficients, ctx(np.array(nodes) * 1e-3))
+        np.testing.assert_allclose(got, np.array(values) * 1e-6, rtol=1e-12, atol=1e-20)
+
+
+def test_not_a_knot_spline_reproduces_a_cubic():
+    nodes = np.array([0.0, 0.07, 0.2, 0.31, 0.5])
+    f = lambda x: 1e-6 * (1 + 3 * x - 20 * x**2 + 40 * x**3)
+    t = term({"kind": "table", "interpolation": "cubic", "positions_m": list(nodes),
+              "values_m": list(f(nodes))})
+    np.testing.assert_allclose(t.term.value(t.coefficients, ctx(Q)), f(Q), rtol=1e-10, atol=1e-20)
+
+
+def test_linear_table_is_piecewise_linear():
+    t = term({"kind": "table", "interpolation": "linear", "positions_mm": [0, 200, 500],
+              "values_um": [0.0, 2.0, -1.0]})
+    np.testing.assert_allclose(t.term.value(t.coefficients, ctx([0.1, 0.35])), [1e-6, 0.5e-6], rtol=1e-12)
+
+
+@pytest.mark.parametrize("table", [
+    {"kind": "constant", "value_arcsec": 3.5},
+    {"kind": "legendre", "coefficients_um": [1.0, 2.0]},
+    {"kind": "monomial", "over": "position", "position_unit": "mm", "coefficients_um": [1.0, 0.5, 1e-4]},
+    {"kind": "table", "interpolation": "cubic", "boundary": "not-a-knot",
+     "positions_mm": [0.0, 100.0, 300.0, 500.0], "values_um": [0.0, 1.0, 3.0, 2.0]},
+])
+def test_to_spec_round_trips(table):
+    quantity = "angle" if "value_arcsec" in table else "length"
+    t = term(table, quantity)
+    written = t.term.to_spec(t.coefficients)
+    again = term(written, quantity)
+    np.testing.assert_allclose(again.coefficients, t.coefficients, rtol=1e-14)
+    assert set(written) == set(table) | ({"over"} if table["kind"] == "monomial" else set())
+
+
+def test_polynomial_on_a_body_without_axis_is_refused():
+    with pytest.raises(ValueError, match="needs an axis position"):
+        build_term({"kind": "legendre", "coefficients_um": [1.0]}, "errors.EXT", "length", None, None)
