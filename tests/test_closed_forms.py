@@ -146,3 +146,28 @@ def test_cgm4000_translation_of_b_axis_follows_the_a_head(machines):
     expected = np.array([rot("x", a) @ [0, 0, 2e-6] for a in q[:, 3]])
     np.testing.assert_allclose(error[:, :3], expected, atol=1e-18)
     np.testing.assert_allclose(error[:, 3:], 0, atol=1e-18)
+
+
+@pytest.mark.parametrize("name,component,sign", [("vmc500", "EC0Y", -1), ("cgm4000", "EC0Y", +1),
+                                                 ("vmc700", "EC0X", +1)])
+def test_xy_squareness_changes_the_angle_between_x_and_y_motions(machines, name, component, sign):
+    """The documented meaning: angle(+X, +Y) of the tool relative to the workpiece = 90 deg + sign * value.
+
+    A location error turns the tool side of the relative chain (workpiece -> tool) by +value
+    about its site: on vmc500 (workpiece - Y - site - X - bed - Z - tool) that turns X against
+    Y (-), on cgm4000 (workpiece - bed - X - site - Y - ...) Y against X (+), on vmc700
+    (workpiece - X - site - Y - bed - ...) Y against X (+).
+    """
+    m = machines[name]
+    gamma = 20 * ARCSEC
+    theta = single(m, component, gamma)
+    centre = m.travel.mean(axis=1)
+    centre[3:] = 0.0  # head at A = B = 0 on cgm4000
+    h = 0.05
+    q = np.tile(centre, (3, 1))
+    q[1, 0] += h
+    q[2, 1] += h
+    _, p = m.tool_poses(q, theta)
+    dx, dy = p[1] - p[0], p[2] - p[0]
+    angle = np.arccos(dx @ dy / np.linalg.norm(dx) / np.linalg.norm(dy))
+    np.testing.assert_allclose(angle, np.pi / 2 + sign * gamma, rtol=0, atol=1e-12)

@@ -157,3 +157,30 @@ def test_bundled_error_counts(machines):
                       "gear_roller": 24, "ur5": 36}
     assert all(len(m.error_joints) % 6 == 0 for m in machines.values())
     assert len(machines["vmc500"].error_joints) == 6 * 3 + 6 * 2  # 3 axes + bases of Y and Z
+
+
+def test_several_terms_per_component_add_up(vmc500_copy, machines):
+    edit(vmc500_copy, '''[errors.EXY]
+kind = "legendre"
+coefficients_um = [0.0, 0.0, 1.1, 0.3]''', '''[errors.EXY]
+terms = [
+  { kind = "legendre", coefficients_um = [0.0, 0.0, 1.1, 0.3] },
+  { kind = "constant", prefix = "offset", value_um = 2.0 },
+]''')
+    m = vp.load_machine(vmc500_copy)
+    assert "EXY.offset.c0" in m.parameter_names and "EXY.c3" in m.parameter_names
+    q = random_q(m, 20, seed=41)
+    diff = m.volumetric_error(q) - machines["vmc500"].volumetric_error(q)
+    np.testing.assert_allclose(diff[:, 0], 2e-6, atol=1e-16)
+
+
+def test_clashing_term_names_need_a_prefix(vmc500_copy):
+    edit(vmc500_copy, '''[errors.EXY]
+kind = "legendre"
+coefficients_um = [0.0, 0.0, 1.1, 0.3]''', '''[errors.EXY]
+terms = [
+  { kind = "legendre", coefficients_um = [0.0, 0.0, 1.1, 0.3] },
+  { kind = "constant", value_um = 2.0 },
+]''')
+    with pytest.raises(vp.SpecError, match=r"errors\.EXY: coefficient names \['EXY\.c0'\] repeat"):
+        vp.load_machine(vmc500_copy)

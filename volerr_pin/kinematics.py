@@ -20,7 +20,7 @@ from .errors import SpecError
 
 # motion kinds of a chain operation
 PX, PY, PZ, RX, RY, RZ, PG, RG = range(8)
-CHUNK = 65536
+CHUNK = 16384  # points per block: keeps the joint-value block in cache, memory bounded
 
 
 @dataclass(frozen=True)
