@@ -33,9 +33,12 @@ def machine_info(machine: Machine) -> dict:
             "sign": int(axis.sign),
             "errors_frame": axis.frame,
         })
+    terms = machine.term_info()
     by_kind: dict[str, list[str]] = {}
-    for term in machine.term_info():
+    per_component: dict[str, list[dict]] = {}
+    for term in terms:
         by_kind.setdefault(term["kind"], []).append(term["component"])
+        per_component.setdefault(term["component"], []).append(term)
     # range of each component over its axis travel (other axes at mid travel)
     travel = machine.travel
     travel = np.where(np.isfinite(travel), travel, np.array([-math.pi, math.pi]))
@@ -46,22 +49,18 @@ def machine_info(machine: Machine) -> dict:
         sweeps.append(q)
     values = machine.component_values(np.vstack(sweeps))
     components = []
-    kinds: dict[str, list[str]] = {}
-    for term in machine.term_info():
-        kinds.setdefault(term["component"], []).append(term["kind"])
     for k, name in enumerate(machine.components):
         angular = name[1] in "ABC"
         factor = ARCSEC_PER_RAD if angular else UM_PER_M
-        info = next(t for t in machine.term_info() if t["component"] == name)
+        own = per_component[name]
         components.append({
             "name": name,
-            "owner": info["owner"],
-            "kinds": kinds[name],
+            "owner": own[0]["owner"],
+            "kinds": [t["kind"] for t in own],
             "unit": "arcsec" if angular else "um",
             "min": float(values[:, k].min() * factor),
             "max": float(values[:, k].max() * factor),
-            "parameters": [p for t in machine.term_info() if t["component"] == name
-                           for p in t["parameters"]],
+            "parameters": [p for t in own for p in t["parameters"]],
         })
     return {
         "machine": machine.name,
