@@ -19,13 +19,16 @@ from . import __version__
 from .describe import machine_info
 from .errors import VolerrError
 from .machine import load_machine
-from .workspace import error_summary, grid
+from .ranking import rank, read_tolerances, tool_identifiability
+from .workspace import error_summary, grid, sample
 
 DEFAULT_MACHINE = "vmc500"
 
 
 def _console() -> Console:
-    return Console(highlight=False, soft_wrap=True)
+    # tables are wide: give files and pipes room instead of rich's 80-column default
+    width = None if sys.stdout.isatty() else 160
+    return Console(highlight=False, soft_wrap=True, width=width)
 
 
 def _print_info(console: Console, info: dict) -> None:
@@ -65,6 +68,69 @@ def _print_summary(console: Console, summary: dict, axes) -> None:
         f"max orientation error {summary['max_orientation_arcsec']:.2f} arcsec")
 
 
+def _print_ranking(console: Console, ranking: dict, title: str) -> None:
+    table = Table(box=box.SIMPLE, title=title)
+    for col, justify in (("#", "right"), ("term", "left"), ("axis", "left"), ("max um", "right"),
+                         ("RMS um", "right"), ("share", "right"), ("per unit (RMS)", "right"),
+                         ("contribution degree", "right"), ("orientation share", "right")):
+        table.add_column(col, justify=justify)
+    for i, r in enumerate(ranking["ranking"], 1):
+        degree = "" if r["contribution_degree"] is None else f"{100 * r['contribution_degree']:.1f} %"
+        table.add_row(str(i), r["parameter"], r["axis"], f"{r['max_um']:.2f}", f"{r['rms_um']:.2f}",
+                      f"{100 * r['share']:.1f} %", f"{r['per_unit_rms']:.3f} {r['per_unit']}", degree,
+                      f"{100 * r['orientation_share']:.1f} %")
+    console.print(table)
+
+
+def _print_groups(console: Console, groups: list[dict]) -> None:
+    if not groups:
+        console.print("identifiability at the tool: every coefficient has its own effect")
+        return
+    console.print("identifiability at the tool (no tool-point measurement separates these):")
+    for g in groups:
+        pairs = list(zip(g["parameters"], g["factors"]))
+        parts = ", ".join(f"{f:+.3g} {p}" for p, f in pairs[:8])
+        more = f", ... ({len(pairs) - 8} more; --json lists all)" if len(pairs) > 8 else ""
+        console.print(f"  {g['kind']:<11} {parts}{more}")
+
+
+def _ranking_csv(ranking: dict) -> str:
+    import csv
+    import io
+
+    buffer = io.StringIO()
+    fields = ["parameter", "term", "axis", "max_um", "rms_um", "share", "per_unit_max",
+              "per_unit_rms", "per_unit", "contribution_degree", "orientation_max_arcsec",
+              "orientation_share"]
+    writer = csv.DictWriter(buffer, fieldnames=fields, extrasaction="ignore", lineterminator="\n")
+    writer.writeheader()
+    for row in ranking["ranking"]:
+        writer.writerow(row)
+    return buffer.getvalue()
+
+
+def cmd_rank(args) -> int:
+    machine = load_machine(args.machine, tool_frame=args.tool_frame,
+                           workpiece_frame=args.workpiece_frame)
+    tolerances = read_tolerances(args.tolerances, machine) if args.tolerances else None
+    q = sample(machine, args.points, seed=args.seed)
+    ranking = rank(machine, q, tolerances=tolerances, direction=args.direction, by=args.by)
+    result = ranking.to_dict(top=args.top)
+    groups = [g.to_dict() for g in tool_identifiability(machine, q)]
+    if args.json:
+        result["identifiability"] = groups
+        print(json.dumps(result))
+    elif args.csv:
+        sys.stdout.write(_ranking_csv(result))
+    else:
+        console = _console()
+        what = "tolerances" if tolerances else "current error values"
+        _print_ranking(console, result, f"{machine.name}: tool-point error by {args.by} "
+                                        f"({args.points} points, direction {args.direction}, {what})")
+        _print_groups(console, groups)
+    return 0
+
+
 def cmd_info(args) -> int:
     machine = load_machine(args.machine, tool_frame=args.tool_frame,
                            workpiece_frame=args.workpiece_frame)
@@ -93,13 +159,26 @@ def cmd_demo(args) -> int:
     machine = load_machine(args.machine)
     info = machine_info(machine)
     summary = error_summary(machine, grid(machine, args.grid))
+    ranking = rank(machine, sample(machine, 1024)).to_dict(top=args.top)
     if args.json:
-        print(json.dumps({"machine": info, "summary": summary}))
+        print(json.dumps({"machine": info, "summary": summary, "ranking": ranking}))
         return 0
     console = _console()
     _print_info(console, info)
     _print_summary(console, summary, machine.axes)
+    _print_ranking(console, ranking, f"top {args.top} error sources at the tool "
+                                     "(share of the top listed)")
     return 0
+
+
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
 
 
 def _machine_args(parser: argparse.ArgumentParser) -> None:
@@ -116,8 +195,24 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("demo", help="the main job on the default machine")
     p.add_argument("--machine", default=DEFAULT_MACHINE, help=f"machine (default {DEFAULT_MACHINE})")
     p.add_argument("--grid", type=int, default=11, help="grid points per axis (default 11)")
+    p.add_argument("--top", type=int, default=5, help="ranking rows to show (default 5)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("rank", help="sensitivity ranking of the error sources")
+    _machine_args(p)
+    p.add_argument("--points", type=_positive, default=2048, help="workspace points (Sobol', default 2048)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the workspace sample")
+    p.add_argument("--tolerances", help="TOML file: term -> expected magnitude (EXX_um = 5, ...)")
+    p.add_argument("--top", type=_positive, help="show the K most influential only")
+    p.add_argument("--direction", choices=["x", "y", "z", "all"], default="all",
+                   help="tool error direction to measure (default all)")
+    p.add_argument("--by", choices=["component", "parameter"], default="component",
+                   help="rank component errors or single coefficients")
+    out = p.add_mutually_exclusive_group()
+    out.add_argument("--json", action="store_true", help="print one JSON object")
+    out.add_argument("--csv", action="store_true", help="print the ranking as CSV")
+    p.set_defaults(func=cmd_rank)
 
     p = sub.add_parser("info", help="axes, chains, error terms by kind, travels")
     _machine_args(p)

@@ -322,6 +322,80 @@ def _poses(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p
                 out_R[i, r, c] = R[3 * r + c]
 
 
+@numba.njit(cache=True, parallel=True)
+def _jacobian(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, nominal,
+              out_J, out_p):
+    """Derivative of the tool pose (in the workpiece frame) w.r.t. every joint value.
+
+    out_J[i, 0:3, c]: d p_tool / d v_c; out_J[i, 3:6, c]: angular velocity of the tool frame
+    per unit of v_c, both in workpiece axes. ``nominal`` evaluates at zero error values.
+    """
+    n = values.shape[1]
+    for i in numba.prange(n):
+        for r in range(6):
+            for c in range(out_J.shape[2]):
+                out_J[i, r, c] = 0.0
+        R = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+        p = (0.0, 0.0, 0.0)
+        for k in range(kind.shape[0]):
+            if not C_id[k]:
+                R, p = _compose_constant(R, p, C_R, C_p, k)
+            c = col[k]
+            s = sign[k]
+            w0 = s * (R[0] * axis[k, 0] + R[1] * axis[k, 1] + R[2] * axis[k, 2])
+            w1 = s * (R[3] * axis[k, 0] + R[4] * axis[k, 1] + R[5] * axis[k, 2])
+            w2 = s * (R[6] * axis[k, 0] + R[7] * axis[k, 1] + R[8] * axis[k, 2])
+            if kind[k] <= PZ or kind[k] == PG:
+                out_J[i, 0, c] = w0
+                out_J[i, 1, c] = w1
+                out_J[i, 2, c] = w2
+            else:  # -w x p_k now; + w x p_tool once the tool point is known
+                out_J[i, 3, c] = w0
+                out_J[i, 4, c] = w1
+                out_J[i, 5, c] = w2
+                out_J[i, 0, c] = -(w1 * p[2] - w2 * p[1])
+                out_J[i, 1, c] = -(w2 * p[0] - w0 * p[2])
+                out_J[i, 2, c] = -(w0 * p[1] - w1 * p[0])
+            if nominal and is_error[k]:
+                continue
+            R, p = _compose_motion(R, p, kind[k], axis, k, s * values[c, i])
+        R, p = _compose_constant(R, p, end_R, end_p, 0)
+        for k in range(kind.shape[0]):
+            if kind[k] > PZ and kind[k] != PG:
+                c = col[k]
+                w0, w1, w2 = out_J[i, 3, c], out_J[i, 4, c], out_J[i, 5, c]
+                out_J[i, 0, c] += w1 * p[2] - w2 * p[1]
+                out_J[i, 1, c] += w2 * p[0] - w0 * p[2]
+                out_J[i, 2, c] += w0 * p[1] - w1 * p[0]
+        out_p[i, 0], out_p[i, 1], out_p[i, 2] = p[0], p[1], p[2]
+
+
+def joint_jacobian(chain: Chain, values: np.ndarray, nv: int, nominal: bool = False
+                   ) -> np.ndarray:
+    """(N, 6, nv) derivative of the tool pose in the workpiece frame w.r.t. the joint values:
+    rows 0-2 the tool point's velocity, rows 3-5 the angular velocity (workpiece axes).
+    ``values`` is (nv, N); ``nominal`` evaluates at zero error-joint values."""
+    values = np.ascontiguousarray(values, dtype=float)
+    out = np.empty((values.shape[1], 6, nv))
+    tool = np.empty((values.shape[1], 3))
+    _jacobian(values, *_args(chain), nominal, out, tool)
+    return out
+
+
+def log3_left_jacobian_inverse(phi: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) inverse left Jacobian of SO(3) at rotation vectors ``phi`` (N, 3):
+    d log(exp(dw) exp(phi)) = Jl^-1(phi) dw."""
+    theta = np.linalg.norm(phi, axis=1)
+    K = np.zeros((len(phi), 3, 3))
+    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -phi[:, 2], phi[:, 1], -phi[:, 0]
+    K[:, 1, 0], K[:, 2, 0], K[:, 2, 1] = phi[:, 2], -phi[:, 1], phi[:, 0]
+    small = theta < 1e-4
+    t = np.where(small, 1.0, theta)
+    coef = np.where(small, 1.0 / 12.0 + theta**2 / 720.0,
+                    1.0 / t**2 - (1.0 + np.cos(t)) / (2.0 * t * np.sin(t)))
+    return np.eye(3) - 0.5 * K + coef[:, None, None] * (K @ K)
+
+
 def _args(chain: Chain):
     return (chain.C_R, chain.C_p, chain.C_identity, chain.kind, chain.axis, chain.col,
             chain.sign, chain.is_error, chain.end_R, chain.end_p)

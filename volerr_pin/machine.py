@@ -322,10 +322,7 @@ class Machine:
         """(n_components, N) component error values, SI."""
         out = np.zeros((len(self._components), q.shape[0]))
         for k, comp in enumerate(self._components):
-            if comp.axis_index is None:
-                ctx = Context(None, None, cov)
-            else:
-                ctx = Context(q[:, comp.axis_index], tuple(self._travel[comp.axis_index]), cov)
+            ctx = self._context(comp, q, cov)
             for tspec, span in comp.terms:
                 out[k] += tspec.term.basis(ctx) @ theta[span]
         return out
@@ -375,6 +372,96 @@ class Machine:
             values = self._joint_values(q[rows], theta, cov.take(rows))
             out[rows] = K.pose_error(self._chain, values, order)
         return out[0] if single else out
+
+    # ------------------------------------------------------------------ derivatives
+    def _prepare(self, q, theta, extrapolate, covariates):
+        q = self.check_q(q, extrapolate)
+        return q, self._check_theta(theta), self.check_covariates(q.shape[0], covariates)
+
+    def _error_jacobian(self, values: np.ndarray) -> np.ndarray:
+        """(N, 6, nv) derivative of the 6-component error w.r.t. the joint values at ``values``
+        (nv, N): position rows as they are, rotation rows through Jl^-1 of the rotation error."""
+        J = K.joint_jacobian(self._chain, values, self._model.nv)
+        phi = K.pose_error(self._chain, values, None)[:, 3:]
+        J[:, 3:] = K.log3_left_jacobian_inverse(phi) @ J[:, 3:]
+        return J
+
+    def sensitivity(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
+        """(N, 6, P) derivative of :meth:`volumetric_error` w.r.t. every coefficient of ``theta``.
+
+        Exact: Jacobians of the tool frame relative to the workpiece frame (the same chain
+        as the error, checked against Pinocchio's frame Jacobians), chained with the
+        derivatives of the error terms; the rotation rows include the inverse left
+        Jacobian of the rotation-vector error. Units: m or rad of error per SI unit of the
+        coefficient.
+        """
+        single = np.ndim(q) == 1
+        q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
+        out = np.zeros((q.shape[0], 6, len(self._names)))
+        for start in range(0, q.shape[0], K.CHUNK):
+            rows = slice(start, start + K.CHUNK)
+            qb, cb = q[rows], cov.take(rows)
+            J = self._error_jacobian(self._joint_values(qb, theta, cb))
+            for comp in self._components:
+                Jc = comp.chain_sign * J[:, :, comp.column]
+                ctx = self._context(comp, qb, cb)
+                for tspec, span in comp.terms:
+                    out[rows, :, span] = Jc[:, :, None] * tspec.term.basis(ctx)[:, None, :]
+        return out[0] if single else out
+
+    def component_sensitivity(self, q, theta=None, *, extrapolate: bool = False,
+                              **covariates) -> np.ndarray:
+        """(N, 6, n_components) derivative of the error w.r.t. each component error's value
+        at the point (order of :attr:`components`); per m or rad of the component."""
+        single = np.ndim(q) == 1
+        q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
+        out = np.empty((q.shape[0], 6, len(self._components)))
+        cols = np.array([c.column for c in self._components], dtype=int)
+        signs = np.array([c.chain_sign for c in self._components])
+        for start in range(0, q.shape[0], K.CHUNK):
+            rows = slice(start, start + K.CHUNK)
+            J = self._error_jacobian(self._joint_values(q[rows], theta, cov.take(rows)))
+            out[rows] = J[:, :, cols] * signs
+        return out[0] if single else out
+
+    def axis_jacobian(self, q, theta=None, *, nominal: bool = False, extrapolate: bool = False,
+                      **covariates) -> np.ndarray:
+        """(N, 6, n_axes) derivative of the tool pose relative to the workpiece w.r.t. the NC
+        positions: rows 0-2 the tool point's displacement [m per m or rad], rows 3-5 the
+        rotation (angular velocity, workpiece axes). ``nominal`` ignores the errors; the
+        actual Jacobian includes the position derivatives of the error terms."""
+        single = np.ndim(q) == 1
+        q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
+        out = np.empty((q.shape[0], 6, len(self.axes)))
+        for start in range(0, q.shape[0], K.CHUNK):
+            rows = slice(start, start + K.CHUNK)
+            qb, cb = q[rows], cov.take(rows)
+            values = self._joint_values(qb, theta, cb)
+            J = K.joint_jacobian(self._chain, values, self._model.nv, nominal=nominal)
+            block = J[:, :, self._axis_cols] * self._axis_signs
+            if not nominal:
+                for comp in self._components:
+                    if comp.axis_index is None:
+                        continue
+                    ctx = self._context(comp, qb, cb)
+                    slope = sum(tspec.term.basis_derivative(ctx) @ theta[span]
+                                for tspec, span in comp.terms)
+                    block[:, :, comp.axis_index] += (comp.chain_sign * J[:, :, comp.column]
+                                                     * slope[:, None])
+            out[rows] = block
+        return out[0] if single else out
+
+    def joint_jacobian(self, q, theta=None, *, extrapolate: bool = False, **covariates
+                       ) -> np.ndarray:
+        """(N, 6, nv) derivative of the tool pose (point velocity, angular velocity; workpiece
+        axes) w.r.t. the values of all Pinocchio joints, as Pinocchio's frame Jacobians give it."""
+        values = self.joint_values(q, theta, extrapolate=extrapolate, **covariates)
+        return K.joint_jacobian(self._chain, values.T, self._model.nv)
+
+    def _context(self, comp: _Component, q: np.ndarray, cov: Covariates) -> Context:
+        if comp.axis_index is None:
+            return Context(None, None, cov)
+        return Context(q[:, comp.axis_index], tuple(self._travel[comp.axis_index]), cov)
 
     def tool_poses(self, q, theta=None, *, nominal: bool = False, extrapolate: bool = False,
                    **covariates) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,279 @@
+"""Which error sources move the tool, where and by how much; and which cannot be told apart.
+
+:func:`rank` samples the workspace and, for every component error (or every coefficient),
+reports the tool-point error it causes per unit and at its current (or toleranced) size,
+its share of the total, the seed 004 contribution degree within its axis, and its share of
+the tool-orientation error. :func:`tool_identifiability` finds coefficients whose effect at
+the tool is zero, exactly collinear with another's, or a linear combination of others.
+All of it is first order: exact sensitivities at the machine's current errors.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, SpecError
+from .machine import Machine
+from .spec import parse_component_name, read_toml
+from .units import scale, split_key
+from .workspace import sample
+
+UM = 1e6
+ARCSEC = 180.0 / math.pi * 3600.0
+DIRECTIONS = {"x": [0], "y": [1], "z": [2], "all": [0, 1, 2]}
+
+
+@dataclass(frozen=True)
+class Ranking:
+    """Result of :func:`rank`; ``rows`` are sorted by influence (see :meth:`to_dict`)."""
+
+    machine: str
+    points: int
+    direction: str
+    by: str
+    basis: str  # "current values" or "tolerances"
+    rows: list[dict] = field(default_factory=list)
+
+    def to_dict(self, top: int | None = None) -> dict:
+        """CONTRACT fields; ``share`` is renormalised over the rows listed."""
+        rows = [dict(r) for r in (self.rows[:top] if top else self.rows)]
+        total = sum(r["ms"] for r in rows)
+        for r in rows:
+            r["share"] = r["ms"] / total if total > 0 else 0.0
+        for r in rows:
+            del r["ms"]
+        return {"machine": self.machine, "points": self.points, "direction": self.direction,
+                "by": self.by, "basis": self.basis, "ranking": rows}
+
+
+def read_tolerances(path: str | Path, machine: Machine) -> dict[str, float]:
+    """Read ``term -> expected magnitude`` from a TOML file (``EXX_um = 5``,
+    ``EC0Y_arcsec = 3``, optional ``default_um`` / ``default_arcsec`` for the rest).
+
+    Returns SI magnitudes for every component of the machine; raises SpecError naming
+    the file and the term when one is unknown, has the wrong unit or is missing.
+    """
+    path = Path(path)
+    data = read_toml(path)
+    defaults: dict[str, float] = {}
+    values: dict[str, float] = {}
+    for key, value in data.items():
+        stem, unit = split_key(key)
+        where = f"{path}: {key}"
+        if unit is None:
+            raise SpecError(f"{where}: give the unit in the key, e.g. {key}_um or {key}_arcsec")
+        if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+            raise SpecError(f"{where}: expected a non-negative number, got {value!r}")
+        if stem == "default":
+            quantity = "length" if unit in ("m", "mm", "um", "nm") else "angle"
+            defaults[quantity] = value * scale(unit, quantity, where)
+            continue
+        if stem not in machine.components:
+            raise SpecError(f"{where}: '{stem}' is not an error term of {machine.name} "
+                            f"(terms: {', '.join(machine.components)})")
+        direction = parse_component_name(stem)[0]
+        quantity = "length" if direction in "XYZ" else "angle"
+        values[stem] = value * scale(unit, quantity, where)
+    missing = []
+    for name in machine.components:
+        if name not in values:
+            quantity = "length" if parse_component_name(name)[0] in "XYZ" else "angle"
+            if quantity in defaults:
+                values[name] = defaults[quantity]
+            else:
+                missing.append(name)
+    if missing:
+        raise SpecError(f"{path}: no tolerance for {', '.join(missing)} (give them, or "
+                        "default_um / default_arcsec)")
+    return values
+
+
+def rank(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048, seed: int = 0,
+         tolerances: dict[str, float] | None = None, direction: str = "all",
+         by: str = "component") -> Ranking:
+    """Rank the error sources of ``machine`` by the tool-point error they cause.
+
+    Parameters
+    ----------
+    q : (N, n_axes) array, optional
+        Workspace points (SI); default: ``points`` scrambled Sobol' points over the travels.
+    tolerances : dict, optional
+        Component name -> expected magnitude (SI). Then each term's contribution is its
+        sensitivity times its tolerance and ``share`` is its share of the variance of the
+        tool-point error (independent terms). Default: the spec's current values.
+    direction : "x", "y", "z" or "all"
+        Which component(s) of the tool-point error to measure.
+    by : "component" or "parameter"
+        Rank component errors (EXX) or single coefficients (EXX.c2).
+
+    Each row has ``parameter``, ``term``, ``axis``, ``max_um``, ``rms_um`` (the term's
+    contribution at the tool), ``share`` (mean-square share), ``per_unit_max``,
+    ``per_unit_rms`` and ``per_unit`` (um per um or um per arcsec), ``contribution_degree``
+    (seed 004: the term's per-unit RMS over the sum within its axis and kind, translational
+    or angular), ``orientation_max_arcsec`` and ``orientation_share``.
+    """
+    if direction not in DIRECTIONS:
+        raise InputError(f"direction must be one of x, y, z, all; got {direction!r}")
+    if by not in ("component", "parameter"):
+        raise InputError(f"by must be 'component' or 'parameter'; got {by!r}")
+    if q is None:
+        q = sample(machine, points, seed=seed)
+    q = machine.check_q(q)
+    rows_dir = DIRECTIONS[direction]
+    if by == "component":
+        sens = machine.component_sensitivity(q)          # (N, 6, C) per SI unit
+        names = list(machine.components)
+        if tolerances is None:
+            size = machine.component_values(q)           # (N, C) current values
+        else:
+            size = np.tile([tolerances[n] for n in names], (len(q), 1))
+        terms = names
+    else:
+        sens = machine.sensitivity(q)                    # (N, 6, P)
+        names = list(machine.parameter_names)
+        terms = [n.split(".", 1)[0] for n in names]
+        if tolerances is None:
+            size = np.tile(machine.theta, (len(q), 1))
+        else:
+            size = np.tile([tolerances[t] for t in terms], (len(q), 1))
+    angular = np.array([parse_component_name(t)[0] in "ABC" for t in terms])
+    unit_factor = np.where(angular, 1.0 / ARCSEC, 1e-6)  # SI per um or per arcsec
+    pos = sens[:, rows_dir, :]                           # (N, d, T)
+    per_unit = np.linalg.norm(pos, axis=1) * unit_factor * UM  # um per (um | arcsec)
+    contribution = np.linalg.norm(pos * size[:, None, :], axis=1) * UM
+    orient = np.linalg.norm(sens[:, 3:, :] * size[:, None, :], axis=1) * ARCSEC
+    ms = np.mean(contribution**2, axis=0)
+    ms_orient = np.mean(orient**2, axis=0)
+    owners = {c: parse_component_name(c)[2] for c in set(terms)}
+    per_unit_rms = np.sqrt(np.mean(per_unit**2, axis=0))
+    # second-order leftovers (products of two error angles) are not an influence
+    effective = np.where(per_unit_rms > 1e-9 * max(per_unit_rms.max(), 1e-300), per_unit_rms, 0.0)
+    degree = np.full(len(names), np.nan)
+    if by == "component":
+        for i, t in enumerate(terms):
+            group = [j for j, u in enumerate(terms)
+                     if owners[u] == owners[t] and angular[j] == angular[i]
+                     and parse_component_name(u)[1] == parse_component_name(t)[1]]
+            total = effective[group].sum()
+            degree[i] = effective[i] / total if total > 0 else 0.0
+    rows = []
+    for i in np.argsort(-ms, kind="stable"):
+        rows.append({
+            "parameter": names[i],
+            "term": terms[i],
+            "axis": owners[terms[i]],
+            "max_um": float(contribution[:, i].max()),
+            "rms_um": float(np.sqrt(ms[i])),
+            "ms": float(ms[i]),
+            "per_unit_max": float(per_unit[:, i].max()),
+            "per_unit_rms": float(per_unit_rms[i]),
+            "per_unit": "um/arcsec" if angular[i] else "um/um",
+            "contribution_degree": None if np.isnan(degree[i]) else float(degree[i]),
+            "orientation_max_arcsec": float(orient[:, i].max()),
+            "orientation_share": float(ms_orient[i] / ms_orient.sum()) if ms_orient.sum() > 0 else 0.0,
+        })
+    return Ranking(machine.name, int(len(q)), direction, by,
+                   "tolerances" if tolerances is not None else "current values", rows)
+
+
+@dataclass(frozen=True)
+class IdentifiabilityGroup:
+    """Coefficients that no measurement at the tool can separate, and why."""
+
+    kind: str              # "zero", "collinear" or "combination"
+    parameters: tuple[str, ...]
+    factors: tuple[float, ...]
+    reason: str
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "parameters": list(self.parameters),
+                "factors": list(self.factors), "reason": self.reason}
+
+
+def tool_identifiability(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048,
+                         seed: int = 0, orientation: bool = False, rtol: float = 1e-9
+                         ) -> list[IdentifiabilityGroup]:
+    """Coefficients whose effect on the tool point (and orientation, if asked) is zero,
+    exactly collinear with another's, or a linear combination of others, over the sampled
+    workspace.
+
+    A column counts as zero when its RMS effect is below ``rtol`` times the median column;
+    two columns are collinear when the cosine of their angle differs from +-1 by less than
+    ``rtol``. The remaining rank deficiency is reported as combinations (null-space vectors
+    of the column-normalised sensitivity matrix, singular values below ``sqrt(rtol)``).
+    """
+    if q is None:
+        q = sample(machine, points, seed=seed)
+    S = machine.sensitivity(q)
+    rows = slice(0, 6) if orientation else slice(0, 3)
+    A = S[:, rows, :].reshape(-1, S.shape[2])
+    names = machine.parameter_names
+    norms = np.linalg.norm(A, axis=0) / math.sqrt(len(q))
+    reference = np.median(norms[norms > 0]) if np.any(norms > 0) else 1.0
+    zero = norms <= rtol * reference
+    groups: list[IdentifiabilityGroup] = []
+    what = "tool point and orientation" if orientation else "tool point"
+    for j in np.flatnonzero(zero):
+        groups.append(IdentifiabilityGroup(
+            "zero", (names[j],), (1.0,),
+            f"no effect on the {what} anywhere in the sampled workspace (e.g. a rotation about "
+            "a line through the tool point, or a translation along a direction that is not "
+            "measured)"))
+    live = np.flatnonzero(~zero)
+    U = A[:, live] / np.linalg.norm(A[:, live], axis=0)
+    G = U.T @ U
+    parent = list(range(len(live)))
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    close = np.argwhere(np.triu(np.abs(np.abs(G) - 1.0) < rtol, k=1))
+    for a, b in close:
+        parent[find(b)] = find(a)
+    members: dict[int, list[int]] = {}
+    for i in range(len(live)):
+        members.setdefault(find(i), []).append(i)
+    representatives = []
+    for root, group in members.items():
+        representatives.append(group[0])
+        if len(group) < 2:
+            continue
+        first = live[group[0]]
+        factors = tuple(float(A[:, live[g]] @ A[:, first] / (A[:, first] @ A[:, first])) for g in group)
+        groups.append(IdentifiabilityGroup(
+            "collinear", tuple(names[live[g]] for g in group), factors,
+            f"the same effect on the {what} everywhere, up to the factors given (the same "
+            "displacement reached through different terms or chains)"))
+    # remaining dependencies: keep columns greedily in parameter order (Gram-Schmidt with
+    # re-orthogonalisation); a column with no new direction is a combination of kept ones
+    basis: list[np.ndarray] = []
+    kept: list[int] = []
+    for i in sorted(representatives):
+        v = U[:, i].copy()
+        for _ in range(2):
+            for b in basis:
+                v -= (b @ v) * b
+        residual = np.linalg.norm(v)
+        if residual > math.sqrt(rtol):
+            basis.append(v / residual)
+            kept.append(i)
+            continue
+        K = U[:, kept]
+        coef, *_ = np.linalg.lstsq(K, U[:, i], rcond=None)
+        scale_i = np.linalg.norm(A[:, live[i]])
+        # express in the coefficients' own units: A_i = sum_k f_k A_k
+        factors = coef * scale_i / np.linalg.norm(A[:, live[kept]], axis=0)
+        big = np.flatnonzero(np.abs(coef) > 1e-4 * np.abs(coef).max())
+        groups.append(IdentifiabilityGroup(
+            "combination", (names[live[i]],) + tuple(names[live[kept[k]]] for k in big),
+            (1.0,) + tuple(float(-factors[k]) for k in big),
+            f"the effect of {names[live[i]]} on the {what} equals a combination of the others "
+            "listed: the weighted sum with these factors has no effect there"))
+    return groups
