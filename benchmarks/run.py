@@ -4,8 +4,10 @@
 
 Volumetric error: the compiled batch evaluator against a per-point loop of Pinocchio calls
 (what a Pinocchio user would write: frame placements for the actual and the nominal
-configuration, relative pose, log3), on vmc500 and cgm4000. The per-point loop gets its
-configurations precomputed (not timed), so the ratio is, if anything, modest.
+configuration, relative pose, log3), on vmc500 and cgm4000. Sensitivities: the full
+Jacobian w.r.t. all coefficients against per-point Pinocchio frame Jacobians of the tool
+relative to the workpiece. The loops get their configurations precomputed (not timed), so
+the ratios are, if anything, modest.
 """
 
 from __future__ import annotations
@@ -67,6 +69,39 @@ def bench_volumetric(name, sizes, n_loop):
     return rows
 
 
+def pinocchio_jacobian_loop(machine, configs):
+    """Per point: joint Jacobians, the two frame Jacobians and the relative Jacobian of the
+    tool in the workpiece frame (GUIDE section 6). The chain rule to the coefficients is not
+    timed, so the comparison favours the loop."""
+    model = machine.model
+    data = model.createData()
+    T, W = model.getFrameId(machine.tool_frame), model.getFrameId(machine.workpiece_frame)
+    out = np.empty((len(configs), 6, model.nv))
+    for i, qc in enumerate(configs):
+        pin.computeJointJacobians(model, data, qc)
+        oMt = pin.updateFramePlacement(model, data, T)
+        oMw = pin.updateFramePlacement(model, data, W)
+        Jt = pin.getFrameJacobian(model, data, T, pin.LOCAL_WORLD_ALIGNED)
+        Jw = pin.getFrameJacobian(model, data, W, pin.LOCAL_WORLD_ALIGNED)
+        Rt = oMw.rotation.T
+        out[i, :3] = Rt @ (Jt[:3] - Jw[:3] + pin.skew(oMt.translation - oMw.translation) @ Jw[3:])
+        out[i, 3:] = Rt @ (Jt[3:] - Jw[3:])
+    return out
+
+
+def bench_sensitivity(name, n, n_loop):
+    m = vp.load_machine(name)
+    m.sensitivity(sample(m, 16))
+    q_loop = sample(m, n_loop, seed=3)
+    configs = m.pinocchio_configuration(q_loop)
+    t_loop = best_of(lambda: pinocchio_jacobian_loop(m, configs), repeat=2) / n_loop
+    q = sample(m, n, seed=4)
+    t = best_of(lambda: m.sensitivity(q), repeat=2) / n
+    return [{"machine": name, "task": "sensitivity", "points": n, "parameters": len(m.theta),
+             "batch_us_per_point": t * 1e6, "pinocchio_loop_us_per_point": t_loop * 1e6,
+             "speedup_vs_pinocchio_loop": t_loop / t}]
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes (CI)")
@@ -77,15 +112,17 @@ def main(argv=None):
     results = []
     for name in ("vmc500", "cgm4000"):
         results += bench_volumetric(name, sizes, n_loop)
+    for name in ("vmc500", "cgm4000"):
+        results += bench_sensitivity(name, 10_000 if args.quick else 100_000, n_loop)
     info = {"machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
                        f"Python {platform.python_version()}, pin {pin.__version__}",
             "results": results}
     print(f"# {info['machine']}")
-    print("| machine | points | batch [us/point] | Pinocchio loop [us/point] | speed-up |")
-    print("|---|---|---|---|---|")
+    print("| task | machine | points | batch [us/point] | Pinocchio loop [us/point] | speed-up |")
+    print("|---|---|---|---|---|---|")
     for r in results:
-        print(f"| {r['machine']} | {r['points']:,} | {r['batch_us_per_point']:.3f} | "
-              f"{r['pinocchio_loop_us_per_point']:.2f} | {r['speedup_vs_pinocchio_loop']:.0f}x |")
+        print(f"| {r['task']} | {r['machine']} | {r['points']:,} | {r['batch_us_per_point']:.3f} | "
+              f"{r['pinocchio_loop_us_per_point']:.2f} | {r['speedup_vs_pinocchio_loop']:.1f}x |")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(info, f, indent=2)

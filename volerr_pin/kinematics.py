@@ -322,52 +322,91 @@ def _poses(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p
                 out_R[i, r, c] = R[3 * r + c]
 
 
+@numba.njit(cache=True)
+def _jacobian_point(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p,
+                    nominal, J):
+    """Derivative of the tool pose (in the workpiece frame) w.r.t. every joint value, for point i.
+
+    J[0:3, c]: d p_tool / d v_c; J[3:6, c]: angular velocity of the tool frame per unit of
+    v_c, both in workpiece axes. ``nominal`` evaluates at zero error values.
+    """
+    for r in range(6):
+        for c in range(J.shape[1]):
+            J[r, c] = 0.0
+    R = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    p = (0.0, 0.0, 0.0)
+    for k in range(kind.shape[0]):
+        if not C_id[k]:
+            R, p = _compose_constant(R, p, C_R, C_p, k)
+        c = col[k]
+        s = sign[k]
+        w0 = s * (R[0] * axis[k, 0] + R[1] * axis[k, 1] + R[2] * axis[k, 2])
+        w1 = s * (R[3] * axis[k, 0] + R[4] * axis[k, 1] + R[5] * axis[k, 2])
+        w2 = s * (R[6] * axis[k, 0] + R[7] * axis[k, 1] + R[8] * axis[k, 2])
+        if kind[k] <= PZ or kind[k] == PG:
+            J[0, c] = w0
+            J[1, c] = w1
+            J[2, c] = w2
+        else:  # -w x p_k now; + w x p_tool once the tool point is known
+            J[3, c] = w0
+            J[4, c] = w1
+            J[5, c] = w2
+            J[0, c] = -(w1 * p[2] - w2 * p[1])
+            J[1, c] = -(w2 * p[0] - w0 * p[2])
+            J[2, c] = -(w0 * p[1] - w1 * p[0])
+        if nominal and is_error[k]:
+            continue
+        R, p = _compose_motion(R, p, kind[k], axis, k, s * values[c, i])
+    R, p = _compose_constant(R, p, end_R, end_p, 0)
+    for k in range(kind.shape[0]):
+        if kind[k] > PZ and kind[k] != PG:
+            c = col[k]
+            w0, w1, w2 = J[3, c], J[4, c], J[5, c]
+            J[0, c] += w1 * p[2] - w2 * p[1]
+            J[1, c] += w2 * p[0] - w0 * p[2]
+            J[2, c] += w0 * p[1] - w1 * p[0]
+
+
 @numba.njit(cache=True, parallel=True)
 def _jacobian(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, nominal,
-              out_J, out_p):
-    """Derivative of the tool pose (in the workpiece frame) w.r.t. every joint value.
+              out_J):
+    for i in numba.prange(values.shape[1]):
+        _jacobian_point(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p,
+                        nominal, out_J[i])
 
-    out_J[i, 0:3, c]: d p_tool / d v_c; out_J[i, 3:6, c]: angular velocity of the tool frame
-    per unit of v_c, both in workpiece axes. ``nominal`` evaluates at zero error values.
-    """
-    n = values.shape[1]
-    for i in numba.prange(n):
+
+@numba.njit(cache=True, parallel=True)
+def _sensitivity(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, Jl,
+                 basis, pcol, out):
+    """out[i, r, p] = (Jl-corrected J)[r, pcol[p]] * basis[i, p]: the chain rule to the
+    coefficients, with the rotation rows through the inverse left Jacobian Jl[i]."""
+    nv = values.shape[0]
+    for i in numba.prange(values.shape[1]):
+        J = np.empty((6, nv))
+        _jacobian_point(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p,
+                        False, J)
+        for c in range(nv):
+            a, b, d = J[3, c], J[4, c], J[5, c]
+            J[3, c] = Jl[i, 0, 0] * a + Jl[i, 0, 1] * b + Jl[i, 0, 2] * d
+            J[4, c] = Jl[i, 1, 0] * a + Jl[i, 1, 1] * b + Jl[i, 1, 2] * d
+            J[5, c] = Jl[i, 2, 0] * a + Jl[i, 2, 1] * b + Jl[i, 2, 2] * d
         for r in range(6):
-            for c in range(out_J.shape[2]):
-                out_J[i, r, c] = 0.0
-        R = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
-        p = (0.0, 0.0, 0.0)
-        for k in range(kind.shape[0]):
-            if not C_id[k]:
-                R, p = _compose_constant(R, p, C_R, C_p, k)
-            c = col[k]
-            s = sign[k]
-            w0 = s * (R[0] * axis[k, 0] + R[1] * axis[k, 1] + R[2] * axis[k, 2])
-            w1 = s * (R[3] * axis[k, 0] + R[4] * axis[k, 1] + R[5] * axis[k, 2])
-            w2 = s * (R[6] * axis[k, 0] + R[7] * axis[k, 1] + R[8] * axis[k, 2])
-            if kind[k] <= PZ or kind[k] == PG:
-                out_J[i, 0, c] = w0
-                out_J[i, 1, c] = w1
-                out_J[i, 2, c] = w2
-            else:  # -w x p_k now; + w x p_tool once the tool point is known
-                out_J[i, 3, c] = w0
-                out_J[i, 4, c] = w1
-                out_J[i, 5, c] = w2
-                out_J[i, 0, c] = -(w1 * p[2] - w2 * p[1])
-                out_J[i, 1, c] = -(w2 * p[0] - w0 * p[2])
-                out_J[i, 2, c] = -(w0 * p[1] - w1 * p[0])
-            if nominal and is_error[k]:
-                continue
-            R, p = _compose_motion(R, p, kind[k], axis, k, s * values[c, i])
-        R, p = _compose_constant(R, p, end_R, end_p, 0)
-        for k in range(kind.shape[0]):
-            if kind[k] > PZ and kind[k] != PG:
-                c = col[k]
-                w0, w1, w2 = out_J[i, 3, c], out_J[i, 4, c], out_J[i, 5, c]
-                out_J[i, 0, c] += w1 * p[2] - w2 * p[1]
-                out_J[i, 1, c] += w2 * p[0] - w0 * p[2]
-                out_J[i, 2, c] += w0 * p[1] - w1 * p[0]
-        out_p[i, 0], out_p[i, 1], out_p[i, 2] = p[0], p[1], p[2]
+            for p in range(pcol.shape[0]):
+                out[i, r, p] = J[r, pcol[p]] * basis[i, p]
+
+
+def error_sensitivity(chain: Chain, values: np.ndarray, basis: np.ndarray, pcol: np.ndarray,
+                      out: np.ndarray | None = None) -> np.ndarray:
+    """(N, 6, P) derivative of the 6-component error w.r.t. coefficients whose joint column is
+    ``pcol`` and whose d(joint value)/d(coefficient) is ``basis`` (N, P); ``values`` (nv, N).
+    ``out``, if given, is a C-contiguous (N, 6, P) array to fill."""
+    values = np.ascontiguousarray(values, dtype=float)
+    phi = pose_error(chain, values, None)[:, 3:]
+    Jl = np.ascontiguousarray(log3_left_jacobian_inverse(phi))
+    if out is None:
+        out = np.empty((values.shape[1], 6, len(pcol)))
+    _sensitivity(values, *_args(chain), Jl, np.ascontiguousarray(basis), pcol, out)
+    return out
 
 
 def joint_jacobian(chain: Chain, values: np.ndarray, nv: int, nominal: bool = False
@@ -377,8 +416,7 @@ def joint_jacobian(chain: Chain, values: np.ndarray, nv: int, nominal: bool = Fa
     ``values`` is (nv, N); ``nominal`` evaluates at zero error-joint values."""
     values = np.ascontiguousarray(values, dtype=float)
     out = np.empty((values.shape[1], 6, nv))
-    tool = np.empty((values.shape[1], 3))
-    _jacobian(values, *_args(chain), nominal, out, tool)
+    _jacobian(values, *_args(chain), nominal, out)
     return out
 
 

@@ -127,6 +127,8 @@ class Machine:
                                          chain_sign(comp.name, f"error {comp.name}"), tuple(spans)))
         self._components = tuple(components)
         self._names = tuple(names)
+        self._param_column = np.array([c.column for c in components for _, span in c.terms
+                                       for _ in range(span.start, span.stop)], dtype=int)
         self._theta = np.asarray(theta, dtype=float)
         self._theta.flags.writeable = False
 
@@ -397,17 +399,24 @@ class Machine:
         """
         single = np.ndim(q) == 1
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
-        out = np.zeros((q.shape[0], 6, len(self._names)))
+        out = np.empty((q.shape[0], 6, len(self._names)))
         for start in range(0, q.shape[0], K.CHUNK):
             rows = slice(start, start + K.CHUNK)
             qb, cb = q[rows], cov.take(rows)
-            J = self._error_jacobian(self._joint_values(qb, theta, cb))
-            for comp in self._components:
-                Jc = comp.chain_sign * J[:, :, comp.column]
-                ctx = self._context(comp, qb, cb)
-                for tspec, span in comp.terms:
-                    out[rows, :, span] = Jc[:, :, None] * tspec.term.basis(ctx)[:, None, :]
+            values = self._joint_values(qb, theta, cb)
+            # d v / d theta is one joint column per coefficient, scaled by the term's basis
+            K.error_sensitivity(self._chain, values, self._parameter_basis(qb, cb),
+                                self._param_column, out=out[rows])
         return out[0] if single else out
+
+    def _parameter_basis(self, q: np.ndarray, cov: Covariates) -> np.ndarray:
+        """(N, P): d (error-joint value) / d theta_p, i.e. chain sign times the term basis."""
+        basis = np.empty((q.shape[0], len(self._names)))
+        for comp in self._components:
+            ctx = self._context(comp, q, cov)
+            for tspec, span in comp.terms:
+                basis[:, span] = comp.chain_sign * tspec.term.basis(ctx)
+        return basis
 
     def component_sensitivity(self, q, theta=None, *, extrapolate: bool = False,
                               **covariates) -> np.ndarray:

@@ -39,11 +39,14 @@ class Ranking:
     rows: list[dict] = field(default_factory=list)
 
     def to_dict(self, top: int | None = None) -> dict:
-        """CONTRACT fields; ``share`` is renormalised over the rows listed."""
+        """CONTRACT fields; ``share`` is renormalised over the rows listed, ``share_of_all``
+        is over every term."""
         rows = [dict(r) for r in (self.rows[:top] if top else self.rows)]
         total = sum(r["ms"] for r in rows)
+        grand = sum(r["ms"] for r in self.rows)
         for r in rows:
             r["share"] = r["ms"] / total if total > 0 else 0.0
+            r["share_of_all"] = r["ms"] / grand if grand > 0 else 0.0
         for r in rows:
             del r["ms"]
         return {"machine": self.machine, "points": self.points, "direction": self.direction,
