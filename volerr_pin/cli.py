@@ -19,6 +19,7 @@ from . import __version__
 from .describe import machine_info
 from .errors import VolerrError
 from .machine import load_machine
+from .errors import InputError
 from .ranking import rank, read_tolerances, tool_identifiability
 from .workspace import error_summary, grid, sample
 
@@ -117,6 +118,11 @@ def cmd_rank(args) -> int:
     ranking = rank(machine, q, tolerances=tolerances, direction=args.direction, by=args.by)
     result = ranking.to_dict(top=args.top)
     groups = [g.to_dict() for g in tool_identifiability(machine, q)]
+    if args.png:
+        from .plots import ranking_png
+
+        ranking_png(result, args.png, top=args.top or 15)
+        print(f"wrote {args.png}", file=sys.stderr)
     if args.json:
         result["identifiability"] = groups
         print(json.dumps(result))
@@ -128,6 +134,59 @@ def cmd_rank(args) -> int:
         _print_ranking(console, result, f"{machine.name}: tool-point error by {args.by} "
                                         f"({args.points} points, direction {args.direction}, {what})")
         _print_groups(console, groups)
+    return 0
+
+
+def _config(machine, items: list[str] | None) -> dict[str, float]:
+    """``AXIS=VALUE`` in mm (linear) or deg (rotary) -> {axis: SI value}."""
+    out = {}
+    for item in items or []:
+        name, sep, text = item.partition("=")
+        if not sep or name not in machine.axes:
+            raise InputError(f"--config {item!r}: expected AXIS=VALUE with AXIS one of "
+                             f"{', '.join(machine.axes)}")
+        try:
+            value = float(text)
+        except ValueError:
+            raise InputError(f"--config {item!r}: '{text}' is not a number") from None
+        linear = machine.axis_kinds[machine.axes.index(name)] == "linear"
+        out[name] = value * (1e-3 if linear else 3.141592653589793 / 180.0)
+    return out
+
+
+def _print_recording(summary: dict, stream=None) -> None:
+    stream = stream or sys.stdout
+    sweep = (f"; rotary sweep of {', '.join(summary['sweep_axes'])} in {summary['sweep_steps']} steps "
+             "on the 'sweep' timeline" if summary["sweep_steps"] else "")
+    size = f", {summary['bytes'] / 1e6:.2f} MB" if summary.get("bytes") else ""
+    print(f"wrote {summary['path']}: {summary['points']} points, arrows x{summary['scale']:g}, "
+          f"max {summary['max_um']:.2f} um{sweep}{size}", file=stream)
+    print(f"open it with: rerun {summary['path']}", file=stream)
+
+
+def cmd_field(args) -> int:
+    from .recording import record_field
+
+    machine = load_machine(args.machine, tool_frame=args.tool_frame,
+                           workpiece_frame=args.workpiece_frame)
+    config = _config(machine, args.config)
+    if args.scale is not None and not args.scale > 0:
+        raise InputError(f"--scale must be positive, got {args.scale}")
+    ranking = rank(machine, sample(machine, 1024)).to_dict(top=15)
+    summary = record_field(machine, args.out, counts=args.grid, config=config, scale=args.scale,
+                           ranking=ranking, sweep_steps=args.sweep_steps, spawn=args.spawn,
+                           connect=args.connect)
+    if args.png:
+        from .plots import field_slice_png
+
+        field_slice_png(machine, args.png, config)
+        summary["png"] = args.png
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        _print_recording(summary)
+        if args.png:
+            print(f"wrote {args.png}")
     return 0
 
 
@@ -159,15 +218,21 @@ def cmd_demo(args) -> int:
     machine = load_machine(args.machine)
     info = machine_info(machine)
     summary = error_summary(machine, grid(machine, args.grid))
-    ranking = rank(machine, sample(machine, 1024)).to_dict(top=args.top)
+    from .recording import record_field
+
+    ranked = rank(machine, sample(machine, 1024))
+    ranking = ranked.to_dict(top=args.top)
+    recording = record_field(machine, args.out, ranking=ranked.to_dict(top=15))
     if args.json:
-        print(json.dumps({"machine": info, "summary": summary, "ranking": ranking}))
+        print(json.dumps({"machine": info, "summary": summary, "ranking": ranking,
+                          "recording": recording}))
         return 0
     console = _console()
     _print_info(console, info)
     _print_summary(console, summary, machine.axes)
     _print_ranking(console, ranking, f"top {args.top} error sources at the tool "
                                      "(share of the top listed)")
+    _print_recording(recording)
     return 0
 
 
@@ -196,8 +261,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--machine", default=DEFAULT_MACHINE, help=f"machine (default {DEFAULT_MACHINE})")
     p.add_argument("--grid", type=int, default=11, help="grid points per axis (default 11)")
     p.add_argument("--top", type=int, default=5, help="ranking rows to show (default 5)")
+    p.add_argument("--out", default="volerr_demo.rrd",
+                   help="Rerun recording to write (default volerr_demo.rrd)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("field", help="Rerun recording of the error field")
+    _machine_args(p)
+    p.add_argument("--out", required=True, help="recording file (.rrd)")
+    p.add_argument("--grid", type=_positive, nargs="+", metavar="N",
+                   help="points per linear axis (one value for all, or one per linear axis; default 9)")
+    p.add_argument("--scale", type=float, help="arrow magnification (default: a round factor "
+                                               "making the largest arrow ~8 %% of the workspace)")
+    p.add_argument("--config", nargs="+", metavar="AXIS=VALUE",
+                   help="axis positions for the machine and the fixed axes (mm, deg)")
+    p.add_argument("--sweep-steps", type=int, default=24,
+                   help="steps of the rotary-axis sweep (0: none; default 24)")
+    p.add_argument("--png", help="also write a static picture of an error-field slice")
+    viewer = p.add_mutually_exclusive_group()
+    viewer.add_argument("--spawn", action="store_true", help="also stream to a new Rerun viewer")
+    viewer.add_argument("--connect", metavar="URL", help="also stream to a running viewer (gRPC URL)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_field)
 
     p = sub.add_parser("rank", help="sensitivity ranking of the error sources")
     _machine_args(p)
@@ -209,6 +294,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="tool error direction to measure (default all)")
     p.add_argument("--by", choices=["component", "parameter"], default="component",
                    help="rank component errors or single coefficients")
+    p.add_argument("--png", help="also write a bar chart of the ranking")
     out = p.add_mutually_exclusive_group()
     out.add_argument("--json", action="store_true", help="print one JSON object")
     out.add_argument("--csv", action="store_true", help="print the ranking as CSV")

@@ -1,0 +1,165 @@
+"""Rerun recordings read back from disk, and the static pictures."""
+
+from __future__ import annotations
+
+import json
+import time
+
+import matplotlib.image as mpimg
+import numpy as np
+import pytest
+import rerun as rr
+
+from volerr_pin.cli import main
+from volerr_pin.plots import field_slice_png, ranking_png
+from volerr_pin.ranking import rank
+from volerr_pin.recording import (FieldData, evaluate_field, field_grid, log_field, log_time_series,
+                                  new_recording, record_field, sweep_angles)
+
+
+def chunks(path, entity):
+    reader = rr.chunk.RrdReader(str(path))
+    return [c.to_record_batch() for c in reader.stream() if c.entity_path == entity]
+
+
+def column(batches, name):
+    return [np.asarray(row, dtype=float) for b in batches for row in b.column(name).to_pylist()]
+
+
+@pytest.mark.filterwarnings("ignore:RRD file has no footer")
+def test_field_recording_holds_the_volumetric_error(machines, tmp_path):
+    m = machines["vmc500"]
+    path = tmp_path / "vmc500.rrd"
+    summary = record_field(m, path, counts=[4, 3, 3], scale=500.0,
+                           ranking=rank(m, points=128).to_dict(top=10))
+    q = field_grid(m, [4, 3, 3])
+    expected = m.volumetric_error(q)
+    assert summary["points"] == 36 and summary["scale"] == 500.0
+    points = chunks(path, "/field/points")
+    positions = np.array(column(points, "Points3D:positions")[0]).reshape(-1, 3)
+    np.testing.assert_allclose(positions, q, atol=1e-7)  # float32; nominal tool point = q here
+    arrows = chunks(path, "/field/arrows")
+    vectors = np.array(column(arrows, "Arrows3D:vectors")[0]).reshape(-1, 3)
+    np.testing.assert_allclose(vectors, expected[:, :3] * 500.0, rtol=1e-6, atol=1e-9)
+    for i, name in enumerate(("dx_um", "dy_um", "dz_um")):
+        np.testing.assert_allclose(column(points, name)[0], expected[:, i] * 1e6, rtol=1e-12)
+    frames = [f for b in points for f in b.column("CoordinateFrame:frame").to_pylist()]
+    assert frames == [["workpiece"]]  # the field sits in the URDF's workpiece frame
+    assert chunks(path, "/sensitivity/ranking") and chunks(path, "/field/legend")
+    assert chunks(path, "/machine/transforms/x_axis")
+    reader = rr.chunk.RrdReader(str(path))
+    blueprint = reader.blueprints()
+    assert len(blueprint) == 1
+    views = {c.entity_path for c in reader.stream(store=blueprint[0]) if c.entity_path.startswith("/view/")
+             and not c.entity_path.endswith("ViewContents")}
+    assert len(views) == 3  # 3D view, ranking bar chart, ranking table
+
+
+@pytest.mark.filterwarnings("ignore:RRD file has no footer")
+def test_rotary_sweep_is_on_the_sweep_timeline(machines, tmp_path):
+    m = machines["cgm4000"]
+    path = tmp_path / "cgm.rrd"
+    summary = record_field(m, path, counts=[3], sweep_steps=5, scale=100.0)
+    assert summary["sweep_axes"] == ["A", "B"] and summary["sweep_steps"] == 5
+    arrows = chunks(path, "/field/arrows")
+    steps = [s for b in arrows for s in b.column("sweep").to_pylist()]
+    vectors = column(arrows, "Arrows3D:vectors")
+    assert steps == list(range(5))
+    q = field_grid(m, [3])
+    for step, angles in enumerate(sweep_angles(m, ("A", "B"), 5)):
+        qs = q.copy()
+        qs[:, 3:] = angles
+        expected = m.volumetric_error(qs)[:, :3] * 100.0
+        np.testing.assert_allclose(np.reshape(vectors[step], (-1, 3)), expected, rtol=1e-6, atol=1e-9)
+
+
+def test_config_fixes_a_rotary_axis(machines, tmp_path):
+    m = machines["cgm4000"]
+    summary = record_field(m, tmp_path / "c.rrd", counts=[2], config={"A": np.radians(30)},
+                           sweep_steps=3)
+    assert summary["sweep_axes"] == ["B"] and summary["config"][3] == pytest.approx(30.0)
+
+
+@pytest.mark.filterwarnings("ignore:RRD file has no footer")
+def test_hundred_thousand_arrows_are_one_batch(machines, tmp_path):
+    m = machines["vmc500"]
+    q = field_grid(m, [50, 50, 40])
+    assert len(q) == 100_000
+    field = evaluate_field(m, q, 1000.0)
+    rec = new_recording()
+    path = tmp_path / "big.rrd"
+    rec.save(path)
+    start = time.perf_counter()
+    log_field(rec, m, field)
+    elapsed = time.perf_counter() - start
+    rec.flush()
+    arrows = chunks(path, "/field/arrows")
+    assert len(arrows) == 1 and arrows[0].num_rows == 1  # one log call, one row, 1e5 instances
+    assert column(arrows, "Arrows3D:vectors")[0].shape == (100_000, 3)
+    print(f"1e5-point field: {path.stat().st_size / 1e6:.1f} MB, logged in {elapsed:.2f} s")
+
+
+@pytest.mark.filterwarnings("ignore:RRD file has no footer")
+def test_time_series_go_in_bulk_on_the_time_timeline(tmp_path):
+    rec = new_recording()
+    path = tmp_path / "t.rrd"
+    rec.save(path)
+    t = np.arange(0.0, 3600.0, 6.0)
+    drift = 10 * (1 - np.exp(-t / 900.0))
+    log_time_series(rec, t, {"spindle_z_um": drift})
+    rec.flush()
+    batches = chunks(path, "/thermal/spindle_z_um")
+    assert len(batches) == 1 and batches[0].num_rows == len(t)
+    np.testing.assert_allclose([v[0] for v in batches[0].column("Scalars:scalars").to_pylist()], drift)
+    assert "time" in batches[0].schema.names
+
+
+def test_time_series_shape_is_checked():
+    with pytest.raises(ValueError, match="series 'x' has shape"):
+        log_time_series(new_recording(), np.arange(3.0), {"x": np.arange(4.0)})
+
+
+def _image_is_non_trivial(path, min_side=400):
+    image = mpimg.imread(path)
+    assert image.shape[0] >= min_side and image.shape[1] >= min_side
+    gray = image[..., :3].mean(axis=2)
+    assert gray.std() > 0.05  # not blank
+    assert len(np.unique(np.round(gray, 2))) > 20  # many tones: a filled field, not a few lines
+
+
+@pytest.mark.parametrize("name", ["vmc500", "cgm4000", "ur5", "lathe_2axis"])
+def test_field_png(machines, tmp_path, name):
+    out = field_slice_png(machines[name], tmp_path / f"{name}.png")
+    _image_is_non_trivial(out["path"])
+
+
+def test_ranking_png(machines, tmp_path):
+    out = ranking_png(rank(machines["cgm4000"], points=256).to_dict(), tmp_path / "r.png")
+    assert out["rows"] == 15
+    _image_is_non_trivial(out["path"])
+
+
+def test_field_cli(tmp_path, capsys):
+    out, png = tmp_path / "f.rrd", tmp_path / "f.png"
+    assert main(["field", "gear_roller", "--out", str(out), "--grid", "4", "3", "--sweep-steps", "4",
+                 "--png", str(png), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["points"] == 12 and summary["sweep_steps"] == 4 and out.exists() and png.exists()
+    assert main(["field", "vmc500", "--out", str(out), "--config", "X=700"]) == 2
+    assert "X = 700 mm is outside its travel [0, 500] mm" in capsys.readouterr().err
+    assert main(["field", "vmc500", "--out", str(out), "--grid", "3", "3"]) == 2
+    assert "--grid needs 1 or 3 counts" in capsys.readouterr().err
+
+
+def test_rank_png_cli(tmp_path, capsys):
+    png = tmp_path / "r.png"
+    assert main(["rank", "vmc700", "--points", "128", "--png", str(png), "--top", "8"]) == 0
+    _image_is_non_trivial(png, min_side=300)
+
+
+def test_demo_writes_a_recording(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["demo", "--grid", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "open it with: rerun volerr_demo.rrd" in out
+    assert (tmp_path / "volerr_demo.rrd").stat().st_size > 10_000

@@ -1,0 +1,120 @@
+"""Static pictures for reports (matplotlib, no viewer needed): error-field slices and rankings."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only, no display
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .machine import Machine  # noqa: E402
+from .recording import default_config, evaluate_field  # noqa: E402
+from .workspace import sample, to_engineering  # noqa: E402
+
+UM = 1e6
+AXES = "xyz"
+
+
+def field_slice_png(machine: Machine, path: str | Path, config: dict[str, float] | None = None,
+                    resolution: int = 25) -> dict:
+    """Error field on a plane: the first two linear axes on a ``resolution`` grid (other axes
+    at ``config``); background |error|, arrows the in-plane error. Machines with fewer than
+    two linear axes show a scatter of sampled tool points instead."""
+    base = default_config(machine, config)
+    linear = [j for j, k in enumerate(machine.axis_kinds) if k == "linear"]
+    if len(linear) >= 2:
+        a_ax, b_ax = linear[:2]
+        u = np.linspace(*machine.travel[a_ax], resolution)
+        v = np.linspace(*machine.travel[b_ax], resolution)
+        U, V = np.meshgrid(u, v, indexing="ij")
+        q = np.tile(base, (U.size, 1))
+        q[:, a_ax], q[:, b_ax] = U.ravel(), V.ravel()
+    else:
+        q = sample(machine, 400, seed=0)
+    field = evaluate_field(machine, q)
+    pos, err = field.positions, field.error[:, :3] * UM
+    spread = np.ptp(pos, axis=0)
+    i, j = sorted(np.argsort(-spread)[:2])
+    norm = np.linalg.norm(err, axis=1)
+    fig, ax = plt.subplots(figsize=(8.0, 6.4), dpi=120, constrained_layout=True)
+    fig.get_layout_engine().set(rect=(0.0, 0.05, 1.0, 0.95))  # room for the arrow key below
+    x, y = pos[:, i] * 1e3, pos[:, j] * 1e3
+    if len(linear) >= 2:
+        shape = (resolution, resolution)
+        mesh = ax.contourf(x.reshape(shape), y.reshape(shape), norm.reshape(shape), levels=20,
+                           cmap="viridis")
+    else:
+        mesh = ax.scatter(x, y, c=norm, cmap="viridis", s=18)
+    fig.colorbar(mesh, ax=ax, label="|error| (3D) [um]")
+    step = max(1, resolution // 12) if len(linear) >= 2 else 1
+    if len(linear) >= 2:
+        sel = (np.arange(resolution)[:, None] % step == 0) & (np.arange(resolution)[None, :] % step == 0)
+        sel = sel.ravel()
+    else:
+        sel = slice(None, None, 4)
+    key = _nice(np.percentile(norm, 90))
+    quiver = ax.quiver(x[sel], y[sel], err[sel, i], err[sel, j], color="white", edgecolor="black",
+                       linewidth=0.4, angles="xy", scale_units="inches", scale=key / 0.5, width=0.004)
+    ax.quiverkey(quiver, 0.08, 0.025, key, f"{key:g} um in-plane error", labelpos="E",
+                 coordinates="figure", fontproperties={"size": 9})
+    ax.set_xlabel(f"{AXES[i]} [mm] (workpiece frame)")
+    ax.set_ylabel(f"{AXES[j]} [mm] (workpiece frame)")
+    ratio = np.ptp(y) / max(np.ptp(x), 1e-12)
+    if 0.4 < ratio < 2.5:  # true proportions unless the slice is very elongated
+        ax.set_aspect("equal", adjustable="box")
+    if len(linear) >= 2:
+        units = ["mm" if k == "linear" else "deg" for k in machine.axis_kinds]
+        shown = to_engineering(machine, base)
+        fixed = [f"{machine.axes[k]} = {shown[k]:g} {units[k]}"
+                 for k in range(len(machine.axes)) if k not in linear[:2]]
+        title = f"{machine.name}: volumetric error, {AXES[i]}{AXES[j]} slice\n"
+        title += ("at " + ", ".join(fixed)) if fixed else "whole travel"
+    else:
+        title = (f"{machine.name}: volumetric error at {len(q)} sampled configurations\n"
+                 f"tool points projected on {AXES[i]}{AXES[j]}")
+    ax.set_title(title + f"\nmax {norm.max():.2f} um, RMS {np.sqrt(np.mean(norm**2)):.2f} um; "
+                 "arrows: in-plane error", fontsize=10, loc="left")
+    fig.savefig(path)
+    plt.close(fig)
+    return {"path": str(path), "points": int(len(q)), "max_um": float(norm.max())}
+
+
+def ranking_png(ranking: dict, path: str | Path, top: int = 15) -> dict:
+    """Horizontal bars of the RMS tool-point error per term, the maximum as a tick, shares."""
+    rows = ranking["ranking"][:top]
+    names = [r["parameter"] for r in rows][::-1]
+    rms = np.array([r["rms_um"] for r in rows])[::-1]
+    peak = np.array([r["max_um"] for r in rows])[::-1]
+    share = np.array([r.get("share_of_all", r["share"]) for r in rows])[::-1]
+    fig, ax = plt.subplots(figsize=(8.0, 0.38 * len(rows) + 1.6), dpi=120, constrained_layout=True)
+    yy = np.arange(len(rows))
+    ax.barh(yy, rms, color="#4a6fb4", label="RMS over the workspace")
+    ax.scatter(peak, yy, marker="|", s=180, color="#c0392b", label="maximum", zorder=3)
+    for k in range(len(rows)):
+        ax.text(max(rms[k], peak[k]) * 1.02 + 1e-9, yy[k], f"{100 * share[k]:.1f} %", va="center",
+                fontsize=8)
+    ax.set_yticks(yy, names)
+    ax.set_xlabel("tool-point error caused by the term [um]")
+    ax.set_xlim(0, max(peak.max(), rms.max()) * 1.2 if len(rows) else 1)
+    basis = ranking.get("basis", "current values")
+    ax.set_title(f"{ranking['machine']}: error sources at the tool ({basis}, "
+                 f"{ranking['points']} points, direction {ranking.get('direction', 'all')})\n"
+                 "labels: share of the mean squared tool error", fontsize=10)
+    ax.legend(loc="lower right", fontsize=8)
+    ax.grid(axis="x", alpha=0.3)
+    fig.savefig(path)
+    plt.close(fig)
+    return {"path": str(path), "rows": len(rows)}
+
+
+def _nice(value: float) -> float:
+    if value <= 0:
+        return 1.0
+    exponent = np.floor(np.log10(value))
+    for step in (5, 2, 1):
+        if step * 10**exponent <= value:
+            return float(step * 10**exponent)
+    return float(10**exponent)

@@ -1,0 +1,350 @@
+"""Rerun recordings of machines, error fields, sensitivity rankings and timelines.
+
+Every function takes an explicit :class:`rerun.RecordingStream` (no global recording),
+logs constant data with ``static=True`` and writes under hierarchical entity paths:
+
+- ``machine/...``: the nominal URDF (visuals from the URDF, boxes where it has no meshes)
+  and ``machine/transforms``, the axis-joint transforms of the displayed configuration;
+- ``field/...``: ``points`` coloured by the error magnitude (with ``dx_um``, ``dy_um``,
+  ``dz_um``, ``norm_um`` attached to every point), ``arrows`` magnified by a stated
+  factor, ``components/dx|dy|dz`` scalar fields, ``legend`` and ``about``;
+- ``sensitivity/...``: the ranking as a bar chart and its table;
+- ``thermal/...``: time series on the ``time`` timeline (bulk, with ``send_columns``).
+
+Field data sit in the URDF's workpiece frame (``CoordinateFrame``), so they move with the
+table in the 3D view. Rotary axes get a sweep on the ``sweep`` timeline.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+from matplotlib import colormaps
+
+from .errors import InputError
+from .machine import Machine
+from .workspace import grid as workspace_grid
+from .workspace import to_engineering
+
+UM = 1e6
+
+
+def new_recording(app_id: str = "volerr_pin", recording_id: str | None = None) -> rr.RecordingStream:
+    """A fresh recording stream (not global)."""
+    return rr.RecordingStream(app_id, recording_id=recording_id)
+
+
+def default_blueprint(time_series: bool = False, sweep: bool = False) -> rrb.Blueprint:
+    """3D view of machine and field, beside the ranking (and the time series, if any)."""
+    side = [rrb.BarChartView(origin="sensitivity/ranking", name="error sources (RMS um at the tool)"),
+            rrb.TextDocumentView(origin="sensitivity/table", name="ranking")]
+    if time_series:
+        side.append(rrb.TimeSeriesView(origin="thermal", name="time-dependent errors"))
+    main = rrb.Spatial3DView(origin="/", contents=["machine/**", "field/**"],
+                             name="machine and error field")
+    return rrb.Blueprint(
+        rrb.Horizontal(main, rrb.Vertical(*side), column_shares=[3, 2]),
+        rrb.TimePanel(state="expanded" if (time_series or sweep) else "collapsed"),
+    )
+
+
+def joint_values_for(machine: Machine, q: np.ndarray) -> dict[str, float]:
+    """URDF joint name -> joint value (m or rad) for NC positions ``q`` (SI)."""
+    return {axis.joint: float(axis.sign * value) for axis, value in zip(machine.spec.axes, q)}
+
+
+def log_machine(rec: rr.RecordingStream, machine: Machine, q: np.ndarray,
+                prefix: str = "machine", moving: tuple[str, ...] = ()) -> None:
+    """The nominal URDF (static) and the axis-joint transforms at NC positions ``q`` (SI),
+    static except for the axes named in ``moving`` (those are logged on the active timeline
+    by :func:`log_joint_transforms`)."""
+    from rerun.urdf import UrdfTree
+
+    with _package_paths(machine.spec.urdf):
+        tree = UrdfTree.from_file_path(machine.spec.urdf, entity_path_prefix=prefix)
+        tree.log_urdf_to_recording(rec)
+    still = [a for a in machine.axes if a not in moving]
+    log_joint_transforms(rec, machine, q, prefix, static=True, axes=still, tree=tree)
+
+
+def log_joint_transforms(rec, machine: Machine, q: np.ndarray, prefix: str = "machine",
+                         static: bool = True, axes=None, tree=None) -> None:
+    """Transforms of the axis joints (all, or those of ``axes``) at ``q`` on
+    ``{prefix}/transforms/<joint>``."""
+    from rerun.urdf import UrdfTree
+
+    tree = tree or UrdfTree.from_file_path(machine.spec.urdf, entity_path_prefix=prefix)
+    for axis, value in zip(machine.spec.axes, q):
+        if axes is not None and axis.name not in axes:
+            continue
+        joint = tree.get_joint_by_name(axis.joint)
+        rec.log(f"{prefix}/transforms/{axis.joint}",
+                joint.compute_transform(float(axis.sign * value), clamp=False), static=static)
+
+
+@contextlib.contextmanager
+def _package_paths(urdf: Path):
+    """Let Rerun's URDF importer resolve ``package://`` meshes of a URDF that lives in an
+    installed data package (example-robot-data): put its ``share`` folder on ROS_PACKAGE_PATH."""
+    parts = Path(urdf).resolve().parts
+    saved = os.environ.get("ROS_PACKAGE_PATH")
+    if "share" in parts:
+        share = str(Path(*parts[:len(parts) - parts[::-1].index("share")]))
+        os.environ["ROS_PACKAGE_PATH"] = share + (os.pathsep + saved if saved else "")
+    try:
+        yield
+    finally:
+        if saved is None:
+            os.environ.pop("ROS_PACKAGE_PATH", None)
+        else:
+            os.environ["ROS_PACKAGE_PATH"] = saved
+
+
+def nice_scale(error_um_max: float, extent_m: float) -> float:
+    """A round magnification (1, 2 or 5 x 10^k) making the largest arrow about 8 % of the
+    workspace extent."""
+    if error_um_max <= 0 or extent_m <= 0:
+        return 1.0
+    raw = 0.08 * extent_m / (error_um_max / UM)
+    exponent = math.floor(math.log10(raw))
+    for step in (5, 2, 1):
+        if step * 10**exponent <= raw:
+            return float(step * 10**exponent)
+    return float(10**exponent)
+
+
+def colours(values: np.ndarray, lo: float, hi: float, cmap: str = "viridis") -> np.ndarray:
+    """(N, 3) uint8 colours of ``values`` on a matplotlib colour map over [lo, hi]."""
+    span = hi - lo if hi > lo else 1.0
+    rgba = colormaps[cmap](np.clip((values - lo) / span, 0.0, 1.0))
+    return (rgba[:, :3] * 255).astype(np.uint8)
+
+
+@dataclass(frozen=True)
+class FieldData:
+    """An evaluated error field: where (workpiece frame) and how large."""
+
+    q: np.ndarray          # (N, n_axes) NC positions, SI
+    positions: np.ndarray  # (N, 3) nominal tool points in the workpiece frame, m
+    error: np.ndarray      # (N, 6) volumetric error, SI
+    scale: float           # arrow magnification
+
+
+def evaluate_field(machine: Machine, q: np.ndarray, scale: float | None = None) -> FieldData:
+    """Volumetric error at ``q`` and the nominal tool points it belongs to."""
+    error = machine.volumetric_error(q)
+    _, positions = machine.tool_poses(q, nominal=True)
+    if scale is None:
+        extent = float(np.ptp(positions, axis=0).max()) if len(positions) > 1 else 1.0
+        scale = nice_scale(float(np.linalg.norm(error[:, :3], axis=1).max() * UM), extent)
+    if not (scale > 0 and math.isfinite(scale)):
+        raise InputError(f"scale must be a positive number, got {scale}")
+    return FieldData(q, positions, error, float(scale))
+
+
+def log_field(rec: rr.RecordingStream, machine: Machine, field: FieldData, prefix: str = "field",
+              static: bool = True, legend: bool = True, colour_max: float | None = None) -> None:
+    """Points coloured by |error| (0 .. ``colour_max`` um, default the field's maximum), arrows
+    magnified ``field.scale`` times, per-component fields, the numbers attached to every
+    point, a colour legend and an explanation."""
+    e_um = field.error[:, :3] * UM
+    norm = np.linalg.norm(e_um, axis=1)
+    hi = colour_max if colour_max is not None else (float(norm.max()) if len(norm) else 1.0)
+    frame = rr.CoordinateFrame(machine.workpiece_frame)
+    extent = float(np.ptp(field.positions, axis=0).max()) if len(field.positions) > 1 else 0.1
+    radius = max(extent / 300.0, 1e-4)
+    rec.log(f"{prefix}/points", frame, rr.Points3D(field.positions, colors=colours(norm, 0.0, hi),
+                                                   radii=radius),
+            rr.AnyValues(dx_um=e_um[:, 0], dy_um=e_um[:, 1], dz_um=e_um[:, 2], norm_um=norm),
+            static=static)
+    rec.log(f"{prefix}/arrows", frame,
+            rr.Arrows3D(origins=field.positions, vectors=field.error[:, :3] * field.scale,
+                        colors=colours(norm, 0.0, hi), radii=radius / 2),
+            static=static)
+    bound = hi
+    for i, name in enumerate(("dx", "dy", "dz")):
+        rec.log(f"{prefix}/components/{name}", frame,
+                rr.Points3D(field.positions, colors=colours(e_um[:, i], -bound, bound, "RdBu_r"),
+                            radii=radius),
+                rr.AnyValues(**{f"{name}_um": e_um[:, i]}), static=static)
+    if legend:
+        lo_corner = field.positions.min(axis=0)
+        hi_corner = field.positions.max(axis=0)
+        offset = 0.15 * max(extent, 0.05)
+        levels = np.linspace(0.0, hi, 11)
+        where = np.c_[np.full(11, hi_corner[0] + offset), np.full(11, lo_corner[1]),
+                      np.linspace(lo_corner[2], lo_corner[2] + max(extent, 0.05) * 0.6, 11)]
+        labels = [f"{v:.2f} um" if k % 5 == 0 else "" for k, v in enumerate(levels)]
+        rec.log(f"{prefix}/legend", frame,
+                rr.Points3D(where, colors=colours(levels, 0.0, hi), radii=radius * 4, labels=labels,
+                            show_labels=True), static=static)
+        rec.log(f"{prefix}/about", rr.TextDocument(
+            f"# Volumetric error field of {machine.name}\n\n"
+            f"{len(field.q)} points; colour: |error| from 0 to {hi:.2f} um (viridis; legend beside the "
+            f"field); arrows: error vectors magnified **{field.scale:g} times**; "
+            f"`components/dx|dy|dz`: signed components, blue -{bound:.2f} .. red +{bound:.2f} um. "
+            "Select a point to read dx_um, dy_um, dz_um and norm_um.\n\n"
+            "Error = actual minus nominal tool point relative to the workpiece, in the workpiece "
+            "frame.", media_type=rr.MediaType.MARKDOWN), static=True)
+
+
+def log_ranking(rec: rr.RecordingStream, ranking: dict, prefix: str = "sensitivity") -> None:
+    """The ranking (from :func:`volerr_pin.ranking.rank`.to_dict()) as a bar chart and a table."""
+    rows = ranking["ranking"]
+    rec.log(f"{prefix}/ranking", rr.BarChart(np.array([r["rms_um"] for r in rows]),
+                                             color=[64, 110, 180]), static=True)
+    lines = ["| # | term | axis | RMS um | max um | share |", "|---|---|---|---|---|---|"]
+    lines += [f"| {i} | {r['parameter']} | {r['axis']} | {r['rms_um']:.3f} | {r['max_um']:.3f} | "
+              f"{100 * r['share']:.1f} % |" for i, r in enumerate(rows)]
+    rec.log(f"{prefix}/table", rr.TextDocument(
+        f"Bars, left to right (index 0 first), RMS tool-point error per term over "
+        f"{ranking['points']} points:\n\n" + "\n".join(lines), media_type=rr.MediaType.MARKDOWN),
+        static=True)
+
+
+def log_time_series(rec: rr.RecordingStream, t: np.ndarray, series: dict[str, np.ndarray],
+                    prefix: str = "thermal", timeline: str = "time") -> None:
+    """Bulk time series: one ``send_columns`` call per series on the ``time`` timeline [s]."""
+    t = np.asarray(t, dtype=float)
+    for name, values in series.items():
+        values = np.asarray(values, dtype=float)
+        if values.shape != t.shape:
+            raise InputError(f"series '{name}' has shape {values.shape}; time has {t.shape}")
+        rec.send_columns(f"{prefix}/{name}", indexes=[rr.TimeColumn(timeline, duration=t)],
+                         columns=rr.Scalars.columns(scalars=values))
+
+
+def field_grid(machine: Machine, counts=None, config: dict[str, float] | None = None,
+               points: int = 1000) -> np.ndarray:
+    """NC positions of a field: a grid over the linear axes (``counts`` per linear axis),
+    other axes at ``config`` (SI, default: mid travel for linear, 0 or mid for rotary). A
+    machine without linear axes gets ``points`` seeded Sobol' configurations instead."""
+    from .workspace import sample
+
+    base = default_config(machine, config)
+    linear = [j for j, k in enumerate(machine.axis_kinds) if k == "linear"]
+    if not linear:
+        return sample(machine, points, seed=0)
+    counts = [9] if counts is None else list(counts)
+    if len(counts) == 1:
+        counts = counts * len(linear)
+    if len(counts) != len(linear):
+        raise InputError(f"--grid needs 1 or {len(linear)} counts (linear axes "
+                         f"{', '.join(machine.axes[j] for j in linear)}), got {len(counts)}")
+    full = [1] * len(machine.axes)
+    for j, n in zip(linear, counts):
+        full[j] = n
+    q = workspace_grid(machine, tuple(full))
+    fixed = [j for j in range(len(machine.axes)) if j not in linear]
+    q[:, fixed] = base[fixed]
+    return q
+
+
+def default_config(machine: Machine, config: dict[str, float] | None = None) -> np.ndarray:
+    """A displayable configuration: mid travel, rotary axes at 0 when 0 is in travel;
+    ``config`` (axis -> SI value) overrides, checked against the travel."""
+    travel = machine.travel
+    q = np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0)
+    for j, kind in enumerate(machine.axis_kinds):
+        if kind == "rotary" and travel[j, 0] <= 0.0 <= travel[j, 1]:
+            q[j] = 0.0
+    for name, value in (config or {}).items():
+        if name not in machine.axes:
+            raise InputError(f"config: '{name}' is not an axis of {machine.name} "
+                             f"(axes: {', '.join(machine.axes)})")
+        j = machine.axes.index(name)
+        lo, hi = travel[j]
+        if not lo <= value <= hi:
+            shown = to_engineering(machine, np.eye(len(machine.axes))[j] * np.array([value, lo, hi])[:, None])[:, j]
+            unit = "mm" if machine.axis_kinds[j] == "linear" else "deg"
+            raise InputError(f"config: {name} = {shown[0]:g} {unit} is outside its travel "
+                             f"[{shown[1]:g}, {shown[2]:g}] {unit}")
+        q[j] = value
+    return q
+
+
+def record_field(machine: Machine, path: str | Path | None = None, *, counts=None,
+                 config: dict[str, float] | None = None, scale: float | None = None,
+                 ranking: dict | None = None, sweep_steps: int = 24, spawn: bool = False,
+                 connect: str | None = None) -> dict:
+    """Write a complete recording: machine, error field, ranking, default blueprint.
+
+    Rotary axes not fixed by ``config`` sweep their travel in ``sweep_steps`` steps on the
+    ``sweep`` timeline (machine and field together); otherwise everything is static.
+    Returns a summary: ``path``, ``points``, ``scale``, ``max_um``, ``sweep_steps``,
+    ``sweep_axes``, ``bytes``, ``config`` (mm / deg).
+    """
+    config = dict(config or {})
+    base = default_config(machine, config)
+    q = field_grid(machine, counts, config)
+    linear_present = any(k == "linear" for k in machine.axis_kinds)
+    sweeping = tuple(a for a, k in zip(machine.axes, machine.axis_kinds)
+                     if k == "rotary" and a not in config) if (linear_present and sweep_steps > 0) else ()
+    rec = new_recording()
+    blueprint = default_blueprint(sweep=bool(sweeping))
+    if path is not None:
+        rec.save(path, default_blueprint=blueprint)
+    if spawn:
+        rec.spawn(default_blueprint=blueprint)
+    if connect:
+        rec.connect_grpc(connect, default_blueprint=blueprint)
+    log_machine(rec, machine, base, moving=sweeping)
+    if sweeping:
+        scale = log_rotary_sweep(rec, machine, q, base, sweeping, scale, sweep_steps)
+        field = evaluate_field(machine, q, scale)
+    else:
+        field = evaluate_field(machine, q, scale)
+        log_field(rec, machine, field)
+    if ranking is not None:
+        log_ranking(rec, ranking)
+    rec.flush()
+    rec.disconnect()
+    size = Path(path).stat().st_size if path is not None and Path(path).exists() else None
+    return {"path": str(path) if path is not None else None, "points": int(len(q)),
+            "scale": field.scale, "max_um": float(np.linalg.norm(field.error[:, :3], axis=1).max() * UM),
+            "sweep_steps": sweep_steps if sweeping else 0, "sweep_axes": list(sweeping),
+            "bytes": size, "config": to_engineering(machine, base).tolist()}
+
+
+def sweep_angles(machine: Machine, axes: tuple[str, ...], steps: int) -> np.ndarray:
+    """(steps, len(axes)) angles: the axes sweep their travels together, end to end."""
+    idx = [machine.axes.index(a) for a in axes]
+    travel = machine.travel[idx]
+    u = np.linspace(0.0, 1.0, steps)[:, None]
+    return travel[:, 0] + u * (travel[:, 1] - travel[:, 0])
+
+
+def log_rotary_sweep(rec: rr.RecordingStream, machine: Machine, q: np.ndarray, base: np.ndarray,
+                     axes: tuple[str, ...], scale: float | None, steps: int,
+                     prefix: str = "field") -> float:
+    """The field and the machine while ``axes`` sweep their travels, on the ``sweep``
+    timeline (step k at ``sweep = k``). One arrow scale for all steps; returns it."""
+    idx = [machine.axes.index(a) for a in axes]
+    angles = sweep_angles(machine, axes, steps)
+    fields = []
+    for row in angles:
+        qs = q.copy()
+        qs[:, idx] = row
+        fields.append(evaluate_field(machine, qs, 1.0))
+    peak = max(float(np.linalg.norm(f.error[:, :3], axis=1).max()) for f in fields) * UM
+    if scale is None:
+        extent = float(np.ptp(fields[0].positions, axis=0).max()) if len(q) > 1 else 1.0
+        scale = nice_scale(peak, extent)
+    for step, (row, f) in enumerate(zip(angles, fields)):
+        rec.set_time("sweep", sequence=step)
+        shown = base.copy()
+        shown[idx] = row
+        log_field(rec, machine, FieldData(f.q, f.positions, f.error, scale), prefix=prefix,
+                  static=False, legend=step == 0, colour_max=peak)
+        log_joint_transforms(rec, machine, shown, static=False, axes=axes)
+        state = ", ".join(f"{a} = {np.degrees(v):.1f} deg" for a, v in zip(axes, row))
+        rec.log(f"{prefix}/sweep_state", rr.TextLog(state))
+    rec.reset_time()
+    return scale
