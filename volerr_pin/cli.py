@@ -13,6 +13,7 @@ from pathlib import Path
 
 from rich import box
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from . import __version__
@@ -83,14 +84,16 @@ def _print_ranking(console: Console, ranking: dict, title: str) -> None:
     console.print(table)
 
 
-def _print_groups(console: Console, groups: list[dict]) -> None:
+def _print_groups(console: Console, groups: list[dict], header: bool = True) -> None:
     if not groups:
-        console.print("identifiability at the tool: every coefficient has its own effect")
+        if header:
+            console.print("identifiability at the tool: every coefficient has its own effect")
         return
-    console.print("identifiability at the tool (no tool-point measurement separates these):")
+    if header:
+        console.print("identifiability at the tool (no tool-point measurement separates these):")
     for g in groups:
         pairs = list(zip(g["parameters"], g["factors"]))
-        parts = ", ".join(f"{f:+.3g} {p}" for p, f in pairs[:8])
+        parts = escape(", ".join(f"{f:+.3g} {p}" for p, f in pairs[:8]))
         more = f", ... ({len(pairs) - 8} more; --json lists all)" if len(pairs) > 8 else ""
         console.print(f"  {g['kind']:<11} {parts}{more}")
 
@@ -188,6 +191,163 @@ def cmd_field(args) -> int:
         if args.png:
             print(f"wrote {args.png}")
     return 0
+
+
+def _print_iso(console: Console, result: dict) -> None:
+    unit = result["unit"]
+    table = Table(box=box.SIMPLE, title=f"ISO 230-2 per target ({result['source']})")
+    cols = ["target", "n up", "mean up", "s up", "n down", "mean down", "s down", "B_i", "R_i"]
+    for col in cols:
+        table.add_column(col, justify="right")
+    fmt = lambda v: "" if v is None else f"{v:.4g}"
+    for p in result["positions"]:
+        table.add_row(f"{p['target']:g} {result['target_unit']}", str(p.get("n_up", "")),
+                      fmt(p.get("mean_up")), fmt(p.get("s_up")), str(p.get("n_down", "")),
+                      fmt(p.get("mean_down")), fmt(p.get("s_down")), fmt(p.get("B")), fmt(p.get("R")))
+    console.print(table)
+    summary = Table(box=box.SIMPLE, title=f"ISO 230-2 parameters [{unit}]")
+    for col in ("", "bidirectional", "positive (up)", "negative (down)"):
+        summary.add_column(col, justify="right")
+    summary.add_row("A  accuracy", fmt(result["A"]), fmt(result["A_up"]), fmt(result["A_down"]))
+    summary.add_row("E  systematic deviation", fmt(result["E"]), fmt(result["E_up"]), fmt(result["E_down"]))
+    summary.add_row("R  repeatability", fmt(result["R"]), fmt(result["R_up"]), fmt(result["R_down"]))
+    summary.add_row("M  mean deviation", fmt(result["M"]), "", "")
+    summary.add_row("B  reversal (max |B_i|)", fmt(result["B"]), "", "")
+    summary.add_row("mean reversal", fmt(result["B_mean"]), "", "")
+    console.print(summary)
+
+
+def cmd_iso230(args) -> int:
+    from .iso230 import evaluate_runs
+    from .measurements import read_runs
+
+    result = evaluate_runs(read_runs(args.runs))
+    if args.plot:
+        from .plots import iso230_png
+
+        iso230_png(result, args.plot, title=f"ISO 230-2: {Path(args.runs).name}")
+    if args.json:
+        print(json.dumps({k: v for k, v in result.items() if k != "source"} | {"source": result["source"]}))
+    else:
+        _print_iso(_console(), result)
+        if args.plot:
+            print(f"wrote {args.plot}")
+    return 0
+
+
+def _at(items: list[str] | None) -> dict[str, float]:
+    out = {}
+    for item in items or []:
+        name, sep, text = item.partition("=")
+        try:
+            out[name] = float(text)
+        except ValueError:
+            raise InputError(f"--at {item!r}: expected AXIS=VALUE (mm or deg)") from None
+        if not sep:
+            raise InputError(f"--at {item!r}: expected AXIS=VALUE (mm or deg)")
+    return out
+
+
+def cmd_identify(args) -> int:
+    from .identify import identify
+    from .measurements import read_any
+    from .specio import legendre_terms, replace_terms, write_spec
+
+    machine = load_machine(args.machine, tool_frame=args.tool_frame,
+                           workpiece_frame=args.workpiece_frame)
+    if args.degree is not None:
+        targets = args.terms or [c for c in machine.components if c in _axis_components(machine)]
+        machine = replace_terms(machine, legendre_terms(machine, targets, args.degree))
+    data = [read_any(path, machine, args.axis) for path in args.data]
+    console = Console(stderr=True, highlight=False)
+    notes = [f"{d.source}: columns not used: {', '.join(d.unused)}" for d in data if d.unused]
+    with _progress(console, not args.json) as progress:
+        result = identify(machine, data, terms=args.terms, convention=args.convention,
+                          folds=args.folds, holdout=args.holdout, seed=args.seed,
+                          sigma_um=args.sigma_um, sigma_urad=args.sigma_urad, run_axis=args.axis,
+                          run_at=_at(args.at), progress=progress)
+    report = result.to_dict()
+    report["data"] = [str(p) for p in args.data]
+    report["notes"] = notes
+    if args.out:
+        write_spec(result.machine, args.out, {
+            "data": [str(p) for p in args.data], "n_points": report["n_points"],
+            "rank": report["rank"], "n_parameters": report["n_parameters"],
+            "convention": report["convention"], "rms_fit_um": report["rms_fit_um"],
+            "rms_holdout_um": report["rms_holdout_um"], "holdout": report["holdout"],
+            "held_at_prior": [result.machine.parameter_names[k] for k in result.held]})
+        report["out"] = str(args.out)
+    if args.json:
+        print(json.dumps(report))
+        return 0
+    _print_identification(_console(), report)
+    for note in notes:
+        print(f"note: {note}")
+    if args.out:
+        print(f"wrote {args.out} (load it with vp.load_machine or any volerr command)")
+    return 0
+
+
+def _axis_components(machine) -> set[str]:
+    from .spec import parse_component_name
+
+    return {c for c in machine.components
+            if not parse_component_name(c)[1] and parse_component_name(c)[2] in machine.axes}
+
+
+class _progress:
+    """A progress bar on stderr for fits that take more than a moment (terminals only)."""
+
+    def __init__(self, console: Console, enabled: bool):
+        self.enabled = enabled and console.is_terminal
+        self.console = console
+
+    def __enter__(self):
+        if not self.enabled:
+            return None
+        from rich.progress import Progress
+
+        self.bar = Progress(console=self.console, transient=True)
+        self.bar.__enter__()
+        self.tasks = {}
+        return self.update
+
+    def update(self, stage: str, step: int) -> None:
+        if stage not in self.tasks:
+            self.tasks[stage] = self.bar.add_task(stage, total=None)
+        self.bar.update(self.tasks[stage], completed=step)
+
+    def __exit__(self, *exc):
+        if self.enabled:
+            self.bar.__exit__(*exc)
+        return False
+
+
+def _print_identification(console: Console, r: dict) -> None:
+    console.print(f"[bold]{r['machine']}[/bold]: identification from {len(r['data'])} file(s), "
+                  f"{r['n_points']} points, {r['n_observations']} observations")
+    console.print(f"identifiability: rank {r['rank']} of {r['n_parameters']} free coefficients; "
+                  f"condition number {r['condition_number']:.3g} (column-scaled)")
+    if r["unidentifiable"]:
+        held = "held at their prior values" if r["convention"] == "prior" else "minimum-norm update"
+        console.print(f"the data cannot determine these ({held}):")
+        _print_groups(console, r["unidentifiable"], header=False)
+    holdout = (f"{r['rms_holdout_um']:.4g} um held out ({r['holdout']})"
+               if r["rms_holdout_um"] is not None else f"no held-out RMS ({r['holdout']})")
+    console.print(f"fit: {r['iterations']} Gauss-Newton iteration(s); residual RMS {r['rms_fit_um']:.4g} um "
+                  f"at the fitted points, {holdout}; residual / stated sigma = {r['residual_sigma']:.3g}")
+    table = Table(box=box.SIMPLE, title="coefficients")
+    for col, justify in (("coefficient", "left"), ("value", "right"), ("std. uncertainty", "right"),
+                         ("unit", "left"), ("prior", "right"), ("status", "left")):
+        table.add_column(col, justify=justify)
+    for name, p in r["parameters"].items():
+        if p["status"] == "fixed (not selected)":
+            continue
+        u = "" if p["uncertainty"] is None else f"{p['uncertainty']:.3g}"
+        table.add_row(name, f"{p['value']:.5g}", u, p["unit"], f"{p['prior']:.5g}", p["status"])
+    console.print(table)
+    for name, value in r["nuisance"].items():
+        console.print(escape(f"nuisance {name} = {value['value']:.4g} {value['unit']}"))
 
 
 def cmd_info(args) -> int:
@@ -299,6 +459,31 @@ def build_parser() -> argparse.ArgumentParser:
     out.add_argument("--json", action="store_true", help="print one JSON object")
     out.add_argument("--csv", action="store_true", help="print the ranking as CSV")
     p.set_defaults(func=cmd_rank)
+
+    p = sub.add_parser("iso230-2", help="ISO 230-2 evaluation of positioning runs")
+    p.add_argument("runs", help="CSV: target_mm,cycle,direction,deviation_um (or _deg / _arcsec)")
+    p.add_argument("--plot", help="write the standard's picture (PNG)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_iso230)
+
+    p = sub.add_parser("identify", help="fit error terms to measurements")
+    _machine_args(p)
+    p.add_argument("data", nargs="+", help="measurement files (points, positioning or component runs)")
+    p.add_argument("--terms", nargs="+", metavar="TERM", help="components to fit (default: all)")
+    p.add_argument("--degree", type=int, help="refit the terms as Legendre polynomials of this degree")
+    p.add_argument("--out", help="write the identified spec (TOML) here")
+    p.add_argument("--axis", help="axis of runs that do not name it ('# axis: X')")
+    p.add_argument("--at", nargs="+", metavar="AXIS=VALUE", help="other axes' positions during runs (mm, deg)")
+    cv = p.add_mutually_exclusive_group()
+    cv.add_argument("--folds", type=int, default=5, help="k-fold cross-validation (default 5; 0: none)")
+    cv.add_argument("--holdout", type=float, help="hold out this fraction of the points instead")
+    p.add_argument("--seed", type=int, default=0, help="seed of the cross-validation split")
+    p.add_argument("--convention", choices=["prior", "min-norm"], default="prior",
+                   help="what the data cannot determine: held at prior values (default) or min-norm")
+    p.add_argument("--sigma-um", type=float, default=1.0, help="std. deviation of position data (um)")
+    p.add_argument("--sigma-urad", type=float, default=1.0, help="std. deviation of rotation data (urad)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_identify)
 
     p = sub.add_parser("info", help="axes, chains, error terms by kind, travels")
     _machine_args(p)

@@ -118,3 +118,36 @@ def _nice(value: float) -> float:
         if step * 10**exponent <= value:
             return float(step * 10**exponent)
     return float(10**exponent)
+
+
+def iso230_png(result: dict, path: str | Path, title: str = "") -> dict:
+    """The standard's picture: mean deviation per direction with the +-2s band, per target."""
+    pos = result["positions"]
+    t = np.array([p["target"] for p in pos])
+    unit, tunit = result["unit"], result.get("target_unit", "")
+    fig, ax = plt.subplots(figsize=(8.0, 5.0), dpi=120, constrained_layout=True)
+    for label, colour, marker in (("up", "#1f6fb2", "^"), ("down", "#c0392b", "v")):
+        if f"mean_{label}" not in pos[0]:
+            continue
+        m = np.array([p[f"mean_{label}"] for p in pos])
+        s = np.array([p[f"s_{label}"] for p in pos])
+        name = "positive direction" if label == "up" else "negative direction"
+        ax.plot(t, m, marker=marker, color=colour, label=f"mean, {name}")
+        ax.fill_between(t, m - 2 * s, m + 2 * s, color=colour, alpha=0.18, label=f"+-2s, {name}")
+        ax.plot(t, m + 2 * s, color=colour, lw=0.6, ls="--")
+        ax.plot(t, m - 2 * s, color=colour, lw=0.6, ls="--")
+    if result["bidirectional"]:
+        ax.plot(t, [p["mean"] for p in pos], color="black", lw=1.0, ls=":", label="bidirectional mean")
+    ax.axhline(0.0, color="grey", lw=0.5)
+    ax.set_xlabel(f"target position [{tunit}]")
+    ax.set_ylabel(f"positioning deviation [{unit}]")
+    keys = ["A", "A_up", "A_down", "B", "B_mean", "E", "E_up", "E_down", "M", "R", "R_up", "R_down"]
+    text = "\n".join(f"{k:<7}{result[k]:9.3f}" for k in keys if result.get(k) is not None)
+    ax.text(1.02, 1.0, f"ISO 230-2 [{unit}]\n{text}", transform=ax.transAxes, va="top", family="monospace",
+            fontsize=8)
+    ax.set_title(title or f"ISO 230-2 positioning run ({result['n_targets']} targets)", fontsize=10)
+    ax.legend(fontsize=7, loc="best")
+    ax.grid(alpha=0.3)
+    fig.savefig(path)
+    plt.close(fig)
+    return {"path": str(path)}

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError, SpecError
+from .identifiability import IdentifiabilityGroup, analyse
 from .machine import Machine
 from .spec import parse_component_name, read_toml
 from .units import scale, split_key
@@ -183,100 +184,18 @@ def rank(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048, s
                    "tolerances" if tolerances is not None else "current values", rows)
 
 
-@dataclass(frozen=True)
-class IdentifiabilityGroup:
-    """Coefficients that no measurement at the tool can separate, and why."""
-
-    kind: str              # "zero", "collinear" or "combination"
-    parameters: tuple[str, ...]
-    factors: tuple[float, ...]
-    reason: str
-
-    def to_dict(self) -> dict:
-        return {"kind": self.kind, "parameters": list(self.parameters),
-                "factors": list(self.factors), "reason": self.reason}
-
-
 def tool_identifiability(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048,
                          seed: int = 0, orientation: bool = False, rtol: float = 1e-9
                          ) -> list[IdentifiabilityGroup]:
     """Coefficients whose effect on the tool point (and orientation, if asked) is zero,
     exactly collinear with another's, or a linear combination of others, over the sampled
-    workspace.
-
-    A column counts as zero when its RMS effect is below ``rtol`` times the median column;
-    two columns are collinear when the cosine of their angle differs from +-1 by less than
-    ``rtol``. The remaining rank deficiency is reported as combinations (null-space vectors
-    of the column-normalised sensitivity matrix, singular values below ``sqrt(rtol)``).
+    workspace (see :func:`volerr_pin.identifiability.analyse` for the tests and tolerances).
     """
     if q is None:
         q = sample(machine, points, seed=seed)
     S = machine.sensitivity(q)
     rows = slice(0, 6) if orientation else slice(0, 3)
     A = S[:, rows, :].reshape(-1, S.shape[2])
-    names = machine.parameter_names
-    norms = np.linalg.norm(A, axis=0) / math.sqrt(len(q))
-    reference = np.median(norms[norms > 0]) if np.any(norms > 0) else 1.0
-    zero = norms <= rtol * reference
-    groups: list[IdentifiabilityGroup] = []
-    what = "tool point and orientation" if orientation else "tool point"
-    for j in np.flatnonzero(zero):
-        groups.append(IdentifiabilityGroup(
-            "zero", (names[j],), (1.0,),
-            f"no effect on the {what} anywhere in the sampled workspace (e.g. a rotation about "
-            "a line through the tool point, or a translation along a direction that is not "
-            "measured)"))
-    live = np.flatnonzero(~zero)
-    U = A[:, live] / np.linalg.norm(A[:, live], axis=0)
-    G = U.T @ U
-    parent = list(range(len(live)))
-
-    def find(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    close = np.argwhere(np.triu(np.abs(np.abs(G) - 1.0) < rtol, k=1))
-    for a, b in close:
-        parent[find(b)] = find(a)
-    members: dict[int, list[int]] = {}
-    for i in range(len(live)):
-        members.setdefault(find(i), []).append(i)
-    representatives = []
-    for root, group in members.items():
-        representatives.append(group[0])
-        if len(group) < 2:
-            continue
-        first = live[group[0]]
-        factors = tuple(float(A[:, live[g]] @ A[:, first] / (A[:, first] @ A[:, first])) for g in group)
-        groups.append(IdentifiabilityGroup(
-            "collinear", tuple(names[live[g]] for g in group), factors,
-            f"the same effect on the {what} everywhere, up to the factors given (the same "
-            "displacement reached through different terms or chains)"))
-    # remaining dependencies: keep columns greedily in parameter order (Gram-Schmidt with
-    # re-orthogonalisation); a column with no new direction is a combination of kept ones
-    basis: list[np.ndarray] = []
-    kept: list[int] = []
-    for i in sorted(representatives):
-        v = U[:, i].copy()
-        for _ in range(2):
-            for b in basis:
-                v -= (b @ v) * b
-        residual = np.linalg.norm(v)
-        if residual > math.sqrt(rtol):
-            basis.append(v / residual)
-            kept.append(i)
-            continue
-        K = U[:, kept]
-        coef, *_ = np.linalg.lstsq(K, U[:, i], rcond=None)
-        scale_i = np.linalg.norm(A[:, live[i]])
-        # express in the coefficients' own units: A_i = sum_k f_k A_k
-        factors = coef * scale_i / np.linalg.norm(A[:, live[kept]], axis=0)
-        big = np.flatnonzero(np.abs(coef) > 1e-4 * np.abs(coef).max())
-        groups.append(IdentifiabilityGroup(
-            "combination", (names[live[i]],) + tuple(names[live[kept[k]]] for k in big),
-            (1.0,) + tuple(float(-factors[k]) for k in big),
-            f"the effect of {names[live[i]]} on the {what} equals a combination of the others "
-            "listed: the weighted sum with these factors has no effect there"))
-    return groups
+    what = "the tool point and orientation" if orientation else "the tool point"
+    return list(analyse(A, machine.parameter_names, rtol=rtol,
+                        what=f"{what} anywhere in the sampled workspace").groups)

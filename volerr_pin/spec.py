@@ -107,6 +107,7 @@ class MachineSpec:
     description: str = ""
     reference: str = ""     # where the machine comes from (paper, data set)
     extra: dict | None = None
+    urdf_ref: object = None  # the spec's own ``urdf`` value (path text or package table)
 
 
 MACHINE_KEYS = {"name", "urdf", "tool_frame", "workpiece_frame", "description", "source"}
@@ -383,7 +384,7 @@ def load_spec(path: str | Path) -> tuple[MachineSpec, URDF]:
     spec = MachineSpec(str(machine["name"]), where, Path(urdf.source), machine["tool_frame"],
                        machine["workpiece_frame"], tuple(axes), tuple(bodies), components,
                        str(machine.get("description", "")), str(machine.get("source", "")),
-                       extra or None)
+                       extra or None, machine["urdf"])
     return spec, urdf
 
 

@@ -1,0 +1,176 @@
+"""Identification: ground-truth recovery, honest identifiability, write-back, runs, CLI."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import volerr_pin as vp
+from volerr_pin.cli import main
+from volerr_pin.identify import identify
+from volerr_pin.measurements import PointMeasurements, read_runs
+from volerr_pin.specio import write_spec
+from volerr_pin.workspace import sample
+
+
+def tool_points(machine, truth, n, noise, seed):
+    q = sample(machine, n, seed=seed)
+    rng = np.random.default_rng(seed)
+    values = np.full((n, 6), np.nan)
+    values[:, :3] = truth.volumetric_error(q)[:, :3] + rng.normal(0.0, noise, (n, 3))
+    return PointMeasurements(f"simulated {machine.name}", q, values, {}, np.arange(n))
+
+
+def identifiable_truth(machine, n, seed):
+    """A truth that differs from the prior only in coefficients the data can determine."""
+    probe = identify(machine, [tool_points(machine, machine, n, 0.0, seed)], folds=0)
+    rng = np.random.default_rng(seed + 100)
+    theta = machine.theta.copy()
+    k = probe.fitted
+    theta[k] += rng.normal(0.0, 1.0, len(k)) * np.maximum(np.abs(theta[k]), 1e-6) * 0.5
+    return machine.with_theta(theta), probe
+
+
+@pytest.mark.parametrize("name", ["vmc500", "cgm4000"])
+def test_noiseless_recovery_of_every_identifiable_coefficient(machines, name):
+    m = machines[name]
+    truth, probe = identifiable_truth(m, 600, seed=1)
+    res = identify(m, [tool_points(m, truth, 600, 0.0, seed=1)], folds=0, sigma_um=1e-3)
+    k = res.fitted
+    np.testing.assert_array_equal(k, probe.fitted)
+    rel = np.abs(res.machine.theta[k] - truth.theta[k]) / np.abs(truth.theta[k]).max()
+    assert rel.max() < 1e-9
+    assert res.rms_fit_um < 1e-6
+
+
+@pytest.mark.parametrize("name", ["vmc500", "cgm4000"])
+def test_noisy_recovery_within_three_standard_uncertainties(machines, name):
+    m = machines[name]
+    truth, _ = identifiable_truth(m, 800, seed=2)
+    noise = 0.3e-6
+    res = identify(m, [tool_points(m, truth, 800, noise, seed=3)], folds=3, sigma_um=0.3)
+    k = res.fitted
+    z = (res.machine.theta[k] - truth.theta[k]) / res.uncertainty[k]
+    assert np.all(np.abs(z) < 3.5) and np.mean(np.abs(z) < 3) > 0.97
+    # RMS of the 3D residual at the noise level: sqrt(3) * 0.3 um = 0.52 um
+    expected = np.sqrt(3) * 0.3
+    assert res.rms_fit_um == pytest.approx(expected, rel=0.1)
+    assert res.rms_holdout_um == pytest.approx(expected, rel=0.15)
+    assert res.residual_sigma == pytest.approx(1.0, rel=0.1)
+
+
+def test_vmc500_tool_only_data_name_angular_terms_they_cannot_separate(machines):
+    """Tool-point data (one tool length) cannot tell the yaw of X from the straightness of X in
+    y (its lever arm is X itself): the report names them, and the fit is still exact at the
+    tool, also at points it never saw."""
+    m = machines["vmc500"]
+    rng = np.random.default_rng(4)
+    truth = m.with_theta(m.theta * (1 + 0.5 * rng.normal(size=len(m.theta))))
+    res = identify(m, [tool_points(m, truth, 600, 0.0, seed=4)], folds=0, sigma_um=1e-3)
+    groups = [set(g.parameters) for g in res.groups]
+    assert any({"ECX.c1"} <= g and any(p.startswith("EYX") for p in g) for g in groups)
+    assert any({"EAZ.c0", "EYZ.c0"} <= g for g in groups)    # tool length lever: EAZ ~ EYZ
+    assert {"ECZ.c0"} in groups                              # roll of Z: no effect at the tool
+    held = {m.parameter_names[k] for k in res.held}
+    assert {"ECX.c1", "ECZ.c0"} <= held
+    np.testing.assert_array_equal(res.machine.theta[res.held], m.theta[res.held])  # at their priors
+    q_new = sample(m, 300, seed=99)
+    gap = np.abs(res.machine.volumetric_error(q_new)[:, :3] - truth.volumetric_error(q_new)[:, :3])
+    assert gap.max() < 1e-10  # exact to first order; second-order remainder ~ angle^2 x lever
+    assert res.to_dict()["parameters"]["ECX.c1"]["status"] == "held (not identifiable)"
+
+
+def test_min_norm_convention_fits_the_same_predictions(machines):
+    m = machines["vmc500"]
+    rng = np.random.default_rng(5)
+    truth = m.with_theta(m.theta * (1 + 0.3 * rng.normal(size=len(m.theta))))
+    data = [tool_points(m, truth, 400, 0.0, seed=5)]
+    a = identify(m, data, folds=0, sigma_um=1e-3)
+    b = identify(m, data, folds=0, sigma_um=1e-3, convention="min-norm")
+    q_new = sample(m, 100, seed=7)
+    np.testing.assert_allclose(a.machine.volumetric_error(q_new)[:, :3],
+                               b.machine.volumetric_error(q_new)[:, :3], atol=1e-10)
+    assert b.to_dict()["convention"] == "min-norm"
+
+
+def test_written_spec_reproduces_the_fitted_predictions(machines, tmp_path):
+    m = machines["cgm4000"]
+    truth, _ = identifiable_truth(m, 500, seed=6)
+    res = identify(m, [tool_points(m, truth, 500, 0.2e-6, seed=6)], folds=0)
+    path = write_spec(res.machine, tmp_path / "fitted.toml", {"data": ["simulated"], "rms_fit_um": res.rms_fit_um})
+    again = vp.load_machine(path)
+    q = sample(m, 300, seed=8)
+    np.testing.assert_allclose(again.volumetric_error(q), res.machine.volumetric_error(q), rtol=0, atol=1e-12)
+    text = path.read_text()
+    assert "[provenance]" in text and "rms_fit_um" in text and "written" in text
+
+
+def write_run(path, machine, truth, axis, column, targets, at, value, offset=0.0, noise=0.0, seed=0):
+    rng = np.random.default_rng(seed)
+    j = machine.axes.index(axis)
+    lines = [f"# axis: {axis}", "# at: " + ", ".join(f"{k}={v}" for k, v in at.items()),
+             f"target_mm,cycle,direction,{column}"]
+    base = {a: v * 1e-3 for a, v in at.items()}
+    for cycle in (1, 2):
+        for t in targets:
+            q = np.array([[base.get(a, 0.0) for a in machine.axes]])
+            q[0, j] = t * 1e-3
+            v = value(truth.volumetric_error(q)[0]) + offset + rng.normal(0, noise)
+            lines.append(f"{t},{cycle},1,{v:.9f}")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_runs_and_points_together(machines, tmp_path):
+    """A positioning run of X, a straightness run of X in y and tool points: the instrument
+    zero (and the straightness alignment) are nuisance terms, not machine errors."""
+    m = machines["vmc500"]
+    truth, _ = identifiable_truth(m, 300, seed=9)
+    targets = list(range(0, 501, 50))
+    at = {"Y": 200, "Z": 200}
+    pos = write_run(tmp_path / "x_pos.csv", m, truth, "X", "deviation_um", targets, at,
+                    lambda e: e[0] * 1e6, offset=3.0)
+    straight = write_run(tmp_path / "x_str.csv", m, truth, "X", "EYX_um", targets, at,
+                         lambda e: e[1] * 1e6 + 0.0, offset=-1.0)
+    data = [read_runs(pos), read_runs(straight), tool_points(m, truth, 300, 0.0, seed=9)]
+    res = identify(m, data, folds=0, sigma_um=1e-3)
+    d = res.to_dict()
+    assert d["nuisance"][f"offset[positioning run {pos}]"]["value"] == pytest.approx(3.0, abs=1e-6)
+    assert any(name.startswith("slope[EYX run") for name in d["nuisance"])
+    assert res.rms_fit_um < 1e-6
+    assert d["n_points"] == 300 + 2 * 2 * len(targets)
+
+
+def test_cli_identify_contract_and_write_back(machines, tmp_path, capsys):
+    m = machines["vmc500"]
+    truth, _ = identifiable_truth(m, 200, seed=10)
+    data = tool_points(m, truth, 200, 0.3e-6, seed=10)
+    path = tmp_path / "points.csv"
+    rows = ["x,y,z,dx,dy,dz"] + [",".join(f"{v:.6f}" for v in np.r_[q * 1e3, e[:3] * 1e6])
+                                 for q, e in zip(data.q, data.values)]
+    path.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "fitted.toml"
+    assert main(["identify", "vmc500", str(path), "--json", "--out", str(out), "--sigma-um", "0.3"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    for key in ("machine", "n_points", "rank", "n_parameters", "unidentifiable", "rms_fit_um",
+                "rms_holdout_um", "parameters"):
+        assert key in r
+    assert r["n_points"] == 200 and r["rank"] < r["n_parameters"] == 67
+    assert 0.4 < r["rms_fit_um"] < 0.65 and r["rms_holdout_um"] > r["rms_fit_um"]
+    assert r["parameters"]["EC0Y.c0"]["unit"] == "arcsec"
+    assert vp.load_machine(out).name == "vmc500"
+    assert main(["identify", "vmc500", str(path), "--terms", "EXX", "EZZ", "--degree", "3", "--folds", "0"]) == 0
+    text = capsys.readouterr().out
+    assert "EXX.c3" in text and "coefficients" in text
+
+
+def test_cli_identify_bad_input(tmp_path, capsys):
+    path = tmp_path / "bad.csv"
+    path.write_text("x,y,z,dx\n1,2,3,0\n1,2,oops,0\n")
+    assert main(["identify", "vmc500", str(path)]) == 2
+    assert "bad.csv:3:3: column 'z': 'oops' is not a number" in capsys.readouterr().err
+    path.write_text("x,y,z,dx\n1,2,3,0\n")
+    assert main(["identify", "vmc500", str(path), "--terms", "EQQ"]) == 2
+    assert "EQQ not among the error terms" in capsys.readouterr().err

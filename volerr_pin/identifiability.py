@@ -1,0 +1,142 @@
+"""Which columns of a sensitivity matrix the data can tell apart, and which they cannot.
+
+:func:`analyse` scales the columns to unit norm and finds, in a stated order:
+columns with no effect (``zero``), columns exactly collinear with another (``collinear``),
+and columns that are a linear combination of earlier ones (``combination``), keeping one
+independent set. Protected columns (nuisance parameters such as an interferometer's zero)
+are considered first, so the machine parameters they absorb are the ones reported.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class IdentifiabilityGroup:
+    """Coefficients that the data cannot separate, and why."""
+
+    kind: str              # "zero", "collinear" or "combination"
+    parameters: tuple[str, ...]
+    factors: tuple[float, ...]
+    reason: str
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "parameters": list(self.parameters),
+                "factors": list(self.factors), "reason": self.reason}
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """Result of :func:`analyse`.
+
+    ``kept``: indices of an independent set of columns (protected ones first, then in
+    column order); ``dependent``: the others; ``groups``: why each dependent column is
+    dependent; ``rank``: numerical rank; ``condition``: condition number of the kept,
+    column-scaled matrix (2-norm); ``singular_values`` of that matrix.
+    """
+
+    kept: tuple[int, ...]
+    dependent: tuple[int, ...]
+    groups: tuple[IdentifiabilityGroup, ...]
+    rank: int
+    condition: float
+    singular_values: np.ndarray
+
+
+def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
+            what: str = "the measured quantities") -> Analysis:
+    """Identifiability of the columns of ``A`` (rows: weighted observations).
+
+    A column is ``zero`` when its norm is below ``rtol`` times the median column norm; two
+    columns are ``collinear`` when the cosine of their angle is within ``rtol`` of +-1; a
+    column is a ``combination`` when its component orthogonal to the kept columns is below
+    ``sqrt(rtol)`` of its norm. Factors: ``A_dependent = sum factor_k A_k`` over the listed
+    kept columns (in the columns' own units), so the combination
+    ``A_dependent - sum factor_k A_k`` has no effect.
+    """
+    A = np.asarray(A, dtype=float)
+    names = list(names)
+    n = A.shape[1]
+    norms = np.linalg.norm(A, axis=0)
+    positive = norms[norms > 0]
+    reference = float(np.median(positive)) if positive.size else 1.0
+    zero = norms <= rtol * reference
+    groups: list[IdentifiabilityGroup] = []
+    for j in np.flatnonzero(zero):
+        groups.append(IdentifiabilityGroup(
+            "zero", (names[j],), (1.0,),
+            f"no effect on {what} (e.g. a rotation about a line through the measured point, or a "
+            "translation along an unmeasured direction)"))
+    U = np.zeros_like(A)
+    U[:, ~zero] = A[:, ~zero] / norms[~zero]
+    order = [j for j in range(n) if not zero[j]]
+    # collinear pairs (cosine +-1)
+    parent = {j: j for j in order}
+
+    def find(j):
+        while parent[j] != j:
+            parent[j] = parent[parent[j]]
+            j = parent[j]
+        return j
+
+    live = np.array(order, dtype=int)
+    if live.size:
+        G = U[:, live].T @ U[:, live]
+        for a, b in np.argwhere(np.triu(np.abs(np.abs(G) - 1.0) < rtol, k=1)):
+            ra, rb = find(live[a]), find(live[b])
+            if ra != rb:
+                parent[max(ra, rb, key=lambda j: _rank_key(j, protected))] = min(
+                    ra, rb, key=lambda j: _rank_key(j, protected))
+    members: dict[int, list[int]] = {}
+    for j in order:
+        members.setdefault(find(j), []).append(j)
+    dependent = set(np.flatnonzero(zero).tolist())
+    for root, group in members.items():
+        if len(group) < 2:
+            continue
+        group = sorted(group, key=lambda j: _rank_key(j, protected))
+        first = group[0]
+        factors = tuple(float(A[:, g] @ A[:, first] / (A[:, first] @ A[:, first])) for g in group)
+        groups.append(IdentifiabilityGroup(
+            "collinear", tuple(names[g] for g in group), factors,
+            f"the same effect on {what}, up to the factors given (relative to {names[first]}): "
+            "the same displacement reached through different terms or chains"))
+        dependent.update(group[1:])
+    # combinations: greedy Gram-Schmidt over the representatives, protected columns first
+    candidates = sorted((j for j in order if j not in dependent), key=lambda j: _rank_key(j, protected))
+    basis: list[np.ndarray] = []
+    kept: list[int] = []
+    for j in candidates:
+        v = U[:, j].copy()
+        for _ in range(2):
+            for b in basis:
+                v -= (b @ v) * b
+        residual = float(np.linalg.norm(v))
+        if residual > math.sqrt(rtol):
+            basis.append(v / residual)
+            kept.append(j)
+            continue
+        coef, *_ = np.linalg.lstsq(U[:, kept], U[:, j], rcond=None)
+        big = np.flatnonzero(np.abs(coef) > 1e-4 * np.abs(coef).max())
+        factors = coef * norms[j] / norms[kept]
+        groups.append(IdentifiabilityGroup(
+            "combination", (names[j],) + tuple(names[kept[k]] for k in big),
+            (1.0,) + tuple(float(-factors[k]) for k in big),
+            f"the effect of {names[j]} on {what} equals a combination of the others listed: the "
+            "weighted sum with these factors has no effect"))
+        dependent.add(j)
+    if kept:
+        sv = np.linalg.svd(U[:, kept], compute_uv=False)
+        condition = float(sv[0] / sv[-1])
+    else:
+        sv, condition = np.zeros(0), math.inf
+    return Analysis(tuple(kept), tuple(sorted(dependent)), tuple(groups), len(kept), condition, sv)
+
+
+def _rank_key(j: int, protected: int) -> tuple[int, int]:
+    """Protected columns first, then column order."""
+    return (0 if j < protected else 1, j)

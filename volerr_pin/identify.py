@@ -1,0 +1,436 @@
+"""Identification of error-term coefficients from measurements, with an honest report.
+
+Any mix of point measurements (tool against workpiece) and axis runs (positioning,
+straightness, angular) becomes one set of weighted observations ``y = w . e(q) + nuisance``
+where ``w`` picks the measured error direction and the nuisance terms are the instrument's
+zero (every run) and its alignment slope (straightness runs). Before fitting,
+:func:`volerr_pin.identifiability.analyse` finds what the data cannot determine; those
+coefficients are held at their prior values (``convention="prior"``, the default) or the
+update is the minimum-norm one (``"min-norm"``). The fit is weighted Gauss-Newton on the
+exact sensitivities; uncertainties come from the covariance scaled by the residual; the
+held-out RMS from k-fold cross-validation over points.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .errors import InputError
+from .identifiability import Analysis, analyse
+from .machine import Machine
+from .measurements import PointMeasurements, Runs
+from .spec import parse_component_name
+
+UM = 1e6
+URAD = 1e6
+DIRECTION_INDEX = {d: i for i, d in enumerate("XYZABC")}
+
+
+@dataclass
+class Observations:
+    """Weighted observations of a machine's error, ready for the solver (SI).
+
+    ``q`` (N, n_axes) and ``covariates`` per point; one row per observation with its point
+    ``point``, 6-vector ``w`` (prediction ``w . e(q_point)``), value ``y``, standard deviation
+    ``sigma``, ``angular`` flag, and the nuisance design ``nuisance`` (rows x n_nuisance)
+    with names ``nuisance_names``; ``sources`` and ``lines`` say where each row came from.
+    """
+
+    q: np.ndarray
+    covariates: dict
+    point: np.ndarray
+    w: np.ndarray
+    y: np.ndarray
+    sigma: np.ndarray
+    angular: np.ndarray
+    nuisance: np.ndarray
+    nuisance_names: list[str]
+    sources: list[str]
+    lines: np.ndarray
+
+    @property
+    def n_points(self) -> int:
+        return len(self.q)
+
+    def subset(self, points: np.ndarray) -> "Observations":
+        """The observations of the given points (nuisance columns kept)."""
+        keep = np.isin(self.point, points)
+        remap = -np.ones(self.n_points, dtype=int)
+        remap[points] = np.arange(len(points))
+        cov = _take_covariates(self.covariates, points)
+        return Observations(self.q[points], cov, remap[self.point[keep]], self.w[keep], self.y[keep],
+                            self.sigma[keep], self.angular[keep], self.nuisance[keep],
+                            self.nuisance_names, [s for s, k in zip(self.sources, keep) if k],
+                            self.lines[keep])
+
+
+def _take_covariates(cov: dict, idx) -> dict:
+    out = {}
+    for key, value in cov.items():
+        out[key] = {k: v[idx] for k, v in value.items()} if isinstance(value, dict) else value[idx]
+    return out
+
+
+def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_urad: float = 1.0,
+                       run_axis: str | None = None, run_at: dict[str, float] | None = None
+                       ) -> Observations:
+    """Turn measurement objects (:class:`PointMeasurements`, :class:`Runs`) into observations.
+
+    Runs: the moving axis is the run's (or ``run_axis``); the other axes stand at the
+    run's ``# at:`` positions, ``run_at`` (mm / deg), or mid travel (rotary axes at 0).
+    A positioning run observes the error along the axis' own motion; a component run the
+    component's direction. Every run file gets an offset (the instrument zero); straightness
+    runs also a slope (the reference line's alignment).
+    """
+    q_list, cov_list, rows = [], [], []
+    nuisance_names: list[str] = []
+    nuisance_rows: list[tuple[int, int, float]] = []  # (row, column, value)
+    n_points = 0
+    for item in data:
+        if isinstance(item, PointMeasurements):
+            q_list.append(item.q)
+            cov_list.append(item.covariates)
+            for i in range(len(item.q)):
+                for k in range(6):
+                    if not np.isnan(item.values[i, k]):
+                        w = np.zeros(6)
+                        w[k] = 1.0
+                        rows.append((n_points + i, w, item.values[i, k],
+                                     (sigma_urad if k >= 3 else sigma_um) * 1e-6, k >= 3,
+                                     item.source, item.lines[i]))
+            n_points += len(item.q)
+        elif isinstance(item, Runs):
+            axis = item.axis or run_axis
+            if axis is None:
+                raise InputError(f"{item.source}: which axis moved? Give '# axis: X' in the file or --axis")
+            if axis not in machine.axes:
+                raise InputError(f"{item.source}: axis '{axis}' is not an axis of {machine.name} "
+                                 f"({', '.join(machine.axes)})")
+            j = machine.axes.index(axis)
+            kind = machine.axis_kinds[j]
+            if (item.target_unit == "mm") != (kind == "linear"):
+                raise InputError(f"{item.source}: targets in {item.target_unit} but axis {axis} is {kind}")
+            from .recording import default_config
+
+            at = dict(item.at)
+            at.update(run_at or {})
+            config = {}
+            for name, value in at.items():
+                if name not in machine.axes:
+                    raise InputError(f"{item.source}: '# at:' names '{name}', not an axis of {machine.name}")
+                linear = machine.axis_kinds[machine.axes.index(name)] == "linear"
+                config[name] = value * (1e-3 if linear else math.pi / 180.0)
+            base = default_config(machine, config)
+            q = np.tile(base, (len(item.target), 1))
+            q[:, j] = item.target
+            try:
+                machine.check_q(q)
+            except InputError as err:
+                raise InputError(f"{item.source}: {err}") from None
+            q_list.append(q)
+            cov_list.append({"directions": np.where(np.arange(len(machine.axes)) == j,
+                                                    item.direction[:, None], 1.0)})
+            if item.component is None:
+                nominal = machine.axis_jacobian(q, nominal=True)[:, :, j]
+                w_all = nominal / np.linalg.norm(nominal, axis=1, keepdims=True)
+                angular = kind == "rotary"
+                label = "positioning"
+            else:
+                direction, _, owner = parse_component_name(item.component)
+                if owner != axis:
+                    raise InputError(f"{item.source}: {item.component} is an error of {owner}, not {axis}")
+                w_all = np.zeros((len(q), 6))
+                w_all[:, DIRECTION_INDEX[direction]] = 1.0
+                angular = direction in "ABC"
+                label = item.component
+            straightness = (item.component is not None and not angular and kind == "linear"
+                            and item.component[1] != axis)
+            base_col = len(nuisance_names)
+            tag = f"{label} run {item.source}"
+            nuisance_names.append(f"offset[{tag}]")
+            if straightness:
+                nuisance_names.append(f"slope[{tag}]")
+            lo, hi = machine.travel[j]
+            u = (2 * q[:, j] - lo - hi) / (hi - lo)
+            sigma = (sigma_urad if angular else sigma_um) * 1e-6
+            for i in range(len(q)):
+                row = len(rows)
+                rows.append((n_points + i, w_all[i], item.value[i], sigma, angular, item.source,
+                             item.lines[i]))
+                nuisance_rows.append((row, base_col, 1.0))
+                if straightness:
+                    nuisance_rows.append((row, base_col + 1, u[i]))
+            n_points += len(q)
+        else:
+            raise InputError(f"cannot use {type(item).__name__} as measurements")
+    if not rows:
+        raise InputError("no observations")
+    q = np.vstack(q_list)
+    covariates = _merge_covariates(cov_list, [len(x) for x in q_list], machine)
+    nuisance = np.zeros((len(rows), len(nuisance_names)))
+    for r, c, v in nuisance_rows:
+        nuisance[r, c] = v
+    return Observations(
+        q, covariates, np.array([r[0] for r in rows]), np.array([r[1] for r in rows]),
+        np.array([r[2] for r in rows]), np.array([r[3] for r in rows]),
+        np.array([r[4] for r in rows], dtype=bool), nuisance, nuisance_names,
+        [r[5] for r in rows], np.array([r[6] for r in rows]))
+
+
+def _merge_covariates(parts: list[dict], sizes: list[int], machine: Machine) -> dict:
+    """Stack per-file covariates; a covariate must be in every file or in none (directions
+    default to +1 where a file does not give them)."""
+    keys = set().union(*[p.keys() for p in parts]) if parts else set()
+    merged: dict = {}
+    for key in keys:
+        if key == "directions":
+            merged[key] = np.vstack([p.get(key, np.ones((n, len(machine.axes))))
+                                     for p, n in zip(parts, sizes)])
+            continue
+        missing = [i for i, p in enumerate(parts) if key not in p]
+        if missing:
+            raise InputError(f"covariate '{key}' is in some measurement files but not in others")
+        if key == "temperatures":
+            sensors = set(parts[0][key])
+            if any(set(p[key]) != sensors for p in parts):
+                raise InputError("the measurement files name different temperature sensors")
+            merged[key] = {s: np.concatenate([p[key][s] for p in parts]) for s in sensors}
+        else:
+            merged[key] = np.concatenate([p[key] for p in parts])
+    return merged
+
+
+@dataclass
+class Identification:
+    """Result of :func:`identify`; :meth:`to_dict` gives the CONTRACT fields."""
+
+    machine: Machine                  # with the fitted coefficients
+    prior: Machine
+    free: np.ndarray                  # indices of the coefficients that were free to move
+    analysis: Analysis                # identifiability of [nuisance | free coefficients]
+    fitted: np.ndarray                # indices (into theta) actually fitted
+    held: np.ndarray                  # free but unidentifiable: held at prior (or min-norm)
+    uncertainty: np.ndarray           # (P,) standard uncertainties, NaN where not fitted
+    nuisance: dict[str, float]
+    rms_fit_um: float
+    rms_fit_urad: float | None
+    rms_holdout_um: float | None
+    holdout: str
+    n_points: int
+    n_observations: int
+    iterations: int
+    convention: str
+    residual_sigma: float             # weighted residual standard deviation (1 = as stated)
+    groups: list = field(default_factory=list)
+    angular_nuisance: frozenset = frozenset()
+
+    def to_dict(self) -> dict:
+        m, prior = self.machine, self.prior
+        params = {}
+        units = parameter_units(m)
+        for k, name in enumerate(m.parameter_names):
+            factor, unit = units[name]
+            status = ("fitted" if k in set(self.fitted.tolist()) else
+                      "held (not identifiable)" if k in set(self.held.tolist()) else "fixed (not selected)")
+            params[name] = {
+                "value": float(m.theta[k] / factor), "prior": float(prior.theta[k] / factor),
+                "uncertainty": None if math.isnan(self.uncertainty[k]) else float(self.uncertainty[k] / factor),
+                "unit": unit, "status": status}
+        return {
+            "machine": m.name, "n_points": self.n_points, "n_observations": self.n_observations,
+            "rank": int(len(self.fitted)), "n_parameters": int(len(self.free)),
+            "condition_number": self.analysis.condition,
+            "unidentifiable": [g.to_dict() for g in self.groups],
+            "convention": self.convention,
+            "rms_fit_um": self.rms_fit_um, "rms_fit_urad": self.rms_fit_urad,
+            "rms_holdout_um": self.rms_holdout_um, "holdout": self.holdout,
+            "residual_sigma": self.residual_sigma, "iterations": self.iterations,
+            "nuisance": {n: {"value": v * (URAD if n in self.angular_nuisance else UM),
+                             "unit": "urad" if n in self.angular_nuisance else "um"}
+                         for n, v in self.nuisance.items()},
+            "parameters": params,
+        }
+
+
+def parameter_units(machine: Machine) -> dict[str, tuple[float, str]]:
+    """Coefficient name -> (SI per display unit, display unit), the spec's units."""
+    out = {}
+    for comp in machine.spec.components:
+        for tspec in comp.terms:
+            term = tspec.term
+            pos_unit = getattr(term, "position_unit", None)
+            over_position = getattr(term, "over", "travel") == "position"
+            for k, name in enumerate(tspec.names(comp.name)):
+                factor, unit = term.unit_scale, term.unit
+                if over_position and k > 0:
+                    factor = factor / term.position_scale ** k
+                    unit = f"{unit}/{pos_unit}" + (f"^{k}" if k > 1 else "")
+                out[name] = (factor, unit)
+    return out
+
+
+def _design(machine: Machine, obs: Observations, theta: np.ndarray, free: np.ndarray):
+    """Weighted residual and Jacobian [nuisance | free coefficients] at ``theta``."""
+    error = machine.volumetric_error(obs.q, theta, **obs.covariates)
+    S = machine.sensitivity(obs.q, theta, **obs.covariates)
+    pred = np.einsum("rk,rk->r", obs.w, error[obs.point])
+    A = np.einsum("rk,rkp->rp", obs.w, S[obs.point][:, :, free])
+    return pred, A
+
+
+def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndarray,
+           columns: np.ndarray | None, convention: str, max_iter: int, tol: float,
+           step: Callable[[int], None] | None = None):
+    """Gauss-Newton on [nuisance | free[columns]]; returns theta, nuisance, J, r, iterations."""
+    theta = theta0.copy()
+    n_nu = obs.nuisance.shape[1]
+    nuisance = np.zeros(n_nu)
+    use = np.arange(len(free)) if columns is None else columns
+    sigma = obs.sigma
+    it = 0
+    for it in range(1, max_iter + 1):
+        pred, A = _design(machine, obs, theta, free)
+        r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
+        J = np.hstack([obs.nuisance, A[:, use]]) / sigma[:, None]
+        scale = np.linalg.norm(J, axis=0)
+        scale[scale == 0] = 1.0
+        rcond = 1e-9 if convention == "min-norm" else None
+        delta = np.linalg.lstsq(J / scale, r, rcond=rcond)[0] / scale
+        nuisance += delta[:n_nu]
+        theta[free[use]] += delta[n_nu:]
+        if step:
+            step(it)
+        # step size in units of the observations' standard deviations
+        if np.abs(delta * scale).max(initial=0.0) < tol:
+            break
+    pred, A = _design(machine, obs, theta, free)
+    r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
+    J = np.hstack([obs.nuisance, A[:, use]]) / sigma[:, None]
+    return theta, nuisance, J, r, it
+
+
+def _rms(obs: Observations, residual_si: np.ndarray, angular: bool) -> float | None:
+    """RMS over points of the norm of the position (or rotation) residual."""
+    rows = obs.angular == angular
+    if not rows.any():
+        return None
+    per_point = np.zeros(obs.n_points)
+    np.add.at(per_point, obs.point[rows], residual_si[rows] ** 2)
+    points = np.unique(obs.point[rows])
+    return float(np.sqrt(per_point[points].mean()) * (UM if not angular else URAD))
+
+
+def identify(machine: Machine, data, *, terms=None, convention: str = "prior", folds: int = 5,
+             holdout: float | None = None, seed: int = 0, max_iter: int = 10, tol: float = 1e-8,
+             sigma_um: float = 1.0, sigma_urad: float = 1.0, run_axis: str | None = None,
+             run_at: dict | None = None, rtol: float = 1e-9, progress=None) -> Identification:
+    """Fit the machine's coefficients to measurements.
+
+    Parameters
+    ----------
+    data : list of PointMeasurements / Runs, or an :class:`Observations`
+    terms : list of component names, optional
+        Components whose coefficients may move (default: all); the rest stay as given.
+    convention : "prior" or "min-norm"
+        What to do with what the data cannot determine (see the module docstring).
+    folds, holdout : int, float
+        k-fold cross-validation over points (``folds`` >= 2), or one random split keeping the
+        fraction ``holdout`` of the points out (overrides ``folds``); ``folds=0`` skips it.
+    sigma_um, sigma_urad : float
+        Standard deviations of position and rotation observations (weights).
+    progress : callable(str, int), optional
+        Called with a stage name and a step count, for progress bars.
+    """
+    if convention not in ("prior", "min-norm"):
+        raise InputError(f"convention must be 'prior' or 'min-norm', got {convention!r}")
+    obs = data if isinstance(data, Observations) else build_observations(
+        machine, data, sigma_um=sigma_um, sigma_urad=sigma_urad, run_axis=run_axis, run_at=run_at)
+    if terms:
+        unknown = sorted(set(terms) - set(machine.components))
+        if unknown:
+            raise InputError(f"--terms: {', '.join(unknown)} not among the error terms of "
+                             f"{machine.name} ({', '.join(machine.components)})")
+        free = np.array([k for k, n in enumerate(machine.parameter_names)
+                         if n.split(".", 1)[0] in set(terms)], dtype=int)
+    else:
+        free = np.arange(len(machine.parameter_names))
+    if free.size == 0:
+        raise InputError(f"{machine.name} has no coefficients to fit")
+    theta0 = machine.theta
+    pred, A = _design(machine, obs, theta0, free)
+    J0 = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
+    names = obs.nuisance_names + [machine.parameter_names[k] for k in free]
+    n_nu = obs.nuisance.shape[1]
+    analysis = analyse(J0, names, protected=n_nu, rtol=rtol, what="these measurements")
+    kept_theta = np.array([c - n_nu for c in analysis.kept if c >= n_nu], dtype=int)
+    held = np.array(sorted(set(range(len(free))) - set(kept_theta.tolist())), dtype=int)
+    columns = kept_theta if convention == "prior" else None
+    tick = (lambda i: progress("fit", i)) if progress else None
+    theta, nuisance, J, r, iterations = _solve(machine, obs, theta0, free, columns, convention,
+                                               max_iter, tol, tick)
+    dof = len(r) - J.shape[1] if convention == "prior" else len(r) - analysis.rank
+    residual_sigma = float(np.sqrt(r @ r / dof)) if dof > 0 else math.nan
+    uncertainty = np.full(len(theta), np.nan)
+    if convention == "prior" and dof > 0:
+        scale = np.linalg.norm(J, axis=0)
+        scale[scale == 0] = 1.0
+        Js = J / scale
+        cov = np.linalg.pinv(Js.T @ Js) / np.outer(scale, scale) * residual_sigma**2
+        std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        uncertainty[free[kept_theta]] = std[n_nu:]
+    residual_si = r * obs.sigma
+    fitted_machine = machine.with_theta(theta)
+    rms_fit = _rms(obs, residual_si, angular=False)
+    rms_fit_rot = _rms(obs, residual_si, angular=True)
+    rms_holdout, how = None, "none"
+    if holdout is not None or folds >= 2:
+        rms_holdout, how = _cross_validate(machine, obs, theta0, free, columns, convention, folds,
+                                           holdout, seed, max_iter, tol, progress)
+    fitted_idx = free[kept_theta] if convention == "prior" else free
+    held_idx = free[held] if convention == "prior" else np.array([], dtype=int)
+    groups = [g for g in analysis.groups]
+    return Identification(
+        fitted_machine, machine, free, analysis, fitted_idx, held_idx, uncertainty,
+        dict(zip(obs.nuisance_names, (float(v) for v in nuisance))), rms_fit or 0.0, rms_fit_rot,
+        rms_holdout, how, obs.n_points, len(obs.y), iterations, convention, residual_sigma, groups,
+        frozenset(n for c, n in enumerate(obs.nuisance_names)
+                  if np.any(obs.angular[obs.nuisance[:, c] != 0])))
+
+
+def _cross_validate(machine, obs, theta0, free, columns, convention, folds, holdout, seed,
+                    max_iter, tol, progress):
+    rng = np.random.default_rng(seed)
+    order = rng.permutation(obs.n_points)
+    if holdout is not None:
+        if not 0.0 < holdout < 1.0:
+            raise InputError(f"holdout must be a fraction between 0 and 1, got {holdout}")
+        n_out = max(1, int(round(holdout * obs.n_points)))
+        splits = [order[:n_out]]
+        how = f"random split, {n_out} of {obs.n_points} points held out (seed {seed})"
+    else:
+        if obs.n_points < 2 * folds:
+            return None, f"too few points ({obs.n_points}) for {folds}-fold cross-validation"
+        splits = np.array_split(order, folds)
+        how = f"{folds}-fold cross-validation over points (seed {seed})"
+    sq_pos, count = 0.0, 0
+    for k, test in enumerate(splits):
+        train = np.setdiff1d(np.arange(obs.n_points), test)
+        fit_obs, test_obs = obs.subset(train), obs.subset(np.sort(test))
+        theta, nuisance, *_ = _solve(machine, fit_obs, theta0, free, columns, convention, max_iter,
+                                     tol)
+        error = machine.volumetric_error(test_obs.q, theta, **test_obs.covariates)
+        pred = np.einsum("rk,rk->r", test_obs.w, error[test_obs.point]) + test_obs.nuisance @ nuisance
+        res = test_obs.y - pred
+        pos = ~test_obs.angular
+        per_point = np.zeros(test_obs.n_points)
+        np.add.at(per_point, test_obs.point[pos], res[pos] ** 2)
+        used = np.unique(test_obs.point[pos])
+        sq_pos += per_point[used].sum()
+        count += used.size
+        if progress:
+            progress("cross-validation", k + 1)
+    return (float(np.sqrt(sq_pos / count) * UM) if count else None), how

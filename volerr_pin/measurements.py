@@ -1,0 +1,371 @@
+"""Readers for measurement files, with strict validation (file, line and column in every error).
+
+Three kinds, told apart by their header (comma-separated, ``#`` comment lines allowed):
+
+- **point measurements**: ``x,y,z[,a,b,c],dx,dy,dz[,rx,ry,rz]`` plus optional covariates
+  ``t,T_<sensor>...,Fx,Fy,Fz,dir_<axis>...``; positions in mm / deg (commanded NC
+  positions, one column per machine axis, lower-case axis names), deviations in um and
+  urad (measured tool point minus commanded, relative to the workpiece), ``t`` in s,
+  ``T_*`` in degC, ``F*`` in N, ``dir_*`` +1/-1. Columns may carry their unit
+  (``x_mm``, ``dx_um``, ``rx_urad``); an empty deviation cell means "not measured".
+- **positioning runs** (ISO 230-2): ``target_mm,cycle,direction,deviation_um`` (rotary
+  axes ``target_deg``, ``deviation_arcsec``); ``direction`` +1 or -1.
+- **component runs** (interferometer straightness / angular exports):
+  ``target_mm,cycle,direction,EYX_um`` or ``...,EBX_arcsec``: the value column names the
+  measured component and its unit.
+
+Runs may say which axis moved and where the other axes stood in header comments:
+``# axis: X`` and ``# at: Y=200, Z=150`` (mm / deg).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .spec import parse_component_name
+from .units import ANGLE, LENGTH
+
+DEVIATIONS = ("dx", "dy", "dz", "rx", "ry", "rz")
+DEVIATION_UNITS = {"dx": "um", "dy": "um", "dz": "um", "rx": "urad", "ry": "urad", "rz": "urad"}
+META_RE = re.compile(r"^#\s*(axis|at)\s*:\s*(.*)$", re.IGNORECASE)
+
+
+class MeasurementError(InputError):
+    """A measurement file is malformed (the message names file, line and column)."""
+
+
+@dataclass
+class Table:
+    """A CSV table as read: header, rows with their line numbers, header-comment metadata."""
+
+    path: str
+    header: list[str]
+    header_line: int
+    rows: list[list[str]]
+    lines: list[int]
+    meta: dict[str, str] = field(default_factory=dict)
+
+    def where(self, row: int, col: int) -> str:
+        return f"{self.path}:{self.lines[row]}:{col + 1}"
+
+    def number(self, row: int, col: int, allow_empty: bool = False) -> float:
+        text = self.rows[row][col].strip()
+        if text == "" and allow_empty:
+            return math.nan
+        try:
+            value = float(text)
+        except ValueError:
+            raise MeasurementError(f"{self.where(row, col)}: column '{self.header[col]}': "
+                                   f"'{text}' is not a number") from None
+        if not math.isfinite(value):
+            raise MeasurementError(f"{self.where(row, col)}: column '{self.header[col]}': "
+                                   f"'{text}' is not a finite number")
+        return value
+
+    def column(self, col: int, allow_empty: bool = False) -> np.ndarray:
+        return np.array([self.number(i, col, allow_empty) for i in range(len(self.rows))])
+
+
+def read_table(path: str | Path) -> Table:
+    """Read a comma-separated file with ``#`` comments; every data row must match the header."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as err:
+        raise MeasurementError(f"{path}: cannot read: {err.strerror}") from None
+    header, header_line, rows, lines, meta = None, 0, [], [], {}
+    for number, line in enumerate(text.splitlines(), start=1):
+        stripped = line.strip()
+        if not stripped:
+            continue
+        if stripped.startswith("#"):
+            match = META_RE.match(stripped)
+            if match and header is None:
+                meta[match.group(1).lower()] = match.group(2).strip()
+            continue
+        cells = next(csv.reader([line]))
+        if header is None:
+            header = [c.strip() for c in cells]
+            header_line = number
+            duplicates = sorted({h for h in header if header.count(h) > 1})
+            if duplicates:
+                col = [i for i, h in enumerate(header) if h == duplicates[0]][1]
+                raise MeasurementError(f"{path}:{number}:{col + 1}: duplicate column '{duplicates[0]}'")
+            if "" in header:
+                raise MeasurementError(f"{path}:{number}:{header.index('') + 1}: empty column name")
+            continue
+        if len(cells) != len(header):
+            raise MeasurementError(f"{path}:{number}:{min(len(cells), len(header)) + 1}: "
+                                   f"{len(cells)} values but the header has {len(header)} columns")
+        rows.append(cells)
+        lines.append(number)
+    if header is None:
+        raise MeasurementError(f"{path}: no header row")
+    if not rows:
+        raise MeasurementError(f"{path}:{header_line}: no data rows after the header")
+    return Table(str(path), header, header_line, rows, lines, meta)
+
+
+def _split_unit(name: str) -> tuple[str, str | None]:
+    stem, sep, unit = name.rpartition("_")
+    if sep and (unit in LENGTH or unit in ANGLE or unit in ("s", "degC", "N")):
+        return stem, unit
+    return name, None
+
+
+@dataclass(frozen=True)
+class PointMeasurements:
+    """Point measurements in SI.
+
+    ``q`` (N, n_axes) commanded positions [m, rad]; ``values`` (N, 6) deviations dx, dy, dz [m],
+    rx, ry, rz [rad] with NaN where not measured; ``covariates`` keyword arrays for the
+    model; ``lines`` the file line of each row; ``unused`` columns present but not used.
+    """
+
+    source: str
+    q: np.ndarray
+    values: np.ndarray
+    covariates: dict
+    lines: np.ndarray
+    unused: tuple[str, ...] = ()
+
+    @property
+    def measured(self) -> np.ndarray:
+        return ~np.isnan(self.values)
+
+
+def read_points(path: str | Path, machine) -> PointMeasurements:
+    """Read a point-measurement file for ``machine`` (positions checked against its travel)."""
+    table = read_table(path)
+    columns: dict[str, int] = {}
+    for col, name in enumerate(table.header):
+        stem, unit = _split_unit(name)
+        columns[stem] = col
+        expected = _expected_unit(stem, machine)
+        if unit is not None and expected is not None and unit != expected:
+            raise MeasurementError(f"{table.path}:{table.header_line}:{col + 1}: column '{name}': "
+                                   f"unit '{unit}' is not the file unit '{expected}' of {stem}")
+    used = set()
+    q = np.empty((len(table.rows), len(machine.axes)))
+    for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):
+        key = axis.lower()
+        if key not in columns:
+            raise MeasurementError(f"{table.path}:{table.header_line}: missing position column "
+                                   f"'{key}' for axis {axis} ({'mm' if kind == 'linear' else 'deg'})")
+        col = columns[key]
+        used.add(col)
+        factor = 1e-3 if kind == "linear" else math.pi / 180.0
+        q[:, j] = table.column(col) * factor
+        lo, hi = machine.travel[j]
+        bad = np.flatnonzero((q[:, j] < lo - 1e-9 * max(1.0, hi - lo)) | (q[:, j] > hi + 1e-9 * max(1.0, hi - lo)))
+        if bad.size:
+            shown = 1e3 if kind == "linear" else 180.0 / math.pi
+            unit = "mm" if kind == "linear" else "deg"
+            raise MeasurementError(f"{table.where(bad[0], col)}: {key} = {q[bad[0], j] * shown:g} {unit} is "
+                                   f"outside the travel of {axis} [{lo * shown:g}, {hi * shown:g}] {unit}")
+    values = np.full((len(table.rows), 6), np.nan)
+    present = [k for k, name in enumerate(DEVIATIONS) if name in columns]
+    if not present:
+        raise MeasurementError(f"{table.path}:{table.header_line}: no deviation column "
+                               "(dx, dy, dz [um] or rx, ry, rz [urad])")
+    for k in present:
+        col = columns[DEVIATIONS[k]]
+        used.add(col)
+        values[:, k] = table.column(col, allow_empty=True) * (1e-6 if k < 3 else 1e-6)
+    empty = np.flatnonzero(np.all(np.isnan(values), axis=1))
+    if empty.size:
+        raise MeasurementError(f"{table.path}:{table.lines[empty[0]]}: row has no measured deviation")
+    covariates: dict = {}
+    if "t" in columns:
+        covariates["t"] = table.column(columns["t"])
+        used.add(columns["t"])
+    temps = {}
+    for name, col in columns.items():
+        if name.startswith("T_") and len(name) > 2:
+            temps[name[2:]] = table.column(col)
+            used.add(col)
+    if temps:
+        covariates["temperatures"] = temps
+    force_cols = [columns.get(f"F{c}") for c in "xyz"]
+    if any(c is not None for c in force_cols):
+        missing = [f"F{c}" for c, col in zip("xyz", force_cols) if col is None]
+        if missing:
+            raise MeasurementError(f"{table.path}:{table.header_line}: force columns need all of "
+                                   f"Fx, Fy, Fz (missing {', '.join(missing)})")
+        covariates["forces"] = np.column_stack([table.column(c) for c in force_cols])
+        used.update(force_cols)
+    dir_cols = [columns.get(f"dir_{a.lower()}") for a in machine.axes]
+    if any(c is not None for c in dir_cols):
+        directions = np.ones((len(table.rows), len(machine.axes)))
+        for j, col in enumerate(dir_cols):
+            if col is None:
+                continue
+            used.add(col)
+            directions[:, j] = table.column(col)
+            bad = np.flatnonzero(~np.isin(directions[:, j], (-1.0, 1.0)))
+            if bad.size:
+                raise MeasurementError(f"{table.where(bad[0], col)}: column '{table.header[col]}': "
+                                       f"direction must be +1 or -1, got {table.rows[bad[0]][col].strip()}")
+        covariates["directions"] = directions
+    unused = tuple(table.header[c] for c in range(len(table.header)) if c not in used)
+    return PointMeasurements(table.path, q, values, covariates, np.array(table.lines), unused)
+
+
+def _expected_unit(stem: str, machine) -> str | None:
+    if stem in DEVIATION_UNITS:
+        return DEVIATION_UNITS[stem]
+    for axis, kind in zip(machine.axes, machine.axis_kinds):
+        if stem == axis.lower():
+            return "mm" if kind == "linear" else "deg"
+    if stem == "t":
+        return "s"
+    if stem.startswith("T_"):
+        return "degC"
+    if stem in ("Fx", "Fy", "Fz"):
+        return "N"
+    return None
+
+
+@dataclass(frozen=True)
+class Runs:
+    """A positioning or component run along one axis.
+
+    ``target`` (N,) [m or rad]; ``cycle`` (N,) int; ``direction`` (N,) +1/-1; ``value`` (N,)
+    in SI; ``file_value``/``unit`` as in the file; ``component`` the measured component
+    ("EYX", "EBX"), or None for a positioning run (the error along the axis' own motion);
+    ``axis`` the moving axis if known; ``at`` other axes' positions from the header, in file
+    units (mm / deg), by axis name.
+    """
+
+    source: str
+    target: np.ndarray
+    cycle: np.ndarray
+    direction: np.ndarray
+    value: np.ndarray
+    file_target: np.ndarray
+    file_value: np.ndarray
+    target_unit: str
+    unit: str
+    component: str | None
+    axis: str | None
+    at: dict
+    lines: np.ndarray
+    unused: tuple[str, ...] = ()
+
+
+RUN_VALUE_RE = re.compile(r"^(deviation|E[XYZABC]0?_?[A-Za-z][A-Za-z0-9_]*)_(um|mm|nm|arcsec|urad|mrad|deg)$")
+
+
+def is_run_file(header: list[str]) -> bool:
+    return any(h.startswith("target_") for h in header)
+
+
+def read_runs(path: str | Path, axis: str | None = None) -> Runs:
+    """Read a positioning (ISO 230-2) or component run; ``axis`` overrides ``# axis:``."""
+    table = read_table(path)
+    header = table.header
+    target_cols = [c for c, h in enumerate(header) if h in ("target_mm", "target_deg")]
+    if len(target_cols) != 1:
+        raise MeasurementError(f"{table.path}:{table.header_line}: a run needs exactly one of the "
+                               "columns target_mm (linear axis) or target_deg (rotary axis)")
+    tcol = target_cols[0]
+    target_unit = header[tcol].split("_", 1)[1]
+    needed = {}
+    for name in ("cycle", "direction"):
+        alternatives = [name] + (["run"] if name == "cycle" else [])
+        found = [c for c, h in enumerate(header) if h in alternatives]
+        if not found:
+            raise MeasurementError(f"{table.path}:{table.header_line}: missing column '{name}'")
+        needed[name] = found[0]
+    value_cols = [(c, RUN_VALUE_RE.match(h)) for c, h in enumerate(header) if RUN_VALUE_RE.match(h)]
+    if len(value_cols) != 1:
+        raise MeasurementError(
+            f"{table.path}:{table.header_line}: a run needs exactly one value column: "
+            "deviation_um / deviation_arcsec (positioning) or a component with its unit such as "
+            "EYX_um or EBX_arcsec")
+    vcol, match = value_cols[0]
+    quantity, unit = match.group(1), match.group(2)
+    axis = axis or table.meta.get("axis")
+    component = None  # positioning: the error along the axis' own motion
+    if quantity != "deviation":
+        component = quantity
+        try:
+            _, _, owner = parse_component_name(quantity)
+        except ValueError:
+            raise MeasurementError(f"{table.path}:{table.header_line}:{vcol + 1}: '{quantity}' is not "
+                                   "a component name") from None
+        if axis is not None and axis != owner:
+            raise MeasurementError(f"{table.path}:{table.header_line}:{vcol + 1}: column '{header[vcol]}' "
+                                   f"belongs to axis {owner}, but the run is along {axis}")
+        axis = owner
+    angular = unit in ANGLE
+    target_linear = target_unit == "mm"
+    value_scale = ANGLE[unit] if angular else LENGTH[unit]
+    if quantity == "deviation" and angular == target_linear:
+        raise MeasurementError(f"{table.path}:{table.header_line}:{vcol + 1}: a positioning run on a "
+                               f"{'linear' if target_linear else 'rotary'} axis gives its deviation in "
+                               f"{'um' if target_linear else 'arcsec'}, not {unit}")
+    if quantity != "deviation":
+        direction_letter = quantity[1]
+        if (direction_letter in "ABC") != angular:
+            raise MeasurementError(f"{table.path}:{table.header_line}:{vcol + 1}: {quantity} is "
+                                   f"{'an angle' if direction_letter in 'ABC' else 'a length'}; unit "
+                                   f"'{unit}' does not fit")
+    file_target = table.column(tcol)
+    file_value = table.column(vcol)
+    cycle = table.column(needed["cycle"])
+    direction = table.column(needed["direction"])
+    for k, (values, name) in enumerate(((cycle, "cycle"), (direction, "direction"))):
+        col = needed[name]
+        if name == "direction":
+            bad = np.flatnonzero(~np.isin(values, (-1.0, 1.0)))
+            if bad.size:
+                raise MeasurementError(f"{table.where(bad[0], col)}: column 'direction': must be +1 or -1, "
+                                       f"got {table.rows[bad[0]][col].strip()}")
+        else:
+            bad = np.flatnonzero(values != np.round(values))
+            if bad.size:
+                raise MeasurementError(f"{table.where(bad[0], col)}: column '{header[col]}': cycle numbers "
+                                       f"are integers, got {table.rows[bad[0]][col].strip()}")
+    target_scale = 1e-3 if target_linear else math.pi / 180.0
+    at = _parse_at(table, table.meta.get("at"))
+    used = {tcol, vcol, needed["cycle"], needed["direction"]}
+    unused = tuple(h for c, h in enumerate(header) if c not in used)
+    return Runs(table.path, file_target * target_scale, cycle.astype(int), direction.astype(int),
+                file_value * value_scale, file_target, file_value, target_unit, unit, component, axis,
+                at, np.array(table.lines), unused)
+
+
+def _parse_at(table: Table, text: str | None) -> dict[str, float]:
+    """``# at: Y=200, Z=150`` -> {"Y": 200.0, "Z": 150.0} in file units (mm / deg)."""
+    if not text:
+        return {}
+    out = {}
+    for item in re.split(r"[,\s]+", text.strip()):
+        if not item:
+            continue
+        name, sep, value = item.partition("=")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise MeasurementError(f"{table.path}: header '# at: {text}': '{item}' is not AXIS=VALUE") from None
+        if not sep:
+            raise MeasurementError(f"{table.path}: header '# at: {text}': '{item}' is not AXIS=VALUE")
+    return out
+
+
+def read_any(path: str | Path, machine=None, axis: str | None = None):
+    """Read a file of either kind, telling them apart by the header."""
+    table = read_table(path)
+    if is_run_file(table.header):
+        return read_runs(path, axis)
+    if machine is None:
+        raise MeasurementError(f"{path}: point measurements need the machine (its axes and travels)")
+    return read_points(path, machine)

@@ -1,0 +1,154 @@
+"""Changing a machine's error terms and writing its spec back to TOML.
+
+:func:`replace_terms` gives a machine new terms for some components (for instance a
+Legendre polynomial of another degree before an identification); :func:`write_spec` writes
+the machine with its current coefficient values as a spec that :func:`load_machine` reads,
+with a ``[provenance]`` table saying where the values came from.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import os
+from pathlib import Path
+
+import numpy as np
+import tomli_w
+
+from .errors import InputError
+from .machine import Machine
+from .spec import ComponentSpec, _components, axis_travel, parse_component_name
+from .units import ANGLE, LENGTH
+
+
+def _owners(machine: Machine) -> dict:
+    spec = machine.spec
+    owners = {}
+    for axis, kind in zip(spec.axes, machine.axis_kinds):
+        owners[axis.name] = ("length" if kind == "linear" else "angle",
+                             axis_travel(machine.urdf, axis))
+    for body in spec.bodies:
+        owners[body.name] = (None, None)
+    return owners
+
+
+def replace_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Machine:
+    """A new machine whose components ``tables`` (name -> one term table or a list of them,
+    in the spec's TOML form) replace or add to the spec's. Other components are unchanged."""
+    raw = {name: (t if isinstance(t, dict) else {"terms": list(t)}) for name, t in tables.items()}
+    new = {c.name: c for c in _components(raw, f"{machine.spec.source} (replaced terms)",
+                                          _owners(machine))}
+    components = [new.pop(c.name, c) for c in machine.spec.components] + list(new.values())
+    # keep the current values of untouched components
+    old_values = dict(zip(machine.parameter_names, machine.theta))
+    spec = dataclasses.replace(machine.spec, components=tuple(components))
+    fresh = Machine(spec, machine.urdf)
+    theta = np.array([old_values.get(n, v) if n.split(".", 1)[0] not in tables else v
+                      for n, v in zip(fresh.parameter_names, fresh.theta)])
+    return fresh.with_theta(theta)
+
+
+def legendre_terms(machine: Machine, components, degree: int, start: int = 0) -> dict:
+    """Legendre tables of ``degree`` for ``components`` whose coefficients reproduce the
+    current component functions as closely as the degree allows (least squares over the
+    travel), so a refit starts from the machine's present state."""
+    if degree < 0:
+        raise InputError(f"degree must be >= 0, got {degree}")
+    travel = machine.travel
+    grid = np.tile(np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0), (201, 1))
+    tables = {}
+    for name in components:
+        direction, location, owner = parse_component_name(name)
+        if owner not in machine.axes or location:
+            raise InputError(f"--degree applies to component errors of axes; {name} is not one")
+        j = machine.axes.index(owner)
+        q = grid.copy()
+        q[:, j] = np.linspace(*travel[j], 201)
+        values = (machine.component_values(q)[:, machine.components.index(name)]
+                  if name in machine.components else np.zeros(201))
+        u = np.linspace(-1.0, 1.0, 201)
+        V = np.polynomial.legendre.legvander(u, degree)[:, start:]
+        coef = np.linalg.lstsq(V, values, rcond=None)[0] if V.shape[1] else np.zeros(0)
+        unit, scale = ("um", LENGTH["um"]) if direction in "XYZ" else ("arcsec", ANGLE["arcsec"])
+        full = np.r_[np.zeros(start), coef] / scale
+        tables[name] = {"kind": "legendre", f"coefficients_{unit}": [float(c) for c in full]}
+    return tables
+
+
+def spec_document(machine: Machine, out: Path | None = None, provenance: dict | None = None) -> dict:
+    """The machine (with its current coefficient values) as a spec document (a dict)."""
+    spec = machine.spec
+    base = Path(out).resolve().parent if out is not None else Path.cwd()
+    if isinstance(spec.urdf_ref, dict):
+        urdf = dict(spec.urdf_ref)
+    else:
+        urdf = os.path.relpath(spec.urdf, base)
+    document: dict = {"format": 1, "machine": {
+        "name": spec.name, "urdf": urdf, "tool_frame": spec.tool_frame,
+        "workpiece_frame": spec.workpiece_frame}}
+    if spec.description:
+        document["machine"]["description"] = spec.description
+    if spec.reference:
+        document["machine"]["source"] = spec.reference
+    axes = {}
+    for axis, kind in zip(spec.axes, machine.axis_kinds):
+        table = {"joint": axis.joint}
+        if axis.sign != 1:
+            table["sign"] = int(axis.sign)
+        default_frame = "moving" if kind == "linear" else "fixed"
+        if axis.frame != default_frame:
+            table["errors_frame"] = axis.frame
+        if any(axis.reference):
+            table["reference_point_mm"] = [round(float(v * 1e3), 9) for v in axis.reference]
+        axes[axis.name] = table
+    document["axes"] = axes
+    if spec.bodies:
+        document["bodies"] = {b.name: ({"joint": b.joint} | (
+            {"reference_point_mm": [round(float(v * 1e3), 9) for v in b.reference]} if any(b.reference) else {}))
+            for b in spec.bodies}
+    theta = dict(zip(machine.parameter_names, machine.theta))
+    errors = {}
+    for comp in spec.components:
+        tables = []
+        for tspec in comp.terms:
+            values = np.array([theta[n] for n in tspec.names(comp.name)])
+            table = tspec.term.to_spec(values)
+            if tspec.prefix:
+                table["prefix"] = tspec.prefix
+            tables.append(table)
+        errors[comp.name] = tables[0] if len(tables) == 1 else {"terms": tables}
+    document["errors"] = errors
+    if provenance:
+        document["provenance"] = provenance
+    return document
+
+
+def write_spec(machine: Machine, out: str | Path, provenance: dict | None = None) -> Path:
+    """Write the machine's spec with its current values to ``out`` (TOML).
+
+    ``provenance`` (data files, RMS, ...) is recorded with the date of writing.
+    """
+    out = Path(out)
+    record = {"written": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+              "derived_from": str(machine.spec.source)}
+    record.update(provenance or {})
+    document = spec_document(machine, out, _clean(record))
+    header = (f"# volerr_pin error specification for {machine.name}, written by volerr_pin "
+              f"from {machine.spec.source}\n")
+    out.write_text(header + tomli_w.dumps(document))
+    return out
+
+
+def _clean(value):
+    """TOML has no null: drop None, turn numpy scalars into Python numbers."""
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items() if v is not None}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value if v is not None]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+__all__ = ["ComponentSpec", "legendre_terms", "replace_terms", "spec_document", "write_spec"]
