@@ -27,3 +27,21 @@ def test_seed001_example(tmp_path, capsys):
     assert result["unseen_rms_um"] < result["raw_rms_um"]               # the model helps on a new run
     assert vp.load_machine(result["spec"]).name == "vmc500"
     assert "EZZ.c0 cannot be told from the interferometer zero" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_lathe_cold_start_example(tmp_path):
+    import numpy as np
+    import rerun as rr
+
+    result = load("lathe_cold_start").main(tmp_path / "cold.rrd")
+    t, e = result["t"], result["resultant_um"]
+    assert e[0] == pytest.approx(65.0, abs=1.0)                       # seed 000: ~65 um cold
+    assert e[np.searchsorted(t, 2 * 3600)] == pytest.approx(10.0, abs=1.5)  # ~10 um after 2 h
+    assert np.all(np.abs(e[t > 3 * 3600] - e[-1]) < 0.5)              # and stays there
+    reader = rr.chunk.RrdReader(str(result["path"]))
+    arrows = [c.to_record_batch() for c in reader.stream() if c.entity_path == "/field/arrows"]
+    times = [v for b in arrows for v in b.column("time").to_pylist()]
+    assert len(times) == result["frames"] == 121
+    series = [c.to_record_batch() for c in reader.stream() if c.entity_path == "/thermal/resultant_um"]
+    assert sum(b.num_rows for b in series) == len(t)

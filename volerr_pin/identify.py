@@ -282,30 +282,64 @@ def _design(machine: Machine, obs: Observations, theta: np.ndarray, free: np.nda
     return pred, A
 
 
+def _column_scale(J: np.ndarray, rtol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """Column norms for scaling, and the columns scaled to unit norm; columns negligible
+    against the median (below ``rtol`` of it: rounding noise) are zeroed, not blown up."""
+    norms = np.linalg.norm(J, axis=0)
+    positive = norms[norms > 0]
+    floor = rtol * (np.median(positive) if positive.size else 1.0)
+    scale = np.where(norms > floor, norms, 1.0)
+    scaled = np.where(norms > floor, J / scale, 0.0)
+    return scale, scaled
+
+
+def _residual(machine: Machine, obs: Observations, theta: np.ndarray, nuisance: np.ndarray) -> np.ndarray:
+    """Weighted residual (y - model) / sigma."""
+    error = machine.volumetric_error(obs.q, theta, **obs.covariates)
+    pred = np.einsum("rk,rk->r", obs.w, error[obs.point])
+    return (obs.y - pred - obs.nuisance @ nuisance) / obs.sigma
+
+
 def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndarray,
            columns: np.ndarray | None, convention: str, max_iter: int, tol: float,
            step: Callable[[int], None] | None = None):
-    """Gauss-Newton on [nuisance | free[columns]]; returns theta, nuisance, J, r, iterations."""
+    """Gauss-Newton on [nuisance | free[columns]] with a backtracking line search (a step is
+    halved until the residual decreases and time constants and periods stay positive);
+    returns theta, nuisance, J, r, iterations."""
     theta = theta0.copy()
     n_nu = obs.nuisance.shape[1]
     nuisance = np.zeros(n_nu)
     use = np.arange(len(free)) if columns is None else columns
+    positive = np.array([k in set(machine.nonlinear_parameters) for k in free[use]], dtype=bool)
     sigma = obs.sigma
     it = 0
+    rcond = 1e-9 if convention == "min-norm" else None
     for it in range(1, max_iter + 1):
         pred, A = _design(machine, obs, theta, free)
         r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
         J = np.hstack([obs.nuisance, A[:, use]]) / sigma[:, None]
-        scale = np.linalg.norm(J, axis=0)
-        scale[scale == 0] = 1.0
-        rcond = 1e-9 if convention == "min-norm" else None
-        delta = np.linalg.lstsq(J / scale, r, rcond=rcond)[0] / scale
-        nuisance += delta[:n_nu]
-        theta[free[use]] += delta[n_nu:]
+        scale, Js = _column_scale(J)
+        delta = np.linalg.lstsq(Js, r, rcond=rcond)[0] / scale
+        rss = float(r @ r)
+        factor = 1.0
+        for _ in range(30):
+            trial_theta = theta.copy()
+            trial_theta[free[use]] += factor * delta[n_nu:]
+            trial_nu = nuisance + factor * delta[:n_nu]
+            if not np.all(trial_theta[free[use]][positive] > 0):
+                factor *= 0.5
+                continue
+            trial_r = _residual(machine, obs, trial_theta, trial_nu)
+            if float(trial_r @ trial_r) <= rss * (1 + 1e-12) + 1e-300:
+                break
+            factor *= 0.5
+        else:
+            break  # no step decreases the residual: at the minimum (to rounding)
+        theta, nuisance = trial_theta, trial_nu
         if step:
             step(it)
         # step size in units of the observations' standard deviations
-        if np.abs(delta * scale).max(initial=0.0) < tol:
+        if np.abs(factor * delta * scale).max(initial=0.0) < tol:
             break
     pred, A = _design(machine, obs, theta, free)
     r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
@@ -360,7 +394,7 @@ def identify(machine: Machine, data, *, terms=None, convention: str = "prior", f
         free = np.arange(len(machine.parameter_names))
     if free.size == 0:
         raise InputError(f"{machine.name} has no coefficients to fit")
-    theta0 = machine.theta
+    theta0 = _initialise_nonlinear(machine, obs, machine.theta, free, rtol, progress)
     pred, A = _design(machine, obs, theta0, free)
     J0 = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
     names = obs.nuisance_names + [machine.parameter_names[k] for k in free]
@@ -376,9 +410,7 @@ def identify(machine: Machine, data, *, terms=None, convention: str = "prior", f
     residual_sigma = float(np.sqrt(r @ r / dof)) if dof > 0 else math.nan
     uncertainty = np.full(len(theta), np.nan)
     if convention == "prior" and dof > 0:
-        scale = np.linalg.norm(J, axis=0)
-        scale[scale == 0] = 1.0
-        Js = J / scale
+        scale, Js = _column_scale(J)
         cov = np.linalg.pinv(Js.T @ Js) / np.outer(scale, scale) * residual_sigma**2
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
         uncertainty[free[kept_theta]] = std[n_nu:]
@@ -399,6 +431,45 @@ def identify(machine: Machine, data, *, terms=None, convention: str = "prior", f
         rms_holdout, how, obs.n_points, len(obs.y), iterations, convention, residual_sigma, groups,
         frozenset(n for c, n in enumerate(obs.nuisance_names)
                   if np.any(obs.angular[obs.nuisance[:, c] != 0])))
+
+
+def _initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray, free: np.ndarray,
+                          rtol: float = 1e-9, progress=None) -> np.ndarray:
+    """Variable projection by grid search: for each free non-linear coefficient (time
+    constant, period), try the candidates of its term's grid (and the prior value), fitting
+    the identifiable linear coefficients and nuisance terms for each, and keep the best. The
+    Gauss-Newton fit then refines all of them together."""
+    theta = theta.copy()
+    nonlinear = [k for k in machine.nonlinear_parameters if k in set(free.tolist())]
+    if not nonlinear:
+        return theta
+    linear = np.array([k for k in free if k not in set(nonlinear)], dtype=int)
+    n_nu = obs.nuisance.shape[1]
+    _, A = _design(machine, obs, theta, linear)
+    J = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
+    kept = analyse(J, [""] * J.shape[1], protected=n_nu, rtol=rtol).kept
+    cols = np.array(kept, dtype=int)
+    lin_cols = np.array([c - n_nu for c in kept if c >= n_nu], dtype=int)
+    for step, k in enumerate(nonlinear):
+        grid = np.r_[theta[k], machine.search_grid(k, theta, n=obs.n_points, **obs.covariates)]
+        best, best_rss = theta.copy(), math.inf
+        for value in grid:
+            trial = theta.copy()
+            trial[k] = value
+            pred, A = _design(machine, obs, trial, linear)
+            r = (obs.y - pred) / obs.sigma
+            J = (np.hstack([obs.nuisance, A]) / obs.sigma[:, None])[:, cols]
+            scale, Js = _column_scale(J)
+            delta = np.linalg.lstsq(Js, r, rcond=None)[0] / scale
+            rss = float(np.sum((r - J @ delta) ** 2))
+            if rss < best_rss:
+                best_rss = rss
+                best = trial.copy()
+                best[linear[lin_cols]] += delta[len(cols) - len(lin_cols):]
+        theta = best
+        if progress:
+            progress("non-linear start values", step + 1)
+    return theta
 
 
 def _cross_validate(machine, obs, theta0, free, columns, convention, folds, holdout, seed,

@@ -14,6 +14,7 @@ from . import kinematics as K
 from .errors import InputError, SpecError, URDFError
 from .spec import (DIRECTIONS, MachineSpec, axis_travel, component_name, load_spec,
                    spec_from_urdf)
+from .effects import add_lagged_temperatures
 from .terms import Context, Covariates
 from .urdf import URDF, Site, inject, load_urdf
 
@@ -126,6 +127,8 @@ class Machine:
             components.append(_Component(comp.name, comp.owner, index, model.idx_vs[jid],
                                          chain_sign(comp.name, f"error {comp.name}"), tuple(spans)))
         self._components = tuple(components)
+        self._lags = tuple(sorted({r for c in components for tspec, _ in c.terms
+                                   for r in tspec.term.lag_requests()}))
         self._names = tuple(names)
         self._param_column = np.array([c.column for c in components for _, span in c.terms
                                        for _ in range(span.start, span.stop)], dtype=int)
@@ -221,6 +224,26 @@ class Machine:
         other._theta.flags.writeable = False
         return other
 
+    @property
+    def nonlinear_parameters(self) -> tuple[int, ...]:
+        """Indices (into theta) of coefficients the model is not linear in (time constants,
+        periods)."""
+        return tuple(span.start + tspec.term.local_names.index(local)
+                     for comp in self._components for tspec, span in comp.terms
+                     for local in tspec.term.nonlinear)
+
+    def search_grid(self, index: int, theta=None, *, n: int, **covariates) -> np.ndarray:
+        """Candidate values of the non-linear coefficient ``index`` for a grid search, given
+        the ``n`` points' covariates (e.g. time constants spanning the recorded times)."""
+        theta = self._check_theta(theta)
+        for comp in self._components:
+            for tspec, span in comp.terms:
+                if span.start <= index < span.stop:
+                    cov = self.check_covariates(n, covariates)
+                    local = tspec.term.local_names[index - span.start]
+                    return tspec.term.search_grid(local, theta[span], cov)
+        raise InputError(f"no coefficient with index {index}")
+
     def term_info(self) -> list[dict]:
         """One entry per term: component, owner, kind, coefficient names."""
         out = []
@@ -294,6 +317,8 @@ class Machine:
         t = None if t is None else vector("t", t, (n,))
         temps = {}
         for sensor, values in dict(covariates.get("temperatures") or {}).items():
+            if "@" in str(sensor):
+                raise InputError(f"temperature sensor name {sensor!r}: '@' is reserved for lags")
             temps[str(sensor)] = vector(f"temperatures[{sensor!r}]", values, (n,))
         forces = covariates.get("forces")
         forces = None if forces is None else vector("forces", forces, (n, 3))
@@ -302,7 +327,7 @@ class Machine:
             directions = vector("directions", directions, (n, len(self.axes)))
             if not np.all(np.isin(directions, (-1.0, 1.0))):
                 raise InputError("covariate 'directions' must hold only +1 and -1")
-        return Covariates(n, t, temps, forces, directions)
+        return add_lagged_temperatures(Covariates(n, t, temps, forces, directions), self._lags)
 
     def joint_values(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
         """(N, nv) values of all Pinocchio joints (axes and error joints) at ``q``."""
@@ -311,10 +336,15 @@ class Machine:
         cov = self.check_covariates(q.shape[0], covariates)
         return self._joint_values(q, theta, cov).T
 
-    def _joint_values(self, q: np.ndarray, theta: np.ndarray, cov: Covariates) -> np.ndarray:
-        """(nv, N): one row per joint, points contiguous (the kernels' layout)."""
+    def _axis_values(self, q: np.ndarray) -> np.ndarray:
+        """(nv, N) joint values with every error joint at zero (the nominal machine)."""
         values = np.zeros((self._model.nv, q.shape[0]))
         values[self._axis_cols] = (q * self._axis_signs).T
+        return values
+
+    def _joint_values(self, q: np.ndarray, theta: np.ndarray, cov: Covariates) -> np.ndarray:
+        """(nv, N): one row per joint, points contiguous (the kernels' layout)."""
+        values = self._axis_values(q)
         components = self._component_values(q, theta, cov)
         for k, comp in enumerate(self._components):
             values[comp.column] += comp.chain_sign * components[k]
@@ -326,7 +356,7 @@ class Machine:
         for k, comp in enumerate(self._components):
             ctx = self._context(comp, q, cov)
             for tspec, span in comp.terms:
-                out[k] += tspec.term.basis(ctx) @ theta[span]
+                out[k] += tspec.term.value(theta[span], ctx)
         return out
 
     def component_values(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
@@ -405,18 +435,19 @@ class Machine:
             qb, cb = q[rows], cov.take(rows)
             values = self._joint_values(qb, theta, cb)
             # d v / d theta is one joint column per coefficient, scaled by the term's basis
-            K.error_sensitivity(self._chain, values, self._parameter_basis(qb, cb),
+            K.error_sensitivity(self._chain, values, self._parameter_jacobian(qb, theta, cb),
                                 self._param_column, out=out[rows])
         return out[0] if single else out
 
-    def _parameter_basis(self, q: np.ndarray, cov: Covariates) -> np.ndarray:
-        """(N, P): d (error-joint value) / d theta_p, i.e. chain sign times the term basis."""
-        basis = np.empty((q.shape[0], len(self._names)))
+    def _parameter_jacobian(self, q: np.ndarray, theta: np.ndarray, cov: Covariates) -> np.ndarray:
+        """(N, P): d (error-joint value) / d theta_p, i.e. chain sign times the term's
+        derivative with respect to its coefficient."""
+        out = np.empty((q.shape[0], len(self._names)))
         for comp in self._components:
             ctx = self._context(comp, q, cov)
             for tspec, span in comp.terms:
-                basis[:, span] = comp.chain_sign * tspec.term.basis(ctx)
-        return basis
+                out[:, span] = comp.chain_sign * tspec.term.jacobian(theta[span], ctx)
+        return out
 
     def component_sensitivity(self, q, theta=None, *, extrapolate: bool = False,
                               **covariates) -> np.ndarray:
@@ -445,7 +476,7 @@ class Machine:
         for start in range(0, q.shape[0], K.CHUNK):
             rows = slice(start, start + K.CHUNK)
             qb, cb = q[rows], cov.take(rows)
-            values = self._joint_values(qb, theta, cb)
+            values = self._axis_values(qb) if nominal else self._joint_values(qb, theta, cb)
             J = K.joint_jacobian(self._chain, values, self._model.nv, nominal=nominal)
             block = J[:, :, self._axis_cols] * self._axis_signs
             if not nominal:
@@ -453,7 +484,7 @@ class Machine:
                     if comp.axis_index is None:
                         continue
                     ctx = self._context(comp, qb, cb)
-                    slope = sum(tspec.term.basis_derivative(ctx) @ theta[span]
+                    slope = sum(tspec.term.position_slope(theta[span], ctx)
                                 for tspec, span in comp.terms)
                     block[:, :, comp.axis_index] += (comp.chain_sign * J[:, :, comp.column]
                                                      * slope[:, None])
@@ -469,15 +500,19 @@ class Machine:
 
     def _context(self, comp: _Component, q: np.ndarray, cov: Covariates) -> Context:
         if comp.axis_index is None:
-            return Context(None, None, cov)
-        return Context(q[:, comp.axis_index], tuple(self._travel[comp.axis_index]), cov)
+            return Context(None, None, cov, None, comp.name)
+        return Context(q[:, comp.axis_index], tuple(self._travel[comp.axis_index]), cov,
+                       comp.axis_index, comp.name)
 
     def tool_poses(self, q, theta=None, *, nominal: bool = False, extrapolate: bool = False,
                    **covariates) -> tuple[np.ndarray, np.ndarray]:
         """(N, 3, 3) rotations and (N, 3) positions [m] of the tool frame in the workpiece
-        frame, actual (default) or nominal."""
+        frame, actual (default) or nominal (which needs no covariates)."""
+        if nominal:
+            return K.relative_poses(self._chain, self._axis_values(self.check_q(q, extrapolate)),
+                                    with_errors=False)
         values = self.joint_values(q, theta, extrapolate=extrapolate, **covariates)
-        return K.relative_poses(self._chain, values.T, with_errors=not nominal)
+        return K.relative_poses(self._chain, values.T, with_errors=True)
 
     def pinocchio_configuration(self, q, theta=None, *, extrapolate: bool = False,
                                 **covariates) -> np.ndarray:

@@ -77,9 +77,11 @@ def read_table(path: str | Path) -> Table:
     """Read a comma-separated file with ``#`` comments; every data row must match the header."""
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8-sig")  # tolerate a byte-order mark
     except OSError as err:
         raise MeasurementError(f"{path}: cannot read: {err.strerror}") from None
+    except UnicodeDecodeError as err:
+        raise MeasurementError(f"{path}: not UTF-8 text ({err.reason} at byte {err.start})") from None
     header, header_line, rows, lines, meta = None, 0, [], [], {}
     for number, line in enumerate(text.splitlines(), start=1):
         stripped = line.strip()

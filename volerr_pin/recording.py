@@ -137,9 +137,11 @@ class FieldData:
     scale: float           # arrow magnification
 
 
-def evaluate_field(machine: Machine, q: np.ndarray, scale: float | None = None) -> FieldData:
-    """Volumetric error at ``q`` and the nominal tool points it belongs to."""
-    error = machine.volumetric_error(q)
+def evaluate_field(machine: Machine, q: np.ndarray, scale: float | None = None,
+                   **covariates) -> FieldData:
+    """Volumetric error at ``q`` (with the given covariates) and the nominal tool points it
+    belongs to."""
+    error = machine.volumetric_error(q, **covariates)
     _, positions = machine.tool_poses(q, nominal=True)
     if scale is None:
         extent = float(np.ptp(positions, axis=0).max()) if len(positions) > 1 else 1.0

@@ -174,10 +174,16 @@ def build_term(table: dict, where: str, quantity: str, position_quantity: str | 
     kind = table.get("kind")
     if kind not in T.KINDS:
         raise SpecError(f"{where}: 'kind' must be one of {', '.join(T.KINDS)}, got {kind!r}")
-    _unknown(table, TERM_KEYS[kind], where)
     prefix = table.get("prefix", "")
     if prefix and not NAME_RE.match(prefix):
         raise SpecError(f"{where}: prefix {prefix!r} is not a plain name")
+    if kind not in TERM_KEYS:
+        from .effects import build_effect
+
+        term, coefficients = build_effect(table, where, quantity, position_quantity, travel,
+                                          owner_is_axis=position_quantity is not None)
+        return TermSpec(prefix, term, coefficients)
+    _unknown(table, TERM_KEYS[kind], where)
     if kind != "constant" and position_quantity is None:
         raise SpecError(f"{where}: a {kind} term needs an axis position, but this component "
                         "belongs to a body without an axis (use kind = 'constant')")

@@ -49,6 +49,25 @@ def replace_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Mac
     return fresh.with_theta(theta)
 
 
+__all__ = ["add_terms", "legendre_terms", "replace_terms", "spec_document", "write_spec"]
+
+
+def add_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Machine:
+    """A new machine with extra terms: ``tables`` maps a component name to one term table
+    or a list of them (spec TOML form), added to that component's present terms (a new
+    component if it has none). Every coefficient keeps its present value."""
+    current = spec_document(machine)["errors"]
+    merged = {}
+    for name, extra in tables.items():
+        extra = [extra] if isinstance(extra, dict) else list(extra)
+        present = current.get(name)
+        if present is None:
+            merged[name] = extra
+        else:
+            merged[name] = (present["terms"] if "terms" in present else [present]) + extra
+    return replace_terms(machine, merged)
+
+
 def legendre_terms(machine: Machine, components, degree: int, start: int = 0) -> dict:
     """Legendre tables of ``degree`` for ``components`` whose coefficients reproduce the
     current component functions as closely as the degree allows (least squares over the
@@ -150,5 +169,3 @@ def _clean(value):
         return value.item()
     return value
 
-
-__all__ = ["ComponentSpec", "legendre_terms", "replace_terms", "spec_document", "write_spec"]

@@ -1,10 +1,13 @@
-"""Error terms: functions of an axis position (and, later, covariates) with named coefficients.
+"""Error terms: functions of an axis position and covariates with named coefficients.
 
-A component error (EXX, EC0Y, ...) is the sum of its terms. Every term here is linear
-in its coefficients, ``value = basis(context) @ coefficients``, which makes the
-sensitivities exact and cheap. Coefficients are SI (m or rad for the error; positions
-in m or rad). A term knows how to write itself back in the engineering units it was
-read in (:meth:`Term.to_spec`).
+A component error (EXX, EC0Y, ...) is the sum of its terms. A term gives its value, its
+derivative with respect to its coefficients (:meth:`Term.jacobian`) and with respect to the
+axis position (:meth:`Term.position_slope`). The geometric terms here are linear in their
+coefficients, ``value = basis(context) @ coefficients``; the effect terms of
+:mod:`volerr_pin.effects` (thermal, load, reversal, periodic) may have non-linear ones
+(time constants, periods), listed in :attr:`Term.nonlinear`. Coefficients are SI (m or rad
+for the error; positions in m or rad). A term writes itself back in the engineering units
+it was read in (:meth:`Term.to_spec`).
 """
 
 from __future__ import annotations
@@ -63,6 +66,8 @@ class Context:
     position: np.ndarray | None
     travel: tuple[float, float] | None
     covariates: Covariates
+    axis_index: int | None = None
+    component: str = ""
 
     @property
     def n(self) -> int:
@@ -70,15 +75,45 @@ class Context:
 
 
 class Term:
-    """Base class. Subclasses define ``local_names`` and :meth:`basis`."""
+    """Base class: a function of the context with named coefficients."""
 
     kind: str = ""
     local_names: tuple[str, ...] = ()
+    nonlinear: tuple[str, ...] = ()   # coefficients the value is not linear in
     needs_position: bool = True
 
     @property
     def size(self) -> int:
         return len(self.local_names)
+
+    def value(self, coefficients: np.ndarray, ctx: Context) -> np.ndarray:
+        """(N,) value of the term, SI."""
+        raise NotImplementedError
+
+    def jacobian(self, coefficients: np.ndarray, ctx: Context) -> np.ndarray:
+        """(N, P) derivative of the value with respect to the coefficients."""
+        raise NotImplementedError
+
+    def position_slope(self, coefficients: np.ndarray, ctx: Context) -> np.ndarray:
+        """(N,) derivative of the value with respect to the axis position."""
+        return np.zeros(ctx.n)
+
+    def search_grid(self, name: str, coefficients: np.ndarray, covariates: Covariates) -> np.ndarray:
+        """Candidate values of a non-linear coefficient for a grid search before a fit."""
+        return np.array([])
+
+    def lag_requests(self) -> tuple[tuple[str, float], ...]:
+        """(sensor, lag [s]) pairs whose delayed temperatures the term reads."""
+        return ()
+
+    def to_spec(self, coefficients: np.ndarray) -> dict:
+        """The term as a spec table, in the units it was read in."""
+        raise NotImplementedError
+
+
+class LinearTerm(Term):
+    """A term linear in its coefficients: subclasses define :meth:`basis` (and
+    :meth:`basis_derivative` when the basis depends on the axis position)."""
 
     def basis(self, ctx: Context) -> np.ndarray:
         """(N, P) matrix with ``value = basis @ coefficients``."""
@@ -86,14 +121,16 @@ class Term:
 
     def basis_derivative(self, ctx: Context) -> np.ndarray:
         """(N, P) derivative of :meth:`basis` with respect to the axis position."""
-        raise NotImplementedError
+        return np.zeros((ctx.n, self.size))
 
-    def value(self, coefficients: np.ndarray, ctx: Context) -> np.ndarray:
+    def value(self, coefficients, ctx):
         return self.basis(ctx) @ coefficients
 
-    def to_spec(self, coefficients: np.ndarray) -> dict:
-        """The term as a spec table, in the units it was read in."""
-        raise NotImplementedError
+    def jacobian(self, coefficients, ctx):
+        return self.basis(ctx)
+
+    def position_slope(self, coefficients, ctx):
+        return self.basis_derivative(ctx) @ coefficients
 
 
 def _check_position(term: Term, ctx: Context, where: str) -> np.ndarray:
@@ -104,7 +141,7 @@ def _check_position(term: Term, ctx: Context, where: str) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class Constant(Term):
+class Constant(LinearTerm):
     """A constant error; one coefficient ``c0``."""
 
     unit: str
@@ -124,7 +161,7 @@ class Constant(Term):
 
 
 @dataclass(frozen=True, eq=False)
-class Polynomial(Term):
+class Polynomial(LinearTerm):
     """Polynomial in the axis position.
 
     ``basis`` is "legendre" (P_k(u)) or "monomial" (u**k); ``over`` is "travel"
@@ -189,7 +226,7 @@ class Polynomial(Term):
 
 
 @dataclass(frozen=True, eq=False)
-class Table(Term):
+class Table(LinearTerm):
     """Values at target positions (as a laser interferometer measures them), interpolated.
 
     ``interpolation`` is "linear" or "cubic" (a cubic spline, ``boundary`` "not-a-knot" or
@@ -235,4 +272,5 @@ class Table(Term):
         return table
 
 
-KINDS = ("constant", "legendre", "monomial", "table")
+KINDS = ("constant", "legendre", "monomial", "table", "thermal_drift", "thermal_expansion",
+         "backlash", "force_deflection", "periodic_pitch")

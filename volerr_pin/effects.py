@@ -1,0 +1,599 @@
+"""Effect terms: thermal drift and expansion, backlash, force deflection, periodic pitch.
+
+Each is a :class:`~volerr_pin.terms.Term` of a component error, driven by covariates (time
+``t``, ``temperatures``, ``forces``, ``directions``) and, for some, the axis position. All
+give exact derivatives with respect to their coefficients (including the non-linear ones:
+time constants and periods) and to the axis position. Spec keys (units in the names) are
+documented in ``docs/spec-format.md``.
+
+Forms (value in the component's unit, SI inside):
+
+- ``thermal_drift``, driver ``time``: ``sum_k a_k g(t; tau_k)`` with
+  ``g = 1 - exp(-t / tau)`` for ``0 <= t <= t_stop`` (0 before t = 0) and
+  ``g = (1 - exp(-t_stop / tau)) exp(-(t - t_stop) / tau)`` after a stop at ``t_stop``
+  (cooling). Coefficients ``a1, tau1, a2, tau2, ...``.
+- ``thermal_drift``, driver ``temperature``: ``sum_s k_s (T_s(t - lag) - T_ref,s)``;
+  coefficients ``k_<sensor>``. A lag reads each sensor ``lag`` seconds earlier, from the
+  points' own time series (linear interpolation; the first sample holds before it).
+- ``thermal_expansion``, driver ``temperature``: ``alpha (T - T_ref) (q - q0)``, alpha in
+  1/K (coefficient ``alpha``); driver ``time`` (Srivastava et al.): ``(q - q0) sum_k
+  s_k (1 - exp(-t / tau_k))``, strains ``s_k``, coefficients ``s1, tau1, ...``.
+- ``backlash``: ``(b / 2) d`` with the axis' approach direction ``d = +-1`` (0 when no
+  directions are given: the mean of both); coefficient ``b``.
+- ``force_deflection``: ``F_i sum_k c_k P_k(u)``, a compliance (Legendre in the axis
+  position over its travel when more than one coefficient) times one force component;
+  coefficients ``c0, c1, ...``. ``model = "beam"`` computes c0 from seed 004's
+  simply-supported beam, ``b (L^2 - b^2)^1.5 / (9 sqrt(3) E I L)``; ``model = "torsion"``
+  from ``32 e a / (G pi d^4)``.
+- ``periodic_pitch``: ``sum_h s_h sin(2 pi h (q - q0) / p) + c_h cos(2 pi h (q - q0) / p)``;
+  coefficients ``s1, c1, s2, c2, ..., period``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.polynomial import legendre
+
+from .errors import InputError, SpecError
+from .terms import Context, Covariates, Term
+from .units import scale
+
+TIME = {"s": 1.0, "min": 60.0, "h": 3600.0}
+
+
+def _time_scale(unit: str, where: str) -> float:
+    if unit not in TIME:
+        raise SpecError(f"{where}: unknown time unit '{unit}' (use s, min or h)")
+    return TIME[unit]
+
+
+def _need_t(ctx: Context, kind: str) -> np.ndarray:
+    t = ctx.covariates.t
+    if t is None:
+        raise InputError(f"{ctx.component}: its {kind} term needs the covariate t (time, s)")
+    return t
+
+
+def _need_temperature(ctx: Context, sensor: str, lag: float = 0.0) -> np.ndarray:
+    key = sensor if lag == 0.0 else lagged_name(sensor, lag)
+    temps = ctx.covariates.temperatures
+    if key not in temps:
+        known = ", ".join(k for k in temps if "@" not in k) or "none"
+        raise InputError(f"{ctx.component}: this term needs the temperature of sensor '{sensor}' "
+                         f"(given: {known})")
+    return temps[key]
+
+
+def lagged_name(sensor: str, lag: float) -> str:
+    return f"{sensor}@{lag:g}s"
+
+
+def add_lagged_temperatures(cov: Covariates, requests) -> Covariates:
+    """Covariates with ``sensor@<lag>s`` entries: each sensor read ``lag`` s earlier along
+    the points' own time series (sorted by t; linear interpolation; before the first sample
+    the first value holds)."""
+    if not requests:
+        return cov
+    if cov.t is None:
+        raise InputError("a temperature lag needs the covariate t (time, s)")
+    order = np.argsort(cov.t, kind="stable")
+    times = cov.t[order]
+    temps = dict(cov.temperatures)
+    for sensor, lag in requests:
+        if sensor not in cov.temperatures:
+            raise InputError(f"a term reads sensor '{sensor}' {lag:g} s earlier, but no temperature "
+                             f"'{sensor}' is given")
+        temps[lagged_name(sensor, lag)] = np.interp(cov.t - lag, times, cov.temperatures[sensor][order])
+    return Covariates(cov.n, cov.t, temps, cov.forces, cov.directions)
+
+
+def _saturation(t: np.ndarray, tau: float, stop: float | None):
+    """g(t; tau) and dg/dtau for heating from t = 0 and cooling after ``stop``."""
+    t = np.asarray(t, dtype=float)
+    heat = np.clip(t, 0.0, None) if stop is None else np.clip(t, 0.0, stop)
+    e = np.exp(-heat / tau)
+    g = 1.0 - e
+    dg = -e * heat / tau**2
+    if stop is not None:
+        after = t > stop
+        if np.any(after):
+            dt = t[after] - stop
+            decay = np.exp(-dt / tau)
+            g_stop, dg_stop = g[after], dg[after]
+            g[after] = g_stop * decay
+            dg[after] = dg_stop * decay + g_stop * decay * dt / tau**2
+    return g, dg
+
+
+def _tau_grid(cov: Covariates) -> np.ndarray:
+    if cov.t is None or cov.t.size < 2:
+        return np.array([])
+    span = float(np.ptp(cov.t))
+    if span <= 0:
+        return np.array([])
+    return np.geomspace(span / 300.0, 3.0 * span, 48)
+
+
+@dataclass(frozen=True, eq=False)
+class DriftTime(Term):
+    unit: str
+    unit_scale: float
+    count: int
+    stop: float | None
+    time_unit: str
+    kind = "thermal_drift"
+    needs_position = False
+
+    @property
+    def local_names(self):  # type: ignore[override]
+        return tuple(n for k in range(1, self.count + 1) for n in (f"a{k}", f"tau{k}"))
+
+    @property
+    def nonlinear(self):  # type: ignore[override]
+        return tuple(f"tau{k}" for k in range(1, self.count + 1))
+
+    def value(self, c, ctx):
+        t = _need_t(ctx, "thermal_drift")
+        return sum(c[2 * k] * _saturation(t, c[2 * k + 1], self.stop)[0] for k in range(self.count))
+
+    def jacobian(self, c, ctx):
+        t = _need_t(ctx, "thermal_drift")
+        out = np.empty((ctx.n, 2 * self.count))
+        for k in range(self.count):
+            g, dg = _saturation(t, c[2 * k + 1], self.stop)
+            out[:, 2 * k] = g
+            out[:, 2 * k + 1] = c[2 * k] * dg
+        return out
+
+    def search_grid(self, name, c, cov):
+        return _tau_grid(cov)
+
+    def to_spec(self, c):
+        table = {"kind": "thermal_drift", "driver": "time",
+                 f"amplitudes_{self.unit}": [float(c[2 * k] / self.unit_scale) for k in range(self.count)],
+                 f"time_constants_{self.time_unit}": [float(c[2 * k + 1] / TIME[self.time_unit])
+                                                      for k in range(self.count)]}
+        if self.stop is not None:
+            table[f"stop_{self.time_unit}"] = float(self.stop / TIME[self.time_unit])
+        return table
+
+
+@dataclass(frozen=True, eq=False)
+class DriftTemperature(Term):
+    unit: str
+    unit_scale: float
+    sensors: tuple[str, ...]
+    reference: tuple[float, ...]
+    lag: float
+    kind = "thermal_drift"
+    needs_position = False
+
+    @property
+    def local_names(self):  # type: ignore[override]
+        return tuple(f"k_{s}" for s in self.sensors)
+
+    def lag_requests(self):
+        return tuple((s, self.lag) for s in self.sensors) if self.lag else ()
+
+    def jacobian(self, c, ctx):
+        return np.column_stack([_need_temperature(ctx, s, self.lag) - ref
+                                for s, ref in zip(self.sensors, self.reference)])
+
+    def value(self, c, ctx):
+        return self.jacobian(c, ctx) @ c
+
+    def to_spec(self, c):
+        table = {"kind": "thermal_drift", "driver": "temperature", "sensors": list(self.sensors),
+                 f"coefficients_{self.unit}_per_K": [float(v / self.unit_scale) for v in c],
+                 "reference_degC": list(self.reference)}
+        if self.lag:
+            table["lag_s"] = self.lag
+        return table
+
+
+@dataclass(frozen=True, eq=False)
+class ExpansionTemperature(Term):
+    sensor: str
+    reference: float
+    origin: float
+    kind = "thermal_expansion"
+
+    local_names = ("alpha",)
+
+    def _parts(self, ctx):
+        return _need_temperature(ctx, self.sensor) - self.reference, ctx.position - self.origin
+
+    def value(self, c, ctx):
+        dT, dq = self._parts(ctx)
+        return c[0] * dT * dq
+
+    def jacobian(self, c, ctx):
+        dT, dq = self._parts(ctx)
+        return (dT * dq)[:, None]
+
+    def position_slope(self, c, ctx):
+        dT, _ = self._parts(ctx)
+        return c[0] * dT
+
+    def to_spec(self, c):
+        return {"kind": "thermal_expansion", "driver": "temperature", "sensor": self.sensor,
+                "coefficient_ppm_per_K": float(c[0] * 1e6), "reference_degC": self.reference,
+                "origin_mm": self.origin * 1e3}
+
+
+@dataclass(frozen=True, eq=False)
+class ExpansionTime(Term):
+    count: int
+    origin: float
+    time_unit: str
+    kind = "thermal_expansion"
+
+    @property
+    def local_names(self):  # type: ignore[override]
+        return tuple(n for k in range(1, self.count + 1) for n in (f"s{k}", f"tau{k}"))
+
+    @property
+    def nonlinear(self):  # type: ignore[override]
+        return tuple(f"tau{k}" for k in range(1, self.count + 1))
+
+    def _strain(self, c, ctx):
+        t = _need_t(ctx, "thermal_expansion")
+        strain = np.zeros(ctx.n)
+        parts = []
+        for k in range(self.count):
+            g, dg = _saturation(t, c[2 * k + 1], None)
+            strain += c[2 * k] * g
+            parts.append((g, c[2 * k] * dg))
+        return strain, parts
+
+    def value(self, c, ctx):
+        return self._strain(c, ctx)[0] * (ctx.position - self.origin)
+
+    def jacobian(self, c, ctx):
+        _, parts = self._strain(c, ctx)
+        dq = ctx.position - self.origin
+        return np.column_stack([col * dq for g, dg in parts for col in (g, dg)])
+
+    def position_slope(self, c, ctx):
+        return self._strain(c, ctx)[0]
+
+    def search_grid(self, name, c, cov):
+        return _tau_grid(cov)
+
+    def to_spec(self, c):
+        return {"kind": "thermal_expansion", "driver": "time",
+                "strains_ppm": [float(c[2 * k] * 1e6) for k in range(self.count)],
+                f"time_constants_{self.time_unit}": [float(c[2 * k + 1] / TIME[self.time_unit])
+                                                     for k in range(self.count)],
+                "origin_mm": self.origin * 1e3}
+
+
+@dataclass(frozen=True, eq=False)
+class Backlash(Term):
+    unit: str
+    unit_scale: float
+    kind = "backlash"
+    local_names = ("b",)
+
+    def _direction(self, ctx):
+        d = ctx.covariates.directions
+        if d is None or ctx.axis_index is None:
+            return np.zeros(ctx.n)
+        return d[:, ctx.axis_index]
+
+    def value(self, c, ctx):
+        return 0.5 * c[0] * self._direction(ctx)
+
+    def jacobian(self, c, ctx):
+        return (0.5 * self._direction(ctx))[:, None]
+
+    def to_spec(self, c):
+        return {"kind": "backlash", f"reversal_{self.unit}": float(c[0] / self.unit_scale)}
+
+
+@dataclass(frozen=True, eq=False)
+class ForceDeflection(Term):
+    unit: str
+    unit_scale: float
+    force: int
+    degree: int
+    travel: tuple[float, float] | None
+    model: dict | None = None
+    kind = "force_deflection"
+
+    @property
+    def local_names(self):  # type: ignore[override]
+        return tuple(f"c{k}" for k in range(self.degree + 1))
+
+    @property
+    def needs_position(self):  # type: ignore[override]
+        return self.degree > 0
+
+    def _force(self, ctx):
+        F = ctx.covariates.forces
+        if F is None:
+            raise InputError(f"{ctx.component}: this term needs the covariate forces (N, 3) [N]")
+        return F[:, self.force]
+
+    def _basis(self, ctx):
+        if self.degree == 0:
+            return np.ones((ctx.n, 1)), np.zeros((ctx.n, 1))
+        lo, hi = self.travel
+        u = (2.0 * ctx.position - lo - hi) / (hi - lo)
+        V = legendre.legvander(u, self.degree)
+        dV = np.zeros_like(V)
+        for k in range(1, self.degree + 1):
+            e = np.zeros(k + 1)
+            e[k] = 1.0
+            dV[:, k] = legendre.legval(u, legendre.legder(e)) * 2.0 / (hi - lo)
+        return V, dV
+
+    def jacobian(self, c, ctx):
+        return self._basis(ctx)[0] * self._force(ctx)[:, None]
+
+    def value(self, c, ctx):
+        return self.jacobian(c, ctx) @ c
+
+    def position_slope(self, c, ctx):
+        return (self._basis(ctx)[1] @ c) * self._force(ctx)
+
+    def to_spec(self, c):
+        table = {"kind": "force_deflection", "force": "xyz"[self.force],
+                 f"compliance_{self.unit}_per_N": [float(v / self.unit_scale) for v in c]}
+        if self.model is not None and self.degree == 0 and math.isclose(
+                c[0], self.model["compliance"], rel_tol=1e-12):
+            table = {"kind": "force_deflection", "force": "xyz"[self.force], **self.model["keys"]}
+        return table
+
+
+@dataclass(frozen=True, eq=False)
+class PeriodicPitch(Term):
+    unit: str
+    unit_scale: float
+    harmonics: int
+    origin: float
+    position_unit: str
+    position_scale: float
+    kind = "periodic_pitch"
+
+    @property
+    def local_names(self):  # type: ignore[override]
+        return tuple(n for h in range(1, self.harmonics + 1) for n in (f"s{h}", f"c{h}")) + ("period",)
+
+    nonlinear = ("period",)
+
+    def _phase(self, c, ctx):
+        p = c[-1]
+        h = np.arange(1, self.harmonics + 1)
+        return 2.0 * np.pi * np.outer(ctx.position - self.origin, h) / p, h, p
+
+    def value(self, c, ctx):
+        phi, _, _ = self._phase(c, ctx)
+        return np.sin(phi) @ c[0:-1:2] + np.cos(phi) @ c[1:-1:2]
+
+    def jacobian(self, c, ctx):
+        phi, h, p = self._phase(c, ctx)
+        out = np.empty((ctx.n, self.size))
+        out[:, 0:-1:2] = np.sin(phi)
+        out[:, 1:-1:2] = np.cos(phi)
+        dphase = (np.cos(phi) * c[0:-1:2] - np.sin(phi) * c[1:-1:2])  # d value / d phi_h
+        out[:, -1] = -(dphase * phi).sum(axis=1) / p
+        return out
+
+    def position_slope(self, c, ctx):
+        phi, h, p = self._phase(c, ctx)
+        return (np.cos(phi) * c[0:-1:2] - np.sin(phi) * c[1:-1:2]) @ (2.0 * np.pi * h / p)
+
+    def search_grid(self, name, c, cov):
+        return c[-1] * np.linspace(0.7, 1.3, 61)
+
+    def to_spec(self, c):
+        return {"kind": "periodic_pitch",
+                f"period_{self.position_unit}": float(c[-1] / self.position_scale),
+                f"sine_{self.unit}": [float(v / self.unit_scale) for v in c[0:-1:2]],
+                f"cosine_{self.unit}": [float(v / self.unit_scale) for v in c[1:-1:2]],
+                f"origin_{self.position_unit}": float(self.origin / self.position_scale)}
+
+
+EFFECT_KEYS = {
+    ("thermal_drift", "time"): {"kind", "driver", "amplitudes", "time_constants", "stop", "prefix"},
+    ("thermal_drift", "temperature"): {"kind", "driver", "sensors", "coefficients", "reference_degC",
+                                       "lag_s", "prefix"},
+    ("thermal_expansion", "temperature"): {"kind", "driver", "sensor", "coefficient_per_K",
+                                           "coefficient_ppm_per_K", "reference_degC", "origin", "prefix"},
+    ("thermal_expansion", "time"): {"kind", "driver", "strains_ppm", "time_constants", "origin", "prefix"},
+    ("backlash", None): {"kind", "reversal", "prefix"},
+    ("force_deflection", None): {"kind", "force", "compliance", "model", "E_GPa", "G_GPa", "d", "I_mm4",
+                                 "L", "b", "e", "a", "prefix"},
+    ("periodic_pitch", None): {"kind", "period", "sine", "cosine", "origin", "prefix"},
+}
+
+
+def _stem(key: str) -> str:
+    """Key without its unit suffix(es): ``coefficients_um_per_K`` -> ``coefficients``."""
+    for suffix in ("_um_per_K", "_nm_per_K", "_mm_per_K", "_m_per_K", "_arcsec_per_K", "_urad_per_K",
+                   "_rad_per_K", "_um_per_N", "_nm_per_N", "_mm_per_N", "_m_per_N", "_arcsec_per_N",
+                   "_urad_per_N", "_rad_per_N"):
+        if key.endswith(suffix):
+            return key[: -len(suffix)]
+    if key in EXACT_KEYS:
+        return key
+    stem, sep, unit = key.rpartition("_")
+    if sep and unit in ("um", "nm", "mm", "m", "arcsec", "urad", "mrad", "rad", "deg", "s", "min", "h"):
+        return stem
+    return key
+
+
+EXACT_KEYS = ("E_GPa", "G_GPa", "I_mm4", "reference_degC", "lag_s", "strains_ppm",
+              "coefficient_per_K", "coefficient_ppm_per_K")
+
+
+def _find(table: dict, stem: str, where: str, required: bool = True):
+    """The key of ``stem`` with its unit suffix (``amplitudes_um``), and its value."""
+    if stem in EXACT_KEYS:
+        hits = [k for k in table if k == stem]
+    else:
+        hits = [k for k in table if k != stem and _stem(k) == stem]
+    if len(hits) > 1:
+        raise SpecError(f"{where}: both {hits[0]} and {hits[1]} given")
+    if not hits:
+        if stem in table:
+            raise SpecError(f"{where}: key '{stem}' needs a unit suffix, e.g. '{stem}_mm'")
+        if required:
+            raise SpecError(f"{where}: missing '{stem}_<unit>'")
+        return None, None
+    return table[hits[0]], hits[0]
+
+
+def _unit_of(key: str, stem: str) -> str:
+    rest = key[len(stem) + 1:]
+    return rest.split("_per_")[0]
+
+
+def _list(value, where, count=None):
+    try:
+        arr = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise SpecError(f"{where}: expected numbers, got {value!r}") from None
+    if not np.all(np.isfinite(arr)) or (count is not None and arr.size != count):
+        raise SpecError(f"{where}: expected {count or 'some'} finite numbers, got {value!r}")
+    return arr
+
+
+def build_effect(table: dict, where: str, quantity: str, position_quantity: str | None,
+                 travel: tuple[float, float] | None, owner_is_axis: bool):
+    """Build an effect term from its spec table; returns (term, SI coefficients)."""
+    kind = table["kind"]
+    driver = table.get("driver") if kind in ("thermal_drift", "thermal_expansion") else None
+    if kind in ("thermal_drift", "thermal_expansion") and driver not in ("time", "temperature"):
+        raise SpecError(f"{where}: {kind} needs driver = 'time' or 'temperature', got {driver!r}")
+    allowed = EFFECT_KEYS[(kind, driver)]
+    unknown = sorted(k for k in table if _stem(k) not in allowed)
+    if unknown:
+        raise SpecError(f"{where}: unknown key(s) {', '.join(unknown)} for {kind}"
+                        + (f" driven by {driver}" if driver else ""))
+    if kind in ("thermal_expansion", "backlash", "periodic_pitch") and not owner_is_axis:
+        raise SpecError(f"{where}: a {kind} term belongs to a component error of an axis")
+    if kind in ("thermal_expansion", "periodic_pitch") and (quantity != "length" or position_quantity != "length"):
+        raise SpecError(f"{where}: a {kind} term is a length error of a linear axis")
+
+    def value_unit(stem):
+        value, key = _find(table, stem, where)
+        unit = _unit_of(key, stem)
+        return value, unit, scale(unit, quantity, f"{where}.{key}"), key
+
+    if kind == "thermal_drift" and driver == "time":
+        amps, unit, factor, akey = value_unit("amplitudes")
+        taus, tkey = _find(table, "time_constants", where)
+        tunit = _unit_of(tkey, "time_constants")
+        tscale = _time_scale(tunit, f"{where}.{tkey}")
+        amps = _list(amps, f"{where}.{akey}")
+        taus = _list(taus, f"{where}.{tkey}", amps.size) * tscale
+        if np.any(taus <= 0):
+            raise SpecError(f"{where}.{tkey}: time constants must be positive")
+        stop, skey = _find(table, "stop", where, required=False)
+        stop = None if stop is None else float(_list(stop, f"{where}.{skey}", 1)[0]) * _time_scale(
+            _unit_of(skey, "stop"), f"{where}.{skey}")
+        coefs = np.ravel(np.column_stack([amps * factor, taus]))
+        return DriftTime(unit, factor, amps.size, stop, tunit), coefs
+    if kind == "thermal_drift":
+        sensors = table.get("sensors")
+        if not isinstance(sensors, list) or not sensors or not all(isinstance(s, str) for s in sensors):
+            raise SpecError(f"{where}.sensors: expected a list of sensor names")
+        coef, unit, factor, ckey = value_unit("coefficients")
+        coef = _list(coef, f"{where}.{ckey}", len(sensors)) * factor
+        ref = _list(table.get("reference_degC", 20.0), f"{where}.reference_degC")
+        ref = np.broadcast_to(ref, (len(sensors),)) if ref.size == 1 else _list(ref, f"{where}.reference_degC", len(sensors))
+        lag = float(table.get("lag_s", 0.0))
+        if lag < 0:
+            raise SpecError(f"{where}.lag_s: must be >= 0")
+        return DriftTemperature(unit, factor, tuple(sensors), tuple(float(r) for r in ref), lag), coef
+    origin, okey = _find(table, "origin", where, required=False)
+    origin = 0.0 if origin is None else float(_list(origin, f"{where}.{okey}", 1)[0]) * scale(
+        _unit_of(okey, "origin"), "length", f"{where}.{okey}")
+    if kind == "thermal_expansion" and driver == "temperature":
+        sensor = table.get("sensor")
+        if not isinstance(sensor, str):
+            raise SpecError(f"{where}.sensor: expected a sensor name")
+        if ("coefficient_per_K" in table) == ("coefficient_ppm_per_K" in table):
+            raise SpecError(f"{where}: give one of coefficient_per_K or coefficient_ppm_per_K")
+        alpha = float(table.get("coefficient_per_K", 0.0)) + float(table.get("coefficient_ppm_per_K", 0.0)) * 1e-6
+        return (ExpansionTemperature(sensor, float(table.get("reference_degC", 20.0)), origin),
+                np.array([alpha]))
+    if kind == "thermal_expansion":
+        strains = _list(table.get("strains_ppm"), f"{where}.strains_ppm")
+        taus, tkey = _find(table, "time_constants", where)
+        tunit = _unit_of(tkey, "time_constants")
+        taus = _list(taus, f"{where}.{tkey}", strains.size) * _time_scale(tunit, f"{where}.{tkey}")
+        return ExpansionTime(strains.size, origin, tunit), np.ravel(np.column_stack([strains * 1e-6, taus]))
+    if kind == "backlash":
+        b, unit, factor, key = value_unit("reversal")
+        return Backlash(unit, factor), np.array([float(_list(b, f"{where}.{key}", 1)[0]) * factor])
+    if kind == "force_deflection":
+        force = table.get("force")
+        if force not in ("x", "y", "z"):
+            raise SpecError(f"{where}.force: must be 'x', 'y' or 'z', got {force!r}")
+        model = table.get("model")
+        if model is not None:
+            c0, keys = _structural_model(table, model, quantity, where)
+            unit = "um" if quantity == "length" else "urad"
+            return (ForceDeflection(unit, scale(unit, quantity, where), "xyz".index(force), 0, None,
+                                    {"compliance": c0, "keys": keys}), np.array([c0]))
+        comp, key = _find(table, "compliance", where)
+        unit = _unit_of(key, "compliance")
+        factor = scale(unit, quantity, f"{where}.{key}")
+        comp = _list(comp, f"{where}.{key}") * factor
+        if comp.size > 1 and (travel is None or not owner_is_axis):
+            raise SpecError(f"{where}: a position-dependent compliance needs an axis with a travel")
+        return ForceDeflection(unit, factor, "xyz".index(force), comp.size - 1, travel), comp
+    # periodic_pitch
+    period, pkey = _find(table, "period", where)
+    punit = _unit_of(pkey, "period")
+    pscale = scale(punit, "length", f"{where}.{pkey}")
+    period = float(_list(period, f"{where}.{pkey}", 1)[0]) * pscale
+    if period <= 0:
+        raise SpecError(f"{where}.{pkey}: the period must be positive")
+    sines, unit, factor, skey = value_unit("sine")
+    cosines, cunit, cfactor, ckey = value_unit("cosine")
+    sines = _list(sines, f"{where}.{skey}")
+    cosines = _list(cosines, f"{where}.{ckey}", sines.size)
+    coefs = np.r_[np.ravel(np.column_stack([sines * factor, cosines * cfactor])), period]
+    return PeriodicPitch(unit, factor, sines.size, origin, punit, pscale), coefs
+
+
+def _structural_model(table, model, quantity, where):
+    """Compliance [m/N or rad/N] from seed 004's beam and torsion formulas."""
+    def length(key):
+        value, k = _find(table, key, where)
+        return float(_list(value, f"{where}.{k}", 1)[0]) * scale(_unit_of(k, key), "length", f"{where}.{k}")
+
+    keys = {"model": model}
+    if model == "beam":
+        if quantity != "length":
+            raise SpecError(f"{where}: the beam model gives a deflection (a length error)")
+        E = float(table.get("E_GPa", math.nan)) * 1e9
+        L, b = length("L"), length("b")
+        if "I_mm4" in table:
+            I = float(table["I_mm4"]) * 1e-12
+            keys["I_mm4"] = table["I_mm4"]
+        else:
+            d = length("d")
+            I = math.pi * d**4 / 64.0
+            keys.update({k: table[k] for k in table if _stem(k) == "d"})
+        if not (E > 0 and L > 0 and 0 < b < L and I > 0):
+            raise SpecError(f"{where}: beam model needs E_GPa > 0, L > b > 0 and a positive I or d")
+        keys.update({k: table[k] for k in table if _stem(k) in ("L", "b")} | {"E_GPa": table["E_GPa"]})
+        return b * (L**2 - b**2) ** 1.5 / (9.0 * math.sqrt(3.0) * E * I * L), keys
+    if model == "torsion":
+        if quantity != "angle":
+            raise SpecError(f"{where}: the torsion model gives an angle (an angular error)")
+        G = float(table.get("G_GPa", math.nan)) * 1e9
+        d, e, a = length("d"), length("e"), length("a")
+        if not (G > 0 and d > 0):
+            raise SpecError(f"{where}: torsion model needs G_GPa > 0 and d > 0")
+        keys.update({k: table[k] for k in table if _stem(k) in ("d", "e", "a")} | {"G_GPa": table["G_GPa"]})
+        return 32.0 * e * a / (G * math.pi * d**4), keys
+    raise SpecError(f"{where}.model: must be 'beam' or 'torsion', got {model!r}")

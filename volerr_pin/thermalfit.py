@@ -1,0 +1,222 @@
+"""Thermal error models fitted to sensor time series (``volerr thermal-fit``).
+
+Methods:
+
+- ``linear`` with ``lag`` K: K = 0 is the static model ``target(t) ~ 1 + sensors(t)`` (what a
+  compensation can use online); K >= 1 the one-step-ahead model
+  ``target(t) ~ 1 + sensors(t-1) + target(t-1) + ... + target(t-K)``. Lags never cross
+  from one file (batch) into the next.
+- ``gm11``: GM(1,1) on the target alone; fitted values and held-out forecasts from its
+  time response.
+- ``gm1n``: GM(1,N) with the sensors as driving series; predictions one step ahead from its
+  grey difference equation (the measured target history up to t-1 and the sensors at t),
+  the same information as the linear model with lag 1. (Simulating the recursion from the
+  first value alone is unstable over long series: ``GM1N.simulate``.)
+- ``vwgm1n``: the variable-weight GM(1,N) (background weight chosen on the fitted rows).
+
+Fit statistics are in the unit of the target column: ``r2`` and ``residual_se`` (RSS / (n - p))
+on the fitted rows; ``rmse_holdout`` on the last ``holdout`` fraction of the rows, or on
+separate test files.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .measurements import MeasurementError, read_table
+from .thermal import GM11, GM1N
+
+METHODS = ("linear", "gm11", "gm1n", "vwgm1n")
+
+
+@dataclass(frozen=True)
+class SeriesData:
+    """Numeric columns of one or more files, rows in time order; ``batch`` (n,) file index."""
+
+    sources: tuple[str, ...]
+    columns: dict
+    batch: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return len(self.batch)
+
+
+def read_series(paths) -> SeriesData:
+    """Read numeric CSV files with the same header (a byte-order mark is tolerated)."""
+    paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
+    if not paths:
+        raise InputError("no data files")
+    header, blocks, batch = None, [], []
+    for i, path in enumerate(paths):
+        table = read_table(path)
+        if header is None:
+            header = table.header
+        elif table.header != header:
+            raise MeasurementError(f"{table.path}:{table.header_line}: columns differ from {paths[0]}")
+        blocks.append(np.column_stack([table.column(c) for c in range(len(header))]))
+        batch.append(np.full(len(table.rows), i))
+    values = np.vstack(blocks)
+    return SeriesData(tuple(str(p) for p in paths), {h: values[:, j] for j, h in enumerate(header)},
+                      np.concatenate(batch))
+
+
+def _design(data: SeriesData, target: str, sensors: list[str], lag: int):
+    """Rows usable for the linear model and its regressor matrix (constant first)."""
+    y = data.columns[target]
+    rows, X = [], []
+    for b in np.unique(data.batch):
+        idx = np.flatnonzero(data.batch == b)
+        for j in range(lag, len(idx)):
+            t = idx[j]
+            source = idx[j - 1] if lag else t
+            features = [1.0] + [data.columns[s][source] for s in sensors]
+            features += [y[idx[j - k]] for k in range(1, lag + 1)]
+            rows.append(t)
+            X.append(features)
+    return np.array(rows, dtype=int), np.array(X, dtype=float).reshape(len(rows), 1 + len(sensors) + lag)
+
+
+def _stats(y, yhat, p):
+    resid = y - yhat
+    rss = float(resid @ resid)
+    tss = float(((y - y.mean()) ** 2).sum())
+    n = len(y)
+    return {"r2": 1.0 - rss / tss if tss > 0 else math.nan,
+            "residual_se": math.sqrt(rss / (n - p)) if n > p else math.nan}
+
+
+def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, method: str = "linear",
+                holdout: float = 0.0, test: SeriesData | None = None, rank_top: int = 5) -> dict:
+    """Fit a thermal model; returns the CONTRACT fields plus ``coefficients``, ``sensor_ranking``
+    and the predictions (``fitted``, ``predicted_holdout``)."""
+    if target not in data.columns:
+        raise InputError(f"--target: no column '{target}' (columns: {', '.join(data.columns)})")
+    if method not in METHODS:
+        raise InputError(f"--method must be one of {', '.join(METHODS)}, got {method!r}")
+    sensors = [c for c in data.columns if c != target] if not sensors else list(sensors)
+    unknown = [s for s in sensors if s not in data.columns]
+    if unknown:
+        raise InputError(f"--sensors: no column(s) {', '.join(unknown)}")
+    if target in sensors:
+        raise InputError(f"--sensors: the target '{target}' cannot also be a sensor")
+    if lag < 0:
+        raise InputError(f"--lag must be >= 0, got {lag}")
+    if not 0.0 <= holdout < 1.0:
+        raise InputError(f"--holdout must be a fraction in [0, 1), got {holdout}")
+    if test is not None and holdout:
+        raise InputError("give either --holdout or test files, not both")
+    if test is not None and list(test.columns) != list(data.columns):
+        raise InputError("the test files' columns differ from the data files'")
+    # the fit set and the held-out set, in time order
+    if test is not None:
+        fit_data, held = data, test
+    else:
+        n_hold = int(round(holdout * data.n))
+        cut = data.n - n_hold
+        fit_data = _slice(data, slice(0, cut))
+        held = _slice(data, slice(cut, data.n)) if n_hold else None
+    result = {"target": target, "method": method, "sensors": sensors,
+              "lag": lag if method == "linear" else None}
+    if method == "linear":
+        rows, X = _design(fit_data, target, sensors, lag)
+        y = fit_data.columns[target][rows]
+        if len(rows) <= X.shape[1]:
+            raise InputError(f"{len(rows)} usable rows for {X.shape[1]} coefficients")
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        fitted = X @ coef
+        result.update({"n_fit": int(len(rows)), **_stats(y, fitted, X.shape[1])})
+        names = ["constant"] + [f"{s}(t-1)" if lag else s for s in sensors] + \
+                [f"{target}(t-{k})" for k in range(1, lag + 1)]
+        result["coefficients"] = dict(zip(names, (float(c) for c in coef)))
+        if held is not None:
+            hrows, hX = _design(_join(fit_data, held) if test is None else held, target, sensors, lag)
+            if test is None:  # one-step predictions may use the last fitted rows as history
+                keep = hrows >= fit_data.n
+                hrows, hX = hrows[keep] - fit_data.n, hX[keep]
+            pred = hX @ coef
+            actual = held.columns[target][hrows]
+            result.update({"n_holdout": int(len(hrows)),
+                           "rmse_holdout": float(np.sqrt(np.mean((actual - pred) ** 2))) if len(hrows) else None})
+            result["predicted_holdout"] = pred.tolist()
+        result["sensor_ranking"] = _rank_sensors(fit_data, target, sensors, lag, rank_top)
+        result["fitted"] = fitted.tolist()
+    else:
+        y = fit_data.columns[target]
+        if method == "gm11":
+            model = GM11.fit(y)
+            fitted = model.predict(len(y))
+            result.update({"n_fit": int(len(y)), **_stats(y, fitted, 2)})
+            result["coefficients"] = {"a": model.a, "b": model.b, "shift": model.shift}
+            if held is not None:
+                if test is not None:
+                    raise InputError("gm11 forecasts the same series; use --holdout, not test files")
+                pred = model.predict(len(y) + held.n)[len(y):]
+                result.update({"n_holdout": held.n, "rmse_holdout": float(np.sqrt(np.mean(
+                    (held.columns[target] - pred) ** 2)))})
+                result["predicted_holdout"] = pred.tolist()
+        else:
+            X = np.column_stack([fit_data.columns[s] for s in sensors])
+            model = GM1N.fit(y, X, lam=None if method == "vwgm1n" else 0.5, batches=fit_data.batch)
+            fitted = _one_step(model, fit_data, target, sensors)
+            result.update({"n_fit": int(len(y)), **_stats(y, fitted, 1 + len(sensors))})
+            result["coefficients"] = {"a": model.a, "lambda": model.lam,
+                                      **{f"b_{s}": float(b) for s, b in zip(sensors, model.b)}}
+            if held is not None:
+                if test is None:
+                    pred = _one_step(model, _join(fit_data, held), target, sensors)[fit_data.n:]
+                else:
+                    pred = _one_step(model, held, target, sensors)
+                result.update({"n_holdout": held.n, "rmse_holdout": float(np.sqrt(np.mean(
+                    (held.columns[target] - pred) ** 2)))})
+                result["predicted_holdout"] = pred.tolist()
+        result["fitted"] = fitted.tolist()
+        result["sensor_ranking"] = _rank_sensors(fit_data, target, sensors, 0, rank_top)
+    result.setdefault("n_holdout", 0)
+    result.setdefault("rmse_holdout", None)
+    return result
+
+
+def _one_step(model: GM1N, data: SeriesData, target: str, sensors) -> np.ndarray:
+    """GM(1,N) one-step-ahead predictions per batch (accumulation restarts in each batch)."""
+    out = np.empty(data.n)
+    for b in np.unique(data.batch):
+        idx = np.flatnonzero(data.batch == b)
+        X = np.column_stack([data.columns[s][idx] for s in sensors])
+        out[idx] = model.one_step(data.columns[target][idx], X)
+    return out
+
+
+def _slice(data: SeriesData, rows: slice) -> SeriesData:
+    return SeriesData(data.sources, {k: v[rows] for k, v in data.columns.items()}, data.batch[rows])
+
+
+def _join(a: SeriesData, b: SeriesData) -> SeriesData:
+    return SeriesData(a.sources, {k: np.r_[a.columns[k], b.columns[k]] for k in a.columns},
+                      np.r_[a.batch, b.batch])
+
+
+def _rank_sensors(data: SeriesData, target: str, sensors, lag: int, top: int) -> list[dict]:
+    """Greedy forward selection: the sensors that, added one by one to the model with the
+    target lags (if any), reduce the residual most; with the R^2 reached after each."""
+    chosen: list[str] = []
+    ranking = []
+    remaining = list(sensors)
+    for _ in range(min(top, len(sensors))):
+        best = None
+        for s in remaining:
+            rows, X = _design(data, target, chosen + [s], lag)
+            y = data.columns[target][rows]
+            coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+            r2 = _stats(y, X @ coef, X.shape[1])["r2"]
+            if best is None or r2 > best[1]:
+                best = (s, r2)
+        chosen.append(best[0])
+        remaining.remove(best[0])
+        ranking.append({"sensor": best[0], "r2": float(best[1])})
+    return ranking
