@@ -45,3 +45,15 @@ def test_lathe_cold_start_example(tmp_path):
     assert len(times) == result["frames"] == 121
     series = [c.to_record_batch() for c in reader.stream() if c.entity_path == "/thermal/resultant_um"]
     assert sum(b.num_rows for b in series) == len(t)
+
+
+@pytest.mark.slow
+def test_diagnose_examples(tmp_path, capsys):
+    assert load("diagnose_vmc500").main(tmp_path) == 0
+    out = capsys.readouterr().out
+    assert "thermal_drift" in out and "T_spindle" in out
+    seed004 = load("diagnose_gear_roller_seed004").main()
+    effect = seed004["report"]["effects"][0]
+    assert (effect["name"], effect["direction"], effect["driver"]) == ("force_deflection", "x", "Fx")
+    (p,) = effect["parameters"].values()
+    assert p["value"] * 1e-6 == pytest.approx(seed004["c_true"], rel=0.02)

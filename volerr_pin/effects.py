@@ -151,6 +151,9 @@ class DriftTime(Term):
     def search_grid(self, name, c, cov):
         return _tau_grid(cov)
 
+    def coefficient_units(self):
+        return [(self.unit_scale, self.unit), (TIME[self.time_unit], self.time_unit)] * self.count
+
     def to_spec(self, c):
         table = {"kind": "thermal_drift", "driver": "time",
                  f"amplitudes_{self.unit}": [float(c[2 * k] / self.unit_scale) for k in range(self.count)],
@@ -178,6 +181,9 @@ class DriftTemperature(Term):
     def lag_requests(self):
         return tuple((s, self.lag) for s in self.sensors) if self.lag else ()
 
+    def coefficient_units(self):
+        return [(self.unit_scale, f"{self.unit}/K")] * self.size
+
     def jacobian(self, c, ctx):
         return np.column_stack([_need_temperature(ctx, s, self.lag) - ref
                                 for s, ref in zip(self.sensors, self.reference)])
@@ -202,6 +208,9 @@ class ExpansionTemperature(Term):
     kind = "thermal_expansion"
 
     local_names = ("alpha",)
+
+    def coefficient_units(self):
+        return [(1e-6, "ppm/K")]
 
     def _parts(self, ctx):
         return _need_temperature(ctx, self.sensor) - self.reference, ctx.position - self.origin
@@ -262,6 +271,9 @@ class ExpansionTime(Term):
 
     def search_grid(self, name, c, cov):
         return _tau_grid(cov)
+
+    def coefficient_units(self):
+        return [(1e-6, "ppm"), (TIME[self.time_unit], self.time_unit)] * self.count
 
     def to_spec(self, c):
         return {"kind": "thermal_expansion", "driver": "time",
@@ -340,6 +352,9 @@ class ForceDeflection(Term):
     def position_slope(self, c, ctx):
         return (self._basis(ctx)[1] @ c) * self._force(ctx)
 
+    def coefficient_units(self):
+        return [(self.unit_scale, f"{self.unit}/N")] * self.size
+
     def to_spec(self, c):
         table = {"kind": "force_deflection", "force": "xyz"[self.force],
                  f"compliance_{self.unit}_per_N": [float(v / self.unit_scale) for v in c]}
@@ -389,6 +404,9 @@ class PeriodicPitch(Term):
 
     def search_grid(self, name, c, cov):
         return c[-1] * np.linspace(0.7, 1.3, 61)
+
+    def coefficient_units(self):
+        return [(self.unit_scale, self.unit)] * (2 * self.harmonics) + [(self.position_scale, self.position_unit)]
 
     def to_spec(self, c):
         return {"kind": "periodic_pitch",

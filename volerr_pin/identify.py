@@ -258,27 +258,18 @@ class Identification:
 
 def parameter_units(machine: Machine) -> dict[str, tuple[float, str]]:
     """Coefficient name -> (SI per display unit, display unit), the spec's units."""
-    out = {}
-    for comp in machine.spec.components:
-        for tspec in comp.terms:
-            term = tspec.term
-            pos_unit = getattr(term, "position_unit", None)
-            over_position = getattr(term, "over", "travel") == "position"
-            for k, name in enumerate(tspec.names(comp.name)):
-                factor, unit = term.unit_scale, term.unit
-                if over_position and k > 0:
-                    factor = factor / term.position_scale ** k
-                    unit = f"{unit}/{pos_unit}" + (f"^{k}" if k > 1 else "")
-                out[name] = (factor, unit)
-    return out
+    return {name: unit for comp in machine.spec.components for tspec in comp.terms
+            for name, unit in zip(tspec.names(comp.name), tspec.term.coefficient_units())}
 
 
-def _design(machine: Machine, obs: Observations, theta: np.ndarray, free: np.ndarray):
-    """Weighted residual and Jacobian [nuisance | free coefficients] at ``theta``."""
+def _design(machine: Machine, obs: Observations, theta: np.ndarray, free: np.ndarray,
+            first_order: bool = False):
+    """Prediction of every observation row and its Jacobian w.r.t. the ``free`` coefficients
+    (``first_order``: the Jacobian of the first-order model, where dependencies are exact)."""
     error = machine.volumetric_error(obs.q, theta, **obs.covariates)
-    S = machine.sensitivity(obs.q, theta, **obs.covariates)
+    S = machine.sensitivity(obs.q, theta, parameters=free, first_order=first_order, **obs.covariates)
     pred = np.einsum("rk,rk->r", obs.w, error[obs.point])
-    A = np.einsum("rk,rkp->rp", obs.w, S[obs.point][:, :, free])
+    A = np.einsum("rk,rkp->rp", obs.w, S[obs.point])
     return pred, A
 
 
@@ -358,7 +349,7 @@ def _rms(obs: Observations, residual_si: np.ndarray, angular: bool) -> float | N
     return float(np.sqrt(per_point[points].mean()) * (UM if not angular else URAD))
 
 
-def identify(machine: Machine, data, *, terms=None, convention: str = "prior", folds: int = 5,
+def identify(machine: Machine, data, *, terms=None, free=None, convention: str = "prior", folds: int = 5,
              holdout: float | None = None, seed: int = 0, max_iter: int = 10, tol: float = 1e-8,
              sigma_um: float = 1.0, sigma_urad: float = 1.0, run_axis: str | None = None,
              run_at: dict | None = None, rtol: float = 1e-9, progress=None) -> Identification:
@@ -369,6 +360,8 @@ def identify(machine: Machine, data, *, terms=None, convention: str = "prior", f
     data : list of PointMeasurements / Runs, or an :class:`Observations`
     terms : list of component names, optional
         Components whose coefficients may move (default: all); the rest stay as given.
+    free : array of coefficient indices, optional
+        The coefficients that may move, one by one (overrides ``terms``).
     convention : "prior" or "min-norm"
         What to do with what the data cannot determine (see the module docstring).
     folds, holdout : int, float
@@ -383,7 +376,9 @@ def identify(machine: Machine, data, *, terms=None, convention: str = "prior", f
         raise InputError(f"convention must be 'prior' or 'min-norm', got {convention!r}")
     obs = data if isinstance(data, Observations) else build_observations(
         machine, data, sigma_um=sigma_um, sigma_urad=sigma_urad, run_axis=run_axis, run_at=run_at)
-    if terms:
+    if free is not None:
+        free = np.unique(np.asarray(free, dtype=int))
+    elif terms:
         unknown = sorted(set(terms) - set(machine.components))
         if unknown:
             raise InputError(f"--terms: {', '.join(unknown)} not among the error terms of "
@@ -392,10 +387,12 @@ def identify(machine: Machine, data, *, terms=None, convention: str = "prior", f
                          if n.split(".", 1)[0] in set(terms)], dtype=int)
     else:
         free = np.arange(len(machine.parameter_names))
-    if free.size == 0:
+    if free.size == 0 and obs.nuisance.shape[1] == 0:
         raise InputError(f"{machine.name} has no coefficients to fit")
     theta0 = _initialise_nonlinear(machine, obs, machine.theta, free, rtol, progress)
-    pred, A = _design(machine, obs, theta0, free)
+    # identifiability of the first-order model: exact dependencies, untouched by second-order
+    # differences that the errors' own size brings in
+    pred, A = _design(machine, obs, theta0, free, first_order=True)
     J0 = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
     names = obs.nuisance_names + [machine.parameter_names[k] for k in free]
     n_nu = obs.nuisance.shape[1]
@@ -445,27 +442,32 @@ def _initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray
         return theta
     linear = np.array([k for k in free if k not in set(nonlinear)], dtype=int)
     n_nu = obs.nuisance.shape[1]
-    _, A = _design(machine, obs, theta, linear)
+    _, A = _design(machine, obs, theta, linear, first_order=True)
     J = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
     kept = analyse(J, [""] * J.shape[1], protected=n_nu, rtol=rtol).kept
-    cols = np.array(kept, dtype=int)
     lin_cols = np.array([c - n_nu for c in kept if c >= n_nu], dtype=int)
     for step, k in enumerate(nonlinear):
+        # the columns of the other terms hardly depend on this coefficient: compute them once
+        term = next(p for p in machine.term_spans() if p.start <= k < p.stop)
+        own = np.array([i for i in range(term.start, term.stop) if i in set(linear[lin_cols].tolist())], dtype=int)
+        others = np.array([i for i in linear[lin_cols] if i not in set(own.tolist())], dtype=int)
+        _, A_other = _design(machine, obs, theta, others)
         grid = np.r_[theta[k], machine.search_grid(k, theta, n=obs.n_points, **obs.covariates)]
         best, best_rss = theta.copy(), math.inf
         for value in grid:
             trial = theta.copy()
             trial[k] = value
-            pred, A = _design(machine, obs, trial, linear)
+            pred, A_own = _design(machine, obs, trial, own)
             r = (obs.y - pred) / obs.sigma
-            J = (np.hstack([obs.nuisance, A]) / obs.sigma[:, None])[:, cols]
+            J = np.hstack([obs.nuisance, A_other, A_own]) / obs.sigma[:, None]
             scale, Js = _column_scale(J)
             delta = np.linalg.lstsq(Js, r, rcond=None)[0] / scale
             rss = float(np.sum((r - J @ delta) ** 2))
             if rss < best_rss:
                 best_rss = rss
                 best = trial.copy()
-                best[linear[lin_cols]] += delta[len(cols) - len(lin_cols):]
+                best[others] += delta[n_nu:n_nu + len(others)]
+                best[own] += delta[n_nu + len(others):]
         theta = best
         if progress:
             progress("non-linear start values", step + 1)

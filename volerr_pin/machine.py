@@ -110,8 +110,10 @@ class Machine:
         self._axis_cols = np.array([model.idx_vs[model.getJointId(a.joint)] for a in spec.axes])
         self._axis_signs = np.array([a.sign for a in spec.axes])
         self._axis_chain = tuple(chain_sign(a.joint, f"axis {a.name}") for a in spec.axes)
-        for site in sites:
-            chain_sign(site.names[0], f"error site {site.key}")
+        self._error_joint_cols = np.array([model.idx_vs[model.getJointId(n)] for s in sites
+                                           for n in s.names], dtype=int)
+        self._error_joint_signs = np.array([chain_sign(n, f"error site {s.key}") for s in sites
+                                            for n in s.names])
         self._travel = np.array([axis_travel(urdf, a) for a in spec.axes], dtype=float).reshape(-1, 2)
         axis_names = [a.name for a in spec.axes]
         components, names, theta = [], [], []
@@ -243,6 +245,10 @@ class Machine:
                     local = tspec.term.local_names[index - span.start]
                     return tspec.term.search_grid(local, theta[span], cov)
         raise InputError(f"no coefficient with index {index}")
+
+    def term_spans(self) -> list[slice]:
+        """The slice of ``theta`` of every term, in order."""
+        return [span for comp in self._components for _, span in comp.terms]
 
     def term_info(self) -> list[dict]:
         """One entry per term: component, owner, kind, coefficient names."""
@@ -418,25 +424,30 @@ class Machine:
         J[:, 3:] = K.log3_left_jacobian_inverse(phi) @ J[:, 3:]
         return J
 
-    def sensitivity(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
-        """(N, 6, P) derivative of :meth:`volumetric_error` w.r.t. every coefficient of ``theta``.
+    def sensitivity(self, q, theta=None, *, parameters=None, first_order: bool = False,
+                    extrapolate: bool = False, **covariates) -> np.ndarray:
+        """(N, 6, P) derivative of :meth:`volumetric_error` w.r.t. every coefficient of ``theta``
+        (or only those indexed by ``parameters``, in that order).
 
         Exact: Jacobians of the tool frame relative to the workpiece frame (the same chain
         as the error, checked against Pinocchio's frame Jacobians), chained with the
         derivatives of the error terms; the rotation rows include the inverse left
         Jacobian of the rotation-vector error. Units: m or rad of error per SI unit of the
-        coefficient.
+        coefficient. ``first_order=True`` takes the kinematics at zero error (the derivative
+        of the first-order model), where dependencies between coefficients are exact.
         """
         single = np.ndim(q) == 1
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
-        out = np.empty((q.shape[0], 6, len(self._names)))
+        cols = np.arange(len(self._names)) if parameters is None else np.asarray(parameters, dtype=int)
+        out = np.empty((q.shape[0], 6, len(cols)))
         for start in range(0, q.shape[0], K.CHUNK):
             rows = slice(start, start + K.CHUNK)
             qb, cb = q[rows], cov.take(rows)
-            values = self._joint_values(qb, theta, cb)
+            values = self._axis_values(qb) if first_order else self._joint_values(qb, theta, cb)
             # d v / d theta is one joint column per coefficient, scaled by the term's basis
-            K.error_sensitivity(self._chain, values, self._parameter_jacobian(qb, theta, cb),
-                                self._param_column, out=out[rows])
+            K.error_sensitivity(self._chain, values,
+                                np.ascontiguousarray(self._parameter_jacobian(qb, theta, cb)[:, cols]),
+                                np.ascontiguousarray(self._param_column[cols]), out=out[rows])
         return out[0] if single else out
 
     def _parameter_jacobian(self, q: np.ndarray, theta: np.ndarray, cov: Covariates) -> np.ndarray:
@@ -462,6 +473,23 @@ class Machine:
             rows = slice(start, start + K.CHUNK)
             J = self._error_jacobian(self._joint_values(q[rows], theta, cov.take(rows)))
             out[rows] = J[:, :, cols] * signs
+        return out[0] if single else out
+
+    def error_joint_sensitivity(self, q, theta=None, *, first_order: bool = False,
+                                extrapolate: bool = False, **covariates) -> np.ndarray:
+        """(N, 6, n_error_joints) derivative of the error w.r.t. the value of every injected
+        error joint (order of :attr:`error_joints`, ISO sense), whether or not the spec gives
+        it a term: what adding a term to any component would do. ``first_order``: at zero
+        error."""
+        single = np.ndim(q) == 1
+        q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
+        out = np.empty((q.shape[0], 6, len(self._error_joint_cols)))
+        for start in range(0, q.shape[0], K.CHUNK):
+            rows = slice(start, start + K.CHUNK)
+            values = (self._axis_values(q[rows]) if first_order
+                      else self._joint_values(q[rows], theta, cov.take(rows)))
+            J = self._error_jacobian(values)
+            out[rows] = J[:, :, self._error_joint_cols] * self._error_joint_signs
         return out[0] if single else out
 
     def axis_jacobian(self, q, theta=None, *, nominal: bool = False, extrapolate: bool = False,

@@ -177,3 +177,56 @@ def thermal_fit_png(result: dict, data, path: str | Path) -> dict:
     fig.savefig(path)
     plt.close(fig)
     return {"path": str(path)}
+
+
+def diagnosis_png(diagnosis, path: str | Path) -> dict:
+    """One page: held-out RMS per step against the noise floor, and for each accepted effect
+    the residual against its driver before and after."""
+    from .diagnose import evidence
+
+    n_eff = min(len(diagnosis.effects), 4)
+    fig = plt.figure(figsize=(11.0, 3.2 + 2.9 * ((n_eff + 1) // 2)), dpi=110, constrained_layout=True)
+    grid = fig.add_gridspec(1 + (n_eff + 1) // 2, 2)
+    ax = fig.add_subplot(grid[0, 0])
+    rms = [s.rms_holdout_um for s in diagnosis.steps]
+    labels = ["base"] + [e["name"] + (f"\n{e['axis']}" if e["axis"] else "") + (f" {e['direction']}" if e["direction"] else "")
+                         for e in diagnosis.effects]
+    ax.bar(range(len(rms)), rms, color="#4a6fb4")
+    ax.axhline(diagnosis.noise_floor_um, color="#c0392b", ls="--", label=f"noise floor {diagnosis.noise_floor_um:.2f} um")
+    ax.set_xticks(range(len(rms)), labels[:len(rms)], fontsize=7)
+    ax.set_ylabel("held-out RMS [um]")
+    ax.set_title("held-out RMS after each step", fontsize=10)
+    ax.legend(fontsize=8)
+    text = fig.add_subplot(grid[0, 1])
+    text.axis("off")
+    lines = [f"{diagnosis.machine.name}: {len(diagnosis.effects)} effect(s) found",
+             f"held-out RMS {diagnosis.rms_before_um:.3f} -> {diagnosis.rms_after_um:.3f} um",
+             f"noise floor {diagnosis.noise_floor_um:.3f} um ({diagnosis.noise_floor_source})",
+             "reaches the noise floor" if diagnosis.reaches_noise_floor else "does NOT reach the noise floor"]
+    for e in diagnosis.effects:
+        params = ", ".join(f"{n.split('.')[-1]} = {p['value']:.4g}"
+                           + (f" +- {p['uncertainty']:.2g}" if p["uncertainty"] is not None else "") + f" {p['unit']}"
+                           for n, p in e["parameters"].items())
+        lines.append(f"- {e['label']}: {e['rms_before_um']:.3f} -> {e['rms_after_um']:.3f} um; {params}")
+    import textwrap
+
+    wrapped = [w for line in lines for w in textwrap.wrap(line, 64, subsequent_indent="    ")]
+    text.text(0.0, 1.0, "\n".join(wrapped), va="top", fontsize=8, family="monospace")
+    for k in range(n_eff):
+        ev = evidence(diagnosis, k)
+        if ev is None:
+            continue
+        a = fig.add_subplot(grid[1 + k // 2, k % 2])
+        x = ev["x"]
+        if len(np.unique(x)) <= 2:  # a +-1 driver: spread the points so they can be seen
+            x = x + np.random.default_rng(0).uniform(-0.15, 0.15, len(x))
+        a.scatter(x, ev["before_um"], s=6, color="#c0392b", alpha=0.6, label="before")
+        a.scatter(x, ev["after_um"], s=6, color="#1f6fb2", alpha=0.6, label="after")
+        a.set_xlabel(ev["x_label"], fontsize=8)
+        a.set_ylabel(f"residual d{ev['direction']} [um]", fontsize=8)
+        a.set_title(f"step {k + 1}: {ev['label']}", fontsize=8)
+        a.legend(fontsize=7)
+        a.grid(alpha=0.3)
+    fig.savefig(path)
+    plt.close(fig)
+    return {"path": str(path)}

@@ -49,7 +49,20 @@ def replace_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Mac
     return fresh.with_theta(theta)
 
 
-__all__ = ["add_terms", "legendre_terms", "replace_terms", "spec_document", "write_spec"]
+__all__ = ["add_terms", "legendre_terms", "remove_components", "replace_terms", "spec_document", "write_spec"]
+
+
+def remove_components(machine: Machine, names) -> Machine:
+    """A new machine without the components ``names`` (their error joints stay, at zero)."""
+    names = set(names)
+    unknown = sorted(names - set(machine.components))
+    if unknown:
+        raise InputError(f"{', '.join(unknown)} not among the components of {machine.name}")
+    values = dict(zip(machine.parameter_names, machine.theta))
+    spec = dataclasses.replace(machine.spec, components=tuple(
+        c for c in machine.spec.components if c.name not in names))
+    fresh = Machine(spec, machine.urdf)
+    return fresh.with_theta(np.array([values[n] for n in fresh.parameter_names]))
 
 
 def add_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Machine:

@@ -102,6 +102,10 @@ class Term:
         """Candidate values of a non-linear coefficient for a grid search before a fit."""
         return np.array([])
 
+    def coefficient_units(self) -> list[tuple[float, str]]:
+        """(SI per display unit, display unit) of each coefficient, as the spec writes it."""
+        return [(self.unit_scale, self.unit)] * self.size
+
     def lag_requests(self) -> tuple[tuple[str, float], ...]:
         """(sensor, lag [s]) pairs whose delayed temperatures the term reads."""
         return ()
@@ -211,6 +215,13 @@ class Polynomial(LinearTerm):
             for k in range(1, self.degree + 1):
                 out[:, k] = k * u ** (k - 1)
         return out * du_dq
+
+    def coefficient_units(self):
+        if self.over != "position":
+            return [(self.unit_scale, self.unit)] * self.size
+        return [(self.unit_scale / self.position_scale ** k,
+                 self.unit if k == 0 else f"{self.unit}/{self.position_unit}" + (f"^{k}" if k > 1 else ""))
+                for k in range(self.degree + 1)]
 
     def to_spec(self, coefficients):
         table = {"kind": self.family}
