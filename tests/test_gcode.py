@@ -1,0 +1,231 @@
+"""NC programs: parsing, byte-for-byte preservation, round trips through the model."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from volerr_pin.gcode import GcodeError, compensate_program, interpret
+
+PROGRAM_500 = """%
+O1001 (test program)
+N10 G21 G90 G17 (metric, absolute)
+N20 T1 M6 ; tool change
+N30 S8000 M3
+N40 G0 X50 Y50 Z100
+N50 G1 Z50 F500
+N60 G1 X300 Y200 (long diagonal)
+N70 G2 X400 Y100 I100 J0
+N80 G3 X300 Y10 R100 F300
+
+N90 G18 G2 X350 Z50 I25 K0
+N100 G19 G2 Y60 Z100 J50 K0
+N110 G17 G91 G1 X-50 Y20
+N120 X-50
+N125 Y-10.5 Z-20
+N130 G90 G20 G1 X5.0 Y3.0 Z2.0
+N135 G2 X6.0 Y4.0 I0.5 J0.5
+N140 G21 M5
+N150 M30
+%
+"""
+
+PROGRAM_700 = """N10 G21 G90 G17
+N20 T2 M6
+N30 S6000 M3
+N40 G0 X10 Y10 Z10
+N50 G1 X680 Y240 Z190 F800
+N60 G0 X500 Y10 Z50
+N70 G3 X100 Y30 Z150 I-200 J10
+N80 G18 G2 X150 Z100 R50
+N90 G19 G91 G3 Y20 Z20 J20 K0
+N100 G90 G17 G1 X300 Y100
+N110 G20 X10. Y5. Z3.
+N120 M30
+"""
+
+PROGRAM_CGM = """(5-axis head)
+N10 G21 G90
+N20 G0 X1000 Y800 Z300 A0 B0
+N30 G1 X2500 Y1500 Z400 A30 B45 F2000
+N40 G1 X3000 Y1000 Z200 A-60 B-60
+N50 G1 Y2000 A10
+N60 M30
+"""
+
+
+def _project(p, P, A):
+    """Distance of points p to the polyline P, and the polyline's tool axis A there."""
+    i = cKDTree(P).query(p)[1]
+    best = np.full(len(p), np.inf)
+    axis = np.zeros_like(p)
+    for a, b in ((np.maximum(i - 1, 0), i), (i, np.minimum(i + 1, len(P) - 1))):
+        d = P[b] - P[a]
+        t = np.clip(((p - P[a]) * d).sum(1) / np.maximum((d * d).sum(1), 1e-30), 0, 1)
+        dist = np.linalg.norm(P[a] + t[:, None] * d - p, axis=1)
+        better = dist < best
+        best = np.where(better, dist, best)
+        axis[better] = (A[a] + t[:, None] * (A[b] - A[a]))[better]
+    return best, axis / np.linalg.norm(axis, axis=1)[:, None]
+
+
+def round_trip(m, original, compensated, samples=250):
+    """Simulate the compensated program with the model: every sampled point of every
+    interpolated move against the desired (nominal) original path, move by move."""
+    orig, comp = interpret(m, original), interpret(m, compensated)
+    idx, worst_pos, worst_axis = 0, 0.0, 0.0
+    for seg in comp:
+        o = orig[idx]
+        pts = seg.end[None, :] if seg.kind == "rapid" else seg.sample(samples)
+        R, p = m.tool_poses(pts, extrapolate=True)
+        dense = o.end[None, :] if o.kind == "rapid" else o.sample(5000)
+        R_d, p_d = m.tool_poses(dense, nominal=True)
+        dist, axis = _project(p, p_d, R_d[:, :, 2])
+        worst_pos = max(worst_pos, dist.max())
+        worst_axis = max(worst_axis, np.linalg.norm(np.cross(R[:, :, 2], axis), axis=1).max())
+        if np.linalg.norm(p[-1] - p_d[-1]) < 2e-6:  # this output move ends the original one
+            idx += 1
+    assert idx == len(orig), "the compensated program does not reach every original end point"
+    return worst_pos, worst_axis
+
+
+def _uncompensated_error(m, text):
+    """Largest tool position and tool-axis error along the program run uncompensated."""
+    pos = axis = 0.0
+    for seg in interpret(m, text):
+        q = seg.end[None, :] if seg.kind == "rapid" else seg.sample(400)
+        R, p = m.tool_poses(q)
+        R_d, p_d = m.tool_poses(q, nominal=True)
+        pos = max(pos, np.linalg.norm(p - p_d, axis=1).max())
+        axis = max(axis, np.linalg.norm(np.cross(R[:, :, 2], R_d[:, :, 2]), axis=1).max())
+    return pos, axis
+
+
+@pytest.mark.parametrize("name, program", [("vmc500", PROGRAM_500), ("vmc700", PROGRAM_700)])
+@pytest.mark.parametrize("tol", [1.0, 3.0])
+def test_round_trip_within_tolerance(machines, name, program, tol):
+    m = machines[name]
+    out, report = compensate_program(m, program, tol_um=tol)
+    pos, _ = round_trip(m, program, out)
+    assert _uncompensated_error(m, program)[0] > 5 * tol * 1e-6  # the check can fail
+    assert pos <= tol * 1e-6
+    assert report.max_residual_um <= tol
+    assert report.max_before_um > 5 * tol
+    assert report.arcs_as_lines == 0
+    assert report.arcs_kept == len([s for s in interpret(m, program) if s.kind == "arc"]) >= 3
+
+
+def test_round_trip_cgm4000_position_and_tool_axis(machines):
+    m = machines["cgm4000"]
+    out, report = compensate_program(m, PROGRAM_CGM, tol_um=1.0, tol_urad=5.0)
+    pos, axis = round_trip(m, PROGRAM_CGM, out)
+    before_pos, before_axis = _uncompensated_error(m, PROGRAM_CGM)
+    assert before_pos > 10e-6 and before_axis > 20e-6
+    assert pos <= 1.0e-6 and axis <= 5.0e-6
+    assert not [w for w in report.warnings if "residual stays" in w]
+
+
+def test_singular_pose_is_reported_not_hidden(machines):
+    """At B = -90 deg the A axis of cgm4000's head is parallel to the tool: the tool axis
+    has one free direction less and cannot be corrected; the report says so."""
+    m = machines["cgm4000"]
+    program = "G90 G0 X1000 Y800 Z300 A0 B0\nG1 X3000 Y1000 Z200 A-60 B-90 F1000\nG1 Y2000 A10\n"
+    out, report = compensate_program(m, program)
+    limited = [w for w in report.warnings if "residual stays" in w]
+    assert limited and report.max_residual_um > 1.0
+    assert report.blocks_out < 60  # no runaway splitting
+
+
+def _strip(text):
+    """Remove coordinate and centre words: what must be byte-identical is left."""
+    return [re.sub(r" ?[XYZABCIJKR][-+]?(?:\d+\.?\d*|\.\d+)", "", line) for line in text.splitlines()]
+
+
+@pytest.mark.parametrize("name, program", [("vmc500", PROGRAM_500), ("vmc700", PROGRAM_700)])
+def test_non_coordinate_content_is_identical(machines, name, program):
+    m = machines[name]
+    out, report = compensate_program(m, program)
+    assert out.endswith("\n") and out.count("\n") == report.blocks_out
+    lines = out.splitlines()
+    # the inserted pieces are complete new blocks with a motion word; drop them
+    kept = [line for line in lines if not re.match(r"^G[0-3] [XYZ]", line)]
+    assert len(kept) == report.blocks_in == len(program.splitlines())
+    assert _strip("\n".join(kept)) == _strip(program)
+    # and the original coordinates are what was compensated: no word lost
+    for a, b in zip(program.splitlines(), kept):
+        words_a = set(re.findall(r"[XYZIJKR](?=[-+.\d])", a))
+        words_b = set(re.findall(r"[XYZIJKR](?=[-+.\d])", b))
+        assert words_a <= words_b
+
+
+def test_crlf_and_whitespace_are_preserved(machines):
+    m = machines["vmc500"]
+    program = "N1 G90 G21\r\nN2 G0   X50 Y50 Z100 ( spaced )\r\n\r\nN3 G1 X60 F100\r\n"
+    out, _ = compensate_program(m, program)
+    assert out.count("\r\n") == out.count("\n")
+    assert "( spaced )" in out and "N2 G0   X" in out
+
+
+def test_arcs_stay_valid(machines):
+    m = machines["vmc500"]
+    out, _ = compensate_program(m, PROGRAM_500)
+    arcs = [s for s in interpret(m, out) if s.kind == "arc"]
+    assert len(arcs) >= 6
+    for seg in arcs:
+        i, j, _ = seg.arc.plane
+        r0 = math.hypot(seg.start[i] - seg.arc.center[0], seg.start[j] - seg.arc.center[1])
+        r1 = math.hypot(seg.end[i] - seg.arc.center[0], seg.end[j] - seg.arc.center[1])
+        assert abs(r0 - r1) < 0.5e-6
+
+
+def test_incremental_sections_do_not_accumulate_rounding(machines):
+    m = machines["vmc500"]
+    program = "G90 G21 G0 X100 Y100 Z100\nG91 G1 F1000\n" + "X0.7 Y0.3 Z0.1\n" * 120 + "G90\n"
+    out, _ = compensate_program(m, program, tol_um=1.0)
+    pos, _ = round_trip(m, program, out)
+    assert pos <= 1.0e-6
+
+
+@pytest.mark.parametrize("text, line, message", [
+    ("G90 G0 X10 Y10 Z10\nG1 X20 Y\n", 2, "cannot read"),
+    ("G90 G0 X10 Y10 Z10\nG1 X2$0\n", 2, "cannot read"),
+    ("G90 G0 X10 Y10 Z10\n(open comment\nG1 X20\n", 2, "parenthesis"),
+    ("G90 G0 X10 Y10 Z10\nG1 X20\nG2 X30 Y10\n", 3, "I/J or R"),
+    ("G90 G0 X10 Y10 Z10\nG2 X30 Y10 R5\n", 2, "cannot join"),
+    ("G90 G0 X10 Y10 Z10\nG2 X30 Y10 I5 J0\n", 2, "radius"),
+    ("G90 G21\nX20\n", 2, "motion mode"),
+    ("G90 G0 X10 Y10 Z10\n\nG1 X900\n", 3, "outside the travel"),
+    ("G90 G0 X10 Y10 Z10\nG81 X20 Y20 Z-5 R2 F100\n", 2, "canned cycle"),
+    ("G90 G0 X10 Y10 Z10\n#1 = 5\n", 2, "macro"),
+    ("G90 G0 X10 Y10 Z10\nM98 P100\n", 2, "subprogram"),
+    ("G90 G0 X10 Y10 Z10\nWHILE [1 LT 2] DO1\n", 2, "macro"),
+    ("G2 X10 Y10 I5 J5\n", 1, "first move is an arc"),
+    ("G90 G0 X450 Y200 Z10\nG3 X450 Y200 I0 J100\n", 2, "leaves the travel"),
+])
+def test_malformed_programs_fail_with_the_line_number(machines, text, line, message):
+    with pytest.raises(GcodeError, match=rf"prog\.nc:{line}: .*{message}"):
+        compensate_program(machines["vmc500"], text, source="prog.nc")
+
+
+def test_pass_through_keeps_unsupported_blocks_and_warns(machines):
+    m = machines["vmc500"]
+    program = "G90 G0 X10 Y10 Z10\nG81 X20 Y20 Z5 R12 F100\nG80\nM98 P100\nG1 X30 Y30\n"
+    out, report = compensate_program(m, program, pass_through=True)
+    lines = out.splitlines()
+    assert lines[1] == "G81 X20 Y20 Z5 R12 F100" and lines[2] == "G80" and lines[3] == "M98 P100"
+    assert [w.split(":")[0] for w in report.warnings if "kept unchanged" in w] == ["line 2", "line 3", "line 4"]
+    assert report.blocks_in == 5
+
+
+def test_report_fields(machines):
+    out, report = compensate_program(machines["vmc700"], PROGRAM_700)
+    d = report.to_dict()
+    for key in ("blocks_in", "blocks_out", "max_residual_um", "tolerance_um", "warnings"):
+        assert key in d
+    assert d["blocks_in"] == 12 and d["blocks_out"] > d["blocks_in"]
+    assert d["blocks_out"] == len(out.splitlines())
+    assert any("not known" in w for w in d["warnings"])

@@ -1,0 +1,397 @@
+"""Compensation: commanded positions that put the actual tool where the nominal one should be.
+
+**Points.** For desired NC positions ``q_d`` the target is the nominal tool pose at ``q_d``;
+the compensated command ``q_c`` makes the *actual* pose match it.
+
+- ``method="recursive"``: seed 002's scheme, ``Xc(n) = Xd - sum_{i<n} e(i)`` with
+  ``e(i) = X_actual(Xc(i)) - Xd`` (eqs. 15-21), generalised to any machine by mapping the
+  position error through the nominal axis Jacobian (the identity on a Cartesian machine,
+  where it is exactly the paper's recursion). It corrects positions only.
+- ``method="newton"``: Gauss-Newton on the exact axis Jacobian of the actual machine. On
+  machines with rotary axes it also corrects the tool axis (position rows plus the tool-axis
+  direction weighted by ``lever`` metres per radian), which is the pose compensation of a
+  5-axis head. Points whose solution leaves the travel are reported as unreachable.
+
+**Paths** (seed 002). Rapid moves compensate their end point. Linear moves compensate both
+ends, evaluate the residual along the commanded straight line (the controller interpolates in
+axis space) against the desired path at the same parameter, split at the point of maximum
+residual, and recurse until every point is within tolerance. Helical (and circular) moves
+compensate start, middle and end, put a helical arc through the three compensated points
+(circle through their projections, linear in the third axis: eqs. 25-29), and split likewise.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import InputError
+from .machine import Machine
+
+UM = 1e6
+
+
+@dataclass
+class PointCompensation:
+    """Result of :func:`compensate_points` (SI)."""
+
+    q: np.ndarray            # (N, n_axes) compensated commands
+    residual: np.ndarray     # (N,) position residual |p_actual(q) - p_nominal(q_d)| [m]
+    axis_residual: np.ndarray  # (N,) tool-axis residual [rad] (0 where not corrected)
+    before: np.ndarray       # (N,) position error without compensation [m]
+    iterations: np.ndarray   # (N,) iterations used
+    converged: np.ndarray    # (N,) bool: within tolerance, or at the least-squares optimum
+    reachable: np.ndarray    # (N,) bool: within travel
+    within_tolerance: np.ndarray  # (N,) bool: residuals below the tolerances
+    history: list = field(default_factory=list)  # recursive scheme: residual vectors per step
+
+
+def _tool_axis(R: np.ndarray) -> np.ndarray:
+    return R[:, :, 2]
+
+
+def _has_rotary(machine: Machine) -> bool:
+    return any(k == "rotary" for k in machine.axis_kinds)
+
+
+def compensate_points(machine: Machine, q_desired, *, method: str = "newton", tol_um: float = 0.01,
+                      tol_urad: float = 0.1, max_iter: int = 30, orientation: bool | None = None,
+                      lever: float = 0.1, **covariates) -> PointCompensation:
+    """Compensated commands for the desired NC positions ``q_desired`` (N, n_axes), SI.
+
+    ``orientation`` (default: when the machine has rotary axes) also corrects the tool axis.
+    Iterations stop when the position residual is below ``tol_um`` (and the tool-axis
+    residual below ``tol_urad``) or after ``max_iter``.
+    """
+    if method not in ("newton", "recursive"):
+        raise InputError(f"method must be 'newton' or 'recursive', got {method!r}")
+    q_d = machine.check_q(q_desired)
+    n = len(q_d)
+    orientation = _has_rotary(machine) if orientation is None else orientation
+    if method == "recursive":
+        orientation = False
+    R_d, p_d = machine.tool_poses(q_d, nominal=True)
+    a_d = _tool_axis(R_d)
+    cov = {k: v for k, v in covariates.items() if v is not None}
+    R0, p0 = machine.tool_poses(q_d, extrapolate=True, **cov)
+    before = np.linalg.norm(p0 - p_d, axis=1)
+    q = q_d.copy()
+    iterations = np.zeros(n, dtype=int)
+    done = np.zeros(n, dtype=bool)
+    stationary = np.zeros(n, dtype=bool)
+    history = []
+    nominal_J = None
+    # column scale: a radian of a rotary axis counts as ``lever`` metres
+    scale = np.where(np.array(machine.axis_kinds) == "rotary", lever, 1.0)
+    for it in range(max_iter + 1):
+        R, p = machine.tool_poses(q, extrapolate=True, **cov)
+        e = p - p_d
+        a_err = np.linalg.norm(np.cross(_tool_axis(R), a_d), axis=1) if orientation else np.zeros(n)
+        if method == "recursive":
+            history.append(e.copy())
+        res = np.linalg.norm(e, axis=1)
+        within = (res < tol_um * 1e-6) & (a_err < tol_urad * 1e-6)
+        done = within | stationary
+        if done.all() or it == max_iter:
+            break
+        active = ~done
+        iterations[active] += 1
+        if method == "recursive":
+            if nominal_J is None:
+                nominal_J = machine.axis_jacobian(q_d, nominal=True, extrapolate=True)[:, :3, :]
+            dq = _solve(nominal_J[active], e[active], scale, damping=1e-9)
+        else:
+            J = machine.axis_jacobian(q[active], extrapolate=True, **_take(cov, active))
+            rows = [J[:, :3, :]]
+            rhs = [e[active]]
+            if orientation:
+                a = _tool_axis(R[active])
+                # d a / d q = omega x a = -[a]x omega
+                rows.append(-np.einsum("nij,njk->nik", _skew(a), J[:, 3:, :]) * lever)
+                rhs.append((a - a_d[active]) * lever)
+            dq = _solve(np.concatenate(rows, axis=1), np.concatenate(rhs, axis=1), scale)
+        q[active] -= dq
+        # a machine with fewer axes than error directions (a 2-axis lathe) stops at the
+        # least-squares optimum: the part of the error no axis can move is left
+        stationary[active] = np.max(np.abs(dq) * scale, axis=1) < 1e-13
+    travel = machine.travel
+    span = travel[:, 1] - travel[:, 0]
+    tol = 1e-9 * np.where(np.isfinite(span), np.maximum(span, 1.0), 1.0)
+    reachable = np.all((q >= travel[:, 0] - tol) & (q <= travel[:, 1] + tol), axis=1)
+    return PointCompensation(q, res, a_err, before, iterations, done, reachable, within, history)
+
+
+def _take(cov: dict, mask: np.ndarray) -> dict:
+    out = {}
+    for k, v in cov.items():
+        out[k] = {s: a[mask] for s, a in v.items()} if isinstance(v, dict) else np.asarray(v)[mask]
+    return out
+
+
+def _skew(a: np.ndarray) -> np.ndarray:
+    S = np.zeros((len(a), 3, 3))
+    S[:, 0, 1], S[:, 0, 2], S[:, 1, 2] = -a[:, 2], a[:, 1], -a[:, 0]
+    S[:, 1, 0], S[:, 2, 0], S[:, 2, 1] = a[:, 2], -a[:, 1], a[:, 0]
+    return S
+
+
+def _solve(J: np.ndarray, r: np.ndarray, scale: np.ndarray, damping: float = 0.05) -> np.ndarray:
+    """Batched damped least squares ``J dq = r`` in scaled columns (``dq = x / scale``).
+
+    The corrections sought are micrometres; near a singular pose (a rotary axis parallel to
+    the tool axis) an undamped step would be huge. With damping ``lambda`` the scaled step
+    in a direction of singular value ``s`` is ``s r / (s^2 + lambda^2)``, at most
+    ``|r| / (2 lambda)``: well-conditioned directions converge as Newton, singular ones
+    stay put (and the residual there is reported, not hidden)."""
+    Js = J / scale[None, None, :]
+    JT = np.swapaxes(Js, 1, 2)
+    A = JT @ Js + damping**2 * np.eye(J.shape[2])[None]
+    x = np.linalg.solve(A, np.einsum("nij,nj->ni", JT, r)[..., None])[..., 0]
+    return x / scale[None, :]
+
+
+# ------------------------------------------------------------------------------ paths
+@dataclass
+class Piece:
+    """One commanded piece of a compensated path (SI)."""
+
+    kind: str                 # "line" or "arc"
+    start: np.ndarray         # compensated command at the start (n_axes,)
+    end: np.ndarray           # compensated command at the end
+    center: np.ndarray | None = None   # arc centre in the plane (2,), compensated
+    clockwise: bool = False
+    turns: float = 0.0        # signed swept angle [rad]
+    residual: float = 0.0     # max residual along the piece [m]
+    k0: float = 0.0           # parameter range on the original move
+    k1: float = 1.0
+    limited: bool = False     # the tolerance cannot be reached here by any command
+
+
+@dataclass
+class PathCompensation:
+    pieces: list[Piece]
+    max_residual: float       # [m]
+    max_before: float         # [m] along the uncompensated move
+    samples: int
+
+    @property
+    def limited(self) -> bool:
+        return any(p.limited for p in self.pieces)
+
+
+@dataclass(frozen=True)
+class Arc:
+    """A desired helical move in a plane: ``plane`` = indices (i, j, k) of the machine axes
+    of the arc plane and the linear third axis; angles in radians."""
+
+    plane: tuple[int, int, int]
+    center: np.ndarray        # (2,) in the plane
+    radius: float
+    start_angle: float
+    sweep: float              # signed: > 0 counter-clockwise
+    start: np.ndarray         # (n_axes,) full desired start
+    end: np.ndarray           # (n_axes,) full desired end
+
+    def point(self, k: np.ndarray) -> np.ndarray:
+        k = np.atleast_1d(k)
+        i, j, l = self.plane
+        out = self.start + np.outer(k, self.end - self.start)  # other axes linear
+        ang = self.start_angle + k * self.sweep
+        out[:, i] = self.center[0] + self.radius * np.cos(ang)
+        out[:, j] = self.center[1] + self.radius * np.sin(ang)
+        return out
+
+
+def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plane: tuple[int, int, int],
+                    clockwise: bool, full_turns: int = 0) -> Arc:
+    """The desired arc from ``start`` to ``end`` about ``center`` (in the plane)."""
+    i, j, _ = plane
+    a0 = math.atan2(start[j] - center[1], start[i] - center[0])
+    a1 = math.atan2(end[j] - center[1], end[i] - center[0])
+    sweep = a1 - a0
+    if clockwise:
+        while sweep >= 0:
+            sweep -= 2 * math.pi
+    else:
+        while sweep <= 0:
+            sweep += 2 * math.pi
+    sweep += (-1 if clockwise else 1) * 2 * math.pi * full_turns
+    r0 = math.hypot(start[i] - center[0], start[j] - center[1])
+    r1 = math.hypot(end[i] - center[0], end[j] - center[1])
+    if abs(r0 - r1) > 2e-6:  # 2 um, about what controllers accept
+        raise InputError(f"arc start radius {r0 * 1e3:.4f} mm and end radius {r1 * 1e3:.4f} mm differ "
+                         f"by {abs(r0 - r1) * 1e6:.1f} um")
+    return Arc(plane, np.asarray(center, float), r0, a0, sweep, np.asarray(start, float), np.asarray(end, float))
+
+
+def _circle_through(p1, p2, p3):
+    """Centre and radius of the circle through three 2D points (None if collinear)."""
+    ax, ay = p1
+    bx, by = p2
+    cx, cy = p3
+    d = 2 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
+    if abs(d) < 1e-18:
+        return None
+    ux = ((ax**2 + ay**2) * (by - cy) + (bx**2 + by**2) * (cy - ay) + (cx**2 + cy**2) * (ay - by)) / d
+    uy = ((ax**2 + ay**2) * (cx - bx) + (bx**2 + by**2) * (ax - cx) + (cx**2 + cy**2) * (bx - ax)) / d
+    return np.array([ux, uy]), math.hypot(ax - ux, ay - uy)
+
+
+class PathCompensator:
+    """Splits moves until the compensated path is within ``tol`` everywhere (seed 002)."""
+
+    def __init__(self, machine: Machine, tol_um: float = 1.0, samples: int = 48, max_depth: int = 14,
+                 method: str = "newton", tol_urad: float | None = None, **covariates):
+        self.machine = machine
+        self.tol = tol_um * 1e-6
+        self.samples = samples
+        self.max_depth = max_depth
+        self.method = method
+        self.cov = covariates
+        self.orientation = _has_rotary(machine)
+        # tool-axis tolerance (default 10 urad per um): the tool-axis angle counts as
+        # ``lever`` x angle against the position tolerance
+        self.tol_urad = 10.0 * tol_um if tol_urad is None else tol_urad
+        self.lever = tol_um / self.tol_urad
+
+    # point helpers -----------------------------------------------------------------
+    def point(self, q_d: np.ndarray) -> np.ndarray:
+        res = compensate_points(self.machine, q_d[None, :], method=self.method,
+                                tol_um=min(0.01, self.tol * 1e6 / 20), tol_urad=min(0.1, self.tol_urad / 20),
+                                lever=self.lever, **self.cov)
+        return res.q[0]
+
+    def _floor(self, c: np.ndarray, q_d: np.ndarray) -> float:
+        return float(self._residual(c[None, :], q_d[None, :])[0])
+
+    def _residual(self, commanded: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        """Pose residual of the actual tool at ``commanded`` against the nominal tool at
+        ``desired``: position [m]; on machines with rotary axes the larger of that and the
+        tool-axis angle times ``lever`` (0.1 m: 1 um of tolerance per 10 urad)."""
+        m = self.machine
+        R, p = m.tool_poses(commanded, extrapolate=True, **self.cov)
+        R_d, p_d = m.tool_poses(desired, nominal=True, extrapolate=True)
+        res = np.linalg.norm(p - p_d, axis=1)
+        if self.orientation:
+            axis_err = np.linalg.norm(np.cross(R[:, :, 2], R_d[:, :, 2]), axis=1)
+            res = np.maximum(res, axis_err * self.lever)
+        return res
+
+    def _max_along(self, commanded_of_k, desired_of_k, k0, k1):
+        """Maximum residual over [k0, k1] (dense samples, then a local refinement)."""
+        k = np.linspace(k0, k1, self.samples + 1)
+        r = self._residual(commanded_of_k(k), desired_of_k(k))
+        i = int(np.argmax(r))
+        lo, hi = k[max(i - 1, 0)], k[min(i + 1, len(k) - 1)]
+        kk = np.linspace(lo, hi, 17)
+        rr = self._residual(commanded_of_k(kk), desired_of_k(kk))
+        j = int(np.argmax(rr))
+        return (rr[j], kk[j]) if rr[j] > r[i] else (r[i], k[i])
+
+    # moves -------------------------------------------------------------------------
+    def rapid(self, q_start: np.ndarray, q_end: np.ndarray) -> PathCompensation:
+        end = self.point(q_end)
+        r = self._floor(end, q_end)
+        before = self._floor(q_end, q_end)
+        return PathCompensation([Piece("line", q_start.copy(), end, residual=r, limited=r > self.tol)],
+                                r, before, 1)
+
+    def line(self, q_start: np.ndarray, q_end: np.ndarray, start_c: np.ndarray | None = None) -> PathCompensation:
+        desired = lambda k: q_start + np.outer(np.atleast_1d(k), q_end - q_start)
+        before, _ = self._max_along(desired, desired, 0.0, 1.0)
+        pieces: list[Piece] = []
+        sc = self.point(q_start) if start_c is None else start_c
+        self._line(desired, 0.0, 1.0, sc, self.point(q_end), pieces, 0)
+        return PathCompensation(pieces, max(p.residual for p in pieces), float(before), self.samples)
+
+    def _split_point(self, desired_at, worst, k_split, k0, k1, depth):
+        """The compensated command at the split point, or None when the piece is accepted:
+        within tolerance, too deep, or the split point itself cannot be brought closer
+        (singular pose): splitting there would not help."""
+        if worst <= self.tol or depth >= self.max_depth or k_split in (k0, k1):
+            return None
+        q_d = desired_at(k_split)
+        cm = self.point(q_d)
+        if self._floor(cm, q_d) > 0.9 * worst:
+            return None
+        return cm
+
+    def _line(self, desired, k0, k1, c0, c1, pieces, depth):
+        commanded = lambda k: c0 + np.outer((np.atleast_1d(k) - k0) / (k1 - k0), c1 - c0)
+        worst, k_split = self._max_along(commanded, desired, k0, k1)
+        cm = self._split_point(lambda k: desired(k)[0], worst, k_split, k0, k1, depth)
+        if cm is None:
+            pieces.append(Piece("line", c0, c1, residual=float(worst), k0=k0, k1=k1,
+                                limited=bool(worst > self.tol)))
+            return
+        self._line(desired, k0, k_split, c0, cm, pieces, depth + 1)
+        self._line(desired, k_split, k1, cm, c1, pieces, depth + 1)
+
+    def arc(self, arc: Arc, start_c: np.ndarray | None = None) -> PathCompensation:
+        before, _ = self._max_along(arc.point, arc.point, 0.0, 1.0)
+        pieces: list[Piece] = []
+        sc = self.point(arc.start) if start_c is None else start_c
+        self._arc(arc, 0.0, 1.0, sc, self.point(arc.end), pieces, 0)
+        return PathCompensation(pieces, max(p.residual for p in pieces), float(before), self.samples)
+
+    def _arc(self, arc: Arc, k0, k1, c0, c1, pieces, depth):
+        i, j, _ = arc.plane
+        cm = self.point(arc.point(0.5 * (k0 + k1))[0])
+        fit = _circle_through(c0[[i, j]], cm[[i, j]], c1[[i, j]])
+        if fit is None:  # degenerate: a straight piece
+            self._line(arc.point, k0, k1, c0, c1, pieces, depth)
+            return
+        center, radius = fit
+        a0 = math.atan2(c0[j] - center[1], c0[i] - center[0])
+        am = math.atan2(cm[j] - center[1], cm[i] - center[0])
+        a1 = math.atan2(c1[j] - center[1], c1[i] - center[0])
+        ccw = arc.sweep > 0
+        sweep = _sweep(a0, a1, ccw)
+        mid = _sweep(a0, am, ccw)
+        if abs(mid) > abs(sweep):  # the compensated middle does not lie between: fall back
+            self._line(arc.point, k0, k1, c0, c1, pieces, depth)
+            return
+
+        def commanded(k):
+            u = (np.atleast_1d(k) - k0) / (k1 - k0)
+            out = c0 + np.outer(u, c1 - c0)
+            ang = a0 + u * sweep
+            out[:, i] = center[0] + radius * np.cos(ang)
+            out[:, j] = center[1] + radius * np.sin(ang)
+            return out
+
+        worst, k_split = self._max_along(commanded, arc.point, k0, k1)
+        cs = self._split_point(lambda k: arc.point(k)[0], worst, k_split, k0, k1, depth)
+        if cs is None:
+            pieces.append(Piece("arc", c0, c1, center=center, clockwise=not ccw, turns=sweep,
+                                residual=float(worst), k0=k0, k1=k1, limited=bool(worst > self.tol)))
+            return
+        self._arc(arc, k0, k_split, c0, cs, pieces, depth + 1)
+        self._arc(arc, k_split, k1, cs, c1, pieces, depth + 1)
+
+
+def _sweep(a0: float, a1: float, ccw: bool) -> float:
+    s = a1 - a0
+    if ccw:
+        while s <= 0:
+            s += 2 * math.pi
+    else:
+        while s >= 0:
+            s -= 2 * math.pi
+    return s
+
+
+def evaluate_compensation(machine: Machine, q: np.ndarray, **covariates) -> dict:
+    """Predicted position error over ``q`` without and with point compensation [um]."""
+    res = compensate_points(machine, q, **covariates)
+    before, after = res.before * UM, res.residual * UM
+    ok = res.reachable
+    return {"points": int(len(q)), "reachable": int(ok.sum()),
+            "max_before_um": float(before.max()), "rms_before_um": float(np.sqrt(np.mean(before**2))),
+            "max_after_um": float(after[ok].max()) if ok.any() else None,
+            "rms_after_um": float(np.sqrt(np.mean(after[ok] ** 2))) if ok.any() else None,
+            "reduction_percent": float(100 * (1 - np.sqrt(np.mean(after[ok] ** 2)) / np.sqrt(np.mean(before[ok] ** 2))))
+            if ok.any() and np.any(before[ok] > 0) else None,
+            "max_iterations": int(res.iterations.max()) if len(q) else 0}

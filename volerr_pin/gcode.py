@@ -1,0 +1,476 @@
+"""NC programs (ISO 6983 / RS-274 style): read, compensate, write back.
+
+Understood: G0, G1, G2, G3 (I/J/K centres relative to the start, or R with a negative value
+for more than half a turn; G17/G18/G19 planes; helical moves), G90/G91, G20/G21, F, S, T,
+M words, comments ``( ... )`` and ``; ...``, line numbers ``N``, blank lines. Everything that
+is not a compensated coordinate is copied byte for byte: a compensated block keeps its text
+and only the numbers of its coordinate words change (missing coordinate words are appended,
+since compensation moves every axis); the extra pieces of a split move are inserted as new
+lines before it. Canned cycles, macros and subprograms (G73-G89, G65, M98, M99, O-words,
+``#`` variables, IF/WHILE/GOTO) stop the compensation with an error naming the line unless
+``pass_through`` is set, in which case they are kept and listed as warnings.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .compensate import PathCompensator, arc_from_center
+from .errors import InputError
+from .machine import Machine
+
+WORD = re.compile(r"([A-Za-z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
+COMMENT = re.compile(r"\([^)]*\)|;.*$")
+UNSUPPORTED_G = {73, 74, 76, 80, 81, 82, 83, 84, 85, 86, 87, 88, 89, 65, 66, 67}
+PLANES = {17: ("X", "Y", "Z"), 18: ("Z", "X", "Y"), 19: ("Y", "Z", "X")}
+CENTRE = {"X": "I", "Y": "J", "Z": "K"}
+
+
+class GcodeError(InputError):
+    """A program cannot be read or compensated (the message names the line)."""
+
+
+@dataclass
+class Word:
+    letter: str
+    value: float
+    text: str
+    start: int   # span in the line
+    end: int
+
+
+@dataclass
+class Block:
+    number: int          # 1-based line number
+    text: str            # the line without its newline
+    words: list[Word]
+    code: str            # the line without comments (for checks)
+
+
+def parse_block(line: str, number: int, source: str) -> Block:
+    """Words of a line, with their spans in the original text (comments skipped)."""
+    inside = False
+    for ch in line:
+        if ch == ";" and not inside:
+            break
+        if ch == "(" and not inside:
+            inside = True
+        elif ch == ")" and inside:
+            inside = False
+        elif ch in "()":
+            inside = None
+            break
+    if inside is not False:
+        raise GcodeError(f"{source}:{number}: unbalanced parenthesis in '{line.strip()}'")
+    masked = list(line)
+    for m in COMMENT.finditer(line):
+        for i in range(m.start(), m.end()):
+            masked[i] = " "
+    code = "".join(masked)
+    words = []
+    pos = 0
+    stripped = code.rstrip()
+    for m in WORD.finditer(code):
+        gap = code[pos:m.start()]
+        if gap.strip():
+            raise GcodeError(f"{source}:{number}: cannot read '{gap.strip()}' in '{line.strip()}'")
+        words.append(Word(m.group(1).upper(), float(m.group(2)), m.group(0), m.start(), m.end()))
+        pos = m.end()
+    rest = code[pos:len(stripped)]
+    if rest.strip() and not rest.strip().startswith("%"):
+        raise GcodeError(f"{source}:{number}: cannot read '{rest.strip()}' in '{line.strip()}'")
+    return Block(number, line, words, code)
+
+
+@dataclass
+class Report:
+    blocks_in: int = 0
+    blocks_out: int = 0
+    moves: int = 0
+    pieces: int = 0
+    max_residual_um: float = 0.0
+    max_before_um: float = 0.0
+    tolerance_um: float = 1.0
+    arcs_kept: int = 0
+    arcs_as_lines: int = 0
+    warnings: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return {"blocks_in": self.blocks_in, "blocks_out": self.blocks_out, "moves": self.moves,
+                "pieces": self.pieces, "max_residual_um": self.max_residual_um,
+                "max_before_um": self.max_before_um, "tolerance_um": self.tolerance_um,
+                "arcs_kept": self.arcs_kept, "arcs_as_lines": self.arcs_as_lines,
+                "warnings": self.warnings}
+
+
+class Program:
+    """Compensates a program for a machine whose axes are NC letters (X, Y, Z, A, B, C)."""
+
+    def __init__(self, machine: Machine, tol_um: float = 1.0, pass_through: bool = False,
+                 start=None, method: str = "newton", source: str = "<program>", tol_urad: float | None = None):
+        for axis in machine.axes:
+            if not (len(axis) == 1 and axis in "XYZABCUVW"):
+                raise GcodeError(f"{machine.name}: axis '{axis}' is not an NC address letter")
+        self.m = machine
+        self.axes = list(machine.axes)
+        self.linear = [k == "linear" for k in machine.axis_kinds]
+        if not tol_um > 0:
+            raise GcodeError(f"the tolerance must be positive, got {tol_um} um")
+        # the written numbers are rounded (0.05 um per linear axis at most): the paths are
+        # compensated to the tolerance less that margin, so the program as written meets it
+        self.tol_urad = 10.0 * tol_um if tol_urad is None else tol_urad
+        margin = min(0.05 * math.sqrt(sum(self.linear)), 0.5 * tol_um)
+        inner_urad = None if tol_urad is None else tol_urad * (tol_um - margin) / tol_um
+        self.comp = PathCompensator(machine, tol_um=tol_um - margin, method=method, tol_urad=inner_urad)
+        self.pass_through = pass_through
+        self.source = source
+        travel = machine.travel
+        default = np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0)
+        self.start = default if start is None else np.asarray(start, float)
+        self.report = Report(tolerance_um=tol_um)
+
+    # units ----------------------------------------------------------------------
+    def _to_si(self, axis: str, value: float, inch: bool) -> float:
+        j = self.axes.index(axis)
+        if self.linear[j]:
+            return value * (25.4e-3 if inch else 1e-3)
+        return math.radians(value)
+
+    def _from_si(self, axis: str, value: float, inch: bool) -> float:
+        j = self.axes.index(axis)
+        if self.linear[j]:
+            return value / (25.4e-3 if inch else 1e-3)
+        return math.degrees(value)
+
+    def _fmt(self, axis: str, value: float, inch: bool) -> str:
+        digits = self._digits(axis, inch)
+        text = f"{value:.{digits}f}"
+        return "0." + "0" * digits if text in ("-0." + "0" * digits,) else text
+
+    # the run --------------------------------------------------------------------
+    def compensate(self, text: str) -> str:
+        lines = text.splitlines(keepends=True)
+        out: list[str] = []
+        st = {"motion": None, "plane": 17, "absolute": True, "inch": False, "known": False,
+              "pos": self.start.copy(), "cmd": None, "out_motion": None}
+        for number, raw in enumerate(lines, start=1):
+            body = raw.rstrip("\r\n")
+            newline = raw[len(body):]
+            self.report.blocks_in += 1
+            problem = self._unsupported(body)
+            if problem:
+                if not self.pass_through:
+                    raise GcodeError(f"{self.source}:{number}: {problem} cannot be compensated "
+                                     "(use --pass-through to keep it unchanged)")
+                self.report.warnings.append(f"line {number}: {problem} kept unchanged")
+                out.append(raw)
+                continue
+            block = parse_block(body, number, self.source)
+            out.extend(self._block(block, newline, st))
+        self.report.blocks_out = len(out)
+        return "".join(out)
+
+    @staticmethod
+    def _unsupported(line: str) -> str | None:
+        code = COMMENT.sub(" ", line).upper()
+        if "#" in code:
+            return "a macro variable (#)"
+        keyword = re.search(r"\b(IF|WHILE|GOTO|DO\d*|END\d*)\b", code)
+        if keyword:
+            return f"a macro statement ({keyword.group(1)})"
+        for m in WORD.finditer(code):
+            letter, value = m.group(1).upper(), float(m.group(2))
+            if letter == "G" and value == int(value) and int(value) in UNSUPPORTED_G:
+                return f"G{int(value)} (canned cycle or macro call)"
+            if letter == "M" and value in (98, 99):
+                return f"M{int(value)} (subprogram call or return)"
+            if letter == "G" and value in (90.1, 91.1, 68, 69, 41, 42, 43, 51, 52, 92):
+                return f"G{value:g} (not supported)"
+        return None
+
+    def _modal(self, block: Block, st: dict, check_travel: bool = True):
+        """Update the modal state from a block; returns (motion, start, target, coordinate
+        words) for a move, or None. ``check_travel`` rejects targets outside the travel (the
+        desired program must lie inside it; a compensated one may leave it by micrometres)."""
+        motion = st["motion"]
+        for g in (w.value for w in block.words if w.letter == "G"):
+            if g in (0, 1, 2, 3):
+                motion = int(g)
+            elif g in (17, 18, 19):
+                st["plane"] = int(g)
+            elif g == 90:
+                st["absolute"] = True
+            elif g == 91:
+                st["absolute"] = False
+            elif g == 20:
+                st["inch"] = True
+            elif g == 21:
+                st["inch"] = False
+        st["motion"] = motion
+        coord_words = [w for w in block.words if w.letter in self.axes]
+        if not coord_words:
+            return None
+        if motion is None:
+            raise GcodeError(f"{self.source}:{block.number}: coordinates without a motion mode (G0/G1/G2/G3)")
+        target = st["pos"].copy()
+        for w in coord_words:
+            j = self.axes.index(w.letter)
+            value = self._to_si(w.letter, w.value, st["inch"])
+            target[j] = value if st["absolute"] else st["pos"][j] + value
+        try:
+            self.m.check_q(target[None, :], extrapolate=not check_travel)
+        except InputError as err:
+            raise GcodeError(f"{self.source}:{block.number}: {err}") from None
+        return motion, st["pos"].copy(), target, coord_words
+
+    def _block(self, block: Block, newline: str, st: dict) -> list[str]:
+        move = self._modal(block, st)
+        if move is None:
+            gs = [int(w.value) for w in block.words if w.letter == "G" and w.value in (0, 1, 2, 3)]
+            if gs:
+                st["out_motion"] = gs[-1]
+            return [block.text + newline]
+        motion, start, target, coord_words = move
+        if not st["known"]:
+            if motion in (2, 3):
+                raise GcodeError(f"{self.source}:{block.number}: the first move is an arc from an unknown "
+                                 "position; start the program with a G0 or G1 to a known point")
+            self.report.warnings.append(f"line {block.number}: the position before the first move is not "
+                                        "known; this move is compensated at its end point only")
+            motion_kind = 0
+        else:
+            motion_kind = motion
+        start_c = st["cmd"]
+        try:
+            if motion_kind in (0,):
+                result = self.comp.rapid(start, target)
+            elif motion_kind == 1:
+                result = self.comp.line(start, target, start_c)
+            else:
+                arc = self._arc(block, start, target, motion_kind == 2, st)
+                outside = self._outside(arc.point(np.linspace(0.0, 1.0, 721)), slack=1e-9)
+                if outside:
+                    raise GcodeError(f"{self.source}:{block.number}: the arc leaves the travel ({outside})")
+                result = self.comp.arc(arc, start_c)
+        except GcodeError:
+            raise
+        except InputError as err:
+            raise GcodeError(f"{self.source}:{block.number}: {err}") from None
+        self.report.moves += 1
+        self.report.pieces += len(result.pieces)
+        self.report.max_residual_um = max(self.report.max_residual_um, result.max_residual * 1e6)
+        self.report.max_before_um = max(self.report.max_before_um, result.max_before * 1e6)
+        if result.limited:
+            what = (f"{self.report.tolerance_um:g} um / {self.tol_urad:g} urad" if self.comp.orientation
+                    else f"{self.report.tolerance_um:g} um")
+            self.report.warnings.append(
+                f"line {block.number}: the residual stays at {result.max_residual * 1e6:.2f} um "
+                f"(tolerance {what}); no command reaches the desired pose there (singular pose of "
+                "the rotary axes, or an error the axes cannot undo)")
+        outside = self._outside(np.array([p.end for p in result.pieces]))
+        if outside:
+            self.report.warnings.append(f"line {block.number}: the compensated command leaves the travel "
+                                        f"({outside}); check the machine's soft limits")
+        if motion_kind in (2, 3):
+            if all(p.kind == "arc" for p in result.pieces):
+                self.report.arcs_kept += 1
+            else:
+                self.report.arcs_as_lines += 1
+        late_m = [w for w in block.words if w.letter == "M" and w.value in (0, 1, 2, 5, 9, 30)]
+        if late_m and len(result.pieces) > 1:
+            self.report.warnings.append(f"line {block.number}: the move is split in {len(result.pieces)} pieces; "
+                                        f"M{late_m[0].value:g} stays on the first piece")
+        # the original block carries the first piece (so its F, S, T, M and modal words act
+        # where they did); the further pieces follow as new blocks with explicit G words
+        prev = start_c if start_c is not None else start
+        lines = [self._rewrite(block, result.pieces[0], prev, st, motion, coord_words) + newline]
+        prev = result.pieces[0].end
+        for piece in result.pieces[1:]:
+            lines.append(self._new_line(piece, prev, st, motion) + newline)
+            prev = piece.end
+        st["pos"] = target
+        st["cmd"] = result.pieces[-1].end
+        st["known"] = True
+        return lines
+
+    @staticmethod
+    def _g_of(piece, motion: int) -> int:
+        if piece.kind == "arc":
+            return 2 if piece.clockwise else 3
+        return motion if motion in (0, 1) else 1
+
+    def _outside(self, q: np.ndarray, slack: float = 0.0) -> str:
+        """Which axes ``q`` takes beyond their travel and by how much ('' if none)."""
+        travel = self.m.travel
+        parts = []
+        for j, axis in enumerate(self.axes):
+            lo = travel[j, 0] - q[:, j].min()
+            hi = q[:, j].max() - travel[j, 1]
+            worst = max(lo, hi)
+            if worst > slack:
+                unit, scale = ("um", 1e6) if self.linear[j] else ("urad", 1e6)
+                parts.append(f"{axis} by {worst * scale:.2f} {unit}")
+        return ", ".join(parts)
+
+    def _arc(self, block: Block, start, target, clockwise, st):
+        plane = PLANES[st["plane"]]
+        if not all(a in self.axes and self.linear[self.axes.index(a)] for a in plane):
+            raise GcodeError(f"{self.source}:{block.number}: an arc needs linear axes {', '.join(plane)}")
+        i, j, k = (self.axes.index(a) for a in plane)
+        words = {w.letter: w.value for w in block.words}
+        scale = 25.4e-3 if st["inch"] else 1e-3
+        if "R" in words:
+            r = abs(words["R"]) * scale
+            d = target[[i, j]] - start[[i, j]]
+            chord = math.hypot(*d)
+            if chord < 1e-12 or chord > 2 * r * (1 + 1e-9):
+                raise GcodeError(f"{self.source}:{block.number}: R{words['R']:g} cannot join these end points")
+            h = math.sqrt(max(r * r - chord * chord / 4, 0.0))
+            mid = start[[i, j]] + d / 2
+            normal = np.array([-d[1], d[0]]) / chord
+            big = words["R"] < 0
+            side = (1 if clockwise else -1) * (-1 if big else 1)
+            centre = mid - side * h * normal
+        else:
+            offs = [CENTRE[plane[0]], CENTRE[plane[1]]]
+            if not any(o in words for o in offs):
+                raise GcodeError(f"{self.source}:{block.number}: an arc needs {offs[0]}/{offs[1]} or R")
+            centre = start[[i, j]] + np.array([words.get(offs[0], 0.0), words.get(offs[1], 0.0)]) * scale
+        try:
+            return arc_from_center(start, target, centre, (i, j, k), clockwise)
+        except InputError as err:
+            raise GcodeError(f"{self.source}:{block.number}: {err}") from None
+
+    def _digits(self, axis: str, inch: bool) -> int:
+        """Output decimals: 0.1 um (mm), 0.025 um (inch), 0.00001 deg (rotary)."""
+        if not self.linear[self.axes.index(axis)]:
+            return 5
+        return 6 if inch else 4
+
+    def _values(self, piece, prev, st) -> dict[str, str]:
+        """Coordinate words of a piece's end. Incremental values are differences of the
+        rounded absolute positions, so rounding never accumulates along a G91 section."""
+        vals = {}
+        for j, axis in enumerate(self.axes):
+            d = self._digits(axis, st["inch"])
+            end = round(self._from_si(axis, piece.end[j], st["inch"]), d)
+            if not st["absolute"]:
+                end -= round(self._from_si(axis, prev[j], st["inch"]), d)
+            vals[axis] = self._fmt(axis, end, st["inch"])
+        return vals
+
+    def _centre_words(self, piece, prev, st, radius_form: bool) -> list[str]:
+        plane = PLANES[st["plane"]]
+        i, j = self.axes.index(plane[0]), self.axes.index(plane[1])
+        if radius_form:
+            r = math.hypot(prev[i] - piece.center[0], prev[j] - piece.center[1])
+            r = -r if abs(piece.turns) > math.pi else r
+            return [f"R{self._fmt(plane[0], self._from_si(plane[0], r, st['inch']), st['inch'])}"]
+        out = []
+        for axis, c, p in ((plane[0], piece.center[0], prev[i]), (plane[1], piece.center[1], prev[j])):
+            out.append(f"{CENTRE[axis]}{self._fmt(axis, self._from_si(axis, c - p, st['inch']), st['inch'])}")
+        return out
+
+    def _new_line(self, piece, prev, st, motion) -> str:
+        vals = self._values(piece, prev, st)
+        g = self._g_of(piece, motion)
+        words = [f"G{g}"] + [f"{a}{vals[a]}" for a in self.axes]
+        if piece.kind == "arc":
+            words += self._centre_words(piece, prev, st, False)
+        st["out_motion"] = g
+        return " ".join(words)
+
+    def _rewrite(self, block: Block, piece, prev, st, motion, coord_words) -> str:
+        """The original line with the numbers of its coordinate words replaced in place;
+        axes it did not name are appended after its last coordinate word. For an arc the
+        centre words are replaced likewise; an arc piece that had to become a line gets G1
+        and loses its centre words. A block that relied on the modal motion gets an explicit
+        motion word when the output's modal motion differs."""
+        vals = self._values(piece, prev, st)
+        edits = [(w.start, w.end, f"{w.letter}{vals[w.letter]}") for w in coord_words]
+        present = {w.letter for w in coord_words}
+        extra = [f"{a}{vals[a]}" for a in self.axes if a not in present]
+        anchor = max(w.end for w in coord_words)
+        g_new = self._g_of(piece, motion)
+        motion_words = [w for w in block.words if w.letter == "G" and w.value in (0, 1, 2, 3)]
+        if motion_words:
+            last = motion_words[-1]
+            if int(last.value) != g_new:
+                edits.append((last.start, last.end, f"G{g_new}"))
+        elif st["out_motion"] != g_new:
+            first = min(w.start for w in coord_words)
+            edits.append((first, first, f"G{g_new} "))
+        st["out_motion"] = g_new
+        if motion in (2, 3):
+            centre_words = [w for w in block.words if w.letter in ("I", "J", "K", "R")]
+            radius_form = any(w.letter == "R" for w in centre_words)
+            new = ({t[0]: t for t in self._centre_words(piece, prev, st, radius_form)}
+                   if piece.kind == "arc" else {})
+            for w in centre_words:
+                edits.append((w.start, w.end, new.pop(w.letter, "")))
+            extra += list(new.values())
+            anchor = max([anchor] + [w.end for w in centre_words])
+        text = block.text
+        if extra:
+            edits.append((anchor, anchor, " " + " ".join(extra)))
+        for start, end, rep in sorted(edits, key=lambda e: (e[0], e[1]), reverse=True):
+            text = text[:start] + rep + text[end:]
+        return text
+
+
+@dataclass
+class Segment:
+    """One interpolated move of a program (SI): ``kind`` "rapid", "line" or "arc"."""
+
+    line: int
+    kind: str
+    start: np.ndarray
+    end: np.ndarray
+    arc: object = None
+
+    def sample(self, n: int) -> np.ndarray:
+        k = np.linspace(0.0, 1.0, n)
+        if self.kind == "arc":
+            return self.arc.point(k)
+        return self.start + np.outer(k, self.end - self.start)
+
+
+def interpret(machine: Machine, text: str, source: str = "<program>", start=None) -> list[Segment]:
+    """The moves of a program as the controller interpolates them (lines in axis space,
+    arcs about their centres), in SI; moves before the position is known are rapids."""
+    program = Program(machine, source=source, start=start)
+    st = {"motion": None, "plane": 17, "absolute": True, "inch": False, "known": False,
+          "pos": program.start.copy(), "cmd": None}
+    out = []
+    for number, raw in enumerate(text.splitlines(), start=1):
+        if program._unsupported(raw):
+            continue
+        move = program._modal(parse_block(raw, number, source), st, check_travel=False)
+        if move is None:
+            continue
+        motion, begin, target, _ = move
+        if not st["known"] or motion == 0:
+            out.append(Segment(number, "rapid", begin, target))
+        elif motion == 1:
+            out.append(Segment(number, "line", begin, target))
+        else:
+            out.append(Segment(number, "arc", begin, target,
+                               program._arc(parse_block(raw, number, source), begin, target, motion == 2, st)))
+        st["pos"], st["known"] = target, True
+    return out
+
+
+def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass_through: bool = False,
+                       method: str = "newton", source: str = "<program>",
+                       tol_urad: float | None = None) -> tuple[str, Report]:
+    """Compensate an NC program; returns the new text and the report.
+
+    ``tol_um``: position tolerance along every move; ``tol_urad``: tool-axis tolerance on
+    machines with rotary axes (default 10 urad per um of ``tol_um``)."""
+    program = Program(machine, tol_um=tol_um, pass_through=pass_through, method=method, source=source,
+                      tol_urad=tol_urad)
+    return program.compensate(text), program.report
