@@ -60,3 +60,55 @@ def test_demo_json(capsys):
     data = json.loads(capsys.readouterr().out)
     assert data["summary"]["points"] == 27
     assert data["summary"]["max_position_um"] >= data["summary"]["rms_position_um"] > 0
+    comp = data["compensation"]
+    assert comp["reduction_percent"] > 99 and comp["max_after_um"] < 0.02 < comp["max_before_um"]
+
+
+NC = """N10 G21 G90 G17 (setup)
+N20 T1 M6
+N30 G0 X50 Y50 Z100
+N40 G1 Z50 F500
+N50 G1 X300 Y200
+N60 G2 X400 Y100 I100 J0
+N70 M30
+"""
+
+
+def test_compensate_writes_program_and_report(tmp_path, capsys):
+    src = tmp_path / "part.nc"
+    src.write_text(NC)
+    out, rep = tmp_path / "part_comp.nc", tmp_path / "report.json"
+    assert main(["compensate", "vmc500", str(src), "-o", str(out), "--tol-um", "2", "--report", str(rep)]) == 0
+    report = json.loads(rep.read_text())
+    assert report["blocks_in"] == 7 and report["blocks_out"] == len(out.read_text().splitlines())
+    assert report["tolerance_um"] == 2 and report["max_residual_um"] <= 2
+    assert "warnings" in report
+    text = capsys.readouterr().out
+    assert "blocks in" in text and "tolerance 2 um" in text
+    lines = out.read_text().splitlines()
+    assert lines[0] == "N10 G21 G90 G17 (setup)" and lines[1] == "N20 T1 M6" and lines[-1] == "N70 M30"
+
+
+def test_compensate_json_and_errors(tmp_path, capsys):
+    src = tmp_path / "bad.nc"
+    src.write_text("G90 G0 X10 Y10 Z10\nG81 X20 Y20 Z5 R12\n")
+    assert main(["compensate", "vmc500", str(src), "-o", str(tmp_path / "o.nc")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "bad.nc:2" in err and "--pass-through" in err
+    assert main(["compensate", "vmc500", str(src), "-o", str(tmp_path / "o.nc"), "--pass-through", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["warnings"] and report["blocks_in"] == 2
+
+
+def test_errormap_cli(tmp_path, capsys):
+    table = tmp_path / "table.csv"
+    assert main(["errormap", "vmc700", "--elements", "2", "--points", "300", "--table", str(table),
+                 "--nodes", "4", "--axis-tables", str(tmp_path / "axes"), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert [r["nodes_per_element"] for r in report["orders"]] == [8, 20, 32]
+    rms = [r["rms_um"] for r in report["orders"]]
+    assert rms[0] > rms[2]
+    assert table.exists() and report["table"]["rows"] == 64
+    assert len(report["axis_tables"]) == 3
+    assert main(["errormap", "lathe_2axis"]) == 2
+    assert "three linear axes" in capsys.readouterr().err

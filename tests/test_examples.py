@@ -57,3 +57,12 @@ def test_diagnose_examples(tmp_path, capsys):
     assert (effect["name"], effect["direction"], effect["driver"]) == ("force_deflection", "x", "Fx")
     (p,) = effect["parameters"].values()
     assert p["value"] * 1e-6 == pytest.approx(seed004["c_true"], rel=0.02)
+
+
+def test_compensation_report_example():
+    module = load("compensation_report")
+    row = module.machine_row("vmc500", points=64, moves=3)
+    assert row["reduction_percent"] > 99 and row["path_after_um"] <= 1.0 < row["path_before_um"]
+    ex = module.seed002_examples()
+    assert ex["line"][0] >= 2 and ex["line"][2] <= 1.0 < ex["line"][1]
+    assert ex["arc"][0] >= 2 and ex["arc"][2] <= 1.0 < ex["arc"][1]

@@ -445,6 +445,86 @@ def cmd_diagnose(args) -> int:
     return 0
 
 
+def cmd_compensate(args) -> int:
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from .gcode import Program
+
+    machine = load_machine(args.machine, tool_frame=args.tool_frame,
+                           workpiece_frame=args.workpiece_frame)
+    path = Path(args.program)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise InputError(f"{path}: not UTF-8/ASCII text (byte {err.start})") from None
+    program = Program(machine, tol_um=args.tol_um, tol_urad=args.tol_urad, pass_through=args.pass_through,
+                      method=args.method, source=str(path))
+    console = Console(stderr=True, highlight=False)
+    with Progress(TextColumn("compensating"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
+                  console=console, transient=True, disable=args.json or not console.is_terminal) as bar:
+        task = bar.add_task("", total=text.count("\n") + 1)
+        result = program.compensate(text, progress=lambda n: bar.update(task, completed=n))
+    Path(args.output).write_text(result, encoding="utf-8", newline="")
+    report = {"machine": machine.name, "input": str(path), "output": str(args.output), **program.report.to_dict()}
+    if args.report:
+        Path(args.report).write_text(json.dumps(report, indent=2) + "\n")
+    if args.json:
+        print(json.dumps(report))
+        return 0
+    r = program.report
+    print(f"{path} -> {args.output}: {r.blocks_in} blocks in, {r.blocks_out} out; {r.moves} moves in "
+          f"{r.pieces} pieces ({r.arcs_kept} arcs kept as arcs, {r.arcs_as_lines} as lines)")
+    print(f"largest error along the moves: {r.max_before_um:.2f} um before, {r.max_residual_um:.3f} um after "
+          f"compensation (tolerance {r.tolerance_um:g} um)")
+    for w in r.warnings:
+        print(f"warning: {w}")
+    if args.report:
+        print(f"wrote {args.report}")
+    return 0
+
+
+def cmd_errormap(args) -> int:
+    from .errormap import ErrorMap, axis_tables, compensation_table
+
+    machine = load_machine(args.machine, tool_frame=args.tool_frame,
+                           workpiece_frame=args.workpiece_frame)
+    config = _config(machine, args.config)
+    elements = args.elements * 3 if len(args.elements) == 1 else args.elements
+    if len(elements) != 3:
+        raise InputError(f"--elements takes 1 or 3 values, got {len(elements)}")
+    rows = [ErrorMap.build(machine, elements, order, config=config).interpolation_error(args.points, args.seed)
+            for order in args.order]
+    report = {"machine": machine.name, "elements": list(elements), "orders": rows}
+    if args.table:
+        nodes = args.nodes * 3 if len(args.nodes) == 1 else args.nodes
+        if len(nodes) != 3:
+            raise InputError(f"--nodes takes 1 or 3 values, got {len(nodes)}")
+        report["table"] = compensation_table(machine, args.table, nodes, config=config)
+    if args.axis_tables:
+        report["axis_tables"] = axis_tables(machine, args.axis_tables)
+    if args.json:
+        print(json.dumps(report))
+        return 0
+    console = _console()
+    table = Table(box=box.SIMPLE, title=f"{machine.name}: error map interpolation vs the direct model "
+                                        f"({args.points} random points)")
+    for col in ("element", "elements", "nodes", "max [um]", "RMS [um]", "RMS / error RMS"):
+        table.add_column(escape(col), justify="right")
+    for r in rows:
+        table.add_row(f"{r['nodes_per_element']}-node", "x".join(map(str, r["elements"])), str(r["nodes"]),
+                      f"{r['max_um']:.4f}", f"{r['rms_um']:.4f}", f"{100 * r['relative']:.2f} %")
+    console.print(table)
+    console.print(f"volumetric error RMS over the map: {rows[0]['error_rms_um']:.3f} um")
+    if args.table:
+        t = report["table"]
+        print(f"wrote {t['file']}: {t['rows']} nodes, corrections up to {t['max_correction_um']:.2f} um; with "
+              f"trilinear interpolation the residual is {t['residual_with_table_max_um']:.3f} um max, "
+              f"{t['residual_with_table_rms_um']:.3f} um RMS")
+    for f in report.get("axis_tables", []):
+        print(f"wrote {f}")
+    return 0
+
+
 def cmd_info(args) -> int:
     machine = load_machine(args.machine, tool_frame=args.tool_frame,
                            workpiece_frame=args.workpiece_frame)
@@ -478,15 +558,24 @@ def cmd_demo(args) -> int:
     ranked = rank(machine, sample(machine, 1024))
     ranking = ranked.to_dict(top=args.top)
     recording = record_field(machine, args.out, ranking=ranked.to_dict(top=15))
+    from .compensate import evaluate_compensation
+
+    compensation = evaluate_compensation(machine, grid(machine, 7))
     if args.json:
         print(json.dumps({"machine": info, "summary": summary, "ranking": ranking,
-                          "recording": recording}))
+                          "recording": recording, "compensation": compensation}))
         return 0
     console = _console()
     _print_info(console, info)
     _print_summary(console, summary, machine.axes)
     _print_ranking(console, ranking, f"top {args.top} error sources at the tool "
                                      "(share of the top listed)")
+    c = compensation
+    console.print(f"compensation (exact point compensation at {c['points']} grid points): max error "
+                  f"{c['max_before_um']:.2f} -> {c['max_after_um']:.4f} um, RMS {c['rms_before_um']:.2f} -> "
+                  f"{c['rms_after_um']:.4f} um ({c['reduction_percent']:.2f} % reduction"
+                  + (f"; {c['points'] - c['reachable']} points need commands beyond the travel)"
+                     if c["reachable"] < c["points"] else ")"))
     _print_recording(recording)
     return 0
 
@@ -610,6 +699,37 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--png", help="write a one-page summary figure")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_diagnose)
+
+    p = sub.add_parser("compensate", help="compensated NC program")
+    _machine_args(p)
+    p.add_argument("program", help="NC program (ISO 6983 / RS-274)")
+    p.add_argument("-o", "--output", required=True, help="compensated program to write")
+    p.add_argument("--tol-um", type=float, default=1.0, help="position tolerance along every move (default 1)")
+    p.add_argument("--tol-urad", type=float,
+                   help="tool-axis tolerance on machines with rotary axes (default 10 per um of --tol-um)")
+    p.add_argument("--report", help="write the report (JSON) here")
+    p.add_argument("--pass-through", action="store_true",
+                   help="keep blocks that cannot be compensated (canned cycles, macros) and warn")
+    p.add_argument("--method", choices=["newton", "recursive"], default="newton",
+                   help="point compensation scheme (default newton)")
+    p.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    p.set_defaults(func=cmd_compensate)
+
+    p = sub.add_parser("errormap", help="error map accuracy per element order; compensation tables")
+    _machine_args(p)
+    p.add_argument("--elements", type=_positive, nargs="+", default=[4], metavar="N",
+                   help="elements per linear axis (1 or 3 values; default 4)")
+    p.add_argument("--order", type=int, nargs="+", choices=[1, 2, 3], default=[1, 2, 3],
+                   help="element orders: 1 = 8-node, 2 = 20-node, 3 = 32-node (default all)")
+    p.add_argument("--points", type=_positive, default=2000, help="random test points (default 2000)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the test points")
+    p.add_argument("--config", nargs="+", metavar="AXIS=VALUE", help="positions of the other axes (mm, deg)")
+    p.add_argument("--table", help="write a trilinear compensation table (CSV) here")
+    p.add_argument("--nodes", type=_positive, nargs="+", default=[11], metavar="N",
+                   help="table nodes per axis (1 or 3 values; default 11)")
+    p.add_argument("--axis-tables", metavar="DIR", help="write ISO 230-1-named per-axis tables here")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_errormap)
 
     p = sub.add_parser("info", help="axes, chains, error terms by kind, travels")
     _machine_args(p)

@@ -384,14 +384,27 @@ def _sweep(a0: float, a1: float, ccw: bool) -> float:
 
 
 def evaluate_compensation(machine: Machine, q: np.ndarray, **covariates) -> dict:
-    """Predicted position error over ``q`` without and with point compensation [um]."""
+    """Predicted tool position error over ``q`` without and with point compensation [um];
+    on machines with rotary axes also the tool-axis error [urad]."""
     res = compensate_points(machine, q, **covariates)
     before, after = res.before * UM, res.residual * UM
     ok = res.reachable
-    return {"points": int(len(q)), "reachable": int(ok.sum()),
-            "max_before_um": float(before.max()), "rms_before_um": float(np.sqrt(np.mean(before**2))),
-            "max_after_um": float(after[ok].max()) if ok.any() else None,
-            "rms_after_um": float(np.sqrt(np.mean(after[ok] ** 2))) if ok.any() else None,
-            "reduction_percent": float(100 * (1 - np.sqrt(np.mean(after[ok] ** 2)) / np.sqrt(np.mean(before[ok] ** 2))))
-            if ok.any() and np.any(before[ok] > 0) else None,
-            "max_iterations": int(res.iterations.max()) if len(q) else 0}
+    out = {"points": int(len(q)), "reachable": int(ok.sum()),
+           "max_before_um": float(before.max()), "rms_before_um": float(np.sqrt(np.mean(before**2))),
+           "max_after_um": float(after[ok].max()) if ok.any() else None,
+           "rms_after_um": float(np.sqrt(np.mean(after[ok] ** 2))) if ok.any() else None,
+           "reduction_percent": float(100 * (1 - np.sqrt(np.mean(after[ok] ** 2)) / np.sqrt(np.mean(before[ok] ** 2))))
+           if ok.any() and np.any(before[ok] > 0) else None,
+           "max_iterations": int(res.iterations.max()) if len(q) else 0}
+    if _has_rotary(machine):
+        cov = {k: v for k, v in covariates.items() if v is not None}
+        R0, _ = machine.tool_poses(q, **cov)
+        R_d, _ = machine.tool_poses(q, nominal=True)
+        axis_before = np.linalg.norm(np.cross(R0[:, :, 2], R_d[:, :, 2]), axis=1) * UM
+        out["max_axis_before_urad"] = float(axis_before.max())
+        axis_after = (res.axis_residual * UM)[ok]
+        out["rms_axis_before_urad"] = float(np.sqrt(np.mean(axis_before**2)))
+        out["max_axis_after_urad"] = float(axis_after.max()) if ok.any() else None
+        out["rms_axis_after_urad"] = float(np.sqrt(np.mean(axis_after**2))) if ok.any() else None
+        out["not_within_tolerance"] = int((~res.within_tolerance).sum())
+    return out

@@ -152,7 +152,8 @@ class Program:
         return "0." + "0" * digits if text in ("-0." + "0" * digits,) else text
 
     # the run --------------------------------------------------------------------
-    def compensate(self, text: str) -> str:
+    def compensate(self, text: str, progress=None) -> str:
+        """The compensated program; ``progress(lines_done)`` is called as it goes."""
         lines = text.splitlines(keepends=True)
         out: list[str] = []
         st = {"motion": None, "plane": 17, "absolute": True, "inch": False, "known": False,
@@ -171,6 +172,8 @@ class Program:
                 continue
             block = parse_block(body, number, self.source)
             out.extend(self._block(block, newline, st))
+            if progress is not None and number % 50 == 0:
+                progress(number)
         self.report.blocks_out = len(out)
         return "".join(out)
 

@@ -1,0 +1,120 @@
+"""Serendipity shape functions (seed 002 eqs. 7-14), error maps and compensation tables."""
+
+from __future__ import annotations
+
+import csv
+import itertools
+
+import numpy as np
+import pytest
+
+from volerr_pin.compensate import compensate_points
+from volerr_pin.errormap import ErrorMap, axis_tables, compensation_table, natural_nodes, shape_functions
+from volerr_pin.errors import InputError
+
+
+def _monomials(degree):
+    return [e for e in itertools.product(range(degree + 1), repeat=3) if sum(e) <= degree]
+
+
+def _poly(xi, coeffs, degree):
+    return sum(c * np.prod(xi ** np.array(e), axis=1) for c, e in zip(coeffs, _monomials(degree)))
+
+
+@pytest.mark.parametrize("order, n", [(1, 8), (2, 20), (3, 32)])
+def test_partition_of_unity_and_nodal_interpolation(order, n):
+    nodes = natural_nodes(order)
+    assert nodes.shape == (n, 3)
+    assert len(np.unique(nodes, axis=0)) == n
+    np.testing.assert_allclose(shape_functions(order, nodes), np.eye(n), atol=1e-14)
+    xi = np.random.default_rng(order).uniform(-1, 1, (500, 3))
+    np.testing.assert_allclose(shape_functions(order, xi).sum(axis=1), 1.0, atol=1e-13)
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_polynomial_reproduction(order):
+    rng = np.random.default_rng(10 + order)
+    nodes = natural_nodes(order)
+    xi = rng.uniform(-1, 1, (400, 3))
+    N = shape_functions(order, xi)
+    if order == 1:  # the trilinear family: 1, x, y, z, xy, yz, zx, xyz
+        basis = [e for e in itertools.product((0, 1), repeat=3)]
+        coeffs = rng.normal(size=len(basis))
+        f = lambda p: sum(c * np.prod(p ** np.array(e), axis=1) for c, e in zip(coeffs, basis))
+    else:  # complete polynomials of the element's order
+        coeffs = rng.normal(size=len(_monomials(order)))
+        f = lambda p: _poly(p, coeffs, order)
+    np.testing.assert_allclose(N @ f(nodes), f(xi), atol=1e-12)
+    # one degree more is not reproduced (so the check can fail)
+    higher = lambda p: p[:, 0] ** (order + 1)
+    assert np.abs(N @ higher(nodes) - higher(xi)).max() > 1e-3
+
+
+def test_bad_order_is_rejected():
+    with pytest.raises(InputError, match="order"):
+        natural_nodes(4)
+
+
+def test_error_map_matches_model_at_nodes_and_converges_with_order(machines):
+    m = machines["vmc500"]
+    results = []
+    for order in (1, 2, 3):
+        emap = ErrorMap.build(m, (3, 3, 3), order)
+        # nodes: interpolation equals the model exactly
+        pts = emap._node_points()[5]
+        q = np.tile(emap.fixed, (len(pts), 1))
+        q[:, list(emap.axes)] = pts
+        np.testing.assert_allclose(emap.interpolate(q), m.volumetric_error(q), atol=1e-15)
+        results.append(emap.interpolation_error(800, seed=1))
+    rms = [r["rms_um"] for r in results]
+    assert rms[0] > rms[1] > rms[2] > 0
+    assert results[0]["nodes"] == 64 and results[1]["nodes"] == 64 + 3 * 4 * 4 * 3
+    with pytest.raises(InputError, match="outside the error map"):
+        emap.locate(np.array([[0.2, 0.1, m.travel[2, 1] + 0.01]]))
+
+
+def test_error_map_of_a_five_axis_machine_at_a_fixed_head_angle(machines):
+    m = machines["cgm4000"]
+    emap = ErrorMap.build(m, (2, 2, 2), 2, config={"A": 0.3, "B": -0.2})
+    q = np.array([[1.0, 1.0, 0.3, 0.3, -0.2]])
+    assert np.linalg.norm(emap.interpolate(q) - m.volumetric_error(q)) < 0.2 * np.linalg.norm(m.volumetric_error(q))
+    with pytest.raises(InputError, match="built with"):
+        emap.interpolate(np.array([[1.0, 1.0, 0.3, 0.0, -0.2]]))
+
+
+def test_error_map_needs_three_linear_axes(machines):
+    with pytest.raises(InputError, match="three linear axes"):
+        ErrorMap.build(machines["lathe_2axis"])
+
+
+def test_compensation_table(machines, tmp_path):
+    m = machines["vmc700"]
+    summary = compensation_table(m, tmp_path / "table.csv", nodes=(5, 4, 3))
+    lines = (tmp_path / "table.csv").read_text().splitlines()
+    assert any("trilinear" in line for line in lines if line.startswith("#"))
+    rows = list(csv.reader(line for line in lines if not line.startswith("#")))
+    assert rows[0] == ["X_mm", "Y_mm", "Z_mm", "dX_um", "dY_um", "dZ_um"]
+    assert len(rows) - 1 == 5 * 4 * 3 == summary["rows"]
+    # a node's correction is the exact point compensation there
+    node = np.array([float(v) for v in rows[7][:3]]) * 1e-3
+    exact = compensate_points(m, node[None, :], orientation=False).q[0] - node
+    np.testing.assert_allclose([float(v) for v in rows[7][3:]], exact * 1e6, atol=1e-4)
+    # the table works: the residual with trilinear table compensation is far below the error
+    before = np.linalg.norm(m.volumetric_error(np.array([[0.35, 0.125, 0.1]]))[0, :3]) * 1e6
+    assert summary["residual_with_table_max_um"] < 0.5 * summary["max_correction_um"]
+    assert summary["max_correction_um"] > before
+
+
+def test_axis_tables_carry_iso_names_and_model_values(machines, tmp_path):
+    m = machines["vmc500"]
+    files = axis_tables(m, tmp_path, points=5)
+    assert [f.rsplit("_", 1)[1] for f in files] == ["X.csv", "Y.csv", "Z.csv"]
+    rows = list(csv.reader(line for line in open(files[0]) if not line.startswith("#")))
+    assert rows[0][:4] == ["X_mm", "EXX_um", "EYX_um", "EZX_um"]
+    assert "EAX_urad" in rows[0]
+    x = float(rows[3][0]) * 1e-3
+    q = m.travel.mean(axis=1)
+    q[0] = x
+    vals = m.component_values(q[None, :])[0]
+    col = rows[0].index("EYX_um")
+    assert float(rows[3][col]) == pytest.approx(vals[m.components.index("EYX")] * 1e6, abs=1e-4)

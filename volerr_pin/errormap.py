@@ -1,0 +1,313 @@
+"""Error maps: the quasi-static error at the nodes of a workspace grid (seed 002, eqs. 7-14).
+
+The workspace of three linear axes is divided into hexahedral elements; inside an element the
+error is interpolated from its nodes with serendipity shape functions in natural coordinates
+(xi, eta, zeta) in [-1, 1]^3:
+
+- 8 nodes (linear): ``N = (1 + xi xi_i)(1 + eta eta_i)(1 + zeta zeta_i) / 8`` (trilinear, what
+  controllers' compensation tables use);
+- 20 nodes (quadratic): corners ``N = (1+xi xi_i)(1+eta eta_i)(1+zeta zeta_i)
+  (xi xi_i + eta eta_i + zeta zeta_i - 2) / 8``; mid-edge nodes (xi_i = 0)
+  ``N = (1 - xi^2)(1 + eta eta_i)(1 + zeta zeta_i) / 4`` and its permutations;
+- 32 nodes (cubic): corners ``N = (1+xi xi_i)(1+eta eta_i)(1+zeta zeta_i)
+  (9 (xi^2 + eta^2 + zeta^2) - 19) / 64``; edge nodes at xi_i = +-1/3
+  ``N = 9 (1 - xi^2)(1 + 9 xi xi_i)(1 + eta eta_i)(1 + zeta zeta_i) / 64`` and permutations.
+
+Each family is a partition of unity, interpolates its nodal values and reproduces complete
+polynomials of its order (tests check all three).
+"""
+
+from __future__ import annotations
+
+import csv
+import itertools
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .machine import Machine
+
+NODES_PER_ORDER = {1: 8, 2: 20, 3: 32}
+
+
+def natural_nodes(order: int) -> np.ndarray:
+    """(n, 3) natural coordinates of the nodes of an element of ``order`` 1, 2 or 3."""
+    if order not in NODES_PER_ORDER:
+        raise InputError(f"element order must be 1 (8 nodes), 2 (20 nodes) or 3 (32 nodes), got {order}")
+    corners = np.array(list(itertools.product((-1.0, 1.0), repeat=3)))
+    if order == 1:
+        return corners
+    inner = (0.0,) if order == 2 else (-1.0 / 3.0, 1.0 / 3.0)
+    edges = []
+    for axis in range(3):
+        others = [a for a in range(3) if a != axis]
+        for s1, s2 in itertools.product((-1.0, 1.0), repeat=2):
+            for v in inner:
+                node = np.zeros(3)
+                node[axis], node[others[0]], node[others[1]] = v, s1, s2
+                edges.append(node)
+    return np.vstack([corners, np.array(edges)])
+
+
+def shape_functions(order: int, xi: np.ndarray) -> np.ndarray:
+    """(M, n_nodes) values of the shape functions at natural coordinates ``xi`` (M, 3)."""
+    nodes = natural_nodes(order)
+    xi = np.atleast_2d(np.asarray(xi, dtype=float))
+    x, y, z = (xi[:, k:k + 1] for k in range(3))
+    nx, ny, nz = (nodes[None, :, k] for k in range(3))
+    N = np.empty((len(xi), len(nodes)))
+    corner = (np.abs(nx) == 1) & (np.abs(ny) == 1) & (np.abs(nz) == 1)
+    lin = (1 + x * nx) * (1 + y * ny) * (1 + z * nz)
+    if order == 1:
+        return lin / 8.0
+    if order == 2:
+        N[:] = np.where(corner, lin * (x * nx + y * ny + z * nz - 2) / 8.0, 0.0)
+        for axis, (a, na), (b, nb), (c, nc) in ((0, (x, nx), (y, ny), (z, nz)),
+                                                 (1, (y, ny), (x, nx), (z, nz)),
+                                                 (2, (z, nz), (x, nx), (y, ny))):
+            mask = ~corner & (na == 0)
+            N = np.where(mask, (1 - a * a) * (1 + b * nb) * (1 + c * nc) / 4.0, N)
+        return N
+    r2 = x * x + y * y + z * z
+    N[:] = np.where(corner, lin * (9 * r2 - 19) / 64.0, 0.0)
+    for (a, na), (b, nb), (c, nc) in (((x, nx), (y, ny), (z, nz)), ((y, ny), (x, nx), (z, nz)),
+                                      ((z, nz), (x, nx), (y, ny))):
+        mask = ~corner & (np.abs(na) < 1)
+        N = np.where(mask, 9 * (1 - a * a) * (1 + 9 * a * na) * (1 + b * nb) * (1 + c * nc) / 64.0, N)
+    return N
+
+
+@dataclass
+class ErrorMap:
+    """Nodal errors of a machine over a grid of hexahedral elements.
+
+    ``axes``: indices of the three linear machine axes spanned; ``fixed``: the positions of
+    the other axes (SI). ``edges``: per spanned axis, the element boundaries (m).
+    ``values``: (n_elements, n_nodes, 6) volumetric error at the element nodes (m, rad).
+    """
+
+    machine: Machine
+    order: int
+    axes: tuple[int, int, int]
+    edges: tuple[np.ndarray, np.ndarray, np.ndarray]
+    fixed: np.ndarray
+    values: np.ndarray
+
+    @classmethod
+    def build(cls, machine: Machine, elements=(4, 4, 4), order: int = 2, config: dict | None = None,
+              **covariates) -> ErrorMap:
+        """Evaluate the model at the nodes of ``elements`` (per axis) over the travel of the
+        machine's linear axes; other axes sit at ``config`` (axis name -> SI value, default
+        the middle of their travel, or 0 for endless axes)."""
+        lin = [j for j, k in enumerate(machine.axis_kinds) if k == "linear"]
+        if len(lin) != 3:
+            raise InputError(f"{machine.name}: an error map needs exactly three linear axes "
+                             f"(it has {len(lin)}: {', '.join(machine.axes[j] for j in lin) or 'none'})")
+        elements = tuple(int(e) for e in elements)
+        if len(elements) != 3 or min(elements) < 1:
+            raise InputError(f"elements must be three positive integers, got {elements}")
+        travel = machine.travel
+        fixed = np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0)
+        for name, value in (config or {}).items():
+            if name not in machine.axes:
+                raise InputError(f"{machine.name} has no axis {name!r} (axes: {', '.join(machine.axes)})")
+            fixed[machine.axes.index(name)] = float(value)
+        edges = tuple(np.linspace(travel[j, 0], travel[j, 1], n + 1) for j, n in zip(lin, elements))
+        emap = cls(machine, order, tuple(lin), edges, fixed, np.empty((0, 0, 6)))
+        nodes = natural_nodes(order)
+        lows = np.array(list(itertools.product(*(e[:-1] for e in edges))))
+        sizes = np.array(list(itertools.product(*(np.diff(e) for e in edges))))
+        pts = lows[:, None, :] + (nodes[None, :, :] + 1) / 2 * sizes[:, None, :]
+        q = np.tile(fixed, (pts.shape[0] * pts.shape[1], 1))
+        q[:, list(lin)] = pts.reshape(-1, 3)
+        cov = _repeat(covariates, len(q))
+        emap.values = machine.volumetric_error(q, **cov).reshape(pts.shape[0], pts.shape[1], 6)
+        return emap
+
+    @property
+    def n_nodes(self) -> int:
+        """Distinct nodes (shared between elements)."""
+        pts = self._node_points().reshape(-1, 3)
+        return len(np.unique(np.round(pts, 12), axis=0))
+
+    def _node_points(self) -> np.ndarray:
+        nodes = natural_nodes(self.order)
+        lows = np.array(list(itertools.product(*(e[:-1] for e in self.edges))))
+        sizes = np.array(list(itertools.product(*(np.diff(e) for e in self.edges))))
+        return lows[:, None, :] + (nodes[None, :, :] + 1) / 2 * sizes[:, None, :]
+
+    def locate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Element index and natural coordinates of points ``x`` (M, 3) in the map's axes."""
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        idx = []
+        xi = np.empty_like(x)
+        for k, e in enumerate(self.edges):
+            tol = 1e-12 * max(1.0, e[-1] - e[0])
+            if np.any(x[:, k] < e[0] - tol) or np.any(x[:, k] > e[-1] + tol):
+                name = self.machine.axes[self.axes[k]]
+                raise InputError(f"position outside the error map along {name} [{e[0]:.6g}, {e[-1]:.6g}] m")
+            i = np.clip(np.searchsorted(e, x[:, k], side="right") - 1, 0, len(e) - 2)
+            xi[:, k] = 2 * (x[:, k] - e[i]) / (e[i + 1] - e[i]) - 1
+            idx.append(i)
+        n = [len(e) - 1 for e in self.edges]
+        element = (idx[0] * n[1] + idx[1]) * n[2] + idx[2]
+        return element, xi
+
+    def interpolate(self, q) -> np.ndarray:
+        """(M, 6) interpolated volumetric error at NC positions ``q`` (M, n_axes); the axes
+        outside the map must sit where the map was built."""
+        q = self.machine.check_q(q)
+        others = [j for j in range(q.shape[1]) if j not in self.axes]
+        if others and not np.allclose(q[:, others], self.fixed[others], atol=1e-12):
+            raise InputError("the error map was built with " + ", ".join(
+                f"{self.machine.axes[j]}={self.fixed[j]:.6g}" for j in others) + "; q differs there")
+        element, xi = self.locate(q[:, list(self.axes)])
+        N = shape_functions(self.order, xi)
+        return np.einsum("mn,mnc->mc", N, self.values[element])
+
+    def interpolation_error(self, n: int = 2000, seed: int = 0, **covariates) -> dict:
+        """Interpolated vs direct model at ``n`` seeded random points: position error of the
+        interpolation (max, RMS, um) and its share of the error itself."""
+        rng = np.random.default_rng(seed)
+        q = np.tile(self.fixed, (n, 1))
+        for k, j in enumerate(self.axes):
+            e = self.edges[k]
+            q[:, j] = e[0] + rng.random(n) * (e[-1] - e[0])
+        direct = self.machine.volumetric_error(q, **_repeat(covariates, n))[:, :3]
+        diff = np.linalg.norm(self.interpolate(q)[:, :3] - direct, axis=1)
+        size = np.linalg.norm(direct, axis=1)
+        return {"order": self.order, "nodes_per_element": NODES_PER_ORDER[self.order],
+                "elements": [len(e) - 1 for e in self.edges], "nodes": self.n_nodes, "points": n,
+                "max_um": float(diff.max() * 1e6), "rms_um": float(np.sqrt(np.mean(diff**2)) * 1e6),
+                "error_rms_um": float(np.sqrt(np.mean(size**2)) * 1e6),
+                "relative": float(np.sqrt(np.mean(diff**2)) / max(np.sqrt(np.mean(size**2)), 1e-300))}
+
+
+def _repeat(covariates: dict, n: int) -> dict:
+    """One machine state (``t`` s, ``temperatures`` {sensor: degC}, ``forces`` (3,) N,
+    ``directions`` (n_axes,)) repeated for ``n`` points."""
+    out = {}
+    for key, value in covariates.items():
+        if value is None:
+            continue
+        if key == "temperatures":
+            out[key] = {s: np.full(n, float(v)) for s, v in dict(value).items()}
+        elif key in ("forces", "directions"):
+            out[key] = np.tile(np.asarray(value, dtype=float).reshape(1, -1), (n, 1))
+        else:
+            out[key] = np.full(n, float(value))
+    return out
+
+
+def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), config: dict | None = None,
+                       **covariates) -> dict:
+    """Write a controller compensation table (CSV) on a regular node grid.
+
+    Columns: node position of the three linear axes (mm) and the correction to add to each
+    commanded axis (um for linear axes, urad for rotary ones when orientation is corrected),
+    computed by exact point compensation at the node. Between nodes a controller interpolates
+    trilinearly; the header says so. Returns a summary with the trilinear interpolation
+    error of the table against exact compensation at random points.
+    """
+    from .compensate import compensate_points
+
+    lin = [j for j, k in enumerate(machine.axis_kinds) if k == "linear"]
+    if len(lin) != 3:
+        raise InputError(f"{machine.name}: a compensation table needs exactly three linear axes")
+    nodes = tuple(int(n) for n in nodes)
+    if len(nodes) != 3 or min(nodes) < 2:
+        raise InputError(f"nodes must be three integers >= 2, got {nodes}")
+    travel = machine.travel
+    fixed = np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0)
+    for name, value in (config or {}).items():
+        if name not in machine.axes:
+            raise InputError(f"{machine.name} has no axis {name!r}")
+        fixed[machine.axes.index(name)] = float(value)
+    grids = [np.linspace(travel[j, 0], travel[j, 1], n) for j, n in zip(lin, nodes)]
+    pts = np.array(list(itertools.product(*grids)))
+    q = np.tile(fixed, (len(pts), 1))
+    q[:, lin] = pts
+    res = compensate_points(machine, q, orientation=False, **_repeat(covariates, len(q)))
+    corr = res.q - q
+    names = [machine.axes[j] for j in lin]
+    path = Path(path)
+    with path.open("w", newline="") as fh:
+        fh.write(f"# volerr_pin compensation table for {machine.name}\n")
+        fh.write(f"# nodes: {' x '.join(str(n) for n in nodes)} over the travel of {', '.join(names)}"
+                 + "".join(f"; {machine.axes[j]} = {fixed[j]:.6g}" for j in range(len(fixed)) if j not in lin)
+                 + "\n")
+        fh.write("# correction = value to ADD to the commanded axis position at the node "
+                 "(exact point compensation of the model)\n")
+        fh.write("# between nodes interpolate trilinearly in the node grid (as controllers do)\n")
+        w = csv.writer(fh, lineterminator="\n")
+        w.writerow([f"{a}_mm" for a in names] + [
+            f"d{a}_{'um' if machine.axis_kinds[j] == 'linear' else 'urad'}" for j, a in enumerate(machine.axes)])
+        for p, c in zip(pts, corr):
+            w.writerow([f"{v * 1e3:.4f}" for v in p] + [f"{v * 1e6:.4f}" for v in c])
+    # how well trilinear interpolation of the table reproduces exact compensation
+    rng = np.random.default_rng(0)
+    test = np.tile(fixed, (500, 1))
+    for k, j in enumerate(lin):
+        test[:, j] = grids[k][0] + rng.random(500) * (grids[k][-1] - grids[k][0])
+    exact = compensate_points(machine, test, orientation=False, **_repeat(covariates, 500)).q - test
+    tri = _trilinear(grids, corr.reshape(*nodes, -1), test[:, lin])
+    err = np.abs(tri - exact)[:, lin].max(axis=1)
+    _, p_cmd = machine.tool_poses(test + tri, extrapolate=True, **_repeat(covariates, 500))
+    _, p_d = machine.tool_poses(test, nominal=True)
+    resid = np.linalg.norm(p_cmd - p_d, axis=1)
+    return {"file": str(path), "nodes": list(nodes), "rows": len(pts),
+            "max_correction_um": float(np.abs(corr[:, lin]).max() * 1e6),
+            "trilinear_max_um": float(err.max() * 1e6),
+            "residual_with_table_max_um": float(resid.max() * 1e6),
+            "residual_with_table_rms_um": float(np.sqrt(np.mean(resid**2)) * 1e6)}
+
+
+def _trilinear(grids, values, x):
+    idx, frac = [], []
+    for k, g in enumerate(grids):
+        i = np.clip(np.searchsorted(g, x[:, k], side="right") - 1, 0, len(g) - 2)
+        idx.append(i)
+        frac.append((x[:, k] - g[i]) / (g[i + 1] - g[i]))
+    out = 0.0
+    for corner in itertools.product((0, 1), repeat=3):
+        w = np.ones(len(x))
+        for k, c in enumerate(corner):
+            w = w * (frac[k] if c else 1 - frac[k])
+        out = out + w[:, None] * values[idx[0] + corner[0], idx[1] + corner[1], idx[2] + corner[2]]
+    return out
+
+
+def axis_tables(machine: Machine, directory: str | Path, points: int = 21, **covariates) -> list[str]:
+    """ISO 230-1-named per-axis tables: for each axis, its component errors (EXX, EYX, ...)
+    at ``points`` positions over its travel, with the other axes at mid-travel. Linear
+    errors in um, angular in urad; one CSV per axis. Returns the files written."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    travel = machine.travel
+    mid = np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0)
+    info = {t["component"]: t["owner"] for t in machine.term_info()}
+    files = []
+    for j, axis in enumerate(machine.axes):
+        comps = [c for c in machine.components if info.get(c) == axis]
+        if not comps:
+            continue
+        lo, hi = travel[j] if np.isfinite(travel[j]).all() else (0.0, 2 * np.pi)
+        q = np.tile(mid, (points, 1))
+        q[:, j] = np.linspace(lo, hi, points)
+        vals = machine.component_values(q, **_repeat(covariates, points))
+        cols = [machine.components.index(c) for c in comps]
+        linear_axis = machine.axis_kinds[j] == "linear"
+        path = directory / f"{machine.name}_{axis}.csv"
+        with path.open("w", newline="") as fh:
+            fh.write(f"# volerr_pin ISO 230-1 component errors of axis {axis} ({machine.name}); "
+                     "errors as motions of the tool relative to the workpiece\n")
+            w = csv.writer(fh, lineterminator="\n")
+            w.writerow([f"{axis}_{'mm' if linear_axis else 'deg'}"] + [
+                f"{c}_{'urad' if c[1] in 'ABC' else 'um'}" for c in comps])
+            for row, pos in zip(vals[:, cols], q[:, j]):
+                w.writerow([f"{pos * 1e3:.4f}" if linear_axis else f"{np.degrees(pos):.4f}"]
+                           + [f"{v * 1e6:.4f}" for v in row])
+        files.append(str(path))
+    return files
