@@ -229,3 +229,16 @@ def test_report_fields(machines):
     assert d["blocks_in"] == 12 and d["blocks_out"] > d["blocks_in"]
     assert d["blocks_out"] == len(out.splitlines())
     assert any("not known" in w for w in d["warnings"])
+
+
+def test_full_circles_and_modal_arcs(machines):
+    m = machines["vmc500"]
+    program = ("G90 G21 G17\nG0 X200 Y200 Z100\nG1 Z50 F300\nG2 X200 Y200 I50 J0\nX200 Y200 I0 J50\n"
+               "G3 X250 Y250 R50\nY300 X300 R50\nM30\n")
+    out, report = compensate_program(m, program)
+    pos, _ = round_trip(m, program, out)
+    assert pos <= 1e-6
+    assert report.arcs_kept == 4 and report.arcs_as_lines == 0
+    assert report.pieces <= 16  # a full circle is four quarter arcs, not a thousand lines
+    # the block relying on the modal G2 still carries no motion word and is still an arc
+    assert [s.kind for s in interpret(m, out)].count("arc") >= 10

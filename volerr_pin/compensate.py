@@ -333,7 +333,14 @@ class PathCompensator:
         before, _ = self._max_along(arc.point, arc.point, 0.0, 1.0)
         pieces: list[Piece] = []
         sc = self.point(arc.start) if start_c is None else start_c
-        self._arc(arc, 0.0, 1.0, sc, self.point(arc.end), pieces, 0)
+        # a circle through three compensated points is well-posed only when they are well
+        # apart: arcs of more than a quarter turn (full circles included) start as quarters
+        n = max(1, math.ceil(abs(arc.sweep) / (math.pi / 2) - 1e-9))
+        ks = np.linspace(0.0, 1.0, n + 1)
+        for k0, k1 in zip(ks[:-1], ks[1:]):
+            ec = self.point(arc.end) if k1 == 1.0 else self.point(arc.point(k1)[0])
+            self._arc(arc, k0, k1, sc, ec, pieces, 0)
+            sc = ec
         return PathCompensation(pieces, max(p.residual for p in pieces), float(before), self.samples)
 
     def _arc(self, arc: Arc, k0, k1, c0, c1, pieces, depth):
