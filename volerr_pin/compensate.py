@@ -257,11 +257,15 @@ class PathCompensator:
         self.lever = tol_um / self.tol_urad
 
     # point helpers -----------------------------------------------------------------
-    def point(self, q_d: np.ndarray) -> np.ndarray:
-        res = compensate_points(self.machine, q_d[None, :], method=self.method,
+    def points(self, q_d: np.ndarray) -> np.ndarray:
+        """Compensated commands for many desired positions at once (N, n_axes)."""
+        res = compensate_points(self.machine, q_d, method=self.method,
                                 tol_um=min(0.01, self.tol * 1e6 / 20), tol_urad=min(0.1, self.tol_urad / 20),
                                 lever=self.lever, **self.cov)
-        return res.q[0]
+        return res.q
+
+    def point(self, q_d: np.ndarray) -> np.ndarray:
+        return self.points(q_d[None, :])[0]
 
     def _floor(self, c: np.ndarray, q_d: np.ndarray) -> float:
         return float(self._residual(c[None, :], q_d[None, :])[0])
@@ -291,19 +295,39 @@ class PathCompensator:
         return (rr[j], kk[j]) if rr[j] > r[i] else (r[i], k[i])
 
     # moves -------------------------------------------------------------------------
-    def rapid(self, q_start: np.ndarray, q_end: np.ndarray) -> PathCompensation:
-        end = self.point(q_end)
+    def screen_lines(self, starts: np.ndarray, ends: np.ndarray, c0: np.ndarray, c1: np.ndarray):
+        """Many straight moves at once: the sampled maximum residual along each commanded
+        line ``c0 -> c1`` against the desired ``starts -> ends``, and along the desired line
+        run uncompensated (two batched evaluations instead of two per move). Moves whose
+        sampled maximum is well inside the tolerance need no splitting."""
+        n = len(starts)
+        k = np.linspace(0.0, 1.0, self.samples + 1)
+        desired = (starts[:, None, :] + k[None, :, None] * (ends - starts)[:, None, :]).reshape(-1, starts.shape[1])
+        commanded = (c0[:, None, :] + k[None, :, None] * (c1 - c0)[:, None, :]).reshape(-1, starts.shape[1])
+        after = self._residual(commanded, desired).reshape(n, -1).max(axis=1)
+        before = self._residual(desired, desired).reshape(n, -1).max(axis=1)
+        return after, before
+
+    def accept_line(self, q_start, q_end, c0, c1, residual: float, before: float) -> PathCompensation:
+        """One piece for a move :meth:`screen_lines` found inside the tolerance."""
+        piece = Piece("line", c0, c1, residual=float(residual), k0=0.0, k1=1.0)
+        return PathCompensation([piece], float(residual), float(before), self.samples)
+
+    def rapid(self, q_start: np.ndarray, q_end: np.ndarray, end_c: np.ndarray | None = None,
+              start_c: np.ndarray | None = None) -> PathCompensation:
+        end = self.point(q_end) if end_c is None else end_c
         r = self._floor(end, q_end)
         before = self._floor(q_end, q_end)
-        return PathCompensation([Piece("line", q_start.copy(), end, residual=r, limited=r > self.tol)],
-                                r, before, 1)
+        start = q_start.copy() if start_c is None else start_c
+        return PathCompensation([Piece("line", start, end, residual=r, limited=r > self.tol)], r, before, 1)
 
-    def line(self, q_start: np.ndarray, q_end: np.ndarray, start_c: np.ndarray | None = None) -> PathCompensation:
+    def line(self, q_start: np.ndarray, q_end: np.ndarray, start_c: np.ndarray | None = None,
+             end_c: np.ndarray | None = None) -> PathCompensation:
         desired = lambda k: q_start + np.outer(np.atleast_1d(k), q_end - q_start)
         before, _ = self._max_along(desired, desired, 0.0, 1.0)
         pieces: list[Piece] = []
         sc = self.point(q_start) if start_c is None else start_c
-        self._line(desired, 0.0, 1.0, sc, self.point(q_end), pieces, 0)
+        self._line(desired, 0.0, 1.0, sc, self.point(q_end) if end_c is None else end_c, pieces, 0)
         return PathCompensation(pieces, max(p.residual for p in pieces), float(before), self.samples)
 
     def _split_point(self, desired_at, worst, k_split, k0, k1, depth):
@@ -329,23 +353,46 @@ class PathCompensator:
         self._line(desired, k0, k_split, c0, cm, pieces, depth + 1)
         self._line(desired, k_split, k1, cm, c1, pieces, depth + 1)
 
-    def arc(self, arc: Arc, start_c: np.ndarray | None = None) -> PathCompensation:
+    @staticmethod
+    def arc_sections(arc: Arc) -> np.ndarray:
+        """Parameters of the quarter-turn sections an arc starts with."""
+        n = max(1, math.ceil(abs(arc.sweep) / (math.pi / 2) - 1e-9))
+        return np.linspace(0.0, 1.0, n + 1)
+
+    def arc_points(self, arc: Arc) -> np.ndarray:
+        """Parameters whose compensated commands the first level of :meth:`arc` needs
+        (section ends and middles), so that a caller can compensate many arcs in a batch."""
+        ks = self.arc_sections(arc)
+        return np.concatenate([ks[1:-1], 0.5 * (ks[:-1] + ks[1:])])
+
+    def arc(self, arc: Arc, start_c: np.ndarray | None = None, end_c: np.ndarray | None = None,
+            known: dict | None = None) -> PathCompensation:
         before, _ = self._max_along(arc.point, arc.point, 0.0, 1.0)
         pieces: list[Piece] = []
         sc = self.point(arc.start) if start_c is None else start_c
         # a circle through three compensated points is well-posed only when they are well
         # apart: arcs of more than a quarter turn (full circles included) start as quarters
-        n = max(1, math.ceil(abs(arc.sweep) / (math.pi / 2) - 1e-9))
-        ks = np.linspace(0.0, 1.0, n + 1)
+        self._known = dict(known or {})
+        ks = self.arc_sections(arc)
         for k0, k1 in zip(ks[:-1], ks[1:]):
-            ec = self.point(arc.end) if k1 == 1.0 else self.point(arc.point(k1)[0])
+            if k1 == 1.0:
+                ec = self.point(arc.end) if end_c is None else end_c
+            else:
+                ec = self._arc_point(arc, k1)
             self._arc(arc, k0, k1, sc, ec, pieces, 0)
             sc = ec
+        self._known = {}
         return PathCompensation(pieces, max(p.residual for p in pieces), float(before), self.samples)
+
+    def _arc_point(self, arc: Arc, k: float) -> np.ndarray:
+        known = getattr(self, "_known", {})
+        if k in known:
+            return known[k]
+        return self.point(arc.point(k)[0])
 
     def _arc(self, arc: Arc, k0, k1, c0, c1, pieces, depth):
         i, j, _ = arc.plane
-        cm = self.point(arc.point(0.5 * (k0 + k1))[0])
+        cm = self._arc_point(arc, 0.5 * (k0 + k1))
         fit = _circle_through(c0[[i, j]], cm[[i, j]], c1[[i, j]])
         if fit is None:  # degenerate: a straight piece
             self._line(arc.point, k0, k1, c0, c1, pieces, depth)

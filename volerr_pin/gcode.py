@@ -153,12 +153,39 @@ class Program:
 
     # the run --------------------------------------------------------------------
     def compensate(self, text: str, progress=None) -> str:
-        """The compensated program; ``progress(lines_done)`` is called as it goes."""
-        lines = text.splitlines(keepends=True)
+        """The compensated program; ``progress(moves_done)`` is called as it goes.
+
+        Three passes: read every block (modal state, desired moves, errors with their line);
+        compensate all move end points in one batch and screen all straight moves in one
+        batch (most short moves need no splitting); then split what needs it and write."""
+        entries = self._read(text)
+        moves = [e for e in entries if e[0] == "move"]
+        self.report.moves = len(moves)
+        results = self._compensate_moves([e[3] for e in moves], progress)
         out: list[str] = []
+        wst = {"out_motion": None}
+        it = iter(results)
+        for entry in entries:
+            kind, block_or_raw, newline = entry[0], entry[1], entry[2]
+            if kind == "raw":
+                out.append(block_or_raw)
+            elif kind == "plain":
+                gs = [int(w.value) for w in block_or_raw.words if w.letter == "G" and w.value in (0, 1, 2, 3)]
+                if gs:
+                    wst["out_motion"] = gs[-1]
+                out.append(block_or_raw.text + newline)
+            else:
+                wst.update(entry[3].state)
+                out.extend(self._write(block_or_raw, newline, entry[3], next(it), wst))
+        self.report.blocks_out = len(out)
+        self.report.warnings.sort(key=lambda w: int(w.split(":")[0].split()[1]) if w.startswith("line ") else 0)
+        return "".join(out)
+
+    def _read(self, text: str) -> list[tuple]:
+        entries = []
         st = {"motion": None, "plane": 17, "absolute": True, "inch": False, "known": False,
-              "pos": self.start.copy(), "cmd": None, "out_motion": None}
-        for number, raw in enumerate(lines, start=1):
+              "pos": self.start.copy()}
+        for number, raw in enumerate(text.splitlines(keepends=True), start=1):
             body = raw.rstrip("\r\n")
             newline = raw[len(body):]
             self.report.blocks_in += 1
@@ -168,14 +195,75 @@ class Program:
                     raise GcodeError(f"{self.source}:{number}: {problem} cannot be compensated "
                                      "(use --pass-through to keep it unchanged)")
                 self.report.warnings.append(f"line {number}: {problem} kept unchanged")
-                out.append(raw)
+                entries.append(("raw", raw, newline))
                 continue
             block = parse_block(body, number, self.source)
-            out.extend(self._block(block, newline, st))
-            if progress is not None and number % 50 == 0:
-                progress(number)
-        self.report.blocks_out = len(out)
-        return "".join(out)
+            move = self._modal(block, st)
+            if move is None:
+                entries.append(("plain", block, newline))
+                continue
+            motion, start, target, coord_words = move
+            kind = motion
+            if not st["known"]:
+                if motion in (2, 3):
+                    raise GcodeError(f"{self.source}:{number}: the first move is an arc from an unknown "
+                                     "position; start the program with a G0 or G1 to a known point")
+                self.report.warnings.append(f"line {number}: the position before the first move is not "
+                                            "known; this move is compensated at its end point only")
+                kind = 0
+            arc = None
+            if kind in (2, 3):
+                arc = self._arc(block, start, target, kind == 2, st)
+                outside = self._outside(arc.point(np.linspace(0.0, 1.0, 721)), slack=1e-9)
+                if outside:
+                    raise GcodeError(f"{self.source}:{number}: the arc leaves the travel ({outside})")
+            state = {"absolute": st["absolute"], "inch": st["inch"], "plane": st["plane"]}
+            entries.append(("move", block, newline, _Move(kind, motion, start, target, arc, coord_words, state, number)))
+            st["pos"], st["known"] = target, True
+        return entries
+
+    def _compensate_moves(self, moves: list, progress=None) -> list:
+        if not moves:
+            return []
+        comp = self.comp
+        ends = comp.points(np.array([mv.target for mv in moves]))
+        starts_c = [None] + list(ends[:-1])
+        lines = [i for i, mv in enumerate(moves) if mv.kind == 1]
+        screened = {}
+        if lines:
+            idx = np.array(lines)
+            after, before = comp.screen_lines(np.array([moves[i].start for i in lines]),
+                                              np.array([moves[i].target for i in lines]),
+                                              np.array([starts_c[i] for i in lines]), ends[idx])
+            for i, a, b in zip(lines, after, before):
+                screened[i] = (a, b)
+        # the first-level points of every arc in one batch too
+        arcs = [i for i, mv in enumerate(moves) if mv.kind in (2, 3)]
+        known = {i: {} for i in arcs}
+        if arcs:
+            ks = {i: comp.arc_points(moves[i].arc) for i in arcs}
+            todo = [(i, k) for i in arcs for k in ks[i]]
+            if todo:
+                cmds = comp.points(np.array([moves[i].arc.point(k)[0] for i, k in todo]))
+                for (i, k), c in zip(todo, cmds):
+                    known[i][k] = c
+        results = []
+        for i, mv in enumerate(moves):
+            try:
+                if mv.kind == 0:
+                    result = comp.rapid(mv.start, mv.target, end_c=ends[i], start_c=starts_c[i])
+                elif mv.kind == 1 and screened[i][0] <= 0.9 * comp.tol:
+                    result = comp.accept_line(mv.start, mv.target, starts_c[i], ends[i], *screened[i])
+                elif mv.kind == 1:
+                    result = comp.line(mv.start, mv.target, starts_c[i], end_c=ends[i])
+                else:
+                    result = comp.arc(mv.arc, starts_c[i], end_c=ends[i], known=known[i])
+            except InputError as err:
+                raise GcodeError(f"{self.source}:{mv.line}: {err}") from None
+            results.append(result)
+            if progress is not None and i % 50 == 0:
+                progress(i)
+        return results
 
     @staticmethod
     def _unsupported(line: str) -> str | None:
@@ -230,40 +318,7 @@ class Program:
             raise GcodeError(f"{self.source}:{block.number}: {err}") from None
         return motion, st["pos"].copy(), target, coord_words
 
-    def _block(self, block: Block, newline: str, st: dict) -> list[str]:
-        move = self._modal(block, st)
-        if move is None:
-            gs = [int(w.value) for w in block.words if w.letter == "G" and w.value in (0, 1, 2, 3)]
-            if gs:
-                st["out_motion"] = gs[-1]
-            return [block.text + newline]
-        motion, start, target, coord_words = move
-        if not st["known"]:
-            if motion in (2, 3):
-                raise GcodeError(f"{self.source}:{block.number}: the first move is an arc from an unknown "
-                                 "position; start the program with a G0 or G1 to a known point")
-            self.report.warnings.append(f"line {block.number}: the position before the first move is not "
-                                        "known; this move is compensated at its end point only")
-            motion_kind = 0
-        else:
-            motion_kind = motion
-        start_c = st["cmd"]
-        try:
-            if motion_kind in (0,):
-                result = self.comp.rapid(start, target)
-            elif motion_kind == 1:
-                result = self.comp.line(start, target, start_c)
-            else:
-                arc = self._arc(block, start, target, motion_kind == 2, st)
-                outside = self._outside(arc.point(np.linspace(0.0, 1.0, 721)), slack=1e-9)
-                if outside:
-                    raise GcodeError(f"{self.source}:{block.number}: the arc leaves the travel ({outside})")
-                result = self.comp.arc(arc, start_c)
-        except GcodeError:
-            raise
-        except InputError as err:
-            raise GcodeError(f"{self.source}:{block.number}: {err}") from None
-        self.report.moves += 1
+    def _write(self, block: Block, newline: str, mv, result, st: dict) -> list[str]:
         self.report.pieces += len(result.pieces)
         self.report.max_residual_um = max(self.report.max_residual_um, result.max_residual * 1e6)
         self.report.max_before_um = max(self.report.max_before_um, result.max_before * 1e6)
@@ -278,7 +333,7 @@ class Program:
         if outside:
             self.report.warnings.append(f"line {block.number}: the compensated command leaves the travel "
                                         f"({outside}); check the machine's soft limits")
-        if motion_kind in (2, 3):
+        if mv.kind in (2, 3):
             if all(p.kind == "arc" for p in result.pieces):
                 self.report.arcs_kept += 1
             else:
@@ -289,15 +344,12 @@ class Program:
                                         f"M{late_m[0].value:g} stays on the first piece")
         # the original block carries the first piece (so its F, S, T, M and modal words act
         # where they did); the further pieces follow as new blocks with explicit G words
-        prev = start_c if start_c is not None else start
-        lines = [self._rewrite(block, result.pieces[0], prev, st, motion, coord_words) + newline]
+        prev = result.pieces[0].start
+        lines = [self._rewrite(block, result.pieces[0], prev, st, mv.motion, mv.coord_words) + newline]
         prev = result.pieces[0].end
         for piece in result.pieces[1:]:
-            lines.append(self._new_line(piece, prev, st, motion) + newline)
+            lines.append(self._new_line(piece, prev, st, mv.motion) + newline)
             prev = piece.end
-        st["pos"] = target
-        st["cmd"] = result.pieces[-1].end
-        st["known"] = True
         return lines
 
     @staticmethod
@@ -423,6 +475,21 @@ class Program:
         for start, end, rep in sorted(edits, key=lambda e: (e[0], e[1]), reverse=True):
             text = text[:start] + rep + text[end:]
         return text
+
+
+@dataclass
+class _Move:
+    """A desired move read from a block (SI): ``kind`` 0 rapid / end point only, 1 line,
+    2/3 arc; ``motion`` the block's motion mode; ``state`` the modal words it is written in."""
+
+    kind: int
+    motion: int
+    start: np.ndarray
+    target: np.ndarray
+    arc: object
+    coord_words: list
+    state: dict
+    line: int
 
 
 @dataclass
