@@ -1,31 +1,49 @@
 """Benchmarks of volerr_pin, measured in one run on this machine and reported as ratios.
 
-    python benchmarks/run.py [--quick] [--json FILE]
+    python benchmarks/run.py [--quick] [--json FILE] [--markdown FILE]
 
-Volumetric error: the compiled batch evaluator against a per-point loop of Pinocchio calls
-(what a Pinocchio user would write: frame placements for the actual and the nominal
-configuration, relative pose, log3), on vmc500 and cgm4000. Sensitivities: the full
-Jacobian w.r.t. all coefficients against per-point Pinocchio frame Jacobians of the tool
-relative to the workpiece. The loops get their configurations precomputed (not timed), so
-the ratios are, if anything, modest.
+1. Volumetric error on vmc500 and cgm4000 for 1e4, 1e5, 1e6 points: the compiled batch
+   evaluator against (a) a per-point loop of Pinocchio calls (what a Pinocchio user would
+   write: frame placements for the actual and the nominal configuration, relative pose,
+   log3), (b) a naive per-point numpy product of 4x4 homogeneous matrices along the same
+   chain (what the papers' authors write), (c) for the 3-axis vmc500, the classic 21-term
+   first-order expression vectorised by hand over all points (a near-limit reference: it
+   still has to evaluate the component errors). Peak memory of a 1e6-point evaluation is
+   measured in a separate process.
+2. Sensitivities: the full Jacobian w.r.t. every coefficient against a per-point loop of
+   Pinocchio frame Jacobians chained to the coefficients, both writing the same array.
+3. End to end: identification with 1e4 points and the full coefficient set, diagnosis of a
+   400-point set, compensation of a 10,000-block NC program at 1 um.
+4. Scaling of the batch evaluator with N (1e3 .. 1e6).
+
+Every loop is checked against the batch result before it is timed; the loops get their
+joint configurations precomputed (not timed), so the ratios are, if anything, modest.
+Tests never assert wall-clock times; this script reports them.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import platform
+import subprocess
+import sys
 import time
 
 import numpy as np
 import pinocchio as pin
 
 import volerr_pin as vp
+from volerr_pin import kinematics as K
 from volerr_pin.workspace import sample
 
 
 def best_of(fn, repeat=3):
+    """Best of ``repeat`` timed runs after one untimed warm-up run (steady state: the
+    allocator has settled, the threads of the parallel kernels are up)."""
+    fn()
     times = []
     for _ in range(repeat):
         t0 = time.perf_counter()
@@ -34,6 +52,7 @@ def best_of(fn, repeat=3):
     return min(times)
 
 
+# ------------------------------------------------------------------ the alternatives
 def pinocchio_loop(machine, actual, nominal):
     model = machine.model
     data = model.createData()
@@ -50,33 +69,78 @@ def pinocchio_loop(machine, actual, nominal):
     return out
 
 
-def bench_volumetric(name, sizes, n_loop):
-    m = vp.load_machine(name)
-    m.volumetric_error(sample(m, 16))  # compile / load the kernels outside the timing
-    rows = []
-    q_loop = sample(m, n_loop, seed=1)
-    actual = m.pinocchio_configuration(q_loop)
-    nominal = m.pinocchio_configuration(q_loop, np.zeros_like(m.theta))
-    reference = pinocchio_loop(m, actual, nominal)
-    assert np.abs(reference - m.volumetric_error(q_loop)).max() < 1e-12
-    t_loop = best_of(lambda: pinocchio_loop(m, actual, nominal), repeat=2) / n_loop
-    for n in sizes:
-        q = sample(m, n, seed=2)
-        t = best_of(lambda: m.volumetric_error(q)) / n
-        rows.append({"machine": name, "task": "volumetric_error", "points": n,
-                     "batch_us_per_point": t * 1e6, "pinocchio_loop_us_per_point": t_loop * 1e6,
-                     "speedup_vs_pinocchio_loop": t_loop / t})
-    return rows
+def _motion(kind, axis, v):
+    """4x4 homogeneous matrix of a joint motion (Rodrigues for revolute joints)."""
+    T = np.eye(4)
+    if kind in (K.PX, K.PY, K.PZ, K.PG):
+        T[:3, 3] = axis * v
+        return T
+    x, y, z = axis
+    s, c = math.sin(v), math.cos(v)
+    t = 1.0 - c
+    T[:3, :3] = [[t * x * x + c, t * x * y - s * z, t * x * z + s * y],
+                 [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
+                 [t * x * z - s * y, t * y * z + s * x, t * z * z + c]]
+    return T
 
 
-def pinocchio_jacobian_loop(machine, configs):
-    """Per point: joint Jacobians, the two frame Jacobians and the relative Jacobian of the
-    tool in the workpiece frame (GUIDE section 6). The chain rule to the coefficients is not
-    timed, so the comparison favours the loop."""
+def _homogeneous(R, p):
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, p
+    return T
+
+
+def naive_numpy_loop(machine, values):
+    """Per point: multiply 4x4 matrices along the workpiece -> tool chain, once with the
+    error joints and once without, then the relative pose and its rotation vector."""
+    ch = machine._chain
+    consts = [_homogeneous(ch.C_R[k], ch.C_p[k]) for k in range(len(ch.kind))]
+    end = _homogeneous(ch.end_R[0], ch.end_p[0])
+    out = np.empty((len(values), 6))
+    for i in range(len(values)):
+        Ta, Tn = np.eye(4), np.eye(4)
+        for k in range(len(ch.kind)):
+            M = _motion(ch.kind[k], ch.axis[k], ch.sign[k] * values[i, ch.col[k]])
+            Ta = Ta @ consts[k] @ M
+            Tn = Tn @ consts[k] @ (np.eye(4) if ch.is_error[k] else M)
+        Ta, Tn = Ta @ end, Tn @ end
+        D = Ta[:3, :3] @ Tn[:3, :3].T
+        w = 0.5 * np.array([D[2, 1] - D[1, 2], D[0, 2] - D[2, 0], D[1, 0] - D[0, 1]])
+        s = np.linalg.norm(w)
+        angle = math.atan2(s, 0.5 * (np.trace(D) - 1.0))
+        out[i, :3] = Ta[:3, 3] - Tn[:3, 3]
+        out[i, 3:] = w * (angle / s if s > 1e-12 else 1.0)
+    return out
+
+
+TOOL_LENGTH_VMC500 = 0.2  # m, machines/vmc500/README.md
+
+
+def closed_form_vmc500(machine, q):
+    """The classic 21-term first-order volumetric error of vmc500, vectorised by hand."""
+    X, Y, Z = q.T
+    L = TOOL_LENGTH_VMC500
+    e = dict(zip(machine.components, machine.component_values(q).T))
+    dx = (e["EXX"] + e["EXY"] + e["EXZ"] + (e["EBX"] + e["EBY"]) * Z - e["ECY"] * Y
+          - e["EBZ"] * L + e["EB0Z"] * (Z - L))
+    dy = (e["EYX"] + e["EYY"] + e["EYZ"] + e["ECX"] * X - e["EAX"] * Z + e["ECY"] * X
+          - e["EAY"] * Z + e["EAZ"] * L + e["EC0Y"] * X - e["EA0Z"] * (Z - L))
+    dz = e["EZX"] + e["EZY"] + e["EZZ"] - e["EBX"] * X + e["EAY"] * Y - e["EBY"] * X
+    rx = e["EAX"] + e["EAY"] + e["EAZ"] + e["EA0Z"]
+    ry = e["EBX"] + e["EBY"] + e["EBZ"] + e["EB0Z"]
+    rz = e["ECX"] + e["ECY"] + e["ECZ"] + e["EC0Y"]
+    return np.column_stack([dx, dy, dz, rx, ry, rz])
+
+
+def pinocchio_sensitivity_loop(machine, configs, basis, pcol, out):
+    """Per point: joint Jacobians, the frame Jacobians of tool and workpiece, the relative
+    Jacobian in the workpiece frame (GUIDE section 6), the inverse left Jacobian of the
+    rotation error, and the chain rule to the coefficients (one joint column per
+    coefficient, scaled by the term's basis value), written into ``out`` (N, 6, P)."""
     model = machine.model
     data = model.createData()
     T, W = model.getFrameId(machine.tool_frame), model.getFrameId(machine.workpiece_frame)
-    out = np.empty((len(configs), 6, model.nv))
+    J = np.empty((6, model.nv))
     for i, qc in enumerate(configs):
         pin.computeJointJacobians(model, data, qc)
         oMt = pin.updateFramePlacement(model, data, T)
@@ -84,9 +148,43 @@ def pinocchio_jacobian_loop(machine, configs):
         Jt = pin.getFrameJacobian(model, data, T, pin.LOCAL_WORLD_ALIGNED)
         Jw = pin.getFrameJacobian(model, data, W, pin.LOCAL_WORLD_ALIGNED)
         Rt = oMw.rotation.T
-        out[i, :3] = Rt @ (Jt[:3] - Jw[:3] + pin.skew(oMt.translation - oMw.translation) @ Jw[3:])
-        out[i, 3:] = Rt @ (Jt[3:] - Jw[3:])
+        J[:3] = Rt @ (Jt[:3] - Jw[:3] + pin.skew(oMt.translation - oMw.translation) @ Jw[3:])
+        J[3:] = Rt @ (Jt[3:] - Jw[3:])
+        np.multiply(J[:, pcol], basis[i], out=out[i])
     return out
+
+
+# ------------------------------------------------------------------ measurements
+def bench_volumetric(name, sizes, n_loop, n_naive):
+    m = vp.load_machine(name)
+    m.volumetric_error(sample(m, 16))  # compile / load the kernels outside the timing
+    rows = []
+    q_loop = sample(m, n_loop, seed=1)
+    actual = m.pinocchio_configuration(q_loop)
+    nominal = m.pinocchio_configuration(q_loop, np.zeros_like(m.theta))
+    batch_loop = m.volumetric_error(q_loop)
+    assert np.abs(pinocchio_loop(m, actual, nominal) - batch_loop).max() < 1e-12
+    values = m.joint_values(q_loop[:n_naive])
+    assert np.abs(naive_numpy_loop(m, values) - batch_loop[:n_naive]).max() < 1e-12
+    t_pin = best_of(lambda: pinocchio_loop(m, actual, nominal), repeat=2) / n_loop
+    t_naive = best_of(lambda: naive_numpy_loop(m, values), repeat=2) / n_naive
+    closed = name == "vmc500"
+    if closed:
+        q_check = sample(m, 200, seed=5)
+        assert np.abs(closed_form_vmc500(m, q_check) - m.volumetric_error(q_check, order=1)).max() < 1e-15
+    for n in sizes:
+        q = sample(m, n, seed=2)
+        t = best_of(lambda: m.volumetric_error(q), repeat=5 if n <= 100_000 else 3) / n
+        row = {"machine": name, "task": "volumetric error", "points": n, "batch_us": t * 1e6,
+               "pinocchio_loop_us": t_pin * 1e6, "naive_numpy_us": t_naive * 1e6,
+               "speedup_vs_pinocchio": t_pin / t, "speedup_vs_naive_numpy": t_naive / t}
+        if closed:
+            t_closed = best_of(lambda: closed_form_vmc500(m, q), repeat=5 if n <= 100_000 else 3) / n
+            t_first = best_of(lambda: m.volumetric_error(q, order=1), repeat=5 if n <= 100_000 else 3) / n
+            row.update(closed_form_us=t_closed * 1e6, batch_first_order_us=t_first * 1e6,
+                       ratio_to_closed_form=t / t_closed, first_order_ratio_to_closed_form=t_first / t_closed)
+        rows.append(row)
+    return rows
 
 
 def bench_sensitivity(name, n, n_loop):
@@ -94,35 +192,194 @@ def bench_sensitivity(name, n, n_loop):
     m.sensitivity(sample(m, 16))
     q_loop = sample(m, n_loop, seed=3)
     configs = m.pinocchio_configuration(q_loop)
-    t_loop = best_of(lambda: pinocchio_jacobian_loop(m, configs), repeat=2) / n_loop
+    values = m.joint_values(q_loop).T
+    theta = m.theta
+    cov = m.check_covariates(n_loop, {})
+    basis = m._parameter_jacobian(q_loop, theta, cov)
+    pcol = m._param_column
+    # the batch's rotation rows carry Jl^-1 of the rotation error; apply it to the loop's
+    # relative Jacobian the same way so that both compute the same numbers
+    phi = K.pose_error(m._chain, values, None)[:, 3:]
+    Jl_inv = K.log3_left_jacobian_inverse(phi)
+    out = np.empty((n_loop, 6, len(theta)))
+    pinocchio_sensitivity_loop(m, configs, basis, pcol, out)
+    out[:, 3:] = np.einsum("nij,njp->nip", Jl_inv, out[:, 3:])
+    assert np.abs(out - m.sensitivity(q_loop)).max() < 1e-9
+    t_loop = best_of(lambda: pinocchio_sensitivity_loop(m, configs, basis, pcol, np.empty_like(out)),
+                     repeat=2) / n_loop
     q = sample(m, n, seed=4)
     t = best_of(lambda: m.sensitivity(q), repeat=2) / n
-    return [{"machine": name, "task": "sensitivity", "points": n, "parameters": len(m.theta),
-             "batch_us_per_point": t * 1e6, "pinocchio_loop_us_per_point": t_loop * 1e6,
-             "speedup_vs_pinocchio_loop": t_loop / t}]
+    return [{"machine": name, "task": f"sensitivity ({len(theta)} coefficients)", "points": n,
+             "batch_us": t * 1e6, "pinocchio_loop_us": t_loop * 1e6, "speedup_vs_pinocchio": t_loop / t}]
+
+
+def peak_memory(name, n):
+    """Peak resident memory (MB) of a fresh process evaluating ``n`` points, and its peak
+    before the evaluation (interpreter, Pinocchio, numba, the machine, the q array). Read
+    from /proc/self/status (VmHWM), which starts afresh in the new process, where
+    ru_maxrss would carry over the parent's peak across fork and exec."""
+    code = (
+        "import numpy as np, volerr_pin as vp\n"
+        "def hwm():\n"
+        "    for line in open('/proc/self/status'):\n"
+        "        if line.startswith('VmHWM:'):\n"
+        "            return float(line.split()[1]) / 1024\n"
+        f"m = vp.load_machine({name!r})\n"
+        "m.volumetric_error(np.tile(m.travel.mean(axis=1), (16, 1)))\n"
+        "rng = np.random.default_rng(0); t = m.travel\n"
+        f"q = t[:, 0] + rng.random(({n}, t.shape[0])) * (t[:, 1] - t[:, 0])\n"
+        "before = hwm()\n"
+        "e = m.volumetric_error(q)\n"
+        "print(before, hwm())\n")
+    if not os.path.exists("/proc/self/status"):
+        return {"machine": name, "points": n, "peak_rss_mb": float("nan"), "rss_before_evaluation_mb": float("nan"),
+                "result_array_mb": n * 6 * 8 / 2**20}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    before, after = map(float, out.stdout.split())
+    return {"machine": name, "points": n, "peak_rss_mb": after, "rss_before_evaluation_mb": before,
+            "result_array_mb": n * 6 * 8 / 2**20}
+
+
+def bench_identification(n):
+    from volerr_pin.identify import identify
+    from volerr_pin.simulate import campaign
+
+    truth = vp.load_machine("vmc500")
+    data = campaign(truth, n=n, noise_um=0.3, seed=1)
+    start = truth.with_theta(np.zeros_like(truth.theta))
+    t0 = time.perf_counter()
+    result = identify(start, [data], folds=0)
+    seconds = time.perf_counter() - t0
+    return {"task": "identification", "machine": "vmc500", "points": n,
+            "parameters": len(truth.theta), "seconds": seconds,
+            "rms_fit_um": result.to_dict()["rms_fit_um"]}
+
+
+def bench_diagnosis(n):
+    from volerr_pin.diagnose import diagnose
+    from volerr_pin.simulate import campaign
+
+    m = vp.load_machine("vmc500")
+    data = campaign(m, n=n, noise_um=0.3, seed=2)
+    t0 = time.perf_counter()
+    result = diagnose(m, [data])
+    seconds = time.perf_counter() - t0
+    return {"task": "diagnosis", "machine": "vmc500", "points": n, "seconds": seconds,
+            "effects_found": len(result.effects)}
+
+
+def nc_program(n_blocks: int) -> str:
+    """A finishing program as CAM writes it: a rising spiral of short G1 moves (about 1-10 mm)
+    with an arc every 20 blocks, over the vmc500 workspace."""
+    lines = ["%", "O2000 (benchmark)", "G21 G90 G17", "T1 M6", "S12000 M3", "G0 X250 Y200 Z150",
+             "G1 Z60 F2000"]
+    x, y, ang = 250.0, 200.0, 0.0
+    while len(lines) < n_blocks - 2:
+        r = 20 + (0.02 * len(lines)) % 170
+        if len(lines) % 20 == 0:
+            rr = math.hypot(x - 250, y - 200)
+            a1 = math.atan2(y - 200, x - 250) + 0.3
+            x2, y2 = 250 + rr * math.cos(a1), 200 + rr * math.sin(a1)
+            lines.append(f"G3 X{x2:.4f} Y{y2:.4f} I{250 - x:.4f} J{200 - y:.4f}")
+            x, y, ang = x2, y2, a1
+            continue
+        ang += 0.05
+        x, y = 250 + r * math.cos(ang), 200 + r * math.sin(ang)
+        lines.append(f"G1 X{x:.4f} Y{y:.4f} Z{60 + 10 * math.sin(ang / 7):.4f}")
+    lines += ["M5", "M30"]
+    return "\n".join(lines) + "\n"
+
+
+def bench_compensation(n_blocks):
+    from volerr_pin.gcode import compensate_program
+
+    m = vp.load_machine("vmc500")
+    compensate_program(m, nc_program(60))
+    text = nc_program(n_blocks)
+    t0 = time.perf_counter()
+    _, report = compensate_program(m, text, tol_um=1.0)
+    seconds = time.perf_counter() - t0
+    return {"task": "NC compensation", "machine": "vmc500", "blocks": report.blocks_in,
+            "blocks_out": report.blocks_out, "seconds": seconds,
+            "max_before_um": report.max_before_um, "max_residual_um": report.max_residual_um}
+
+
+def bench_scaling(sizes):
+    m = vp.load_machine("vmc500")
+    m.volumetric_error(sample(m, 16))
+    rows = []
+    for n in sizes:
+        q = sample(m, n, seed=6)
+        t = best_of(lambda: m.volumetric_error(q), repeat=5 if n < 1e5 else 2)
+        rows.append({"points": n, "seconds": t, "us_per_point": t / n * 1e6})
+    return rows
+
+
+# ------------------------------------------------------------------ report
+def markdown(info) -> str:
+    lines = [f"Measured on {info['machine']}" + (" (--quick)" if info["quick"] else "") + ".", "",
+             "| task | machine | points | batch [us/pt] | Pinocchio loop [us/pt] | vs Pinocchio | naive numpy "
+             "[us/pt] | vs naive numpy | closed form [us/pt] | batch / closed form |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in info["volumetric"] + info["sensitivity"]:
+        naive = (f"{r['naive_numpy_us']:.1f} | {r['speedup_vs_naive_numpy']:.0f}x" if "naive_numpy_us" in r
+                 else "- | -")
+        closed = (f"{r['closed_form_us']:.3f} | {r['ratio_to_closed_form']:.2f} (first order "
+                  f"{r['first_order_ratio_to_closed_form']:.2f})" if "closed_form_us" in r else "- | -")
+        lines.append(f"| {r['task']} | {r['machine']} | {r['points']:,} | {r['batch_us']:.3f} | "
+                     f"{r['pinocchio_loop_us']:.1f} | {r['speedup_vs_pinocchio']:.1f}x | {naive} | {closed} |")
+    lines += ["", "| memory | points | peak RSS [MB] | before evaluating [MB] | result array [MB] |",
+              "|---|---|---|---|---|"]
+    for r in info["memory"]:
+        lines.append(f"| {r['machine']} | {r['points']:,} | {r['peak_rss_mb']:.0f} | "
+                     f"{r['rss_before_evaluation_mb']:.0f} | {r['result_array_mb']:.0f} |")
+    lines += ["", "| end to end | size | seconds | note |", "|---|---|---|---|"]
+    for r in info["end_to_end"]:
+        if r["task"] == "identification":
+            size, note = f"{r['points']:,} points, {r['parameters']} coefficients", f"RMS fit {r['rms_fit_um']:.3f} um"
+        elif r["task"] == "diagnosis":
+            size, note = f"{r['points']} points", f"{r['effects_found']} effect(s) named"
+        else:
+            size = f"{r['blocks']:,} blocks -> {r['blocks_out']:,}"
+            note = f"max error {r['max_before_um']:.1f} -> {r['max_residual_um']:.2f} um at 1 um"
+        lines.append(f"| {r['task']} ({r['machine']}) | {size} | {r['seconds']:.2f} | {note} |")
+    lines += ["", "| scaling (vmc500) | " + " | ".join(f"{r['points']:,}" for r in info["scaling"]) + " |",
+              "|---|" + "---|" * len(info["scaling"]),
+              "| us per point | " + " | ".join(f"{r['us_per_point']:.3f}" for r in info["scaling"]) + " |"]
+    return "\n".join(lines)
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes (CI)")
     parser.add_argument("--json", help="write the results to this file")
+    parser.add_argument("--markdown", help="write the Markdown tables to this file")
     args = parser.parse_args(argv)
-    sizes = [10_000] if args.quick else [10_000, 100_000, 1_000_000]
-    n_loop = 500 if args.quick else 5_000
-    results = []
-    for name in ("vmc500", "cgm4000"):
-        results += bench_volumetric(name, sizes, n_loop)
-    for name in ("vmc500", "cgm4000"):
-        results += bench_sensitivity(name, 10_000 if args.quick else 100_000, n_loop)
+    q = args.quick
+    sizes = [10_000] if q else [10_000, 100_000, 1_000_000]
+    n_loop, n_naive = (300, 100) if q else (5_000, 1_000)
     info = {"machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-                       f"Python {platform.python_version()}, pin {pin.__version__}",
-            "results": results}
-    print(f"# {info['machine']}")
-    print("| task | machine | points | batch [us/point] | Pinocchio loop [us/point] | speed-up |")
-    print("|---|---|---|---|---|---|")
-    for r in results:
-        print(f"| {r['task']} | {r['machine']} | {r['points']:,} | {r['batch_us_per_point']:.3f} | "
-              f"{r['pinocchio_loop_us_per_point']:.2f} | {r['speedup_vs_pinocchio_loop']:.1f}x |")
+                       f"Python {platform.python_version()}, pin {pin.__version__}, "
+                       f"numba {__import__('numba').__version__}", "quick": q}
+    steps = [
+        ("volumetric", lambda: [r for name in ("vmc500", "cgm4000")
+                                for r in bench_volumetric(name, sizes, n_loop, n_naive)]),
+        ("sensitivity", lambda: [r for name in ("vmc500", "cgm4000")
+                                 for r in bench_sensitivity(name, 10_000 if q else 100_000, n_loop)]),
+        ("memory", lambda: [peak_memory(name, 1_000_000) for name in ("vmc500", "cgm4000")]),
+        ("end_to_end", lambda: [bench_identification(2_000 if q else 10_000), bench_diagnosis(400),
+                                bench_compensation(1_000 if q else 10_000)]),
+        ("scaling", lambda: bench_scaling([1_000, 10_000, 100_000] + ([] if q else [1_000_000]))),
+    ]
+    for key, fn in steps:
+        t0 = time.perf_counter()
+        info[key] = fn()
+        print(f"# {key}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    text = markdown(info)
+    print(text)
+    if args.markdown:
+        with open(args.markdown, "w") as f:
+            f.write(text + "\n")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(info, f, indent=2)
