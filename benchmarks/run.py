@@ -256,11 +256,18 @@ def bench_identification(n):
 
 
 def bench_diagnosis(n):
+    """The model lacks two effects the simulated machine has (a 4 um backlash of Y and a
+    6 um thermal drift along z with a 50 min time constant)."""
     from volerr_pin.diagnose import diagnose
     from volerr_pin.simulate import campaign
+    from volerr_pin.specio import add_terms
 
     m = vp.load_machine("vmc500")
-    data = campaign(m, n=n, noise_um=0.3, seed=2)
+    truth = add_terms(m, {
+        "EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0},
+        "EZZ": {"kind": "thermal_drift", "driver": "time", "prefix": "h", "amplitudes_um": [6.0],
+                "time_constants_min": [50.0]}})
+    data = campaign(truth, n=n, noise_um=0.3, seed=2)
     t0 = time.perf_counter()
     result = diagnose(m, [data])
     seconds = time.perf_counter() - t0
@@ -338,7 +345,7 @@ def markdown(info) -> str:
         if r["task"] == "identification":
             size, note = f"{r['points']:,} points, {r['parameters']} coefficients", f"RMS fit {r['rms_fit_um']:.3f} um"
         elif r["task"] == "diagnosis":
-            size, note = f"{r['points']} points", f"{r['effects_found']} effect(s) named"
+            size, note = f"{r['points']} points", f"{r['effects_found']} of 2 hidden effects named"
         else:
             size = f"{r['blocks']:,} blocks -> {r['blocks_out']:,}"
             note = f"max error {r['max_before_um']:.1f} -> {r['max_residual_um']:.2f} um at 1 um"

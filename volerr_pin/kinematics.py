@@ -442,7 +442,8 @@ def _args(chain: Chain):
             chain.sign, chain.is_error, chain.end_R, chain.end_p)
 
 
-def pose_error(chain: Chain, values: np.ndarray, order: int | None = None) -> np.ndarray:
+def pose_error(chain: Chain, values: np.ndarray, order: int | None = None,
+               out: np.ndarray | None = None) -> np.ndarray:
     """(N, 6) error of the tool relative to the workpiece: dx, dy, dz [m], rx, ry, rz [rad].
 
     ``values``: (nv, N) Pinocchio joint values, one row per joint (points contiguous).
@@ -451,7 +452,8 @@ def pose_error(chain: Chain, values: np.ndarray, order: int | None = None) -> np
     """
     kernel = _exact_error if order is None else _first_order_error
     values = np.ascontiguousarray(values, dtype=float)
-    out = np.empty((values.shape[1], 6))
+    if out is None:
+        out = np.empty((values.shape[1], 6))
     kernel(values, *_args(chain), out)
     return out
 

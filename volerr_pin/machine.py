@@ -342,15 +342,21 @@ class Machine:
         cov = self.check_covariates(q.shape[0], covariates)
         return self._joint_values(q, theta, cov).T
 
-    def _axis_values(self, q: np.ndarray) -> np.ndarray:
-        """(nv, N) joint values with every error joint at zero (the nominal machine)."""
-        values = np.zeros((self._model.nv, q.shape[0]))
+    def _axis_values(self, q: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """(nv, N) joint values with every error joint at zero (the nominal machine);
+        ``out`` (nv, >= N) is a buffer to reuse (block loops: no fresh pages per block)."""
+        if out is None:
+            values = np.zeros((self._model.nv, q.shape[0]))
+        else:
+            values = out[:, :q.shape[0]]
+            values[...] = 0.0
         values[self._axis_cols] = (q * self._axis_signs).T
         return values
 
-    def _joint_values(self, q: np.ndarray, theta: np.ndarray, cov: Covariates) -> np.ndarray:
+    def _joint_values(self, q: np.ndarray, theta: np.ndarray, cov: Covariates,
+                      out: np.ndarray | None = None) -> np.ndarray:
         """(nv, N): one row per joint, points contiguous (the kernels' layout)."""
-        values = self._axis_values(q)
+        values = self._axis_values(q, out)
         components = self._component_values(q, theta, cov)
         for k, comp in enumerate(self._components):
             values[comp.column] += comp.chain_sign * components[k]
@@ -405,10 +411,11 @@ class Machine:
         theta = self._check_theta(theta)
         cov = self.check_covariates(q.shape[0], covariates)
         out = np.empty((q.shape[0], 6))
+        buffer = np.empty((self._model.nv, min(K.CHUNK, q.shape[0])))
         for start in range(0, q.shape[0], K.CHUNK):  # bounded memory for millions of points
             rows = slice(start, start + K.CHUNK)
-            values = self._joint_values(q[rows], theta, cov.take(rows))
-            out[rows] = K.pose_error(self._chain, values, order)
+            values = self._joint_values(q[rows], theta, cov.take(rows), out=buffer)
+            K.pose_error(self._chain, values, order, out=out[rows])
         return out[0] if single else out
 
     # ------------------------------------------------------------------ derivatives
