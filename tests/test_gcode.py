@@ -242,3 +242,26 @@ def test_full_circles_and_modal_arcs(machines):
     assert report.pieces <= 16  # a full circle is four quarter arcs, not a thousand lines
     # the block relying on the modal G2 still carries no motion word and is still an arc
     assert [s.kind for s in interpret(m, out)].count("arc") >= 10
+
+
+def test_an_arc_piece_written_as_a_line_drops_its_centre_words(machines):
+    """When a compensated arc piece is a straight line (three collinear compensated points),
+    the block becomes G1 and loses I/J without leaving gaps; a following modal arc block
+    gets its G2 back."""
+    from volerr_pin.compensate import Piece
+    from volerr_pin.gcode import Program, parse_block
+
+    m = machines["vmc500"]
+    program = Program(m)
+    block = parse_block("N5 G2 X110 Y100 I5 J0 F200 (arc)", 5, "p")
+    coords = [w for w in block.words if w.letter in "XY"]
+    piece = Piece("line", np.array([0.1, 0.1, 0.05]), np.array([0.11, 0.1, 0.05]))
+    st = {"absolute": True, "inch": False, "plane": 17, "out_motion": 2}
+    text = program._rewrite(block, piece, piece.start, st, 2, coords)
+    assert text == "N5 G1 X110.0000 Y100.0000 Z50.0000 F200 (arc)"
+    assert st["out_motion"] == 1
+    arc_piece = Piece("arc", np.array([0.11, 0.1, 0.05]), np.array([0.12, 0.1, 0.05]),
+                      center=np.array([0.115, 0.1]), clockwise=True, turns=-math.pi)
+    follow = parse_block("X120 Y100 I5 J0", 6, "p")
+    text = program._rewrite(follow, arc_piece, arc_piece.start, st, 2, [w for w in follow.words if w.letter in "XY"])
+    assert text.startswith("G2 X120.0000 Y100.0000") and "I5.0000 J0.0000" in text

@@ -466,7 +466,11 @@ class Program:
             new = ({t[0]: t for t in self._centre_words(piece, prev, st, radius_form)}
                    if piece.kind == "arc" else {})
             for w in centre_words:
-                edits.append((w.start, w.end, new.pop(w.letter, "")))
+                replacement = new.pop(w.letter, "")
+                start = w.start
+                if not replacement and start > 0 and block.text[start - 1] in " \t":
+                    start -= 1  # a removed word takes its separating space with it
+                edits.append((start, w.end, replacement))
             extra += list(new.values())
             anchor = max([anchor] + [w.end for w in centre_words])
         text = block.text
