@@ -112,3 +112,12 @@ def test_errormap_cli(tmp_path, capsys):
     assert len(report["axis_tables"]) == 3
     assert main(["errormap", "lathe_2axis"]) == 2
     assert "three linear axes" in capsys.readouterr().err
+
+
+def test_compensate_png(tmp_path, capsys):
+    src = tmp_path / "part.nc"
+    src.write_text(NC)
+    png = tmp_path / "c.png"
+    assert main(["compensate", "vmc500", str(src), "-o", str(tmp_path / "o.nc"), "--png", str(png)]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+    assert f"wrote {png}" in capsys.readouterr().out

@@ -468,6 +468,10 @@ def cmd_compensate(args) -> int:
     report = {"machine": machine.name, "input": str(path), "output": str(args.output), **program.report.to_dict()}
     if args.report:
         Path(args.report).write_text(json.dumps(report, indent=2) + "\n")
+    if args.png:
+        from .plots import compensation_png
+
+        report["png"] = compensation_png(program.report, args.png, title=f"{machine.name}: {path.name}")["path"]
     if args.json:
         print(json.dumps(report))
         return 0
@@ -478,8 +482,9 @@ def cmd_compensate(args) -> int:
           f"compensation (tolerance {r.tolerance_um:g} um)")
     for w in r.warnings:
         print(f"warning: {w}")
-    if args.report:
-        print(f"wrote {args.report}")
+    for key in ("report", "png"):
+        if getattr(args, key):
+            print(f"wrote {getattr(args, key)}")
     return 0
 
 
@@ -712,6 +717,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="keep blocks that cannot be compensated (canned cycles, macros) and warn")
     p.add_argument("--method", choices=["newton", "recursive"], default="newton",
                    help="point compensation scheme (default newton)")
+    p.add_argument("--png", help="also draw the error along each move before and after (PNG)")
     p.add_argument("--json", action="store_true", help="print the report as one JSON object")
     p.set_defaults(func=cmd_compensate)
 

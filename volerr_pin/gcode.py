@@ -98,6 +98,9 @@ class Report:
     arcs_kept: int = 0
     arcs_as_lines: int = 0
     warnings: list[str] = field(default_factory=list)
+    # per move: (line, pieces, largest error before [um], largest residual after [um]);
+    # kept out of the JSON (a long program has many moves), drawn by compensation_png
+    detail: list[tuple[int, int, float, float]] = field(default_factory=list, repr=False)
 
     def to_dict(self) -> dict:
         return {"blocks_in": self.blocks_in, "blocks_out": self.blocks_out, "moves": self.moves,
@@ -320,6 +323,8 @@ class Program:
 
     def _write(self, block: Block, newline: str, mv, result, st: dict) -> list[str]:
         self.report.pieces += len(result.pieces)
+        self.report.detail.append((block.number, len(result.pieces), result.max_before * 1e6,
+                                   result.max_residual * 1e6))
         self.report.max_residual_um = max(self.report.max_residual_um, result.max_residual * 1e6)
         self.report.max_before_um = max(self.report.max_before_um, result.max_before * 1e6)
         if result.limited:

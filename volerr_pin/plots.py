@@ -230,3 +230,28 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
     fig.savefig(path)
     plt.close(fig)
     return {"path": str(path)}
+
+
+def compensation_png(report, path: str | Path, title: str = "") -> dict:
+    """Largest error along each move of an NC program before and after compensation, with
+    the tolerance, and the pieces each move was split into."""
+    detail = np.array(report.detail, dtype=float).reshape(-1, 4)
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(9.0, 5.5), dpi=120, sharex=True, constrained_layout=True,
+                                  gridspec_kw={"height_ratios": [3, 1]})
+    line = detail[:, 0]
+    ax.plot(line, detail[:, 2], color="#999999", lw=0.8, marker=".", ms=3, label="uncompensated")
+    ax.plot(line, detail[:, 3], color="#1f6fb2", lw=0.8, marker=".", ms=3, label="compensated (model)")
+    ax.axhline(report.tolerance_um, color="#c0392b", ls="--", lw=1.0, label=f"tolerance {report.tolerance_um:g} um")
+    ax.set_ylabel("largest error along the move [um]")
+    ax.set_yscale("log")
+    ax.legend(fontsize=8, loc="best")
+    ax.grid(alpha=0.3, which="both")
+    ax.set_title(title or f"{report.moves} moves: {report.max_before_um:.2f} um -> {report.max_residual_um:.3f} um "
+                 f"({report.blocks_in} blocks in, {report.blocks_out} out)", fontsize=10)
+    ax2.step(line, detail[:, 1], where="mid", color="#333333", lw=0.8)
+    ax2.set_ylabel("pieces")
+    ax2.set_xlabel("line of the program")
+    ax2.grid(alpha=0.3)
+    fig.savefig(path)
+    plt.close(fig)
+    return {"path": str(path)}
