@@ -121,3 +121,59 @@ def test_compensate_png(tmp_path, capsys):
     assert main(["compensate", "vmc500", str(src), "-o", str(tmp_path / "o.nc"), "--png", str(png)]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
     assert f"wrote {png}" in capsys.readouterr().out
+
+
+def _thermal_spec(tmp_path):
+    """vmc500 with a 6 um thermal drift along z with a 50 min time constant."""
+    import volerr_pin as vp
+    from volerr_pin.specio import add_terms, write_spec
+
+    m = add_terms(vp.load_machine("vmc500"), {
+        "EZZ": {"kind": "thermal_drift", "driver": "time", "prefix": "h", "amplitudes_um": [6.0],
+                "time_constants_min": [50.0]}})
+    return m, write_spec(m, tmp_path / "warm.toml")
+
+
+def test_state_drives_time_dependent_terms(tmp_path, capsys):
+    import numpy as np
+
+    m, spec = _thermal_spec(tmp_path)
+    # without a state the command says what is missing
+    assert main(["errormap", str(spec), "--elements", "1", "--points", "50"]) == 2
+    assert "needs the covariate t" in capsys.readouterr().err
+    # in a state it maps the warm machine: the map's error RMS equals the model's at t
+    assert main(["errormap", str(spec), "--elements", "1", "--points", "400", "--order", "3",
+                 "--state", "t=3600", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    from volerr_pin.errormap import ErrorMap
+
+    warm = ErrorMap.build(m.with_state(t=3600.0), (1, 1, 1), 3).interpolation_error(400, 0)
+    cold = ErrorMap.build(m.with_state(t=0.0), (1, 1, 1), 3).interpolation_error(400, 0)
+    assert report["orders"][0]["error_rms_um"] == pytest.approx(warm["error_rms_um"], rel=1e-12)
+    assert abs(warm["error_rms_um"] - cold["error_rms_um"]) > 0.1  # the state matters
+    # compensate and rank take the state too
+    src = tmp_path / "p.nc"
+    src.write_text("G90 G0 X100 Y100 Z100\nG1 X300 Y200 F500\n")
+    assert main(["compensate", str(spec), str(src), "-o", str(tmp_path / "o.nc"), "--state", "t=3600",
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["max_residual_um"] <= 1.0
+    assert main(["rank", str(spec), "--points", "64", "--state", "t=3600", "--json"]) == 0
+    assert main(["rank", str(spec), "--points", "64", "--state", "t=abc"]) == 2
+    assert "not a number" in capsys.readouterr().err
+
+
+def test_with_state_fills_missing_covariates_only():
+    import numpy as np
+    import volerr_pin as vp
+    from volerr_pin.specio import add_terms
+
+    m = add_terms(vp.load_machine("vmc500"), {
+        "EZZ": {"kind": "thermal_drift", "driver": "time", "prefix": "h", "amplitudes_um": [6.0],
+                "time_constants_min": [50.0]}})
+    q = np.array([[0.1, 0.1, 0.1], [0.2, 0.2, 0.2]])
+    warm = m.with_state(t=7200.0)
+    np.testing.assert_array_equal(warm.volumetric_error(q), m.volumetric_error(q, t=[7200.0, 7200.0]))
+    np.testing.assert_array_equal(warm.volumetric_error(q, t=[0.0, 60.0]), m.volumetric_error(q, t=[0.0, 60.0]))
+    assert m.state == {} and warm.state["t"] == 7200.0
+    with pytest.raises(vp.InputError, match="forces"):
+        m.with_state(forces=[1.0, 2.0])

@@ -116,6 +116,7 @@ def _ranking_csv(ranking: dict) -> str:
 def cmd_rank(args) -> int:
     machine = load_machine(args.machine, tool_frame=args.tool_frame,
                            workpiece_frame=args.workpiece_frame)
+    machine = _with_state(machine, args.state)
     tolerances = read_tolerances(args.tolerances, machine) if args.tolerances else None
     q = sample(machine, args.points, seed=args.seed)
     ranking = rank(machine, q, tolerances=tolerances, direction=args.direction, by=args.by)
@@ -157,6 +158,38 @@ def _config(machine, items: list[str] | None) -> dict[str, float]:
     return out
 
 
+def _with_state(machine, items: list[str] | None):
+    """``--state t=3600 spindle=24.5 force=0,0,-150 directions=1,-1,1`` -> the machine in
+    that state (t in s, temperatures in degC by sensor name, forces in N)."""
+    if not items:
+        return machine
+    t, temps, forces, directions = None, {}, None, None
+    for item in items:
+        name, sep, text = item.partition("=")
+        if not sep or not name:
+            raise InputError(f"--state {item!r}: expected KEY=VALUE (t=SECONDS, SENSOR=DEGC, "
+                             "forces=FX,FY,FZ, directions=+1,-1,...)")
+        try:
+            values = [float(v) for v in text.split(",")]
+        except ValueError:
+            raise InputError(f"--state {item!r}: '{text}' is not a number (or comma-separated numbers)") from None
+        if name in ("forces", "directions"):
+            forces, directions = (values, directions) if name == "forces" else (forces, values)
+        elif len(values) != 1:
+            raise InputError(f"--state {item!r}: one value expected")
+        elif name == "t":
+            t = values[0]
+        else:
+            temps[name] = values[0]
+    return machine.with_state(t=t, temperatures=temps, forces=forces, directions=directions)
+
+
+def _state_arg(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--state", nargs="+", metavar="KEY=VALUE",
+                        help="machine state for time-, temperature-, load- or direction-dependent terms: "
+                             "t=SECONDS, SENSOR=DEGC, forces=FX,FY,FZ (N), directions=+1,-1,...")
+
+
 def _print_recording(summary: dict, stream=None) -> None:
     stream = stream or sys.stdout
     sweep = (f"; rotary sweep of {', '.join(summary['sweep_axes'])} in {summary['sweep_steps']} steps "
@@ -172,6 +205,7 @@ def cmd_field(args) -> int:
 
     machine = load_machine(args.machine, tool_frame=args.tool_frame,
                            workpiece_frame=args.workpiece_frame)
+    machine = _with_state(machine, args.state)
     config = _config(machine, args.config)
     if args.scale is not None and not args.scale > 0:
         raise InputError(f"--scale must be positive, got {args.scale}")
@@ -452,6 +486,7 @@ def cmd_compensate(args) -> int:
 
     machine = load_machine(args.machine, tool_frame=args.tool_frame,
                            workpiece_frame=args.workpiece_frame)
+    machine = _with_state(machine, args.state)
     path = Path(args.program)
     try:
         text = path.read_text(encoding="utf-8")
@@ -493,6 +528,7 @@ def cmd_errormap(args) -> int:
 
     machine = load_machine(args.machine, tool_frame=args.tool_frame,
                            workpiece_frame=args.workpiece_frame)
+    machine = _with_state(machine, args.state)
     config = _config(machine, args.config)
     elements = args.elements * 3 if len(args.elements) == 1 else args.elements
     if len(elements) != 3:
@@ -617,6 +653,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("field", help="Rerun recording of the error field")
     _machine_args(p)
+    _state_arg(p)
     p.add_argument("--out", required=True, help="recording file (.rrd)")
     p.add_argument("--grid", type=_positive, nargs="+", metavar="N",
                    help="points per linear axis (one value for all, or one per linear axis; default 9)")
@@ -635,6 +672,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("rank", help="sensitivity ranking of the error sources")
     _machine_args(p)
+    _state_arg(p)
     p.add_argument("--points", type=_positive, default=2048, help="workspace points (Sobol', default 2048)")
     p.add_argument("--seed", type=int, default=0, help="seed of the workspace sample")
     p.add_argument("--tolerances", help="TOML file: term -> expected magnitude (EXX_um = 5, ...)")
@@ -707,6 +745,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("compensate", help="compensated NC program")
     _machine_args(p)
+    _state_arg(p)
     p.add_argument("program", help="NC program (ISO 6983 / RS-274)")
     p.add_argument("-o", "--output", required=True, help="compensated program to write")
     p.add_argument("--tol-um", type=float, default=1.0, help="position tolerance along every move (default 1)")
@@ -723,6 +762,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("errormap", help="error map accuracy per element order; compensation tables")
     _machine_args(p)
+    _state_arg(p)
     p.add_argument("--elements", type=_positive, nargs="+", default=[4], metavar="N",
                    help="elements per linear axis (1 or 3 values; default 4)")
     p.add_argument("--order", type=int, nargs="+", choices=[1, 2, 3], default=[1, 2, 3],

@@ -243,13 +243,14 @@ class PathCompensator:
     """Splits moves until the compensated path is within ``tol`` everywhere (seed 002)."""
 
     def __init__(self, machine: Machine, tol_um: float = 1.0, samples: int = 48, max_depth: int = 14,
-                 method: str = "newton", tol_urad: float | None = None, **covariates):
+                 method: str = "newton", tol_urad: float | None = None):
+        """A machine with time-, temperature- or load-dependent terms is compensated in one
+        state: ``PathCompensator(machine.with_state(t=3600, temperatures={"spindle": 24}))``."""
         self.machine = machine
         self.tol = tol_um * 1e-6
         self.samples = samples
         self.max_depth = max_depth
         self.method = method
-        self.cov = covariates
         self.orientation = _has_rotary(machine)
         # tool-axis tolerance (default 10 urad per um): the tool-axis angle counts as
         # ``lever`` x angle against the position tolerance
@@ -261,7 +262,7 @@ class PathCompensator:
         """Compensated commands for many desired positions at once (N, n_axes)."""
         res = compensate_points(self.machine, q_d, method=self.method,
                                 tol_um=min(0.01, self.tol * 1e6 / 20), tol_urad=min(0.1, self.tol_urad / 20),
-                                lever=self.lever, **self.cov)
+                                lever=self.lever)
         return res.q
 
     def point(self, q_d: np.ndarray) -> np.ndarray:
@@ -275,7 +276,7 @@ class PathCompensator:
         ``desired``: position [m]; on machines with rotary axes the larger of that and the
         tool-axis angle times ``lever`` (0.1 m: 1 um of tolerance per 10 urad)."""
         m = self.machine
-        R, p = m.tool_poses(commanded, extrapolate=True, **self.cov)
+        R, p = m.tool_poses(commanded, extrapolate=True)
         R_d, p_d = m.tool_poses(desired, nominal=True, extrapolate=True)
         res = np.linalg.norm(p - p_d, axis=1)
         if self.orientation:

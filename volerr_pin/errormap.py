@@ -96,11 +96,12 @@ class ErrorMap:
     values: np.ndarray
 
     @classmethod
-    def build(cls, machine: Machine, elements=(4, 4, 4), order: int = 2, config: dict | None = None,
-              **covariates) -> ErrorMap:
+    def build(cls, machine: Machine, elements=(4, 4, 4), order: int = 2, config: dict | None = None) -> ErrorMap:
         """Evaluate the model at the nodes of ``elements`` (per axis) over the travel of the
         machine's linear axes; other axes sit at ``config`` (axis name -> SI value, default
-        the middle of their travel, or 0 for endless axes)."""
+        the middle of their travel, or 0 for endless axes). A machine with time-,
+        temperature- or load-dependent terms is mapped in one state:
+        ``ErrorMap.build(machine.with_state(t=3600))``."""
         lin = [j for j, k in enumerate(machine.axis_kinds) if k == "linear"]
         if len(lin) != 3:
             raise InputError(f"{machine.name}: an error map needs exactly three linear axes "
@@ -122,8 +123,7 @@ class ErrorMap:
         pts = lows[:, None, :] + (nodes[None, :, :] + 1) / 2 * sizes[:, None, :]
         q = np.tile(fixed, (pts.shape[0] * pts.shape[1], 1))
         q[:, list(lin)] = pts.reshape(-1, 3)
-        cov = _repeat(covariates, len(q))
-        emap.values = machine.volumetric_error(q, **cov).reshape(pts.shape[0], pts.shape[1], 6)
+        emap.values = machine.volumetric_error(q).reshape(pts.shape[0], pts.shape[1], 6)
         return emap
 
     @property
@@ -167,7 +167,7 @@ class ErrorMap:
         N = shape_functions(self.order, xi)
         return np.einsum("mn,mnc->mc", N, self.values[element])
 
-    def interpolation_error(self, n: int = 2000, seed: int = 0, **covariates) -> dict:
+    def interpolation_error(self, n: int = 2000, seed: int = 0) -> dict:
         """Interpolated vs direct model at ``n`` seeded random points: position error of the
         interpolation (max, RMS, um) and its share of the error itself."""
         rng = np.random.default_rng(seed)
@@ -175,7 +175,7 @@ class ErrorMap:
         for k, j in enumerate(self.axes):
             e = self.edges[k]
             q[:, j] = e[0] + rng.random(n) * (e[-1] - e[0])
-        direct = self.machine.volumetric_error(q, **_repeat(covariates, n))[:, :3]
+        direct = self.machine.volumetric_error(q)[:, :3]
         diff = np.linalg.norm(self.interpolate(q)[:, :3] - direct, axis=1)
         size = np.linalg.norm(direct, axis=1)
         return {"order": self.order, "nodes_per_element": NODES_PER_ORDER[self.order],
@@ -185,24 +185,7 @@ class ErrorMap:
                 "relative": float(np.sqrt(np.mean(diff**2)) / max(np.sqrt(np.mean(size**2)), 1e-300))}
 
 
-def _repeat(covariates: dict, n: int) -> dict:
-    """One machine state (``t`` s, ``temperatures`` {sensor: degC}, ``forces`` (3,) N,
-    ``directions`` (n_axes,)) repeated for ``n`` points."""
-    out = {}
-    for key, value in covariates.items():
-        if value is None:
-            continue
-        if key == "temperatures":
-            out[key] = {s: np.full(n, float(v)) for s, v in dict(value).items()}
-        elif key in ("forces", "directions"):
-            out[key] = np.tile(np.asarray(value, dtype=float).reshape(1, -1), (n, 1))
-        else:
-            out[key] = np.full(n, float(value))
-    return out
-
-
-def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), config: dict | None = None,
-                       **covariates) -> dict:
+def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), config: dict | None = None) -> dict:
     """Write a controller compensation table (CSV) on a regular node grid.
 
     Columns: node position of the three linear axes (mm) and the correction to add to each
@@ -229,7 +212,7 @@ def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), c
     pts = np.array(list(itertools.product(*grids)))
     q = np.tile(fixed, (len(pts), 1))
     q[:, lin] = pts
-    res = compensate_points(machine, q, orientation=False, **_repeat(covariates, len(q)))
+    res = compensate_points(machine, q, orientation=False)
     corr = res.q - q
     names = [machine.axes[j] for j in lin]
     path = Path(path)
@@ -251,10 +234,10 @@ def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), c
     test = np.tile(fixed, (500, 1))
     for k, j in enumerate(lin):
         test[:, j] = grids[k][0] + rng.random(500) * (grids[k][-1] - grids[k][0])
-    exact = compensate_points(machine, test, orientation=False, **_repeat(covariates, 500)).q - test
+    exact = compensate_points(machine, test, orientation=False).q - test
     tri = _trilinear(grids, corr.reshape(*nodes, -1), test[:, lin])
     err = np.abs(tri - exact)[:, lin].max(axis=1)
-    _, p_cmd = machine.tool_poses(test + tri, extrapolate=True, **_repeat(covariates, 500))
+    _, p_cmd = machine.tool_poses(test + tri, extrapolate=True)
     _, p_d = machine.tool_poses(test, nominal=True)
     resid = np.linalg.norm(p_cmd - p_d, axis=1)
     return {"file": str(path), "nodes": list(nodes), "rows": len(pts),
@@ -279,7 +262,7 @@ def _trilinear(grids, values, x):
     return out
 
 
-def axis_tables(machine: Machine, directory: str | Path, points: int = 21, **covariates) -> list[str]:
+def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> list[str]:
     """ISO 230-1-named per-axis tables: for each axis, its component errors (EXX, EYX, ...)
     at ``points`` positions over its travel, with the other axes at mid-travel. Linear
     errors in um, angular in urad; one CSV per axis. Returns the files written."""
@@ -296,7 +279,7 @@ def axis_tables(machine: Machine, directory: str | Path, points: int = 21, **cov
         lo, hi = travel[j] if np.isfinite(travel[j]).all() else (0.0, 2 * np.pi)
         q = np.tile(mid, (points, 1))
         q[:, j] = np.linspace(lo, hi, points)
-        vals = machine.component_values(q, **_repeat(covariates, points))
+        vals = machine.component_values(q)
         cols = [machine.components.index(c) for c in comps]
         linear_axis = machine.axis_kinds[j] == "linear"
         path = directory / f"{machine.name}_{axis}.csv"

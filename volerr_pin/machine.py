@@ -226,6 +226,60 @@ class Machine:
         other._theta.flags.writeable = False
         return other
 
+    def with_state(self, t: float | None = None, temperatures: Mapping | None = None, forces=None,
+                   directions=None) -> "Machine":
+        """A copy of this machine held in one state: covariates a call does not give are
+        taken from here for every point (``t`` s, ``temperatures`` {sensor: degC},
+        ``forces`` (3,) N, ``directions`` (n_axes,) of +1/-1). Calls may still pass their own."""
+        state = dict(getattr(self, "_state", {}))
+        if t is not None:
+            state["t"] = float(t)
+        if temperatures:
+            state["temperatures"] = {**state.get("temperatures", {}),
+                                     **{str(k): float(v) for k, v in dict(temperatures).items()}}
+        if forces is not None:
+            f = np.asarray(forces, dtype=float)
+            if f.shape != (3,):
+                raise InputError(f"forces must be three values (Fx, Fy, Fz in N), got shape {f.shape}")
+            state["forces"] = f
+        if directions is not None:
+            d = np.asarray(directions, dtype=float)
+            if d.shape != (len(self.axes),) or not np.all(np.isin(d, (-1.0, 1.0))):
+                raise InputError(f"directions must be {len(self.axes)} values of +1 or -1 "
+                                 f"(axes {', '.join(self.axes)})")
+            state["directions"] = d
+        for key, value in state.items():
+            values = value.values() if isinstance(value, dict) else np.atleast_1d(value)
+            if not np.all(np.isfinite(list(values))):
+                raise InputError(f"state '{key}' is not finite")
+        other = object.__new__(Machine)
+        other.__dict__.update(self.__dict__)
+        other._state = state
+        return other
+
+    @property
+    def state(self) -> dict:
+        """The state set by :meth:`with_state` (empty by default)."""
+        return dict(getattr(self, "_state", {}))
+
+    def _with_state_defaults(self, n: int, covariates: Mapping) -> dict:
+        state = getattr(self, "_state", None)
+        if not state:
+            return dict(covariates)
+        out = dict(covariates)
+        if out.get("t") is None and "t" in state:
+            out["t"] = np.full(n, state["t"])
+        if "temperatures" in state:
+            given = dict(out.get("temperatures") or {})
+            for sensor, value in state["temperatures"].items():
+                given.setdefault(sensor, np.full(n, value))
+            out["temperatures"] = given
+        if out.get("forces") is None and "forces" in state:
+            out["forces"] = np.tile(state["forces"], (n, 1))
+        if out.get("directions") is None and "directions" in state:
+            out["directions"] = np.tile(state["directions"], (n, 1))
+        return out
+
     @property
     def nonlinear_parameters(self) -> tuple[int, ...]:
         """Indices (into theta) of coefficients the model is not linear in (time constants,
@@ -303,6 +357,7 @@ class Machine:
     def check_covariates(self, n: int, covariates: Mapping) -> Covariates:
         """Check keyword covariates (see CONTRACT: t, temperatures, forces, directions)."""
         known = {"t", "temperatures", "forces", "directions"}
+        covariates = self._with_state_defaults(n, covariates)
         unknown = sorted(set(covariates) - known)
         if unknown:
             raise InputError(f"unknown covariate(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
