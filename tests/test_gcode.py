@@ -203,7 +203,7 @@ def test_incremental_sections_do_not_accumulate_rounding(machines):
     ("G90 G0 X10 Y10 Z10\n#1 = 5\n", 2, "macro"),
     ("G90 G0 X10 Y10 Z10\nM98 P100\n", 2, "subprogram"),
     ("G90 G0 X10 Y10 Z10\nWHILE [1 LT 2] DO1\n", 2, "macro"),
-    ("G2 X10 Y10 I5 J5\n", 1, "first move is an arc"),
+    ("G2 X10 Y10 I5 J5\n", 1, "arc from an unknown position"),
     ("G90 G0 X450 Y200 Z10\nG3 X450 Y200 I0 J100\n", 2, "leaves the travel"),
 ])
 def test_malformed_programs_fail_with_the_line_number(machines, text, line, message):
@@ -217,8 +217,11 @@ def test_pass_through_keeps_unsupported_blocks_and_warns(machines):
     out, report = compensate_program(m, program, pass_through=True)
     lines = out.splitlines()
     assert lines[1] == "G81 X20 Y20 Z5 R12 F100" and lines[2] == "G80" and lines[3] == "M98 P100"
-    assert [w.split(":")[0] for w in report.warnings if "kept unchanged" in w] == ["line 2", "line 3", "line 4"]
+    # G80 only cancels the cycle: nothing to keep unchanged there
+    assert [w.split(":")[0] for w in report.warnings if "kept unchanged" in w] == ["line 2", "line 4"]
     assert report.blocks_in == 5
+    # after a block that moved the machine out of our sight the next move is end point only
+    assert any(w.startswith("line 5: the position before this move is not known") for w in report.warnings)
 
 
 def test_report_fields(machines):
@@ -265,3 +268,67 @@ def test_an_arc_piece_written_as_a_line_drops_its_centre_words(machines):
     follow = parse_block("X120 Y100 I5 J0", 6, "p")
     text = program._rewrite(follow, arc_piece, arc_piece.start, st, 2, [w for w in follow.words if w.letter in "XY"])
     assert text.startswith("G2 X120.0000 Y100.0000") and "I5.0000 J0.0000" in text
+
+
+def test_review_cases(machines):
+    """Cases a review found: each used to write a wrong program."""
+    m = machines["vmc500"]
+    # last line without a newline: the pieces of its split move are still separate blocks
+    out, _ = compensate_program(m, "G90 G0 X10 Y10 Z10\nG1 X450 Y390 Z390 F300")
+    assert not out.endswith("\n") and out.count("\n") >= 2 and all(line.count("X") == 1 for line in out.splitlines())
+    # a first move naming some axes does not command the others
+    out, report = compensate_program(m, "G90 G21\nG0 Z350\nG0 X100 Y100\n")
+    assert out.splitlines()[1].startswith("G0 Z") and "X" not in out.splitlines()[1]
+    assert "taking the unprogrammed axes at mid-travel" in report.warnings[0]
+    # G4's X is a dwell time; G10/G28/G53 are not moves of the program
+    out, _ = compensate_program(m, "G90 G0 X10 Y10 Z10\nG4 X1.5\nG1 Y100 F100\n")
+    assert out.splitlines()[1] == "G4 X1.5" and abs(float(re.search(r"X([-\d.]+)", out.splitlines()[2]).group(1)) - 10) < 0.01
+    for block in ("G10 L2 P1 X100 Y50 Z0", "G91 G28 Z0", "G53 G0 Z0"):
+        with pytest.raises(GcodeError, match=":2: G"):
+            compensate_program(m, f"G90 G0 X10 Y10 Z10\n{block}\nG1 X200 F100\n")
+    # passed through, G91 G28 leaves incremental mode on and the position unknown
+    out, report = compensate_program(m, "G90 G0 X10 Y10 Z10\nG91 G28 Z0\nG90 G1 X200 Y20 Z30 F100\n",
+                                     pass_through=True)
+    assert "line 3: the position before this move is not known" in " ".join(report.warnings)
+    with pytest.raises(GcodeError, match=":3: an incremental move"):
+        compensate_program(m, "G90 G0 X10 Y10 Z10\nG91 G28 Z0\nG1 X20 F100\n", pass_through=True)
+    # P turns on a helix
+    program = "G90 G0 X100 Y100 Z100\nG2 X100 Y100 Z200 I50 J0 P3 F100\n"
+    out, report = compensate_program(m, program)
+    assert "P3" not in out and report.pieces >= 13
+    assert round_trip(m, program, out)[0] <= 1e-6
+    assert sum(s.arc.sweep for s in interpret(m, out) if s.kind == "arc") == pytest.approx(-6 * math.pi, rel=1e-5)
+    # M codes that end the move go to its last piece
+    out, _ = compensate_program(m, "G90 G0 X10 Y10 Z10\nG1 X450 Y390 Z390 F300 M30\n")
+    lines = out.splitlines()
+    assert lines[-1].endswith(" M30") and "M30" not in "".join(lines[1:-1])
+    # a K word on a G17 arc is not ours to delete
+    out, _ = compensate_program(m, "G90 G0 X100 Y100 Z100\nG2 X200 Y100 I50 J0 K2 F100\n")
+    assert " K2 " in out
+    # an end point 1.8 um off the start's circle: the arc is spread, the residual stays small
+    program = "G90 G0 X100 Y100 Z100\nG2 X200.0018 Y100 I50 J0 F100\n"
+    out, report = compensate_program(m, program)
+    assert report.max_residual_um < 0.95 and not [w for w in report.warnings if "stays" in w]
+    assert round_trip(m, program, out)[0] <= 1e-6
+    # block delete on a move, work offsets and tool length offsets
+    with pytest.raises(GcodeError, match=":2: a move with block delete"):
+        compensate_program(m, "G90 G0 X10 Y10 Z10\n/G1 X20\n")
+    _, report = compensate_program(m, "G90 G54 G43 H1 G0 X10 Y10 Z10\nG80\nG1 X20 F100\n")
+    assert any("work offset G54" in w for w in report.warnings) and any("G43" in w for w in report.warnings)
+    _, report = compensate_program(m, "G90 G0 X100 Y100 Z100\nG1 X400 Y300 F100\n", tol_um=0.05)
+    assert "finer than the written numbers resolve" in report.warnings[0]
+
+
+def test_origin_shifts_program_coordinates_to_axis_positions(machines):
+    """With a work offset, program zero sits at ``origin``: the errors are those of the axis
+    positions, and the written numbers stay program coordinates."""
+    m = machines["vmc500"]
+    program = "G90 G0 X10 Y10 Z10\nG1 X150 Y120 Z60 F300\n"
+    origin = np.array([0.2, 0.15, 0.1])
+    out, _ = compensate_program(m, program, origin=origin)
+    shifted = "G90 G0 X210 Y160 Z110\nG1 X350 Y270 Z160 F300\n"
+    out_shifted, _ = compensate_program(m, shifted)
+    for a, b in zip(out.splitlines(), out_shifted.splitlines()):
+        va = [float(v) for v in re.findall(r"[XYZ]([-\d.]+)", a)]
+        vb = [float(v) for v in re.findall(r"[XYZ]([-\d.]+)", b)]
+        np.testing.assert_allclose(np.array(va) + origin * 1e3, vb, atol=1.1e-4)

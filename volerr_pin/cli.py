@@ -147,12 +147,12 @@ def _config(machine, items: list[str] | None) -> dict[str, float]:
     for item in items or []:
         name, sep, text = item.partition("=")
         if not sep or name not in machine.axes:
-            raise InputError(f"--config {item!r}: expected AXIS=VALUE with AXIS one of "
+            raise InputError(f"{item!r}: expected AXIS=VALUE with AXIS one of "
                              f"{', '.join(machine.axes)}")
         try:
             value = float(text)
         except ValueError:
-            raise InputError(f"--config {item!r}: '{text}' is not a number") from None
+            raise InputError(f"{item!r}: '{text}' is not a number") from None
         linear = machine.axis_kinds[machine.axes.index(name)] == "linear"
         out[name] = value * (1e-3 if linear else 3.141592653589793 / 180.0)
     return out
@@ -492,8 +492,10 @@ def cmd_compensate(args) -> int:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as err:
         raise InputError(f"{path}: not UTF-8/ASCII text (byte {err.start})") from None
+    offset = _config(machine, args.origin)
+    origin = [offset.get(axis, 0.0) for axis in machine.axes] if offset else None
     program = Program(machine, tol_um=args.tol_um, tol_urad=args.tol_urad, pass_through=args.pass_through,
-                      method=args.method, source=str(path))
+                      method=args.method, source=str(path), origin=origin)
     console = Console(stderr=True, highlight=False)
     with Progress(TextColumn("compensating"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
                   console=console, transient=True, disable=args.json or not console.is_terminal) as bar:
@@ -757,6 +759,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=["newton", "recursive"], default="newton",
                    help="point compensation scheme (default newton)")
     p.add_argument("--png", help="also draw the error along each move before and after (PNG)")
+    p.add_argument("--origin", nargs="+", metavar="AXIS=VALUE",
+                   help="axis positions of the program zero (the work offset, G54 ...; mm, deg)")
     p.add_argument("--json", action="store_true", help="print the report as one JSON object")
     p.set_defaults(func=cmd_compensate)
 

@@ -193,14 +193,19 @@ class Arc:
     sweep: float              # signed: > 0 counter-clockwise
     start: np.ndarray         # (n_axes,) full desired start
     end: np.ndarray           # (n_axes,) full desired end
+    end_radius: float | None = None  # when the end lies slightly off the start's circle
 
     def point(self, k: np.ndarray) -> np.ndarray:
+        """Points at fractions ``k`` of the move. A small mismatch of start and end radius
+        (as programs written to 4 decimals have) is spread linearly over the sweep, as
+        controllers do, so that the arc ends exactly at the programmed end point."""
         k = np.atleast_1d(k)
         i, j, l = self.plane
         out = self.start + np.outer(k, self.end - self.start)  # other axes linear
         ang = self.start_angle + k * self.sweep
-        out[:, i] = self.center[0] + self.radius * np.cos(ang)
-        out[:, j] = self.center[1] + self.radius * np.sin(ang)
+        r = self.radius if self.end_radius is None else self.radius + k * (self.end_radius - self.radius)
+        out[:, i] = self.center[0] + r * np.cos(ang)
+        out[:, j] = self.center[1] + r * np.sin(ang)
         return out
 
 
@@ -223,7 +228,8 @@ def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plan
     if abs(r0 - r1) > 2e-6:  # 2 um, about what controllers accept
         raise InputError(f"arc start radius {r0 * 1e3:.4f} mm and end radius {r1 * 1e3:.4f} mm differ "
                          f"by {abs(r0 - r1) * 1e6:.1f} um")
-    return Arc(plane, np.asarray(center, float), r0, a0, sweep, np.asarray(start, float), np.asarray(end, float))
+    return Arc(plane, np.asarray(center, float), r0, a0, sweep, np.asarray(start, float), np.asarray(end, float),
+               end_radius=r1)
 
 
 def _circle_through(p1, p2, p3):

@@ -25,7 +25,16 @@ from .machine import Machine
 
 WORD = re.compile(r"([A-Za-z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 COMMENT = re.compile(r"\([^)]*\)|;.*$")
-UNSUPPORTED_G = {73, 74, 76, 80, 81, 82, 83, 84, 85, 86, 87, 88, 89, 65, 66, 67}
+CANNED = {73, 74, 76, 81, 82, 83, 84, 85, 86, 87, 88, 89}
+MACRO_G = {65, 66, 67}
+# G codes whose axis words are not a move the program interpolates (data, reference returns,
+# machine coordinates, probing) or that change the geometry in ways not modelled
+NOT_MOVES = {10: "data setting", 27: "reference check", 28: "reference return", 29: "return from reference",
+             30: "2nd reference return", 31: "probing skip", 53: "machine coordinates", 92: "coordinate shift",
+             52: "local coordinate system", 68: "coordinate rotation", 51: "scaling", 41: "cutter compensation",
+             42: "cutter compensation", 90.1: "absolute arc centres", 91.1: "incremental arc centres"}
+WORK_OFFSETS = {54, 55, 56, 57, 58, 59, 54.1, 59.1, 59.2, 59.3}
+LATE_M = (0, 1, 2, 5, 9, 30)  # M codes that act at the end of their block's move
 PLANES = {17: ("X", "Y", "Z"), 18: ("Z", "X", "Y"), 19: ("Y", "Z", "X")}
 CENTRE = {"X": "I", "Y": "J", "Z": "K"}
 
@@ -86,6 +95,19 @@ def parse_block(line: str, number: int, source: str) -> Block:
     return Block(number, line, words, code)
 
 
+def split_lines(text: str) -> list[tuple[str, str]]:
+    """(body, line ending) per line; only LF and CR LF end a line (a form feed or other
+    Unicode line separators inside a block stay part of it)."""
+    out = []
+    for raw in re.findall(r"[^\n]*\n|[^\n]+\Z", text):
+        body = raw[:-1] if raw.endswith("\n") else raw
+        newline = raw[len(body):]
+        if body.endswith("\r") and newline:
+            body, newline = body[:-1], "\r\n"
+        out.append((body, newline))
+    return out
+
+
 @dataclass
 class Report:
     blocks_in: int = 0
@@ -110,11 +132,33 @@ class Report:
                 "warnings": self.warnings}
 
 
+def _modal_words(gs, st: dict) -> None:
+    """Apply the modal G words (motion, plane, distance and unit modes) to the state."""
+    for g in gs:
+        if g in (0, 1, 2, 3):
+            st["motion"] = int(g)
+        elif g in CANNED or g == 80:
+            st["motion"] = None  # a cycle, or its cancellation, ends the motion mode
+        elif g in (17, 18, 19):
+            st["plane"] = int(g)
+        elif g == 90:
+            st["absolute"] = True
+        elif g == 91:
+            st["absolute"] = False
+        elif g == 20:
+            st["inch"] = True
+        elif g == 21:
+            st["inch"] = False
+
+
 class Program:
     """Compensates a program for a machine whose axes are NC letters (X, Y, Z, A, B, C)."""
 
     def __init__(self, machine: Machine, tol_um: float = 1.0, pass_through: bool = False,
-                 start=None, method: str = "newton", source: str = "<program>", tol_urad: float | None = None):
+                 start=None, method: str = "newton", source: str = "<program>", tol_urad: float | None = None,
+                 origin=None):
+        """``origin``: machine axis positions (SI) of the program's zero (the work offset,
+        G54 ...); absolute program coordinates plus ``origin`` are the axis positions."""
         for axis in machine.axes:
             if not (len(axis) == 1 and axis in "XYZABCUVW"):
                 raise GcodeError(f"{machine.name}: axis '{axis}' is not an NC address letter")
@@ -135,6 +179,14 @@ class Program:
         default = np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0)
         self.start = default if start is None else np.asarray(start, float)
         self.report = Report(tolerance_um=tol_um)
+        self.origin = np.zeros(len(self.axes)) if origin is None else np.asarray(origin, dtype=float)
+        if self.origin.shape != (len(self.axes),) or not np.all(np.isfinite(self.origin)):
+            raise GcodeError(f"origin must hold {len(self.axes)} finite values (axes {', '.join(self.axes)})")
+        rounding = 0.05 * math.sqrt(sum(self.linear))
+        if rounding > 0.5 * tol_um:
+            self.report.warnings.append(
+                f"the tolerance {tol_um:g} um is finer than the written numbers resolve (they round by up "
+                f"to {rounding:.3f} um): the program as written may miss it by that much")
 
     # units ----------------------------------------------------------------------
     def _to_si(self, axis: str, value: float, inch: bool) -> float:
@@ -142,6 +194,10 @@ class Program:
         if self.linear[j]:
             return value * (25.4e-3 if inch else 1e-3)
         return math.radians(value)
+
+    def _position(self, axis: str, value: float, inch: bool) -> float:
+        """Axis position (SI) of an absolute program coordinate."""
+        return self._to_si(axis, value, inch) + self.origin[self.axes.index(axis)]
 
     def _from_si(self, axis: str, value: float, inch: bool) -> float:
         j = self.axes.index(axis)
@@ -161,6 +217,8 @@ class Program:
         Three passes: read every block (modal state, desired moves, errors with their line);
         compensate all move end points in one batch and screen all straight moves in one
         batch (most short moves need no splitting); then split what needs it and write."""
+        crlf = text.count("\r\n")
+        self._eol = "\r\n" if crlf and crlf >= text.count("\n") - crlf else "\n"
         entries = self._read(text)
         moves = [e for e in entries if e[0] == "move"]
         self.report.moves = len(moves)
@@ -186,33 +244,54 @@ class Program:
 
     def _read(self, text: str) -> list[tuple]:
         entries = []
-        st = {"motion": None, "plane": 17, "absolute": True, "inch": False, "known": False,
-              "pos": self.start.copy()}
-        for number, raw in enumerate(text.splitlines(keepends=True), start=1):
-            body = raw.rstrip("\r\n")
-            newline = raw[len(body):]
+        st = {"motion": None, "plane": 17, "absolute": True, "inch": False,
+              "known": np.zeros(len(self.axes), dtype=bool), "pos": self.start.copy(), "canned": False}
+        noted = set()
+        for number, (body, newline) in enumerate(split_lines(text), start=1):
+            raw = body + newline
             self.report.blocks_in += 1
-            problem = self._unsupported(body)
+            problem = self._unsupported(body, st)
             if problem:
                 if not self.pass_through:
                     raise GcodeError(f"{self.source}:{number}: {problem} cannot be compensated "
                                      "(use --pass-through to keep it unchanged)")
                 self.report.warnings.append(f"line {number}: {problem} kept unchanged")
                 entries.append(("raw", raw, newline))
+                code = COMMENT.sub(" ", body).upper()
+                words = [(m.group(1).upper(), float(m.group(2))) for m in WORD.finditer(code)]
+                _modal_words([v for letter, v in words if letter == "G"], st)  # G91 G28 ... stays G91
+                if any(letter in self.axes for letter, _ in words):
+                    st["known"][:] = False  # the block moves the machine somewhere we do not follow
                 continue
             block = parse_block(body, number, self.source)
+            for w in block.words:
+                if w.letter == "G" and w.value in WORK_OFFSETS and "offset" not in noted and not self.origin.any():
+                    noted.add("offset")
+                    self.report.warnings.append(
+                        f"line {number}: work offset G{w.value:g}: program coordinates are taken as axis "
+                        "positions (give the offset as origin, --origin X=... in mm)")
+                if w.letter == "G" and w.value == 43 and "g43" not in noted:
+                    noted.add("g43")
+                    self.report.warnings.append(
+                        f"line {number}: G43 tool length offset: the errors are those of the model's tool "
+                        "point; a different tool length changes the angular errors' lever arms")
+            known_before = st["known"].copy()
             move = self._modal(block, st)
             if move is None:
                 entries.append(("plain", block, newline))
                 continue
             motion, start, target, coord_words = move
             kind = motion
-            if not st["known"]:
+            if not known_before.all():
+                missing = [a for a, k in zip(self.axes, known_before) if not k]
                 if motion in (2, 3):
-                    raise GcodeError(f"{self.source}:{number}: the first move is an arc from an unknown "
-                                     "position; start the program with a G0 or G1 to a known point")
-                self.report.warnings.append(f"line {number}: the position before the first move is not "
-                                            "known; this move is compensated at its end point only")
+                    raise GcodeError(f"{self.source}:{number}: an arc from an unknown position (axes "
+                                     f"{', '.join(missing)} not yet programmed); move every axis to a known "
+                                     "point with G0 or G1 first")
+                self.report.warnings.append(
+                    f"line {number}: the position before this move is not known (axes {', '.join(missing)} "
+                    "not yet programmed); it is compensated at its end point only" +
+                    (", taking the unprogrammed axes at mid-travel" if not st["known"].all() else ""))
                 kind = 0
             arc = None
             if kind in (2, 3):
@@ -220,9 +299,10 @@ class Program:
                 outside = self._outside(arc.point(np.linspace(0.0, 1.0, 721)), slack=1e-9)
                 if outside:
                     raise GcodeError(f"{self.source}:{number}: the arc leaves the travel ({outside})")
-            state = {"absolute": st["absolute"], "inch": st["inch"], "plane": st["plane"]}
+            state = {"absolute": st["absolute"], "inch": st["inch"], "plane": st["plane"],
+                     "all_known": bool(st["known"].all())}
             entries.append(("move", block, newline, _Move(kind, motion, start, target, arc, coord_words, state, number)))
-            st["pos"], st["known"] = target, True
+            st["pos"] = target
         return entries
 
     def _compensate_moves(self, moves: list, progress=None) -> list:
@@ -268,53 +348,60 @@ class Program:
                 progress(i)
         return results
 
-    @staticmethod
-    def _unsupported(line: str) -> str | None:
+    def _unsupported(self, line: str, st: dict | None = None) -> str | None:
+        """Why a block cannot be compensated (None if it can); ``st`` tracks canned cycles."""
         code = COMMENT.sub(" ", line).upper()
         if "#" in code:
             return "a macro variable (#)"
         keyword = re.search(r"\b(IF|WHILE|GOTO|DO\d*|END\d*)\b", code)
         if keyword:
             return f"a macro statement ({keyword.group(1)})"
-        for m in WORD.finditer(code):
-            letter, value = m.group(1).upper(), float(m.group(2))
-            if letter == "G" and value == int(value) and int(value) in UNSUPPORTED_G:
-                return f"G{int(value)} (canned cycle or macro call)"
+        words = [(m.group(1).upper(), float(m.group(2))) for m in WORD.finditer(code)]
+        has_axes = any(letter in self.axes for letter, _ in words)
+        if code.lstrip().startswith("/") and has_axes:
+            return "a move with block delete (/), whose execution depends on the operator's switch,"
+        for letter, value in words:
+            if letter == "G" and value in CANNED:
+                if st is not None:
+                    st["canned"] = True
+                return f"G{value:g} (canned cycle)"
+            if letter == "G" and value in MACRO_G:
+                return f"G{value:g} (macro call)"
             if letter == "M" and value in (98, 99):
-                return f"M{int(value)} (subprogram call or return)"
-            if letter == "G" and value in (90.1, 91.1, 68, 69, 41, 42, 43, 51, 52, 92):
-                return f"G{value:g} (not supported)"
+                return f"M{value:g} (subprogram call or return)"
+            if letter == "G" and value in NOT_MOVES:
+                return f"G{value:g} ({NOT_MOVES[value]})"
+        if st is not None and st.get("canned"):
+            if any(letter == "G" and value in (0, 1, 2, 3, 80) for letter, value in words):
+                st["canned"] = False
+            elif has_axes:
+                return "a canned-cycle position (the cycle is still active)"
         return None
 
     def _modal(self, block: Block, st: dict, check_travel: bool = True):
         """Update the modal state from a block; returns (motion, start, target, coordinate
         words) for a move, or None. ``check_travel`` rejects targets outside the travel (the
         desired program must lie inside it; a compensated one may leave it by micrometres)."""
+        gs = [w.value for w in block.words if w.letter == "G"]
+        _modal_words(gs, st)
         motion = st["motion"]
-        for g in (w.value for w in block.words if w.letter == "G"):
-            if g in (0, 1, 2, 3):
-                motion = int(g)
-            elif g in (17, 18, 19):
-                st["plane"] = int(g)
-            elif g == 90:
-                st["absolute"] = True
-            elif g == 91:
-                st["absolute"] = False
-            elif g == 20:
-                st["inch"] = True
-            elif g == 21:
-                st["inch"] = False
-        st["motion"] = motion
         coord_words = [w for w in block.words if w.letter in self.axes]
-        if not coord_words:
+        if not coord_words or 4 in gs:  # G4: X or P is the dwell time
             return None
         if motion is None:
             raise GcodeError(f"{self.source}:{block.number}: coordinates without a motion mode (G0/G1/G2/G3)")
         target = st["pos"].copy()
+        known = st.setdefault("known", np.zeros(len(self.axes), dtype=bool))
         for w in coord_words:
             j = self.axes.index(w.letter)
-            value = self._to_si(w.letter, w.value, st["inch"])
-            target[j] = value if st["absolute"] else st["pos"][j] + value
+            if st["absolute"]:
+                target[j] = self._position(w.letter, w.value, st["inch"])
+            elif known[j]:
+                target[j] = st["pos"][j] + self._to_si(w.letter, w.value, st["inch"])
+            else:
+                raise GcodeError(f"{self.source}:{block.number}: an incremental move of {w.letter} before its "
+                                 "position is known; program it absolutely (G90) first")
+            known[j] = True
         try:
             self.m.check_q(target[None, :], extrapolate=not check_travel)
         except InputError as err:
@@ -343,17 +430,22 @@ class Program:
                 self.report.arcs_kept += 1
             else:
                 self.report.arcs_as_lines += 1
-        late_m = [w for w in block.words if w.letter == "M" and w.value in (0, 1, 2, 5, 9, 30)]
-        if late_m and len(result.pieces) > 1:
-            self.report.warnings.append(f"line {block.number}: the move is split in {len(result.pieces)} pieces; "
-                                        f"M{late_m[0].value:g} stays on the first piece")
         # the original block carries the first piece (so its F, S, T, M and modal words act
-        # where they did); the further pieces follow as new blocks with explicit G words
+        # where they did); the further pieces follow as new blocks with explicit G words, and
+        # M codes that act at the end of the move (M0, M1, M2, M5, M9, M30) move to the last
+        late = [w for w in block.words if w.letter == "M" and w.value in LATE_M] if len(result.pieces) > 1 else []
+        eol = newline if newline else self._eol
         prev = result.pieces[0].start
-        lines = [self._rewrite(block, result.pieces[0], prev, st, mv.motion, mv.coord_words) + newline]
+        first = self._rewrite(block, result.pieces[0], prev, st, mv.motion, mv.coord_words, drop=late,
+                              append_missing=st["all_known"])
+        lines = [first + (eol if len(result.pieces) > 1 else newline)]
         prev = result.pieces[0].end
-        for piece in result.pieces[1:]:
-            lines.append(self._new_line(piece, prev, st, mv.motion) + newline)
+        for n, piece in enumerate(result.pieces[1:], start=2):
+            text = self._new_line(piece, prev, st, mv.motion)
+            if n == len(result.pieces):
+                lines.append(text + "".join(" " + w.text for w in late) + newline)
+            else:
+                lines.append(text + eol)
             prev = piece.end
         return lines
 
@@ -400,8 +492,11 @@ class Program:
             if not any(o in words for o in offs):
                 raise GcodeError(f"{self.source}:{block.number}: an arc needs {offs[0]}/{offs[1]} or R")
             centre = start[[i, j]] + np.array([words.get(offs[0], 0.0), words.get(offs[1], 0.0)]) * scale
+        turns = words.get("P", 1.0)
+        if turns != int(turns) or turns < 1:
+            raise GcodeError(f"{self.source}:{block.number}: P{turns:g} on an arc must be a whole number of turns >= 1")
         try:
-            return arc_from_center(start, target, centre, (i, j, k), clockwise)
+            return arc_from_center(start, target, centre, (i, j, k), clockwise, full_turns=int(turns) - 1)
         except InputError as err:
             raise GcodeError(f"{self.source}:{block.number}: {err}") from None
 
@@ -417,9 +512,9 @@ class Program:
         vals = {}
         for j, axis in enumerate(self.axes):
             d = self._digits(axis, st["inch"])
-            end = round(self._from_si(axis, piece.end[j], st["inch"]), d)
+            end = round(self._from_si(axis, piece.end[j] - self.origin[j], st["inch"]), d)
             if not st["absolute"]:
-                end -= round(self._from_si(axis, prev[j], st["inch"]), d)
+                end -= round(self._from_si(axis, prev[j] - self.origin[j], st["inch"]), d)
             vals[axis] = self._fmt(axis, end, st["inch"])
         return vals
 
@@ -444,16 +539,28 @@ class Program:
         st["out_motion"] = g
         return " ".join(words)
 
-    def _rewrite(self, block: Block, piece, prev, st, motion, coord_words) -> str:
+    def _rewrite(self, block: Block, piece, prev, st, motion, coord_words, drop=(),
+                 append_missing: bool = True) -> str:
         """The original line with the numbers of its coordinate words replaced in place;
         axes it did not name are appended after its last coordinate word. For an arc the
         centre words are replaced likewise; an arc piece that had to become a line gets G1
         and loses its centre words. A block that relied on the modal motion gets an explicit
-        motion word when the output's modal motion differs."""
+        motion word when the output's modal motion differs. ``drop``: words to remove (with
+        their separating space); ``append_missing`` false while some axes' positions are
+        still unknown (those axes are not commanded)."""
         vals = self._values(piece, prev, st)
         edits = [(w.start, w.end, f"{w.letter}{vals[w.letter]}") for w in coord_words]
         present = {w.letter for w in coord_words}
-        extra = [f"{a}{vals[a]}" for a in self.axes if a not in present]
+        extra = [f"{a}{vals[a]}" for a in self.axes if a not in present] if append_missing else []
+
+        def remove(w):
+            start = w.start
+            if start > 0 and block.text[start - 1] in " \t":
+                start -= 1  # a removed word takes its separating space with it
+            edits.append((start, w.end, ""))
+
+        for w in drop:
+            remove(w)
         anchor = max(w.end for w in coord_words)
         g_new = self._g_of(piece, motion)
         motion_words = [w for w in block.words if w.letter == "G" and w.value in (0, 1, 2, 3)]
@@ -466,16 +573,21 @@ class Program:
             edits.append((first, first, f"G{g_new} "))
         st["out_motion"] = g_new
         if motion in (2, 3):
-            centre_words = [w for w in block.words if w.letter in ("I", "J", "K", "R")]
+            plane = PLANES[st["plane"]]
+            letters = (CENTRE[plane[0]], CENTRE[plane[1]], "R")
+            centre_words = [w for w in block.words if w.letter in letters]
             radius_form = any(w.letter == "R" for w in centre_words)
             new = ({t[0]: t for t in self._centre_words(piece, prev, st, radius_form)}
                    if piece.kind == "arc" else {})
             for w in centre_words:
                 replacement = new.pop(w.letter, "")
-                start = w.start
-                if not replacement and start > 0 and block.text[start - 1] in " \t":
-                    start -= 1  # a removed word takes its separating space with it
-                edits.append((start, w.end, replacement))
+                if replacement:
+                    edits.append((w.start, w.end, replacement))
+                else:
+                    remove(w)
+            for w in block.words:  # turns (P): every piece is less than a quarter turn
+                if w.letter == "P":
+                    remove(w)
             extra += list(new.values())
             anchor = max([anchor] + [w.end for w in centre_words])
         text = block.text
@@ -518,38 +630,44 @@ class Segment:
         return self.start + np.outer(k, self.end - self.start)
 
 
-def interpret(machine: Machine, text: str, source: str = "<program>", start=None) -> list[Segment]:
+def interpret(machine: Machine, text: str, source: str = "<program>", start=None, origin=None) -> list[Segment]:
     """The moves of a program as the controller interpolates them (lines in axis space,
-    arcs about their centres), in SI; moves before the position is known are rapids."""
-    program = Program(machine, source=source, start=start)
-    st = {"motion": None, "plane": 17, "absolute": True, "inch": False, "known": False,
-          "pos": program.start.copy(), "cmd": None}
+    arcs about their centres), in SI axis positions; moves before every axis' position is
+    known, and blocks it cannot follow (canned cycles ...), are skipped or taken as rapids."""
+    program = Program(machine, source=source, start=start, origin=origin)
+    st = {"motion": None, "plane": 17, "absolute": True, "inch": False,
+          "known": np.zeros(len(machine.axes), dtype=bool), "pos": program.start.copy(), "canned": False}
     out = []
-    for number, raw in enumerate(text.splitlines(), start=1):
-        if program._unsupported(raw):
+    for number, (body, _) in enumerate(split_lines(text), start=1):
+        if program._unsupported(body, st):
+            words = [(m.group(1).upper(), float(m.group(2))) for m in WORD.finditer(COMMENT.sub(" ", body).upper())]
+            _modal_words([v for letter, v in words if letter == "G"], st)
+            if any(letter in program.axes for letter, _ in words):
+                st["known"][:] = False
             continue
-        move = program._modal(parse_block(raw, number, source), st, check_travel=False)
+        known_before = st["known"].copy()
+        block = parse_block(body, number, source)
+        move = program._modal(block, st, check_travel=False)
         if move is None:
             continue
         motion, begin, target, _ = move
-        if not st["known"] or motion == 0:
+        if not known_before.all() or motion == 0:
             out.append(Segment(number, "rapid", begin, target))
         elif motion == 1:
             out.append(Segment(number, "line", begin, target))
         else:
-            out.append(Segment(number, "arc", begin, target,
-                               program._arc(parse_block(raw, number, source), begin, target, motion == 2, st)))
-        st["pos"], st["known"] = target, True
+            out.append(Segment(number, "arc", begin, target, program._arc(block, begin, target, motion == 2, st)))
+        st["pos"] = target
     return out
 
 
 def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass_through: bool = False,
                        method: str = "newton", source: str = "<program>",
-                       tol_urad: float | None = None) -> tuple[str, Report]:
+                       tol_urad: float | None = None, origin=None) -> tuple[str, Report]:
     """Compensate an NC program; returns the new text and the report.
 
     ``tol_um``: position tolerance along every move; ``tol_urad``: tool-axis tolerance on
     machines with rotary axes (default 10 urad per um of ``tol_um``)."""
     program = Program(machine, tol_um=tol_um, pass_through=pass_through, method=method, source=source,
-                      tol_urad=tol_urad)
+                      tol_urad=tol_urad, origin=origin)
     return program.compensate(text), program.report
