@@ -41,6 +41,7 @@ class PointCompensation:
     residual: np.ndarray     # (N,) position residual |p_actual(q) - p_nominal(q_d)| [m]
     axis_residual: np.ndarray  # (N,) tool-axis residual [rad] (0 where not corrected)
     before: np.ndarray       # (N,) position error without compensation [m]
+    axis_before: np.ndarray  # (N,) tool-axis error without compensation [rad]
     iterations: np.ndarray   # (N,) iterations used
     converged: np.ndarray    # (N,) bool: within tolerance, or at the least-squares optimum
     reachable: np.ndarray    # (N,) bool: within travel
@@ -77,6 +78,7 @@ def compensate_points(machine: Machine, q_desired, *, method: str = "newton", to
     cov = {k: v for k, v in covariates.items() if v is not None}
     R0, p0 = machine.tool_poses(q_d, extrapolate=True, **cov)
     before = np.linalg.norm(p0 - p_d, axis=1)
+    axis_before = np.linalg.norm(np.cross(_tool_axis(R0), a_d), axis=1)
     q = q_d.copy()
     iterations = np.zeros(n, dtype=int)
     done = np.zeros(n, dtype=bool)
@@ -116,11 +118,8 @@ def compensate_points(machine: Machine, q_desired, *, method: str = "newton", to
         # a machine with fewer axes than error directions (a 2-axis lathe) stops at the
         # least-squares optimum: the part of the error no axis can move is left
         stationary[active] = np.max(np.abs(dq) * scale, axis=1) < 1e-13
-    travel = machine.travel
-    span = travel[:, 1] - travel[:, 0]
-    tol = 1e-9 * np.where(np.isfinite(span), np.maximum(span, 1.0), 1.0)
-    reachable = np.all((q >= travel[:, 0] - tol) & (q <= travel[:, 1] + tol), axis=1)
-    return PointCompensation(q, res, a_err, before, iterations, done, reachable, within, history)
+    reachable = ~machine.outside_travel(q).any(axis=1)
+    return PointCompensation(q, res, a_err, before, axis_before, iterations, done, reachable, within, history)
 
 
 def _take(cov: dict, mask: np.ndarray) -> dict:
@@ -458,10 +457,7 @@ def evaluate_compensation(machine: Machine, q: np.ndarray, **covariates) -> dict
            if ok.any() and np.any(before[ok] > 0) else None,
            "max_iterations": int(res.iterations.max()) if len(q) else 0}
     if _has_rotary(machine):
-        cov = {k: v for k, v in covariates.items() if v is not None}
-        R0, _ = machine.tool_poses(q, **cov)
-        R_d, _ = machine.tool_poses(q, nominal=True)
-        axis_before = np.linalg.norm(np.cross(R0[:, :, 2], R_d[:, :, 2]), axis=1) * UM
+        axis_before = res.axis_before * UM
         out["max_axis_before_urad"] = float(axis_before.max())
         axis_after = (res.axis_residual * UM)[ok]
         out["rms_axis_before_urad"] = float(np.sqrt(np.mean(axis_before**2)))

@@ -118,8 +118,7 @@ class Diagnosis:
 def axis_directions(machine: Machine) -> dict[str, str]:
     """Axis -> the error direction letter of its own motion (X for an x slide, C for a
     spindle turning about z), read off the nominal axis Jacobian at mid travel."""
-    travel = machine.travel
-    q = np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0)
+    q = machine.mid_travel
     J = machine.axis_jacobian(q[None, :], nominal=True)[0]
     out = {}
     for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):

@@ -79,6 +79,21 @@ def shape_functions(order: int, xi: np.ndarray) -> np.ndarray:
     return N
 
 
+def _map_axes(machine: Machine, config: dict | None, what: str) -> tuple[list[int], np.ndarray]:
+    """The three linear axes a map spans, and the positions (SI) of every axis: mid travel
+    (0 for endless axes), overridden by ``config`` (axis name -> SI value)."""
+    lin = [j for j, k in enumerate(machine.axis_kinds) if k == "linear"]
+    if len(lin) != 3:
+        raise InputError(f"{machine.name}: {what} needs exactly three linear axes "
+                         f"(it has {len(lin)}: {', '.join(machine.axes[j] for j in lin) or 'none'})")
+    fixed = machine.mid_travel
+    for name, value in (config or {}).items():
+        if name not in machine.axes:
+            raise InputError(f"{machine.name} has no axis {name!r} (axes: {', '.join(machine.axes)})")
+        fixed[machine.axes.index(name)] = float(value)
+    return lin, fixed
+
+
 @dataclass
 class ErrorMap:
     """Nodal errors of a machine over a grid of hexahedral elements.
@@ -102,19 +117,11 @@ class ErrorMap:
         the middle of their travel, or 0 for endless axes). A machine with time-,
         temperature- or load-dependent terms is mapped in one state:
         ``ErrorMap.build(machine.with_state(t=3600))``."""
-        lin = [j for j, k in enumerate(machine.axis_kinds) if k == "linear"]
-        if len(lin) != 3:
-            raise InputError(f"{machine.name}: an error map needs exactly three linear axes "
-                             f"(it has {len(lin)}: {', '.join(machine.axes[j] for j in lin) or 'none'})")
+        lin, fixed = _map_axes(machine, config, "an error map")
         elements = tuple(int(e) for e in elements)
         if len(elements) != 3 or min(elements) < 1:
             raise InputError(f"elements must be three positive integers, got {elements}")
         travel = machine.travel
-        fixed = np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0)
-        for name, value in (config or {}).items():
-            if name not in machine.axes:
-                raise InputError(f"{machine.name} has no axis {name!r} (axes: {', '.join(machine.axes)})")
-            fixed[machine.axes.index(name)] = float(value)
         edges = tuple(np.linspace(travel[j, 0], travel[j, 1], n + 1) for j, n in zip(lin, elements))
         emap = cls(machine, order, tuple(lin), edges, fixed, np.empty((0, 0, 6)))
         nodes = natural_nodes(order)
@@ -196,18 +203,11 @@ def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), c
     """
     from .compensate import compensate_points
 
-    lin = [j for j, k in enumerate(machine.axis_kinds) if k == "linear"]
-    if len(lin) != 3:
-        raise InputError(f"{machine.name}: a compensation table needs exactly three linear axes")
+    lin, fixed = _map_axes(machine, config, "a compensation table")
     nodes = tuple(int(n) for n in nodes)
     if len(nodes) != 3 or min(nodes) < 2:
         raise InputError(f"nodes must be three integers >= 2, got {nodes}")
     travel = machine.travel
-    fixed = np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0)
-    for name, value in (config or {}).items():
-        if name not in machine.axes:
-            raise InputError(f"{machine.name} has no axis {name!r}")
-        fixed[machine.axes.index(name)] = float(value)
     grids = [np.linspace(travel[j, 0], travel[j, 1], n) for j, n in zip(lin, nodes)]
     pts = np.array(list(itertools.product(*grids)))
     q = np.tile(fixed, (len(pts), 1))
@@ -269,7 +269,7 @@ def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> li
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     travel = machine.travel
-    mid = np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0)
+    mid = machine.mid_travel
     info = {t["component"]: t["owner"] for t in machine.term_info()}
     files = []
     for j, axis in enumerate(machine.axes):

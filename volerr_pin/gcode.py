@@ -175,9 +175,7 @@ class Program:
         self.comp = PathCompensator(machine, tol_um=tol_um - margin, method=method, tol_urad=inner_urad)
         self.pass_through = pass_through
         self.source = source
-        travel = machine.travel
-        default = np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0)
-        self.start = default if start is None else np.asarray(start, float)
+        self.start = machine.mid_travel if start is None else np.asarray(start, float)
         self.report = Report(tolerance_um=tol_um)
         self.origin = np.zeros(len(self.axes)) if origin is None else np.asarray(origin, dtype=float)
         if self.origin.shape != (len(self.axes),) or not np.all(np.isfinite(self.origin)):
@@ -244,8 +242,7 @@ class Program:
 
     def _read(self, text: str) -> list[tuple]:
         entries = []
-        st = {"motion": None, "plane": 17, "absolute": True, "inch": False,
-              "known": np.zeros(len(self.axes), dtype=bool), "pos": self.start.copy(), "canned": False}
+        st = self._initial_state()
         noted = set()
         for number, (body, newline) in enumerate(split_lines(text), start=1):
             raw = body + newline
@@ -257,11 +254,7 @@ class Program:
                                      "(use --pass-through to keep it unchanged)")
                 self.report.warnings.append(f"line {number}: {problem} kept unchanged")
                 entries.append(("raw", raw, newline))
-                code = COMMENT.sub(" ", body).upper()
-                words = [(m.group(1).upper(), float(m.group(2))) for m in WORD.finditer(code)]
-                _modal_words([v for letter, v in words if letter == "G"], st)  # G91 G28 ... stays G91
-                if any(letter in self.axes for letter, _ in words):
-                    st["known"][:] = False  # the block moves the machine somewhere we do not follow
+                self._follow_skipped(body, st)
                 continue
             block = parse_block(body, number, self.source)
             for w in block.words:
@@ -377,6 +370,20 @@ class Program:
             elif has_axes:
                 return "a canned-cycle position (the cycle is still active)"
         return None
+
+    def _initial_state(self) -> dict:
+        """Modal state at the start of a program: no motion mode, G17, G90, G21, no axis
+        position known (taken at ``start``), no canned cycle."""
+        return {"motion": None, "plane": 17, "absolute": True, "inch": False,
+                "known": np.zeros(len(self.axes), dtype=bool), "pos": self.start.copy(), "canned": False}
+
+    def _follow_skipped(self, body: str, st: dict) -> None:
+        """A block kept unchanged still sets its modal words (G91 G28 ... stays G91), and
+        if it names axes it moves the machine somewhere we do not follow."""
+        words = [(m.group(1).upper(), float(m.group(2))) for m in WORD.finditer(COMMENT.sub(" ", body).upper())]
+        _modal_words([v for letter, v in words if letter == "G"], st)
+        if any(letter in self.axes for letter, _ in words):
+            st["known"][:] = False
 
     def _modal(self, block: Block, st: dict, check_travel: bool = True):
         """Update the modal state from a block; returns (motion, start, target, coordinate
@@ -635,15 +642,11 @@ def interpret(machine: Machine, text: str, source: str = "<program>", start=None
     arcs about their centres), in SI axis positions; moves before every axis' position is
     known, and blocks it cannot follow (canned cycles ...), are skipped or taken as rapids."""
     program = Program(machine, source=source, start=start, origin=origin)
-    st = {"motion": None, "plane": 17, "absolute": True, "inch": False,
-          "known": np.zeros(len(machine.axes), dtype=bool), "pos": program.start.copy(), "canned": False}
+    st = program._initial_state()
     out = []
     for number, (body, _) in enumerate(split_lines(text), start=1):
         if program._unsupported(body, st):
-            words = [(m.group(1).upper(), float(m.group(2))) for m in WORD.finditer(COMMENT.sub(" ", body).upper())]
-            _modal_words([v for letter, v in words if letter == "G"], st)
-            if any(letter in program.axes for letter, _ in words):
-                st["known"][:] = False
+            program._follow_skipped(body, st)
             continue
         known_before = st["known"].copy()
         block = parse_block(body, number, source)

@@ -163,6 +163,19 @@ class Machine:
         return self._travel.copy()
 
     @property
+    def mid_travel(self) -> np.ndarray:
+        """(n_axes,) the middle of each axis' travel (0 for an endless axis)."""
+        t = self._travel
+        return np.where(np.isfinite(t).all(axis=1), t.mean(axis=1), 0.0)
+
+    def outside_travel(self, q: np.ndarray) -> np.ndarray:
+        """(N, n_axes) bool: where ``q`` (N, n_axes) leaves the travel by more than rounding
+        (1e-9 of the span, at least 1e-9 m or rad)."""
+        span = self._travel[:, 1] - self._travel[:, 0]
+        tol = 1e-9 * np.where(np.isfinite(span), np.maximum(span, 1.0), 1.0)
+        return (q < self._travel[:, 0] - tol) | (q > self._travel[:, 1] + tol)
+
+    @property
     def chains(self) -> dict[str, tuple[str, ...]]:
         """Axes carried by the tool chain and by the workpiece chain."""
         return {
@@ -342,9 +355,7 @@ class Machine:
             i, j = bad[0]
             raise InputError(f"q[{i}, {j}] (axis {self.axes[j]}) is {q[i, j]}")
         if not extrapolate:
-            span = self._travel[:, 1] - self._travel[:, 0]
-            tol = 1e-9 * np.where(np.isfinite(span), np.maximum(span, 1.0), 1.0)
-            outside = (q < self._travel[:, 0] - tol) | (q > self._travel[:, 1] + tol)
+            outside = self.outside_travel(q)
             if outside.any():
                 i, j = np.argwhere(outside)[0]
                 unit = "m" if self.axis_kinds[j] == "linear" else "rad"

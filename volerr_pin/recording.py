@@ -253,7 +253,7 @@ def default_config(machine: Machine, config: dict[str, float] | None = None) -> 
     """A displayable configuration: mid travel, rotary axes at 0 when 0 is in travel;
     ``config`` (axis -> SI value) overrides, checked against the travel."""
     travel = machine.travel
-    q = np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0)
+    q = machine.mid_travel
     for j, kind in enumerate(machine.axis_kinds):
         if kind == "rotary" and travel[j, 0] <= 0.0 <= travel[j, 1]:
             q[j] = 0.0

@@ -88,7 +88,7 @@ def legendre_terms(machine: Machine, components, degree: int, start: int = 0) ->
     if degree < 0:
         raise InputError(f"degree must be >= 0, got {degree}")
     travel = machine.travel
-    grid = np.tile(np.where(np.isfinite(travel).all(axis=1), travel.mean(axis=1), 0.0), (201, 1))
+    grid = np.tile(machine.mid_travel, (201, 1))
     tables = {}
     for name in components:
         direction, location, owner = parse_component_name(name)
