@@ -21,8 +21,6 @@ Run it with ``python examples/diagnose_gear_roller_seed004.py``.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 import volerr_pin as vp

@@ -135,8 +135,6 @@ def _thermal_spec(tmp_path):
 
 
 def test_state_drives_time_dependent_terms(tmp_path, capsys):
-    import numpy as np
-
     m, spec = _thermal_spec(tmp_path)
     # without a state the command says what is missing
     assert main(["errormap", str(spec), "--elements", "1", "--points", "50"]) == 2

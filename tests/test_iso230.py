@@ -14,7 +14,6 @@ import pytest
 
 from volerr_pin.cli import main
 from volerr_pin.iso230 import evaluate
-from volerr_pin.measurements import read_runs
 
 R2 = math.sqrt(2.0)
 

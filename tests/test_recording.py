@@ -13,7 +13,7 @@ import rerun as rr
 from volerr_pin.cli import main
 from volerr_pin.plots import field_slice_png, ranking_png
 from volerr_pin.ranking import rank
-from volerr_pin.recording import (FieldData, evaluate_field, field_grid, log_field, log_time_series,
+from volerr_pin.recording import (evaluate_field, field_grid, log_field, log_time_series,
                                   new_recording, record_field, sweep_angles)
 
 

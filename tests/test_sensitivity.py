@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from conftest import random_q, single
+from conftest import random_q
 
 ARCSEC = np.pi / 180 / 3600
 

@@ -528,7 +528,6 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
         E = probe.error_joint_sensitivity(obs.q, first_order=True, **obs.covariates)
         joints = list(probe.error_joints)
         scores = []
-        seen: dict[bytes, int] = {}
         for k, cand in enumerate(candidates):
             s = _score(base, proj, obs, E, joints, cand, cov_obj, axis_index_of)
             if s is None:

@@ -18,7 +18,7 @@ import tomli_w
 
 from .errors import InputError
 from .machine import Machine
-from .spec import ComponentSpec, _components, axis_travel, parse_component_name
+from .spec import _components, axis_travel, parse_component_name
 from .units import ANGLE, LENGTH
 
 
