@@ -11,7 +11,7 @@ import rerun as rr
 import volerr_pin as vp
 from volerr_pin.cli import main
 from volerr_pin.diagnose import diagnose
-from volerr_pin.simulate import campaign, write_points
+from volerr_pin.simulate import campaign, off_model_geometry, write_points
 from volerr_pin.specio import add_terms, remove_components, replace_terms
 
 NOISE = 0.3
@@ -147,3 +147,122 @@ def test_too_few_points_is_an_error(machines):
     m = machines["vmc500"]
     with pytest.raises(vp.InputError, match="too few for 5-fold"):
         diagnose(m, [campaign(m, 6, NOISE, 0)])
+
+
+# ------------------------------------------------------------------ off-model geometry
+# A real machine's geometry is never exactly the spec's: the true machine below has a random
+# cubic polynomial (or a cubic spline through 7 uneven nodes) on every component, where the
+# spec has quadratics, linear tables and cubic tables. The hidden effects ride on top.
+def off_model_truth(m, seed, style, tables=()):
+    truth = off_model_geometry(m, 1000 + seed, style, 1.0, 1.0)
+    for t in tables:
+        truth = add_terms(truth, t)
+    return truth
+
+
+SCENARIOS = {
+    "none": ([], []),
+    **{k: ([v[0]], [v[1]]) for k, v in HIDDEN.items()},
+    "two": ([HIDDEN["backlash"][0], HIDDEN["drift_time"][0]], [HIDDEN["backlash"][1], HIDDEN["drift_time"][1]]),
+}
+
+
+def check_names(result, expected):
+    """Exactly the hidden physical effects; every one significant; the rest of the residual
+    explained by raising the spec's own components, down to the noise."""
+    got = sorted((e["name"], e["axis"], e["direction"]) for e in result.effects)
+    assert got == sorted(expected), [e["label"] for e in result.effects]
+    for e in result.effects:
+        sizes = [abs(p["value"]) / p["uncertainty"] for n, p in e["parameters"].items()
+                 if p["uncertainty"] and not n.endswith((".tau1", ".period"))]
+        assert max(sizes) >= 3.0, e
+    for u in result.under_modelled:
+        assert u["component"] in result.base.components  # an existing component, raised
+    assert result.rms_after_um < 1.3 * FLOOR
+
+
+@pytest.mark.parametrize("style,kind,seed", [("cubic", "none", 0), ("spline", "backlash", 1),
+                                             ("cubic", "pitch", 2), ("spline", "two", 3)])
+def test_off_model_geometry_is_raised_not_blamed_on_an_effect(machines, style, kind, seed):
+    m = machines["vmc500"]
+    tables, expected = SCENARIOS[kind]
+    result = diagnose(m, [campaign(off_model_truth(m, seed, style, tables), 400, NOISE, seed)])
+    check_names(result, expected)
+    assert result.under_modelled, "the geometry is off the spec's function space: say so"
+    label = result.under_modelled[0]["label"]
+    assert label.startswith("geometric component E") and " under-modelled (" in label
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("kind", list(SCENARIOS))
+@pytest.mark.parametrize("style", ["cubic", "spline"])
+def test_off_model_geometry_sweep(machines, style, kind, seed):
+    m = machines["vmc500"]
+    tables, expected = SCENARIOS[kind]
+    check_names(diagnose(m, [campaign(off_model_truth(m, seed, style, tables), 400, NOISE, 10 + seed)]),
+                expected)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("style", ["cubic", "spline"])
+def test_off_model_effect_near_the_noise_is_found_correctly_or_not_at_all(machines, style):
+    m = machines["vmc500"]
+    tables = {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 0.9}}
+    found = 0
+    for seed in range(4):
+        result = diagnose(m, [campaign(off_model_truth(m, seed, style, [tables]), 400, NOISE, 200 + seed)])
+        assert [(e["name"], e["axis"], e["direction"]) for e in result.effects] in ([], [("backlash", "Y", "y")])
+        found += len(result.effects)
+    assert found >= 2
+
+
+def test_a_long_wave_is_not_a_ball_screw(machines):
+    """A 130 mm wave on a 400 mm axis is smooth geometry, not a pitch error: periodic
+    candidates need a period in the ball-screw range and 4 periods inside the travel."""
+    m = machines["vmc500"]
+    x = np.linspace(0.0, 400.0, 41)
+    truth = add_terms(m, {"EYY": {"kind": "table", "interpolation": "cubic", "prefix": "wave", "positions_mm": list(x),
+                                  "values_um": list(2.0 * np.sin(2 * np.pi * x / 130.0))}})
+    result = diagnose(m, [campaign(truth, 400, NOISE, 3)])
+    assert [e["name"] for e in result.effects] == []
+    assert any(u["component"] == "EYY" for u in result.under_modelled)
+
+
+@pytest.mark.parametrize("component,by", [("EXX", 1), ("EYY", 1), ("EZZ", 2), ("EBX", 1), ("EBX", 2),
+                                          ("ECZ", 1), ("EBY", 2)])
+def test_a_raised_component_starts_from_the_same_function(machines, component, by):
+    """Constant -> degree 1, polynomial + 1 or 2 degrees, table with a node between every
+    two: the coarse function is inside the finer space, so nothing moves before the refit."""
+    from volerr_pin.diagnose import _apply_raises, _geometric_term
+
+    m = machines["vmc500"]
+    raised = _apply_raises(m, [(component, by)])
+    q = np.random.default_rng(0).uniform(m.travel[:, 0], m.travel[:, 1], (200, 3))
+    k = m.components.index(component)
+    np.testing.assert_allclose(raised.component_values(q)[:, k], m.component_values(q)[:, k],
+                               rtol=0, atol=1e-15)
+    _, before = _geometric_term(m, component)
+    _, after = _geometric_term(raised, component)
+    if before.term.kind == "table":
+        assert len(after.term.nodes) == 2 * len(before.term.nodes) - 1
+    else:
+        degree = 0 if before.term.kind == "constant" else before.term.degree
+        assert after.term.degree == degree + by
+
+
+def test_noise_floor_from_repeats_or_an_upper_bound(machines):
+    m = machines["vmc500"]
+    data = campaign(m, 200, NOISE, 4)
+    result = diagnose(m, [data])
+    assert result.noise_floor_upper_bound and "upper bound" in result.noise_floor_source
+    # every point measured twice: the floor comes from the repeats, free of any model
+    twice = campaign(m, 400, NOISE, 4)
+    twice.q[200:] = twice.q[:200]
+    twice.values[200:, :3] = m.volumetric_error(twice.q[200:], **{
+        k: (v[200:] if not isinstance(v, dict) else {s: a[200:] for s, a in v.items()})
+        for k, v in twice.covariates.items()})[:, :3] + np.random.default_rng(9).normal(0, NOISE * 1e-6, (200, 3))
+    result = diagnose(m, [twice])
+    assert not result.noise_floor_upper_bound and result.noise_floor_source.startswith("repeated points")
+    assert result.noise_floor_um == pytest.approx(FLOOR, rel=0.15)
+    assert result.to_dict()["noise_floor_upper_bound"] is False

@@ -455,7 +455,7 @@ def cmd_diagnose(args) -> int:
     out = _console()
     out.print(f"[bold]{escape(result.machine.name)}[/bold]: {result.observations.n_points} points; held-out "
               f"RMS {result.rms_before_um:.3f} um before, {result.rms_after_um:.3f} um after "
-              f"({len(result.effects)} effect(s) added)")
+              f"({len(result.effects)} effect(s) added, {len(result.under_modelled)} component(s) raised)")
     table = Table(box=box.SIMPLE, title="effects found, in order")
     for col in ("#", "effect", "axis", "direction", "driver", "held-out RMS before -> after [um]", "p-value"):
         table.add_column(col)
@@ -467,8 +467,14 @@ def cmd_diagnose(args) -> int:
         for name, p in e["parameters"].items():
             u = "" if p["uncertainty"] is None else f" +- {p['uncertainty']:.3g}"
             out.print(escape(f"  {name} = {p['value']:.5g}{u} {p['unit']}"))
+    if result.under_modelled:
+        out.print("geometric components under-modelled by the spec (raised; not physical effects): "
+                  + escape(", ".join(f"{u['component']} ({u['from']} -> {u['to']})" for u in result.under_modelled)))
+    for e in result.dropped:
+        out.print(escape(f"dropped: {e['label']} ({e['note']})"))
     verdict = "reaches" if result.reaches_noise_floor else "does not reach"
-    out.print(f"noise floor {result.noise_floor_um:.3f} um ({result.noise_floor_source}); the final model "
+    floor = "noise floor at most" if result.noise_floor_upper_bound else "noise floor"
+    out.print(f"{floor} {result.noise_floor_um:.3f} um ({escape(result.noise_floor_source)}); the final model "
               f"{verdict} it. Test: {escape(report['test'])}; {result.seconds:.1f} s")
     for note in report["notes"]:
         print(f"note: {note}")

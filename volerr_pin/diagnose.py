@@ -6,18 +6,31 @@ The loop (:func:`diagnose`):
    spec's values are kept);
 2. look at the residuals against positions, time, temperatures, forces and approach
    directions (correlations, reversal steps, a periodogram over each linear axis);
-3. build candidates from the catalogue for every axis, direction and sensor they can apply
-   to - ``thermal_drift`` (time, each temperature), ``thermal_expansion``, ``backlash``,
-   ``force_deflection``, ``periodic_pitch`` and the geometric terms the spec leaves out
-   (``positioning``, ``straightness``, ``angular``, ``squareness``, ``location``) - and fit
-   each jointly with the base model (linearised at the base fit, non-linear coefficients by
-   grid search);
+3. build candidates for every axis, direction and sensor they can apply to: the catalogue
+   effects - ``thermal_drift`` (time, each temperature), ``thermal_expansion``,
+   ``backlash``, ``force_deflection``, ``periodic_pitch`` - the geometric terms the spec
+   leaves out (``positioning``, ``straightness``, ``angular``, ``squareness``,
+   ``location``), and the base model's own adequacy: every polynomial component one degree
+   higher, every table with twice the nodes. Each is fitted jointly with the base model
+   (linearised at the base fit, non-linear coefficients by grid search or periodogram);
 4. score them: BIC ranks them; the best is accepted only if (a) an F-test of its extra
-   parameters is significant at ``alpha`` divided by the number of candidates (Bonferroni),
-   and (b) it lowers the k-fold cross-validated RMS. The accepted effect is added to the
-   model and everything is refitted;
-5. repeat until no candidate passes, then estimate the noise floor (from repeated points if
-   any, else from the final residual) and say whether the final model reaches it.
+   parameters is significant at ``alpha`` divided by the number of candidates (Bonferroni;
+   a period found by searching a periodogram is further divided by the number of independent
+   periods searched), (b) it lowers the k-fold cross-validated RMS, and (c) after the
+   joint refit its size is significant: the largest |value| / standard uncertainty of its
+   linear coefficients is at least 3 (for a raised degree: the new top coefficient). A
+   winning under-modelled component is accepted together with the other components that
+   pass on their own (they are checked one by one after the refit);
+5. repeat until no candidate passes; refit; drop any effect whose size is no longer
+   significant; estimate the noise floor (from repeated points if any, else an upper bound
+   from the final residual) and say whether the final model reaches it.
+
+A real machine's geometry is never exactly the spec's. A smooth residual that a higher
+degree of an existing component explains as well as an effect does is reported as
+"geometric component X under-modelled (degree n -> m)" in :attr:`Diagnosis.under_modelled`,
+not as a physical effect. A periodic pitch must have a period in the ball-screw range
+(:data:`PITCH_PERIOD_MM`) and at least :data:`MIN_PERIODS` periods inside the measured
+travel.
 
 Effects whose effect at the tool is the same wherever they sit (a drift in x through any
 axis of a Cartesian machine) are reported with ``axis`` None: the data cannot tell which.
@@ -37,16 +50,27 @@ from .errors import InputError
 from .identify import Observations, _design, build_observations, identify, parameter_units
 from .machine import Machine
 from .spec import build_term, component_name, parse_component_name
-from .specio import add_terms
-from .terms import Context
+from .specio import add_terms, remove_components, replace_terms, spec_document
+from .terms import Context, Covariates
 
 UM = 1e6
 LETTERS = "XYZABC"
+PITCH_PERIOD_MM = (1.0, 50.0)   # ball-screw leads
+MIN_PERIODS = 4                 # periods of a pitch error inside the measured travel
+SIGNIFICANCE = 3.0              # |value| / standard uncertainty of an accepted effect's size
+MAX_DEGREE = 12                 # a polynomial component is not raised beyond this degree
+MAX_NODES = 65                  # nor a table beyond this many nodes
+RAISE_BY = (1, 2, 4)            # degrees a polynomial may gain in one round
+GEOMETRIC_KINDS = ("constant", "legendre", "monomial", "table")
 
 
 @dataclass
 class Candidate:
-    """One effect that could be missing: where it goes and how it reads."""
+    """One thing the model could be missing: where it goes and how it reads.
+
+    ``kind`` is "effect" (a catalogue effect), "missing" (a geometric component the spec
+    leaves out) or "raise" (an existing component with one degree more / twice the nodes;
+    ``term_index`` is the raised term, ``change`` says from what to what)."""
 
     name: str                 # catalogue name
     axis: str | None
@@ -55,8 +79,14 @@ class Candidate:
     table: dict               # spec term table (zero-valued) for add_terms
     driver: str | None = None  # covariate that drives it ("t", "T_spindle", "Fx", "dir_X", "q_X")
     label: str = ""
+    kind: str = "effect"
+    term_index: int | None = None
+    change: tuple[str, str] | None = None
+    by: int = 1
 
     def describe(self) -> str:
+        if self.kind == "raise":
+            return f"geometric component {self.component} under-modelled ({self.change[0]} -> {self.change[1]})"
         where = f" on {self.axis}" if self.axis else ""
         d = f" in {self.direction}" if self.direction else ""
         by = f" driven by {self.driver}" if self.driver else ""
@@ -65,19 +95,27 @@ class Candidate:
 
 @dataclass
 class Step:
-    """One round: the scores of every candidate and the effect accepted, if any."""
+    """One round: the scores of every candidate and what was accepted, if anything
+    (``accepted`` is the first of ``accepted_all``, which holds more than one when several
+    under-modelled components were raised together)."""
 
     number: int
     rms_holdout_um: float
     candidates: list[dict]
     accepted: dict | None
-    residual: np.ndarray = field(repr=False)            # (rows,) SI, before this round's effect
+    residual: np.ndarray = field(repr=False)            # (rows,) SI, before this round's change
     machine: Machine | None = field(default=None, repr=False)
+    accepted_all: list[dict] = field(default_factory=list)
 
 
 @dataclass
 class Diagnosis:
-    """Result of :func:`diagnose`; :meth:`to_dict` gives the CONTRACT JSON."""
+    """Result of :func:`diagnose`; :meth:`to_dict` gives the JSON report.
+
+    ``effects`` are the physical effects (and missing geometric components) found, in order;
+    ``under_modelled`` the existing components whose degree or table density was raised;
+    ``dropped`` effects accepted in a round whose size was no longer significant at the end.
+    """
 
     machine: Machine
     base: Machine
@@ -93,8 +131,12 @@ class Diagnosis:
     seconds: float
     observations: Observations = field(repr=False)
     residual_analysis: dict = field(default_factory=dict)
+    under_modelled: list[dict] = field(default_factory=list)
+    dropped: list[dict] = field(default_factory=list)
+    noise_floor_upper_bound: bool = False
 
     def to_dict(self) -> dict:
+        public = lambda e: {k: v for k, v in e.items() if not k.startswith("_")}
         return {
             "machine": self.machine.name,
             "rms_before_um": self.rms_before_um,
@@ -102,13 +144,18 @@ class Diagnosis:
             "rms_fit_um": self.rms_fit_um,
             "noise_floor_um": self.noise_floor_um,
             "noise_floor_source": self.noise_floor_source,
+            "noise_floor_upper_bound": self.noise_floor_upper_bound,
             "reaches_noise_floor": self.reaches_noise_floor,
-            "effects": [{k: v for k, v in e.items() if not k.startswith("_")} for e in self.effects],
+            "effects": [public(e) for e in self.effects],
+            "under_modelled": [public(e) for e in self.under_modelled],
+            "dropped": [public(e) for e in self.dropped],
             "steps": [{"step": s.number, "rms_holdout_um": s.rms_holdout_um,
-                       "accepted": None if s.accepted is None else s.accepted["label"],
+                       "accepted": [a["label"] for a in s.accepted_all] or None,
                        "candidates": s.candidates[:10]} for s in self.steps],
-            "test": f"F-test at alpha = {self.alpha:g} / number of candidates (Bonferroni) and a "
-                    "lower k-fold cross-validated RMS; candidates ranked by BIC",
+            "test": f"F-test at alpha = {self.alpha:g} / number of candidates (Bonferroni; periods "
+                    "searched in a periodogram also / number of periods), a lower k-fold "
+                    f"cross-validated RMS, and |value| >= {SIGNIFICANCE:g} standard uncertainties "
+                    "after the refit; candidates ranked by BIC",
             "residual_analysis": self.residual_analysis,
             "seconds": self.seconds,
         }
@@ -206,17 +253,124 @@ def build_candidates(machine: Machine, obs: Observations) -> list[Candidate]:
                 # degrees: positioning 5 (interferometer tables bend), straightness 3, angular 2
                 coefs = [0.0] * (6 if name == "positioning" else 4 if d in "XYZ" else 3)
                 out.append(Candidate(name, axis, d.lower() if d in "XYZ" else "xyz"["ABC".index(d)], comp,
-                                     {"kind": "legendre", f"coefficients_{unit}": coefs}, f"q_{axis}"))
+                                     {"kind": "legendre", f"coefficients_{unit}": coefs}, f"q_{axis}",
+                                     kind="missing"))
         for d in ("ABC" if kind == "linear" else LETTERS):
             comp = component_name(d, axis, True)
             if comp not in present:
                 unit, _ = unit_of(d)
                 name = _geometric_name(d, axis, True, own.get(axis), kind == "linear")
                 out.append(Candidate(name, axis, d.lower() if d in "XYZ" else "xyz"["ABC".index(d)], comp,
-                                     {"kind": "constant", f"value_{unit}": 0.0}))
+                                     {"kind": "constant", f"value_{unit}": 0.0}, kind="missing"))
+    out += adequacy_candidates(machine, own)
     for c in out:
         c.label = c.describe()
     return out
+
+
+def _geometric_term(machine: Machine, component: str):
+    """(index, TermSpec) of the component's geometric term (constant, polynomial, table)."""
+    comp = next(c for c in machine.spec.components if c.name == component)
+    for i, tspec in enumerate(comp.terms):
+        if tspec.term.kind in GEOMETRIC_KINDS:
+            return i, tspec
+    return None, None
+
+
+def raised_table(machine: Machine, component: str, values: np.ndarray | None = None, by: int = 1):
+    """The component's geometric term richer, as a spec table, and (from, to).
+
+    A constant becomes a Legendre polynomial of degree ``by``, a polynomial gains ``by``
+    degrees (two are offered because an odd or even part alone may be what is missing),
+    a table gains a node between every two (the coarser function space is inside the finer
+    one, so the base fit is reproduced exactly; ``by`` is ignored). With ``values`` (the
+    term's coefficients, SI) the table starts from the present function; else it is
+    zero-valued. None when the term would pass :data:`MAX_DEGREE` / :data:`MAX_NODES` or
+    there is no geometric term."""
+    index, tspec = _geometric_term(machine, component)
+    if tspec is None:
+        return None
+    term = tspec.term
+    zero = np.zeros(term.size) if values is None else np.asarray(values, float)
+    table = term.to_spec(zero)
+    if term.kind in ("constant", "legendre", "monomial"):
+        degree = 0 if term.kind == "constant" else term.degree
+        if degree + by > MAX_DEGREE:
+            return None
+        if term.kind == "constant":
+            unit = term.unit
+            table = {"kind": "legendre", f"coefficients_{unit}": [table[f"value_{unit}"]] + [0.0] * by}
+        else:
+            key = f"coefficients_{term.unit}"
+            table[key] = list(table[key]) + [0.0] * by
+        change = ("constant" if term.kind == "constant" else f"degree {degree}", f"degree {degree + by}")
+    elif by != 1:
+        return None
+    else:
+        nodes = term.nodes
+        if 2 * len(nodes) - 1 > MAX_NODES:
+            return None
+        fine = np.sort(np.r_[nodes, 0.5 * (nodes[1:] + nodes[:-1])])
+        ctx = Context(fine, None, Covariates(len(fine)))
+        table[f"positions_{term.position_unit}"] = [float(x / term.position_scale) for x in fine]
+        table[f"values_{term.unit}"] = [float(v / term.unit_scale) for v in term.value(zero, ctx)]
+        change = (f"table of {len(nodes)} nodes", f"{len(fine)} nodes")
+    if tspec.prefix:
+        table["prefix"] = tspec.prefix
+    return index, table, change
+
+
+def adequacy_candidates(machine: Machine, own: dict[str, str]) -> list[Candidate]:
+    """Every component error of an axis with its geometric term one step richer."""
+    out = []
+    for comp in machine.spec.components:
+        direction, location, owner = parse_component_name(comp.name)
+        if location or owner not in machine.axes:
+            continue
+        j = machine.axes.index(owner)
+        if not np.all(np.isfinite(machine.travel[j])):
+            continue  # a polynomial over the travel needs a finite travel
+        for by in RAISE_BY:
+            raised = raised_table(machine, comp.name, by=by)
+            if raised is None:
+                continue
+            index, table, change = raised
+            name = _geometric_name(direction, owner, False, own.get(owner), machine.axis_kinds[j] == "linear")
+            out.append(Candidate(name, owner, direction.lower() if direction in "XYZ"
+                                 else "xyz"["ABC".index(direction)], comp.name, table, f"q_{owner}",
+                                 kind="raise", term_index=index, change=change, by=by))
+    return out
+
+
+def _apply_raises(machine: Machine, components: list[tuple[str, int]]) -> Machine:
+    """The machine with these components' geometric terms raised, each starting from its
+    present function (an exact reproduction for tables and polynomials alike)."""
+    theta = dict(zip(machine.parameter_names, machine.theta))
+    errors = spec_document(machine)["errors"]
+    tables = {}
+    for component, by in components:
+        index, tspec = _geometric_term(machine, component)
+        values = np.array([theta[n] for n in tspec.names(component)])
+        _, table, _ = raised_table(machine, component, values, by)
+        present = errors[component]
+        terms = list(present["terms"]) if "terms" in present else [present]
+        terms[index] = table
+        tables[component] = terms if len(terms) > 1 else terms[0]
+    return replace_terms(machine, tables)
+
+
+def _remove_effect(machine: Machine, effect: dict) -> Machine:
+    """The machine without an accepted effect's terms."""
+    component = effect["component"]
+    names = set(effect["_names"])
+    comp = next(c for c in machine.spec.components if c.name == component)
+    keep = [i for i, t in enumerate(comp.terms) if not names & set(t.names(component))]
+    if not keep:
+        return remove_components(machine, [component])
+    present = spec_document(machine)["errors"][component]
+    tables = list(present["terms"]) if "terms" in present else [present]
+    tables = [tables[i] for i in keep]
+    return replace_terms(machine, {component: tables if len(tables) > 1 else tables[0]})
 
 
 # ----------------------------------------------------------------------------- scoring
@@ -237,60 +391,108 @@ def _base_design(machine: Machine, obs: Observations, fitted: np.ndarray, nuisan
     return _Base(machine, fitted, J, r, nuisance)
 
 
-def _candidate_columns(machine: Machine, obs: Observations, E: np.ndarray, joints: list[str],
-                       cand: Candidate, cov_obj, coefs_override=None):
-    """Weighted columns (rows x p) of a candidate's coefficients, linearised at the base."""
-    direction, location, owner = parse_component_name(cand.component)
-    quantity = "length" if direction in "XYZ" else "angle"
-    axis_index = machine.axes.index(owner) if owner in machine.axes else None
-    travel = tuple(machine.travel[axis_index]) if axis_index is not None else None
-    position_quantity = None if (location or axis_index is None) else (
-        "length" if machine.axis_kinds[axis_index] == "linear" else "angle")
-    tspec = build_term(dict(cand.table), f"candidate {cand.label}", quantity, position_quantity, travel)
-    coefs = tspec.coefficients if coefs_override is None else coefs_override
-    position = None if position_quantity is None else obs.q[:, axis_index]
-    ctx = Context(position, travel, cov_obj, axis_index, cand.component)
-    jac = tspec.term.jacobian(coefs, ctx)                       # (points, p)
-    col = E[:, :, joints.index(cand.component)]                 # (points, 6)
-    rows = np.einsum("rk,rk->r", obs.w, col[obs.point])          # (rows,)
-    return rows[:, None] * jac[obs.point] / obs.sigma[:, None], tspec, coefs
+class _Columns:
+    """Weighted columns of a candidate's coefficients, linearised at the base.
+
+    The term's own Jacobian depends only on the positions and covariates, which stay the
+    same through the diagnosis: it is computed once per (candidate table, non-linear
+    value) and kept."""
+
+    def __init__(self, obs: Observations, cov_obj: Covariates):
+        self.obs, self.cov_obj = obs, cov_obj
+        self.cache: dict = {}
+
+    def term(self, machine: Machine, cand: Candidate):
+        direction, location, owner = parse_component_name(cand.component)
+        quantity = "length" if direction in "XYZ" else "angle"
+        axis_index = machine.axes.index(owner) if owner in machine.axes else None
+        travel = tuple(machine.travel[axis_index]) if axis_index is not None else None
+        position_quantity = None if (location or axis_index is None) else (
+            "length" if machine.axis_kinds[axis_index] == "linear" else "angle")
+        tspec = build_term(dict(cand.table), f"candidate {cand.label}", quantity, position_quantity, travel)
+        position = None if position_quantity is None else self.obs.q[:, axis_index]
+        ctx = Context(position, travel, self.cov_obj, axis_index, cand.component)
+        return tspec, ctx
+
+    def __call__(self, machine: Machine, E: np.ndarray, joints: list[str], cand: Candidate,
+                 coefs=None, columns=None):
+        obs = self.obs
+        key = (cand.component, repr(sorted(cand.table.items())),
+               None if coefs is None else tuple(np.round(coefs, 15)))
+        if key not in self.cache:
+            tspec, ctx = self.term(machine, cand)
+            c = tspec.coefficients if coefs is None else coefs
+            self.cache[key] = (tspec, c, tspec.term.jacobian(c, ctx)[obs.point])
+        tspec, c, jac = self.cache[key]
+        col = E[:, :, joints.index(cand.component)]                 # (points, 6)
+        rows = np.einsum("rk,rk->r", obs.w, col[obs.point])          # (rows,)
+        jac = jac if columns is None else jac[:, columns]
+        return rows[:, None] * jac / obs.sigma[:, None], tspec, c
+
+
+def _scaled(A: np.ndarray) -> np.ndarray:
+    """A's non-negligible columns scaled to unit norm."""
+    if A.shape[1] == 0:
+        return A
+    norms = np.linalg.norm(A, axis=0)
+    ok = norms > 1e-12 * max(norms.max(), 1e-300)
+    return A[:, ok] / norms[ok]
+
+
+def _svd(A: np.ndarray, rtol: float = 1e-10):
+    """(U, s, Vt) of A truncated to the singular values above ``rtol`` of the largest."""
+    if A.shape[1] == 0:
+        return np.zeros((A.shape[0], 0)), np.zeros(0), np.zeros((0, 0))
+    U, s, Vt = np.linalg.svd(A, full_matrices=False)
+    keep = s > rtol * s[0] if s.size and s[0] > 0 else np.zeros(s.size, bool)
+    return U[:, keep], s[keep], Vt[keep]
+
+
+def _small_lstsq(G: np.ndarray, r: np.ndarray, tol: float = 1e-6):
+    """Least squares with few columns through the eigen-decomposition of G^T G: (rank with
+    singular values above ``tol`` (G's columns have unit norm), coefficients, rss)."""
+    w, V = np.linalg.eigh(G.T @ G)
+    keep = w > tol**2
+    b = V.T @ (G.T @ r)
+    gamma = V[:, keep] @ (b[keep] / w[keep])
+    res = r - G @ gamma
+    return int(keep.sum()), gamma, float(res @ res)
 
 
 class _Projector:
     """Least squares of a candidate jointly with the base design, by projection.
 
     The base design ``A`` (weighted rows x base coefficients) and residual ``r`` are fixed for
-    a round; pseudo-inverses of the column-scaled design on all rows and on every
-    cross-validation training set are computed once, so a candidate costs a few small
-    products."""
+    a round; orthonormal bases of the design on all rows and on every cross-validation
+    training set are computed once, so a candidate costs a few small products."""
 
     def __init__(self, A: np.ndarray, r: np.ndarray, obs: Observations, folds: list[np.ndarray]):
         self.obs = obs
-        norms = np.linalg.norm(A, axis=0)
-        keep = norms > 1e-12 * max(norms.max(initial=0.0), 1e-300)
-        self.A = A[:, keep] / norms[keep] if keep.any() else np.zeros((len(r), 0))
         self.r = r
-        self.P = np.linalg.pinv(self.A, rcond=1e-10) if self.A.shape[1] else np.zeros((0, len(r)))
-        self.rank = _rank(self.A)
+        A = _scaled(A)
+        self.Q = _svd(A)[0]
+        self.rank = self.Q.shape[1]
         self.folds = []
         pos = ~obs.angular
         for test in folds:
             V = np.isin(obs.point, test)
             T = ~V
-            P_T = np.linalg.pinv(self.A[T], rcond=1e-10) if self.A.shape[1] else np.zeros((0, T.sum()))
-            coef = P_T @ r[T]
-            self.folds.append((T, V, P_T, r[T] - self.A[T] @ coef, r[V] - self.A[V] @ coef, pos[V]))
-        self.cv_rms = self._cv(lambda f: np.zeros(f[4].shape))
+            Q_T, s, Vt = _svd(A[T])
+            # a training fit predicts the validation rows as A[V] pinv(A[T]) r[T] = M Q_T^T r[T]
+            M = A[V] @ (Vt.T / s) if s.size else np.zeros((int(V.sum()), 0))
+            e_T = r[T] - Q_T @ (Q_T.T @ r[T])
+            e_V = r[V] - M @ (Q_T.T @ r[T])
+            self.folds.append((T, V, Q_T, M, e_T, e_V, pos[V]))
+        self.cv_rms = self._cv(lambda f: np.zeros(f[5].shape))
         self.cv_max = self.last_max
 
     def _cv(self, correction) -> float:
         sq, count, peak = 0.0, 0, 0.0
         obs = self.obs
         for f in self.folds:
-            T, V, P_T, r_T, e_V, pos_V = f
+            T, V, Q_T, M, e_T, e_V, pos_V = f
             res = (e_V - correction(f)) * obs.sigma[V]
-            per_point = np.zeros(obs.n_points)
-            np.add.at(per_point, obs.point[V][pos_V], res[pos_V] ** 2)
+            per_point = np.bincount(obs.point[V][pos_V], res[pos_V] ** 2, minlength=obs.n_points)
             used = np.unique(obs.point[V][pos_V])
             sq += per_point[used].sum()
             count += used.size
@@ -299,18 +501,15 @@ class _Projector:
         return float(np.sqrt(sq / count) * UM) if count else math.nan
 
     def fit(self, C: np.ndarray):
-        """(extra rank, rss after, candidate coefficients in C's units, base correction)."""
+        """(extra rank, rss after, candidate coefficients in C's units)."""
         norms = np.linalg.norm(C, axis=0)
         norms[norms == 0] = 1.0
         Cs = C / norms
-        G = Cs - self.A @ (self.P @ Cs) if self.A.shape[1] else Cs
-        sv = np.linalg.svd(G, compute_uv=False) if G.size else np.zeros(0)
-        extra = int(np.sum(sv > 1e-6))
+        G = Cs - self.Q @ (self.Q.T @ Cs)
+        extra, gamma, rss = _small_lstsq(G, self.r)
         if extra == 0:
             return 0, float(self.r @ self.r), np.zeros(C.shape[1])
-        gamma = np.linalg.lstsq(G, self.r, rcond=1e-6)[0]
-        res = self.r - G @ gamma
-        return extra, float(res @ res), gamma / norms
+        return extra, rss, gamma / norms
 
     def cv(self, C: np.ndarray) -> float:
         norms = np.linalg.norm(C, axis=0)
@@ -318,51 +517,53 @@ class _Projector:
         Cs = C / norms
 
         def correction(f):
-            T, V, P_T, r_T, e_V, pos_V = f
-            B = P_T @ Cs[T] if self.A.shape[1] else np.zeros((0, Cs.shape[1]))
-            G_T = Cs[T] - self.A[T] @ B
-            gamma = np.linalg.lstsq(G_T, r_T, rcond=1e-6)[0]
-            return (Cs[V] - self.A[V] @ B) @ gamma
+            T, V, Q_T, M, e_T, e_V, pos_V = f
+            B = Q_T.T @ Cs[T]
+            G_T = Cs[T] - Q_T @ B
+            _, gamma, _ = _small_lstsq(G_T, e_T)
+            return (Cs[V] - M @ B) @ gamma
 
         return self._cv(correction)
 
 
-def _rank(A: np.ndarray) -> int:
-    if A.shape[1] == 0:
-        return 0
-    norms = np.linalg.norm(A, axis=0)
-    ok = norms > 0
-    if not ok.any():
-        return 0
-    sv = np.linalg.svd(A[:, ok] / norms[ok], compute_uv=False)
-    return int(np.sum(sv > 1e-9 * sv[0]))
-
-
 def _periodogram_period(machine, obs, r, axis_index, letter):
-    """Period of the strongest sinusoid in the residual along an axis' own direction."""
+    """Period of the strongest sinusoid in the residual along an axis' own direction, among
+    the plausible ones (:data:`PITCH_PERIOD_MM`, at least :data:`MIN_PERIODS` periods in the
+    measured span, at least two points per period on average), and the number of
+    independent periods searched (for the look-elsewhere correction). None when no period
+    is plausible for these data."""
     rows = obs.w[:, "XYZ".index(letter)] > 0.5
     if rows.sum() < 20:
         return None
     x = obs.q[obs.point[rows], axis_index]
     y = r[rows] * obs.sigma[rows]
-    y = y - np.polyval(np.polyfit(x, y, 3), x)
-    lo, hi = machine.travel[axis_index]
-    spacing = np.median(np.diff(np.sort(np.unique(x)))) if len(np.unique(x)) > 2 else (hi - lo) / 10
-    periods = np.geomspace(max(4 * spacing, (hi - lo) / 2000), (hi - lo) / 3, 600)
+    span = float(np.ptp(x))
+    if span <= 0:
+        return None
+    u = 2 * (x - x.min()) / span - 1
+    y = y - np.polynomial.legendre.legval(u, np.polynomial.legendre.legfit(u, y, 5))
+    shortest = max(PITCH_PERIOD_MM[0] * 1e-3, 2 * span / len(np.unique(x)))
+    longest = min(PITCH_PERIOD_MM[1] * 1e-3, span / MIN_PERIODS)
+    if shortest >= longest:
+        return None
+    independent = max(1.0, span * (1 / shortest - 1 / longest))
+    periods = 1.0 / np.linspace(1 / longest, 1 / shortest, int(min(2000, 2 * independent)) + 2)
     power = lombscargle(x, y - y.mean(), 2 * np.pi / periods)
-    return float(periods[int(np.argmax(power))])
+    return float(periods[int(np.argmax(power))]), independent
 
 
 def _score(base: _Base, proj: _Projector, obs: Observations, E, joints, cand: Candidate, cov_obj,
-           axis_index_of):
+           axis_index_of, columns: _Columns):
     """Fit the candidate jointly with the base (linearised) and score it."""
     n = len(base.r)
-    if cand.name == "periodic_pitch":
-        period = _periodogram_period(base.machine, obs, base.r, axis_index_of[cand.axis], cand.component[1])
-        if period is None:
+    searched = 1.0
+    if cand.name == "periodic_pitch" and cand.kind == "effect":
+        found = _periodogram_period(base.machine, obs, base.r, axis_index_of[cand.axis], cand.component[1])
+        if found is None:
             return None
+        period, searched = found
         cand.table = dict(cand.table, period_mm=period * 1e3)
-    _, tspec, coefs = _candidate_columns(base.machine, obs, E, joints, cand, cov_obj)
+    _, tspec, coefs = columns(base.machine, E, joints, cand)
     nonlinear = [tspec.term.local_names.index(k) for k in tspec.term.nonlinear]
     lin = [i for i in range(len(coefs)) if i not in nonlinear]
     grid = [None]
@@ -374,8 +575,7 @@ def _score(base: _Base, proj: _Projector, obs: Observations, E, joints, cand: Ca
         if value is not None:
             c[nonlinear[0]] = value
         # columns of the linear coefficients at this value of the non-linear one
-        C, _, _ = _candidate_columns(base.machine, obs, E, joints, cand, cov_obj, c)
-        C = C[:, lin]
+        C, _, _ = columns(base.machine, E, joints, cand, c if value is not None else None, lin)
         extra, rss1, gamma = proj.fit(C)
         if best is None or rss1 < best[1]:
             best = (extra, rss1, gamma, c, C)
@@ -387,13 +587,13 @@ def _score(base: _Base, proj: _Projector, obs: Observations, E, joints, cand: Ca
     k = extra + len(nonlinear)
     dof = n - proj.rank - k
     F = ((rss0 - rss1) / k) / (rss1 / dof) if dof > 0 else 0.0
-    p_value = float(stats.f.sf(F, k, dof)) if dof > 0 else 1.0
-    bic_gain = n * math.log(rss0 / rss1) - k * math.log(n)
+    p_value = min(1.0, float(stats.f.sf(F, k, dof)) * searched) if dof > 0 else 1.0
+    bic_gain = n * math.log(rss0 / rss1) - k * math.log(n) - 2 * math.log(searched)
     values = c.copy()
     values[lin] = gamma
     return {"label": cand.label, "extra": int(extra), "p_value": p_value, "bic_gain": float(bic_gain),
-            "cv_rms_um": proj.cv(C), "rss_drop": (rss0 - rss1) / rss0 if rss0 > 0 else 0.0,
-            "_coefs": values, "_tspec": tspec}
+            "cv_rms_um": None, "rss_drop": (rss0 - rss1) / rss0 if rss0 > 0 else 0.0,
+            "_coefs": values, "_tspec": tspec, "_C": C}
 
 
 def _table_with(tspec, coefs, prefix):
@@ -450,8 +650,10 @@ def residual_analysis(machine: Machine, obs: Observations, r_si: np.ndarray) -> 
     return out
 
 
-def _noise_floor(obs: Observations, r_si: np.ndarray, n_params: int) -> tuple[float, str]:
-    """From repeated points (same positions and covariates) if there are, else the residual."""
+def _noise_floor(obs: Observations, r_si: np.ndarray, n_params: int) -> tuple[float, str, bool]:
+    """(floor, source, upper bound?): from repeated points (same positions) when there are
+    enough, else from the final residual - an upper bound, since whatever the model still
+    misses is in it too."""
     pos = ~obs.angular
     keys = {}
     for i in range(obs.n_points):
@@ -468,27 +670,102 @@ def _noise_floor(obs: Observations, r_si: np.ndarray, n_params: int) -> tuple[fl
                     ss += float(((obs.y[rows] - obs.y[rows].mean()) ** 2).sum())
                     dof += int(rows.sum()) - 1
         if dof >= 5:
-            return float(np.sqrt(ss / dof * comps) * UM), f"repeated points ({dof} degrees of freedom)"
+            return (float(np.sqrt(ss / dof * comps) * UM), f"repeated points ({dof} degrees of freedom)",
+                    False)
     dof = int(pos.sum()) - n_params
     sigma = math.sqrt(float((r_si[pos] ** 2).sum()) / max(dof, 1))
-    return float(sigma * math.sqrt(comps) * UM), "final residual (n - p degrees of freedom)"
+    return (float(sigma * math.sqrt(comps) * UM),
+            "upper bound from the final residual (n - p degrees of freedom): no repeated points "
+            "separate the noise from what the model still misses", True)
+
+
+def _size(res, names: list[str]) -> float:
+    """Largest |value| / standard uncertainty over the linear coefficients ``names`` of a
+    fit; 0 when a non-linear one (time constant, period) is not determined or no linear
+    one is."""
+    machine = res.machine
+    nonlinear = set(machine.nonlinear_parameters)
+    z = 0.0
+    for name in names:
+        k = machine.parameter_names.index(name)
+        u = res.uncertainty[k]
+        if k in nonlinear:
+            if not np.isfinite(u):
+                return 0.0
+            continue
+        if np.isfinite(u) and u > 0:
+            z = max(z, abs(float(machine.theta[k])) / float(u))
+    return z
+
+
+def _tested_names(machine: Machine, change: dict) -> list[str]:
+    """The coefficients whose size decides whether a change stays: a raised polynomial's new
+    coefficients, an effect's (or missing component's) own coefficients; none for a
+    denser table (its F-test and cross-validation decide)."""
+    if change["kind"] != "under_modelled":
+        return change["_names"]
+    _, tspec = _geometric_term(machine, change["component"])
+    if tspec.term.kind == "table":
+        return []
+    return list(tspec.names(change["component"])[-change["_by"]:])
+
+
+def _apply(machine: Machine, batch: list[dict]) -> tuple[Machine, list[dict]]:
+    """The machine with scored candidates added (one effect, or under-modelled components
+    raised together); the accepted-change records."""
+    records = []
+    for score in batch:
+        cand = score["_candidate"]
+        records.append({"label": cand.label, "name": cand.name, "component": cand.component,
+                        "direction": cand.direction, "driver": cand.driver,
+                        "p_value": score["p_value"], "bic_gain": score["bic_gain"]})
+    raises = [(s["_candidate"].component, s["_candidate"].by) for s in batch if s["_candidate"].kind == "raise"]
+    if raises:
+        new = _apply_raises(machine, raises)
+        for score, record in zip(batch, records):
+            cand = score["_candidate"]
+            _, tspec = _geometric_term(new, cand.component)
+            record.update(kind="under_modelled", axis=cand.axis, _by=cand.by,
+                          **{"from": cand.change[0], "to": cand.change[1]},
+                          _names=list(tspec.names(cand.component)))
+        return new, records
+    (score,), (record,) = batch, records
+    cand = score["_candidate"]
+    before = set(machine.parameter_names)
+    prefix = _unique_prefix(machine, cand.component, PREFIX.get(cand.name, "geom"))
+    table_spec = _table_with(score["_tspec"], score["_coefs"], prefix)
+    if not (cand.name in PREFIX or cand.component in machine.components):
+        table_spec.pop("prefix", None)
+    new = add_terms(machine, {cand.component: table_spec})
+    record.update(kind="effect", axis=cand.axis if cand.axis in machine.axes else None,
+                  _names=[n for n in new.parameter_names if n not in before])
+    return new, records
 
 
 def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects: int = 5,
              alpha: float = 0.01, folds: int = 5, seed: int = 0, sigma_um: float = 1.0,
-             sigma_urad: float = 1.0, progress=None, keep_machines: bool = False) -> Diagnosis:
+             sigma_urad: float = 1.0, progress=None, keep_machines: bool = False,
+             max_rounds: int | None = None) -> Diagnosis:
     """Find, name and add the effects the model is missing (see the module docstring).
 
     Parameters
     ----------
+    machine : Machine
+        The model to test (its spec's terms are the base model).
     measurements : list of PointMeasurements (or runs), or Observations
     fixed : bool
-        Keep the spec's geometric values instead of identifying them first.
+        Keep the spec's geometric values instead of identifying them first (a raised
+        component then moves as a whole).
     max_effects : int
-        Stop after this many accepted effects.
+        Stop adding physical effects after this many.
     alpha : float
         Family-wise significance level of the F-test in each round (Bonferroni over the
         candidates of the round).
+    folds, seed : int
+        k-fold cross-validation over points, with the points shuffled by ``seed``.
+    max_rounds : int, optional
+        Rounds of the loop at most (default ``max_effects`` + 8: room for raising
+        under-modelled components).
     """
     start = _time.perf_counter()
     obs = measurements if isinstance(measurements, Observations) else build_observations(
@@ -500,27 +777,32 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     split = np.array_split(order, folds)
     cov_obj = machine.check_covariates(obs.n_points, obs.covariates)
     axis_index_of = {a: j for j, a in enumerate(machine.axes)}
+    columns = _Columns(obs, cov_obj)
+    max_rounds = max_effects + 8 if max_rounds is None else max_rounds
 
-    def fit(model: Machine, free_names: list[str] | None):
-        if fixed and not free_names:
-            return model, np.array([], dtype=int), np.zeros(obs.nuisance.shape[1])
-        free = None if not fixed else [model.parameter_names.index(n) for n in free_names]
-        res = identify(model, obs, free=free, folds=0)
-        return res.machine, res.fitted, np.array(list(res.nuisance.values()))
+    def fit(model: Machine, names: list[str], initialise: bool = False):
+        if fixed and not names:
+            return model, np.array([], dtype=int), np.zeros(obs.nuisance.shape[1]), None
+        free = None if not fixed else [model.parameter_names.index(n) for n in names]
+        res = identify(model, obs, free=free, folds=0, initialise=initialise)
+        return res.machine, res.fitted, np.array(list(res.nuisance.values())), res
 
-    effect_params: list[str] = []
-    current, fitted, nuisance = fit(machine, effect_params)
+    free_names: list[str] = []        # with ``fixed``: the coefficients that may move
+    current, fitted, nuisance, last_fit = fit(machine, free_names, initialise=True)
     base_machine = current
     steps: list[Step] = []
     effects: list[dict] = []
-    first_cv = None
-    for number in range(max_effects + 1):
+    raised: list[dict] = []
+    previous: list[dict] = []
+    for number in range(max_rounds + 1):
         base = _base_design(current, obs, fitted, nuisance)
         proj = _Projector(base.A, base.r, obs, split)
         base_cv = proj.cv_rms
-        if first_cv is None:
-            first_cv = base_cv
+        for record in previous:
+            record["rms_after_um"], record["max_after_um"] = base_cv, proj.cv_max
         candidates = build_candidates(current, obs)
+        if len(effects) >= max_effects:
+            candidates = [c for c in candidates if c.kind == "raise"]
         missing_loc = {c.component: {"kind": "constant", "prefix": "probe",
                                      f"value_{'um' if c.component[1] in 'XYZ' else 'arcsec'}": 0.0}
                        for c in candidates if c.component not in current.error_joints}
@@ -529,7 +811,7 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
         joints = list(probe.error_joints)
         scores = []
         for k, cand in enumerate(candidates):
-            s = _score(base, proj, obs, E, joints, cand, cov_obj, axis_index_of)
+            s = _score(base, proj, obs, E, joints, cand, cov_obj, axis_index_of, columns)
             if s is None:
                 continue
             s["_candidate"] = cand
@@ -537,51 +819,72 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
             if progress:
                 progress(f"round {number + 1}: candidates", k + 1)
         m = max(1, len(scores))
-        passing = [s for s in scores if s["extra"] > 0 and s["p_value"] < alpha / m
-                   and s["cv_rms_um"] < base_cv * (1 - 1e-3)]
         ranked = sorted(scores, key=lambda s: -s["bic_gain"])
+        for k, s in enumerate(ranked):  # cross-validate what could pass and what is shown
+            if s["cv_rms_um"] is None and (k < 10 or s["p_value"] < alpha / m):
+                s["cv_rms_um"] = proj.cv(s["_C"])
+        passing = [s for s in ranked if s["extra"] > 0 and s["p_value"] < alpha / m
+                   and s["cv_rms_um"] is not None and s["cv_rms_um"] < base_cv * (1 - 1e-3)]
         table = [{k: v for k, v in s.items() if not k.startswith("_")} for s in ranked]
-        accepted = None
-        if passing and number < max_effects:
-            best = max(passing, key=lambda s: s["bic_gain"])
-            cand = best["_candidate"]
-            twins = [s["_candidate"] for s in passing if s is not best and s["_candidate"].name == cand.name
-                     and s["_candidate"].driver == cand.driver and s["_candidate"].direction == cand.direction
-                     and abs(s["bic_gain"] - best["bic_gain"]) <= 1e-4 * abs(best["bic_gain"])]
-            prefix = _unique_prefix(current, cand.component, PREFIX.get(cand.name, "geom"))
-            table_spec = _table_with(best["_tspec"], best["_coefs"], prefix)
-            if cand.name in PREFIX or cand.component in current.components:
-                new = add_terms(current, {cand.component: table_spec})
-            else:
-                table_spec.pop("prefix", None)
-                new = add_terms(current, {cand.component: table_spec})
-            new_names = [n for n in new.parameter_names if n not in set(current.parameter_names)]
-            effect_params += new_names
-            before_cv = base_cv
-            new_fit, fitted, nuisance = fit(new, effect_params)
-            after_base = _base_design(new_fit, obs, fitted, nuisance)
-            after = _Projector(after_base.A, after_base.r, obs, split)
-            label = cand.label
-            if twins:
-                by = f" driven by {cand.driver}" if cand.driver else ""
-                label = (f"{cand.name} in {cand.direction}{by} (as {cand.component}; the same at the tool "
-                         f"through {', '.join(t.component for t in twins)})")
-            accepted = {"label": label, "name": cand.name,
-                        "axis": None if twins else (cand.axis if cand.axis in machine.axes else None),
-                        "direction": cand.direction, "component": cand.component, "driver": cand.driver,
-                        "p_value": best["p_value"], "bic_gain": best["bic_gain"],
-                        "rms_before_um": before_cv, "rms_after_um": after.cv_rms,
-                        "max_before_um": proj.cv_max, "max_after_um": after.cv_max,
-                        "_names": new_names, "_residual_before": base.r * obs.sigma}
-            current = new_fit
-        steps.append(Step(number, base_cv, table, accepted, base.r * obs.sigma,
-                          current if keep_machines else None))
-        if accepted is None:
+        accepted: list[dict] = []
+        for best in (passing[:3] if number < max_rounds else []):
+            batch = [best]
+            if best["_candidate"].kind == "raise":
+                # the other under-modelled components that pass on their own come along
+                taken = {best["_candidate"].component}
+                for s in passing:
+                    c = s["_candidate"]
+                    if c.kind == "raise" and c.component not in taken and s["bic_gain"] > 0:
+                        batch.append(s)
+                        taken.add(c.component)
+            for attempt in range(2):
+                new, records = _apply(current, batch)
+                names = free_names + [n for r in records for n in r["_names"] if n not in free_names]
+                new_fit, new_fitted, new_nuisance, res = fit(new, names)
+                sizes = [_size(res, _tested_names(new_fit, r)) if res is not None and _tested_names(new_fit, r)
+                         else math.inf for r in records]
+                keep = [s for s, z in zip(batch, sizes) if z >= SIGNIFICANCE]
+                if len(keep) == len(batch) or not keep:
+                    break
+                batch = keep
+            if len(keep) != len(batch) or not keep:
+                continue
+            for record, z in zip(records, sizes):
+                record.update(rms_before_um=base_cv, max_before_um=proj.cv_max, _step=number,
+                              _residual_before=base.r * obs.sigma)
+                if np.isfinite(z):
+                    record["significance"] = z
+            accepted = records
+            free_names = names
+            current, fitted, nuisance, last_fit = new_fit, new_fitted, new_nuisance, res
             break
-        effects.append(accepted)
-    # parameters and uncertainties of the accepted effects, from a final fit
-    final_free = None if not fixed else [current.parameter_names.index(n) for n in effect_params]
-    final = identify(current, obs, free=final_free, folds=0) if (not fixed or effect_params) else None
+        steps.append(Step(number, base_cv, table, accepted[0] if accepted else None, base.r * obs.sigma,
+                          current if keep_machines else None, accepted))
+        if not accepted:
+            break
+        for record in accepted:
+            (raised if record["kind"] == "under_modelled" else effects).append(record)
+        previous = accepted
+        twins_of(accepted, passing, machine)
+    # the final fit: every accepted effect must still be significant, else it is dropped
+    dropped: list[dict] = []
+    final = last_fit
+    while True:
+        if not fixed or free_names:
+            free = None if not fixed else [current.parameter_names.index(n) for n in free_names]
+            final = identify(current, obs, free=free, folds=0, initialise=False)
+            current = final.machine
+        weak = [(_size(final, e["_names"]) if final is not None else 0.0, i) for i, e in enumerate(effects)]
+        weak = [(z, i) for z, i in weak if z < SIGNIFICANCE]
+        if not weak:
+            break
+        _, i = min(weak)
+        gone = effects.pop(i)
+        gone["note"] = (f"accepted in round {gone['_step'] + 1}, dropped after the final fit: its size is "
+                        f"below {SIGNIFICANCE:g} standard uncertainties")
+        dropped.append(gone)
+        current = _remove_effect(current, gone)
+        free_names = [n for n in free_names if n in set(current.parameter_names)]
     units = parameter_units(current)
     for e in effects:
         params = {}
@@ -592,16 +895,39 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
             params[name] = {"value": float(current.theta[k] / factor),
                             "uncertainty": None if math.isnan(u) else float(u / factor), "unit": unit}
         e["parameters"] = params
-    last = _base_design(current, obs, fitted, nuisance)
-    final_cv = _Projector(last.A, last.r, obs, split).cv_rms
+    fitted_final = final.fitted if final is not None else np.array([], dtype=int)
+    nuisance_final = (np.array(list(final.nuisance.values())) if final is not None
+                      else np.zeros(obs.nuisance.shape[1]))
+    last = _base_design(current, obs, fitted_final, nuisance_final)
+    last_proj = _Projector(last.A, last.r, obs, split)
     pos = ~obs.angular
-    per_point = np.zeros(obs.n_points)
-    np.add.at(per_point, obs.point[pos], (last.r[pos] * obs.sigma[pos]) ** 2)
+    per_point = np.bincount(obs.point[pos], (last.r[pos] * obs.sigma[pos]) ** 2, minlength=obs.n_points)
     rms_fit = float(np.sqrt(per_point[np.unique(obs.point[pos])].mean()) * UM)
-    floor, source = _noise_floor(obs, last.r * obs.sigma, _rank(last.A))
+    floor, source, bound = _noise_floor(obs, last.r * obs.sigma, last_proj.rank)
     analysis = residual_analysis(current, obs, steps[0].residual)
-    return Diagnosis(current, base_machine, effects, steps, first_cv, final_cv, rms_fit, floor, source,
-                     bool(final_cv <= 1.2 * floor), alpha, _time.perf_counter() - start, obs, analysis)
+    return Diagnosis(current, base_machine, effects, steps, steps[0].rms_holdout_um, last_proj.cv_rms, rms_fit,
+                     floor, source, bool(last_proj.cv_rms <= 1.2 * floor), alpha,
+                     _time.perf_counter() - start, obs, analysis, raised, dropped, bound)
+
+
+def twins_of(accepted: list[dict], passing: list[dict], machine: Machine) -> None:
+    """An accepted effect whose effect at the tool is the same through other sites (a drift
+    in x through X, Y or Z of a Cartesian machine) is labelled as such, with ``axis`` None:
+    the data cannot tell which site carries it."""
+    for record in accepted:
+        if record["kind"] != "effect":
+            continue
+        best = next(s for s in passing if s["_candidate"].label == record["label"])
+        cand = best["_candidate"]
+        twins = [s["_candidate"] for s in passing if s is not best and s["_candidate"].name == cand.name
+                 and s["_candidate"].kind == "effect"
+                 and s["_candidate"].driver == cand.driver and s["_candidate"].direction == cand.direction
+                 and abs(s["bic_gain"] - best["bic_gain"]) <= 1e-4 * abs(best["bic_gain"])]
+        if twins:
+            by = f" driven by {cand.driver}" if cand.driver else ""
+            record["label"] = (f"{cand.name} in {cand.direction}{by} (as {cand.component}; the same at the tool "
+                               f"through {', '.join(t.component for t in twins)})")
+            record["axis"] = None
 
 
 def driver_values(diagnosis: Diagnosis, driver: str | None) -> tuple[np.ndarray, str] | None:
@@ -626,20 +952,23 @@ def driver_values(diagnosis: Diagnosis, driver: str | None) -> tuple[np.ndarray,
     return None
 
 
-def evidence(diagnosis: Diagnosis, k: int) -> dict | None:
-    """For the k-th accepted effect: its driver per point and the residual along the error
-    direction that changed most, before and after it was added (um)."""
-    e = diagnosis.effects[k]
-    step = diagnosis.steps[k]
-    after = diagnosis.steps[k + 1].residual
-    found = driver_values(diagnosis, e["driver"])
+def evidence(diagnosis: Diagnosis, step: int) -> dict | None:
+    """For the change accepted in round ``step`` (an effect's or under-modelled record's
+    ``_step``): its driver per point and the residual along the error direction that changed
+    most, before and after it was added (um)."""
+    record = diagnosis.steps[step].accepted
+    if record is None or step + 1 >= len(diagnosis.steps):
+        return None
+    before = diagnosis.steps[step].residual
+    after = diagnosis.steps[step + 1].residual
+    found = driver_values(diagnosis, record["driver"])
     obs = diagnosis.observations
     best = None
     for j in range(3):
         rows = (obs.w[:, j] > 0.5) & ~obs.angular
         if rows.sum() == 0:
             continue
-        drop = float(np.mean(step.residual[rows] ** 2) - np.mean(after[rows] ** 2))
+        drop = float(np.mean(before[rows] ** 2) - np.mean(after[rows] ** 2))
         if best is None or drop > best[0]:
             best = (drop, j, rows)
     if best is None:
@@ -647,5 +976,5 @@ def evidence(diagnosis: Diagnosis, k: int) -> dict | None:
     _, j, rows = best
     points = obs.point[rows]
     x, label = found if found is not None else (np.arange(obs.n_points, dtype=float), "point")
-    return {"x": x[points], "x_label": label, "before_um": step.residual[rows] * UM,
-            "after_um": after[rows] * UM, "direction": "xyz"[j], "label": e["label"]}
+    return {"x": x[points], "x_label": label, "before_um": before[rows] * UM,
+            "after_um": after[rows] * UM, "direction": "xyz"[j], "label": record["label"]}

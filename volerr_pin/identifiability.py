@@ -108,16 +108,16 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
         dependent.update(group[1:])
     # combinations: greedy Gram-Schmidt over the representatives, protected columns first
     candidates = sorted((j for j in order if j not in dependent), key=lambda j: _rank_key(j, protected))
-    basis: list[np.ndarray] = []
+    basis = np.zeros((A.shape[0], len(candidates)))   # orthonormal columns of the kept set
     kept: list[int] = []
     for j in candidates:
         v = U[:, j].copy()
-        for _ in range(2):
-            for b in basis:
-                v -= (b @ v) * b
+        B = basis[:, :len(kept)]
+        for _ in range(2):  # twice: classical Gram-Schmidt with re-orthogonalisation
+            v -= B @ (B.T @ v)
         residual = float(np.linalg.norm(v))
         if residual > math.sqrt(rtol):
-            basis.append(v / residual)
+            basis[:, len(kept)] = v / residual
             kept.append(j)
             continue
         coef, *_ = np.linalg.lstsq(U[:, kept], U[:, j], rcond=None)

@@ -310,8 +310,12 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
         r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
         J = np.hstack([obs.nuisance, A[:, use]]) / sigma[:, None]
         scale, Js = _column_scale(J)
-        delta = np.linalg.lstsq(Js, r, rcond=rcond)[0] / scale
+        step_scaled = np.linalg.lstsq(Js, r, rcond=rcond)[0]
+        delta = step_scaled / scale
         rss = float(r @ r)
+        predicted = r - Js @ step_scaled
+        if rss - float(predicted @ predicted) <= 1e-12 * rss:
+            break  # the linearised model cannot lower the residual: converged
         factor = 1.0
         for _ in range(30):
             trial_theta = theta.copy()
@@ -352,7 +356,8 @@ def _rms(obs: Observations, residual_si: np.ndarray, angular: bool) -> float | N
 def identify(machine: Machine, data, *, terms=None, free=None, convention: str = "prior", folds: int = 5,
              holdout: float | None = None, seed: int = 0, max_iter: int = 10, tol: float = 1e-8,
              sigma_um: float = 1.0, sigma_urad: float = 1.0, run_axis: str | None = None,
-             run_at: dict | None = None, rtol: float = 1e-9, progress=None) -> Identification:
+             run_at: dict | None = None, rtol: float = 1e-9, progress=None,
+             initialise: bool = True) -> Identification:
     """Fit the machine's coefficients to measurements.
 
     Parameters
@@ -371,6 +376,10 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         Standard deviations of position and rotation observations (weights).
     progress : callable(str, int), optional
         Called with a stage name and a step count, for progress bars.
+    initialise : bool
+        Start the non-linear coefficients (time constants, periods) from a grid search
+        (default); False starts them from the machine's values, for callers that already
+        have good ones.
     """
     if convention not in ("prior", "min-norm"):
         raise InputError(f"convention must be 'prior' or 'min-norm', got {convention!r}")
@@ -389,7 +398,8 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         free = np.arange(len(machine.parameter_names))
     if free.size == 0 and obs.nuisance.shape[1] == 0:
         raise InputError(f"{machine.name} has no coefficients to fit")
-    theta0 = _initialise_nonlinear(machine, obs, machine.theta, free, rtol, progress)
+    theta0 = (_initialise_nonlinear(machine, obs, machine.theta, free, rtol, progress) if initialise
+              else machine.theta.copy())
     # identifiability of the first-order model: exact dependencies, untouched by second-order
     # differences that the errors' own size brings in
     pred, A = _design(machine, obs, theta0, free, first_order=True)

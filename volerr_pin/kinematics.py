@@ -10,6 +10,7 @@ same pose point by point, and the tests hold the two together to 1e-12.
 
 from __future__ import annotations
 
+import types
 from dataclasses import dataclass
 
 import numba
@@ -24,6 +25,24 @@ PX, PY, PZ, RX, RY, RZ, PG, RG = range(8)
 # change at the 1e-16 level); NaN and infinity semantics are kept (no "nnan"/"ninf").
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 CHUNK = 16384  # points per block: keeps the joint-value block in cache, memory bounded
+PARALLEL_MIN = 2048  # fewer points run on the calling thread: waking a thread pool costs more
+
+
+def _kernel(fn):
+    """Compile ``fn`` twice - over threads (``numba.prange``) and on the calling thread - and
+    pick by the number of points (``values.shape[1]``, the first argument): small calls
+    (thousands of them in an identification or diagnosis) then never wait for a pool."""
+    parallel = numba.njit(cache=True, parallel=True, fastmath=FAST)(fn)
+    twin = types.FunctionType(fn.__code__, fn.__globals__, fn.__name__ + "_serial")
+    twin.__qualname__ = fn.__qualname__ + "_serial"  # its own on-disk cache entry
+    serial = numba.njit(cache=True, fastmath=FAST)(twin)
+
+    def run(values, *args):
+        return (parallel if values.shape[1] >= PARALLEL_MIN else serial)(values, *args)
+
+    run.parallel, run.serial = parallel, serial
+    run.__doc__, run.__name__ = fn.__doc__, fn.__name__
+    return run
 
 
 @dataclass(frozen=True)
@@ -48,32 +67,39 @@ class Chain:
     joints: tuple[int, ...]  # Pinocchio joint id of each operation
 
 
-def _joint_motion(model: pin.Model, joint: int) -> tuple[int, np.ndarray]:
-    """Kind and unit axis of a 1-DoF joint, read off the model by moving it by 1."""
+def _moved(model: pin.Model) -> pin.Data:
+    """Forward kinematics with every joint moved by 1 (m or rad): each joint's motion is
+    read off its own ``liMi``, which depends on that joint alone."""
+    data = model.createData()
+    q = pin.neutral(model)
+    for joint in range(1, model.njoints):
+        iq = model.idx_qs[joint]
+        if model.nvs[joint] == 1 and model.nqs[joint] == 2:
+            q[iq], q[iq + 1] = np.cos(1.0), np.sin(1.0)
+        elif model.nvs[joint] == 1:
+            q[iq] = 1.0
+    pin.forwardKinematics(model, data, q)
+    return data
+
+
+def _joint_motion(model: pin.Model, joint: int, moved: pin.Data) -> tuple[int, np.ndarray]:
+    """Kind and unit axis of a 1-DoF joint, read off the model moved by :func:`_moved`."""
     if model.nvs[joint] != 1:
         raise SpecError(f"joint '{model.names[joint]}' ({model.joints[joint].shortname()}) has "
                         f"{model.nvs[joint]} degrees of freedom; only 1-DoF joints can lie "
                         "between the workpiece and the tool")
-    data = model.createData()
-    q = pin.neutral(model)
-    iq = model.idx_qs[joint]
-    if model.nqs[joint] == 2:
-        q[iq], q[iq + 1] = np.cos(1.0), np.sin(1.0)
-    else:
-        q[iq] = 1.0
-    pin.forwardKinematics(model, data, q)
-    motion = model.jointPlacements[joint].inverse() * data.liMi[joint]
+    motion = model.jointPlacements[joint].inverse() * moved.liMi[joint]
     rotation, translation = motion.rotation, motion.translation
-    if np.allclose(rotation, np.eye(3), atol=1e-12):
+    if np.abs(rotation - np.eye(3)).max() <= 1e-12:
         axis, base = translation / np.linalg.norm(translation), PX
     else:
         axis, base = pin.log3(rotation), RX
         axis = axis / np.linalg.norm(axis)
-    for k in range(3):
+    k = int(np.argmax(np.abs(axis)))
+    if abs(axis[k] - 1.0) <= 1e-14 and np.abs(np.delete(axis, k)).max() <= 1e-14:
         unit = np.zeros(3)
         unit[k] = 1.0
-        if np.allclose(axis, unit, atol=1e-14):
-            return base + k, unit
+        return base + k, unit
     return (PG if base == PX else RG), axis
 
 
@@ -97,12 +123,13 @@ def build_chain(model: pin.Model, tool_frame: str, workpiece_frame: str,
     down = [j for j in reversed(tool_path) if j not in common]
     ops = []  # (C, kind, axis, col, sign, joint)
     current = fw.placement.inverse()
+    moved = _moved(model)
     for j in up:
-        kind, axis = _joint_motion(model, j)
+        kind, axis = _joint_motion(model, j, moved)
         ops.append((current, kind, axis, model.idx_vs[j], -1.0, j))
         current = model.jointPlacements[j].inverse()
     for j in down:
-        kind, axis = _joint_motion(model, j)
+        kind, axis = _joint_motion(model, j, moved)
         ops.append((current * model.jointPlacements[j], kind, axis, model.idx_vs[j], 1.0, j))
         current = pin.SE3.Identity()
     end = current * ft.placement
@@ -239,7 +266,7 @@ def _rotation_vector(D):
     return a[0] * theta, a[1] * theta, a[2] * theta
 
 
-@numba.njit(cache=True, parallel=True, fastmath=FAST)
+@_kernel
 def _exact_error(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, out):
     n = values.shape[1]
     for i in numba.prange(n):
@@ -274,7 +301,7 @@ def _exact_error(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R,
         out[i, 5] = rz
 
 
-@numba.njit(cache=True, parallel=True, fastmath=FAST)
+@_kernel
 def _first_order_error(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, out):
     n = values.shape[1]
     for i in numba.prange(n):
@@ -312,7 +339,7 @@ def _first_order_error(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, 
         out[i, 5] = dt2
 
 
-@numba.njit(cache=True, parallel=True, fastmath=FAST)
+@_kernel
 def _poses(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, with_errors,
            out_R, out_p):
     n = values.shape[1]
@@ -370,7 +397,7 @@ def _jacobian_point(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, 
             J[2, c] += w0 * p[1] - w1 * p[0]
 
 
-@numba.njit(cache=True, parallel=True, fastmath=FAST)
+@_kernel
 def _jacobian(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, nominal,
               out_J):
     for i in numba.prange(values.shape[1]):
@@ -378,7 +405,7 @@ def _jacobian(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, en
                         nominal, out_J[i])
 
 
-@numba.njit(cache=True, parallel=True, fastmath=FAST)
+@_kernel
 def _sensitivity(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, Jl,
                  basis, pcol, out):
     """out[i, r, p] = (Jl-corrected J)[r, pcol[p]] * basis[i, p]: the chain rule to the

@@ -189,8 +189,14 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
     grid = fig.add_gridspec(1 + (n_eff + 1) // 2, 2)
     ax = fig.add_subplot(grid[0, 0])
     rms = [s.rms_holdout_um for s in diagnosis.steps]
-    labels = ["base"] + [e["name"] + (f"\n{e['axis']}" if e["axis"] else "") + (f" {e['direction']}" if e["direction"] else "")
-                         for e in diagnosis.effects]
+    def short(step):
+        a = step.accepted_all
+        if a[0]["kind"] == "under_modelled":
+            return "+degree\n" + " ".join(r["component"] for r in a[:3]) + (" ..." if len(a) > 3 else "")
+        e = a[0]
+        return e["name"] + (f"\n{e['axis']}" if e["axis"] else "") + (f" {e['direction']}" if e["direction"] else "")
+
+    labels = ["base"] + [short(s) for s in diagnosis.steps if s.accepted_all]
     ax.bar(range(len(rms)), rms, color="#4a6fb4")
     ax.axhline(diagnosis.noise_floor_um, color="#c0392b", ls="--", label=f"noise floor {diagnosis.noise_floor_um:.2f} um")
     ax.set_xticks(range(len(rms)), labels[:len(rms)], fontsize=7)
@@ -208,12 +214,15 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
                            + (f" +- {p['uncertainty']:.2g}" if p["uncertainty"] is not None else "") + f" {p['unit']}"
                            for n, p in e["parameters"].items())
         lines.append(f"- {e['label']}: {e['rms_before_um']:.3f} -> {e['rms_after_um']:.3f} um; {params}")
+    if diagnosis.under_modelled:
+        lines.append("under-modelled geometry (not physical effects): " + ", ".join(
+            f"{u['component']} {u['from']} -> {u['to']}" for u in diagnosis.under_modelled))
     import textwrap
 
     wrapped = [w for line in lines for w in textwrap.wrap(line, 64, subsequent_indent="    ")]
     text.text(0.0, 1.0, "\n".join(wrapped), va="top", fontsize=8, family="monospace")
     for k in range(n_eff):
-        ev = evidence(diagnosis, k)
+        ev = evidence(diagnosis, diagnosis.effects[k]["_step"])
         if ev is None:
             continue
         a = fig.add_subplot(grid[1 + k // 2, k % 2])

@@ -390,7 +390,8 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None) ->
         rec.log("residuals/arrows", frame, rr.Arrows3D(origins=positions, vectors=vec * scale,
                                                         colors=colours(norm, 0.0, peak), radii=radius / 2))
         text = (f"step {number}: held-out RMS {step.rms_holdout_um:.3f} um; "
-                + (f"added {step.accepted['label']}" if step.accepted else "no candidate is significant"))
+                + (f"added {'; '.join(a['label'] for a in step.accepted_all)}" if step.accepted
+                   else "no candidate is significant"))
         rec.log("steps", rr.TextLog(text))
         if step.accepted is not None:
             ev = evidence(diagnosis, number)

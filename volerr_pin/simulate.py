@@ -70,3 +70,43 @@ def write_points(data: PointMeasurements, machine: Machine, path) -> None:
         lines.append(",".join(row))
     with open(path, "w") as f:
         f.write("\n".join(lines) + "\n")
+
+
+def off_model_geometry(machine: Machine, seed: int = 0, style: str = "spline",
+                       size_um: float = 2.0, size_arcsec: float = 2.0) -> Machine:
+    """A machine whose geometry lies outside ``machine``'s function space.
+
+    Every component error of an axis (positioning, straightness, angular) is replaced by a
+    random smooth function of the axis position: ``style`` "cubic" gives Legendre
+    polynomials of degree 3 (one above the quadratics of typical angular terms), "spline"
+    cubic splines through 7 random values at uneven positions (each within a
+    quarter spacing of even), which no polynomial or
+    table of the spec reproduces exactly. Coefficients / node values are normal with
+    standard deviation ``size_um`` (translations) or ``size_arcsec`` (rotations).
+    Location errors (squareness, offsets) keep their values: they are constants by nature.
+    Real machines are like this: their geometry is never exactly the spec's.
+    """
+    if style not in ("cubic", "spline"):
+        raise ValueError(f"style must be 'cubic' or 'spline', got {style!r}")
+    rng = np.random.default_rng(seed)
+    tables = {}
+    for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):
+        lo, hi = machine.travel[j]
+        if not np.isfinite(lo) or not np.isfinite(hi):
+            continue
+        position_unit, scale = ("mm", 1e3) if kind == "linear" else ("deg", 180.0 / np.pi)
+        for d in "XYZABC":
+            unit, size = ("um", size_um) if d in "XYZ" else ("arcsec", size_arcsec)
+            name = f"E{d}{axis}"
+            if style == "cubic":
+                tables[name] = {"kind": "legendre",
+                                f"coefficients_{unit}": [float(v) for v in rng.normal(0.0, size, 4)]}
+            else:
+                u = np.linspace(0.0, 1.0, 7)
+                u[1:-1] += rng.uniform(-0.25, 0.25, 5) / 6  # uneven, but never crowded
+                nodes = lo + (hi - lo) * u
+                tables[name] = {"kind": "table", "interpolation": "cubic",
+                                f"positions_{position_unit}": [float(x * scale) for x in nodes],
+                                f"values_{unit}": [float(v) for v in rng.normal(0.0, size, 7)]}
+    from .specio import replace_terms
+    return replace_terms(machine, tables)
