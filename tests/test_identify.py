@@ -174,3 +174,21 @@ def test_cli_identify_bad_input(tmp_path, capsys):
     path.write_text("x,y,z,dx\n1,2,3,0\n")
     assert main(["identify", "vmc500", str(path), "--terms", "EQQ"]) == 2
     assert "EQQ not among the error terms" in capsys.readouterr().err
+
+
+def test_a_time_constant_in_seconds_is_not_taken_for_no_effect(machines):
+    """cgm4000's angular coefficients move the tool by metres per radian, a time constant by
+    nanometres per second: the zero test compares typical changes, not SI units."""
+    from volerr_pin.simulate import campaign
+    from volerr_pin.specio import add_terms
+
+    m = machines["cgm4000"]
+    drift = {"EZX": {"kind": "thermal_drift", "driver": "time", "prefix": "d", "amplitudes_um": [6.0],
+                     "time_constants_min": [50.0]}}
+    truth = add_terms(m, drift)
+    data = campaign(truth, 300, 0.3, 1)
+    start = add_terms(m, {"EZX": dict(drift["EZX"], time_constants_min=[30.0])})
+    res = identify(start, [data], folds=0)
+    k = start.parameter_names.index("EZX.d.tau1")
+    assert k in res.fitted and np.isfinite(res.uncertainty[k])
+    assert res.machine.theta[k] == pytest.approx(3000.0, abs=3 * res.uncertainty[k])

@@ -710,6 +710,67 @@ def _tested_names(machine: Machine, change: dict) -> list[str]:
     return list(tspec.names(change["component"])[-change["_by"]:])
 
 
+def _describe(machine: Machine, component: str) -> str:
+    _, tspec = _geometric_term(machine, component)
+    term = tspec.term
+    if term.kind == "table":
+        return f"table of {len(term.nodes)} nodes"
+    return "constant" if term.kind == "constant" else f"degree {term.degree}"
+
+
+def _trim_raises(machine: Machine, fit, base: Machine, components) -> Machine | None:
+    """Raised polynomials lose their trailing coefficients that the final fit does not find
+    significant (a component raised by 4 where 1 was enough); None when nothing changes."""
+    if fit is None:
+        return None
+    tables = {}
+    errors = None
+    for component in sorted(components):
+        index, tspec = _geometric_term(machine, component)
+        if tspec.term.kind not in ("legendre", "monomial"):
+            continue
+        _, original = _geometric_term(base, component)
+        start = 0 if original.term.kind == "constant" else original.term.degree
+        names = tspec.names(component)
+        z = []
+        for name in names:
+            k = machine.parameter_names.index(name)
+            u = fit.uncertainty[k]
+            z.append(abs(machine.theta[k]) / u if np.isfinite(u) and u > 0 else 0.0)
+        keep = max([start] + [d for d in range(start + 1, len(names)) if z[d] >= SIGNIFICANCE])
+        if keep >= tspec.term.degree:
+            continue
+        errors = errors or spec_document(machine)["errors"]
+        present = errors[component]
+        terms = list(present["terms"]) if "terms" in present else [present]
+        key = f"coefficients_{tspec.term.unit}"
+        terms[index] = dict(terms[index], **{key: list(terms[index][key])[:keep + 1]})
+        tables[component] = terms if len(terms) > 1 else terms[0]
+    return replace_terms(machine, tables) if tables else None
+
+
+def _raised_summary(records: list[dict], base: Machine, final: Machine) -> list[dict]:
+    """One entry per raised component, from the spec's form to the final one (components
+    whose raise the final fit did not keep are left out)."""
+    out = {}
+    for r in records:
+        entry = out.setdefault(r["component"], {
+            "label": "", "name": r["name"], "component": r["component"], "axis": r["axis"],
+            "direction": r["direction"], "from": _describe(base, r["component"]), "to": "",
+            "rounds": [], "rms_before_um": r["rms_before_um"], "rms_after_um": r.get("rms_after_um"),
+            "p_value": r["p_value"]})
+        entry["rounds"].append(r["_step"] + 1)
+        entry["p_value"] = min(entry["p_value"], r["p_value"])
+    kept = []
+    for component, entry in out.items():
+        entry["to"] = _describe(final, component)
+        if entry["to"] == entry["from"] or entry["to"] == "degree 0":
+            continue
+        entry["label"] = f"geometric component {component} under-modelled ({entry['from']} -> {entry['to']})"
+        kept.append(entry)
+    return kept
+
+
 def _apply(machine: Machine, batch: list[dict]) -> tuple[Machine, list[dict]]:
     """The machine with scored candidates added (one effect, or under-modelled components
     raised together); the accepted-change records."""
@@ -874,6 +935,11 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
             free = None if not fixed else [current.parameter_names.index(n) for n in free_names]
             final = identify(current, obs, free=free, folds=0, initialise=False)
             current = final.machine
+        trimmed = _trim_raises(current, final, base_machine, {r["component"] for r in raised})
+        if trimmed is not None:
+            current = trimmed
+            free_names = [n for n in free_names if n in set(current.parameter_names)]
+            continue
         weak = [(_size(final, e["_names"]) if final is not None else 0.0, i) for i, e in enumerate(effects)]
         weak = [(z, i) for z, i in weak if z < SIGNIFICANCE]
         if not weak:
@@ -885,6 +951,7 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
         dropped.append(gone)
         current = _remove_effect(current, gone)
         free_names = [n for n in free_names if n in set(current.parameter_names)]
+    raised = _raised_summary(raised, base_machine, current)
     units = parameter_units(current)
     for e in effects:
         params = {}

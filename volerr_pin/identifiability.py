@@ -48,7 +48,7 @@ class Analysis:
 
 
 def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
-            what: str = "the measured quantities") -> Analysis:
+            what: str = "the measured quantities", typical: np.ndarray | None = None) -> Analysis:
     """Identifiability of the columns of ``A`` (rows: weighted observations).
 
     A column is ``zero`` when its norm is below ``rtol`` times the median column norm; two
@@ -57,14 +57,19 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
     ``sqrt(rtol)`` of its norm. Factors: ``A_dependent = sum factor_k A_k`` over the listed
     kept columns (in the columns' own units), so the combination
     ``A_dependent - sum factor_k A_k`` has no effect.
+
+    ``typical`` (one per column, default 1) is a typical size of each coefficient: the zero
+    test compares the effects of typical changes (column norm x typical size), so a time
+    constant in seconds, whose effect per second is tiny, is not taken for no effect.
     """
     A = np.asarray(A, dtype=float)
     names = list(names)
     n = A.shape[1]
     norms = np.linalg.norm(A, axis=0)
-    positive = norms[norms > 0]
+    effect = norms if typical is None else norms * np.asarray(typical, dtype=float)
+    positive = effect[effect > 0]
     reference = float(np.median(positive)) if positive.size else 1.0
-    zero = norms <= rtol * reference
+    zero = effect <= rtol * reference
     groups: list[IdentifiabilityGroup] = []
     for j in np.flatnonzero(zero):
         groups.append(IdentifiabilityGroup(

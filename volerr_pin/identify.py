@@ -273,14 +273,18 @@ def _design(machine: Machine, obs: Observations, theta: np.ndarray, free: np.nda
     return pred, A
 
 
-def _column_scale(J: np.ndarray, rtol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
-    """Column norms for scaling, and the columns scaled to unit norm; columns negligible
-    against the median (below ``rtol`` of it: rounding noise) are zeroed, not blown up."""
+def _column_scale(J: np.ndarray, rtol: float = 1e-9, typical: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Column norms for scaling, and the columns scaled to unit norm; columns whose effect
+    (norm x ``typical`` size of the coefficient, default 1) is negligible against the
+    median (below ``rtol`` of it: rounding noise) are zeroed, not blown up."""
     norms = np.linalg.norm(J, axis=0)
-    positive = norms[norms > 0]
+    effect = norms if typical is None else norms * typical
+    positive = effect[effect > 0]
     floor = rtol * (np.median(positive) if positive.size else 1.0)
-    scale = np.where(norms > floor, norms, 1.0)
-    scaled = np.where(norms > floor, J / scale, 0.0)
+    ok = effect > floor
+    scale = np.where(ok, norms, 1.0)
+    scaled = np.where(ok, J / scale, 0.0)
     return scale, scaled
 
 
@@ -309,7 +313,7 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
         pred, A = _design(machine, obs, theta, free)
         r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
         J = np.hstack([obs.nuisance, A[:, use]]) / sigma[:, None]
-        scale, Js = _column_scale(J)
+        scale, Js = _column_scale(J, typical=_typical(machine, theta, free[use], n_nu))
         step_scaled = np.linalg.lstsq(Js, r, rcond=rcond)[0]
         delta = step_scaled / scale
         rss = float(r @ r)
@@ -406,7 +410,8 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     J0 = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
     names = obs.nuisance_names + [machine.parameter_names[k] for k in free]
     n_nu = obs.nuisance.shape[1]
-    analysis = analyse(J0, names, protected=n_nu, rtol=rtol, what="these measurements")
+    analysis = analyse(J0, names, protected=n_nu, rtol=rtol, what="these measurements",
+                       typical=_typical(machine, theta0, free, n_nu))
     kept_theta = np.array([c - n_nu for c in analysis.kept if c >= n_nu], dtype=int)
     held = np.array(sorted(set(range(len(free))) - set(kept_theta.tolist())), dtype=int)
     columns = kept_theta if convention == "prior" else None
@@ -417,7 +422,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     residual_sigma = float(np.sqrt(r @ r / dof)) if dof > 0 else math.nan
     uncertainty = np.full(len(theta), np.nan)
     if convention == "prior" and dof > 0:
-        scale, Js = _column_scale(J)
+        scale, Js = _column_scale(J, typical=_typical(machine, theta, free[kept_theta], n_nu))
         cov = np.linalg.pinv(Js.T @ Js) / np.outer(scale, scale) * residual_sigma**2
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
         uncertainty[free[kept_theta]] = std[n_nu:]
@@ -440,6 +445,18 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
                   if np.any(obs.angular[obs.nuisance[:, c] != 0])))
 
 
+def _typical(machine: Machine, theta: np.ndarray, free: np.ndarray, n_nuisance: int) -> np.ndarray:
+    """Typical size of each column's coefficient for the zero test of :func:`analyse`: 1
+    (the SI unit) for nuisance and linear coefficients, the present value for non-linear
+    ones (time constants, periods), whose effect per SI unit can be tiny."""
+    nonlinear = set(machine.nonlinear_parameters)
+    out = np.ones(n_nuisance + len(free))
+    for c, k in enumerate(free):
+        if k in nonlinear and theta[k] != 0:
+            out[n_nuisance + c] = abs(theta[k])
+    return out
+
+
 def _initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray, free: np.ndarray,
                           rtol: float = 1e-9, progress=None) -> np.ndarray:
     """Variable projection by grid search: for each free non-linear coefficient (time
@@ -454,7 +471,8 @@ def _initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray
     n_nu = obs.nuisance.shape[1]
     _, A = _design(machine, obs, theta, linear, first_order=True)
     J = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
-    kept = analyse(J, [""] * J.shape[1], protected=n_nu, rtol=rtol).kept
+    kept = analyse(J, [""] * J.shape[1], protected=n_nu, rtol=rtol,
+                   typical=_typical(machine, theta, linear, n_nu)).kept
     lin_cols = np.array([c - n_nu for c in kept if c >= n_nu], dtype=int)
     for step, k in enumerate(nonlinear):
         # the columns of the other terms hardly depend on this coefficient: compute them once
@@ -470,7 +488,7 @@ def _initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray
             pred, A_own = _design(machine, obs, trial, own)
             r = (obs.y - pred) / obs.sigma
             J = np.hstack([obs.nuisance, A_other, A_own]) / obs.sigma[:, None]
-            scale, Js = _column_scale(J)
+            scale, Js = _column_scale(J)  # linear coefficients only: SI sizes are typical
             delta = np.linalg.lstsq(Js, r, rcond=None)[0] / scale
             rss = float(np.sum((r - J @ delta) ** 2))
             if rss < best_rss:

@@ -198,7 +198,7 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
 
     labels = ["base"] + [short(s) for s in diagnosis.steps if s.accepted_all]
     ax.bar(range(len(rms)), rms, color="#4a6fb4")
-    ax.axhline(diagnosis.noise_floor_um, color="#c0392b", ls="--", label=f"noise floor {diagnosis.noise_floor_um:.2f} um")
+    ax.axhline(diagnosis.noise_floor_um, color="#c0392b", ls="--", label=f"noise floor {'<= ' if diagnosis.noise_floor_upper_bound else ''}{diagnosis.noise_floor_um:.2f} um")
     ax.set_xticks(range(len(rms)), labels[:len(rms)], fontsize=7)
     ax.set_ylabel("held-out RMS [um]")
     ax.set_title("held-out RMS after each step", fontsize=10)
@@ -207,7 +207,8 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
     text.axis("off")
     lines = [f"{diagnosis.machine.name}: {len(diagnosis.effects)} effect(s) found",
              f"held-out RMS {diagnosis.rms_before_um:.3f} -> {diagnosis.rms_after_um:.3f} um",
-             f"noise floor {diagnosis.noise_floor_um:.3f} um ({diagnosis.noise_floor_source})",
+             f"noise floor {'at most ' if diagnosis.noise_floor_upper_bound else ''}"
+             f"{diagnosis.noise_floor_um:.3f} um ({diagnosis.noise_floor_source})",
              "reaches the noise floor" if diagnosis.reaches_noise_floor else "does NOT reach the noise floor"]
     for e in diagnosis.effects:
         params = ", ".join(f"{n.split('.')[-1]} = {p['value']:.4g}"
