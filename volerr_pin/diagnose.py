@@ -60,6 +60,7 @@ MIN_PERIODS = 4                 # periods of a pitch error inside the measured t
 SIGNIFICANCE = 3.0              # |value| / standard uncertainty of an accepted effect's size
 MAX_DEGREE = 12                 # a polynomial component is not raised beyond this degree
 MAX_NODES = 65                  # nor a table beyond this many nodes
+PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
 RAISE_BY = (1, 2, 4)            # degrees a polynomial may gain in one round
 GEOMETRIC_KINDS = ("constant", "legendre", "monomial", "table")
 
@@ -401,6 +402,7 @@ class _Columns:
     def __init__(self, obs: Observations, cov_obj: Covariates):
         self.obs, self.cov_obj = obs, cov_obj
         self.cache: dict = {}
+        self.weights: dict = {}   # (round's E, component) -> weighted row factors
 
     def term(self, machine: Machine, cand: Candidate):
         direction, location, owner = parse_component_name(cand.component)
@@ -424,10 +426,14 @@ class _Columns:
             c = tspec.coefficients if coefs is None else coefs
             self.cache[key] = (tspec, c, tspec.term.jacobian(c, ctx)[obs.point])
         tspec, c, jac = self.cache[key]
-        col = E[:, :, joints.index(cand.component)]                 # (points, 6)
-        rows = np.einsum("rk,rk->r", obs.w, col[obs.point])          # (rows,)
+        weight_key = (id(E), cand.component)
+        if weight_key not in self.weights:
+            if len(self.weights) > 256:
+                self.weights.clear()
+            col = E[:, :, joints.index(cand.component)]                 # (points, 6)
+            self.weights[weight_key] = (np.einsum("rk,rk->r", obs.w, col[obs.point]) / obs.sigma)[:, None]
         jac = jac if columns is None else jac[:, columns]
-        return rows[:, None] * jac / obs.sigma[:, None], tspec, c
+        return self.weights[weight_key] * jac, tspec, c
 
 
 def _scaled(A: np.ndarray) -> np.ndarray:
@@ -537,6 +543,9 @@ def _periodogram_period(machine, obs, r, axis_index, letter):
         return None
     x = obs.q[obs.point[rows], axis_index]
     y = r[rows] * obs.sigma[rows]
+    if x.size > PERIODOGRAM_POINTS:  # enough to pick the period; the fit then uses every point
+        keep = np.random.default_rng(0).choice(x.size, PERIODOGRAM_POINTS, replace=False)
+        x, y = x[keep], y[keep]
     span = float(np.ptp(x))
     if span <= 0:
         return None
@@ -547,9 +556,12 @@ def _periodogram_period(machine, obs, r, axis_index, letter):
     if shortest >= longest:
         return None
     independent = max(1.0, span * (1 / shortest - 1 / longest))
-    periods = 1.0 / np.linspace(1 / longest, 1 / shortest, int(min(2000, 2 * independent)) + 2)
-    power = lombscargle(x, y - y.mean(), 2 * np.pi / periods)
-    return float(periods[int(np.argmax(power))]), independent
+    # one frequency per independent period, then a finer look around the strongest
+    f = np.linspace(1 / longest, 1 / shortest, int(min(2000, independent)) + 2)
+    y = y - y.mean()
+    k = int(np.argmax(lombscargle(x, y, 2 * np.pi * f)))
+    fine = np.linspace(f[max(k - 1, 0)], f[min(k + 1, len(f) - 1)], 17)
+    return float(1.0 / fine[int(np.argmax(lombscargle(x, y, 2 * np.pi * fine)))]), independent
 
 
 def _score(base: _Base, proj: _Projector, obs: Observations, E, joints, cand: Candidate, cov_obj,
@@ -566,20 +578,28 @@ def _score(base: _Base, proj: _Projector, obs: Observations, E, joints, cand: Ca
     _, tspec, coefs = columns(base.machine, E, joints, cand)
     nonlinear = [tspec.term.local_names.index(k) for k in tspec.term.nonlinear]
     lin = [i for i in range(len(coefs)) if i not in nonlinear]
-    grid = [None]
+    full = np.array([np.nan])
     if nonlinear and cand.name != "periodic_pitch":  # periods come from the periodogram
-        grid = list(tspec.term.search_grid(tspec.term.local_names[nonlinear[0]], coefs, cov_obj))
-    best = None
-    for value in grid:
-        c = coefs.copy()
-        if value is not None:
-            c[nonlinear[0]] = value
-        # columns of the linear coefficients at this value of the non-linear one
-        C, _, _ = columns(base.machine, E, joints, cand, c if value is not None else None, lin)
-        extra, rss1, gamma = proj.fit(C)
-        if best is None or rss1 < best[1]:
-            best = (extra, rss1, gamma, c, C)
-    extra, rss1, gamma, c, C = best
+        full = np.asarray(tspec.term.search_grid(tspec.term.local_names[nonlinear[0]], coefs, cov_obj))
+    tried: dict = {}
+
+    def trial(k):
+        if k not in tried:
+            value = full[k]
+            c = coefs.copy()
+            if not np.isnan(value):
+                c[nonlinear[0]] = value
+            # columns of the linear coefficients at this value of the non-linear one
+            C, _, _ = columns(base.machine, E, joints, cand, None if np.isnan(value) else c, lin)
+            extra, rss1, gamma = proj.fit(C)
+            tried[k] = (extra, rss1, gamma, c, C)
+        return tried[k]
+
+    # a coarse pass over every third grid value, then the values around the best one
+    coarse = range(0, len(full), 3) if len(full) > 6 else range(len(full))
+    best = min(coarse, key=lambda k: trial(k)[1])
+    best = min(range(max(0, best - 2), min(len(full), best + 3)), key=lambda k: trial(k)[1])
+    extra, rss1, gamma, c, C = tried[best]
     rss0 = float(base.r @ base.r)
     if extra == 0 or rss1 <= 0:
         return {"label": cand.label, "extra": 0, "p_value": 1.0, "bic_gain": 0.0,

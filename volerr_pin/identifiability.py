@@ -115,6 +115,7 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
     candidates = sorted((j for j in order if j not in dependent), key=lambda j: _rank_key(j, protected))
     basis = np.zeros((A.shape[0], len(candidates)))   # orthonormal columns of the kept set
     kept: list[int] = []
+    combinations: list[tuple[int, int]] = []   # (dependent column, number kept before it)
     for j in candidates:
         v = U[:, j].copy()
         B = basis[:, :len(kept)]
@@ -125,15 +126,21 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
             basis[:, len(kept)] = v / residual
             kept.append(j)
             continue
-        coef, *_ = np.linalg.lstsq(U[:, kept], U[:, j], rcond=None)
-        big = np.flatnonzero(np.abs(coef) > 1e-4 * np.abs(coef).max())
-        factors = coef * norms[j] / norms[kept]
-        groups.append(IdentifiabilityGroup(
-            "combination", (names[j],) + tuple(names[kept[k]] for k in big),
-            (1.0,) + tuple(float(-factors[k]) for k in big),
-            f"the effect of {names[j]} on {what} equals a combination of the others listed: the "
-            "weighted sum with these factors has no effect"))
+        combinations.append((j, len(kept)))
         dependent.add(j)
+    # the factors of every combination, from one least-squares solve over the kept columns
+    # (each column kept after a dependent one is independent of it: its factor comes out ~0)
+    if combinations:
+        coefs = np.linalg.lstsq(U[:, kept], U[:, [j for j, _ in combinations]], rcond=None)[0]
+        for (j, before), coef in zip(combinations, coefs.T):
+            coef = coef[:before]
+            big = np.flatnonzero(np.abs(coef) > 1e-4 * np.abs(coef).max())
+            factors = coef * norms[j] / norms[kept[:before]]
+            groups.append(IdentifiabilityGroup(
+                "combination", (names[j],) + tuple(names[kept[k]] for k in big),
+                (1.0,) + tuple(float(-factors[k]) for k in big),
+                f"the effect of {names[j]} on {what} equals a combination of the others listed: the "
+                "weighted sum with these factors has no effect"))
     if kept:
         sv = np.linalg.svd(U[:, kept], compute_uv=False)
         condition = float(sv[0] / sv[-1])
