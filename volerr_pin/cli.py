@@ -1,4 +1,7 @@
-"""Command-line interface: ``volerr <command>``. It wires library calls; it computes nothing.
+"""volerr: volumetric error of machine tools on Pinocchio - evaluate, rank, record, identify, diagnose, compensate.
+
+Each command parses its arguments, calls the library and prints; every number comes from
+the library.
 
 Exit status 0 on success, 2 on bad input (one line on stderr naming the culprit).
 ``--json`` prints exactly one JSON object on stdout.
@@ -34,8 +37,11 @@ def _console() -> Console:
 
 
 def _print_info(console: Console, info: dict) -> None:
-    console.print(f"[bold]{info['machine']}[/bold]: {info['description']}")
-    console.print(f"source: {info['source']}")
+    console.print(f"[bold]{escape(info['machine'])}[/bold]"
+                  + (f": {escape(info['description'])}" if info["description"] else
+                     " (a bare URDF: no error terms until a spec gives them)" if not info.get("components") else ""))
+    if info["source"]:
+        console.print(f"source: {escape(info['source'])}")
     console.print(f"tool frame '{info['tool_frame']}', workpiece frame '{info['workpiece_frame']}'")
     chains = info["chains"]
     console.print(f"tool chain: bed - {' - '.join(chains['tool']) or '(no axis)'} - tool;  "
@@ -63,7 +69,7 @@ def _print_info(console: Console, info: dict) -> None:
 def _print_summary(console: Console, summary: dict, axes) -> None:
     worst = ", ".join(f"{a}={v:.1f}" for a, v in zip(axes, summary["worst_q"]))
     console.print(
-        f"volumetric error over {summary['points']} workspace points: "
+        f"volumetric error over {summary['points']} workspace points (full grid): "
         f"max {summary['max_position_um']:.2f} um, RMS {summary['rms_position_um']:.2f} um "
         f"(max |dx| {summary['max_abs_um']['x']:.2f}, |dy| {summary['max_abs_um']['y']:.2f}, "
         f"|dz| {summary['max_abs_um']['z']:.2f} um); worst at {worst}; "
@@ -79,23 +85,35 @@ def _print_ranking(console: Console, ranking: dict, title: str) -> None:
     for i, r in enumerate(ranking["ranking"], 1):
         degree = "" if r["contribution_degree"] is None else f"{100 * r['contribution_degree']:.1f} %"
         table.add_row(str(i), r["parameter"], r["axis"], f"{r['max_um']:.2f}", f"{r['rms_um']:.2f}",
-                      f"{100 * r['share']:.1f} %", f"{r['per_unit_rms']:.3f} {r['per_unit']}", degree,
+                      f"{100 * r.get('share_of_all', r['share']):.1f} %", f"{r['per_unit_rms']:.3f} {r['per_unit']}", degree,
                       f"{100 * r['orientation_share']:.1f} %")
     console.print(table)
 
 
-def _print_groups(console: Console, groups: list[dict], header: bool = True) -> None:
+def _print_groups(console: Console, groups: list[dict], header: bool = True, units: dict | None = None) -> None:
+    """Groups of coefficients the data cannot separate; with ``units`` (name -> (SI per
+    unit, unit)) the factors are shown for the coefficients in their spec units."""
     if not groups:
         if header:
             console.print("identifiability at the tool: every coefficient has its own effect")
         return
     if header:
-        console.print("identifiability at the tool (no tool-point measurement separates these):")
+        console.print("identifiability at the tool (no tool-point measurement separates these; "
+                      + ("factors for the coefficients in their spec units, um and arcsec):" if units
+                         else "factors for the coefficients in SI units, m and rad):"))
     for g in groups:
-        pairs = list(zip(g["parameters"], g["factors"]))
+        factors = list(g["factors"])
+        si = ""
+        if units and all(p in units for p in g["parameters"]):
+            # A_dep = sum f_k A_k per SI unit  ->  per display unit: f_k * u_dep / u_k
+            u_dep = units[g["parameters"][0]][0]
+            factors = [f * u_dep / units[p][0] for p, f in zip(g["parameters"], factors)]
+        elif units:
+            si = " (factors in SI units: instrument terms have no spec unit)"
+        pairs = list(zip(g["parameters"], factors))
         parts = escape(", ".join(f"{f:+.3g} {p}" for p, f in pairs[:8]))
         more = f", ... ({len(pairs) - 8} more; --json lists all)" if len(pairs) > 8 else ""
-        console.print(f"  {g['kind']:<11} {parts}{more}")
+        console.print(f"  {g['kind']:<11} {parts}{more}{si}")
 
 
 def _ranking_csv(ranking: dict) -> str:
@@ -137,7 +155,9 @@ def cmd_rank(args) -> int:
         what = "tolerances" if tolerances else "current error values"
         _print_ranking(console, result, f"{machine.name}: tool-point error by {args.by} "
                                         f"({args.points} points, direction {args.direction}, {what})")
-        _print_groups(console, groups)
+        from .identify import parameter_units
+
+        _print_groups(console, groups, units=parameter_units(machine))
     return 0
 
 
@@ -314,7 +334,9 @@ def cmd_identify(args) -> int:
     if args.json:
         print(json.dumps(report))
         return 0
-    _print_identification(_console(), report)
+    from .identify import parameter_units
+
+    _print_identification(_console(), report, parameter_units(machine))
     for note in notes:
         print(f"note: {note}")
     if args.out:
@@ -357,15 +379,16 @@ class _progress:
         return False
 
 
-def _print_identification(console: Console, r: dict) -> None:
+def _print_identification(console: Console, r: dict, units: dict | None = None) -> None:
     console.print(f"[bold]{r['machine']}[/bold]: identification from {len(r['data'])} file(s), "
                   f"{r['n_points']} points, {r['n_observations']} observations")
     console.print(f"identifiability: rank {r['rank']} of {r['n_parameters']} free coefficients; "
                   f"condition number {r['condition_number']:.3g} (column-scaled)")
     if r["unidentifiable"]:
         held = "held at their prior values" if r["convention"] == "prior" else "minimum-norm update"
-        console.print(f"the data cannot determine these ({held}):")
-        _print_groups(console, r["unidentifiable"], header=False)
+        console.print(f"the data cannot determine these ({held}; factors for the coefficients in "
+                      f"{'their spec units' if units else 'SI units'}):")
+        _print_groups(console, r["unidentifiable"], header=False, units=units)
     holdout = (f"{r['rms_holdout_um']:.4g} um held out ({r['holdout']})"
                if r["rms_holdout_um"] is not None else f"no held-out RMS ({r['holdout']})")
     console.print(f"fit: {r['iterations']} Gauss-Newton iteration(s); residual RMS {r['rms_fit_um']:.4g} um "
@@ -599,17 +622,20 @@ def cmd_urdf(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    machine = load_machine(args.machine)
+    machine = load_machine(args.machine, tool_frame=args.tool_frame, workpiece_frame=args.workpiece_frame)
     info = machine_info(machine)
-    summary = error_summary(machine, grid(machine, args.grid))
+    points = grid(machine, args.grid)          # one grid for the summary, field and compensation
+    summary = error_summary(machine, points)
     from .recording import record_field
 
     ranked = rank(machine, sample(machine, 1024))
     ranking = ranked.to_dict(top=args.top)
-    recording = record_field(machine, args.out, ranking=ranked.to_dict(top=15))
+    linear = sum(k == "linear" for k in machine.axis_kinds)
+    recording = record_field(machine, args.out, ranking=ranked.to_dict(top=15),
+                             counts=[args.grid] * linear if linear else None)
     from .compensate import evaluate_compensation
 
-    compensation = evaluate_compensation(machine, grid(machine, 7))
+    compensation = evaluate_compensation(machine, points)
     if args.json:
         print(json.dumps({"machine": info, "summary": summary, "ranking": ranking,
                           "recording": recording, "compensation": compensation}))
@@ -618,13 +644,20 @@ def cmd_demo(args) -> int:
     _print_info(console, info)
     _print_summary(console, summary, machine.axes)
     _print_ranking(console, ranking, f"top {args.top} error sources at the tool "
-                                     "(share of the top listed)")
+                                     f"({ranking['points']} Sobol' points; share of all terms)")
     c = compensation
-    console.print(f"compensation (exact point compensation at {c['points']} grid points): max error "
-                  f"{c['max_before_um']:.2f} -> {c['max_after_um']:.4f} um, RMS {c['rms_before_um']:.2f} -> "
-                  f"{c['rms_after_um']:.4f} um ({c['reduction_percent']:.2f} % reduction"
-                  + (f"; {c['points'] - c['reachable']} points need commands beyond the travel)"
-                     if c["reachable"] < c["points"] else ")"))
+    beyond = (f"{c['points'] - c['reachable']} points need commands beyond the travel"
+              if c["reachable"] < c["points"] else "")
+    if c["max_after_um"] is None:
+        console.print(f"compensation: every one of the {c['points']} grid points needs commands beyond the travel")
+    elif c["reduction_percent"] is None:
+        console.print(f"compensation: nothing to compensate at the {c['points']} grid points (the model's "
+                      "errors are zero there)" + (f"; {beyond}" if beyond else ""))
+    else:
+        console.print(f"compensation (exact point compensation at the same {c['points']} grid points): max error "
+                      f"{c['max_before_um']:.2f} -> {c['max_after_um']:.4f} um, RMS {c['rms_before_um']:.2f} -> "
+                      f"{c['rms_after_um']:.4f} um ({c['reduction_percent']:.2f} % reduction"
+                      + (f"; {beyond})" if beyond else ")"))
     _print_recording(recording)
     return 0
 
@@ -652,6 +685,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("demo", help="the main job on the default machine")
     p.add_argument("--machine", default=DEFAULT_MACHINE, help=f"machine (default {DEFAULT_MACHINE})")
+    p.add_argument("--tool-frame", help="tool frame (bare URDF only)")
+    p.add_argument("--workpiece-frame", help="workpiece frame (bare URDF only)")
     p.add_argument("--grid", type=int, default=11, help="grid points per axis (default 11)")
     p.add_argument("--top", type=int, default=5, help="ranking rows to show (default 5)")
     p.add_argument("--out", default="volerr_demo.rrd",
@@ -725,7 +760,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--target", required=True, help="column to model (e.g. a thermal error)")
     p.add_argument("--sensors", nargs="+", help="columns to use (default: every other column)")
     p.add_argument("--lag", type=int, default=1, help="linear: target lags (0: static model; default 1)")
-    p.add_argument("--method", choices=["linear", "gm11", "gm1n", "vwgm1n"], default="linear")
+    p.add_argument("--method", choices=["linear", "gm11", "gm1n", "vwgm1n"], default="linear",
+                   help="linear: least squares on the sensors (with --lag target lags; default); "
+                        "gm11: grey model GM(1,1) of the target alone; gm1n: GM(1,N) with the sensors; "
+                        "vwgm1n: GM(1,N) with its background weight chosen by one-step error")
     held = p.add_mutually_exclusive_group()
     held.add_argument("--holdout", type=float, default=0.0, help="hold out the last fraction of rows")
     held.add_argument("--test", nargs="+", help="held-out files (fit on DATA, predict these)")

@@ -67,8 +67,8 @@ def log_machine(rec: rr.RecordingStream, machine: Machine, q: np.ndarray,
     by :func:`log_joint_transforms`)."""
     from rerun.urdf import UrdfTree
 
-    with _package_paths(machine.spec.urdf):
-        tree = UrdfTree.from_file_path(machine.spec.urdf, entity_path_prefix=prefix)
+    with _package_paths(machine.spec.urdf), _complete_urdf(machine) as path:
+        tree = UrdfTree.from_file_path(path, entity_path_prefix=prefix)
         tree.log_urdf_to_recording(rec)
     still = [a for a in machine.axes if a not in moving]
     log_joint_transforms(rec, machine, q, prefix, static=True, axes=still, tree=tree)
@@ -80,13 +80,44 @@ def log_joint_transforms(rec, machine: Machine, q: np.ndarray, prefix: str = "ma
     ``{prefix}/transforms/<joint>``."""
     from rerun.urdf import UrdfTree
 
-    tree = tree or UrdfTree.from_file_path(machine.spec.urdf, entity_path_prefix=prefix)
+    if tree is None:
+        with _complete_urdf(machine) as path:
+            tree = UrdfTree.from_file_path(path, entity_path_prefix=prefix)
     for axis, value in zip(machine.spec.axes, q):
         if axes is not None and axis.name not in axes:
             continue
         joint = tree.get_joint_by_name(axis.joint)
         rec.log(f"{prefix}/transforms/{axis.joint}",
                 joint.compute_transform(float(axis.sign * value), clamp=False), static=static)
+
+
+@contextlib.contextmanager
+def _complete_urdf(machine: Machine):
+    """The path of the machine's URDF as Rerun's importer takes it: URDF allows a
+    ``<limit>`` without ``effort`` and ``velocity``, Rerun's importer does not. When they
+    are missing, a copy with them set to 0 and relative mesh paths made absolute is written
+    to a temporary folder for the duration of the block."""
+    path = Path(machine.spec.urdf)
+    document = machine.urdf.document
+    limits = document.getroot().findall("joint/limit")
+    if all(lim.get("effort") is not None and lim.get("velocity") is not None for lim in limits):
+        yield path
+        return
+    import copy
+    import tempfile
+
+    document = copy.deepcopy(document)
+    for lim in document.getroot().findall("joint/limit"):
+        lim.set("effort", lim.get("effort", "0"))
+        lim.set("velocity", lim.get("velocity", "0"))
+    for mesh in document.getroot().iter("mesh"):
+        name = mesh.get("filename", "")
+        if name and "://" not in name and not os.path.isabs(name):
+            mesh.set("filename", str((path.parent / name).resolve()))
+    with tempfile.TemporaryDirectory(prefix="volerr_urdf_") as folder:
+        copy_path = Path(folder) / path.name
+        document.write(str(copy_path), xml_declaration=True, encoding="utf-8")
+        yield copy_path
 
 
 @contextlib.contextmanager
