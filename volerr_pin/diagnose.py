@@ -50,7 +50,7 @@ from .errors import InputError
 from .identify import Observations, _design, build_observations, identify, parameter_units
 from .machine import Machine
 from .spec import build_term, component_name, parse_component_name
-from .specio import add_terms, remove_components, replace_terms, spec_document
+from .specio import add_terms, remove_components, replace_terms, term_tables
 from .terms import Context, Covariates
 
 UM = 1e6
@@ -70,8 +70,8 @@ class Candidate:
     """One thing the model could be missing: where it goes and how it reads.
 
     ``kind`` is "effect" (a catalogue effect), "missing" (a geometric component the spec
-    leaves out) or "raise" (an existing component with one degree more / twice the nodes;
-    ``term_index`` is the raised term, ``change`` says from what to what)."""
+    leaves out) or "raise" (an existing component with ``by`` degrees more / twice the nodes;
+    ``change`` says from what to what)."""
 
     name: str                 # catalogue name
     axis: str | None
@@ -81,7 +81,6 @@ class Candidate:
     driver: str | None = None  # covariate that drives it ("t", "T_spindle", "Fx", "dir_X", "q_X")
     label: str = ""
     kind: str = "effect"
-    term_index: int | None = None
     change: tuple[str, str] | None = None
     by: int = 1
 
@@ -103,10 +102,13 @@ class Step:
     number: int
     rms_holdout_um: float
     candidates: list[dict]
-    accepted: dict | None
     residual: np.ndarray = field(repr=False)            # (rows,) SI, before this round's change
     machine: Machine | None = field(default=None, repr=False)
     accepted_all: list[dict] = field(default_factory=list)
+
+    @property
+    def accepted(self) -> dict | None:
+        return self.accepted_all[0] if self.accepted_all else None
 
 
 @dataclass
@@ -335,11 +337,11 @@ def adequacy_candidates(machine: Machine, own: dict[str, str]) -> list[Candidate
             raised = raised_table(machine, comp.name, by=by)
             if raised is None:
                 continue
-            index, table, change = raised
+            _, table, change = raised
             name = _geometric_name(direction, owner, False, own.get(owner), machine.axis_kinds[j] == "linear")
             out.append(Candidate(name, owner, direction.lower() if direction in "XYZ"
                                  else "xyz"["ABC".index(direction)], comp.name, table, f"q_{owner}",
-                                 kind="raise", term_index=index, change=change, by=by))
+                                 kind="raise", change=change, by=by))
     return out
 
 
@@ -347,16 +349,14 @@ def _apply_raises(machine: Machine, components: list[tuple[str, int]]) -> Machin
     """The machine with these components' geometric terms raised, each starting from its
     present function (an exact reproduction for tables and polynomials alike)."""
     theta = dict(zip(machine.parameter_names, machine.theta))
-    errors = spec_document(machine)["errors"]
+    present = term_tables(machine)
     tables = {}
     for component, by in components:
         index, tspec = _geometric_term(machine, component)
         values = np.array([theta[n] for n in tspec.names(component)])
         _, table, _ = raised_table(machine, component, values, by)
-        present = errors[component]
-        terms = list(present["terms"]) if "terms" in present else [present]
-        terms[index] = table
-        tables[component] = terms if len(terms) > 1 else terms[0]
+        tables[component] = present[component]
+        tables[component][index] = table
     return replace_terms(machine, tables)
 
 
@@ -368,10 +368,8 @@ def _remove_effect(machine: Machine, effect: dict) -> Machine:
     keep = [i for i, t in enumerate(comp.terms) if not names & set(t.names(component))]
     if not keep:
         return remove_components(machine, [component])
-    present = spec_document(machine)["errors"][component]
-    tables = list(present["terms"]) if "terms" in present else [present]
-    tables = [tables[i] for i in keep]
-    return replace_terms(machine, {component: tables if len(tables) > 1 else tables[0]})
+    tables = term_tables(machine)[component]
+    return replace_terms(machine, {component: [tables[i] for i in keep]})
 
 
 # ----------------------------------------------------------------------------- scoring
@@ -744,7 +742,7 @@ def _trim_raises(machine: Machine, fit, base: Machine, components) -> Machine | 
     if fit is None:
         return None
     tables = {}
-    errors = None
+    present = None
     for component in sorted(components):
         index, tspec = _geometric_term(machine, component)
         if tspec.term.kind not in ("legendre", "monomial"):
@@ -760,12 +758,11 @@ def _trim_raises(machine: Machine, fit, base: Machine, components) -> Machine | 
         keep = max([start] + [d for d in range(start + 1, len(names)) if z[d] >= SIGNIFICANCE])
         if keep >= tspec.term.degree:
             continue
-        errors = errors or spec_document(machine)["errors"]
-        present = errors[component]
-        terms = list(present["terms"]) if "terms" in present else [present]
+        present = present or term_tables(machine)
+        terms = present[component]
         key = f"coefficients_{tspec.term.unit}"
         terms[index] = dict(terms[index], **{key: list(terms[index][key])[:keep + 1]})
-        tables[component] = terms if len(terms) > 1 else terms[0]
+        tables[component] = terms
     return replace_terms(machine, tables) if tables else None
 
 
@@ -922,8 +919,8 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
                 new, records = _apply(current, batch)
                 names = free_names + [n for r in records for n in r["_names"] if n not in free_names]
                 new_fit, new_fitted, new_nuisance, res = fit(new, names)
-                sizes = [_size(res, _tested_names(new_fit, r)) if res is not None and _tested_names(new_fit, r)
-                         else math.inf for r in records]
+                tested = [_tested_names(new_fit, r) for r in records]
+                sizes = [_size(res, t) if res is not None and t else math.inf for t in tested]
                 keep = [s for s, z in zip(batch, sizes) if z >= SIGNIFICANCE]
                 if len(keep) == len(batch) or not keep:
                     break
@@ -931,16 +928,15 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
             if len(keep) != len(batch) or not keep:
                 continue
             for record, z in zip(records, sizes):
-                record.update(rms_before_um=base_cv, max_before_um=proj.cv_max, _step=number,
-                              _residual_before=base.r * obs.sigma)
+                record.update(rms_before_um=base_cv, max_before_um=proj.cv_max, _step=number)
                 if np.isfinite(z):
                     record["significance"] = z
             accepted = records
             free_names = names
             current, fitted, nuisance, last_fit = new_fit, new_fitted, new_nuisance, res
             break
-        steps.append(Step(number, base_cv, table, accepted[0] if accepted else None, base.r * obs.sigma,
-                          current if keep_machines else None, accepted))
+        steps.append(Step(number, base_cv, table, base.r * obs.sigma, current if keep_machines else None,
+                          accepted))
         if not accepted:
             break
         for record in accepted:

@@ -97,19 +97,16 @@ def _complete_urdf(machine: Machine):
     ``<limit>`` without ``effort`` and ``velocity``, Rerun's importer does not. When they
     are missing, a copy with them set to 0 and relative mesh paths made absolute is written
     to a temporary folder for the duration of the block."""
-    path = Path(machine.spec.urdf)
-    document = machine.urdf.document
-    limits = document.getroot().findall("joint/limit")
-    if all(lim.get("effort") is not None and lim.get("velocity") is not None for lim in limits):
-        yield path
-        return
     import copy
     import tempfile
 
-    document = copy.deepcopy(document)
-    for lim in document.getroot().findall("joint/limit"):
-        lim.set("effort", lim.get("effort", "0"))
-        lim.set("velocity", lim.get("velocity", "0"))
+    from .urdf import complete_limits
+
+    path = Path(machine.spec.urdf)
+    document = copy.deepcopy(machine.urdf.document)
+    if not complete_limits(document.getroot()):
+        yield path
+        return
     for mesh in document.getroot().iter("mesh"):
         name = mesh.get("filename", "")
         if name and "://" not in name and not os.path.isabs(name):

@@ -49,7 +49,8 @@ def replace_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Mac
     return fresh.with_theta(theta)
 
 
-__all__ = ["add_terms", "legendre_terms", "remove_components", "replace_terms", "spec_document", "write_spec"]
+__all__ = ["add_terms", "legendre_terms", "remove_components", "replace_terms", "spec_document",
+           "term_tables", "write_spec"]
 
 
 def remove_components(machine: Machine, names) -> Machine:
@@ -69,16 +70,19 @@ def add_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Machine
     """A new machine with extra terms: ``tables`` maps a component name to one term table
     or a list of them (spec TOML form), added to that component's present terms (a new
     component if it has none). Every coefficient keeps its present value."""
-    current = spec_document(machine)["errors"]
+    current = term_tables(machine)
     merged = {}
     for name, extra in tables.items():
         extra = [extra] if isinstance(extra, dict) else list(extra)
-        present = current.get(name)
-        if present is None:
-            merged[name] = extra
-        else:
-            merged[name] = (present["terms"] if "terms" in present else [present]) + extra
+        merged[name] = current.get(name, []) + extra
     return replace_terms(machine, merged)
+
+
+def term_tables(machine: Machine) -> dict[str, list[dict]]:
+    """Component name -> the list of its term tables (spec TOML form, current values), as
+    :func:`replace_terms` and :func:`add_terms` take them."""
+    return {name: list(t["terms"]) if "terms" in t else [t]
+            for name, t in spec_document(machine)["errors"].items()}
 
 
 def legendre_terms(machine: Machine, components, degree: int, start: int = 0) -> dict:

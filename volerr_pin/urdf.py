@@ -249,16 +249,25 @@ class Site:
     names: tuple[str, ...]
 
 
+def complete_limits(robot: etree._Element) -> bool:
+    """Give every joint ``<limit>`` an ``effort`` and a ``velocity`` (0 where missing): URDF
+    allows leaving them out, Pinocchio's and Rerun's importers do not. True if any was
+    missing."""
+    missing = False
+    for limit in robot.findall("joint/limit"):
+        for key in ("effort", "velocity"):
+            if limit.get(key) is None:
+                limit.set(key, "0")
+                missing = True
+    return missing
+
+
 def inject(urdf: URDF, sites: list[Site]) -> URDF:
     """Return a new URDF with the error-joint groups of ``sites`` inserted."""
     document = copy.deepcopy(urdf.document)
     robot = document.getroot()
     elements = {j.get("name"): j for j in robot.findall("joint")}
-    for joint in robot.findall("joint"):  # Pinocchio needs effort and velocity on every limit
-        limit = joint.find("limit")
-        if limit is not None:
-            limit.set("effort", limit.get("effort", "0"))
-            limit.set("velocity", limit.get("velocity", "0"))
+    complete_limits(robot)  # Pinocchio needs effort and velocity on every limit
     for site in sites:
         element = elements[site.joint]
         ref = site.reference
