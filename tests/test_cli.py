@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pinocchio as pin
 import pytest
 
@@ -175,3 +176,49 @@ def test_with_state_fills_missing_covariates_only():
     assert m.state == {} and warm.state["t"] == 7200.0
     with pytest.raises(vp.InputError, match="forces"):
         m.with_state(forces=[1.0, 2.0])
+
+
+def test_info_and_demo_of_a_time_dependent_spec(tmp_path, capsys):
+    m, spec = _thermal_spec(tmp_path)
+    # info shows the geometry without a state and says so; with a state, all terms
+    assert main(["info", str(spec), "--json"]) == 0
+    cold = json.loads(capsys.readouterr().out)
+    assert cold["ranges_of"].startswith("terms that read no covariates (t not given")
+    assert main(["info", str(spec), "--state", "t=36000", "--json"]) == 0
+    warm = json.loads(capsys.readouterr().out)
+    assert warm["ranges_of"] == "all terms"
+    ezz = {c["name"]: c for c in cold["components"]}["EZZ"], {c["name"]: c for c in warm["components"]}["EZZ"]
+    assert ezz[1]["max"] - ezz[0]["max"] == pytest.approx(6.0 * (1 - np.exp(-600 / 50)), abs=1e-6)
+    assert main(["demo", "--machine", str(spec), "--out", str(tmp_path / "d.rrd")]) == 2
+    assert "hold the machine in a state" in capsys.readouterr().err
+    assert main(["demo", "--machine", str(spec), "--state", "t=3600", "--grid", "3",
+                 "--out", str(tmp_path / "d.rrd"), "--json"]) == 0
+
+
+def test_covariates_in_some_files_only(tmp_path, capsys):
+    """A tracker file with times and temperatures beside an interferometer run without them:
+    a geometric model does not read them (a note), a model that does needs them everywhere."""
+    import volerr_pin as vp
+    from volerr_pin.simulate import campaign, write_points
+
+    m = vp.load_machine("vmc500")
+    points = tmp_path / "points.csv"
+    write_points(campaign(m, 60, 0.3, seed=3), m, points)
+    run = tmp_path / "run.csv"
+    run.write_text("# axis: X\ntarget_mm,cycle,direction,deviation_um\n"
+                   + "".join(f"{x},1,1,{0.01 * x:.3f}\n" for x in range(0, 501, 50)))
+    assert main(["identify", "vmc500", str(points), str(run), "--folds", "0", "--json"]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["n_points"] == 71
+    assert "note: covariate 't' is in some measurement files but not in others" in captured.err
+    _, spec = _thermal_spec(tmp_path)
+    assert main(["identify", str(spec), str(points), str(run), "--folds", "0"]) == 2
+    assert "covariate 't' is in some measurement files but not in others" in capsys.readouterr().err
+
+
+def test_json_reports_are_strict_json():
+    """Non-finite numbers become null: a NaN token would break strict JSON readers."""
+    from volerr_pin.cli import _dumps
+
+    text = _dumps({"a": float("nan"), "b": [1.0, float("inf")], "c": np.float64(2.5), "d": np.int64(3)})
+    assert json.loads(text) == {"a": None, "b": [1.0, None], "c": 2.5, "d": 3}

@@ -180,7 +180,11 @@ def test_rank_cli_json_follows_the_contract(capsys):
 def test_rank_cli_csv_and_table(capsys):
     assert main(["rank", "vmc700", "--csv", "--points", "128", "--top", "3"]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
-    assert lines[0].startswith("parameter,term,axis,max_um,rms_um,share") and len(lines) == 4
+    assert lines[0].startswith("parameter,term,axis,max_um,rms_um,share_of_all,share") and len(lines) == 4
+    # share_of_all is of the whole, whatever --top shows; share is renormalised over the rows listed
+    rows = [dict(zip(lines[0].split(","), line.split(","))) for line in lines[1:]]
+    assert sum(float(r["share"]) for r in rows) == pytest.approx(1.0)
+    assert sum(float(r["share_of_all"]) for r in rows) < 0.999
     assert main(["rank", "cgm4000", "--points", "128", "--top", "5", "--direction", "z"]) == 0
     out = capsys.readouterr().out
     assert "direction z" in out and "identifiability" in out

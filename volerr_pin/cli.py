@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
+import warnings
 from pathlib import Path
 
+import numpy as np
 from rich import box
 from rich.console import Console
 from rich.markup import escape
@@ -28,6 +31,24 @@ from .ranking import rank, read_tolerances, tool_identifiability
 from .workspace import error_summary, grid, sample
 
 DEFAULT_MACHINE = "vmc500"
+
+
+def _finite(value):
+    """JSON has no NaN or infinity: non-finite numbers become null (numpy values plain)."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _dumps(value, **kwargs) -> str:
+    """Strict JSON (no NaN / Infinity tokens) of a report."""
+    return json.dumps(_finite(value), allow_nan=False, **kwargs)
 
 
 def _console() -> Console:
@@ -62,6 +83,8 @@ def _print_info(console: Console, info: dict) -> None:
         terms.add_row(c["name"], c["owner"], "+".join(c["kinds"]),
                       f"{c['min']:+.2f} .. {c['max']:+.2f} {c['unit']}", str(len(c["parameters"])))
     console.print(terms)
+    if info["ranges_of"] != "all terms":
+        console.print(escape(f"ranges over travel: of the {info['ranges_of']}"))
     by_kind = ", ".join(f"{k}: {len(v)}" for k, v in info["terms_by_kind"].items())
     console.print(f"terms by kind: {by_kind}")
 
@@ -121,7 +144,7 @@ def _ranking_csv(ranking: dict) -> str:
     import io
 
     buffer = io.StringIO()
-    fields = ["parameter", "term", "axis", "max_um", "rms_um", "share", "per_unit_max",
+    fields = ["parameter", "term", "axis", "max_um", "rms_um", "share_of_all", "share", "per_unit_max",
               "per_unit_rms", "per_unit", "contribution_degree", "orientation_max_arcsec",
               "orientation_share"]
     writer = csv.DictWriter(buffer, fieldnames=fields, extrasaction="ignore", lineterminator="\n")
@@ -147,7 +170,7 @@ def cmd_rank(args) -> int:
         print(f"wrote {args.png}", file=sys.stderr)
     if args.json:
         result["identifiability"] = groups
-        print(json.dumps(result))
+        print(_dumps(result))
     elif args.csv:
         sys.stdout.write(_ranking_csv(result))
     else:
@@ -239,7 +262,7 @@ def cmd_field(args) -> int:
         field_slice_png(machine, args.png, config)
         summary["png"] = args.png
     if args.json:
-        print(json.dumps(summary))
+        print(_dumps(summary))
     else:
         _print_recording(summary)
         if args.png:
@@ -281,7 +304,7 @@ def cmd_iso230(args) -> int:
 
         iso230_png(result, args.plot, title=f"ISO 230-2: {Path(args.runs).name}")
     if args.json:
-        print(json.dumps({k: v for k, v in result.items() if k != "source"} | {"source": result["source"]}))
+        print(_dumps({k: v for k, v in result.items() if k != "source"} | {"source": result["source"]}))
     else:
         _print_iso(_console(), result)
         if args.plot:
@@ -332,7 +355,7 @@ def cmd_identify(args) -> int:
             "held_at_prior": [result.machine.parameter_names[k] for k in result.held]})
         report["out"] = str(args.out)
     if args.json:
-        print(json.dumps(report))
+        print(_dumps(report))
         return 0
     from .identify import parameter_units
 
@@ -419,7 +442,7 @@ def cmd_thermal_fit(args) -> int:
 
         thermal_fit_png(result, data if test is None else None, args.plot)
     if args.json:
-        print(json.dumps({k: v for k, v in result.items() if k not in ("fitted", "predicted_holdout")}))
+        print(_dumps({k: v for k, v in result.items() if k not in ("fitted", "predicted_holdout")}))
         return 0
     console = _console()
     lag = f", lag {result['lag']}" if result["lag"] is not None else ""
@@ -473,17 +496,21 @@ def cmd_diagnose(args) -> int:
         diagnosis_png(result, args.png)
         report["png"] = args.png
     if args.json:
-        print(json.dumps(report))
+        print(_dumps(report))
         return 0
     out = _console()
     out.print(f"[bold]{escape(result.machine.name)}[/bold]: {result.observations.n_points} points; held-out "
               f"RMS {result.rms_before_um:.3f} um before, {result.rms_after_um:.3f} um after "
               f"({len(result.effects)} effect(s) added, {len(result.under_modelled)} component(s) raised)")
     table = Table(box=box.SIMPLE, title="effects found, in order")
-    for col in ("#", "effect", "axis", "direction", "driver", "held-out RMS before -> after [um]", "p-value"):
+    for col in ("#", "effect", "axis", "direction", "driver", "modelled as", "held-out RMS before -> after [um]",
+                "p-value"):
         table.add_column(col)
     for i, e in enumerate(result.effects, 1):
+        twins = e.get("same_at_tool_as") or []
+        site = e["component"] + (f" (the same at the tool as {', '.join(twins)})" if twins else "")
         table.add_row(str(i), e["name"], e["axis"] or "-", e["direction"] or "-", escape(e["driver"] or "-"),
+                      escape(site),
                       f"{e['rms_before_um']:.3f} -> {e['rms_after_um']:.3f}", f"{e['p_value']:.2g}")
     out.print(table)
     for e in result.effects:
@@ -533,13 +560,13 @@ def cmd_compensate(args) -> int:
     Path(args.output).write_text(result, encoding="utf-8", newline="")
     report = {"machine": machine.name, "input": str(path), "output": str(args.output), **program.report.to_dict()}
     if args.report:
-        Path(args.report).write_text(json.dumps(report, indent=2) + "\n")
+        Path(args.report).write_text(_dumps(report, indent=2) + "\n")
     if args.png:
         from .plots import compensation_png
 
         report["png"] = compensation_png(program.report, args.png, title=f"{machine.name}: {path.name}")["path"]
     if args.json:
-        print(json.dumps(report))
+        print(_dumps(report))
         return 0
     r = program.report
     print(f"{path} -> {args.output}: {r.blocks_in} blocks in, {r.blocks_out} out; {r.moves} moves in "
@@ -575,7 +602,7 @@ def cmd_errormap(args) -> int:
     if args.axis_tables:
         report["axis_tables"] = axis_tables(machine, args.axis_tables)
     if args.json:
-        print(json.dumps(report))
+        print(_dumps(report))
         return 0
     console = _console()
     table = Table(box=box.SIMPLE, title=f"{machine.name}: error map interpolation vs the direct model "
@@ -600,9 +627,9 @@ def cmd_errormap(args) -> int:
 def cmd_info(args) -> int:
     machine = load_machine(args.machine, tool_frame=args.tool_frame,
                            workpiece_frame=args.workpiece_frame)
-    info = machine_info(machine)
+    info = machine_info(_with_state(machine, args.state))
     if args.json:
-        print(json.dumps(info))
+        print(_dumps(info))
     else:
         _print_info(_console(), info)
     return 0
@@ -623,6 +650,7 @@ def cmd_urdf(args) -> int:
 
 def cmd_demo(args) -> int:
     machine = load_machine(args.machine, tool_frame=args.tool_frame, workpiece_frame=args.workpiece_frame)
+    machine = _with_state(machine, args.state)
     info = machine_info(machine)
     points = grid(machine, args.grid)          # one grid for the summary, field and compensation
     summary = error_summary(machine, points)
@@ -637,7 +665,7 @@ def cmd_demo(args) -> int:
 
     compensation = evaluate_compensation(machine, points)
     if args.json:
-        print(json.dumps({"machine": info, "summary": summary, "ranking": ranking,
+        print(_dumps({"machine": info, "summary": summary, "ranking": ranking,
                           "recording": recording, "compensation": compensation}))
         return 0
     console = _console()
@@ -692,6 +720,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="volerr_demo.rrd",
                    help="Rerun recording to write (default volerr_demo.rrd)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    _state_arg(p)
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser("field", help="Rerun recording of the error field")
@@ -828,6 +857,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("info", help="axes, chains, error terms by kind, travels")
     _machine_args(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    _state_arg(p)
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("urdf", help="the URDF with error joints injected")
@@ -837,11 +867,18 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _note(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"volerr: note: {message}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            # the library's warnings are notes for the user: one line each, no source location
+            warnings.showwarning = _note
+            return args.func(args)
     except VolerrError as err:
         print(f"volerr: error: {err}", file=sys.stderr)
         return 2

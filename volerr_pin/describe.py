@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from .errors import InputError
 from .machine import Machine
 
 UM_PER_M = 1e6
@@ -47,7 +48,13 @@ def machine_info(machine: Machine) -> dict:
         q = np.tile(travel.mean(axis=1), (201, 1))
         q[:, j] = np.linspace(travel[j, 0], travel[j, 1], 201)
         sweeps.append(q)
-    values = machine.component_values(np.vstack(sweeps))
+    try:
+        values = machine.component_values(np.vstack(sweeps))
+        ranges_of = "all terms"
+    except InputError:  # time-, temperature-, force- or direction-dependent terms and no state
+        values = machine.component_values(np.vstack(sweeps), without_covariates=True)
+        ranges_of = ("terms that read no covariates (" + ", ".join(sorted(machine.covariates_used))
+                     + " not given: hold the machine in a state to include the rest)")
     components = []
     for k, name in enumerate(machine.components):
         angular = name[1] in "ABC"
@@ -75,6 +82,7 @@ def machine_info(machine: Machine) -> dict:
         "chains": {k: list(v) for k, v in chains.items()},
         "terms_by_kind": by_kind,
         "components": components,
+        "ranges_of": ranges_of,
         "n_error_joints": len(machine.error_joints),
         "n_parameters": len(machine.parameter_names),
     }

@@ -795,7 +795,7 @@ def _apply(machine: Machine, batch: list[dict]) -> tuple[Machine, list[dict]]:
     for score in batch:
         cand = score["_candidate"]
         records.append({"label": cand.label, "name": cand.name, "component": cand.component,
-                        "direction": cand.direction, "driver": cand.driver,
+                        "same_at_tool_as": [], "direction": cand.direction, "driver": cand.driver,
                         "p_value": score["p_value"], "bic_gain": score["bic_gain"]})
     raises = [(s["_candidate"].component, s["_candidate"].by) for s in batch if s["_candidate"].kind == "raise"]
     if raises:
@@ -1011,6 +1011,7 @@ def twins_of(accepted: list[dict], passing: list[dict], machine: Machine) -> Non
             record["label"] = (f"{cand.name} in {cand.direction}{by} (as {cand.component}; the same at the tool "
                                f"through {', '.join(t.component for t in twins)})")
             record["axis"] = None
+            record["same_at_tool_as"] = [t.component for t in twins]
 
 
 def driver_values(diagnosis: Diagnosis, driver: str | None) -> tuple[np.ndarray, str] | None:

@@ -50,10 +50,13 @@ def _time_scale(unit: str, where: str) -> float:
     return TIME[unit]
 
 
+STATE_HINT = "; give it with the points, or hold the machine in a state (--state, Machine.with_state)"
+
+
 def _need_t(ctx: Context, kind: str) -> np.ndarray:
     t = ctx.covariates.t
     if t is None:
-        raise InputError(f"{ctx.component}: its {kind} term needs the covariate t (time, s)")
+        raise InputError(f"{ctx.component}: its {kind} term needs the covariate t (time, s){STATE_HINT}")
     return t
 
 
@@ -63,7 +66,7 @@ def _need_temperature(ctx: Context, sensor: str, lag: float = 0.0) -> np.ndarray
     if key not in temps:
         known = ", ".join(k for k in temps if "@" not in k) or "none"
         raise InputError(f"{ctx.component}: this term needs the temperature of sensor '{sensor}' "
-                         f"(given: {known})")
+                         f"(given: {known}){STATE_HINT}")
     return temps[key]
 
 
@@ -125,6 +128,7 @@ class DriftTime(Term):
     stop: float | None
     time_unit: str
     kind = "thermal_drift"
+    covariates = ("t",)
     needs_position = False
 
     @property
@@ -172,6 +176,7 @@ class DriftTemperature(Term):
     reference: tuple[float, ...]
     lag: float
     kind = "thermal_drift"
+    covariates = ("temperatures",)
     needs_position = False
 
     @property
@@ -206,6 +211,7 @@ class ExpansionTemperature(Term):
     reference: float
     origin: float
     kind = "thermal_expansion"
+    covariates = ("temperatures",)
 
     local_names = ("alpha",)
 
@@ -239,6 +245,7 @@ class ExpansionTime(Term):
     origin: float
     time_unit: str
     kind = "thermal_expansion"
+    covariates = ("t",)
 
     @property
     def local_names(self):  # type: ignore[override]
@@ -288,6 +295,7 @@ class Backlash(Term):
     unit: str
     unit_scale: float
     kind = "backlash"
+    covariates = ("directions",)
     local_names = ("b",)
 
     def _direction(self, ctx):
@@ -315,6 +323,7 @@ class ForceDeflection(Term):
     travel: tuple[float, float] | None
     model: dict | None = None
     kind = "force_deflection"
+    covariates = ("forces",)
 
     @property
     def local_names(self):  # type: ignore[override]
@@ -327,7 +336,7 @@ class ForceDeflection(Term):
     def _force(self, ctx):
         F = ctx.covariates.forces
         if F is None:
-            raise InputError(f"{ctx.component}: this term needs the covariate forces (N, 3) [N]")
+            raise InputError(f"{ctx.component}: this term needs the covariate forces (N, 3) [N]{STATE_HINT}")
         return F[:, self.force]
 
     def _basis(self, ctx):

@@ -14,6 +14,7 @@ held-out RMS from k-fold cross-validation over points.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -182,8 +183,9 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
 
 
 def _merge_covariates(parts: list[dict], sizes: list[int], machine: Machine) -> dict:
-    """Stack per-file covariates; a covariate must be in every file or in none (directions
-    default to +1 where a file does not give them)."""
+    """Stack per-file covariates; a covariate the model reads must be in every file or in none
+    (directions default to +1 where a file does not give them); one it does not read and only
+    some files give is left out with a warning."""
     keys = set().union(*[p.keys() for p in parts]) if parts else set()
     merged: dict = {}
     for key in keys:
@@ -193,7 +195,13 @@ def _merge_covariates(parts: list[dict], sizes: list[int], machine: Machine) -> 
             continue
         missing = [i for i, p in enumerate(parts) if key not in p]
         if missing:
-            raise InputError(f"covariate '{key}' is in some measurement files but not in others")
+            if key in machine.covariates_used:
+                raise InputError(f"covariate '{key}' is in some measurement files but not in others "
+                                 f"(missing from {len(missing)} of {len(parts)}); the model of "
+                                 f"{machine.name} needs it at every point")
+            warnings.warn(f"covariate '{key}' is in some measurement files but not in others; "
+                          f"{machine.name}'s model does not read it, so it is not used", stacklevel=4)
+            continue
         if key == "temperatures":
             sensors = set(parts[0][key])
             if any(set(p[key]) != sensors for p in parts):
@@ -206,7 +214,7 @@ def _merge_covariates(parts: list[dict], sizes: list[int], machine: Machine) -> 
 
 @dataclass
 class Identification:
-    """Result of :func:`identify`; :meth:`to_dict` gives the CONTRACT fields."""
+    """Result of :func:`identify`; :meth:`to_dict` gives the JSON report (docs/reports.md)."""
 
     machine: Machine                  # with the fitted coefficients
     prior: Machine
@@ -242,7 +250,7 @@ class Identification:
                 "unit": unit, "status": status}
         return {
             "machine": m.name, "n_points": self.n_points, "n_observations": self.n_observations,
-            "rank": int(len(self.fitted)), "n_parameters": int(len(self.free)),
+            "rank": sum(c >= len(self.nuisance) for c in self.analysis.kept), "n_parameters": int(len(self.free)),
             "condition_number": self.analysis.condition,
             "unidentifiable": [g.to_dict() for g in self.groups],
             "convention": self.convention,

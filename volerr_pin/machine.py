@@ -313,6 +313,13 @@ class Machine:
                     return tspec.term.search_grid(local, theta[span], cov)
         raise InputError(f"no coefficient with index {index}")
 
+    @property
+    def covariates_used(self) -> frozenset[str]:
+        """The covariates the model reads (``t``, ``temperatures``, ``forces``,
+        ``directions``); a purely geometric machine reads none."""
+        used = {c for comp in self._components for tspec, _ in comp.terms for c in tspec.term.covariates}
+        return frozenset(used | ({"t"} if self._lags else set()))
+
     def term_spans(self) -> list[slice]:
         """The slice of ``theta`` of every term, in order."""
         return [span for comp in self._components for _, span in comp.terms]
@@ -366,7 +373,7 @@ class Machine:
         return q
 
     def check_covariates(self, n: int, covariates: Mapping) -> Covariates:
-        """Check keyword covariates (see CONTRACT: t, temperatures, forces, directions)."""
+        """Check keyword covariates (t, temperatures, forces, directions; see :meth:`volumetric_error`)."""
         known = {"t", "temperatures", "forces", "directions"}
         covariates = self._with_state_defaults(n, covariates)
         unknown = sorted(set(covariates) - known)
@@ -428,22 +435,29 @@ class Machine:
             values[comp.column] += comp.chain_sign * components[k]
         return values
 
-    def _component_values(self, q: np.ndarray, theta: np.ndarray, cov: Covariates) -> np.ndarray:
+    def _component_values(self, q: np.ndarray, theta: np.ndarray, cov: Covariates,
+                          without_covariates: bool = False) -> np.ndarray:
         """(n_components, N) component error values, SI."""
         out = np.zeros((len(self._components), q.shape[0]))
         for k, comp in enumerate(self._components):
             ctx = self._context(comp, q, cov)
             for tspec, span in comp.terms:
+                if without_covariates and tspec.term.covariates:
+                    continue
                 out[k] += tspec.term.value(theta[span], ctx)
         return out
 
-    def component_values(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
+    def component_values(self, q, theta=None, *, extrapolate: bool = False, without_covariates: bool = False,
+                         **covariates) -> np.ndarray:
         """(N, n_components) values of the component errors (order of :attr:`components`),
-        SI (m or rad), as motions of the tool relative to the workpiece."""
+        SI (m or rad), as motions of the tool relative to the workpiece.
+
+        ``without_covariates``: leave out the terms that read covariates (time, temperature,
+        force, direction), e.g. to show the geometry of a machine that has no state."""
         q = self.check_q(q, extrapolate)
         theta = self._check_theta(theta)
-        cov = self.check_covariates(q.shape[0], covariates)
-        return self._component_values(q, theta, cov).T
+        cov = self.check_covariates(q.shape[0], {} if without_covariates else covariates)
+        return self._component_values(q, theta, cov, without_covariates).T
 
     def volumetric_error(self, q, theta=None, *, order: int | None = None,
                          extrapolate: bool = False, **covariates) -> np.ndarray:

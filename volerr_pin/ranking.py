@@ -40,7 +40,7 @@ class Ranking:
     rows: list[dict] = field(default_factory=list)
 
     def to_dict(self, top: int | None = None) -> dict:
-        """CONTRACT fields; ``share`` is renormalised over the rows listed, ``share_of_all``
+        """The JSON report fields (docs/reports.md); ``share`` is renormalised over the rows listed, ``share_of_all``
         is over every term."""
         rows = [dict(r) for r in (self.rows[:top] if top else self.rows)]
         total = sum(r["ms"] for r in rows)

@@ -41,7 +41,8 @@ def campaign(truth: Machine, n: int = 400, noise_um: float = 0.3, seed: int = 0,
 
 
 def write_points(data: PointMeasurements, machine: Machine, path) -> None:
-    """Write point measurements in the CONTRACT format (mm / deg, um, covariate columns)."""
+    """Write point measurements in the format :func:`~volerr_pin.measurements.read_points` reads
+    (mm / deg, um, covariate columns)."""
     cols = [a.lower() for a in machine.axes]
     factors = [1e3 if k == "linear" else 180.0 / np.pi for k in machine.axis_kinds]
     measured = [k for k in range(6) if not np.all(np.isnan(data.values[:, k]))]

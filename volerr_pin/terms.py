@@ -81,6 +81,7 @@ class Term:
     local_names: tuple[str, ...] = ()
     nonlinear: tuple[str, ...] = ()   # coefficients the value is not linear in
     needs_position: bool = True
+    covariates: tuple[str, ...] = ()  # the covariates its value reads (t, temperatures, ...)
 
     @property
     def size(self) -> int:

@@ -93,7 +93,7 @@ def _stats(y, yhat, p):
 
 def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, method: str = "linear",
                 holdout: float = 0.0, test: SeriesData | None = None, rank_top: int = 5) -> dict:
-    """Fit a thermal model; returns the CONTRACT fields plus ``coefficients``, ``sensor_ranking``
+    """Fit a thermal model; returns the report fields (docs/reports.md) plus ``coefficients``, ``sensor_ranking``
     and the predictions (``fitted``, ``predicted_holdout``)."""
     if target not in data.columns:
         raise InputError(f"--target: no column '{target}' (columns: {', '.join(data.columns)})")
