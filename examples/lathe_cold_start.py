@@ -52,6 +52,7 @@ def cold_start_machine() -> vp.Machine:
 
 
 def main(out: Path) -> dict:
+    out.parent.mkdir(parents=True, exist_ok=True)
     machine = cold_start_machine()
     t = np.arange(0.0, HOURS * 3600.0 + 1.0, 60.0)               # one sample a minute
     q_ref = np.tile(np.array(REFERENCE_MM) * 1e-3, (len(t), 1))

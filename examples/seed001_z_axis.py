@@ -48,6 +48,7 @@ def residual_um(machine: vp.Machine, runs: Runs, offset_um: float) -> np.ndarray
 
 
 def main(out_dir: Path) -> dict:
+    out_dir.mkdir(parents=True, exist_ok=True)
     before = read_runs(DATA / "seed001_table1_before.csv")
     after = read_runs(DATA / "seed001_table1_after.csv")
     iso = evaluate_runs(before)
