@@ -56,7 +56,7 @@ def runnable() -> list:
     params = []
     for line, lang, body in blocks():
         if lang == "sh" or lang == "python" or (lang == "text" and body.startswith("$ ")):
-            params.append(pytest.param(lang, body, id=f"README.md:{line}:{lang}"))
+            params.append(pytest.param(lang, body, line, id=f"README.md:{line}:{lang}"))
     return params
 
 
@@ -90,14 +90,14 @@ def test_commands_parsing():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("lang, body", runnable())
-def test_readme_block(lang, body, scratch, monkeypatch):
+@pytest.mark.parametrize("lang, body, line", runnable())
+def test_readme_block(lang, body, line, scratch, monkeypatch):
     if lang == "sh":
         for command in commands(body):
             run(command, scratch)
     elif lang == "python":
         monkeypatch.chdir(scratch["dir"])
-        exec(compile(body, str(README), "exec"), scratch["namespace"])
+        exec(compile("\n" * line + body, str(README), "exec"), scratch["namespace"])  # README's line numbers
     else:
         first, *quoted = body.splitlines()
         actual = [_flat(x) for x in run(first[2:], scratch).splitlines()]
