@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from volerr_pin.cli import main
-from volerr_pin.iso230 import evaluate
+from volerr_pin.iso230 import evaluate, evaluate_runs
+from volerr_pin.measurements import read_runs
 
 R2 = math.sqrt(2.0)
 
@@ -158,5 +159,13 @@ def test_real_runs_agree_with_an_independent_evaluation():
         ref = _independent(tt, dd, xx)
         for key in ("E", "B", "R", "M", "A"):
             assert ours[key] == pytest.approx(ref[key], rel=1e-12), key
+    # the product reads both files as supplied (wide cycles table; KEY=VALUE .dat), giving
+    # the same evaluation as the conversion written out above
+    for name, (tt, dd, xx) in (("psi_fat_sat.csv", (t, d, x)), ("ess_muts_x.dat", (t2, d2, x2))):
+        native = evaluate_runs(read_runs(REAL / "iso230_2_runs" / name))
+        ref = evaluate(tt, dd, xx)
+        assert native["unit"] == "um" and native["target_unit"] == "mm"
+        for key in ("E", "B", "R", "M", "A", "E_up", "R_down", "B_mean"):
+            assert native[key] == pytest.approx(ref[key], rel=1e-12, abs=1e-12), (name, key)
         assert ours["E"] >= max(ours["E_up"], ours["E_down"])
         assert ours["R"] >= max(ours["R_up"], ours["R_down"])

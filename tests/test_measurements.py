@@ -97,3 +97,99 @@ def test_read_any_tells_kinds_apart(tmp_path, machines):
     assert runs.target_unit == "deg"
     with pytest.raises(MeasurementError, match="cannot read"):
         read_any(tmp_path / "missing.csv", machines["vmc500"])
+
+
+# ---------------------------------------------------------------- instrument layouts of runs
+
+def _long_equivalent(tmp_path, rows, unit="um"):
+    """The same run written in the long layout, read back: the reference for the others."""
+    path = tmp_path / "long.csv"
+    path.write_text(f"target_mm,cycle,direction,deviation_{unit}\n"
+                    + "".join(f"{t},{c},{d},{v!r}\n" for t, c, d, v in rows))
+    return read_runs(path)
+
+
+def _same_run(a, b):
+    order_a = np.lexsort((a.cycle, a.direction, a.target))
+    order_b = np.lexsort((b.cycle, b.direction, b.target))
+    for name in ("target", "cycle", "direction"):
+        np.testing.assert_array_equal(getattr(a, name)[order_a], getattr(b, name)[order_b])
+    np.testing.assert_allclose(a.value[order_a], b.value[order_b], rtol=0, atol=1e-15)
+
+
+def test_wide_layout_of_measured_positions(tmp_path):
+    """One row per target and direction, one column per cycle of measured positions (mm)."""
+    path = tmp_path / "wide.csv"
+    path.write_text("# axis: X\ndirection,i,target_mm,ref_c1,ref_c2,ref_c3\n"
+                    "fwd,1,0.0,0.0012,0.0010,0.0011\nfwd,2,100.0,100.0031,100.0030,\n"
+                    "bwd,1,0.0,-0.0008,-0.0009,-0.0010\nbwd,2,100.0,100.0021,100.0020,100.0022\n")
+    wide = read_runs(path)
+    assert wide.axis == "X" and wide.unused == ("i",) and len(wide.target) == 11   # an empty cell: not measured
+    rows = [(0.0, c, 1, (x - 0.0) * 1e3) for c, x in zip((1, 2, 3), (0.0012, 0.0010, 0.0011))]
+    rows += [(100.0, c, 1, (x - 100.0) * 1e3) for c, x in zip((1, 2), (100.0031, 100.0030))]
+    rows += [(0.0, c, -1, (x - 0.0) * 1e3) for c, x in zip((1, 2, 3), (-0.0008, -0.0009, -0.0010))]
+    rows += [(100.0, c, -1, (x - 100.0) * 1e3) for c, x in zip((1, 2, 3), (100.0021, 100.0020, 100.0022))]
+    _same_run(wide, _long_equivalent(tmp_path, rows))
+    assert wide.value[0] == pytest.approx(1.2e-6)          # 1.2 um, in SI
+    assert list(wide.lines[:3]) == [3, 3, 3]               # every value keeps its line
+
+
+def test_wide_layout_of_deviations_and_direction_words(tmp_path):
+    path = tmp_path / "wide.csv"
+    path.write_text("target_mm,direction,dev_c1_um,dev_c2_um\n10,up,1.5,1.7\n10,down,-0.5,-0.25\n")
+    run = read_runs(path)
+    _same_run(run, _long_equivalent(tmp_path, [(10, 1, 1, 1.5), (10, 2, 1, 1.7), (10, 1, -1, -0.5),
+                                               (10, 2, -1, -0.25)]))
+
+
+@pytest.mark.parametrize("text, match", [
+    ("target_mm,direction,ref_c1\n10,sideways,10.001\n", r"wide.csv:2:2: .*'sideways' is not a direction"),
+    ("target_mm,direction,ref_c1,ref_c2\n10,fwd,10.001,abc\n", r"wide.csv:2:4: .*'abc' is not a number"),
+    ("target_mm,direction,ref_c1,dev_c2_um\n10,fwd,10.001,3\n", r"wide.csv:1: cycle columns must all"),
+])
+def test_malformed_wide_runs(tmp_path, text, match):
+    (tmp_path / "wide.csv").write_text(text)
+    with pytest.raises(MeasurementError, match=match):
+        read_runs(tmp_path / "wide.csv")
+
+
+DAT = """# a run as the logger writes it
+UNIT=mm
+CYCLES=2
+POSITIONS=2
+TGT_DATA[1]=-4
+TGT_DATA[2]=4
+REF_DATA_FWD[1,1]=-4.0012
+REF_DATA_FWD[2,1]=4.0020
+REF_DATA_FWD[1,2]=-4.0010
+REF_DATA_FWD[2,2]=4.0022
+REF_DATA_BWD[1,1]=-3.9990
+REF_DATA_BWD[2,1]=4.0005
+REF_DATA_BWD[1,2]=-3.9992
+REF_DATA_BWD[2,2]=4.0004
+"""
+
+
+def test_key_value_layout(tmp_path):
+    path = tmp_path / "run.dat"
+    path.write_text(DAT)
+    run = read_runs(path, axis="X")
+    rows = [(-4.0, 1, 1, (-4.0012 + 4) * 1e3), (4.0, 1, 1, (4.0020 - 4) * 1e3), (-4.0, 2, 1, (-4.0010 + 4) * 1e3),
+            (4.0, 2, 1, (4.0022 - 4) * 1e3), (-4.0, 1, -1, (-3.9990 + 4) * 1e3), (4.0, 1, -1, (4.0005 - 4) * 1e3),
+            (-4.0, 2, -1, (-3.9992 + 4) * 1e3), (4.0, 2, -1, (4.0004 - 4) * 1e3)]
+    _same_run(run, _long_equivalent(tmp_path, rows))
+    assert run.axis == "X" and run.lines[0] == 7
+
+
+@pytest.mark.parametrize("edit, match", [
+    (lambda t: t.replace("CYCLES=2", "CYCLES=3"), r"run.dat:3: CYCLES=3 but the data hold 2"),
+    (lambda t: t.replace("UNIT=mm\n", ""), r"run.dat: no UNIT= line"),
+    (lambda t: t.replace("TGT_DATA[2]=4\n", ""), r"run.dat:\d+: REF_DATA_FWD\[2,1\]: no TGT_DATA\[2\]"),
+    (lambda t: t + "REF_DATA_BWD[2,2]=4.1\n", r"run.dat:\d+: REF_DATA_BWD\[2,2\] given twice \(first on line 14\)"),
+    (lambda t: t.replace("REF_DATA_BWD[1,1]=-3.9990", "REF_DATA_BWD[1,1]=x"), r"run.dat:11: .*'x' is not a number"),
+    (lambda t: t + "just words\n", r"run.dat:15: expected KEY=VALUE"),
+])
+def test_malformed_key_value_runs(tmp_path, edit, match):
+    (tmp_path / "run.dat").write_text(edit(DAT))
+    with pytest.raises(MeasurementError, match=match):
+        read_runs(tmp_path / "run.dat")

@@ -272,7 +272,7 @@ def cmd_field(args) -> int:
 
 def _print_iso(console: Console, result: dict) -> None:
     unit = result["unit"]
-    table = Table(box=box.SIMPLE, title=f"ISO 230-2 per target ({result['source']})")
+    table = Table(box=box.SIMPLE, title=escape(f"ISO 230-2 per target ({result['source']}; deviations in {unit})"))
     cols = ["target", "n up", "mean up", "s up", "n down", "mean down", "s down", "B_i", "R_i"]
     for col in cols:
         table.add_column(col, justify="right")
@@ -282,7 +282,7 @@ def _print_iso(console: Console, result: dict) -> None:
                       fmt(p.get("mean_up")), fmt(p.get("s_up")), str(p.get("n_down", "")),
                       fmt(p.get("mean_down")), fmt(p.get("s_down")), fmt(p.get("B")), fmt(p.get("R")))
     console.print(table)
-    summary = Table(box=box.SIMPLE, title=f"ISO 230-2 parameters [{unit}]")
+    summary = Table(box=box.SIMPLE, title=escape(f"ISO 230-2 parameters [{unit}]"))
     for col in ("", "bidirectional", "positive (up)", "negative (down)"):
         summary.add_column(col, justify="right")
     summary.add_row("A  accuracy", fmt(result["A"]), fmt(result["A_up"]), fmt(result["A_down"]))
@@ -298,7 +298,10 @@ def cmd_iso230(args) -> int:
     from .iso230 import evaluate_runs
     from .measurements import read_runs
 
-    result = evaluate_runs(read_runs(args.runs))
+    runs = read_runs(args.runs)
+    if runs.unused:
+        print(f"volerr: note: {args.runs}: not used: {', '.join(runs.unused)}", file=sys.stderr)
+    result = evaluate_runs(runs)
     if args.plot:
         from .plots import iso230_png
 

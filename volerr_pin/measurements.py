@@ -269,9 +269,163 @@ def is_run_file(header: list[str]) -> bool:
     return any(h.startswith("target_") for h in header)
 
 
-def read_runs(path: str | Path, axis: str | None = None) -> Runs:
-    """Read a positioning (ISO 230-2) or component run; ``axis`` overrides ``# axis:``."""
+DIRECTION_WORDS = {**{w: "1" for w in ("+1", "1", "+", "fwd", "forward", "up", "pos", "positive")},
+                   **{w: "-1" for w in ("-1", "-", "bwd", "backward", "back", "down", "neg", "negative")}}
+WIDE_CYCLE_RE = re.compile(r"^(?:(?P<stem>[A-Za-z][A-Za-z0-9]*)_)?(?:c|cycle_?)(?P<n>\d+)(?:_(?P<unit>[A-Za-z]+))?$")
+KEY_VALUE_RE = re.compile(r"^(?P<key>[A-Za-z_][A-Za-z0-9_]*)(?:\[(?P<index>[^\]]*)\])?\s*=\s*(?P<value>.*)$")
+
+
+def _deviation(actual: str, target: str, scale: float) -> str:
+    """``actual - target`` of two numbers as written, times ``scale``, as text."""
+    return repr((float(actual) - float(target)) * scale)
+
+
+def _deviation_column(target_unit: str) -> tuple[str, float]:
+    """Long-layout deviation column for positions given in the target's unit."""
+    return ("deviation_um", 1e3) if target_unit == "mm" else ("deviation_arcsec", 3600.0)
+
+
+def _wide_run_table(table: Table) -> Table | None:
+    """A run laid out one row per target and direction, one column per cycle
+    (``direction,i,target_mm,ref_c1,...,ref_c5``) as a long table; None if it is not one.
+
+    Cycle columns hold the measured positions in the target's unit, or deviations when the
+    column names a unit (``dev_c1_um``). Directions may be words (fwd/bwd, up/down, ...)."""
+    header = table.header
+    if any(h in ("cycle", "run") for h in header):
+        return None
+    targets = [c for c, h in enumerate(header) if h in ("target_mm", "target_deg")]
+    cycles = [(c, WIDE_CYCLE_RE.match(h)) for c, h in enumerate(header)]
+    cycles = [(c, m) for c, m in cycles if m]
+    directions = [c for c, h in enumerate(header) if h.lower() in ("direction", "dir")]
+    if len(targets) != 1 or not cycles or len(directions) != 1:
+        return None
+    tcol, dcol = targets[0], directions[0]
+    target_unit = header[tcol].split("_", 1)[1]
+    units = {m.group("unit") for _, m in cycles}
+    if len(units) != 1:
+        raise MeasurementError(f"{table.path}:{table.header_line}: cycle columns must all give positions "
+                               f"(no unit) or all deviations in one unit, got {', '.join(h for h in header)}")
+    unit = units.pop()
+    if unit is None:
+        value_name, scale = _deviation_column(target_unit)
+    else:
+        if unit not in LENGTH and unit not in ANGLE:
+            raise MeasurementError(f"{table.path}:{table.header_line}: unknown unit '{unit}' in the cycle columns")
+        value_name, scale = f"deviation_{unit}", None
+    rows, lines = [], []
+    for r, (cells, line) in enumerate(zip(table.rows, table.lines)):
+        word = cells[dcol].strip().lower()
+        if word not in DIRECTION_WORDS:
+            raise MeasurementError(f"{table.where(r, dcol)}: column '{header[dcol]}': '{cells[dcol].strip()}' is "
+                                   "not a direction (+1/-1, fwd/bwd, forward/backward, up/down, pos/neg)")
+        target = str(table.number(r, tcol))
+        for c, m in cycles:
+            if cells[c].strip() == "":
+                continue  # a cycle not measured at this target
+            value = table.number(r, c)
+            rows.append([target, m.group("n"), DIRECTION_WORDS[word],
+                         repr(value) if scale is None else _deviation(str(value), target, scale)])
+            lines.append(line)
+    used = {tcol, dcol, *(c for c, _ in cycles)}
+    meta = dict(table.meta)
+    meta["unused"] = ",".join(h for c, h in enumerate(header) if c not in used)
+    return Table(table.path, [header[tcol], "cycle", "direction", value_name], table.header_line, rows, lines, meta)
+
+
+def _key_value_run_table(path: Path, text: str) -> Table:
+    """An ``.dat`` run of ``KEY=VALUE`` lines (``UNIT=mm``, ``TGT_DATA[i]``, ``REF_DATA_FWD[i,c]``,
+    ``REF_DATA_BWD[i,c]``: measured positions per target i and cycle c) as a long table."""
+    values: dict[str, tuple[str, int]] = {}
+    indexed: dict[str, dict[tuple[int, ...], tuple[str, int]]] = {}
+    meta: dict[str, str] = {}
+    for number, line in enumerate(text.splitlines(), start=1):
+        stripped = line.strip()
+        if not stripped:
+            continue
+        if stripped.startswith("#"):
+            match = META_RE.match(stripped)
+            if match:
+                meta[match.group(1).lower()] = match.group(2).strip()
+            continue
+        match = KEY_VALUE_RE.match(stripped)
+        if not match:
+            raise MeasurementError(f"{path}:{number}: expected KEY=VALUE or KEY[i,j]=VALUE, got '{stripped[:40]}'")
+        key, index, value = match.group("key").upper(), match.group("index"), match.group("value").strip()
+        if index is None:
+            values[key] = (value, number)
+            continue
+        try:
+            idx = tuple(int(i) for i in index.split(","))
+        except ValueError:
+            raise MeasurementError(f"{path}:{number}: index [{index}] is not integers") from None
+        if idx in indexed.setdefault(key, {}):
+            raise MeasurementError(f"{path}:{number}: {key}[{index}] given twice "
+                                   f"(first on line {indexed[key][idx][1]})")
+        indexed[key][idx] = (value, number)
+
+    def number_of(value: str, line: int, what: str) -> float:
+        try:
+            x = float(value)
+        except ValueError:
+            raise MeasurementError(f"{path}:{line}: {what}: '{value}' is not a number") from None
+        if not math.isfinite(x):
+            raise MeasurementError(f"{path}:{line}: {what}: '{value}' is not a finite number")
+        return x
+
+    if "UNIT" not in values:
+        raise MeasurementError(f"{path}: no UNIT= line (mm or deg)")
+    unit = values["UNIT"][0].strip().lower()
+    if unit not in ("mm", "deg"):
+        raise MeasurementError(f"{path}:{values['UNIT'][1]}: UNIT={unit}: expected mm or deg")
+    targets = indexed.get("TGT_DATA", {})
+    if not targets:
+        raise MeasurementError(f"{path}: no TGT_DATA[i]= lines (the target positions)")
+    if not any(k in indexed for k in ("REF_DATA_FWD", "REF_DATA_BWD")):
+        raise MeasurementError(f"{path}: no REF_DATA_FWD[i,c]= or REF_DATA_BWD[i,c]= lines (the measured positions)")
+    value_name, scale = _deviation_column(unit)
+    rows, lines = [], []
+    for key, direction in (("REF_DATA_FWD", "1"), ("REF_DATA_BWD", "-1")):
+        for idx, (value, line) in sorted(indexed.get(key, {}).items()):
+            if len(idx) != 2:
+                raise MeasurementError(f"{path}:{line}: {key} needs two indices [target, cycle]")
+            if (idx[0],) not in targets:
+                raise MeasurementError(f"{path}:{line}: {key}[{idx[0]},{idx[1]}]: no TGT_DATA[{idx[0]}]")
+            target_text, target_line = targets[(idx[0],)]
+            target = repr(number_of(target_text, target_line, f"TGT_DATA[{idx[0]}]"))
+            measured = repr(number_of(value, line, f"{key}[{idx[0]},{idx[1]}]"))
+            rows.append([target, str(idx[1]), direction, _deviation(measured, target, scale)])
+            lines.append(line)
+    for key, what in (("CYCLES", {r[1] for r in rows}), ("POSITIONS", {r[0] for r in rows})):
+        if key in values and int(number_of(*values[key], key)) != len(what):
+            raise MeasurementError(f"{path}:{values[key][1]}: {key}={values[key][0]} but the data hold {len(what)}")
+    known = {"UNIT", "CYCLES", "POSITIONS", "TGT_DATA", "REF_DATA_FWD", "REF_DATA_BWD"}
+    meta["unused"] = ",".join(sorted((set(values) | set(indexed)) - known))
+    return Table(str(path), [f"target_{unit}", "cycle", "direction", value_name], 0, rows, lines, meta)
+
+
+def run_table(path: str | Path) -> Table:
+    """A run file in any accepted layout as the long table ``target_*,cycle,direction,value``:
+    long CSV, wide CSV (one column per cycle) or ``KEY=VALUE`` lines (``.dat``)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError):
+        return read_table(path)  # read_table says what is wrong
+    first = next((l.strip() for l in text.splitlines() if l.strip() and not l.strip().startswith("#")), "")
+    if KEY_VALUE_RE.match(first) and "," not in first:
+        return _key_value_run_table(path, text)
     table = read_table(path)
+    return _wide_run_table(table) or table
+
+
+def read_runs(path: str | Path, axis: str | None = None) -> Runs:
+    """Read a positioning (ISO 230-2) or component run; ``axis`` overrides ``# axis:``.
+
+    Layouts: long CSV ``target_mm,cycle,direction,deviation_um`` (or a component column such
+    as ``EYX_um``), wide CSV with one column per cycle, and ``KEY=VALUE`` files (see
+    :func:`run_table` and docs/measurements.md)."""
+    table = run_table(path)
     header = table.header
     target_cols = [c for c, h in enumerate(header) if h in ("target_mm", "target_deg")]
     if len(target_cols) != 1:
@@ -340,6 +494,7 @@ def read_runs(path: str | Path, axis: str | None = None) -> Runs:
     at = _parse_at(table, table.meta.get("at"))
     used = {tcol, vcol, needed["cycle"], needed["direction"]}
     unused = tuple(h for c, h in enumerate(header) if c not in used)
+    unused += tuple(h for h in table.meta.get("unused", "").split(",") if h)
     return Runs(table.path, file_target * target_scale, cycle.astype(int), direction.astype(int),
                 file_value * value_scale, file_target, file_value, target_unit, unit, component, axis,
                 at, np.array(table.lines), unused)
@@ -365,7 +520,7 @@ def _parse_at(table: Table, text: str | None) -> dict[str, float]:
 
 def read_any(path: str | Path, machine=None, axis: str | None = None):
     """Read a file of either kind, telling them apart by the header."""
-    table = read_table(path)
+    table = run_table(path)
     if is_run_file(table.header):
         return read_runs(path, axis)
     if machine is None:
