@@ -20,6 +20,9 @@ Files (mm / deg, um / arcsec, s, degC, N, as the readers expect):
 ``vmc500_spindle_thermal.csv``
     Eight hours of four temperature sensors and the spindle's z drift every 5 minutes, for
     ``volerr thermal-fit``.
+``vmc500_ballbar_xy.csv``
+    A ballbar circle (ISO 230-4) of 100 mm radius in the XY plane, both directions, on the
+    same machine once warm, with the table ball 3 um / -2 um off the centre.
 ``vmc500_tolerances.toml``
     Tolerances for ``volerr rank --tolerances``.
 ``part.nc``
@@ -40,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 import volerr_pin as vp
-from volerr_pin.simulate import campaign, off_model_geometry, write_points
+from volerr_pin.simulate import ballbar_run, campaign, off_model_geometry, write_ballbar, write_points
 from volerr_pin.specio import add_terms
 
 HERE = Path(__file__).resolve().parent
@@ -80,6 +83,13 @@ def x_positioning(truth: vp.Machine, out: Path) -> None:
             deviation = np.einsum("ij,ij->i", error, along) * 1e6 + zero + rng.normal(0.0, 0.2, len(order))
             lines += [f"{t:.1f},{cycle},{direction},{d:.3f}" for t, d in zip(order, deviation)]
     out.write_text("\n".join(lines) + "\n")
+
+
+def ballbar(truth: vp.Machine, out: Path) -> None:
+    run = ballbar_run(truth.with_state(t=6 * 3600.0), plane=("X", "Y"), radius_mm=100.0,
+                      centre_mm={"X": 250.0, "Y": 200.0, "Z": 200.0}, n=360, noise_um=0.1, seed=4,
+                      setup_offset_um=(3.0, -2.0), length_error_um=0.6)
+    write_ballbar(run, out)
 
 
 def spindle_thermal(out: Path) -> None:
@@ -175,6 +185,7 @@ def main(out: Path = HERE / "data") -> list[Path]:
     written = []
     for name, write in (("vmc500_tracker.csv", lambda p: tracker(truth, p)),
                         ("vmc500_x_positioning.csv", lambda p: x_positioning(truth, p)),
+                        ("vmc500_ballbar_xy.csv", lambda p: ballbar(truth, p)),
                         ("vmc500_spindle_thermal.csv", spindle_thermal),
                         ("vmc500_tolerances.toml", lambda p: p.write_text(TOLERANCES)),
                         ("part.nc", lambda p: p.write_text(PROGRAM)),

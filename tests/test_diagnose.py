@@ -259,10 +259,12 @@ def test_noise_floor_from_repeats_or_an_upper_bound(machines):
     # every point measured twice: the floor comes from the repeats, free of any model
     twice = campaign(m, 400, NOISE, 4)
     twice.q[200:] = twice.q[:200]
+    for key in ("directions", "forces"):  # a repeat: same place, same approach, same load
+        twice.covariates[key][200:] = twice.covariates[key][:200]
     twice.values[200:, :3] = m.volumetric_error(twice.q[200:], **{
         k: (v[200:] if not isinstance(v, dict) else {s: a[200:] for s, a in v.items()})
         for k, v in twice.covariates.items()})[:, :3] + np.random.default_rng(9).normal(0, NOISE * 1e-6, (200, 3))
     result = diagnose(m, [twice])
-    assert not result.noise_floor_upper_bound and result.noise_floor_source.startswith("repeated points")
+    assert not result.noise_floor_upper_bound and result.noise_floor_source == "repeated points (600 degrees of freedom)"
     assert result.noise_floor_um == pytest.approx(FLOOR, rel=0.15)
     assert result.to_dict()["noise_floor_upper_bound"] is False

@@ -111,3 +111,13 @@ def test_sample_data_reads_and_tells_the_simulated_story():
     assert evaluate_runs(run)["B"] == pytest.approx(3.0, abs=0.3)    # the simulated 3 um backlash
     arm = vp.load_machine(EXAMPLES / "data" / "two_link_arm.urdf", tool_frame="tool0", workpiece_frame="world")
     assert arm.axes == ("shoulder", "elbow")
+
+
+@pytest.mark.slow
+def test_ballbar_example_round_trips(tmp_path):
+    result = load("ballbar_round_trip").main(tmp_path)
+    assert result["worst_sigma"] < 3.0                          # every simulated error back within 3 sigma
+    assert result["fit"]["rms_holdout_um"] == pytest.approx(0.1, rel=0.15)
+    found = [(e["name"], e["axis"]) for e in result["diagnosis"]["effects"]]
+    assert found == [("backlash", "X"), ("backlash", "Y")]
+    assert result["iso"]["H"] > 3.0 and (tmp_path / "circle_xy.png").exists()

@@ -669,27 +669,32 @@ def residual_analysis(machine: Machine, obs: Observations, r_si: np.ndarray) -> 
 
 
 def _noise_floor(obs: Observations, r_si: np.ndarray, n_params: int) -> tuple[float, str, bool]:
-    """(floor, source, upper bound?): from repeated points (same positions) when there are
-    enough, else from the final residual - an upper bound, since whatever the model still
-    misses is in it too."""
+    """(floor, source, upper bound?): from repeated observations when there are enough, else
+    from the final residual - an upper bound, since whatever the model still misses is in it.
+
+    Observations repeat when they measure the same quantity (direction ``w``) at the same
+    positions with the same approach directions and forces - a ballbar's clockwise and
+    counter-clockwise passes meet at every angle but differ by the backlash, which is not
+    noise. Their scatter is taken from the final residuals, so that instrument offsets of
+    different files cancel."""
     pos = ~obs.angular
-    keys = {}
-    for i in range(obs.n_points):
-        key = tuple(np.round(obs.q[i], 12))
-        keys.setdefault(key, []).append(i)
-    groups = [g for g in keys.values() if len(g) > 1]
+    cov = obs.covariates
+    extra = [np.asarray(cov[k]) for k in ("directions", "forces") if cov.get(k) is not None]
+    groups: dict = {}
+    for row in np.flatnonzero(pos):
+        i = obs.point[row]
+        key = (tuple(np.round(obs.q[i], 12)), tuple(np.round(obs.w[row], 9)),
+               *(tuple(np.round(np.atleast_1d(x[i]), 9)) for x in extra))
+        groups.setdefault(key, []).append(row)
     comps = max(1.0, pos.sum() / max(1, len(np.unique(obs.point[pos]))))
-    if groups:
-        ss, dof = 0.0, 0
-        for g in groups:
-            for k in range(6):
-                rows = np.isin(obs.point, g) & (obs.w[:, k] > 0.5) & pos
-                if rows.sum() > 1:
-                    ss += float(((obs.y[rows] - obs.y[rows].mean()) ** 2).sum())
-                    dof += int(rows.sum()) - 1
-        if dof >= 5:
-            return (float(np.sqrt(ss / dof * comps) * UM), f"repeated points ({dof} degrees of freedom)",
-                    False)
+    ss, dof = 0.0, 0
+    for rows in groups.values():
+        if len(rows) > 1:
+            r = r_si[rows]
+            ss += float(((r - r.mean()) ** 2).sum())
+            dof += len(rows) - 1
+    if dof >= 5:
+        return (float(np.sqrt(ss / dof * comps) * UM), f"repeated points ({dof} degrees of freedom)", False)
     dof = int(pos.sum()) - n_params
     sigma = math.sqrt(float((r_si[pos] ** 2).sum()) / max(dof, 1))
     return (float(sigma * math.sqrt(comps) * UM),

@@ -21,6 +21,7 @@ from typing import Callable
 import numpy as np
 
 from .errors import InputError
+from .ballbar import BallbarRun, ballbar_positions
 from .identifiability import Analysis, analyse
 from .machine import Machine
 from .measurements import PointMeasurements, Runs
@@ -165,6 +166,23 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
                 nuisance_rows.append((row, base_col, 1.0))
                 if straightness:
                     nuisance_rows.append((row, base_col + 1, u[i]))
+            n_points += len(q)
+        elif isinstance(item, BallbarRun):
+            q, radial, directions = ballbar_positions(machine, item)
+            q_list.append(q)
+            cov_list.append({"directions": directions})
+            tag = f"ballbar {item.source}"
+            base_col = len(nuisance_names)
+            nuisance_names += [f"centre_{item.plane[0]}[{tag}]", f"centre_{item.plane[1]}[{tag}]",
+                               f"length[{tag}]"]
+            for i in range(len(q)):
+                row = len(rows)
+                w = np.zeros(6)
+                w[:3] = radial[i]
+                rows.append((n_points + i, w, item.deviation[i], sigma_um * 1e-6, False, item.source,
+                             item.lines[i]))
+                for k, v in enumerate((math.cos(item.angle[i]), math.sin(item.angle[i]), 1.0)):
+                    nuisance_rows.append((row, base_col + k, v))
             n_points += len(q)
         else:
             raise InputError(f"cannot use {type(item).__name__} as measurements")

@@ -34,7 +34,7 @@ from .units import ANGLE, LENGTH
 
 DEVIATIONS = ("dx", "dy", "dz", "rx", "ry", "rz")
 DEVIATION_UNITS = {"dx": "um", "dy": "um", "dz": "um", "rx": "urad", "ry": "urad", "rz": "urad"}
-META_RE = re.compile(r"^#\s*(axis|at)\s*:\s*(.*)$", re.IGNORECASE)
+META_RE = re.compile(r"^#\s*(axis|at|plane|radius|centre|center)\s*:\s*(.*)$", re.IGNORECASE)
 
 
 class MeasurementError(InputError):
@@ -523,6 +523,10 @@ def read_any(path: str | Path, machine=None, axis: str | None = None):
     table = run_table(path)
     if is_run_file(table.header):
         return read_runs(path, axis)
+    from .ballbar import is_ballbar_file, read_ballbar
+
+    if is_ballbar_file(table.header):
+        return read_ballbar(path)
     if machine is None:
         raise MeasurementError(f"{path}: point measurements need the machine (its axes and travels)")
     return read_points(path, machine)

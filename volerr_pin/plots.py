@@ -153,6 +153,39 @@ def iso230_png(result: dict, path: str | Path, title: str = "") -> dict:
     return {"path": str(path)}
 
 
+def ballbar_png(run, result: dict, path: str | Path, title: str = "") -> dict:
+    """The ISO 230-4 picture: both traces about the least-squares centre on a polar plot whose
+    radial scale is the deviation (um), with the figures beside it."""
+    from .ballbar import _about
+
+    r = run.deviation * 1e6
+    about = _about(run.angle, r, np.array([0.0, *result["centre_offset_um"]])) - result["radius_error_um"]
+    fig = plt.figure(figsize=(8.5, 5.5), dpi=120, constrained_layout=True)
+    ax = fig.add_subplot(projection="polar")
+    span = max(float(np.abs(about).max()), 1e-3)
+    ax.set_ylim(-1.6 * span, 1.1 * span)  # zero deviation sits on a circle, inside is negative
+    for d, label, colour in ((1.0, "counter-clockwise (+)", "#1f6fb2"), (-1.0, "clockwise (-)", "#c0392b")):
+        mask = run.direction == d
+        if mask.any():
+            order = np.argsort(run.angle[mask])
+            a, v = run.angle[mask][order], about[mask][order]
+            ax.plot(np.append(a, a[0]), np.append(v, v[0]), color=colour, lw=1.0, label=label)
+    ax.plot(np.linspace(0, 2 * np.pi, 361), np.zeros(361), color="grey", lw=0.6, ls=":")
+    ax.set_rlabel_position(90)
+    ax.set_xlabel(f"{run.plane[0]} ->, {run.plane[1]} ^ ; radial: deviation from the least-squares circle [um]",
+                  fontsize=8)
+    keys = [("G", "G (both)"), ("G_ccw", "G ccw"), ("G_cw", "G cw"), ("H", "H"), ("F_max", "F max"),
+            ("F_min", "F min"), ("radius_error_um", "radius error")]
+    text = "\n".join(f"{label:<13}{result[k]:8.3f}" for k, label in keys if result.get(k) is not None)
+    text += f"\ncentre offset {result['centre_offset_um'][0]:+.2f}, {result['centre_offset_um'][1]:+.2f}"
+    fig.text(0.74, 0.92, f"ISO 230-4 [um]\n{text}", va="top", family="monospace", fontsize=8)
+    ax.set_title(title or f"circular test, radius {result['radius_mm']:g} mm", fontsize=10)
+    ax.legend(fontsize=7, loc="lower left", bbox_to_anchor=(1.0, 0.0))
+    fig.savefig(path)
+    plt.close(fig)
+    return {"path": str(path)}
+
+
 def thermal_fit_png(result: dict, data, path: str | Path) -> dict:
     """Measured and modelled target over the rows, the held-out part shaded."""
     fitted = np.asarray(result["fitted"])

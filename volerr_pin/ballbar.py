@@ -1,0 +1,226 @@
+"""Circular tests with a ballbar (ISO 230-4): reading, evaluation, and the machine model.
+
+A ballbar joins a ball at the tool to a ball on the table and logs its length while two
+linear axes run a circle around the table ball. The file gives the **radial deviation**
+(measured length minus the nominal radius) against the **angle** on the circle:
+
+.. code-block:: text
+
+    # plane: X, Y              two linear axes of the machine, in this order
+    # radius: 100              nominal radius, mm
+    # centre: X=250, Y=200, Z=200   axis positions at the circle's centre (mm / deg)
+    angle_deg,deviation_um,direction
+    0.0,1.23,1
+    1.0,1.31,1
+
+``angle_deg`` runs from the first plane axis towards the second, in the axes' own
+(program) coordinates; ``direction`` is +1 for increasing angles (G3 in the XY plane) and
+-1 for decreasing (G2), or the words ``ccw`` / ``cw``; without it every row is +1.
+Deviations may be in um, nm or mm (``deviation_mm``).
+
+:func:`evaluate_circular` gives ISO 230-4's figures: the circular deviation G of each
+direction and G(b) of both, about the least-squares circle's centre; the radial deviations
+F_max / F_min about the nominal centre (the set-up's offset included); the circular
+hysteresis H (the largest radial difference between the two directions at one angle). The
+least-squares centre is the linearised fit ``r(a) = r0 + cx cos a + cy sin a``, exact to
+(offset / radius)^2 of the offset - 1e-10 of it for 10 um on 100 mm.
+
+In the model (:func:`volerr_pin.identify.build_observations`), a ballbar sample is the
+tool's error relative to the workpiece projected on the radial direction at the commanded
+position, with three nuisance terms per file: the set-up's centre offset along both plane
+directions and the bar's length error. Approach directions of the two axes come from the
+motion (for backlash terms); so identification and :func:`volerr_pin.diagnose.diagnose`
+see squareness, scale mismatch, backlash and straightness through the same model as
+every other measurement.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .measurements import DIRECTION_WORDS, MeasurementError, read_table
+from .units import LENGTH
+
+DEVIATION_RE = re.compile(r"^(?:deviation|radial|dr)_(um|nm|mm)$")
+
+
+@dataclass(frozen=True)
+class BallbarRun:
+    """One circular test: ``angle`` (N,) rad, ``deviation`` (N,) m, ``direction`` (N,) +1/-1,
+    ``radius`` m, ``plane`` two axis names, ``centre`` axis positions in file units (mm / deg)."""
+
+    source: str
+    angle: np.ndarray
+    deviation: np.ndarray
+    direction: np.ndarray
+    radius: float
+    plane: tuple[str, str]
+    centre: dict
+    lines: np.ndarray
+    unit: str = "um"
+    unused: tuple[str, ...] = ()
+
+
+def is_ballbar_file(header: list[str]) -> bool:
+    return "angle_deg" in header and any(DEVIATION_RE.match(h) for h in header)
+
+
+def read_ballbar(path: str | Path) -> BallbarRun:
+    """Read a ballbar file (see the module docstring); every error names file, line, column."""
+    table = read_table(path)
+    header = table.header
+    if "angle_deg" not in header:
+        raise MeasurementError(f"{table.path}:{table.header_line}: a ballbar file needs the column angle_deg")
+    dev_cols = [c for c, h in enumerate(header) if DEVIATION_RE.match(h)]
+    if len(dev_cols) != 1:
+        raise MeasurementError(f"{table.path}:{table.header_line}: a ballbar file needs exactly one radial "
+                               "deviation column: deviation_um (or _nm, _mm)")
+    acol, vcol = header.index("angle_deg"), dev_cols[0]
+    unit = DEVIATION_RE.match(header[vcol]).group(1)
+    dcol = header.index("direction") if "direction" in header else None
+    angle = np.radians(table.column(acol))
+    file_value = table.column(vcol)
+    if dcol is None:
+        direction = np.ones(len(angle))
+    else:
+        words = {**DIRECTION_WORDS, "ccw": "1", "cw": "-1", "g3": "1", "g2": "-1"}
+        direction = np.empty(len(angle))
+        for r, cells in enumerate(table.rows):
+            word = cells[dcol].strip().lower()
+            if word not in words:
+                raise MeasurementError(f"{table.where(r, dcol)}: column 'direction': '{cells[dcol].strip()}' "
+                                       "is not a direction (+1/-1, ccw/cw)")
+            direction[r] = float(words[word])
+    meta = table.meta
+    if "plane" not in meta:
+        raise MeasurementError(f"{table.path}: which axes ran the circle? Give '# plane: X, Y' in the header")
+    plane = tuple(p.strip() for p in re.split(r"[,\s]+", meta["plane"].strip()) if p.strip())
+    if len(plane) != 2 or plane[0] == plane[1]:
+        raise MeasurementError(f"{table.path}: header '# plane: {meta['plane']}': two different axes expected")
+    if "radius" not in meta:
+        raise MeasurementError(f"{table.path}: give the nominal radius: '# radius: 100' (mm)")
+    try:
+        radius = float(meta["radius"].split()[0].removesuffix("mm")) * 1e-3
+    except (ValueError, IndexError):
+        raise MeasurementError(f"{table.path}: header '# radius: {meta['radius']}': not a number of mm") from None
+    if not radius > 0.0 or not math.isfinite(radius):
+        raise MeasurementError(f"{table.path}: header '# radius: {meta['radius']}': must be positive")
+    centre = {}
+    for item in (meta.get("centre") or meta.get("center") or "").split(","):
+        if not item.strip():
+            continue
+        name, sep, value = item.partition("=")
+        try:
+            centre[name.strip()] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise MeasurementError(f"{table.path}: header '# centre: ...': '{item.strip()}' is not AXIS=VALUE")
+    unused = tuple(h for c, h in enumerate(header) if c not in {acol, vcol, dcol})
+    return BallbarRun(table.path, angle, file_value * LENGTH[unit], direction, radius, plane, centre,
+                      np.array(table.lines), unit, unused)
+
+
+def _lsc(angle: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Least-squares circle (linearised): r0, cx, cy."""
+    A = np.column_stack([np.ones_like(angle), np.cos(angle), np.sin(angle)])
+    return np.linalg.lstsq(A, r, rcond=None)[0]
+
+
+def _about(angle, r, fit):
+    return r - fit[1] * np.cos(angle) - fit[2] * np.sin(angle)
+
+
+def _on_grid(angle, r, grid):
+    """A trace interpolated at ``grid`` angles (periodic in 2 pi)."""
+    a = np.mod(angle, 2 * np.pi)
+    order = np.argsort(a)
+    a, r = a[order], r[order]
+    return np.interp(grid, np.concatenate([a - 2 * np.pi, a, a + 2 * np.pi]), np.tile(r, 3))
+
+
+def evaluate_circular(run: BallbarRun) -> dict:
+    """ISO 230-4 figures of a circular test, in um (see the module docstring).
+
+    Returns ``G`` (circular deviation; of both directions together when both were run),
+    ``G_ccw`` / ``G_cw``, ``F_max`` / ``F_min`` (radial deviation about the nominal centre),
+    ``H`` (circular hysteresis, both directions only), ``centre_offset_um`` (the
+    least-squares centre from the nominal one, along the two plane axes' directions),
+    ``radius_error_um`` and the counts per direction.
+    """
+    r = run.deviation * 1e6
+    out: dict = {"source": run.source, "plane": list(run.plane), "radius_mm": run.radius * 1e3,
+                 "unit": "um", "n_points": int(len(r))}
+    present = {d: run.direction == d for d in (1.0, -1.0) if np.any(run.direction == d)}
+    for d, name in ((1.0, "ccw"), (-1.0, "cw")):
+        mask = present.get(d)
+        if mask is None or mask.sum() < 4:
+            out[f"G_{name}"] = None
+            out[f"n_{name}"] = int(0 if mask is None else mask.sum())
+            continue
+        fit = _lsc(run.angle[mask], r[mask])
+        about = _about(run.angle[mask], r[mask], fit)
+        out[f"G_{name}"] = float(about.max() - about.min())
+        out[f"n_{name}"] = int(mask.sum())
+    if len(r) < 4:
+        raise InputError(f"{run.source}: {len(r)} samples are too few for a circular test")
+    fit = _lsc(run.angle, r)
+    about = _about(run.angle, r, fit)
+    out["G"] = float(about.max() - about.min())
+    out["F_max"], out["F_min"] = float(r.max()), float(r.min())
+    out["centre_offset_um"] = [float(fit[1]), float(fit[2])]
+    out["radius_error_um"] = float(fit[0])
+    if out["G_ccw"] is not None and out["G_cw"] is not None:
+        grid = np.linspace(0.0, 2 * np.pi, 721)[:-1]
+        ccw = _on_grid(run.angle[present[1.0]], about[present[1.0]], grid)
+        cw = _on_grid(run.angle[present[-1.0]], about[present[-1.0]], grid)
+        out["H"] = float(np.max(np.abs(ccw - cw)))
+    else:
+        out["H"] = None
+    return out
+
+
+def ballbar_positions(machine, run: BallbarRun) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Commanded positions (N, n_axes) SI, radial unit vectors (N, 3) of the tool relative to
+    the workpiece, and approach directions (N, n_axes) of a circular test on ``machine``."""
+    from .recording import default_config
+
+    for name in run.plane:
+        if name not in machine.axes:
+            raise InputError(f"{run.source}: '# plane:' names '{name}', not an axis of {machine.name} "
+                             f"({', '.join(machine.axes)})")
+    j1, j2 = (machine.axes.index(a) for a in run.plane)
+    if machine.axis_kinds[j1] != "linear" or machine.axis_kinds[j2] != "linear":
+        raise InputError(f"{run.source}: a ballbar circle needs two linear axes, not {run.plane[0]}, {run.plane[1]}")
+    config = {}
+    for name, value in run.centre.items():
+        if name not in machine.axes:
+            raise InputError(f"{run.source}: '# centre:' names '{name}', not an axis of {machine.name}")
+        linear = machine.axis_kinds[machine.axes.index(name)] == "linear"
+        config[name] = value * (1e-3 if linear else math.pi / 180.0)
+    centre = default_config(machine, config)
+    q = np.tile(centre, (len(run.angle), 1))
+    q[:, j1] += run.radius * np.cos(run.angle)
+    q[:, j2] += run.radius * np.sin(run.angle)
+    try:
+        machine.check_q(q)
+    except InputError as err:
+        raise InputError(f"{run.source}: the circle leaves the travel: {err}") from None
+    J = machine.axis_jacobian(q, nominal=True)[:, :3, :]
+    radial = J[:, :, j1] * np.cos(run.angle)[:, None] + J[:, :, j2] * np.sin(run.angle)[:, None]
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    # direction of motion of each plane axis: d/da of (cos a, sin a), times the run's sense;
+    # at a reversal point (velocity zero) the axis still carries the direction it came with
+    directions = np.ones_like(q)
+    for j, velocity, before in ((j1, -np.sin(run.angle), -np.sin(run.angle - 1e-6 * run.direction)),
+                                (j2, np.cos(run.angle), np.cos(run.angle - 1e-6 * run.direction))):
+        v = velocity * run.direction
+        v = np.where(np.abs(v) < 1e-12, before * run.direction, v)
+        directions[:, j] = np.where(v >= 0.0, 1.0, -1.0)
+    return q, radial, directions
