@@ -23,6 +23,7 @@ import numpy as np
 from .errors import InputError
 from .ballbar import BallbarRun, ballbar_positions
 from .identifiability import Analysis, analyse
+from .tracker import TrackerMeasurements, tracker_observations
 from .machine import Machine
 from .measurements import PointMeasurements, Runs
 from .spec import parse_component_name
@@ -167,6 +168,22 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
                 if straightness:
                     nuisance_rows.append((row, base_col + 1, u[i]))
             n_points += len(q)
+        elif isinstance(item, TrackerMeasurements):
+            obs_t = tracker_observations(machine, item)
+            q_list.append(item.q)
+            cov_list.append(item.covariates)
+            tag = f"tracker {item.source}"
+            base_col = len(nuisance_names)
+            nuisance_names += [f"shift_{a}[{tag}]" for a in "xyz"] + [f"rotation_{a}[{tag}]" for a in "xyz"]
+            for i in range(len(item.q)):
+                for k in range(3):
+                    row = len(rows)
+                    rows.append((n_points + i, obs_t["w"][i, k], obs_t["deviation"][i, k], sigma_um * 1e-6, False,
+                                 item.source, item.lines[i]))
+                    for c in range(6):
+                        if obs_t["nuisance"][i, k, c] != 0.0:
+                            nuisance_rows.append((row, base_col + c, obs_t["nuisance"][i, k, c]))
+            n_points += len(item.q)
         elif isinstance(item, BallbarRun):
             q, radial, directions = ballbar_positions(machine, item)
             q_list.append(q)
@@ -468,7 +485,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         dict(zip(obs.nuisance_names, (float(v) for v in nuisance))), rms_fit or 0.0, rms_fit_rot,
         rms_holdout, how, obs.n_points, len(obs.y), iterations, convention, residual_sigma, groups,
         frozenset(n for c, n in enumerate(obs.nuisance_names)
-                  if np.any(obs.angular[obs.nuisance[:, c] != 0])))
+                  if np.any(obs.angular[obs.nuisance[:, c] != 0]) or n.startswith("rotation_")))
 
 
 def _typical(machine: Machine, theta: np.ndarray, free: np.ndarray, n_nuisance: int) -> np.ndarray:

@@ -146,6 +146,26 @@ class PointMeasurements:
 def read_points(path: str | Path, machine) -> PointMeasurements:
     """Read a point-measurement file for ``machine`` (positions checked against its travel)."""
     table = read_table(path)
+    columns = header_columns(table, machine)
+    q, covariates, used = positions_and_covariates(table, columns, machine)
+    values = np.full((len(table.rows), 6), np.nan)
+    present = [k for k, name in enumerate(DEVIATIONS) if name in columns]
+    if not present:
+        raise MeasurementError(f"{table.path}:{table.header_line}: no deviation column "
+                               "(dx, dy, dz [um] or rx, ry, rz [urad])")
+    for k in present:
+        col = columns[DEVIATIONS[k]]
+        used.add(col)
+        values[:, k] = table.column(col, allow_empty=True) * (1e-6 if k < 3 else 1e-6)
+    empty = np.flatnonzero(np.all(np.isnan(values), axis=1))
+    if empty.size:
+        raise MeasurementError(f"{table.path}:{table.lines[empty[0]]}: row has no measured deviation")
+    unused = tuple(table.header[c] for c in range(len(table.header)) if c not in used)
+    return PointMeasurements(table.path, q, values, covariates, np.array(table.lines), unused)
+
+
+def header_columns(table: Table, machine) -> dict[str, int]:
+    """Column stem -> index, with the units in the names checked against the file units."""
     columns: dict[str, int] = {}
     for col, name in enumerate(table.header):
         stem, unit = _split_unit(name)
@@ -154,6 +174,11 @@ def read_points(path: str | Path, machine) -> PointMeasurements:
         if unit is not None and expected is not None and unit != expected:
             raise MeasurementError(f"{table.path}:{table.header_line}:{col + 1}: column '{name}': "
                                    f"unit '{unit}' is not the file unit '{expected}' of {stem}")
+    return columns
+
+
+def positions_and_covariates(table: Table, columns: dict[str, int], machine) -> tuple[np.ndarray, dict, set]:
+    """NC positions (SI, checked against the travel), covariates, and the columns used."""
     used = set()
     q = np.empty((len(table.rows), len(machine.axes)))
     for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):
@@ -172,18 +197,6 @@ def read_points(path: str | Path, machine) -> PointMeasurements:
             unit = "mm" if kind == "linear" else "deg"
             raise MeasurementError(f"{table.where(bad[0], col)}: {key} = {q[bad[0], j] * shown:g} {unit} is "
                                    f"outside the travel of {axis} [{lo * shown:g}, {hi * shown:g}] {unit}")
-    values = np.full((len(table.rows), 6), np.nan)
-    present = [k for k, name in enumerate(DEVIATIONS) if name in columns]
-    if not present:
-        raise MeasurementError(f"{table.path}:{table.header_line}: no deviation column "
-                               "(dx, dy, dz [um] or rx, ry, rz [urad])")
-    for k in present:
-        col = columns[DEVIATIONS[k]]
-        used.add(col)
-        values[:, k] = table.column(col, allow_empty=True) * (1e-6 if k < 3 else 1e-6)
-    empty = np.flatnonzero(np.all(np.isnan(values), axis=1))
-    if empty.size:
-        raise MeasurementError(f"{table.path}:{table.lines[empty[0]]}: row has no measured deviation")
     covariates: dict = {}
     if "t" in columns:
         covariates["t"] = table.column(columns["t"])
@@ -216,8 +229,7 @@ def read_points(path: str | Path, machine) -> PointMeasurements:
                 raise MeasurementError(f"{table.where(bad[0], col)}: column '{table.header[col]}': "
                                        f"direction must be +1 or -1, got {table.rows[bad[0]][col].strip()}")
         covariates["directions"] = directions
-    unused = tuple(table.header[c] for c in range(len(table.header)) if c not in used)
-    return PointMeasurements(table.path, q, values, covariates, np.array(table.lines), unused)
+    return q, covariates, used
 
 
 def _expected_unit(stem: str, machine) -> str | None:
@@ -232,6 +244,8 @@ def _expected_unit(stem: str, machine) -> str | None:
         return "degC"
     if stem in ("Fx", "Fy", "Fz"):
         return "N"
+    if stem in ("tx", "ty", "tz", "ox", "oy", "oz"):  # tracker coordinates, target offsets
+        return "mm"
     return None
 
 
@@ -524,9 +538,12 @@ def read_any(path: str | Path, machine=None, axis: str | None = None):
     if is_run_file(table.header):
         return read_runs(path, axis)
     from .ballbar import is_ballbar_file, read_ballbar
+    from .tracker import is_tracker_file, read_tracker
 
     if is_ballbar_file(table.header):
         return read_ballbar(path)
+    if machine is not None and is_tracker_file(table.header):
+        return read_tracker(path, machine)
     if machine is None:
         raise MeasurementError(f"{path}: point measurements need the machine (its axes and travels)")
     return read_points(path, machine)

@@ -155,3 +155,46 @@ def write_ballbar(run, path) -> None:
               for a, v, d in zip(run.angle, run.deviation, run.direction)]
     with open(path, "w") as f:
         f.write("\n".join(lines) + "\n")
+
+
+def tracker_campaign(truth: Machine, n: int = 100, offsets_mm=((0.0, 0.0, 0.0),), noise_um: float = 5.0,
+                     seed: int = 0, rotation=None, translation_mm=(2000.0, -1000.0, 300.0),
+                     source: str = "simulated"):
+    """Laser-tracker measurements of ``truth``: ``n`` random poses, every target of
+    ``offsets_mm`` (tool frame) measured at each, in a tracker frame placed by ``rotation``
+    (3x3; default 30 deg about z and 5 deg about x) and ``translation_mm``, with isotropic
+    noise. Exact: actual tool poses, not the model's first-order projection."""
+    from .tracker import TrackerMeasurements
+
+    rng = np.random.default_rng(seed)
+    travel = np.where(np.isfinite(truth.travel), truth.travel, np.array([-np.pi, np.pi]))
+    q0 = rng.uniform(travel[:, 0], travel[:, 1], (n, len(truth.axes)))
+    offsets = np.asarray(offsets_mm, dtype=float) * 1e-3
+    q = np.repeat(q0, len(offsets), axis=0)
+    o = np.tile(offsets, (n, 1))
+    cov = covariates(n, rng, n_axes=len(truth.axes)) if truth.covariates_used else {}
+    cov = {k: (np.repeat(v, len(offsets), axis=0) if not isinstance(v, dict)
+               else {s: np.repeat(a, len(offsets)) for s, a in v.items()}) for k, v in cov.items()}
+    if rotation is None:
+        cz, sz, cx, sx = np.cos(np.radians(30)), np.sin(np.radians(30)), np.cos(np.radians(5)), np.sin(np.radians(5))
+        rotation = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]) @ np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    R_act, p_act = truth.tool_poses(q, **cov)
+    target = p_act + np.einsum("nij,nj->ni", R_act, o)
+    measured = target @ np.asarray(rotation).T + np.asarray(translation_mm) * 1e-3
+    measured += rng.normal(0.0, noise_um * 1e-6, measured.shape)
+    names = tuple(f"T{k + 1}" for k in range(len(offsets))) * n
+    return TrackerMeasurements(source, q, measured, o, names, cov, np.arange(len(q)))
+
+
+def write_tracker(data, machine: Machine, path) -> None:
+    """Write tracker measurements in the format :func:`volerr_pin.tracker.read_tracker` reads
+    (positions, targets, offsets, coordinates; covariates are not written)."""
+    cols = [a.lower() for a in machine.axes]
+    factors = [1e3 if k == "linear" else 180.0 / np.pi for k in machine.axis_kinds]
+    lines = [",".join(cols + ["target", "ox", "oy", "oz", "tx", "ty", "tz"])]
+    for i in range(len(data.q)):
+        row = [f"{data.q[i, j] * factors[j]:.6f}" for j in range(len(machine.axes))] + [data.targets[i]]
+        row += [f"{v * 1e3:.4f}" for v in data.offsets[i]] + [f"{v * 1e3:.6f}" for v in data.coordinates[i]]
+        lines.append(",".join(row))
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
