@@ -194,3 +194,38 @@ def test_a_time_constant_in_seconds_is_not_taken_for_no_effect(machines):
     k = start.parameter_names.index("EZX.d.tau1")
     assert k in res.fitted and np.isfinite(res.uncertainty[k])
     assert res.machine.theta[k] == pytest.approx(3000.0, abs=3 * res.uncertainty[k])
+
+
+def test_a_fit_that_did_not_converge_is_not_called_fitted(machines):
+    """One Gauss-Newton step on a drift whose time constant starts far off: the report says
+    where it stopped, and no coefficient is called fitted."""
+    from volerr_pin.simulate import campaign
+    from volerr_pin.specio import add_terms
+
+    m = machines["vmc500"]
+    drift = {"kind": "thermal_drift", "driver": "time", "prefix": "h", "amplitudes_um": [6.0],
+             "time_constants_min": [50.0]}
+    truth = add_terms(m, {"EZZ": drift})
+    model = add_terms(m, {"EZZ": {**drift, "amplitudes_um": [1.0], "time_constants_min": [5.0]}})
+    names = list(model.parameter_names)
+    free = [names.index("EZZ.h.a1"), names.index("EZZ.h.tau1")]
+    data = [campaign(truth, 200, 0.3, seed=2)]
+    once = identify(model, data, free=free, folds=0, max_iter=1)
+    assert once.solver == "iteration limit" and not once.converged
+    statuses = {once.to_dict()["parameters"][n]["status"] for n in ("EZZ.h.a1", "EZZ.h.tau1")}
+    assert statuses == {"not fitted: the fit stopped at the iteration limit before converging"}
+    full = identify(model, data, free=free, folds=0)
+    assert full.solver == "converged"
+    assert full.to_dict()["parameters"]["EZZ.h.tau1"]["status"] == "fitted"
+    assert full.to_dict()["parameters"]["EZZ.h.tau1"]["value"] == pytest.approx(50.0, rel=0.05)
+
+
+def test_coefficients_the_data_cannot_determine_are_marked(machines):
+    """Thirty points with 50 mm of noise: the fit runs, but its uncertainties exceed anything
+    a machine's error could be, and the report says so instead of calling them fitted."""
+    m = machines["vmc500"]
+    report = identify(m, [tool_points(m, m, 30, 50e-3, seed=3)], folds=0).to_dict()
+    statuses = [p["status"] for p in report["parameters"].values()]
+    assert "fitted, not determined (its uncertainty exceeds any plausible value)" in statuses
+    good = identify(m, [tool_points(m, m, 400, 0.3e-6, seed=3)], folds=0).to_dict()
+    assert not any(p["status"].startswith("fitted, not") for p in good["parameters"].values())

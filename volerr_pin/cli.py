@@ -458,6 +458,13 @@ def _print_identification(console: Console, r: dict, units: dict | None = None) 
                if r["rms_holdout_um"] is not None else f"no held-out RMS ({r['holdout']})")
     console.print(f"fit: {r['iterations']} Gauss-Newton iteration(s); residual RMS {r['rms_fit_um']:.4g} um "
                   f"at the fitted points, {holdout}; residual / stated sigma = {r['residual_sigma']:.3g}")
+    if r["solver"] != "converged":
+        console.print(f"[bold]the fit did not converge ({r['solver']})[/bold]: the values below are where it "
+                      "stopped, not estimates; try other start values, fewer free terms, or more data")
+    undetermined = [n for n, p in r["parameters"].items() if p["status"].startswith("fitted, not determined")]
+    if undetermined:
+        console.print(escape(f"not determined by these data (standard uncertainty beyond any plausible value): "
+                             f"{', '.join(undetermined)}"))
     table = Table(box=box.SIMPLE, title="coefficients")
     for col, justify in (("coefficient", "left"), ("value", "right"), ("std. uncertainty", "right"),
                          ("unit", "left"), ("prior", "right"), ("status", "left")):

@@ -270,6 +270,18 @@ class Identification:
     residual_sigma: float             # weighted residual standard deviation (1 = as stated)
     groups: list = field(default_factory=list)
     angular_nuisance: frozenset = frozenset()
+    solver: str = "converged"         # or "stalled", "iteration limit": see _solve
+
+    @property
+    def converged(self) -> bool:
+        return self.solver == "converged"
+
+    @property
+    def solver_text(self) -> str:
+        return {"converged": "converged",
+                "stalled": "stalled (no step lowered the residual the linearised model said it would: "
+                           "far from linear here, or ill-conditioned)",
+                "iteration limit": "stopped at the iteration limit before converging"}[self.solver]
 
     def to_dict(self) -> dict:
         m, prior = self.machine, self.prior
@@ -279,6 +291,10 @@ class Identification:
             factor, unit = units[name]
             status = ("fitted" if k in set(self.fitted.tolist()) else
                       "held (not identifiable)" if k in set(self.held.tolist()) else "fixed (not selected)")
+            if status == "fitted" and self.solver != "converged":
+                status = f"not fitted: the fit {self.solver_text}"
+            elif status == "fitted" and self.uncertainty[k] > _undetermined_limit(m, k):
+                status = "fitted, not determined (its uncertainty exceeds any plausible value)"
             params[name] = {
                 "value": float(m.theta[k] / factor), "prior": float(prior.theta[k] / factor),
                 "uncertainty": None if math.isnan(self.uncertainty[k]) else float(self.uncertainty[k] / factor),
@@ -289,6 +305,7 @@ class Identification:
             "condition_number": self.analysis.condition,
             "unidentifiable": [g.to_dict() for g in self.groups],
             "convention": self.convention,
+            "solver": self.solver,
             "rms_fit_um": self.rms_fit_um, "rms_fit_urad": self.rms_fit_urad,
             "rms_holdout_um": self.rms_holdout_um, "holdout": self.holdout,
             "residual_sigma": self.residual_sigma, "iterations": self.iterations,
@@ -297,6 +314,14 @@ class Identification:
                          for n, v in self.nuisance.items()},
             "parameters": params,
         }
+
+
+def _undetermined_limit(machine: Machine, k: int) -> float:
+    """An uncertainty beyond which a coefficient is not determined at all (SI): 10 mm for a
+    length, 0.01 rad (0.6 deg) for an angle, ten times its value for a non-linear one."""
+    if k in set(machine.nonlinear_parameters):
+        return 10.0 * abs(machine.theta[k])
+    return 0.01  # m or rad alike (coefficients per newton or per kelvin are far below it)
 
 
 def parameter_units(machine: Machine) -> dict[str, tuple[float, str]]:
@@ -343,7 +368,10 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
            step: Callable[[int], None] | None = None):
     """Gauss-Newton on [nuisance | free[columns]] with a backtracking line search (a step is
     halved until the residual decreases and time constants and periods stay positive);
-    returns theta, nuisance, J, r, iterations."""
+    returns theta, nuisance, J, r, iterations, status: "converged" (the linearised model cannot
+    lower the residual, or the step is below ``tol``), "stalled" (no step along the
+    Gauss-Newton direction lowers the residual although the linearised model says it
+    should: the model is far from linear there, or badly conditioned) or "iteration limit"."""
     theta = theta0.copy()
     n_nu = obs.nuisance.shape[1]
     nuisance = np.zeros(n_nu)
@@ -352,6 +380,7 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
     sigma = obs.sigma
     it = 0
     rcond = 1e-9 if convention == "min-norm" else None
+    status = "iteration limit"
     for it in range(1, max_iter + 1):
         pred, A = _design(machine, obs, theta, free)
         r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
@@ -361,8 +390,10 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
         delta = step_scaled / scale
         rss = float(r @ r)
         predicted = r - Js @ step_scaled
-        if rss - float(predicted @ predicted) <= 1e-12 * rss:
-            break  # the linearised model cannot lower the residual: converged
+        gain = rss - float(predicted @ predicted)
+        if gain <= 1e-12 * rss:
+            status = "converged"  # the linearised model cannot lower the residual
+            break
         factor = 1.0
         for _ in range(30):
             trial_theta = theta.copy()
@@ -376,17 +407,21 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
                 break
             factor *= 0.5
         else:
-            break  # no step decreases the residual: at the minimum (to rounding)
+            # no step decreases the residual: at the minimum to rounding when the promised
+            # gain is at the rounding level, otherwise stuck
+            status = "converged" if gain <= 1e-6 * rss else "stalled"
+            break
         theta, nuisance = trial_theta, trial_nu
         if step:
             step(it)
         # step size in units of the observations' standard deviations
         if np.abs(factor * delta * scale).max(initial=0.0) < tol:
+            status = "converged"
             break
     pred, A = _design(machine, obs, theta, free)
     r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
     J = np.hstack([obs.nuisance, A[:, use]]) / sigma[:, None]
-    return theta, nuisance, J, r, it
+    return theta, nuisance, J, r, it, status
 
 
 def _rms(obs: Observations, residual_si: np.ndarray, angular: bool) -> float | None:
@@ -401,7 +436,7 @@ def _rms(obs: Observations, residual_si: np.ndarray, angular: bool) -> float | N
 
 
 def identify(machine: Machine, data, *, terms=None, free=None, convention: str = "prior", folds: int = 5,
-             holdout: float | None = None, seed: int = 0, max_iter: int = 10, tol: float = 1e-8,
+             holdout: float | None = None, seed: int = 0, max_iter: int = 50, tol: float = 1e-8,
              sigma_um: float = 1.0, sigma_urad: float = 1.0, run_axis: str | None = None,
              run_at: dict | None = None, rtol: float = 1e-9, progress=None,
              initialise: bool = True) -> Identification:
@@ -459,7 +494,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     held = np.array(sorted(set(range(len(free))) - set(kept_theta.tolist())), dtype=int)
     columns = kept_theta if convention == "prior" else None
     tick = (lambda i: progress("fit", i)) if progress else None
-    theta, nuisance, J, r, iterations = _solve(machine, obs, theta0, free, columns, convention,
+    theta, nuisance, J, r, iterations, solver = _solve(machine, obs, theta0, free, columns, convention,
                                                max_iter, tol, tick)
     dof = len(r) - J.shape[1] if convention == "prior" else len(r) - analysis.rank
     residual_sigma = float(np.sqrt(r @ r / dof)) if dof > 0 else math.nan
@@ -485,7 +520,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         dict(zip(obs.nuisance_names, (float(v) for v in nuisance))), rms_fit or 0.0, rms_fit_rot,
         rms_holdout, how, obs.n_points, len(obs.y), iterations, convention, residual_sigma, groups,
         frozenset(n for c, n in enumerate(obs.nuisance_names)
-                  if np.any(obs.angular[obs.nuisance[:, c] != 0]) or n.startswith("rotation_")))
+                  if np.any(obs.angular[obs.nuisance[:, c] != 0]) or n.startswith("rotation_")), solver)
 
 
 def _typical(machine: Machine, theta: np.ndarray, free: np.ndarray, n_nuisance: int) -> np.ndarray:
