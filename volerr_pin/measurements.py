@@ -34,7 +34,7 @@ from .units import ANGLE, LENGTH
 
 DEVIATIONS = ("dx", "dy", "dz", "rx", "ry", "rz")
 DEVIATION_UNITS = {"dx": "um", "dy": "um", "dz": "um", "rx": "urad", "ry": "urad", "rz": "urad"}
-META_RE = re.compile(r"^#\s*(axis|at|plane|radius|centre|center)\s*:\s*(.*)$", re.IGNORECASE)
+META_RE = re.compile(r"^#\s*(axis|at|plane|radius|centre|center|convention|tool)\s*:\s*(.*)$", re.IGNORECASE)
 
 
 class MeasurementError(InputError):
