@@ -121,3 +121,19 @@ def test_ballbar_example_round_trips(tmp_path):
     found = [(e["name"], e["axis"]) for e in result["diagnosis"]["effects"]]
     assert found == [("backlash", "X"), ("backlash", "Y")]
     assert result["iso"]["H"] > 3.0 and (tmp_path / "circle_xy.png").exists()
+
+
+def test_robot_axes_example_on_real_data():
+    """Circle-point analysis of the real robot (skipped when the data are not beside the
+    repository): every joint's circles within 70 um, and the arm's lengths as built
+    (312 / 1075 / 225 mm class) with right angles and one parallel pair."""
+    import math
+
+    result = load("robot_axes_real_data").main()
+    if result is None:
+        pytest.skip("real data not beside the repository")
+    assert all(a.max < 70e-6 for a in result["axes"].values()) and result["rms"] < 30e-6
+    rel = result["relations"]
+    assert [round(math.degrees(r["angle"])) for r in rel.values()] == [90, 180, 90, 90, 90]
+    assert rel[1]["parallel"] and not rel[0]["parallel"]
+    assert [round(r["distance"] * 1e3) for r in rel.values()][:3] == [311, 1076, 224]

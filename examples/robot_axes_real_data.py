@@ -1,0 +1,87 @@
+"""Circle-point analysis of a real industrial robot from laser-tracker data (read in place).
+
+The data (Boby and Klimchik, RCIM 2021; beside the repository, never copied): a laser
+tracker measured three reflectors (SMRs) on the end effector of a large 6-axis arm
+(R-2000iC class) at 36 poses, six per joint, each block moving one joint. The controller
+reports J3 Fanuc-style, relative to the horizontal: the physical elbow angle is J3 + J2,
+which is why the J2 block commands J3 = -J2 (the elbow stays put while the shoulder turns).
+
+For every joint this fits the three SMR circles and the axis line
+(:func:`volerr_pin.axisfit.fit_axis`). It prints how far the points lie from their circles
+(the per-axis fit residual), how far the turned angles are from the commanded ones (joint
+angle transmission error and scale), and the geometry between consecutive axes (their
+angle and distance along the common normal, the DH alpha and a of the arm as built). The
+J2 block's circles check the coupling: had the elbow moved, its points would not lie on
+circles about one axis.
+
+Run it with ``python examples/robot_axes_real_data.py``; set ``VOLERR_REAL_DATA`` if the data
+are not at ``shared/real-data`` beside the repository.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from volerr_pin.axisfit import axis_relation, fit_axis
+
+ARCSEC = 180.0 / math.pi * 3600.0
+
+
+def data_file() -> Path | None:
+    env = os.environ.get("VOLERR_REAL_DATA")
+    root = Path(env) if env else Path(__file__).resolve().parents[2] / "shared" / "real-data"
+    path = root / "laser_tracker_robot_rabkkk" / "N1N2N3Jval.csv"
+    return path if path.is_file() else None
+
+
+def sweeps(table: np.ndarray) -> list[tuple[int, np.ndarray, np.ndarray]]:
+    """(joint index, SMR positions (3, n, 3) in m, physical joint values (n,) rad) per block."""
+    joints = table[:, 15:21].copy()                  # J1..J6 as the controller reports them, deg
+    joints[:, 2] += joints[:, 1]                     # Fanuc J3 is relative to the horizontal
+    smr = table[:, :9].reshape(len(table), 3, 3).transpose(1, 0, 2) * 1e-3
+    out = []
+    for start in range(0, len(table), 6):
+        block = slice(start, start + 6)
+        moving = np.flatnonzero(np.ptp(joints[block], axis=0) > 1e-9)
+        if len(moving) != 1:
+            raise ValueError(f"rows {start + 1}-{start + 6}: joints {moving + 1} move together")
+        j = int(moving[0])
+        out.append((j, smr[:, block], np.radians(joints[block, j])))
+    return out
+
+
+def main() -> dict | None:
+    path = data_file()
+    if path is None:
+        print("real data not found: set VOLERR_REAL_DATA or put shared/real-data beside the repository")
+        return None
+    table = np.loadtxt(path)
+    axes = {}
+    print(f"{path.name}: {len(table)} poses, 3 SMRs; one joint per block of 6 (J3 taken as J3 + J2)")
+    print("joint  circle RMS per SMR [um]   max [um]   angle residual RMS [arcsec]   turned / commanded - 1 [ppm]")
+    for j, targets, q in sweeps(table):
+        axis = fit_axis(list(targets), q)
+        axes[j] = axis
+        per_smr = " ".join(f"{c.rms * 1e6:6.1f}" for c in axis.circles)
+        print(f"  J{j + 1}   {per_smr}         {axis.max * 1e6:6.1f}      {np.sqrt(np.mean(axis.angle_residual ** 2)) * ARCSEC:8.1f}"
+              f"                     {(axis.angle_scale - 1) * 1e6:+9.0f}")
+    print("consecutive axes as built (angle between them, distance along the common normal):")
+    relations = {}
+    for j in range(5):
+        r = axis_relation(axes[j], axes[j + 1])
+        relations[j] = r
+        print(f"  J{j + 1} -> J{j + 2}: {math.degrees(r['angle']):8.3f} deg, {r['distance'] * 1e3:9.3f} mm"
+              + ("  (parallel: distance between the lines)" if r["parallel"] else ""))
+    rms = float(np.sqrt(np.mean(np.concatenate([c.distance ** 2 for a in axes.values() for c in a.circles]))))
+    print(f"all joints: circle RMS {rms * 1e6:.1f} um over {sum(len(c.distance) for a in axes.values() for c in a.circles)} points")
+    return {"axes": axes, "relations": relations, "rms": rms}
+
+
+if __name__ == "__main__":
+    main()
+    sys.exit(0)
