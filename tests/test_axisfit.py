@@ -91,3 +91,32 @@ def test_bundled_robot_axes_from_simulated_sweeps(machines):
         assert axes[-1].rms < 1e-12
     angles = [math.degrees(axis_relation(a, b)["angle"]) for a, b in zip(axes[:-1], axes[1:])]
     np.testing.assert_allclose(angles, [90, 0, 0, 90, 90], atol=1e-7)
+
+
+def test_a_robot_rebuilt_from_its_measured_axes(machines, tmp_path):
+    """UR5 sweeps -> axes -> URDF: the rebuilt arm puts the targets where the UR5 does, at any
+    joint values (relative to the reference configuration of the sweeps)."""
+    from volerr_pin.axisfit import axes_to_urdf
+
+    m = machines["ur5"]
+    offsets = np.array([[0.05, 0.02, 0.03], [0.1, 0.0, 0.0], [0.0, 0.1, 0.05]])
+    base = np.radians([10.0, -60.0, 70.0, -40.0, 30.0, 20.0])
+    axes = []
+    for j in range(6):
+        q = np.tile(base, (7, 1))
+        q[:, j] += np.radians(np.linspace(-40, 40, 7))
+        R, p = m.tool_poses(q, nominal=True)
+        axes.append(fit_axis([p + np.einsum("nij,j->ni", R, o) for o in offsets], q[:, j]))
+    text, tool = axes_to_urdf(axes, [f"J{k + 1}" for k in range(6)], [(-6.0, 6.0)] * 6)
+    (tmp_path / "rebuilt.urdf").write_text(text)
+    rebuilt = vp.load_machine(tmp_path / "rebuilt.urdf", tool_frame="tool0", workpiece_frame="world")
+    R0, p0 = m.tool_poses(base[None, :], nominal=True)
+    targets_ref = p0[0] + offsets @ R0[0].T                      # targets at the reference
+    in_tool = (targets_ref - tool[:3, 3]) @ tool[:3, :3]          # ... in the rebuilt tool frame
+    rng = np.random.default_rng(2)
+    q = base + rng.uniform(-0.5, 0.5, (20, 6))
+    R, p = m.tool_poses(q, nominal=True)
+    Rb, pb = rebuilt.tool_poses(q - base, nominal=True)
+    for o, o_b in zip(offsets, in_tool):
+        np.testing.assert_allclose(pb + np.einsum("nij,j->ni", Rb, o_b), p + np.einsum("nij,j->ni", R, o),
+                                   atol=1e-9)

@@ -137,3 +137,8 @@ def test_robot_axes_example_on_real_data():
     assert [round(math.degrees(r["angle"])) for r in rel.values()] == [90, 180, 90, 90, 90]
     assert rel[1]["parallel"] and not rel[0]["parallel"]
     assert [round(r["distance"] * 1e3) for r in rel.values()][:3] == [311, 1076, 224]
+    # the arm rebuilt from those axes, its joints' constant errors identified from all poses
+    ident = result["identification"]
+    assert ident["solver"] == "converged" and ident["rank"] == 21
+    assert result["model_rms_um"] == pytest.approx(418.4, abs=0.5)
+    assert ident["rms_fit_um"] == pytest.approx(405.1, abs=0.5) and ident["rms_holdout_um"] < 420

@@ -171,3 +171,39 @@ def axis_relation(a: Axis, b: Axis) -> dict:
     else:
         distance = float(abs(gap @ cross) / sine)
     return {"angle": angle, "distance": distance, "parallel": parallel}
+
+
+def _frame(point: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """A frame at ``point`` whose z is ``direction`` (x chosen from the world axes)."""
+    z = direction / np.linalg.norm(direction)
+    ref = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = ref - (ref @ z) * z
+    x /= np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    T[:3, 3] = point
+    return T
+
+
+def axes_to_urdf(axes: list[Axis], names: list[str], limits: list[tuple[float, float]], *,
+                 name: str = "measured", base: str = "world", tool: str = "tool0") -> tuple[str, np.ndarray]:
+    """A URDF of the serial chain whose revolute joints turn about the measured ``axes``
+    (all measured in one configuration, the reference, in the ``base`` frame): joint value 0
+    is that reference configuration. Returns the text and the tool frame's pose in the
+    reference configuration (4x4, base frame): at the last axis, z along it."""
+    from .dh import _origin
+
+    frames = [_frame(a.point, a.direction) for a in axes]
+    lines = ['<?xml version="1.0"?>', f'<robot name="{name}">', f'  <link name="{base}"/>']
+    parent, previous = base, np.eye(4)
+    for frame, joint, (lower, upper) in zip(frames, names, limits):
+        link = f"{joint}_link"
+        lines += [f'  <link name="{link}"/>', f'  <joint name="{joint}" type="revolute">',
+                  f'    <parent link="{parent}"/><child link="{link}"/>',
+                  f"    {_origin(np.linalg.inv(previous) @ frame)}", '    <axis xyz="0 0 1"/>',
+                  f'    <limit lower="{lower!r}" upper="{upper!r}"/>', "  </joint>"]
+        parent, previous = link, frame
+    lines += [f'  <link name="{tool}"/>', f'  <joint name="{tool}_fixed" type="fixed">',
+              f'    <parent link="{parent}"/><child link="{tool}"/>', '    <origin xyz="0 0 0" rpy="0 0 0"/>',
+              "  </joint>", "</robot>", ""]
+    return "\n".join(lines), frames[-1]

@@ -369,7 +369,8 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
     """Gauss-Newton on [nuisance | free[columns]] with a backtracking line search (a step is
     halved until the residual decreases and time constants and periods stay positive);
     returns theta, nuisance, J, r, iterations, status: "converged" (the linearised model cannot
-    lower the residual, or the step is below ``tol``), "stalled" (no step along the
+    lower the residual, a full iteration lowers the weighted RSS by less than 0.001 or 1e-10
+    of itself, or the step is below ``tol``), "stalled" (no step along the
     Gauss-Newton direction lowers the residual although the linearised model says it
     should: the model is far from linear there, or badly conditioned) or "iteration limit"."""
     theta = theta0.copy()
@@ -414,6 +415,11 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
         theta, nuisance = trial_theta, trial_nu
         if step:
             step(it)
+        if rss - float(trial_r @ trial_r) <= max(1e-10 * rss, 1e-3):
+            # chi-square (weighted RSS) moved by less than 0.001: the parameters move by far
+            # less than their uncertainties - a flat valley is being crawled, not descended
+            status = "converged"
+            break
         # step size in units of the observations' standard deviations
         if np.abs(factor * delta * scale).max(initial=0.0) < tol:
             status = "converged"
