@@ -102,10 +102,12 @@ def whole_robot(table: np.ndarray, axes: list, out: Path | None = None) -> dict:
     reference = np.array([47.0, 0, 0, 0, 0, 0])
     names = [f"J{k + 1}" for k in range(6)]
     out = Path(tempfile.mkdtemp()) if out is None else out
-    text, _ = axes_to_urdf(axes, names, [(-7.0, 7.0)] * 6, name="r2000ic_as_measured")
+    q = np.radians(joints - reference)
+    # travels: the measured range of each joint (polynomial terms are scaled to it)
+    limits = [(float(lo) - 0.02, float(hi) + 0.02) for lo, hi in zip(q.min(axis=0), q.max(axis=0))]
+    text, _ = axes_to_urdf(axes, names, limits, name="r2000ic_as_measured")
     (out / "robot_measured.urdf").write_text(text)
     robot = vp.load_machine(out / "robot_measured.urdf", tool_frame="tool0", workpiece_frame="world")
-    q = np.radians(joints - reference)
     R, p = robot.tool_poses(q, nominal=True)
     smr = table[:, :9].reshape(len(table), 3, 3) * 1e-3
     offsets = np.array([np.mean(np.einsum("nji,nj->ni", R, smr[:, k] - p), axis=0) for k in range(3)])
@@ -125,7 +127,15 @@ def whole_robot(table: np.ndarray, axes: list, out: Path | None = None) -> dict:
     print(f"every joint's 6 constant errors identified through the tracker model: {report['rank']} of "
           f"{report['n_parameters']} determined, solver {report['solver']}; residual {report['rms_fit_um']:.1f} um RMS "
           f"per reflector position, {report['rms_holdout_um']:.1f} um held out ({report['holdout']})")
-    return {"model_rms_um": float(np.sqrt(np.mean(before**2)) * 1e6), "identification": report}
+    from volerr_pin.diagnose import diagnose
+
+    found = diagnose(robot, [data], sigma_um=30.0)
+    print("what the rest is (volerr diagnose on the same data; held out: whole poses): "
+          + "; ".join(f"{u['component']} {u['from']} -> {u['to']}" for u in found.under_modelled)
+          + (("; " + "; ".join(e["label"] for e in found.effects)) if found.effects else "")
+          + f"; held-out RMS {found.rms_before_um:.0f} -> {found.rms_after_um:.0f} um")
+    return {"model_rms_um": float(np.sqrt(np.mean(before**2)) * 1e6), "identification": report,
+            "diagnosis": found.to_dict()}
 
 
 if __name__ == "__main__":

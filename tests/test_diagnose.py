@@ -145,7 +145,7 @@ def test_fixed_keeps_the_geometry_and_still_finds_the_effect(machines):
 
 def test_too_few_points_is_an_error(machines):
     m = machines["vmc500"]
-    with pytest.raises(vp.InputError, match="too few for 5-fold"):
+    with pytest.raises(vp.InputError, match="6 points at too few distinct poses for 5-fold"):
         diagnose(m, [campaign(m, 6, NOISE, 0)])
 
 

@@ -47,7 +47,7 @@ from scipy import stats
 from scipy.signal import lombscargle
 
 from .errors import InputError
-from .identify import Observations, _design, build_observations, identify, parameter_units
+from .identify import Observations, _design, build_observations, identify, parameter_units, pose_folds
 from .machine import Machine
 from .spec import build_term, component_name, parse_component_name
 from .specio import add_terms, remove_components, replace_terms, term_tables
@@ -845,7 +845,8 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
         Family-wise significance level of the F-test in each round (Bonferroni over the
         candidates of the round).
     folds, seed : int
-        k-fold cross-validation over points, with the points shuffled by ``seed``.
+        k-fold cross-validation over poses (points at the same positions - several targets,
+        repeats - stay in one fold), shuffled by ``seed``.
     max_rounds : int, optional
         Rounds of the loop at most (default ``max_effects`` + 8: room for raising
         under-modelled components).
@@ -853,11 +854,9 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     start = _time.perf_counter()
     obs = measurements if isinstance(measurements, Observations) else build_observations(
         machine, measurements, sigma_um=sigma_um, sigma_urad=sigma_urad)
-    rng = np.random.default_rng(seed)
-    order = rng.permutation(obs.n_points)
-    if obs.n_points < 2 * folds:
-        raise InputError(f"{obs.n_points} points are too few for {folds}-fold cross-validation")
-    split = np.array_split(order, folds)
+    split = pose_folds(obs, folds, seed)  # the points at one pose stay in one fold
+    if split is None:
+        raise InputError(f"{obs.n_points} points at too few distinct poses for {folds}-fold cross-validation")
     cov_obj = machine.check_covariates(obs.n_points, obs.covariates)
     axis_index_of = {a: j for j, a in enumerate(machine.axes)}
     columns = _Columns(obs, cov_obj)
@@ -927,9 +926,11 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
                 tested = [_tested_names(new_fit, r) for r in records]
                 sizes = [_size(res, t) if res is not None and t else math.inf for t in tested]
                 keep = [s for s, z in zip(batch, sizes) if z >= SIGNIFICANCE]
-                if len(keep) == len(batch) or not keep:
+                if len(keep) == len(batch) or (not keep and len(batch) == 1):
                     break
-                batch = keep
+                # the ones significant in the joint refit; if none is (raises that explain the
+                # same residual share it, and each looks insignificant), the best one alone
+                batch = keep or [best]
             if len(keep) != len(batch) or not keep:
                 continue
             for record, z in zip(records, sizes):

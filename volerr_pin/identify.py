@@ -8,7 +8,8 @@ zero (every run) and its alignment slope (straightness runs). Before fitting,
 coefficients are held at their prior values (``convention="prior"``, the default) or the
 update is the minimum-norm one (``"min-norm"``). The fit is weighted Gauss-Newton on the
 exact sensitivities; uncertainties come from the covariance scaled by the residual; the
-held-out RMS from k-fold cross-validation over points.
+held-out RMS from k-fold cross-validation over poses (points at the same positions stay
+together).
 """
 
 from __future__ import annotations
@@ -366,13 +367,13 @@ def _residual(machine: Machine, obs: Observations, theta: np.ndarray, nuisance: 
 def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndarray,
            columns: np.ndarray | None, convention: str, max_iter: int, tol: float,
            step: Callable[[int], None] | None = None):
-    """Gauss-Newton on [nuisance | free[columns]] with a backtracking line search (a step is
-    halved until the residual decreases and time constants and periods stay positive);
+    """Gauss-Newton on [nuisance | free[columns]], damped (Levenberg-Marquardt, growing
+    damping) when a full step does not lower the residual or would make a time constant or
+    period non-positive;
     returns theta, nuisance, J, r, iterations, status: "converged" (the linearised model cannot
-    lower the residual, a full iteration lowers the weighted RSS by less than 0.001 or 1e-10
-    of itself, or the step is below ``tol``), "stalled" (no step along the
-    Gauss-Newton direction lowers the residual although the linearised model says it
-    should: the model is far from linear there, or badly conditioned) or "iteration limit"."""
+    lower the residual; a full Gauss-Newton step, or three damped ones running, lower the
+    weighted RSS by less than 0.001 or 1e-10 of itself; or the step is below ``tol``), "stalled" (no step, however damped, lowers the residual although the linearised model
+    says one should: the model is far from linear there, or badly conditioned) or "iteration limit"."""
     theta = theta0.copy()
     n_nu = obs.nuisance.shape[1]
     nuisance = np.zeros(n_nu)
@@ -382,6 +383,7 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
     it = 0
     rcond = 1e-9 if convention == "min-norm" else None
     status = "iteration limit"
+    flat = 0
     for it in range(1, max_iter + 1):
         pred, A = _design(machine, obs, theta, free)
         r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
@@ -395,19 +397,26 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
         if gain <= 1e-12 * rss:
             status = "converged"  # the linearised model cannot lower the residual
             break
-        factor = 1.0
-        for _ in range(30):
+        # Gauss-Newton first; if its step does not lower the residual (far from linear, or
+        # nearly singular directions that passed the rank test), Levenberg-Marquardt steps
+        # with growing damping on the column-scaled problem, down to gradient-descent ones
+        accepted = None
+        for damping in (0.0, *(10.0 ** k for k in range(-6, 7))):
+            if damping:
+                augmented = np.vstack([Js, math.sqrt(damping) * np.eye(Js.shape[1])])
+                step_scaled = np.linalg.lstsq(augmented, np.concatenate([r, np.zeros(Js.shape[1])]),
+                                              rcond=None)[0]
+                delta = step_scaled / scale
             trial_theta = theta.copy()
-            trial_theta[free[use]] += factor * delta[n_nu:]
-            trial_nu = nuisance + factor * delta[:n_nu]
+            trial_theta[free[use]] += delta[n_nu:]
+            trial_nu = nuisance + delta[:n_nu]
             if not np.all(trial_theta[free[use]][positive] > 0):
-                factor *= 0.5
                 continue
             trial_r = _residual(machine, obs, trial_theta, trial_nu)
             if float(trial_r @ trial_r) <= rss * (1 + 1e-12) + 1e-300:
+                accepted = damping
                 break
-            factor *= 0.5
-        else:
+        if accepted is None:
             # no step decreases the residual: at the minimum to rounding when the promised
             # gain is at the rounding level, otherwise stuck
             status = "converged" if gain <= 1e-6 * rss else "stalled"
@@ -415,13 +424,15 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
         theta, nuisance = trial_theta, trial_nu
         if step:
             step(it)
-        if rss - float(trial_r @ trial_r) <= max(1e-10 * rss, 1e-3):
-            # chi-square (weighted RSS) moved by less than 0.001: the parameters move by far
-            # less than their uncertainties - a flat valley is being crawled, not descended
+        flat = flat + 1 if rss - float(trial_r @ trial_r) <= max(1e-10 * rss, 1e-3) else 0
+        if (accepted == 0.0 and flat) or flat >= 3:
+            # chi-square (weighted RSS) moved by less than 0.001 in a full step, or in three
+            # damped ones running: the parameters move by far less than their uncertainties -
+            # a flat valley is being crawled, not descended
             status = "converged"
             break
         # step size in units of the observations' standard deviations
-        if np.abs(factor * delta * scale).max(initial=0.0) < tol:
+        if accepted == 0.0 and np.abs(delta * scale).max(initial=0.0) < tol:
             status = "converged"
             break
     pred, A = _design(machine, obs, theta, free)
@@ -586,21 +597,36 @@ def _initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray
     return theta
 
 
+def pose_folds(obs: Observations, folds: int, seed: int) -> list[np.ndarray] | None:
+    """``folds`` groups of point indices for cross-validation, keeping the points at one pose
+    (the same positions: several targets, or repeats) in one group - a held-out pose must not
+    be half in the fit. None when there are fewer than 2 x ``folds`` poses."""
+    _, group = np.unique(np.round(obs.q, 12), axis=0, return_inverse=True)
+    group = group.ravel()
+    n_groups = int(group.max()) + 1 if group.size else 0
+    if n_groups < 2 * folds:
+        return None
+    order = np.random.default_rng(seed).permutation(n_groups)
+    return [np.flatnonzero(np.isin(group, part)) for part in np.array_split(order, folds)]
+
+
 def _cross_validate(machine, obs, theta0, free, columns, convention, folds, holdout, seed,
                     max_iter, tol, progress):
-    rng = np.random.default_rng(seed)
-    order = rng.permutation(obs.n_points)
     if holdout is not None:
         if not 0.0 < holdout < 1.0:
             raise InputError(f"holdout must be a fraction between 0 and 1, got {holdout}")
-        n_out = max(1, int(round(holdout * obs.n_points)))
-        splits = [order[:n_out]]
-        how = f"random split, {n_out} of {obs.n_points} points held out (seed {seed})"
+        _, group = np.unique(np.round(obs.q, 12), axis=0, return_inverse=True)
+        group = group.ravel()
+        order = np.random.default_rng(seed).permutation(int(group.max()) + 1)
+        n_out = max(1, int(round(holdout * len(order))))
+        splits = [np.flatnonzero(np.isin(group, order[:n_out]))]
+        how = (f"random split, {n_out} of {len(order)} poses ({splits[0].size} of {obs.n_points} points) "
+               f"held out (seed {seed})")
     else:
-        if obs.n_points < 2 * folds:
-            return None, f"too few points ({obs.n_points}) for {folds}-fold cross-validation"
-        splits = np.array_split(order, folds)
-        how = f"{folds}-fold cross-validation over points (seed {seed})"
+        splits = pose_folds(obs, folds, seed)
+        if splits is None:
+            return None, f"too few poses for {folds}-fold cross-validation"
+        how = f"{folds}-fold cross-validation over poses (seed {seed})"
     sq_pos, count = 0.0, 0
     for k, test in enumerate(splits):
         train = np.setdiff1d(np.arange(obs.n_points), test)
