@@ -839,8 +839,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--axis", help="axis of runs that do not name it ('# axis: X')")
     p.add_argument("--at", nargs="+", metavar="AXIS=VALUE", help="other axes' positions during runs (mm, deg)")
     cv = p.add_mutually_exclusive_group()
-    cv.add_argument("--folds", type=int, default=5, help="k-fold cross-validation (default 5; 0: none)")
-    cv.add_argument("--holdout", type=float, help="hold out this fraction of the points instead")
+    cv.add_argument("--folds", type=int, default=5,
+                    help="k-fold cross-validation over poses: the points at one pose leave together (default 5; 0: none)")
+    cv.add_argument("--holdout", type=float, help="hold out this fraction of the poses instead")
     p.add_argument("--seed", type=int, default=0, help="seed of the cross-validation split")
     p.add_argument("--convention", choices=["prior", "min-norm"], default="prior",
                    help="what the data cannot determine: held at prior values (default) or min-norm")
@@ -873,7 +874,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-effects", type=int, default=5, help="stop after this many effects (default 5)")
     p.add_argument("--alpha", type=float, default=0.01,
                    help="family-wise significance per round (Bonferroni over candidates; default 0.01)")
-    p.add_argument("--folds", type=int, default=5, help="k of the k-fold cross-validation (default 5)")
+    p.add_argument("--folds", type=int, default=5,
+                   help="k of the k-fold cross-validation over poses (default 5)")
     p.add_argument("--seed", type=int, default=0, help="seed of the cross-validation split")
     p.add_argument("--sigma-um", type=float, default=1.0, help="std. deviation of position data (um)")
     p.add_argument("--sigma-urad", type=float, default=1.0, help="std. deviation of rotation data (urad)")

@@ -469,8 +469,9 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     convention : "prior" or "min-norm"
         What to do with what the data cannot determine (see the module docstring).
     folds, holdout : int, float
-        k-fold cross-validation over points (``folds`` >= 2), or one random split keeping the
-        fraction ``holdout`` of the points out (overrides ``folds``); ``folds=0`` skips it.
+        k-fold cross-validation over poses (``folds`` >= 2; the points at one pose are held
+        out together), or one random split keeping the fraction ``holdout`` of the poses out
+        (overrides ``folds``); ``folds=0`` skips it.
     sigma_um, sigma_urad : float
         Standard deviations of position and rotation observations (weights).
     progress : callable(str, int), optional
