@@ -26,9 +26,9 @@ import numpy as np
 import rerun.blueprint as rrb
 
 import volerr_pin as vp
-from volerr_pin.recording import (evaluate_field, field_grid, log_field, log_machine,
-                                  log_time_series, new_recording)
+from volerr_pin.recording import log_field, log_machine, log_time_series, new_recording
 from volerr_pin.specio import add_terms
+from volerr_pin.workspace import evaluate_field, field_grid
 
 HOURS = 20.0
 REFERENCE_MM = (-250.0, 100.0)  # Z, X: mid-length of a part, 100 mm radius

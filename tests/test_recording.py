@@ -13,8 +13,8 @@ import rerun as rr
 from volerr_pin.cli import main
 from volerr_pin.plots import field_slice_png, ranking_png
 from volerr_pin.ranking import rank
-from volerr_pin.recording import (evaluate_field, field_grid, log_field, log_time_series,
-                                  new_recording, record_field, sweep_angles)
+from volerr_pin.recording import log_field, log_time_series, new_recording, record_field, sweep_angles
+from volerr_pin.workspace import evaluate_field, field_grid
 
 
 def chunks(path, entity):
@@ -163,3 +163,15 @@ def test_demo_writes_a_recording(tmp_path, monkeypatch, capsys):
     out = capsys.readouterr().out
     assert "open it with: rerun volerr_demo.rrd" in out
     assert (tmp_path / "volerr_demo.rrd").stat().st_size > 10_000
+
+
+def test_the_model_and_the_pictures_do_not_load_rerun():
+    """Identification, diagnosis and matplotlib pictures work without importing Rerun: the
+    workspace owns grids and default configurations, the recording module only records."""
+    import subprocess
+    import sys
+
+    code = ("import sys, volerr_pin, volerr_pin.identify, volerr_pin.diagnose, volerr_pin.plots, "
+            "volerr_pin.ballbar, volerr_pin.workspace; print('rerun' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

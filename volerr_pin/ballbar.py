@@ -46,6 +46,7 @@ import numpy as np
 from .errors import InputError
 from .measurements import DIRECTION_WORDS, MeasurementError, read_table
 from .units import LENGTH
+from .workspace import default_config
 
 DEVIATION_RE = re.compile(r"^(?:deviation|radial|dr)_(um|nm|mm)$")
 
@@ -189,8 +190,6 @@ def evaluate_circular(run: BallbarRun) -> dict:
 def ballbar_positions(machine, run: BallbarRun) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Commanded positions (N, n_axes) SI, radial unit vectors (N, 3) of the tool relative to
     the workpiece, and approach directions (N, n_axes) of a circular test on ``machine``."""
-    from .recording import default_config
-
     for name in run.plane:
         if name not in machine.axes:
             raise InputError(f"{run.source}: '# plane:' names '{name}', not an axis of {machine.name} "

@@ -25,6 +25,7 @@ from .errors import InputError
 from .ballbar import BallbarRun, ballbar_positions
 from .identifiability import Analysis, analyse
 from .tracker import TrackerMeasurements, tracker_observations
+from .workspace import default_config
 from .machine import Machine
 from .measurements import PointMeasurements, Runs
 from .spec import parse_component_name
@@ -118,8 +119,6 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
             kind = machine.axis_kinds[j]
             if (item.target_unit == "mm") != (kind == "linear"):
                 raise InputError(f"{item.source}: targets in {item.target_unit} but axis {axis} is {kind}")
-            from .recording import default_config
-
             at = dict(item.at)
             at.update(run_at or {})
             config = {}

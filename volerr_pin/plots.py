@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .machine import Machine  # noqa: E402
-from .recording import default_config, evaluate_field  # noqa: E402
+from .workspace import default_config, evaluate_field  # noqa: E402
 from .workspace import sample, to_engineering  # noqa: E402
 
 UM = 1e6

@@ -18,9 +18,7 @@ table in the 3D view. Rotary axes get a sweep on the ``sweep`` timeline.
 from __future__ import annotations
 
 import contextlib
-import math
 import os
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -30,8 +28,7 @@ from matplotlib import colormaps
 
 from .errors import InputError
 from .machine import Machine
-from .workspace import grid as workspace_grid
-from .workspace import to_engineering
+from .workspace import FieldData, default_config, evaluate_field, field_grid, nice_scale, to_engineering
 
 UM = 1e6
 
@@ -135,48 +132,11 @@ def _package_paths(urdf: Path):
             os.environ["ROS_PACKAGE_PATH"] = saved
 
 
-def nice_scale(error_um_max: float, extent_m: float) -> float:
-    """A round magnification (1, 2 or 5 x 10^k) making the largest arrow about 8 % of the
-    workspace extent."""
-    if error_um_max <= 0 or extent_m <= 0:
-        return 1.0
-    raw = 0.08 * extent_m / (error_um_max / UM)
-    exponent = math.floor(math.log10(raw))
-    for step in (5, 2, 1):
-        if step * 10**exponent <= raw:
-            return float(step * 10**exponent)
-    return float(10**exponent)
-
-
 def colours(values: np.ndarray, lo: float, hi: float, cmap: str = "viridis") -> np.ndarray:
     """(N, 3) uint8 colours of ``values`` on a matplotlib colour map over [lo, hi]."""
     span = hi - lo if hi > lo else 1.0
     rgba = colormaps[cmap](np.clip((values - lo) / span, 0.0, 1.0))
     return (rgba[:, :3] * 255).astype(np.uint8)
-
-
-@dataclass(frozen=True)
-class FieldData:
-    """An evaluated error field: where (workpiece frame) and how large."""
-
-    q: np.ndarray          # (N, n_axes) NC positions, SI
-    positions: np.ndarray  # (N, 3) nominal tool points in the workpiece frame, m
-    error: np.ndarray      # (N, 6) volumetric error, SI
-    scale: float           # arrow magnification
-
-
-def evaluate_field(machine: Machine, q: np.ndarray, scale: float | None = None,
-                   **covariates) -> FieldData:
-    """Volumetric error at ``q`` (with the given covariates) and the nominal tool points it
-    belongs to."""
-    error = machine.volumetric_error(q, **covariates)
-    _, positions = machine.tool_poses(q, nominal=True)
-    if scale is None:
-        extent = float(np.ptp(positions, axis=0).max()) if len(positions) > 1 else 1.0
-        scale = nice_scale(float(np.linalg.norm(error[:, :3], axis=1).max() * UM), extent)
-    if not (scale > 0 and math.isfinite(scale)):
-        raise InputError(f"scale must be a positive number, got {scale}")
-    return FieldData(q, positions, error, float(scale))
 
 
 def log_field(rec: rr.RecordingStream, machine: Machine, field: FieldData, prefix: str = "field",
@@ -249,55 +209,6 @@ def log_time_series(rec: rr.RecordingStream, t: np.ndarray, series: dict[str, np
             raise InputError(f"series '{name}' has shape {values.shape}; time has {t.shape}")
         rec.send_columns(f"{prefix}/{name}", indexes=[rr.TimeColumn(timeline, duration=t)],
                          columns=rr.Scalars.columns(scalars=values))
-
-
-def field_grid(machine: Machine, counts=None, config: dict[str, float] | None = None,
-               points: int = 1000) -> np.ndarray:
-    """NC positions of a field: a grid over the linear axes (``counts`` per linear axis),
-    other axes at ``config`` (SI, default: mid travel for linear, 0 or mid for rotary). A
-    machine without linear axes gets ``points`` seeded Sobol' configurations instead."""
-    from .workspace import sample
-
-    base = default_config(machine, config)
-    linear = [j for j, k in enumerate(machine.axis_kinds) if k == "linear"]
-    if not linear:
-        return sample(machine, points, seed=0)
-    counts = [9] if counts is None else list(counts)
-    if len(counts) == 1:
-        counts = counts * len(linear)
-    if len(counts) != len(linear):
-        raise InputError(f"--grid needs 1 or {len(linear)} counts (linear axes "
-                         f"{', '.join(machine.axes[j] for j in linear)}), got {len(counts)}")
-    full = [1] * len(machine.axes)
-    for j, n in zip(linear, counts):
-        full[j] = n
-    q = workspace_grid(machine, tuple(full))
-    fixed = [j for j in range(len(machine.axes)) if j not in linear]
-    q[:, fixed] = base[fixed]
-    return q
-
-
-def default_config(machine: Machine, config: dict[str, float] | None = None) -> np.ndarray:
-    """A displayable configuration: mid travel, rotary axes at 0 when 0 is in travel;
-    ``config`` (axis -> SI value) overrides, checked against the travel."""
-    travel = machine.travel
-    q = machine.mid_travel
-    for j, kind in enumerate(machine.axis_kinds):
-        if kind == "rotary" and travel[j, 0] <= 0.0 <= travel[j, 1]:
-            q[j] = 0.0
-    for name, value in (config or {}).items():
-        if name not in machine.axes:
-            raise InputError(f"config: '{name}' is not an axis of {machine.name} "
-                             f"(axes: {', '.join(machine.axes)})")
-        j = machine.axes.index(name)
-        lo, hi = travel[j]
-        if not lo <= value <= hi:
-            shown = to_engineering(machine, np.eye(len(machine.axes))[j] * np.array([value, lo, hi])[:, None])[:, j]
-            unit = "mm" if machine.axis_kinds[j] == "linear" else "deg"
-            raise InputError(f"config: {name} = {shown[0]:g} {unit} is outside its travel "
-                             f"[{shown[1]:g}, {shown[2]:g}] {unit}")
-        q[j] = value
-    return q
 
 
 def record_field(machine: Machine, path: str | Path | None = None, *, counts=None,
