@@ -129,7 +129,6 @@ class DriftTime(Term):
     time_unit: str
     kind = "thermal_drift"
     covariates = ("t",)
-    needs_position = False
 
     @property
     def local_names(self):  # type: ignore[override]
@@ -177,7 +176,6 @@ class DriftTemperature(Term):
     lag: float
     kind = "thermal_drift"
     covariates = ("temperatures",)
-    needs_position = False
 
     @property
     def local_names(self):  # type: ignore[override]
@@ -328,10 +326,6 @@ class ForceDeflection(Term):
     @property
     def local_names(self):  # type: ignore[override]
         return tuple(f"c{k}" for k in range(self.degree + 1))
-
-    @property
-    def needs_position(self):  # type: ignore[override]
-        return self.degree > 0
 
     def _force(self, ctx):
         F = ctx.covariates.forces

@@ -52,11 +52,6 @@ def default_blueprint(time_series: bool = False, sweep: bool = False) -> rrb.Blu
     )
 
 
-def joint_values_for(machine: Machine, q: np.ndarray) -> dict[str, float]:
-    """URDF joint name -> joint value (m or rad) for NC positions ``q`` (SI)."""
-    return {axis.joint: float(axis.sign * value) for axis, value in zip(machine.spec.axes, q)}
-
-
 def log_machine(rec: rr.RecordingStream, machine: Machine, q: np.ndarray,
                 prefix: str = "machine", moving: tuple[str, ...] = ()) -> None:
     """The nominal URDF (static) and the axis-joint transforms at NC positions ``q`` (SI),

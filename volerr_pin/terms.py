@@ -80,7 +80,6 @@ class Term:
     kind: str = ""
     local_names: tuple[str, ...] = ()
     nonlinear: tuple[str, ...] = ()   # coefficients the value is not linear in
-    needs_position: bool = True
     covariates: tuple[str, ...] = ()  # the covariates its value reads (t, temperatures, ...)
 
     @property
@@ -153,7 +152,6 @@ class Constant(LinearTerm):
     unit_scale: float
     kind = "constant"
     local_names = ("c0",)
-    needs_position = False
 
     def basis(self, ctx):
         return np.ones((ctx.n, 1))
