@@ -44,9 +44,9 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
-from .measurements import DIRECTION_WORDS, MeasurementError, read_table
+from .measurements import DIRECTION_WORDS, MeasurementError, Table, axis_values, read_table
 from .units import LENGTH
-from .workspace import default_config
+from .workspace import config_from_file
 
 DEVIATION_RE = re.compile(r"^(?:deviation|radial|dr)_(um|nm|mm)$")
 
@@ -72,7 +72,7 @@ def is_ballbar_file(header: list[str]) -> bool:
     return "angle_deg" in header and any(DEVIATION_RE.match(h) for h in header)
 
 
-def read_ballbar(path: str | Path) -> BallbarRun:
+def read_ballbar(path: str | Path | Table) -> BallbarRun:
     """Read a ballbar file (see the module docstring); every error names file, line, column."""
     table = read_table(path)
     header = table.header
@@ -112,17 +112,7 @@ def read_ballbar(path: str | Path) -> BallbarRun:
         raise MeasurementError(f"{table.path}: header '# radius: {meta['radius']}': not a number of mm") from None
     if not radius > 0.0 or not math.isfinite(radius):
         raise MeasurementError(f"{table.path}: header '# radius: {meta['radius']}': must be positive")
-    centre = {}
-    for item in (meta.get("centre") or meta.get("center") or "").split(","):
-        if not item.strip():
-            continue
-        name, sep, value = item.partition("=")
-        try:
-            centre[name.strip()] = float(value)
-        except ValueError:
-            sep = ""
-        if not sep:
-            raise MeasurementError(f"{table.path}: header '# centre: ...': '{item.strip()}' is not AXIS=VALUE")
+    centre = axis_values(table, "centre") or axis_values(table, "center")
     unused = tuple(h for c, h in enumerate(header) if c not in {acol, vcol, dcol})
     return BallbarRun(table.path, angle, file_value * LENGTH[unit], direction, radius, plane, centre,
                       np.array(table.lines), unit, unused)
@@ -197,13 +187,7 @@ def ballbar_positions(machine, run: BallbarRun) -> tuple[np.ndarray, np.ndarray,
     j1, j2 = (machine.axes.index(a) for a in run.plane)
     if machine.axis_kinds[j1] != "linear" or machine.axis_kinds[j2] != "linear":
         raise InputError(f"{run.source}: a ballbar circle needs two linear axes, not {run.plane[0]}, {run.plane[1]}")
-    config = {}
-    for name, value in run.centre.items():
-        if name not in machine.axes:
-            raise InputError(f"{run.source}: '# centre:' names '{name}', not an axis of {machine.name}")
-        linear = machine.axis_kinds[machine.axes.index(name)] == "linear"
-        config[name] = value * (1e-3 if linear else math.pi / 180.0)
-    centre = default_config(machine, config)
+    centre = config_from_file(machine, run.centre, f"{run.source}: '# centre:'")
     q = np.tile(centre, (len(run.angle), 1))
     q[:, j1] += run.radius * np.cos(run.angle)
     q[:, j2] += run.radius * np.sin(run.angle)

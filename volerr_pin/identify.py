@@ -25,7 +25,7 @@ from .errors import InputError
 from .ballbar import BallbarRun, ballbar_positions
 from .identifiability import Analysis, analyse
 from .tracker import TrackerMeasurements, tracker_observations
-from .workspace import default_config
+from .workspace import config_from_file
 from .machine import Machine
 from .measurements import PointMeasurements, Runs
 from .spec import parse_component_name
@@ -119,15 +119,7 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
             kind = machine.axis_kinds[j]
             if (item.target_unit == "mm") != (kind == "linear"):
                 raise InputError(f"{item.source}: targets in {item.target_unit} but axis {axis} is {kind}")
-            at = dict(item.at)
-            at.update(run_at or {})
-            config = {}
-            for name, value in at.items():
-                if name not in machine.axes:
-                    raise InputError(f"{item.source}: '# at:' names '{name}', not an axis of {machine.name}")
-                linear = machine.axis_kinds[machine.axes.index(name)] == "linear"
-                config[name] = value * (1e-3 if linear else math.pi / 180.0)
-            base = default_config(machine, config)
+            base = config_from_file(machine, {**item.at, **(run_at or {})}, f"{item.source}: '# at:'")
             q = np.tile(base, (len(item.target), 1))
             q[:, j] = item.target
             try:
@@ -597,16 +589,21 @@ def _initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray
     return theta
 
 
-def pose_folds(obs: Observations, folds: int, seed: int) -> list[np.ndarray] | None:
-    """``folds`` groups of point indices for cross-validation, keeping the points at one pose
-    (the same positions: several targets, or repeats) in one group - a held-out pose must not
-    be half in the fit. None when there are fewer than 2 x ``folds`` poses."""
+def _poses(obs: Observations, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pose index of every point (the same positions: several targets, or repeats) and the
+    poses shuffled by ``seed``."""
     _, group = np.unique(np.round(obs.q, 12), axis=0, return_inverse=True)
     group = group.ravel()
-    n_groups = int(group.max()) + 1 if group.size else 0
-    if n_groups < 2 * folds:
+    return group, np.random.default_rng(seed).permutation(int(group.max()) + 1 if group.size else 0)
+
+
+def pose_folds(obs: Observations, folds: int, seed: int) -> list[np.ndarray] | None:
+    """``folds`` groups of point indices for cross-validation, keeping the points at one pose
+    in one group - a held-out pose must not be half in the fit. None when there are fewer
+    than 2 x ``folds`` poses."""
+    group, order = _poses(obs, seed)
+    if len(order) < 2 * folds:
         return None
-    order = np.random.default_rng(seed).permutation(n_groups)
     return [np.flatnonzero(np.isin(group, part)) for part in np.array_split(order, folds)]
 
 
@@ -615,9 +612,7 @@ def _cross_validate(machine, obs, theta0, free, columns, convention, folds, hold
     if holdout is not None:
         if not 0.0 < holdout < 1.0:
             raise InputError(f"holdout must be a fraction between 0 and 1, got {holdout}")
-        _, group = np.unique(np.round(obs.q, 12), axis=0, return_inverse=True)
-        group = group.ravel()
-        order = np.random.default_rng(seed).permutation(int(group.max()) + 1)
+        group, order = _poses(obs, seed)
         n_out = max(1, int(round(holdout * len(order))))
         splits = [np.flatnonzero(np.isin(group, order[:n_out]))]
         how = (f"random split, {n_out} of {len(order)} poses ({splits[0].size} of {obs.n_points} points) "

@@ -73,15 +73,23 @@ class Table:
         return np.array([self.number(i, col, allow_empty) for i in range(len(self.rows))])
 
 
-def read_table(path: str | Path) -> Table:
-    """Read a comma-separated file with ``#`` comments; every data row must match the header."""
-    path = Path(path)
+def _read_text(path: Path) -> str:
     try:
-        text = path.read_text(encoding="utf-8-sig")  # tolerate a byte-order mark
+        return path.read_text(encoding="utf-8-sig")  # tolerate a byte-order mark
     except OSError as err:
         raise MeasurementError(f"{path}: cannot read: {err.strerror}") from None
     except UnicodeDecodeError as err:
         raise MeasurementError(f"{path}: not UTF-8 text ({err.reason} at byte {err.start})") from None
+
+
+def read_table(path: str | Path | Table, text: str | None = None) -> Table:
+    """Read a comma-separated file with ``#`` comments; every data row must match the header.
+    A :class:`Table` already read is returned as it is (readers take either); ``text`` is the
+    file's content when the caller has read it already."""
+    if isinstance(path, Table):
+        return path
+    path = Path(path)
+    text = _read_text(path) if text is None else text
     header, header_line, rows, lines, meta = None, 0, [], [], {}
     for number, line in enumerate(text.splitlines(), start=1):
         stripped = line.strip()
@@ -143,7 +151,7 @@ class PointMeasurements:
         return ~np.isnan(self.values)
 
 
-def read_points(path: str | Path, machine) -> PointMeasurements:
+def read_points(path: str | Path | Table, machine) -> PointMeasurements:
     """Read a point-measurement file for ``machine`` (positions checked against its travel)."""
     table = read_table(path)
     columns = header_columns(table, machine)
@@ -418,22 +426,23 @@ def _key_value_run_table(path: Path, text: str) -> Table:
     return Table(str(path), [f"target_{unit}", "cycle", "direction", value_name], 0, rows, lines, meta)
 
 
-def run_table(path: str | Path) -> Table:
+def run_table(path: str | Path | Table) -> Table:
     """A run file in any accepted layout as the long table ``target_*,cycle,direction,value``:
-    long CSV, wide CSV (one column per cycle) or ``KEY=VALUE`` lines (``.dat``)."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError):
-        return read_table(path)  # read_table says what is wrong
-    first = next((l.strip() for l in text.splitlines() if l.strip() and not l.strip().startswith("#")), "")
-    if KEY_VALUE_RE.match(first) and "," not in first:
-        return _key_value_run_table(path, text)
-    table = read_table(path)
+    long CSV, wide CSV (one column per cycle) or ``KEY=VALUE`` lines (``.dat``). Any other
+    file comes back as read."""
+    if isinstance(path, Table):
+        table = path
+    else:
+        path = Path(path)
+        text = _read_text(path)
+        first = next((l.strip() for l in text.splitlines() if l.strip() and not l.strip().startswith("#")), "")
+        if KEY_VALUE_RE.match(first) and "," not in first:
+            return _key_value_run_table(path, text)
+        table = read_table(path, text)
     return _wide_run_table(table) or table
 
 
-def read_runs(path: str | Path, axis: str | None = None) -> Runs:
+def read_runs(path: str | Path | Table, axis: str | None = None) -> Runs:
     """Read a positioning (ISO 230-2) or component run; ``axis`` overrides ``# axis:``.
 
     Layouts: long CSV ``target_mm,cycle,direction,deviation_um`` (or a component column such
@@ -505,7 +514,7 @@ def read_runs(path: str | Path, axis: str | None = None) -> Runs:
                 raise MeasurementError(f"{table.where(bad[0], col)}: column '{header[col]}': cycle numbers "
                                        f"are integers, got {table.rows[bad[0]][col].strip()}")
     target_scale = 1e-3 if target_linear else math.pi / 180.0
-    at = _parse_at(table, table.meta.get("at"))
+    at = axis_values(table, "at")
     used = {tcol, vcol, needed["cycle"], needed["direction"]}
     unused = tuple(h for c, h in enumerate(header) if c not in used)
     unused += tuple(h for h in table.meta.get("unused", "").split(",") if h)
@@ -514,8 +523,10 @@ def read_runs(path: str | Path, axis: str | None = None) -> Runs:
                 at, np.array(table.lines), unused)
 
 
-def _parse_at(table: Table, text: str | None) -> dict[str, float]:
-    """``# at: Y=200, Z=150`` -> {"Y": 200.0, "Z": 150.0} in file units (mm / deg)."""
+def axis_values(table: Table, key: str) -> dict[str, float]:
+    """A header line ``# at: Y=200, Z=150`` (``key`` "at", "centre", ...) -> {"Y": 200.0,
+    "Z": 150.0} in file units (mm / deg); {} without the line."""
+    text = table.meta.get(key)
     if not text:
         return {}
     out = {}
@@ -526,24 +537,24 @@ def _parse_at(table: Table, text: str | None) -> dict[str, float]:
         try:
             out[name] = float(value)
         except ValueError:
-            raise MeasurementError(f"{table.path}: header '# at: {text}': '{item}' is not AXIS=VALUE") from None
+            sep = ""
         if not sep:
-            raise MeasurementError(f"{table.path}: header '# at: {text}': '{item}' is not AXIS=VALUE")
+            raise MeasurementError(f"{table.path}: header '# {key}: {text}': '{item}' is not AXIS=VALUE")
     return out
 
 
 def read_any(path: str | Path, machine=None, axis: str | None = None):
-    """Read a file of either kind, telling them apart by the header."""
+    """Read a file of any kind, telling them apart by the header (the file is read once)."""
     table = run_table(path)
     if is_run_file(table.header):
-        return read_runs(path, axis)
+        return read_runs(table, axis)
     from .ballbar import is_ballbar_file, read_ballbar
     from .tracker import is_tracker_file, read_tracker
 
     if is_ballbar_file(table.header):
-        return read_ballbar(path)
+        return read_ballbar(table)
     if machine is not None and is_tracker_file(table.header):
-        return read_tracker(path, machine)
+        return read_tracker(table, machine)
     if machine is None:
         raise MeasurementError(f"{path}: point measurements need the machine (its axes and travels)")
-    return read_points(path, machine)
+    return read_points(table, machine)

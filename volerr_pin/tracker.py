@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
-from .measurements import MeasurementError, header_columns, positions_and_covariates, read_table
+from .measurements import MeasurementError, Table, header_columns, positions_and_covariates, read_table
 
 COORDINATES = ("tx", "ty", "tz")
 OFFSETS = ("ox", "oy", "oz")
@@ -61,7 +61,7 @@ def is_tracker_file(header: list[str]) -> bool:
     return set(COORDINATES) <= stems
 
 
-def read_tracker(path: str | Path, machine) -> TrackerMeasurements:
+def read_tracker(path: str | Path | Table, machine) -> TrackerMeasurements:
     """Read a tracker file for ``machine`` (see the module docstring)."""
     table = read_table(path)
     columns = header_columns(table, machine)

@@ -112,6 +112,18 @@ def field_grid(machine: Machine, counts=None, config: dict[str, float] | None = 
     return q
 
 
+def config_from_file(machine: Machine, positions: dict[str, float], where: str) -> np.ndarray:
+    """:func:`default_config` with axis positions given in file units (mm / deg), as a file's
+    ``# at:`` or ``# centre:`` line gives them; ``where`` names the file and line for errors."""
+    config = {}
+    for name, value in positions.items():
+        if name not in machine.axes:
+            raise InputError(f"{where} names '{name}', not an axis of {machine.name}")
+        linear = machine.axis_kinds[machine.axes.index(name)] == "linear"
+        config[name] = value * (1e-3 if linear else np.pi / 180.0)
+    return default_config(machine, config)
+
+
 def default_config(machine: Machine, config: dict[str, float] | None = None) -> np.ndarray:
     """A displayable configuration: mid travel, rotary axes at 0 when 0 is in travel;
     ``config`` (axis -> SI value) overrides, checked against the travel."""
