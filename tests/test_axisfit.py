@@ -75,20 +75,26 @@ def test_relation_of_two_axes():
     assert axis_relation(a, parallel) == pytest.approx({"angle": 0.0, "distance": 0.1, "parallel": True}, abs=1e-9)
 
 
+UR5_BASE = np.radians([10.0, -60.0, 70.0, -40.0, 30.0, 20.0])
+
+
+def ur5_axes(m, offsets):
+    """The UR5's joints swept one at a time (+-40 deg about UR5_BASE), each fitted from the
+    targets at ``offsets`` on its tool."""
+    axes = []
+    for j in range(6):
+        q = np.tile(UR5_BASE, (7, 1))
+        q[:, j] += np.radians(np.linspace(-40, 40, 7))
+        R, p = m.tool_poses(q, nominal=True)
+        axes.append(fit_axis([p + np.einsum("nij,j->ni", R, o) for o in offsets], q[:, j]))
+    return axes
+
+
 def test_bundled_robot_axes_from_simulated_sweeps(machines):
     """The UR5 turning one joint at a time: the fitted axes are the model's joint axes, and
     consecutive axes meet at the model's angles (the UR5's 90 deg and parallel joints)."""
-    m = machines["ur5"]
-    offsets = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.05]])
-    base = np.radians([10.0, -60.0, 70.0, -40.0, 30.0, 20.0])
-    axes = []
-    for j in range(6):
-        q = np.tile(base, (7, 1))
-        q[:, j] += np.radians(np.linspace(-40, 40, 7))
-        R, p = m.tool_poses(q, nominal=True)
-        targets = [p + np.einsum("nij,j->ni", R, o) for o in offsets]
-        axes.append(fit_axis(targets, q[:, j]))
-        assert axes[-1].rms < 1e-12
+    axes = ur5_axes(machines["ur5"], np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.05]]))
+    assert all(a.rms < 1e-12 for a in axes)
     angles = [math.degrees(axis_relation(a, b)["angle"]) for a, b in zip(axes[:-1], axes[1:])]
     np.testing.assert_allclose(angles, [90, 0, 0, 90, 90], atol=1e-7)
 
@@ -100,13 +106,8 @@ def test_a_robot_rebuilt_from_its_measured_axes(machines, tmp_path):
 
     m = machines["ur5"]
     offsets = np.array([[0.05, 0.02, 0.03], [0.1, 0.0, 0.0], [0.0, 0.1, 0.05]])
-    base = np.radians([10.0, -60.0, 70.0, -40.0, 30.0, 20.0])
-    axes = []
-    for j in range(6):
-        q = np.tile(base, (7, 1))
-        q[:, j] += np.radians(np.linspace(-40, 40, 7))
-        R, p = m.tool_poses(q, nominal=True)
-        axes.append(fit_axis([p + np.einsum("nij,j->ni", R, o) for o in offsets], q[:, j]))
+    base = UR5_BASE
+    axes = ur5_axes(m, offsets)
     text, tool = axes_to_urdf(axes, [f"J{k + 1}" for k in range(6)], [(-6.0, 6.0)] * 6)
     (tmp_path / "rebuilt.urdf").write_text(text)
     rebuilt = vp.load_machine(tmp_path / "rebuilt.urdf", tool_frame="tool0", workpiece_frame="world")

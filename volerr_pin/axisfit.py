@@ -191,7 +191,7 @@ def axes_to_urdf(axes: list[Axis], names: list[str], limits: list[tuple[float, f
     (all measured in one configuration, the reference, in the ``base`` frame): joint value 0
     is that reference configuration. Returns the text and the tool frame's pose in the
     reference configuration (4x4, base frame): at the last axis, z along it."""
-    from .dh import _origin
+    from .dh import urdf_origin
 
     frames = [_frame(a.point, a.direction) for a in axes]
     lines = ['<?xml version="1.0"?>', f'<robot name="{name}">', f'  <link name="{base}"/>']
@@ -200,7 +200,7 @@ def axes_to_urdf(axes: list[Axis], names: list[str], limits: list[tuple[float, f
         link = f"{joint}_link"
         lines += [f'  <link name="{link}"/>', f'  <joint name="{joint}" type="revolute">',
                   f'    <parent link="{parent}"/><child link="{link}"/>',
-                  f"    {_origin(np.linalg.inv(previous) @ frame)}", '    <axis xyz="0 0 1"/>',
+                  f"    {urdf_origin(np.linalg.inv(previous) @ frame)}", '    <axis xyz="0 0 1"/>',
                   f'    <limit lower="{lower!r}" upper="{upper!r}"/>', "  </joint>"]
         parent, previous = link, frame
     lines += [f'  <link name="{tool}"/>', f'  <joint name="{tool}_fixed" type="fixed">',

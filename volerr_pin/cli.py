@@ -294,13 +294,18 @@ def _print_iso(console: Console, result: dict) -> None:
     console.print(summary)
 
 
+def _note_unused(path: str, unused) -> None:
+    """One line on stderr naming what a file gives that the command does not use."""
+    if unused:
+        print(f"volerr: note: {path}: not used: {', '.join(unused)}", file=sys.stderr)
+
+
 def cmd_iso230(args) -> int:
     from .iso230 import evaluate_runs
     from .measurements import read_runs
 
     runs = read_runs(args.runs)
-    if runs.unused:
-        print(f"volerr: note: {args.runs}: not used: {', '.join(runs.unused)}", file=sys.stderr)
+    _note_unused(args.runs, runs.unused)
     result = evaluate_runs(runs)
     if args.plot:
         from .plots import iso230_png
@@ -319,8 +324,7 @@ def cmd_ballbar(args) -> int:
     from .ballbar import evaluate_circular, read_ballbar
 
     run = read_ballbar(args.file)
-    if run.unused:
-        print(f"volerr: note: {args.file}: columns not used: {', '.join(run.unused)}", file=sys.stderr)
+    _note_unused(args.file, run.unused)
     result = evaluate_circular(run)
     if args.plot:
         from .plots import ballbar_png

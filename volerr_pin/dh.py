@@ -84,7 +84,8 @@ def transform(row: DHRow, q: float, convention: str) -> np.ndarray:
     return _rot("x", row.alpha) @ _trans("x", row.a) @ _rot("z", theta) @ _trans("z", d)
 
 
-def _origin(T: np.ndarray) -> str:
+def urdf_origin(T: np.ndarray) -> str:
+    """The URDF ``<origin>`` element of a 4x4 transform (xyz, and rpy as URDF reads them)."""
     xyz = " ".join(repr(float(v)) for v in T[:3, 3])
     rpy = " ".join(repr(float(v)) for v in Rotation.from_matrix(T[:3, :3]).as_euler("xyz"))
     return f'<origin xyz="{xyz}" rpy="{rpy}"/>'
@@ -107,7 +108,7 @@ def dh_to_urdf(rows: list[DHRow], convention: str = "standard", name: str = "rob
         lines += [f"  <link name={quoteattr(link)}/>",
                   f"  <joint name={quoteattr(row.name)} type=\"{kind}\">",
                   f"    <parent link={quoteattr(parent)}/><child link={quoteattr(link)}/>",
-                  f"    {_origin(before @ A)}",
+                  f"    {urdf_origin(before @ A)}",
                   '    <axis xyz="0 0 1"/>',
                   f'    <limit lower="{row.lower!r}" upper="{row.upper!r}"/>',
                   "  </joint>"]
@@ -116,7 +117,7 @@ def dh_to_urdf(rows: list[DHRow], convention: str = "standard", name: str = "rob
     lines += [f"  <link name={quoteattr(tool)}/>",
               f"  <joint name={quoteattr(tool + '_fixed')} type=\"fixed\">",
               f"    <parent link={quoteattr(parent)}/><child link={quoteattr(tool)}/>",
-              f"    {_origin(end)}",
+              f"    {urdf_origin(end)}",
               "  </joint>", "</robot>", ""]
     return "\n".join(lines)
 
