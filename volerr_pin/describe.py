@@ -8,9 +8,7 @@ import numpy as np
 
 from .errors import InputError
 from .machine import Machine
-
-UM_PER_M = 1e6
-ARCSEC_PER_RAD = 180.0 / math.pi * 3600.0
+from .units import ARCSEC_PER_RAD, UM_PER_M, axis_scale
 
 
 def machine_info(machine: Machine) -> dict:
@@ -23,7 +21,7 @@ def machine_info(machine: Machine) -> dict:
     chains = machine.chains
     axes = []
     for axis, kind, (lo, hi) in zip(spec.axes, machine.axis_kinds, machine.travel):
-        factor = 1e3 if kind == "linear" else 180.0 / math.pi
+        factor = 1.0 / axis_scale(kind)
         axes.append({
             "name": axis.name,
             "joint": axis.joint,

@@ -36,6 +36,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .measurements import MeasurementError, read_table
+from .units import axis_scale
 
 
 @dataclass(frozen=True)
@@ -140,7 +141,7 @@ def read_dh(path: str | Path) -> tuple[list[DHRow], str, np.ndarray | None]:
         kind = cells[col["type"]].strip().lower() if "type" in col else "revolute"
         if kind not in ("revolute", "prismatic"):
             raise MeasurementError(f"{table.where(r, col['type'])}: column 'type': '{kind}' is not revolute or prismatic")
-        scale = math.pi / 180.0 if kind == "revolute" else 1e-3
+        scale = axis_scale("rotary" if kind == "revolute" else "linear")
         limits = [table.number(r, col[k]) * scale if k in col else (-math.pi if k == "lower" else math.pi)
                   for k in ("lower", "upper")]
         if kind == "prismatic" and ("lower" not in col or "upper" not in col):

@@ -52,6 +52,7 @@ from .machine import Machine
 from .spec import build_term, component_name, parse_component_name
 from .specio import add_terms, remove_components, replace_terms, term_tables
 from .terms import Context, Covariates
+from .units import AXIS_UNIT, axis_scale
 
 UM = 1e6
 LETTERS = "XYZABC"
@@ -1037,8 +1038,8 @@ def driver_values(diagnosis: Diagnosis, driver: str | None) -> tuple[np.ndarray,
         return cov["directions"][:, j], f"approach direction of {driver[4:]}"
     if driver.startswith("q_"):
         j = machine.axes.index(driver[2:])
-        scale = 1e3 if machine.axis_kinds[j] == "linear" else 180 / math.pi
-        return obs.q[:, j] * scale, f"{driver[2:]} [{'mm' if scale == 1e3 else 'deg'}]"
+        kind = machine.axis_kinds[j]
+        return obs.q[:, j] / axis_scale(kind), f"{driver[2:]} [{AXIS_UNIT[kind]}]"
     return None
 
 

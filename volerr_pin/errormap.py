@@ -28,6 +28,7 @@ import numpy as np
 
 from .errors import InputError
 from .machine import Machine
+from .units import AXIS_UNIT, axis_scale
 
 NODES_PER_ORDER = {1: 8, 2: 20, 3: 32}
 
@@ -281,16 +282,15 @@ def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> li
         q[:, j] = np.linspace(lo, hi, points)
         vals = machine.component_values(q)
         cols = [machine.components.index(c) for c in comps]
-        linear_axis = machine.axis_kinds[j] == "linear"
         path = directory / f"{machine.name}_{axis}.csv"
         with path.open("w", newline="") as fh:
             fh.write(f"# volerr_pin ISO 230-1 component errors of axis {axis} ({machine.name}); "
                      "errors as motions of the tool relative to the workpiece\n")
             w = csv.writer(fh, lineterminator="\n")
-            w.writerow([f"{axis}_{'mm' if linear_axis else 'deg'}"] + [
+            w.writerow([f"{axis}_{AXIS_UNIT[machine.axis_kinds[j]]}"] + [
                 f"{c}_{'urad' if c[1] in 'ABC' else 'um'}" for c in comps])
             for row, pos in zip(vals[:, cols], q[:, j]):
-                w.writerow([f"{pos * 1e3:.4f}" if linear_axis else f"{np.degrees(pos):.4f}"]
+                w.writerow([f"{pos / axis_scale(machine.axis_kinds[j]):.4f}"]
                            + [f"{v * 1e6:.4f}" for v in row])
         files.append(str(path))
     return files

@@ -30,7 +30,7 @@ import numpy as np
 
 from .errors import InputError
 from .spec import parse_component_name
-from .units import ANGLE, LENGTH
+from .units import ANGLE, AXIS_UNIT, LENGTH, axis_scale, parse_axis_values, split_key
 
 DEVIATIONS = ("dx", "dy", "dz", "rx", "ry", "rz")
 DEVIATION_UNITS = {"dx": "um", "dy": "um", "dz": "um", "rx": "urad", "ry": "urad", "rz": "urad"}
@@ -123,13 +123,6 @@ def read_table(path: str | Path | Table, text: str | None = None) -> Table:
     return Table(str(path), header, header_line, rows, lines, meta)
 
 
-def _split_unit(name: str) -> tuple[str, str | None]:
-    stem, sep, unit = name.rpartition("_")
-    if sep and (unit in LENGTH or unit in ANGLE or unit in ("s", "degC", "N")):
-        return stem, unit
-    return name, None
-
-
 @dataclass(frozen=True)
 class PointMeasurements:
     """Point measurements in SI.
@@ -176,7 +169,7 @@ def header_columns(table: Table, machine) -> dict[str, int]:
     """Column stem -> index, with the units in the names checked against the file units."""
     columns: dict[str, int] = {}
     for col, name in enumerate(table.header):
-        stem, unit = _split_unit(name)
+        stem, unit = split_key(name, ("length", "angle", "time", "temperature", "force"))
         columns[stem] = col
         expected = _expected_unit(stem, machine)
         if unit is not None and expected is not None and unit != expected:
@@ -193,16 +186,15 @@ def positions_and_covariates(table: Table, columns: dict[str, int], machine) -> 
         key = axis.lower()
         if key not in columns:
             raise MeasurementError(f"{table.path}:{table.header_line}: missing position column "
-                                   f"'{key}' for axis {axis} ({'mm' if kind == 'linear' else 'deg'})")
+                                   f"'{key}' for axis {axis} ({AXIS_UNIT[kind]})")
         col = columns[key]
         used.add(col)
-        factor = 1e-3 if kind == "linear" else math.pi / 180.0
+        factor = axis_scale(kind)
         q[:, j] = table.column(col) * factor
         lo, hi = machine.travel[j]
         bad = np.flatnonzero((q[:, j] < lo - 1e-9 * max(1.0, hi - lo)) | (q[:, j] > hi + 1e-9 * max(1.0, hi - lo)))
         if bad.size:
-            shown = 1e3 if kind == "linear" else 180.0 / math.pi
-            unit = "mm" if kind == "linear" else "deg"
+            shown, unit = 1.0 / factor, AXIS_UNIT[kind]
             raise MeasurementError(f"{table.where(bad[0], col)}: {key} = {q[bad[0], j] * shown:g} {unit} is "
                                    f"outside the travel of {axis} [{lo * shown:g}, {hi * shown:g}] {unit}")
     covariates: dict = {}
@@ -245,7 +237,7 @@ def _expected_unit(stem: str, machine) -> str | None:
         return DEVIATION_UNITS[stem]
     for axis, kind in zip(machine.axes, machine.axis_kinds):
         if stem == axis.lower():
-            return "mm" if kind == "linear" else "deg"
+            return AXIS_UNIT[kind]
     if stem == "t":
         return "s"
     if stem.startswith("T_"):
@@ -513,7 +505,7 @@ def read_runs(path: str | Path | Table, axis: str | None = None) -> Runs:
             if bad.size:
                 raise MeasurementError(f"{table.where(bad[0], col)}: column '{header[col]}': cycle numbers "
                                        f"are integers, got {table.rows[bad[0]][col].strip()}")
-    target_scale = 1e-3 if target_linear else math.pi / 180.0
+    target_scale = axis_scale("linear" if target_linear else "rotary")
     at = axis_values(table, "at")
     used = {tcol, vcol, needed["cycle"], needed["direction"]}
     unused = tuple(h for c, h in enumerate(header) if c not in used)
@@ -529,18 +521,7 @@ def axis_values(table: Table, key: str) -> dict[str, float]:
     text = table.meta.get(key)
     if not text:
         return {}
-    out = {}
-    for item in re.split(r"[,\s]+", text.strip()):
-        if not item:
-            continue
-        name, sep, value = item.partition("=")
-        try:
-            out[name] = float(value)
-        except ValueError:
-            sep = ""
-        if not sep:
-            raise MeasurementError(f"{table.path}: header '# {key}: {text}': '{item}' is not AXIS=VALUE")
-    return out
+    return parse_axis_values(text, f"{table.path}: header '# {key}: {text}'", error=MeasurementError)
 
 
 def read_any(path: str | Path, machine=None, axis: str | None = None):

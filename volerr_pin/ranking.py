@@ -20,11 +20,9 @@ from .errors import InputError, SpecError
 from .identifiability import IdentifiabilityGroup, analyse
 from .machine import Machine
 from .spec import parse_component_name, read_toml
-from .units import scale, split_key
+from .units import ARCSEC, ARCSEC_PER_RAD, UM, UM_PER_M, scale, split_key
 from .workspace import sample
 
-UM = 1e6
-ARCSEC = 180.0 / math.pi * 3600.0
 DIRECTIONS = {"x": [0], "y": [1], "z": [2], "all": [0, 1, 2]}
 
 
@@ -145,11 +143,11 @@ def rank(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048, s
         else:
             size = np.tile([tolerances[t] for t in terms], (len(q), 1))
     angular = np.array([parse_component_name(t)[0] in "ABC" for t in terms])
-    unit_factor = np.where(angular, 1.0 / ARCSEC, 1e-6)  # SI per um or per arcsec
+    unit_factor = np.where(angular, ARCSEC, UM)  # SI per um or per arcsec
     pos = sens[:, rows_dir, :]                           # (N, d, T)
-    per_unit = np.linalg.norm(pos, axis=1) * unit_factor * UM  # um per (um | arcsec)
-    contribution = np.linalg.norm(pos * size[:, None, :], axis=1) * UM
-    orient = np.linalg.norm(sens[:, 3:, :] * size[:, None, :], axis=1) * ARCSEC
+    per_unit = np.linalg.norm(pos, axis=1) * unit_factor * UM_PER_M  # um per (um | arcsec)
+    contribution = np.linalg.norm(pos * size[:, None, :], axis=1) * UM_PER_M
+    orient = np.linalg.norm(sens[:, 3:, :] * size[:, None, :], axis=1) * ARCSEC_PER_RAD
     ms = np.mean(contribution**2, axis=0)
     ms_orient = np.mean(orient**2, axis=0)
     owners = {c: parse_component_name(c)[2] for c in set(terms)}

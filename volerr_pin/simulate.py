@@ -13,6 +13,7 @@ import numpy as np
 
 from .machine import Machine
 from .measurements import PointMeasurements
+from .units import AXIS_UNIT, axis_scale, axis_scales
 
 
 def covariates(n: int, rng: np.random.Generator, hours: float = 6.0, n_axes: int = 3) -> dict:
@@ -44,7 +45,7 @@ def write_points(data: PointMeasurements, machine: Machine, path) -> None:
     """Write point measurements in the format :func:`~volerr_pin.measurements.read_points` reads
     (mm / deg, um, covariate columns)."""
     cols = [a.lower() for a in machine.axes]
-    factors = [1e3 if k == "linear" else 180.0 / np.pi for k in machine.axis_kinds]
+    factors = 1.0 / axis_scales(machine.axis_kinds)
     measured = [k for k in range(6) if not np.all(np.isnan(data.values[:, k]))]
     names = ["dx", "dy", "dz", "rx", "ry", "rz"]
     header = cols + [names[k] for k in measured]
@@ -95,7 +96,7 @@ def off_model_geometry(machine: Machine, seed: int = 0, style: str = "spline",
         lo, hi = machine.travel[j]
         if not np.isfinite(lo) or not np.isfinite(hi):
             continue
-        position_unit, scale = ("mm", 1e3) if kind == "linear" else ("deg", 180.0 / np.pi)
+        position_unit, scale = AXIS_UNIT[kind], 1.0 / axis_scale(kind)
         for d in "XYZABC":
             unit, size = ("um", size_um) if d in "XYZ" else ("arcsec", size_arcsec)
             name = f"E{d}{axis}"
@@ -190,7 +191,7 @@ def write_tracker(data, machine: Machine, path) -> None:
     """Write tracker measurements in the format :func:`volerr_pin.tracker.read_tracker` reads
     (positions, targets, offsets, coordinates; covariates are not written)."""
     cols = [a.lower() for a in machine.axes]
-    factors = [1e3 if k == "linear" else 180.0 / np.pi for k in machine.axis_kinds]
+    factors = 1.0 / axis_scales(machine.axis_kinds)
     lines = [",".join(cols + ["target", "ox", "oy", "oz", "tx", "ty", "tz"])]
     for i in range(len(data.q)):
         row = [f"{data.q[i, j] * factors[j]:.6f}" for j in range(len(machine.axes))] + [data.targets[i]]
