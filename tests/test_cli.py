@@ -139,7 +139,8 @@ def test_state_drives_time_dependent_terms(tmp_path, capsys):
     m, spec = _thermal_spec(tmp_path)
     # without a state the command says what is missing
     assert main(["errormap", str(spec), "--elements", "1", "--points", "50"]) == 2
-    assert "needs the covariate t" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "needs the covariate t" in err and "hold the machine in a state (--state)" in err
     # in a state it maps the warm machine: the map's error RMS equals the model's at t
     assert main(["errormap", str(spec), "--elements", "1", "--points", "400", "--order", "3",
                  "--state", "t=3600", "--json"]) == 0
@@ -218,7 +219,49 @@ def test_covariates_in_some_files_only(tmp_path, capsys):
 
 def test_json_reports_are_strict_json():
     """Non-finite numbers become null: a NaN token would break strict JSON readers."""
-    from volerr_pin.cli import _dumps
+    from volerr_pin.cli.common import dumps
 
-    text = _dumps({"a": float("nan"), "b": [1.0, float("inf")], "c": np.float64(2.5), "d": np.int64(3)})
+    text = dumps({"a": float("nan"), "b": [1.0, float("inf")], "c": np.float64(2.5), "d": np.int64(3)})
     assert json.loads(text) == {"a": None, "b": [1.0, None], "c": 2.5, "d": 3}
+
+
+def test_library_errors_name_parameters_and_the_cli_its_options(tmp_path, capsys):
+    """The library speaks of its parameters (``lag``, ``run_axis``), the CLI of its options."""
+    import io
+    import re
+    import tokenize
+    from pathlib import Path
+
+    import volerr_pin as vp
+    from volerr_pin.thermalfit import read_series, thermal_fit
+
+    data = Path(__file__).parents[1] / "examples" / "data" / "vmc500_spindle_thermal.csv"
+    series = read_series([str(data)])
+    target = list(series.columns)[-1]
+    with pytest.raises(vp.InputError, match=r"^lag must be >= 0, got -1$") as err:
+        thermal_fit(series, target, lag=-1)
+    assert err.value.parameters == ("lag",)
+    assert main(["thermal-fit", str(data), "--target", target, "--lag", "-1"]) == 2
+    assert capsys.readouterr().err == "volerr: error: --lag must be >= 0, got -1\n"
+    assert main(["thermal-fit", str(data), "--target", "nope"]) == 2
+    assert capsys.readouterr().err.startswith("volerr: error: --target: no column 'nope'")
+
+    run = tmp_path / "run.csv"
+    run.write_text("target_mm,cycle,direction,deviation_um\n0,1,1,0.5\n100,1,1,1.5\n")
+    m = vp.load_machine("vmc500")
+    from volerr_pin.identify import identify
+    from volerr_pin.measurements import read_runs
+
+    with pytest.raises(vp.InputError, match="in the file or run_axis$"):
+        identify(m, [read_runs(run)])
+    assert main(["identify", "vmc500", str(run)]) == 2
+    assert capsys.readouterr().err.rstrip().endswith("Give '# axis: X' in the file or --axis")
+
+    # no option of the command line is named in the library's own strings
+    root = Path(vp.__file__).parent
+    for path in sorted(root.rglob("*.py")):
+        if "cli" in path.relative_to(root).parts:
+            continue
+        for tok in tokenize.generate_tokens(io.StringIO(path.read_text()).readline):
+            if tok.type == tokenize.STRING:
+                assert not re.search(r"(^|[\s(\"'])--[a-z]", tok.string), (path.name, tok.start, tok.string)

@@ -148,7 +148,7 @@ def test_field_cli(tmp_path, capsys):
     assert main(["field", "vmc500", "--out", str(out), "--config", "X=700"]) == 2
     assert "X = 700 mm is outside its travel [0, 500] mm" in capsys.readouterr().err
     assert main(["field", "vmc500", "--out", str(out), "--grid", "3", "3"]) == 2
-    assert "--grid needs 1 or 3 counts" in capsys.readouterr().err
+    assert "--grid: give 1 or 3 counts" in capsys.readouterr().err
 
 
 def test_rank_png_cli(tmp_path, capsys):

@@ -39,7 +39,7 @@ from numpy.polynomial import legendre
 
 from .errors import InputError, SpecError
 from .terms import Context, Covariates, Term
-from .units import scale
+from .units import scale, split_key
 
 TIME = {"s": 1.0, "min": 60.0, "h": 3600.0}
 
@@ -50,13 +50,16 @@ def _time_scale(unit: str, where: str) -> float:
     return TIME[unit]
 
 
-STATE_HINT = "; give it with the points, or hold the machine in a state (--state, Machine.with_state)"
+STATE_HINT = "; give it with the points, or hold the machine in a state (Machine.with_state)"
+#: what STATE_HINT names, for interfaces that say it in their own words
+STATE_API = ("Machine.with_state",)
 
 
 def _need_t(ctx: Context, kind: str) -> np.ndarray:
     t = ctx.covariates.t
     if t is None:
-        raise InputError(f"{ctx.component}: its {kind} term needs the covariate t (time, s){STATE_HINT}")
+        raise InputError(f"{ctx.component}: its {kind} term needs the covariate t (time, s){STATE_HINT}",
+                         parameters=STATE_API)
     return t
 
 
@@ -66,7 +69,7 @@ def _need_temperature(ctx: Context, sensor: str, lag: float = 0.0) -> np.ndarray
     if key not in temps:
         known = ", ".join(k for k in temps if "@" not in k) or "none"
         raise InputError(f"{ctx.component}: this term needs the temperature of sensor '{sensor}' "
-                         f"(given: {known}){STATE_HINT}")
+                         f"(given: {known}){STATE_HINT}", parameters=STATE_API)
     return temps[key]
 
 
@@ -330,7 +333,8 @@ class ForceDeflection(Term):
     def _force(self, ctx):
         F = ctx.covariates.forces
         if F is None:
-            raise InputError(f"{ctx.component}: this term needs the covariate forces (N, 3) [N]{STATE_HINT}")
+            raise InputError(f"{ctx.component}: this term needs the covariate forces (N, 3) [N]{STATE_HINT}",
+                             parameters=STATE_API)
         return F[:, self.force]
 
     def _basis(self, ctx):
@@ -435,15 +439,8 @@ EFFECT_KEYS = {
 
 def _stem(key: str) -> str:
     """Key without its unit suffix(es): ``coefficients_um_per_K`` -> ``coefficients``."""
-    for suffix in ("_um_per_K", "_nm_per_K", "_mm_per_K", "_m_per_K", "_arcsec_per_K", "_urad_per_K",
-                   "_rad_per_K", "_um_per_N", "_nm_per_N", "_mm_per_N", "_m_per_N", "_arcsec_per_N",
-                   "_urad_per_N", "_rad_per_N"):
-        if key.endswith(suffix):
-            return key[: -len(suffix)]
-    if key in EXACT_KEYS:
-        return key
-    stem, sep, unit = key.rpartition("_")
-    if sep and unit in ("um", "nm", "mm", "m", "arcsec", "urad", "mrad", "rad", "deg", "s", "min", "h"):
+    stem, unit = split_key(key, ("length", "angle", "time"), per=("K", "N"))
+    if unit is not None and "_per_" in unit or key not in EXACT_KEYS:
         return stem
     return key
 

@@ -3,13 +3,30 @@
 Every exception raised for bad user input is a :class:`VolerrError` and, where the
 input itself was wrong, also a :class:`ValueError`, so callers can catch either.
 Messages name the culprit: file and line, the spec key, the parameter or the array.
+Errors about a function's parameters name them as Python spells them (``holdout``,
+``pass_through``) and list them in :attr:`VolerrError.parameters`, so an interface built on
+the library (the ``volerr`` command line) can say them in its own words (``--holdout``).
 """
 
 from __future__ import annotations
 
 
 class VolerrError(Exception):
-    """Base class of all errors raised by volerr_pin."""
+    """Base class of all errors raised by volerr_pin.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong and where.
+    parameters : tuple of str, optional
+        Names of the function parameters (or API names such as ``Machine.with_state``) the
+        message mentions, spelled as in the message; the first mention of each is the
+        parameter.
+    """
+
+    def __init__(self, message: str = "", *, parameters: tuple[str, ...] = ()):
+        super().__init__(message)
+        self.parameters = tuple(parameters)
 
 
 class SpecError(VolerrError, ValueError):

@@ -111,7 +111,8 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
         elif isinstance(item, Runs):
             axis = item.axis or run_axis
             if axis is None:
-                raise InputError(f"{item.source}: which axis moved? Give '# axis: X' in the file or --axis")
+                raise InputError(f"{item.source}: which axis moved? Give '# axis: X' in the file or run_axis",
+                                 parameters=("run_axis",))
             if axis not in machine.axes:
                 raise InputError(f"{item.source}: axis '{axis}' is not an axis of {machine.name} "
                                  f"({', '.join(machine.axes)})")
@@ -481,8 +482,8 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     elif terms:
         unknown = sorted(set(terms) - set(machine.components))
         if unknown:
-            raise InputError(f"--terms: {', '.join(unknown)} not among the error terms of "
-                             f"{machine.name} ({', '.join(machine.components)})")
+            raise InputError(f"terms: {', '.join(unknown)} not among the error terms of "
+                             f"{machine.name} ({', '.join(machine.components)})", parameters=("terms",))
         free = np.array([k for k, n in enumerate(machine.parameter_names)
                          if n.split(".", 1)[0] in set(terms)], dtype=int)
     else:

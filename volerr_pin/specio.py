@@ -97,7 +97,8 @@ def legendre_terms(machine: Machine, components, degree: int, start: int = 0) ->
     for name in components:
         direction, location, owner = parse_component_name(name)
         if owner not in machine.axes or location:
-            raise InputError(f"--degree applies to component errors of axes; {name} is not one")
+            raise InputError(f"degree applies to component errors of axes; {name} is not one",
+                             parameters=("degree",))
         j = machine.axes.index(owner)
         q = grid.copy()
         q[:, j] = np.linspace(*travel[j], 201)

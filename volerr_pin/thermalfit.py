@@ -96,21 +96,22 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
     """Fit a thermal model; returns the report fields (docs/reports.md) plus ``coefficients``, ``sensor_ranking``
     and the predictions (``fitted``, ``predicted_holdout``)."""
     if target not in data.columns:
-        raise InputError(f"--target: no column '{target}' (columns: {', '.join(data.columns)})")
+        raise InputError(f"target: no column '{target}' (columns: {', '.join(data.columns)})",
+                         parameters=("target",))
     if method not in METHODS:
-        raise InputError(f"--method must be one of {', '.join(METHODS)}, got {method!r}")
+        raise InputError(f"method must be one of {', '.join(METHODS)}, got {method!r}", parameters=("method",))
     sensors = [c for c in data.columns if c != target] if not sensors else list(sensors)
     unknown = [s for s in sensors if s not in data.columns]
     if unknown:
-        raise InputError(f"--sensors: no column(s) {', '.join(unknown)}")
+        raise InputError(f"sensors: no column(s) {', '.join(unknown)}", parameters=("sensors",))
     if target in sensors:
-        raise InputError(f"--sensors: the target '{target}' cannot also be a sensor")
+        raise InputError(f"sensors: the target '{target}' cannot also be a sensor", parameters=("sensors",))
     if lag < 0:
-        raise InputError(f"--lag must be >= 0, got {lag}")
+        raise InputError(f"lag must be >= 0, got {lag}", parameters=("lag",))
     if not 0.0 <= holdout < 1.0:
-        raise InputError(f"--holdout must be a fraction in [0, 1), got {holdout}")
+        raise InputError(f"holdout must be a fraction in [0, 1), got {holdout}", parameters=("holdout",))
     if test is not None and holdout:
-        raise InputError("give either --holdout or test files, not both")
+        raise InputError("give either holdout or test files, not both", parameters=("holdout",))
     if test is not None and list(test.columns) != list(data.columns):
         raise InputError("the test files' columns differ from the data files'")
     # the fit set and the held-out set, in time order
@@ -155,7 +156,8 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
             result["coefficients"] = {"a": model.a, "b": model.b, "shift": model.shift}
             if held is not None:
                 if test is not None:
-                    raise InputError("gm11 forecasts the same series; use --holdout, not test files")
+                    raise InputError("gm11 forecasts the same series; use holdout, not test files",
+                                     parameters=("holdout",))
                 pred = model.predict(len(y) + held.n)[len(y):]
                 result.update({"n_holdout": held.n, "rmse_holdout": float(np.sqrt(np.mean(
                     (held.columns[target] - pred) ** 2)))})

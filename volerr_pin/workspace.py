@@ -10,9 +10,7 @@ from scipy.stats import qmc
 
 from .errors import InputError
 from .machine import Machine
-
-M_TO_UM = 1e6
-RAD_TO_ARCSEC = 180.0 / np.pi * 3600.0
+from .units import ARCSEC_PER_RAD, UM_PER_M, axis_scales, axis_values_to_si
 
 
 def grid(machine: Machine, points_per_axis: int | tuple[int, ...] = 5) -> np.ndarray:
@@ -66,24 +64,22 @@ def error_summary(machine: Machine, q: np.ndarray, theta=None, **covariates) -> 
     worst = int(np.argmax(norm))
     return {
         "points": int(len(q)),
-        "max_position_um": float(norm.max() * M_TO_UM),
-        "rms_position_um": float(np.sqrt(np.mean(norm**2)) * M_TO_UM),
-        "max_abs_um": {k: float(np.abs(error[:, i]).max() * M_TO_UM) for i, k in enumerate("xyz")},
-        "max_orientation_arcsec": float(rot.max() * RAD_TO_ARCSEC),
+        "max_position_um": float(norm.max() * UM_PER_M),
+        "rms_position_um": float(np.sqrt(np.mean(norm**2)) * UM_PER_M),
+        "max_abs_um": {k: float(np.abs(error[:, i]).max() * UM_PER_M) for i, k in enumerate("xyz")},
+        "max_orientation_arcsec": float(rot.max() * ARCSEC_PER_RAD),
         "worst_q": to_engineering(machine, q[worst]).tolist(),
     }
 
 
 def to_engineering(machine: Machine, q: np.ndarray) -> np.ndarray:
     """NC positions from SI (m, rad) to engineering units (mm, deg)."""
-    factors = np.array([1e3 if k == "linear" else 180.0 / np.pi for k in machine.axis_kinds])
-    return np.asarray(q) * factors
+    return np.asarray(q) / axis_scales(machine.axis_kinds)
 
 
 def from_engineering(machine: Machine, q: np.ndarray) -> np.ndarray:
     """NC positions from engineering units (mm, deg) to SI (m, rad)."""
-    factors = np.array([1e-3 if k == "linear" else np.pi / 180.0 for k in machine.axis_kinds])
-    return np.asarray(q, dtype=float) * factors
+    return np.asarray(q, dtype=float) * axis_scales(machine.axis_kinds)
 
 
 # ------------------------------------------------------------------ fields for pictures
@@ -101,8 +97,8 @@ def field_grid(machine: Machine, counts=None, config: dict[str, float] | None = 
     if len(counts) == 1:
         counts = counts * len(linear)
     if len(counts) != len(linear):
-        raise InputError(f"--grid needs 1 or {len(linear)} counts (linear axes "
-                         f"{', '.join(machine.axes[j] for j in linear)}), got {len(counts)}")
+        raise InputError(f"counts: give 1 or {len(linear)} counts (linear axes "
+                         f"{', '.join(machine.axes[j] for j in linear)}), got {len(counts)}", parameters=("counts",))
     full = [1] * len(machine.axes)
     for j, n in zip(linear, counts):
         full[j] = n
@@ -115,13 +111,8 @@ def field_grid(machine: Machine, counts=None, config: dict[str, float] | None = 
 def config_from_file(machine: Machine, positions: dict[str, float], where: str) -> np.ndarray:
     """:func:`default_config` with axis positions given in file units (mm / deg), as a file's
     ``# at:`` or ``# centre:`` line gives them; ``where`` names the file and line for errors."""
-    config = {}
-    for name, value in positions.items():
-        if name not in machine.axes:
-            raise InputError(f"{where} names '{name}', not an axis of {machine.name}")
-        linear = machine.axis_kinds[machine.axes.index(name)] == "linear"
-        config[name] = value * (1e-3 if linear else np.pi / 180.0)
-    return default_config(machine, config)
+    return default_config(machine, axis_values_to_si(machine.axes, machine.axis_kinds, positions, where,
+                                                     machine.name))
 
 
 def default_config(machine: Machine, config: dict[str, float] | None = None) -> np.ndarray:
@@ -152,7 +143,7 @@ def nice_scale(error_um_max: float, extent_m: float) -> float:
     workspace extent."""
     if error_um_max <= 0 or extent_m <= 0:
         return 1.0
-    raw = 0.08 * extent_m / (error_um_max / M_TO_UM)
+    raw = 0.08 * extent_m / (error_um_max / UM_PER_M)
     exponent = math.floor(math.log10(raw))
     for step in (5, 2, 1):
         if step * 10**exponent <= raw:
@@ -178,7 +169,7 @@ def evaluate_field(machine: Machine, q: np.ndarray, scale: float | None = None,
     _, positions = machine.tool_poses(q, nominal=True)
     if scale is None:
         extent = float(np.ptp(positions, axis=0).max()) if len(positions) > 1 else 1.0
-        scale = nice_scale(float(np.linalg.norm(error[:, :3], axis=1).max() * M_TO_UM), extent)
+        scale = nice_scale(float(np.linalg.norm(error[:, :3], axis=1).max() * UM_PER_M), extent)
     if not (scale > 0 and math.isfinite(scale)):
         raise InputError(f"scale must be a positive number, got {scale}")
     return FieldData(q, positions, error, float(scale))

@@ -1,0 +1,57 @@
+"""volerr: volumetric error of machine tools on Pinocchio - evaluate, rank, record, identify, diagnose, compensate.
+
+Each command parses its arguments, calls the library and prints; every number comes from
+the library.
+
+Exit status 0 on success, 2 on bad input (one line on stderr naming the culprit).
+``--json`` prints exactly one JSON object on stdout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+
+from .. import __version__
+from ..errors import VolerrError
+from . import (ballbar, compensate, demo, dh, diagnose, errormap, field, identify, info, iso230, rank,
+               thermal_fit, urdf)
+from .common import in_cli_words
+
+#: one module per command, in the order ``volerr --help`` lists them
+COMMANDS = (demo, field, rank, iso230, identify, thermal_fit, diagnose, compensate, errormap, ballbar,
+            dh, info, urdf)
+
+__all__ = ["build_parser", "main"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``volerr`` argument parser with every command's sub-parser."""
+    parser = argparse.ArgumentParser(prog="volerr", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"volerr_pin {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for command in COMMANDS:
+        command.add_parser(sub)
+    return parser
+
+
+def _note(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"volerr: note: {message}", file=sys.stderr)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run ``volerr`` with ``argv`` (default: the process arguments); returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        with warnings.catch_warnings():
+            # the library's warnings are notes for the user: one line each, no source location
+            warnings.showwarning = _note
+            return args.func(args)
+    except VolerrError as err:
+        print(f"volerr: error: {in_cli_words(err)}", file=sys.stderr)
+        return 2
+    except OSError as err:
+        print(f"volerr: error: {err.filename or ''}: {err.strerror}", file=sys.stderr)
+        return 2

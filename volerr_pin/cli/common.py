@@ -1,0 +1,183 @@
+"""What every command shares: machine and state options, the AXIS=VALUE parser, JSON output,
+consoles and progress bars."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+import numpy as np
+from rich.console import Console
+
+from ..errors import InputError, VolerrError
+from ..machine import Machine, load_machine
+from ..spec import parse_component_name
+from ..units import axis_values_to_si, parse_axis_values
+
+DEFAULT_MACHINE = "vmc500"
+
+#: library names -> the options that give them, where the two are not spelled alike
+#: (``pass_through`` -> ``--pass-through`` needs no entry)
+OPTION_OF = {"Machine.with_state": "--state", "counts": "--grid", "run_axis": "--axis"}
+
+
+def in_cli_words(err: VolerrError) -> str:
+    """The message of a library error with the parameters it names (``holdout``,
+    ``Machine.with_state``) said as the options that give them (``--holdout``, ``--state``):
+    the first mention of each is the parameter; later ones may be plain words ("terms: EQQ
+    not among the error terms")."""
+    import re
+
+    message = str(err)
+    for name in getattr(err, "parameters", ()):
+        option = OPTION_OF.get(name, "--" + name.replace("_", "-"))
+        message = re.sub(rf"(?<![\w.-]){re.escape(name)}(?![\w-])", option, message, count=1)
+    return message
+
+
+def finite(value):
+    """JSON has no NaN or infinity: non-finite numbers become null (numpy values plain)."""
+    if isinstance(value, dict):
+        return {k: finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [finite(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def dumps(value, **kwargs) -> str:
+    """Strict JSON (no NaN / Infinity tokens) of a report."""
+    return json.dumps(finite(value), allow_nan=False, **kwargs)
+
+
+def table_console() -> Console:
+    """The console for tables on stdout."""
+    # tables are wide: give files and pipes room instead of rich's 80-column default
+    width = None if sys.stdout.isatty() else 160
+    return Console(highlight=False, soft_wrap=True, width=width)
+
+
+def note_unused(path: str, unused) -> None:
+    """One line on stderr naming what a file gives that the command does not use."""
+    if unused:
+        print(f"volerr: note: {path}: not used: {', '.join(unused)}", file=sys.stderr)
+
+
+class FitProgress:
+    """A progress bar on stderr for fits that take more than a moment (terminals only).
+
+    ``with FitProgress(enabled) as progress`` gives ``progress(stage, step)`` or None.
+    """
+
+    def __init__(self, enabled: bool):
+        self.console = Console(stderr=True, highlight=False)
+        self.enabled = enabled and self.console.is_terminal
+
+    def __enter__(self):
+        if not self.enabled:
+            return None
+        from rich.progress import Progress
+
+        self.bar = Progress(console=self.console, transient=True)
+        self.bar.__enter__()
+        self.tasks = {}
+        return self.update
+
+    def update(self, stage: str, step: int) -> None:
+        if stage not in self.tasks:
+            self.tasks[stage] = self.bar.add_task(stage, total=None)
+        self.bar.update(self.tasks[stage], completed=step)
+
+    def __exit__(self, *exc):
+        if self.enabled:
+            self.bar.__exit__(*exc)
+        return False
+
+
+# ------------------------------------------------------------------ options
+
+
+def positive(text: str) -> int:
+    """argparse type: a positive integer."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
+
+
+def add_machine_args(parser: argparse.ArgumentParser, positional: bool = True) -> None:
+    """The machine (positional, or ``--machine`` with the default machine) and the frames of a
+    bare URDF."""
+    if positional:
+        parser.add_argument("machine", help="bundled machine name, machine folder, spec (.toml) or URDF")
+    else:
+        parser.add_argument("--machine", default=DEFAULT_MACHINE, help=f"machine (default {DEFAULT_MACHINE})")
+    parser.add_argument("--tool-frame", help="tool frame (bare URDF only)")
+    parser.add_argument("--workpiece-frame", help="workpiece frame (bare URDF only)")
+
+
+def add_state_arg(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--state", nargs="+", metavar="KEY=VALUE",
+                        help="machine state for time-, temperature-, load- or direction-dependent terms: "
+                             "t=SECONDS, SENSOR=DEGC, forces=FX,FY,FZ (N), directions=+1,-1,...")
+
+
+def add_json_arg(parser, help: str = "print one JSON object") -> None:
+    parser.add_argument("--json", action="store_true", help=help)
+
+
+def machine_of(args) -> Machine:
+    """The machine the options name, held in the ``--state`` given (when the command has one)."""
+    machine = load_machine(args.machine, tool_frame=args.tool_frame, workpiece_frame=args.workpiece_frame)
+    return with_state(machine, getattr(args, "state", None))
+
+
+def with_state(machine: Machine, items: list[str] | None) -> Machine:
+    """``--state t=3600 spindle=24.5 forces=0,0,-150 directions=1,-1,1`` -> the machine in
+    that state (t in s, temperatures in degC by sensor name, forces in N)."""
+    if not items:
+        return machine
+    t, temps, forces, directions = None, {}, None, None
+    for item in items:
+        name, sep, text = item.partition("=")
+        if not sep or not name:
+            raise InputError(f"--state {item!r}: expected KEY=VALUE (t=SECONDS, SENSOR=DEGC, "
+                             "forces=FX,FY,FZ, directions=+1,-1,...)")
+        try:
+            values = [float(v) for v in text.split(",")]
+        except ValueError:
+            raise InputError(f"--state {item!r}: '{text}' is not a number (or comma-separated numbers)") from None
+        if name in ("forces", "directions"):
+            forces, directions = (values, directions) if name == "forces" else (forces, values)
+        elif len(values) != 1:
+            raise InputError(f"--state {item!r}: one value expected")
+        elif name == "t":
+            t = values[0]
+        else:
+            temps[name] = values[0]
+    return machine.with_state(t=t, temperatures=temps, forces=forces, directions=directions)
+
+
+def axis_positions(machine: Machine, items: list[str] | None, option: str) -> dict[str, float]:
+    """``AXIS=VALUE`` items of ``option`` in mm (linear) or deg (rotary) -> {axis: value}."""
+    return parse_axis_values(items or [], option, axes=machine.axes)
+
+
+def axis_config(machine: Machine, items: list[str] | None, option: str) -> dict[str, float]:
+    """``AXIS=VALUE`` items of ``option`` in mm / deg -> {axis: SI value (m / rad)}."""
+    return axis_values_to_si(machine.axes, machine.axis_kinds, axis_positions(machine, items, option),
+                             option, machine.name)
+
+
+def axis_components(machine: Machine) -> set[str]:
+    """Names of the component errors of the machine's axes (not location errors)."""
+    return {c for c in machine.components
+            if not parse_component_name(c)[1] and parse_component_name(c)[2] in machine.axes}

@@ -1,0 +1,62 @@
+"""volerr demo: the main job on one machine: info, error summary, ranking, recording, compensation."""
+
+from __future__ import annotations
+
+from ..describe import machine_info
+from ..ranking import rank
+from ..workspace import error_summary, grid, sample
+from .common import add_machine_args, add_state_arg, dumps, machine_of, table_console
+from .tables import print_info, print_ranking, print_recording, print_summary
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("demo", help="the main job on the default machine")
+    add_machine_args(p, positional=False)
+    p.add_argument("--grid", type=int, default=11, help="grid points per axis (default 11)")
+    p.add_argument("--top", type=int, default=5, help="ranking rows to show (default 5)")
+    p.add_argument("--out", default="volerr_demo.rrd",
+                   help="Rerun recording to write (default volerr_demo.rrd)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_state_arg(p)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    machine = machine_of(args)
+    info = machine_info(machine)
+    points = grid(machine, args.grid)          # one grid for the summary, field and compensation
+    summary = error_summary(machine, points)
+    from ..recording import record_field
+
+    ranked = rank(machine, sample(machine, 1024))
+    ranking = ranked.to_dict(top=args.top)
+    linear = sum(k == "linear" for k in machine.axis_kinds)
+    recording = record_field(machine, args.out, ranking=ranked.to_dict(top=15),
+                             counts=[args.grid] * linear if linear else None)
+    from ..compensate import evaluate_compensation
+
+    compensation = evaluate_compensation(machine, points)
+    if args.json:
+        print(dumps({"machine": info, "summary": summary, "ranking": ranking,
+                          "recording": recording, "compensation": compensation}))
+        return 0
+    console = table_console()
+    print_info(console, info)
+    print_summary(console, summary, machine.axes)
+    print_ranking(console, ranking, f"top {args.top} error sources at the tool "
+                                     f"({ranking['points']} Sobol' points; share of all terms)")
+    c = compensation
+    beyond = (f"{c['points'] - c['reachable']} points need commands beyond the travel"
+              if c["reachable"] < c["points"] else "")
+    if c["max_after_um"] is None:
+        console.print(f"compensation: every one of the {c['points']} grid points needs commands beyond the travel")
+    elif c["reduction_percent"] is None:
+        console.print(f"compensation: nothing to compensate at the {c['points']} grid points (the model's "
+                      "errors are zero there)" + (f"; {beyond}" if beyond else ""))
+    else:
+        console.print(f"compensation (exact point compensation at the same {c['points']} grid points): max error "
+                      f"{c['max_before_um']:.2f} -> {c['max_after_um']:.4f} um, RMS {c['rms_before_um']:.2f} -> "
+                      f"{c['rms_after_um']:.4f} um ({c['reduction_percent']:.2f} % reduction"
+                      + (f"; {beyond})" if beyond else ")"))
+    print_recording(recording)
+    return 0

@@ -1,0 +1,34 @@
+"""volerr dh: a URDF from a Denavit-Hartenberg table."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import InputError
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("dh", help="a URDF from a Denavit-Hartenberg table (standard or modified)")
+    p.add_argument("table", help="DH table: joint,type,a_mm,alpha_deg,d_mm,theta_deg,lower,upper "
+                                 "with '# convention:' and '# tool:' header lines")
+    p.add_argument("-o", "--output", required=True, help="URDF file to write")
+    p.add_argument("--name", help="robot name (default: the table's file name)")
+    p.add_argument("--base-frame", default="base", help="name of the base frame (default base)")
+    p.add_argument("--tool-frame", default="tool0", help="name of the tool frame (default tool0)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..dh import dh_to_urdf, read_dh
+
+    rows, convention, tool = read_dh(args.table)
+    try:
+        text = dh_to_urdf(rows, convention, name=args.name or Path(args.table).stem, base=args.base_frame,
+                          tool=args.tool_frame, tool_transform=tool)
+    except ValueError as err:
+        raise InputError(f"{args.table}: {err}") from None
+    Path(args.output).write_text(text)
+    print(f"wrote {args.output}: {len(rows)} joints ({convention} DH), frames '{args.base_frame}' and "
+          f"'{args.tool_frame}'; load it with: volerr info {args.output} --tool-frame {args.tool_frame} "
+          f"--workpiece-frame {args.base_frame}")
+    return 0

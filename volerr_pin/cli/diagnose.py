@@ -1,0 +1,97 @@
+"""volerr diagnose: find, name and add what the model is missing."""
+
+from __future__ import annotations
+
+from rich import box
+from rich.markup import escape
+from rich.table import Table
+
+from .common import FitProgress, add_machine_args, dumps, machine_of, table_console
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("diagnose", help="find, name and add the missing effect")
+    add_machine_args(p)
+    p.add_argument("data", nargs="+", help="point measurements (CSV) with any covariate columns")
+    p.add_argument("--fixed", action="store_true", help="keep the spec's geometric values (do not refit them)")
+    p.add_argument("--max-effects", type=int, default=5, help="stop after this many effects (default 5)")
+    p.add_argument("--alpha", type=float, default=0.01,
+                   help="family-wise significance per round (Bonferroni over candidates; default 0.01)")
+    p.add_argument("--folds", type=int, default=5,
+                   help="k of the k-fold cross-validation over poses (default 5)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the cross-validation split")
+    p.add_argument("--sigma-um", type=float, default=1.0, help="std. deviation of position data (um)")
+    p.add_argument("--sigma-urad", type=float, default=1.0, help="std. deviation of rotation data (urad)")
+    p.add_argument("--out", help="write the final model as a spec (TOML)")
+    p.add_argument("--rrd", help="write a Rerun recording of the steps")
+    p.add_argument("--png", help="write a one-page summary figure")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..diagnose import diagnose
+    from ..measurements import read_any
+    from ..specio import write_spec
+
+    machine = machine_of(args)
+    data = [read_any(path, machine) for path in args.data]
+    with FitProgress(not args.json) as progress:
+        result = diagnose(machine, data, fixed=args.fixed, max_effects=args.max_effects,
+                          alpha=args.alpha, folds=args.folds, seed=args.seed, sigma_um=args.sigma_um,
+                          sigma_urad=args.sigma_urad, progress=progress)
+    report = result.to_dict()
+    report["notes"] = [f"{d.source}: columns not used: {', '.join(d.unused)}" for d in data if d.unused]
+    if args.out:
+        write_spec(result.machine, args.out, {
+            "data": [str(p) for p in args.data], "diagnosis": [e["label"] for e in result.effects],
+            "rms_before_um": result.rms_before_um, "rms_after_um": result.rms_after_um,
+            "noise_floor_um": result.noise_floor_um})
+        report["out"] = str(args.out)
+    if args.rrd:
+        from ..recording import record_diagnosis
+
+        report["recording"] = record_diagnosis(result, args.rrd)
+    if args.png:
+        from ..plots import diagnosis_png
+
+        diagnosis_png(result, args.png)
+        report["png"] = args.png
+    if args.json:
+        print(dumps(report))
+        return 0
+    out = table_console()
+    out.print(f"[bold]{escape(result.machine.name)}[/bold]: {result.observations.n_points} points; held-out "
+              f"RMS {result.rms_before_um:.3f} um before, {result.rms_after_um:.3f} um after "
+              f"({len(result.effects)} effect(s) added, {len(result.under_modelled)} component(s) raised)")
+    table = Table(box=box.SIMPLE, title="effects found, in order")
+    for col in ("#", "effect", "axis", "direction", "driver", "modelled as", "held-out RMS before -> after [um]",
+                "p-value"):
+        table.add_column(col)
+    for i, e in enumerate(result.effects, 1):
+        twins = e.get("same_at_tool_as") or []
+        site = e["component"] + (f" (the same at the tool as {', '.join(twins)})" if twins else "")
+        table.add_row(str(i), e["name"], e["axis"] or "-", e["direction"] or "-", escape(e["driver"] or "-"),
+                      escape(site),
+                      f"{e['rms_before_um']:.3f} -> {e['rms_after_um']:.3f}", f"{e['p_value']:.2g}")
+    out.print(table)
+    for e in result.effects:
+        for name, p in e["parameters"].items():
+            u = "" if p["uncertainty"] is None else f" +- {p['uncertainty']:.3g}"
+            out.print(escape(f"  {name} = {p['value']:.5g}{u} {p['unit']}"))
+    if result.under_modelled:
+        out.print("geometric components under-modelled by the spec (raised; not physical effects): "
+                  + escape(", ".join(f"{u['component']} ({u['from']} -> {u['to']})" for u in result.under_modelled)))
+    for e in result.dropped:
+        out.print(escape(f"dropped: {e['label']} ({e['note']})"))
+    verdict = "reaches" if result.reaches_noise_floor else "does not reach"
+    floor = "noise floor at most" if result.noise_floor_upper_bound else "noise floor"
+    out.print(f"{floor} {result.noise_floor_um:.3f} um ({escape(result.noise_floor_source)}); the final model "
+              f"{verdict} it. Test: {escape(report['test'])}; {result.seconds:.1f} s")
+    for note in report["notes"]:
+        print(f"note: {note}")
+    for key in ("out", "recording", "png"):
+        if key in report:
+            value = report[key]["path"] if isinstance(report[key], dict) else report[key]
+            print(f"wrote {value}" + (f" (open it with: rerun {value})" if key == "recording" else ""))
+    return 0

@@ -1,0 +1,55 @@
+"""volerr field: a Rerun recording of the error field (and a PNG slice)."""
+
+from __future__ import annotations
+
+from ..errors import InputError
+from ..ranking import rank
+from ..workspace import sample
+from .common import add_machine_args, add_state_arg, axis_config, dumps, machine_of, positive
+from .tables import print_recording
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("field", help="Rerun recording of the error field")
+    add_machine_args(p)
+    add_state_arg(p)
+    p.add_argument("--out", required=True, help="recording file (.rrd)")
+    p.add_argument("--grid", type=positive, nargs="+", metavar="N",
+                   help="points per linear axis (one value for all, or one per linear axis; default 9)")
+    p.add_argument("--scale", type=float, help="arrow magnification (default: a round factor "
+                                               "making the largest arrow ~8 %% of the workspace)")
+    p.add_argument("--config", nargs="+", metavar="AXIS=VALUE",
+                   help="axis positions for the machine and the fixed axes (mm, deg)")
+    p.add_argument("--sweep-steps", type=int, default=24,
+                   help="steps of the rotary-axis sweep (0: none; default 24)")
+    p.add_argument("--png", help="also write a static picture of an error-field slice")
+    viewer = p.add_mutually_exclusive_group()
+    viewer.add_argument("--spawn", action="store_true", help="also stream to a new Rerun viewer")
+    viewer.add_argument("--connect", metavar="URL", help="also stream to a running viewer (gRPC URL)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..recording import record_field
+
+    machine = machine_of(args)
+    config = axis_config(machine, args.config, "--config")
+    if args.scale is not None and not args.scale > 0:
+        raise InputError(f"--scale must be positive, got {args.scale}")
+    ranking = rank(machine, sample(machine, 1024)).to_dict(top=15)
+    summary = record_field(machine, args.out, counts=args.grid, config=config, scale=args.scale,
+                           ranking=ranking, sweep_steps=args.sweep_steps, spawn=args.spawn,
+                           connect=args.connect)
+    if args.png:
+        from ..plots import field_slice_png
+
+        field_slice_png(machine, args.png, config)
+        summary["png"] = args.png
+    if args.json:
+        print(dumps(summary))
+    else:
+        print_recording(summary)
+        if args.png:
+            print(f"wrote {args.png}")
+    return 0

@@ -1,0 +1,63 @@
+"""volerr thermal-fit: a thermal drift model from sensor series."""
+
+from __future__ import annotations
+
+from rich import box
+from rich.markup import escape
+from rich.table import Table
+
+from .common import dumps, table_console
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("thermal-fit", help="thermal drift model from sensor data")
+    p.add_argument("data", nargs="+", help="CSV files (one per experiment/batch), numeric columns")
+    p.add_argument("--target", required=True, help="column to model (e.g. a thermal error)")
+    p.add_argument("--sensors", nargs="+", help="columns to use (default: every other column)")
+    p.add_argument("--lag", type=int, default=1, help="linear: target lags (0: static model; default 1)")
+    p.add_argument("--method", choices=["linear", "gm11", "gm1n", "vwgm1n"], default="linear",
+                   help="linear: least squares on the sensors (with --lag target lags; default); "
+                        "gm11: grey model GM(1,1) of the target alone; gm1n: GM(1,N) with the sensors; "
+                        "vwgm1n: GM(1,N) with its background weight chosen by one-step error")
+    held = p.add_mutually_exclusive_group()
+    held.add_argument("--holdout", type=float, default=0.0, help="hold out the last fraction of rows")
+    held.add_argument("--test", nargs="+", help="held-out files (fit on DATA, predict these)")
+    p.add_argument("--top", type=int, default=5, help="sensors to rank (default 5)")
+    p.add_argument("--plot", help="write measured vs modelled (PNG)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..thermalfit import read_series, thermal_fit
+
+    data = read_series(args.data)
+    test = read_series(args.test) if args.test else None
+    result = thermal_fit(data, args.target, args.sensors, lag=args.lag, method=args.method,
+                         holdout=args.holdout, test=test, rank_top=args.top)
+    if args.plot:
+        from ..plots import thermal_fit_png
+
+        thermal_fit_png(result, data if test is None else None, args.plot)
+    if args.json:
+        print(dumps({k: v for k, v in result.items() if k not in ("fitted", "predicted_holdout")}))
+        return 0
+    console = table_console()
+    lag = f", lag {result['lag']}" if result["lag"] is not None else ""
+    console.print(escape(f"{result['method']} model of '{result['target']}'{lag} from "
+                         f"{len(result['sensors'])} sensor(s); {result['n_fit']} fitted rows"))
+    console.print(f"R^2 {result['r2']:.5f}, residual standard error {result['residual_se']:.4g} "
+                  "(unit of the target)")
+    if result["n_holdout"]:
+        where = "the test file(s)" if test is not None else "the last rows"
+        console.print(f"held out: {result['n_holdout']} rows of {where}, RMSE {result['rmse_holdout']:.4g}")
+    table = Table(box=box.SIMPLE, title="most informative sensors (greedy forward selection)")
+    table.add_column("#", justify="right")
+    table.add_column("sensor")
+    table.add_column("R^2 with the sensors so far", justify="right")
+    for i, row in enumerate(result["sensor_ranking"], 1):
+        table.add_row(str(i), escape(row["sensor"]), f"{row['r2']:.5f}")
+    console.print(table)
+    if args.plot:
+        print(f"wrote {args.plot}")
+    return 0
