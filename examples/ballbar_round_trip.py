@@ -28,7 +28,7 @@ import volerr_pin as vp
 from volerr_pin.ballbar import evaluate_circular, read_ballbar
 from volerr_pin.diagnose import diagnose
 from volerr_pin.identify import identify
-from volerr_pin.plots import ballbar_png
+from volerr_pin.viz.plots import ballbar_png
 from volerr_pin.simulate import ballbar_run, write_ballbar
 from volerr_pin.specio import add_terms
 

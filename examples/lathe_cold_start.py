@@ -26,7 +26,7 @@ import numpy as np
 import rerun.blueprint as rrb
 
 import volerr_pin as vp
-from volerr_pin.recording import log_field, log_machine, log_time_series, new_recording
+from volerr_pin.viz.recording import log_field, log_machine, log_time_series, new_recording
 from volerr_pin.specio import add_terms
 from volerr_pin.workspace import evaluate_field, field_grid
 

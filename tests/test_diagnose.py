@@ -234,16 +234,16 @@ def test_a_long_wave_is_not_a_ball_screw(machines):
 def test_a_raised_component_starts_from_the_same_function(machines, component, by):
     """Constant -> degree 1, polynomial + 1 or 2 degrees, table with a node between every
     two: the coarse function is inside the finer space, so nothing moves before the refit."""
-    from volerr_pin.diagnose import _apply_raises, _geometric_term
+    from volerr_pin.diagnose import geometric_term, raise_components
 
     m = machines["vmc500"]
-    raised = _apply_raises(m, [(component, by)])
+    raised = raise_components(m, [(component, by)])
     q = np.random.default_rng(0).uniform(m.travel[:, 0], m.travel[:, 1], (200, 3))
     k = m.components.index(component)
     np.testing.assert_allclose(raised.component_values(q)[:, k], m.component_values(q)[:, k],
                                rtol=0, atol=1e-15)
-    _, before = _geometric_term(m, component)
-    _, after = _geometric_term(raised, component)
+    _, before = geometric_term(m, component)
+    _, after = geometric_term(raised, component)
     if before.term.kind == "table":
         assert len(after.term.nodes) == 2 * len(before.term.nodes) - 1
     else:

@@ -124,7 +124,24 @@ def _lsc(angle: np.ndarray, r: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(A, r, rcond=None)[0]
 
 
-def _about(angle, r, fit):
+def radial_about(angle, r, fit):
+    """Radial deviations about a centre.
+
+    Parameters
+    ----------
+    angle : ndarray, shape (n,)
+        Angles of the samples, rad.
+    r : ndarray, shape (n,)
+        Radial deviations about the nominal centre (any length unit).
+    fit : array_like, shape (3,)
+        ``(radius change, centre offset along the first plane axis, along the second)`` in the
+        unit of ``r``.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``r`` about the shifted centre (first order in the offset).
+    """
     return r - fit[1] * np.cos(angle) - fit[2] * np.sin(angle)
 
 
@@ -156,13 +173,13 @@ def evaluate_circular(run: BallbarRun) -> dict:
             out[f"n_{name}"] = int(0 if mask is None else mask.sum())
             continue
         fit = _lsc(run.angle[mask], r[mask])
-        about = _about(run.angle[mask], r[mask], fit)
+        about = radial_about(run.angle[mask], r[mask], fit)
         out[f"G_{name}"] = float(about.max() - about.min())
         out[f"n_{name}"] = int(mask.sum())
     if len(r) < 4:
         raise InputError(f"{run.source}: {len(r)} samples are too few for a circular test")
     fit = _lsc(run.angle, r)
-    about = _about(run.angle, r, fit)
+    about = radial_about(run.angle, r, fit)
     out["G"] = float(about.max() - about.min())
     out["F_max"], out["F_min"] = float(r.max()), float(r.min())
     out["centre_offset_um"] = [float(fit[1]), float(fit[2])]

@@ -47,7 +47,8 @@ from scipy import stats
 from scipy.signal import lombscargle
 
 from .errors import InputError
-from .identify import Observations, _design, build_observations, identify, parameter_units, pose_folds
+from .identify import (Observations, build_observations, identify, parameter_units, pose_folds,
+                       predict_observations)
 from .machine import Machine
 from .spec import build_term, component_name, parse_component_name
 from .specio import add_terms, remove_components, replace_terms, term_tables
@@ -272,7 +273,7 @@ def build_candidates(machine: Machine, obs: Observations) -> list[Candidate]:
     return out
 
 
-def _geometric_term(machine: Machine, component: str):
+def geometric_term(machine: Machine, component: str):
     """(index, TermSpec) of the component's geometric term (constant, polynomial, table)."""
     comp = next(c for c in machine.spec.components if c.name == component)
     for i, tspec in enumerate(comp.terms):
@@ -291,7 +292,7 @@ def raised_table(machine: Machine, component: str, values: np.ndarray | None = N
     term's coefficients, SI) the table starts from the present function; else it is
     zero-valued. None when the term would pass :data:`MAX_DEGREE` / :data:`MAX_NODES` or
     there is no geometric term."""
-    index, tspec = _geometric_term(machine, component)
+    index, tspec = geometric_term(machine, component)
     if tspec is None:
         return None
     term = tspec.term
@@ -346,14 +347,14 @@ def adequacy_candidates(machine: Machine, own: dict[str, str]) -> list[Candidate
     return out
 
 
-def _apply_raises(machine: Machine, components: list[tuple[str, int]]) -> Machine:
+def raise_components(machine: Machine, components: list[tuple[str, int]]) -> Machine:
     """The machine with these components' geometric terms raised, each starting from its
     present function (an exact reproduction for tables and polynomials alike)."""
     theta = dict(zip(machine.parameter_names, machine.theta))
     present = term_tables(machine)
     tables = {}
     for component, by in components:
-        index, tspec = _geometric_term(machine, component)
+        index, tspec = geometric_term(machine, component)
         values = np.array([theta[n] for n in tspec.names(component)])
         _, table, _ = raised_table(machine, component, values, by)
         tables[component] = present[component]
@@ -385,7 +386,7 @@ class _Base:
 
 def _base_design(machine: Machine, obs: Observations, fitted: np.ndarray, nuisance: np.ndarray) -> _Base:
     # residual of the exact model; design of the first-order model (exact dependencies)
-    pred, A = _design(machine, obs, machine.theta, fitted, first_order=True)
+    pred, A = predict_observations(machine, obs, machine.theta, fitted, first_order=True)
     r = (obs.y - pred - obs.nuisance @ nuisance) / obs.sigma
     J = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
     return _Base(machine, fitted, J, r, nuisance)
@@ -728,14 +729,14 @@ def _tested_names(machine: Machine, change: dict) -> list[str]:
     denser table (its F-test and cross-validation decide)."""
     if change["kind"] != "under_modelled":
         return change["_names"]
-    _, tspec = _geometric_term(machine, change["component"])
+    _, tspec = geometric_term(machine, change["component"])
     if tspec.term.kind == "table":
         return []
     return list(tspec.names(change["component"])[-change["_by"]:])
 
 
 def _describe(machine: Machine, component: str) -> str:
-    _, tspec = _geometric_term(machine, component)
+    _, tspec = geometric_term(machine, component)
     term = tspec.term
     if term.kind == "table":
         return f"table of {len(term.nodes)} nodes"
@@ -750,10 +751,10 @@ def _trim_raises(machine: Machine, fit, base: Machine, components) -> Machine | 
     tables = {}
     present = None
     for component in sorted(components):
-        index, tspec = _geometric_term(machine, component)
+        index, tspec = geometric_term(machine, component)
         if tspec.term.kind not in ("legendre", "monomial"):
             continue
-        _, original = _geometric_term(base, component)
+        _, original = geometric_term(base, component)
         start = 0 if original.term.kind == "constant" else original.term.degree
         names = tspec.names(component)
         z = []
@@ -805,10 +806,10 @@ def _apply(machine: Machine, batch: list[dict]) -> tuple[Machine, list[dict]]:
                         "p_value": score["p_value"], "bic_gain": score["bic_gain"]})
     raises = [(s["_candidate"].component, s["_candidate"].by) for s in batch if s["_candidate"].kind == "raise"]
     if raises:
-        new = _apply_raises(machine, raises)
+        new = raise_components(machine, raises)
         for score, record in zip(batch, records):
             cand = score["_candidate"]
-            _, tspec = _geometric_term(new, cand.component)
+            _, tspec = geometric_term(new, cand.component)
             record.update(kind="under_modelled", axis=cand.axis, _by=cand.by,
                           **{"from": cand.change[0], "to": cand.change[1]},
                           _names=list(tspec.names(cand.component)))

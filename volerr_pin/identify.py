@@ -323,7 +323,7 @@ def parameter_units(machine: Machine) -> dict[str, tuple[float, str]]:
             for name, unit in zip(tspec.names(comp.name), tspec.term.coefficient_units())}
 
 
-def _design(machine: Machine, obs: Observations, theta: np.ndarray, free: np.ndarray,
+def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray, free: np.ndarray,
             first_order: bool = False):
     """Prediction of every observation row and its Jacobian w.r.t. the ``free`` coefficients
     (``first_order``: the Jacobian of the first-order model, where dependencies are exact)."""
@@ -377,7 +377,7 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
     status = "iteration limit"
     flat = 0
     for it in range(1, max_iter + 1):
-        pred, A = _design(machine, obs, theta, free)
+        pred, A = predict_observations(machine, obs, theta, free)
         r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
         J = np.hstack([obs.nuisance, A[:, use]]) / sigma[:, None]
         scale, Js = _column_scale(J, typical=_typical(machine, theta, free[use], n_nu))
@@ -427,7 +427,7 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
         if accepted == 0.0 and np.abs(delta * scale).max(initial=0.0) < tol:
             status = "converged"
             break
-    pred, A = _design(machine, obs, theta, free)
+    pred, A = predict_observations(machine, obs, theta, free)
     r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
     J = np.hstack([obs.nuisance, A[:, use]]) / sigma[:, None]
     return theta, nuisance, J, r, it, status
@@ -494,7 +494,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
               else machine.theta.copy())
     # identifiability of the first-order model: exact dependencies, untouched by second-order
     # differences that the errors' own size brings in
-    pred, A = _design(machine, obs, theta0, free, first_order=True)
+    pred, A = predict_observations(machine, obs, theta0, free, first_order=True)
     J0 = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
     names = obs.nuisance_names + [machine.parameter_names[k] for k in free]
     n_nu = obs.nuisance.shape[1]
@@ -557,7 +557,7 @@ def _initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray
         return theta
     linear = np.array([k for k in free if k not in set(nonlinear)], dtype=int)
     n_nu = obs.nuisance.shape[1]
-    _, A = _design(machine, obs, theta, linear, first_order=True)
+    _, A = predict_observations(machine, obs, theta, linear, first_order=True)
     J = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
     kept = analyse(J, [""] * J.shape[1], protected=n_nu, rtol=rtol,
                    typical=_typical(machine, theta, linear, n_nu)).kept
@@ -567,13 +567,13 @@ def _initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray
         term = next(p for p in machine.term_spans() if p.start <= k < p.stop)
         own = np.array([i for i in range(term.start, term.stop) if i in set(linear[lin_cols].tolist())], dtype=int)
         others = np.array([i for i in linear[lin_cols] if i not in set(own.tolist())], dtype=int)
-        _, A_other = _design(machine, obs, theta, others)
+        _, A_other = predict_observations(machine, obs, theta, others)
         grid = np.r_[theta[k], machine.search_grid(k, theta, n=obs.n_points, **obs.covariates)]
         best, best_rss = theta.copy(), math.inf
         for value in grid:
             trial = theta.copy()
             trial[k] = value
-            pred, A_own = _design(machine, obs, trial, own)
+            pred, A_own = predict_observations(machine, obs, trial, own)
             r = (obs.y - pred) / obs.sigma
             J = np.hstack([obs.nuisance, A_other, A_own]) / obs.sigma[:, None]
             scale, Js = _column_scale(J)  # linear coefficients only: SI sizes are typical

@@ -287,7 +287,7 @@ def axis_travel(urdf: URDF, axis: AxisSpec) -> tuple[float, float]:
     return (min(a, b), max(a, b))
 
 
-def _components(tables: dict, where: str, owners: dict[str, tuple[str | None, tuple | None]]
+def parse_components(tables: dict, where: str, owners: dict[str, tuple[str | None, tuple | None]]
                 ) -> tuple[ComponentSpec, ...]:
     """Components of ``[errors]``; ``owners`` maps owner name -> (position quantity, travel)."""
     components = []
@@ -385,7 +385,7 @@ def load_spec(path: str | Path) -> tuple[MachineSpec, URDF]:
     used = [a.joint for a in axes] + [b.joint for b in bodies]
     if len(set(used)) != len(used):
         raise SpecError(f"{where}: a URDF joint is used by two axes or bodies: {used}")
-    components = _components(data.get("errors", {}), where, owners)
+    components = parse_components(data.get("errors", {}), where, owners)
     extra = {k: v for k, v in data.items() if k == "provenance"}
     spec = MachineSpec(str(machine["name"]), where, Path(urdf.source), machine["tool_frame"],
                        machine["workpiece_frame"], tuple(axes), tuple(bodies), components,

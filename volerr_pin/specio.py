@@ -18,7 +18,7 @@ import tomli_w
 
 from .errors import InputError
 from .machine import Machine
-from .spec import _components, axis_travel, parse_component_name
+from .spec import axis_travel, parse_component_name, parse_components
 from .units import ANGLE, LENGTH
 
 
@@ -37,7 +37,7 @@ def replace_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Mac
     """A new machine whose components ``tables`` (name -> one term table or a list of them,
     in the spec's TOML form) replace or add to the spec's. Other components are unchanged."""
     raw = {name: (t if isinstance(t, dict) else {"terms": list(t)}) for name, t in tables.items()}
-    new = {c.name: c for c in _components(raw, f"{machine.spec.source} (replaced terms)",
+    new = {c.name: c for c in parse_components(raw, f"{machine.spec.source} (replaced terms)",
                                           _owners(machine))}
     components = [new.pop(c.name, c) for c in machine.spec.components] + list(new.values())
     # keep the current values of untouched components

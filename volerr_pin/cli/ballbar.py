@@ -27,7 +27,7 @@ def run(args) -> int:
     note_unused(args.file, run.unused)
     result = evaluate_circular(run)
     if args.plot:
-        from ..plots import ballbar_png
+        from ..viz.plots import ballbar_png
 
         result["plot"] = ballbar_png(run, result, args.plot, title=f"ISO 230-4: {Path(args.file).name}")["path"]
     if args.json:

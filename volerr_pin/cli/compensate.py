@@ -56,7 +56,7 @@ def run(args) -> int:
     if args.report:
         Path(args.report).write_text(dumps(report, indent=2) + "\n")
     if args.png:
-        from ..plots import compensation_png
+        from ..viz.plots import compensation_png
 
         report["png"] = compensation_png(program.report, args.png, title=f"{machine.name}: {path.name}")["path"]
     if args.json:

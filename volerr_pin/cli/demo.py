@@ -26,7 +26,7 @@ def run(args) -> int:
     info = machine_info(machine)
     points = grid(machine, args.grid)          # one grid for the summary, field and compensation
     summary = error_summary(machine, points)
-    from ..recording import record_field
+    from ..viz.recording import record_field
 
     ranked = rank(machine, sample(machine, 1024))
     ranking = ranked.to_dict(top=args.top)

@@ -49,11 +49,11 @@ def run(args) -> int:
             "noise_floor_um": result.noise_floor_um})
         report["out"] = str(args.out)
     if args.rrd:
-        from ..recording import record_diagnosis
+        from ..viz.recording import record_diagnosis
 
         report["recording"] = record_diagnosis(result, args.rrd)
     if args.png:
-        from ..plots import diagnosis_png
+        from ..viz.plots import diagnosis_png
 
         diagnosis_png(result, args.png)
         report["png"] = args.png

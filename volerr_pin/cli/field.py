@@ -31,7 +31,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..recording import record_field
+    from ..viz.recording import record_field
 
     machine = machine_of(args)
     config = axis_config(machine, args.config, "--config")
@@ -42,7 +42,7 @@ def run(args) -> int:
                            ranking=ranking, sweep_steps=args.sweep_steps, spawn=args.spawn,
                            connect=args.connect)
     if args.png:
-        from ..plots import field_slice_png
+        from ..viz.plots import field_slice_png
 
         field_slice_png(machine, args.png, config)
         summary["png"] = args.png

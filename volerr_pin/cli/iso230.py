@@ -28,7 +28,7 @@ def run(args) -> int:
     note_unused(args.runs, runs.unused)
     result = evaluate_runs(runs)
     if args.plot:
-        from ..plots import iso230_png
+        from ..viz.plots import iso230_png
 
         iso230_png(result, args.plot, title=f"ISO 230-2: {Path(args.runs).name}")
     if args.json:

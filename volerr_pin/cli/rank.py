@@ -37,7 +37,7 @@ def run(args) -> int:
     result = ranking.to_dict(top=args.top)
     groups = [g.to_dict() for g in tool_identifiability(machine, q)]
     if args.png:
-        from ..plots import ranking_png
+        from ..viz.plots import ranking_png
 
         ranking_png(result, args.png, top=args.top or 15)
         print(f"wrote {args.png}", file=sys.stderr)

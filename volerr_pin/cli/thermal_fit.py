@@ -36,7 +36,7 @@ def run(args) -> int:
     result = thermal_fit(data, args.target, args.sensors, lag=args.lag, method=args.method,
                          holdout=args.holdout, test=test, rank_top=args.top)
     if args.plot:
-        from ..plots import thermal_fit_png
+        from ..viz.plots import thermal_fit_png
 
         thermal_fit_png(result, data if test is None else None, args.plot)
     if args.json:

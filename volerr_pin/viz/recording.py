@@ -26,9 +26,9 @@ import rerun as rr
 import rerun.blueprint as rrb
 from matplotlib import colormaps
 
-from .errors import InputError
-from .machine import Machine
-from .workspace import FieldData, default_config, evaluate_field, field_grid, nice_scale, to_engineering
+from ..errors import InputError
+from ..machine import Machine
+from ..workspace import FieldData, default_config, evaluate_field, field_grid, nice_scale, to_engineering
 
 UM = 1e6
 
@@ -92,7 +92,7 @@ def _complete_urdf(machine: Machine):
     import copy
     import tempfile
 
-    from .urdf import complete_limits
+    from ..urdf import complete_limits
 
     path = Path(machine.spec.urdf)
     document = copy.deepcopy(machine.urdf.document)
@@ -289,7 +289,7 @@ def log_rotary_sweep(rec: rr.RecordingStream, machine: Machine, q: np.ndarray, b
 def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None) -> dict:
     """The residual field at each step of a diagnosis (``step`` timeline) and, for each
     accepted effect, the residual against its driver before and after (2D view)."""
-    from .diagnose import evidence
+    from ..diagnose import evidence
 
     machine = diagnosis.machine
     obs = diagnosis.observations

@@ -10,9 +10,9 @@ matplotlib.use("Agg")  # files only, no display
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .machine import Machine  # noqa: E402
-from .workspace import default_config, evaluate_field  # noqa: E402
-from .workspace import sample, to_engineering  # noqa: E402
+from ..machine import Machine  # noqa: E402
+from ..workspace import default_config, evaluate_field  # noqa: E402
+from ..workspace import sample, to_engineering  # noqa: E402
 
 UM = 1e6
 AXES = "xyz"
@@ -156,10 +156,10 @@ def iso230_png(result: dict, path: str | Path, title: str = "") -> dict:
 def ballbar_png(run, result: dict, path: str | Path, title: str = "") -> dict:
     """The ISO 230-4 picture: both traces about the least-squares centre on a polar plot whose
     radial scale is the deviation (um), with the figures beside it."""
-    from .ballbar import _about
+    from ..ballbar import radial_about
 
     r = run.deviation * 1e6
-    about = _about(run.angle, r, np.array([0.0, *result["centre_offset_um"]])) - result["radius_error_um"]
+    about = radial_about(run.angle, r, np.array([0.0, *result["centre_offset_um"]])) - result["radius_error_um"]
     fig = plt.figure(figsize=(8.5, 5.5), dpi=120, constrained_layout=True)
     ax = fig.add_subplot(projection="polar")
     span = max(float(np.abs(about).max()), 1e-3)
@@ -215,7 +215,7 @@ def thermal_fit_png(result: dict, data, path: str | Path) -> dict:
 def diagnosis_png(diagnosis, path: str | Path) -> dict:
     """One page: held-out RMS per step against the noise floor, and for each accepted effect
     the residual against its driver before and after."""
-    from .diagnose import evidence
+    from ..diagnose import evidence
 
     n_eff = min(len(diagnosis.effects), 4)
     fig = plt.figure(figsize=(11.0, 3.2 + 2.9 * ((n_eff + 1) // 2)), dpi=110, constrained_layout=True)
