@@ -332,3 +332,24 @@ def test_origin_shifts_program_coordinates_to_axis_positions(machines):
         va = [float(v) for v in re.findall(r"[XYZ]([-\d.]+)", a)]
         vb = [float(v) for v in re.findall(r"[XYZ]([-\d.]+)", b)]
         np.testing.assert_allclose(np.array(va) + origin * 1e3, vb, atol=1.1e-4)
+
+
+def test_modal_state_follows_the_blocks(machines):
+    """The modal state between blocks: modes and position from the blocks read, canned
+    cycles tracked, and a skipped block that names axes makes every position unknown."""
+    from volerr_pin.gcode import parse_block
+    from volerr_pin.gcode.modal import Interpreter
+
+    reader = Interpreter(machines["vmc500"])
+    state = reader.initial_state()
+    for number, line in enumerate(["G0 X10 Y20 Z30", "G20 G91 G18 G1 Z1"], start=1):
+        move = reader.advance(parse_block(line, number, "p"), state)
+    assert (state.motion, state.plane, state.absolute, state.inch) == (1, 18, False, True)
+    np.testing.assert_allclose(move.start, [0.010, 0.020, 0.030])
+    np.testing.assert_allclose(state.position, [0.010, 0.020, 0.030 + 0.0254])
+    assert state.known.all() and move.start_known.all()
+    assert "canned cycle" in reader.unsupported("G81 X20 Y20 Z5 R2", state)
+    reader.skip("G81 X20 Y20 Z5 R2", state)
+    assert state.canned and state.motion is None and not state.known.any()
+    assert "cycle is still active" in reader.unsupported("X30", state)
+    assert reader.unsupported("G80", state) is None and not state.canned
