@@ -52,6 +52,7 @@ from .identify import (Observations, build_observations, identify, parameter_uni
 from .machine import Machine
 from .spec import build_term, component_name, parse_component_name
 from .specio import add_terms, remove_components, replace_terms, term_tables
+from .termkinds import GEOMETRIC
 from .terms import Context, Covariates
 from .units import AXIS_UNIT, axis_scale
 
@@ -64,7 +65,7 @@ MAX_DEGREE = 12                 # a polynomial component is not raised beyond th
 MAX_NODES = 65                  # nor a table beyond this many nodes
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
 RAISE_BY = (1, 2, 4)            # degrees a polynomial may gain in one round
-GEOMETRIC_KINDS = ("constant", "legendre", "monomial", "table")
+GEOMETRIC_KINDS = tuple(GEOMETRIC)
 
 
 @dataclass

@@ -38,16 +38,9 @@ import numpy as np
 from numpy.polynomial import legendre
 
 from .errors import InputError, SpecError
+from .speckeys import TermSite, find_key, number, numbers, stem_of, unit_of
 from .terms import Context, Covariates, Term
-from .units import scale, split_key
-
-TIME = {"s": 1.0, "min": 60.0, "h": 3600.0}
-
-
-def _time_scale(unit: str, where: str) -> float:
-    if unit not in TIME:
-        raise SpecError(f"{where}: unknown time unit '{unit}' (use s, min or h)")
-    return TIME[unit]
+from .units import TIME, scale
 
 
 STATE_HINT = "; give it with the points, or hold the machine in a state (Machine.with_state)"
@@ -169,6 +162,18 @@ class DriftTime(Term):
             table[f"stop_{self.time_unit}"] = float(self.stop / TIME[self.time_unit])
         return table
 
+    keys = frozenset({"driver", "amplitudes", "time_constants", "stop"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        amps, unit, factor, _ = site.value(table, "amplitudes")
+        taus, tunit, _, tkey = site.value(table, "time_constants", "time", count=amps.size)
+        if np.any(taus <= 0):
+            raise SpecError(f"{site.where}.{tkey}: time constants must be positive")
+        stop, _, _, _ = site.value(table, "stop", "time", required=False, count=1)
+        stop = None if stop is None else float(stop[0])
+        return cls(unit, factor, amps.size, stop, tunit), np.ravel(np.column_stack([amps, taus]))
+
 
 @dataclass(frozen=True, eq=False)
 class DriftTemperature(Term):
@@ -205,6 +210,23 @@ class DriftTemperature(Term):
             table["lag_s"] = self.lag
         return table
 
+    keys = frozenset({"driver", "sensors", "coefficients", "reference_degC", "lag_s"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        where = site.where
+        sensors = table.get("sensors")
+        if not isinstance(sensors, list) or not sensors or not all(isinstance(s, str) for s in sensors):
+            raise SpecError(f"{where}.sensors: expected a list of sensor names")
+        coef, unit, factor, _ = site.value(table, "coefficients", count=len(sensors))
+        ref = numbers(table.get("reference_degC", 20.0), f"{where}.reference_degC")
+        ref = np.broadcast_to(ref, (len(sensors),)) if ref.size == 1 else numbers(
+            ref, f"{where}.reference_degC", len(sensors))
+        lag = number(table.get("lag_s", 0.0), f"{where}.lag_s")
+        if lag < 0:
+            raise SpecError(f"{where}.lag_s: must be >= 0")
+        return cls(unit, factor, tuple(sensors), tuple(float(r) for r in ref), lag), coef
+
 
 @dataclass(frozen=True, eq=False)
 class ExpansionTemperature(Term):
@@ -238,6 +260,22 @@ class ExpansionTemperature(Term):
         return {"kind": "thermal_expansion", "driver": "temperature", "sensor": self.sensor,
                 "coefficient_ppm_per_K": float(c[0] * 1e6), "reference_degC": self.reference,
                 "origin_mm": self.origin * 1e3}
+
+    keys = frozenset({"driver", "sensor", "coefficient_per_K", "coefficient_ppm_per_K", "reference_degC",
+                      "origin"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        where = site.where
+        sensor = table.get("sensor")
+        if not isinstance(sensor, str):
+            raise SpecError(f"{where}.sensor: expected a sensor name")
+        if ("coefficient_per_K" in table) == ("coefficient_ppm_per_K" in table):
+            raise SpecError(f"{where}: give one of coefficient_per_K or coefficient_ppm_per_K")
+        alpha = (number(table.get("coefficient_per_K", 0.0), f"{where}.coefficient_per_K")
+                 + number(table.get("coefficient_ppm_per_K", 0.0), f"{where}.coefficient_ppm_per_K") * 1e-6)
+        reference = number(table.get("reference_degC", 20.0), f"{where}.reference_degC")
+        return cls(sensor, reference, _origin(table, site)), np.array([alpha])
 
 
 @dataclass(frozen=True, eq=False)
@@ -290,6 +328,15 @@ class ExpansionTime(Term):
                                                      for k in range(self.count)],
                 "origin_mm": self.origin * 1e3}
 
+    keys = frozenset({"driver", "strains_ppm", "time_constants", "origin"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        strains = numbers(table.get("strains_ppm"), f"{site.where}.strains_ppm")
+        taus, tunit, _, _ = site.value(table, "time_constants", "time", count=strains.size)
+        return (cls(strains.size, _origin(table, site), tunit),
+                np.ravel(np.column_stack([strains * 1e-6, taus])))
+
 
 @dataclass(frozen=True, eq=False)
 class Backlash(Term):
@@ -313,6 +360,13 @@ class Backlash(Term):
 
     def to_spec(self, c):
         return {"kind": "backlash", f"reversal_{self.unit}": float(c[0] / self.unit_scale)}
+
+    keys = frozenset({"reversal"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        b, unit, factor, _ = site.value(table, "reversal", count=1)
+        return cls(unit, factor), b
 
 
 @dataclass(frozen=True, eq=False)
@@ -370,6 +424,25 @@ class ForceDeflection(Term):
             table = {"kind": "force_deflection", "force": "xyz"[self.force], **self.model["keys"]}
         return table
 
+    keys = frozenset({"force", "compliance", "model", "E_GPa", "G_GPa", "d", "I_mm4", "L", "b", "e", "a"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        where, quantity = site.where, site.quantity
+        force = table.get("force")
+        if force not in ("x", "y", "z"):
+            raise SpecError(f"{where}.force: must be 'x', 'y' or 'z', got {force!r}")
+        model = table.get("model")
+        if model is not None:
+            c0, keys = _structural_model(table, model, quantity, where)
+            unit = "um" if quantity == "length" else "urad"
+            return (cls(unit, scale(unit, quantity, where), "xyz".index(force), 0, None,
+                        {"compliance": c0, "keys": keys}), np.array([c0]))
+        comp, unit, factor, _ = site.value(table, "compliance")
+        if comp.size > 1 and (site.travel is None or not site.owner_is_axis):
+            raise SpecError(f"{where}: a position-dependent compliance needs an axis with a travel")
+        return cls(unit, factor, "xyz".index(force), comp.size - 1, site.travel), comp
+
 
 @dataclass(frozen=True, eq=False)
 class PeriodicPitch(Term):
@@ -422,171 +495,41 @@ class PeriodicPitch(Term):
                 f"cosine_{self.unit}": [float(v / self.unit_scale) for v in c[1:-1:2]],
                 f"origin_{self.position_unit}": float(self.origin / self.position_scale)}
 
+    keys = frozenset({"period", "sine", "cosine", "origin"})
 
-EFFECT_KEYS = {
-    ("thermal_drift", "time"): {"kind", "driver", "amplitudes", "time_constants", "stop", "prefix"},
-    ("thermal_drift", "temperature"): {"kind", "driver", "sensors", "coefficients", "reference_degC",
-                                       "lag_s", "prefix"},
-    ("thermal_expansion", "temperature"): {"kind", "driver", "sensor", "coefficient_per_K",
-                                           "coefficient_ppm_per_K", "reference_degC", "origin", "prefix"},
-    ("thermal_expansion", "time"): {"kind", "driver", "strains_ppm", "time_constants", "origin", "prefix"},
-    ("backlash", None): {"kind", "reversal", "prefix"},
-    ("force_deflection", None): {"kind", "force", "compliance", "model", "E_GPa", "G_GPa", "d", "I_mm4",
-                                 "L", "b", "e", "a", "prefix"},
-    ("periodic_pitch", None): {"kind", "period", "sine", "cosine", "origin", "prefix"},
-}
+    @classmethod
+    def from_spec(cls, table, site):
+        period, punit, pscale, pkey = site.value(table, "period", "length", count=1)
+        if period[0] <= 0:
+            raise SpecError(f"{site.where}.{pkey}: the period must be positive")
+        sines, unit, factor, _ = site.value(table, "sine")
+        cosines, _, _, _ = site.value(table, "cosine", count=sines.size)
+        coefs = np.r_[np.ravel(np.column_stack([sines, cosines])), period]
+        return cls(unit, factor, sines.size, _origin(table, site), punit, pscale), coefs
 
 
-def _stem(key: str) -> str:
-    """Key without its unit suffix(es): ``coefficients_um_per_K`` -> ``coefficients``."""
-    stem, unit = split_key(key, ("length", "angle", "time"), per=("K", "N"))
-    if unit is not None and "_per_" in unit or key not in EXACT_KEYS:
-        return stem
-    return key
+def _origin(table: dict, site: TermSite) -> float:
+    """The axis position ``q0`` an effect is measured from (``origin_<unit>``, default 0), m."""
+    origin, _, _, _ = site.value(table, "origin", "length", required=False, count=1)
+    return 0.0 if origin is None else float(origin[0])
 
 
-EXACT_KEYS = ("E_GPa", "G_GPa", "I_mm4", "reference_degC", "lag_s", "strains_ppm",
-              "coefficient_per_K", "coefficient_ppm_per_K")
-
-
-def _find(table: dict, stem: str, where: str, required: bool = True):
-    """The key of ``stem`` with its unit suffix (``amplitudes_um``), and its value."""
-    if stem in EXACT_KEYS:
-        hits = [k for k in table if k == stem]
-    else:
-        hits = [k for k in table if k != stem and _stem(k) == stem]
-    if len(hits) > 1:
-        raise SpecError(f"{where}: both {hits[0]} and {hits[1]} given")
-    if not hits:
-        if stem in table:
-            raise SpecError(f"{where}: key '{stem}' needs a unit suffix, e.g. '{stem}_mm'")
-        if required:
-            raise SpecError(f"{where}: missing '{stem}_<unit>'")
-        return None, None
-    return table[hits[0]], hits[0]
-
-
-def _unit_of(key: str, stem: str) -> str:
-    rest = key[len(stem) + 1:]
-    return rest.split("_per_")[0]
-
-
-def _list(value, where, count=None):
-    try:
-        arr = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise SpecError(f"{where}: expected numbers, got {value!r}") from None
-    if not np.all(np.isfinite(arr)) or (count is not None and arr.size != count):
-        raise SpecError(f"{where}: expected {count or 'some'} finite numbers, got {value!r}")
-    return arr
-
-
-def build_effect(table: dict, where: str, quantity: str, position_quantity: str | None,
-                 travel: tuple[float, float] | None, owner_is_axis: bool):
-    """Build an effect term from its spec table; returns (term, SI coefficients)."""
-    kind = table["kind"]
-    driver = table.get("driver") if kind in ("thermal_drift", "thermal_expansion") else None
-    if kind in ("thermal_drift", "thermal_expansion") and driver not in ("time", "temperature"):
-        raise SpecError(f"{where}: {kind} needs driver = 'time' or 'temperature', got {driver!r}")
-    allowed = EFFECT_KEYS[(kind, driver)]
-    unknown = sorted(k for k in table if _stem(k) not in allowed)
-    if unknown:
-        raise SpecError(f"{where}: unknown key(s) {', '.join(unknown)} for {kind}"
-                        + (f" driven by {driver}" if driver else ""))
-    if kind in ("thermal_expansion", "backlash", "periodic_pitch") and not owner_is_axis:
-        raise SpecError(f"{where}: a {kind} term belongs to a component error of an axis")
-    if kind in ("thermal_expansion", "periodic_pitch") and (quantity != "length" or position_quantity != "length"):
-        raise SpecError(f"{where}: a {kind} term is a length error of a linear axis")
-
-    def value_unit(stem):
-        value, key = _find(table, stem, where)
-        unit = _unit_of(key, stem)
-        return value, unit, scale(unit, quantity, f"{where}.{key}"), key
-
-    if kind == "thermal_drift" and driver == "time":
-        amps, unit, factor, akey = value_unit("amplitudes")
-        taus, tkey = _find(table, "time_constants", where)
-        tunit = _unit_of(tkey, "time_constants")
-        tscale = _time_scale(tunit, f"{where}.{tkey}")
-        amps = _list(amps, f"{where}.{akey}")
-        taus = _list(taus, f"{where}.{tkey}", amps.size) * tscale
-        if np.any(taus <= 0):
-            raise SpecError(f"{where}.{tkey}: time constants must be positive")
-        stop, skey = _find(table, "stop", where, required=False)
-        stop = None if stop is None else float(_list(stop, f"{where}.{skey}", 1)[0]) * _time_scale(
-            _unit_of(skey, "stop"), f"{where}.{skey}")
-        coefs = np.ravel(np.column_stack([amps * factor, taus]))
-        return DriftTime(unit, factor, amps.size, stop, tunit), coefs
-    if kind == "thermal_drift":
-        sensors = table.get("sensors")
-        if not isinstance(sensors, list) or not sensors or not all(isinstance(s, str) for s in sensors):
-            raise SpecError(f"{where}.sensors: expected a list of sensor names")
-        coef, unit, factor, ckey = value_unit("coefficients")
-        coef = _list(coef, f"{where}.{ckey}", len(sensors)) * factor
-        ref = _list(table.get("reference_degC", 20.0), f"{where}.reference_degC")
-        ref = np.broadcast_to(ref, (len(sensors),)) if ref.size == 1 else _list(ref, f"{where}.reference_degC", len(sensors))
-        lag = float(table.get("lag_s", 0.0))
-        if lag < 0:
-            raise SpecError(f"{where}.lag_s: must be >= 0")
-        return DriftTemperature(unit, factor, tuple(sensors), tuple(float(r) for r in ref), lag), coef
-    origin, okey = _find(table, "origin", where, required=False)
-    origin = 0.0 if origin is None else float(_list(origin, f"{where}.{okey}", 1)[0]) * scale(
-        _unit_of(okey, "origin"), "length", f"{where}.{okey}")
-    if kind == "thermal_expansion" and driver == "temperature":
-        sensor = table.get("sensor")
-        if not isinstance(sensor, str):
-            raise SpecError(f"{where}.sensor: expected a sensor name")
-        if ("coefficient_per_K" in table) == ("coefficient_ppm_per_K" in table):
-            raise SpecError(f"{where}: give one of coefficient_per_K or coefficient_ppm_per_K")
-        alpha = float(table.get("coefficient_per_K", 0.0)) + float(table.get("coefficient_ppm_per_K", 0.0)) * 1e-6
-        return (ExpansionTemperature(sensor, float(table.get("reference_degC", 20.0)), origin),
-                np.array([alpha]))
-    if kind == "thermal_expansion":
-        strains = _list(table.get("strains_ppm"), f"{where}.strains_ppm")
-        taus, tkey = _find(table, "time_constants", where)
-        tunit = _unit_of(tkey, "time_constants")
-        taus = _list(taus, f"{where}.{tkey}", strains.size) * _time_scale(tunit, f"{where}.{tkey}")
-        return ExpansionTime(strains.size, origin, tunit), np.ravel(np.column_stack([strains * 1e-6, taus]))
-    if kind == "backlash":
-        b, unit, factor, key = value_unit("reversal")
-        return Backlash(unit, factor), np.array([float(_list(b, f"{where}.{key}", 1)[0]) * factor])
-    if kind == "force_deflection":
-        force = table.get("force")
-        if force not in ("x", "y", "z"):
-            raise SpecError(f"{where}.force: must be 'x', 'y' or 'z', got {force!r}")
-        model = table.get("model")
-        if model is not None:
-            c0, keys = _structural_model(table, model, quantity, where)
-            unit = "um" if quantity == "length" else "urad"
-            return (ForceDeflection(unit, scale(unit, quantity, where), "xyz".index(force), 0, None,
-                                    {"compliance": c0, "keys": keys}), np.array([c0]))
-        comp, key = _find(table, "compliance", where)
-        unit = _unit_of(key, "compliance")
-        factor = scale(unit, quantity, f"{where}.{key}")
-        comp = _list(comp, f"{where}.{key}") * factor
-        if comp.size > 1 and (travel is None or not owner_is_axis):
-            raise SpecError(f"{where}: a position-dependent compliance needs an axis with a travel")
-        return ForceDeflection(unit, factor, "xyz".index(force), comp.size - 1, travel), comp
-    # periodic_pitch
-    period, pkey = _find(table, "period", where)
-    punit = _unit_of(pkey, "period")
-    pscale = scale(punit, "length", f"{where}.{pkey}")
-    period = float(_list(period, f"{where}.{pkey}", 1)[0]) * pscale
-    if period <= 0:
-        raise SpecError(f"{where}.{pkey}: the period must be positive")
-    sines, unit, factor, skey = value_unit("sine")
-    cosines, cunit, cfactor, ckey = value_unit("cosine")
-    sines = _list(sines, f"{where}.{skey}")
-    cosines = _list(cosines, f"{where}.{ckey}", sines.size)
-    coefs = np.r_[np.ravel(np.column_stack([sines * factor, cosines * cfactor])), period]
-    return PeriodicPitch(unit, factor, sines.size, origin, punit, pscale), coefs
+#: effect kinds by (kind, driver); driver None for kinds without one
+EFFECTS = {("thermal_drift", "time"): DriftTime, ("thermal_drift", "temperature"): DriftTemperature,
+           ("thermal_expansion", "temperature"): ExpansionTemperature, ("thermal_expansion", "time"): ExpansionTime,
+           ("backlash", None): Backlash, ("force_deflection", None): ForceDeflection,
+           ("periodic_pitch", None): PeriodicPitch}
+#: kinds that are errors of an axis' own motion
+AXIS_ONLY = ("thermal_expansion", "backlash", "periodic_pitch")
+#: kinds that are length errors along a linear axis
+LINEAR_LENGTH_ONLY = ("thermal_expansion", "periodic_pitch")
 
 
 def _structural_model(table, model, quantity, where):
     """Compliance [m/N or rad/N] from seed 004's beam and torsion formulas."""
     def length(key):
-        value, k = _find(table, key, where)
-        return float(_list(value, f"{where}.{k}", 1)[0]) * scale(_unit_of(k, key), "length", f"{where}.{k}")
+        value, k = find_key(table, key, where, example="mm")
+        return number(value, f"{where}.{k}") * scale(unit_of(k, key), "length", f"{where}.{k}")
 
     keys = {"model": model}
     if model == "beam":
@@ -600,10 +543,10 @@ def _structural_model(table, model, quantity, where):
         else:
             d = length("d")
             I = math.pi * d**4 / 64.0
-            keys.update({k: table[k] for k in table if _stem(k) == "d"})
+            keys.update({k: table[k] for k in table if stem_of(k) == "d"})
         if not (E > 0 and L > 0 and 0 < b < L and I > 0):
             raise SpecError(f"{where}: beam model needs E_GPa > 0, L > b > 0 and a positive I or d")
-        keys.update({k: table[k] for k in table if _stem(k) in ("L", "b")} | {"E_GPa": table["E_GPa"]})
+        keys.update({k: table[k] for k in table if stem_of(k) in ("L", "b")} | {"E_GPa": table["E_GPa"]})
         return b * (L**2 - b**2) ** 1.5 / (9.0 * math.sqrt(3.0) * E * I * L), keys
     if model == "torsion":
         if quantity != "angle":
@@ -612,6 +555,6 @@ def _structural_model(table, model, quantity, where):
         d, e, a = length("d"), length("e"), length("a")
         if not (G > 0 and d > 0):
             raise SpecError(f"{where}: torsion model needs G_GPa > 0 and d > 0")
-        keys.update({k: table[k] for k in table if _stem(k) in ("d", "e", "a")} | {"G_GPa": table["G_GPa"]})
+        keys.update({k: table[k] for k in table if stem_of(k) in ("d", "e", "a")} | {"G_GPa": table["G_GPa"]})
         return 32.0 * e * a / (G * math.pi * d**4), keys
     raise SpecError(f"{where}.model: must be 'beam' or 'torsion', got {model!r}")

@@ -17,11 +17,12 @@ import numpy as np
 
 from . import terms as T
 from .errors import SpecError
-from .units import scale, split_key
+from .speckeys import NAME_RE, TermSite, check_keys, find_key, numbers, unit_of
+from .termkinds import read_term
+from .units import scale
 from .urdf import URDF, load_urdf
 
 DIRECTIONS = ("X", "Y", "Z", "A", "B", "C")
-NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 COMPONENT_RE = re.compile(r"^E([XYZABC])(0?)_?([A-Za-z][A-Za-z0-9_]*)$")
 
 
@@ -115,139 +116,20 @@ AXIS_KEYS = {"joint", "sign", "errors_frame", "reference_point"}
 BODY_KEYS = {"joint", "reference_point"}
 
 
-def _unknown(table: dict, allowed: set[str], where: str) -> None:
-    unknown = sorted(k for k in table if split_key(k)[0] not in allowed)
-    if unknown:
-        raise SpecError(f"{where}: unknown key(s) {', '.join(unknown)} "
-                        f"(allowed: {', '.join(sorted(allowed))})")
-
-
-def _unit_value(table: dict, stem: str, where: str, required: bool = True):
-    """Find ``stem_<unit>`` in ``table``; returns (value, unit) or (None, None)."""
-    found = [(k, split_key(k)[1]) for k in table if split_key(k) == (stem, split_key(k)[1])
-             and split_key(k)[1] is not None]
-    if len(found) > 1:
-        raise SpecError(f"{where}: both {found[0][0]} and {found[1][0]} given")
-    if not found:
-        if stem in table:
-            raise SpecError(f"{where}: key '{stem}' needs a unit suffix, e.g. '{stem}_um'")
-        if required:
-            raise SpecError(f"{where}: missing '{stem}_<unit>'")
-        return None, None
-    key, unit = found[0]
-    return table[key], unit
-
-
-def _numbers(value: Any, where: str, count: int | None = None) -> np.ndarray:
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise SpecError(f"{where}: expected numbers, got {value!r}") from None
-    if array.ndim != 1 or (count is not None and array.size != count):
-        raise SpecError(f"{where}: expected a list of {count or 'some'} numbers, got {value!r}")
-    if not np.all(np.isfinite(array)):
-        raise SpecError(f"{where}: values must be finite, got {value!r}")
-    return array
-
-
 def _point(table: dict, where: str) -> tuple[float, float, float]:
-    value, unit = _unit_value(table, "reference_point", where, required=False)
+    value, key = find_key(table, "reference_point", where, required=False)
     if value is None:
         return (0.0, 0.0, 0.0)
-    factor = scale(unit, "length", f"{where}.reference_point_{unit}")
-    return tuple(float(v) for v in _numbers(value, f"{where}.reference_point_{unit}", 3) * factor)
-
-
-TERM_KEYS = {
-    "constant": {"kind", "value", "prefix"},
-    "legendre": {"kind", "coefficients", "prefix"},
-    "monomial": {"kind", "coefficients", "over", "position_unit", "prefix"},
-    "table": {"kind", "positions", "values", "interpolation", "boundary", "extrapolate", "prefix"},
-}
+    factor = scale(unit_of(key, "reference_point"), "length", f"{where}.{key}")
+    return tuple(float(v) for v in numbers(value, f"{where}.{key}", 3) * factor)
 
 
 def build_term(table: dict, where: str, quantity: str, position_quantity: str | None,
                travel: tuple[float, float] | None) -> TermSpec:
-    """Build one term from its spec table (see module docs for the keys)."""
-    if not isinstance(table, dict):
-        raise SpecError(f"{where}: expected a table, got {table!r}")
-    kind = table.get("kind")
-    if kind not in T.KINDS:
-        raise SpecError(f"{where}: 'kind' must be one of {', '.join(T.KINDS)}, got {kind!r}")
-    prefix = table.get("prefix", "")
-    if prefix and not NAME_RE.match(prefix):
-        raise SpecError(f"{where}: prefix {prefix!r} is not a plain name")
-    if kind not in TERM_KEYS:
-        from .effects import build_effect
-
-        term, coefficients = build_effect(table, where, quantity, position_quantity, travel,
-                                          owner_is_axis=position_quantity is not None)
-        return TermSpec(prefix, term, coefficients)
-    _unknown(table, TERM_KEYS[kind], where)
-    if kind != "constant" and position_quantity is None:
-        raise SpecError(f"{where}: a {kind} term needs an axis position, but this component "
-                        "belongs to a body without an axis (use kind = 'constant')")
-    if kind == "constant":
-        value, unit = _unit_value(table, "value", where)
-        factor = scale(unit, quantity, f"{where}.value_{unit}")
-        if isinstance(value, (list, tuple)) or not isinstance(value, (int, float)):
-            raise SpecError(f"{where}.value_{unit}: expected a number, got {value!r}")
-        return TermSpec(prefix, T.Constant(unit, factor), np.array([float(value) * factor]))
-    if kind in ("legendre", "monomial"):
-        value, unit = _unit_value(table, "coefficients", where)
-        factor = scale(unit, quantity, f"{where}.coefficients_{unit}")
-        coefficients = _numbers(value, f"{where}.coefficients_{unit}")
-        if coefficients.size == 0:
-            raise SpecError(f"{where}.coefficients_{unit}: needs at least one coefficient")
-        over = table.get("over", "travel")
-        if kind == "legendre" and over != "travel":
-            raise SpecError(f"{where}: legendre polynomials are defined over the travel only")
-        if over not in ("travel", "position"):
-            raise SpecError(f"{where}.over: must be 'travel' or 'position', got {over!r}")
-        if over == "travel" and (travel is None or not np.all(np.isfinite(travel))):
-            raise SpecError(f"{where}: a polynomial over the travel needs a bounded travel")
-        position_unit, position_scale = None, 1.0
-        si = coefficients * factor
-        if over == "position":
-            position_unit = table.get("position_unit", "mm" if position_quantity == "length" else "deg")
-            position_scale = scale(position_unit, position_quantity, f"{where}.position_unit")
-            si = si / position_scale ** np.arange(coefficients.size)
-        term = T.Polynomial(coefficients.size - 1, kind, over, travel, unit, factor,
-                            position_unit, position_scale)
-        return TermSpec(prefix, term, si)
-    # table
-    positions, punit = _unit_value(table, "positions", where)
-    pscale = scale(punit, position_quantity, f"{where}.positions_{punit}")
-    nodes = _numbers(positions, f"{where}.positions_{punit}") * pscale
-    values, unit = _unit_value(table, "values", where)
-    factor = scale(unit, quantity, f"{where}.values_{unit}")
-    values = _numbers(values, f"{where}.values_{unit}")
-    interpolation = table.get("interpolation", "cubic")
-    if interpolation not in ("linear", "cubic"):
-        raise SpecError(f"{where}.interpolation: must be 'linear' or 'cubic', got {interpolation!r}")
-    minimum = 2 if interpolation == "linear" else 4
-    if nodes.size < minimum:
-        raise SpecError(f"{where}.positions_{punit}: {interpolation} interpolation needs at "
-                        f"least {minimum} positions, got {nodes.size}")
-    if values.size != nodes.size:
-        raise SpecError(f"{where}: {nodes.size} positions but {values.size} values")
-    if np.any(np.diff(nodes) <= 0):
-        raise SpecError(f"{where}.positions_{punit}: positions must be strictly increasing")
-    boundary = table.get("boundary", "not-a-knot")
-    if boundary not in ("not-a-knot", "natural"):
-        raise SpecError(f"{where}.boundary: must be 'not-a-knot' or 'natural', got {boundary!r}")
-    extrapolate = table.get("extrapolate", False)
-    if not isinstance(extrapolate, bool):
-        raise SpecError(f"{where}.extrapolate: must be true or false")
-    if travel is not None and not extrapolate:
-        tol = 1e-9 * max(1.0, abs(travel[1] - travel[0]))
-        if nodes[0] > travel[0] + tol or nodes[-1] < travel[1] - tol:
-            raise SpecError(
-                f"{where}: the table covers {nodes[0] / pscale:g}..{nodes[-1] / pscale:g} {punit} but the "
-                f"travel is {travel[0] / pscale:g}..{travel[1] / pscale:g} {punit}; extend it or set "
-                "extrapolate = true")
-    term = T.Table(nodes, interpolation, boundary, unit, factor, punit, pscale)
-    return TermSpec(prefix, term, values * factor)
+    """Build one term from its spec table (the keys of each kind: docs/spec-format.md)."""
+    prefix, term, coefficients = read_term(table, TermSite(where, quantity, position_quantity, travel,
+                                                            owner_is_axis=position_quantity is not None))
+    return TermSpec(prefix, term, coefficients)
 
 
 def read_toml(path: Path) -> dict:
@@ -329,13 +211,13 @@ def load_spec(path: str | Path) -> tuple[MachineSpec, URDF]:
     path = Path(path)
     data = read_toml(path)
     where = str(path)
-    _unknown(data, {"format", "machine", "axes", "bodies", "errors", "provenance"}, where)
+    check_keys(data, {"format", "machine", "axes", "bodies", "errors", "provenance"}, where)
     if data.get("format", 1) != 1:
         raise SpecError(f"{where}: format {data.get('format')!r} is not supported (expected 1)")
     machine = data.get("machine")
     if not isinstance(machine, dict):
         raise SpecError(f"{where}: missing [machine] table")
-    _unknown(machine, MACHINE_KEYS, f"{where}: [machine]")
+    check_keys(machine, MACHINE_KEYS, f"{where}: [machine]")
     for key in ("name", "urdf", "tool_frame", "workpiece_frame"):
         if key not in machine:
             raise SpecError(f"{where}: [machine] needs '{key}'")
@@ -353,7 +235,7 @@ def load_spec(path: str | Path) -> tuple[MachineSpec, URDF]:
             raise SpecError(f"{here}: axis names must be plain names like X or J1")
         if not isinstance(table, dict) or "joint" not in table:
             raise SpecError(f"{here}: needs joint = '<URDF joint name>'")
-        _unknown(table, AXIS_KEYS, here)
+        check_keys(table, AXIS_KEYS, here)
         joint = table["joint"]
         if joint not in urdf.joints:
             raise SpecError(f"{here}: joint '{joint}' is not a joint of {urdf.source}")
@@ -377,7 +259,7 @@ def load_spec(path: str | Path) -> tuple[MachineSpec, URDF]:
             raise SpecError(f"{here}: body names must be plain names distinct from the axes")
         if not isinstance(table, dict) or "joint" not in table:
             raise SpecError(f"{here}: needs joint = '<URDF joint name>'")
-        _unknown(table, BODY_KEYS, here)
+        check_keys(table, BODY_KEYS, here)
         if table["joint"] not in urdf.joints:
             raise SpecError(f"{here}: joint '{table['joint']}' is not a joint of {urdf.source}")
         bodies.append(BodySpec(name, table["joint"], _point(table, here)))

@@ -21,6 +21,8 @@ from numpy.polynomial import legendre
 from scipy.interpolate import CubicSpline, make_interp_spline
 
 from .errors import SpecError
+from .speckeys import TermSite
+from .units import scale
 
 
 @dataclass(frozen=True)
@@ -114,6 +116,28 @@ class Term:
         """The term as a spec table, in the units it was read in."""
         raise NotImplementedError
 
+    #: stems of the keys of its spec table besides "kind" and "prefix" (units are suffixes)
+    keys: frozenset[str] = frozenset()
+
+    @classmethod
+    def from_spec(cls, table: dict, site: TermSite) -> tuple["Term", np.ndarray]:
+        """Read the term from its spec table (the inverse of :meth:`to_spec`).
+
+        Parameters
+        ----------
+        table : dict
+            The term's table, keys checked against :attr:`keys` already.
+        site : TermSite
+            Where the table is and what it is an error of (for units and messages).
+
+        Returns
+        -------
+        term : Term
+        coefficients : ndarray, shape (size,)
+            The coefficients in SI.
+        """
+        raise NotImplementedError
+
 
 class LinearTerm(Term):
     """A term linear in its coefficients: subclasses define :meth:`basis` (and
@@ -161,6 +185,16 @@ class Constant(LinearTerm):
 
     def to_spec(self, coefficients):
         return {"kind": "constant", f"value_{self.unit}": float(coefficients[0] / self.unit_scale)}
+
+    keys = frozenset({"value"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        value, unit, factor, key = site.value(table, "value", count=1)
+        raw = table[key]
+        if isinstance(raw, (list, tuple)) or not isinstance(raw, (int, float)):
+            raise SpecError(f"{site.where}.{key}: expected a number, got {raw!r}")
+        return cls(unit, factor), value
 
 
 @dataclass(frozen=True, eq=False)
@@ -234,6 +268,29 @@ class Polynomial(LinearTerm):
         table[f"coefficients_{self.unit}"] = [float(c) for c in coefficients]
         return table
 
+    keys = frozenset({"coefficients", "over", "position_unit"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        family, where, travel = table["kind"], site.where, site.travel
+        _needs_position(site, family)
+        si, unit, factor, key = site.value(table, "coefficients")
+        if si.size == 0:
+            raise SpecError(f"{where}.{key}: needs at least one coefficient")
+        over = table.get("over", "travel")
+        if family == "legendre" and over != "travel":
+            raise SpecError(f"{where}: legendre polynomials are defined over the travel only")
+        if over not in ("travel", "position"):
+            raise SpecError(f"{where}.over: must be 'travel' or 'position', got {over!r}")
+        if over == "travel" and (travel is None or not np.all(np.isfinite(travel))):
+            raise SpecError(f"{where}: a polynomial over the travel needs a bounded travel")
+        position_unit, position_scale = None, 1.0
+        if over == "position":
+            position_unit = table.get("position_unit", "mm" if site.position_quantity == "length" else "deg")
+            position_scale = scale(position_unit, site.position_quantity, f"{where}.position_unit")
+            si = si / position_scale ** np.arange(si.size)
+        return cls(si.size - 1, family, over, travel, unit, factor, position_unit, position_scale), si
+
 
 @dataclass(frozen=True, eq=False)
 class Table(LinearTerm):
@@ -281,6 +338,42 @@ class Table(LinearTerm):
             table["boundary"] = self.boundary
         return table
 
+    keys = frozenset({"positions", "values", "interpolation", "boundary", "extrapolate"})
 
-KINDS = ("constant", "legendre", "monomial", "table", "thermal_drift", "thermal_expansion",
-         "backlash", "force_deflection", "periodic_pitch")
+    @classmethod
+    def from_spec(cls, table, site):
+        where, travel = site.where, site.travel
+        _needs_position(site, "table")
+        nodes, punit, pscale, pkey = site.value(table, "positions", site.position_quantity)
+        values, unit, factor, _ = site.value(table, "values")
+        interpolation = table.get("interpolation", "cubic")
+        if interpolation not in ("linear", "cubic"):
+            raise SpecError(f"{where}.interpolation: must be 'linear' or 'cubic', got {interpolation!r}")
+        minimum = 2 if interpolation == "linear" else 4
+        if nodes.size < minimum:
+            raise SpecError(f"{where}.{pkey}: {interpolation} interpolation needs at "
+                            f"least {minimum} positions, got {nodes.size}")
+        if values.size != nodes.size:
+            raise SpecError(f"{where}: {nodes.size} positions but {values.size} values")
+        if np.any(np.diff(nodes) <= 0):
+            raise SpecError(f"{where}.{pkey}: positions must be strictly increasing")
+        boundary = table.get("boundary", "not-a-knot")
+        if boundary not in ("not-a-knot", "natural"):
+            raise SpecError(f"{where}.boundary: must be 'not-a-knot' or 'natural', got {boundary!r}")
+        extrapolate = table.get("extrapolate", False)
+        if not isinstance(extrapolate, bool):
+            raise SpecError(f"{where}.extrapolate: must be true or false")
+        if travel is not None and not extrapolate:
+            tol = 1e-9 * max(1.0, abs(travel[1] - travel[0]))
+            if nodes[0] > travel[0] + tol or nodes[-1] < travel[1] - tol:
+                raise SpecError(
+                    f"{where}: the table covers {nodes[0] / pscale:g}..{nodes[-1] / pscale:g} {punit} but the "
+                    f"travel is {travel[0] / pscale:g}..{travel[1] / pscale:g} {punit}; extend it or set "
+                    "extrapolate = true")
+        return cls(nodes, interpolation, boundary, unit, factor, punit, pscale), values
+
+
+def _needs_position(site: TermSite, kind: str) -> None:
+    if site.position_quantity is None:
+        raise SpecError(f"{site.where}: a {kind} term needs an axis position, but this component "
+                        "belongs to a body without an axis (use kind = 'constant')")

@@ -55,8 +55,8 @@ def scale(unit: str, quantity: str, where: str) -> float:
     Parameters
     ----------
     unit : str
-        Unit name, e.g. ``"um"`` or ``"arcsec"``.
-    quantity : {"length", "angle"}
+        Unit name, e.g. ``"um"``, ``"arcsec"`` or ``"min"``.
+    quantity : {"length", "angle", "time"}
         What the value measures.
     where : str
         Names the value (file, key) in the error message.
@@ -64,7 +64,7 @@ def scale(unit: str, quantity: str, where: str) -> float:
     Returns
     -------
     float
-        SI value (m or rad) of one ``unit``.
+        SI value (m, rad or s) of one ``unit``.
 
     Raises
     ------
@@ -72,13 +72,14 @@ def scale(unit: str, quantity: str, where: str) -> float:
         When the unit is unknown or of the wrong kind (an angle unit on a translational
         error, say).
     """
-    table = LENGTH if quantity == "length" else ANGLE
+    table = QUANTITIES[quantity]
     if unit in table:
         return table[unit]
-    other = ANGLE if quantity == "length" else LENGTH
-    if unit in other:
-        raise SpecError(f"{where}: unit '{unit}' is an {'angle' if quantity == 'length' else 'length'} "
-                        f"unit but this value is a {quantity} (use one of {', '.join(table)})")
+    for other, units in QUANTITIES.items():
+        if unit in units:
+            article = "an" if other[0] in "aeiou" else "a"
+            raise SpecError(f"{where}: unit '{unit}' is {article} {other} unit but this value is a {quantity} "
+                            f"(use one of {', '.join(table)})")
     raise SpecError(f"{where}: unknown unit '{unit}' (use one of {', '.join(table)})")
 
 
