@@ -275,7 +275,7 @@ diagnose(m, [campaign(m, n=40, noise_um=0.3, seed=0)])  # warm-up: numba's cache
 cpu, wall = time.process_time(), time.perf_counter()
 result = diagnose(m, [data])
 print(json.dumps({"cpu": time.process_time() - cpu, "wall": time.perf_counter() - wall,
-                  "effects": sorted(e["name"] for e in result.effects),
+                  "effects": sorted(e.name for e in result.effects),
                   "raised": len(result.under_modelled), "rounds": len(result.steps),
                   "rms_after_um": result.rms_after_um}))
 """

@@ -131,8 +131,8 @@ def whole_robot(table: np.ndarray, axes: list, out: Path | None = None) -> dict:
 
     found = diagnose(robot, [data], sigma_um=30.0)
     print("what the rest is (volerr diagnose on the same data; held out: whole poses): "
-          + "; ".join(f"{u['component']} {u['from']} -> {u['to']}" for u in found.under_modelled)
-          + (("; " + "; ".join(e["label"] for e in found.effects)) if found.effects else "")
+          + "; ".join(f"{u.component} {u.form_before} -> {u.form_after}" for u in found.under_modelled)
+          + (("; " + "; ".join(e.label for e in found.effects)) if found.effects else "")
           + f"; held-out RMS {found.rms_before_um:.0f} -> {found.rms_after_um:.0f} um")
     return {"model_rms_um": float(np.sqrt(np.mean(before**2)) * 1e6), "identification": report,
             "diagnosis": found.to_dict()}

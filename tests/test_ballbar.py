@@ -99,8 +99,8 @@ def test_diagnose_names_backlash_from_circles(machines):
             ballbar_run(truth, centre_mm={"X": 250, "Y": 200, "Z": 100}, radius_mm=150, noise_um=0.1, seed=2,
                         source="c2")]
     result = diagnose(m, runs)
-    assert [(e["name"], e["axis"]) for e in result.effects] == [("backlash", "X")]
-    (p,) = result.effects[0]["parameters"].values()
+    assert [(e.name, e.axis) for e in result.effects] == [("backlash", "X")]
+    (p,) = result.effects[0].parameters.values()
     assert abs(p["value"] - 4.0) < 3 * p["uncertainty"]
     assert result.rms_after_um < 0.12 < 1.0 < result.rms_before_um
     # the two directions meet at every angle but differ by the backlash: that is no repeat,

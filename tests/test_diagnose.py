@@ -45,8 +45,8 @@ def check_first(result, expected):
     name, axis, direction = expected
     assert result.effects, "no effect named"
     first = result.effects[0]
-    assert first["name"] == name and first["direction"] == direction
-    assert first["axis"] == axis
+    assert first.name == name and first.direction == direction
+    assert first.axis == axis
     assert result.rms_after_um < 1.5 * FLOOR
 
 
@@ -85,9 +85,9 @@ def test_two_hidden_effects_are_both_found_the_larger_first(machines):
     m = machines["vmc500"]
     truth = add_terms(m, {**HIDDEN["backlash"][0], **HIDDEN["drift_time"][0]})  # 2 um vs 3.4 um RMS
     result = diagnose(m, [campaign(truth, 400, NOISE, 5)])
-    names = [(e["name"], e["direction"]) for e in result.effects]
+    names = [(e.name, e.direction) for e in result.effects]
     assert names[:2] == [("backlash", "y"), ("thermal_drift", "z")]
-    assert result.effects[0]["rms_before_um"] > result.effects[1]["rms_before_um"]
+    assert result.effects[0].rms_before_um > result.effects[1].rms_before_um
     assert result.rms_after_um < 1.5 * FLOOR and result.reaches_noise_floor
 
 
@@ -106,7 +106,7 @@ def test_effects_near_the_noise_are_found_correctly_or_not_at_all(machines, kind
     for seed in range(4):
         result = diagnose(m, [campaign(add_terms(m, tables), 400, NOISE, 100 + seed)])
         for e in result.effects[:1]:
-            assert (e["name"], e["axis"], e["direction"]) == expected
+            assert (e.name, e.axis, e.direction) == expected
             found += 1
     assert found >= 1  # and at this size it is usually found
 
@@ -138,7 +138,7 @@ def test_cli_contract_and_outputs(machines, tmp_path, capsys):
 def test_fixed_keeps_the_geometry_and_still_finds_the_effect(machines):
     m = machines["vmc500"]
     result = diagnose(m, [campaign(add_terms(m, HIDDEN["force"][0]), 300, NOISE, 8)], fixed=True)
-    assert result.effects[0]["name"] == "force_deflection"
+    assert result.effects[0].name == "force_deflection"
     fitted = dict(zip(result.machine.parameter_names, result.machine.theta))
     np.testing.assert_array_equal([fitted[n] for n in m.parameter_names], m.theta)
 
@@ -170,14 +170,14 @@ SCENARIOS = {
 def check_names(result, expected):
     """Exactly the hidden physical effects; every one significant; the rest of the residual
     explained by raising the spec's own components, down to the noise."""
-    got = sorted((e["name"], e["axis"], e["direction"]) for e in result.effects)
-    assert got == sorted(expected), [e["label"] for e in result.effects]
+    got = sorted((e.name, e.axis, e.direction) for e in result.effects)
+    assert got == sorted(expected), [e.label for e in result.effects]
     for e in result.effects:
-        sizes = [abs(p["value"]) / p["uncertainty"] for n, p in e["parameters"].items()
+        sizes = [abs(p["value"]) / p["uncertainty"] for n, p in e.parameters.items()
                  if p["uncertainty"] and not n.endswith((".tau1", ".period"))]
         assert max(sizes) >= 3.0, e
     for u in result.under_modelled:
-        assert u["component"] in result.base.components  # an existing component, raised
+        assert u.component in result.base.components  # an existing component, raised
     assert result.rms_after_um < 1.3 * FLOOR
 
 
@@ -189,7 +189,7 @@ def test_off_model_geometry_is_raised_not_blamed_on_an_effect(machines, style, k
     result = diagnose(m, [campaign(off_model_truth(m, seed, style, tables), 400, NOISE, seed)])
     check_names(result, expected)
     assert result.under_modelled, "the geometry is off the spec's function space: say so"
-    label = result.under_modelled[0]["label"]
+    label = result.under_modelled[0].label
     assert label.startswith("geometric component E") and " under-modelled (" in label
 
 
@@ -212,7 +212,7 @@ def test_off_model_effect_near_the_noise_is_found_correctly_or_not_at_all(machin
     found = 0
     for seed in range(4):
         result = diagnose(m, [campaign(off_model_truth(m, seed, style, [tables]), 400, NOISE, 200 + seed)])
-        assert [(e["name"], e["axis"], e["direction"]) for e in result.effects] in ([], [("backlash", "Y", "y")])
+        assert [(e.name, e.axis, e.direction) for e in result.effects] in ([], [("backlash", "Y", "y")])
         found += len(result.effects)
     assert found >= 2
 
@@ -225,8 +225,8 @@ def test_a_long_wave_is_not_a_ball_screw(machines):
     truth = add_terms(m, {"EYY": {"kind": "table", "interpolation": "cubic", "prefix": "wave", "positions_mm": list(x),
                                   "values_um": list(2.0 * np.sin(2 * np.pi * x / 130.0))}})
     result = diagnose(m, [campaign(truth, 400, NOISE, 3)])
-    assert [e["name"] for e in result.effects] == []
-    assert any(u["component"] == "EYY" for u in result.under_modelled)
+    assert [e.name for e in result.effects] == []
+    assert any(u.component == "EYY" for u in result.under_modelled)
 
 
 @pytest.mark.parametrize("component,by", [("EXX", 1), ("EYY", 1), ("EZZ", 2), ("EBX", 1), ("EBX", 2),

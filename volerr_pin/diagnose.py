@@ -97,20 +97,160 @@ class Candidate:
 
 
 @dataclass
+class Score:
+    """How well one candidate explains the residual of a round.
+
+    Attributes
+    ----------
+    label : str
+        The candidate's label.
+    extra : int
+        Independent columns it adds to the base model (0: nothing new).
+    p_value : float
+        F-test p-value, Bonferroni-corrected for periods searched in a periodogram.
+    bic_gain : float
+        Decrease of the Bayesian information criterion.
+    cv_rms_um : float or None
+        k-fold cross-validated RMS with the candidate [um]; None where not computed.
+    rss_drop : float
+        Fraction of the base residual sum of squares it removes.
+    candidate, term, coefficients, columns
+        The candidate, its term with the fitted coefficients (SI, shape (term.size,)) and its
+        design columns (shape (rows, extra)); None when it adds nothing.
+    """
+
+    label: str
+    extra: int
+    p_value: float
+    bic_gain: float
+    cv_rms_um: float | None
+    rss_drop: float
+    candidate: Candidate | None = field(default=None, repr=False)
+    term: object = field(default=None, repr=False)
+    coefficients: np.ndarray | None = field(default=None, repr=False)
+    columns: np.ndarray | None = field(default=None, repr=False)
+
+    def to_dict(self) -> dict:
+        return {"label": self.label, "extra": self.extra, "p_value": self.p_value, "bic_gain": self.bic_gain,
+                "cv_rms_um": self.cv_rms_um, "rss_drop": self.rss_drop}
+
+
+@dataclass
+class Change:
+    """A change the diagnosis made to the model: an effect (or a missing geometric
+    component) added, or an existing component raised.
+
+    Attributes
+    ----------
+    kind : {"effect", "under_modelled"}
+    label, name, component : str
+        What was found, the catalogue name and the component error it is modelled as.
+    axis, direction, driver : str or None
+        Where it sits (None when the same at the tool through several axes), the tool
+        direction it moves, and the covariate that drives it.
+    p_value, bic_gain : float
+        Its score in the round it was accepted in.
+    same_at_tool_as : list of str
+        Other components it cannot be told apart from at the tool.
+    step : int
+        The round (from 0) it was accepted in.
+    names : list of str
+        The coefficients it added (a raised component: all of the component's).
+    by : int
+        Raises: degrees (or node doublings) gained.
+    form_before, form_after : str or None
+        Raises: the component's form before and after ("degree 2", "table of 9 nodes").
+    rms_before_um, max_before_um, rms_after_um, max_after_um : float or None
+        Held-out RMS and largest residual before and after it [um].
+    significance : float or None
+        Its size in standard uncertainties in the refit.
+    parameters : dict
+        Effects: coefficient -> {"value", "uncertainty", "unit"} after the final fit.
+    note : str
+        Dropped effects: why.
+    """
+
+    kind: str
+    label: str
+    name: str
+    component: str
+    axis: str | None
+    direction: str | None
+    driver: str | None
+    p_value: float
+    bic_gain: float
+    same_at_tool_as: list[str] = field(default_factory=list)
+    step: int = 0
+    names: list[str] = field(default_factory=list)
+    by: int = 0
+    form_before: str | None = None
+    form_after: str | None = None
+    rms_before_um: float | None = None
+    max_before_um: float | None = None
+    rms_after_um: float | None = None
+    max_after_um: float | None = None
+    significance: float | None = None
+    parameters: dict = field(default_factory=dict)
+    note: str = ""
+
+    def to_dict(self) -> dict:
+        out = {"label": self.label, "name": self.name, "component": self.component,
+               "same_at_tool_as": list(self.same_at_tool_as), "direction": self.direction, "driver": self.driver,
+               "p_value": self.p_value, "bic_gain": self.bic_gain, "kind": self.kind, "axis": self.axis}
+        if self.kind == "under_modelled":
+            out.update({"from": self.form_before, "to": self.form_after})
+        out.update(rms_before_um=self.rms_before_um, max_before_um=self.max_before_um)
+        if self.significance is not None:
+            out["significance"] = self.significance
+        out.update(rms_after_um=self.rms_after_um, max_after_um=self.max_after_um)
+        if self.kind == "effect" and not self.note:  # a dropped effect has no final values
+            out["parameters"] = self.parameters
+        if self.note:
+            out["note"] = self.note
+        return out
+
+
+@dataclass
+class Raise:
+    """An existing geometric component the diagnosis raised, from the spec's form to the
+    final one (``form_before`` / ``form_after``, e.g. "degree 2" -> "degree 4"), over the
+    ``rounds`` (from 1) it was raised in; held-out RMS before the first raise and after the
+    last [um]; the smallest p-value of its raises."""
+
+    label: str
+    name: str
+    component: str
+    axis: str | None
+    direction: str | None
+    form_before: str
+    form_after: str
+    rounds: list[int]
+    rms_before_um: float | None
+    rms_after_um: float | None
+    p_value: float
+
+    def to_dict(self) -> dict:
+        return {"label": self.label, "name": self.name, "component": self.component, "axis": self.axis,
+                "direction": self.direction, "from": self.form_before, "to": self.form_after,
+                "rounds": list(self.rounds), "rms_before_um": self.rms_before_um,
+                "rms_after_um": self.rms_after_um, "p_value": self.p_value}
+
+
+@dataclass
 class Step:
-    """One round: the scores of every candidate and what was accepted, if anything
-    (``accepted`` is the first of ``accepted_all``, which holds more than one when several
-    under-modelled components were raised together)."""
+    """One round: the scores of every candidate, best first, and what was accepted, if
+    anything (``accepted`` is the first of ``accepted_all``, which holds more than one when
+    several under-modelled components were raised together)."""
 
     number: int
     rms_holdout_um: float
-    candidates: list[dict]
+    candidates: list[Score]
     residual: np.ndarray = field(repr=False)            # (rows,) SI, before this round's change
     machine: Machine | None = field(default=None, repr=False)
-    accepted_all: list[dict] = field(default_factory=list)
+    accepted_all: list[Change] = field(default_factory=list)
 
     @property
-    def accepted(self) -> dict | None:
+    def accepted(self) -> Change | None:
         return self.accepted_all[0] if self.accepted_all else None
 
 
@@ -125,7 +265,7 @@ class Diagnosis:
 
     machine: Machine
     base: Machine
-    effects: list[dict]
+    effects: list[Change]
     steps: list[Step]
     rms_before_um: float
     rms_after_um: float
@@ -137,12 +277,11 @@ class Diagnosis:
     seconds: float
     observations: Observations = field(repr=False)
     residual_analysis: dict = field(default_factory=dict)
-    under_modelled: list[dict] = field(default_factory=list)
-    dropped: list[dict] = field(default_factory=list)
+    under_modelled: list[Raise] = field(default_factory=list)
+    dropped: list[Change] = field(default_factory=list)
     noise_floor_upper_bound: bool = False
 
     def to_dict(self) -> dict:
-        public = lambda e: {k: v for k, v in e.items() if not k.startswith("_")}
         return {
             "machine": self.machine.name,
             "rms_before_um": self.rms_before_um,
@@ -152,12 +291,12 @@ class Diagnosis:
             "noise_floor_source": self.noise_floor_source,
             "noise_floor_upper_bound": self.noise_floor_upper_bound,
             "reaches_noise_floor": self.reaches_noise_floor,
-            "effects": [public(e) for e in self.effects],
-            "under_modelled": [public(e) for e in self.under_modelled],
-            "dropped": [public(e) for e in self.dropped],
+            "effects": [e.to_dict() for e in self.effects],
+            "under_modelled": [u.to_dict() for u in self.under_modelled],
+            "dropped": [e.to_dict() for e in self.dropped],
             "steps": [{"step": s.number, "rms_holdout_um": s.rms_holdout_um,
-                       "accepted": [a["label"] for a in s.accepted_all] or None,
-                       "candidates": s.candidates[:10]} for s in self.steps],
+                       "accepted": [a.label for a in s.accepted_all] or None,
+                       "candidates": [c.to_dict() for c in s.candidates[:10]]} for s in self.steps],
             "test": f"F-test at alpha = {self.alpha:g} / number of candidates (Bonferroni; periods "
                     "searched in a periodogram also / number of periods), a lower k-fold "
                     f"cross-validated RMS, and |value| >= {SIGNIFICANCE:g} standard uncertainties "
@@ -363,10 +502,10 @@ def raise_components(machine: Machine, components: list[tuple[str, int]]) -> Mac
     return replace_terms(machine, tables)
 
 
-def _remove_effect(machine: Machine, effect: dict) -> Machine:
+def _remove_effect(machine: Machine, effect: Change) -> Machine:
     """The machine without an accepted effect's terms."""
-    component = effect["component"]
-    names = set(effect["_names"])
+    component = effect.component
+    names = set(effect.names)
     comp = next(c for c in machine.spec.components if c.name == component)
     keep = [i for i, t in enumerate(comp.terms) if not names & set(t.names(component))]
     if not keep:
@@ -603,8 +742,7 @@ def _score(base: _Base, proj: _Projector, obs: Observations, E, joints, cand: Ca
     extra, rss1, gamma, c, C = tried[best]
     rss0 = float(base.r @ base.r)
     if extra == 0 or rss1 <= 0:
-        return {"label": cand.label, "extra": 0, "p_value": 1.0, "bic_gain": 0.0,
-                "cv_rms_um": proj.cv_rms, "rss_drop": 0.0}
+        return Score(cand.label, 0, 1.0, 0.0, proj.cv_rms, 0.0, cand)
     k = extra + len(nonlinear)
     dof = n - proj.rank - k
     F = ((rss0 - rss1) / k) / (rss1 / dof) if dof > 0 else 0.0
@@ -612,9 +750,8 @@ def _score(base: _Base, proj: _Projector, obs: Observations, E, joints, cand: Ca
     bic_gain = n * math.log(rss0 / rss1) - k * math.log(n) - 2 * math.log(searched)
     values = c.copy()
     values[lin] = gamma
-    return {"label": cand.label, "extra": int(extra), "p_value": p_value, "bic_gain": float(bic_gain),
-            "cv_rms_um": None, "rss_drop": (rss0 - rss1) / rss0 if rss0 > 0 else 0.0,
-            "_coefs": values, "_tspec": tspec, "_C": C}
+    return Score(cand.label, int(extra), p_value, float(bic_gain), None, (rss0 - rss1) / rss0 if rss0 > 0 else 0.0,
+                 cand, tspec, values, C)
 
 
 def _table_with(tspec, coefs, prefix):
@@ -724,16 +861,16 @@ def _size(res, names: list[str]) -> float:
     return z
 
 
-def _tested_names(machine: Machine, change: dict) -> list[str]:
+def _tested_names(machine: Machine, change: Change) -> list[str]:
     """The coefficients whose size decides whether a change stays: a raised polynomial's new
     coefficients, an effect's (or missing component's) own coefficients; none for a
     denser table (its F-test and cross-validation decide)."""
-    if change["kind"] != "under_modelled":
-        return change["_names"]
-    _, tspec = geometric_term(machine, change["component"])
+    if change.kind != "under_modelled":
+        return change.names
+    _, tspec = geometric_term(machine, change.component)
     if tspec.term.kind == "table":
         return []
-    return list(tspec.names(change["component"])[-change["_by"]:])
+    return list(tspec.names(change.component)[-change.by:])
 
 
 def _describe(machine: Machine, component: str) -> str:
@@ -774,58 +911,52 @@ def _trim_raises(machine: Machine, fit, base: Machine, components) -> Machine | 
     return replace_terms(machine, tables) if tables else None
 
 
-def _raised_summary(records: list[dict], base: Machine, final: Machine) -> list[dict]:
+def _raised_summary(records: list[Change], base: Machine, final: Machine) -> list[Raise]:
     """One entry per raised component, from the spec's form to the final one (components
     whose raise the final fit did not keep are left out)."""
-    out = {}
+    out: dict[str, Raise] = {}
     for r in records:
-        entry = out.setdefault(r["component"], {
-            "label": "", "name": r["name"], "component": r["component"], "axis": r["axis"],
-            "direction": r["direction"], "from": _describe(base, r["component"]), "to": "",
-            "rounds": [], "rms_before_um": r["rms_before_um"], "rms_after_um": r.get("rms_after_um"),
-            "p_value": r["p_value"]})
-        entry["rounds"].append(r["_step"] + 1)
-        entry["p_value"] = min(entry["p_value"], r["p_value"])
+        entry = out.setdefault(r.component, Raise(
+            "", r.name, r.component, r.axis, r.direction, _describe(base, r.component), "", [], r.rms_before_um,
+            r.rms_after_um, r.p_value))
+        entry.rounds.append(r.step + 1)
+        entry.p_value = min(entry.p_value, r.p_value)
     kept = []
     for component, entry in out.items():
-        entry["to"] = _describe(final, component)
-        if entry["to"] == entry["from"] or entry["to"] == "degree 0":
+        entry.form_after = _describe(final, component)
+        if entry.form_after == entry.form_before or entry.form_after == "degree 0":
             continue
-        entry["label"] = f"geometric component {component} under-modelled ({entry['from']} -> {entry['to']})"
+        entry.label = f"geometric component {component} under-modelled ({entry.form_before} -> {entry.form_after})"
         kept.append(entry)
     return kept
 
 
-def _apply(machine: Machine, batch: list[dict]) -> tuple[Machine, list[dict]]:
+def _apply(machine: Machine, batch: list[Score]) -> tuple[Machine, list[Change]]:
     """The machine with scored candidates added (one effect, or under-modelled components
-    raised together); the accepted-change records."""
-    records = []
-    for score in batch:
-        cand = score["_candidate"]
-        records.append({"label": cand.label, "name": cand.name, "component": cand.component,
-                        "same_at_tool_as": [], "direction": cand.direction, "driver": cand.driver,
-                        "p_value": score["p_value"], "bic_gain": score["bic_gain"]})
-    raises = [(s["_candidate"].component, s["_candidate"].by) for s in batch if s["_candidate"].kind == "raise"]
+    raised together); the accepted changes."""
+    raises = [(s.candidate.component, s.candidate.by) for s in batch if s.candidate.kind == "raise"]
     if raises:
         new = raise_components(machine, raises)
-        for score, record in zip(batch, records):
-            cand = score["_candidate"]
+        records = []
+        for score in batch:
+            cand = score.candidate
             _, tspec = geometric_term(new, cand.component)
-            record.update(kind="under_modelled", axis=cand.axis, _by=cand.by,
-                          **{"from": cand.change[0], "to": cand.change[1]},
-                          _names=list(tspec.names(cand.component)))
+            records.append(Change("under_modelled", cand.label, cand.name, cand.component, cand.axis, cand.direction,
+                                  cand.driver, score.p_value, score.bic_gain, by=cand.by,
+                                  form_before=cand.change[0], form_after=cand.change[1],
+                                  names=list(tspec.names(cand.component))))
         return new, records
-    (score,), (record,) = batch, records
-    cand = score["_candidate"]
+    (score,) = batch
+    cand = score.candidate
     before = set(machine.parameter_names)
     prefix = _unique_prefix(machine, cand.component, PREFIX.get(cand.name, "geom"))
-    table_spec = _table_with(score["_tspec"], score["_coefs"], prefix)
+    table_spec = _table_with(score.term, score.coefficients, prefix)
     if not (cand.name in PREFIX or cand.component in machine.components):
         table_spec.pop("prefix", None)
     new = add_terms(machine, {cand.component: table_spec})
-    record.update(kind="effect", axis=cand.axis if cand.axis in machine.axes else None,
-                  _names=[n for n in new.parameter_names if n not in before])
-    return new, records
+    return new, [Change("effect", cand.label, cand.name, cand.component,
+                        cand.axis if cand.axis in machine.axes else None, cand.direction, cand.driver,
+                        score.p_value, score.bic_gain, names=[n for n in new.parameter_names if n not in before])]
 
 
 def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects: int = 5,
@@ -876,15 +1007,15 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     current, fitted, nuisance, last_fit = fit(machine, free_names, initialise=True)
     base_machine = current
     steps: list[Step] = []
-    effects: list[dict] = []
-    raised: list[dict] = []
-    previous: list[dict] = []
+    effects: list[Change] = []
+    raised: list[Change] = []
+    previous: list[Change] = []
     for number in range(max_rounds + 1):
         base = _base_design(current, obs, fitted, nuisance)
         proj = _Projector(base.A, base.r, obs, split)
         base_cv = proj.cv_rms
         for record in previous:
-            record["rms_after_um"], record["max_after_um"] = base_cv, proj.cv_max
+            record.rms_after_um, record.max_after_um = base_cv, proj.cv_max
         candidates = build_candidates(current, obs)
         if len(effects) >= max_effects:
             candidates = [c for c in candidates if c.kind == "raise"]
@@ -899,32 +1030,30 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
             s = _score(base, proj, obs, E, joints, cand, cov_obj, axis_index_of, columns)
             if s is None:
                 continue
-            s["_candidate"] = cand
             scores.append(s)
             if progress:
                 progress(f"round {number + 1}: candidates", k + 1)
         m = max(1, len(scores))
-        ranked = sorted(scores, key=lambda s: -s["bic_gain"])
+        ranked = sorted(scores, key=lambda s: -s.bic_gain)
         for k, s in enumerate(ranked):  # cross-validate what could pass and what is shown
-            if s["cv_rms_um"] is None and (k < 10 or s["p_value"] < alpha / m):
-                s["cv_rms_um"] = proj.cv(s["_C"])
-        passing = [s for s in ranked if s["extra"] > 0 and s["p_value"] < alpha / m
-                   and s["cv_rms_um"] is not None and s["cv_rms_um"] < base_cv * (1 - 1e-3)]
-        table = [{k: v for k, v in s.items() if not k.startswith("_")} for s in ranked]
-        accepted: list[dict] = []
+            if s.cv_rms_um is None and (k < 10 or s.p_value < alpha / m):
+                s.cv_rms_um = proj.cv(s.columns)
+        passing = [s for s in ranked if s.extra > 0 and s.p_value < alpha / m
+                   and s.cv_rms_um is not None and s.cv_rms_um < base_cv * (1 - 1e-3)]
+        accepted: list[Change] = []
         for best in (passing[:3] if number < max_rounds else []):
             batch = [best]
-            if best["_candidate"].kind == "raise":
+            if best.candidate.kind == "raise":
                 # the other under-modelled components that pass on their own come along
-                taken = {best["_candidate"].component}
+                taken = {best.candidate.component}
                 for s in passing:
-                    c = s["_candidate"]
-                    if c.kind == "raise" and c.component not in taken and s["bic_gain"] > 0:
+                    c = s.candidate
+                    if c.kind == "raise" and c.component not in taken and s.bic_gain > 0:
                         batch.append(s)
                         taken.add(c.component)
             for attempt in range(2):
                 new, records = _apply(current, batch)
-                names = free_names + [n for r in records for n in r["_names"] if n not in free_names]
+                names = free_names + [n for r in records for n in r.names if n not in free_names]
                 new_fit, new_fitted, new_nuisance, res = fit(new, names)
                 tested = [_tested_names(new_fit, r) for r in records]
                 sizes = [_size(res, t) if res is not None and t else math.inf for t in tested]
@@ -937,42 +1066,42 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
             if len(keep) != len(batch) or not keep:
                 continue
             for record, z in zip(records, sizes):
-                record.update(rms_before_um=base_cv, max_before_um=proj.cv_max, _step=number)
+                record.rms_before_um, record.max_before_um, record.step = base_cv, proj.cv_max, number
                 if np.isfinite(z):
-                    record["significance"] = z
+                    record.significance = z
             accepted = records
             free_names = names
             current, fitted, nuisance, last_fit = new_fit, new_fitted, new_nuisance, res
             break
-        steps.append(Step(number, base_cv, table, base.r * obs.sigma, current if keep_machines else None,
+        steps.append(Step(number, base_cv, ranked, base.r * obs.sigma, current if keep_machines else None,
                           accepted))
         if not accepted:
             break
         for record in accepted:
-            (raised if record["kind"] == "under_modelled" else effects).append(record)
+            (raised if record.kind == "under_modelled" else effects).append(record)
         previous = accepted
         twins_of(accepted, passing, machine)
     # the final fit: every accepted effect must still be significant, else it is dropped
-    dropped: list[dict] = []
+    dropped: list[Change] = []
     final = last_fit
     while True:
         if not fixed or free_names:
             free = None if not fixed else [current.parameter_names.index(n) for n in free_names]
             final = identify(current, obs, free=free, folds=0, initialise=False)
             current = final.machine
-        trimmed = _trim_raises(current, final, base_machine, {r["component"] for r in raised})
+        trimmed = _trim_raises(current, final, base_machine, {r.component for r in raised})
         if trimmed is not None:
             current = trimmed
             free_names = [n for n in free_names if n in set(current.parameter_names)]
             continue
-        weak = [(_size(final, e["_names"]) if final is not None else 0.0, i) for i, e in enumerate(effects)]
+        weak = [(_size(final, e.names) if final is not None else 0.0, i) for i, e in enumerate(effects)]
         weak = [(z, i) for z, i in weak if z < SIGNIFICANCE]
         if not weak:
             break
         _, i = min(weak)
         gone = effects.pop(i)
-        gone["note"] = (f"accepted in round {gone['_step'] + 1}, dropped after the final fit: its size is "
-                        f"below {SIGNIFICANCE:g} standard uncertainties")
+        gone.note = (f"accepted in round {gone.step + 1}, dropped after the final fit: its size is "
+                     f"below {SIGNIFICANCE:g} standard uncertainties")
         dropped.append(gone)
         current = _remove_effect(current, gone)
         free_names = [n for n in free_names if n in set(current.parameter_names)]
@@ -980,13 +1109,13 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     units = parameter_units(current)
     for e in effects:
         params = {}
-        for name in e["_names"]:
+        for name in e.names:
             k = current.parameter_names.index(name)
             factor, unit = units[name]
             u = final.uncertainty[k] if final is not None else math.nan
             params[name] = {"value": float(current.theta[k] / factor),
                             "uncertainty": None if math.isnan(u) else float(u / factor), "unit": unit}
-        e["parameters"] = params
+        e.parameters = params
     fitted_final = final.fitted if final is not None else np.array([], dtype=int)
     nuisance_final = (np.array(list(final.nuisance.values())) if final is not None
                       else np.zeros(obs.nuisance.shape[1]))
@@ -1002,25 +1131,25 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
                      _time.perf_counter() - start, obs, analysis, raised, dropped, bound)
 
 
-def twins_of(accepted: list[dict], passing: list[dict], machine: Machine) -> None:
+def twins_of(accepted: list[Change], passing: list[Score], machine: Machine) -> None:
     """An accepted effect whose effect at the tool is the same through other sites (a drift
     in x through X, Y or Z of a Cartesian machine) is labelled as such, with ``axis`` None:
     the data cannot tell which site carries it."""
     for record in accepted:
-        if record["kind"] != "effect":
+        if record.kind != "effect":
             continue
-        best = next(s for s in passing if s["_candidate"].label == record["label"])
-        cand = best["_candidate"]
-        twins = [s["_candidate"] for s in passing if s is not best and s["_candidate"].name == cand.name
-                 and s["_candidate"].kind == "effect"
-                 and s["_candidate"].driver == cand.driver and s["_candidate"].direction == cand.direction
-                 and abs(s["bic_gain"] - best["bic_gain"]) <= 1e-4 * abs(best["bic_gain"])]
+        best = next(s for s in passing if s.candidate.label == record.label)
+        cand = best.candidate
+        twins = [s.candidate for s in passing if s is not best and s.candidate.name == cand.name
+                 and s.candidate.kind == "effect"
+                 and s.candidate.driver == cand.driver and s.candidate.direction == cand.direction
+                 and abs(s.bic_gain - best.bic_gain) <= 1e-4 * abs(best.bic_gain)]
         if twins:
             by = f" driven by {cand.driver}" if cand.driver else ""
-            record["label"] = (f"{cand.name} in {cand.direction}{by} (as {cand.component}; the same at the tool "
-                               f"through {', '.join(t.component for t in twins)})")
-            record["axis"] = None
-            record["same_at_tool_as"] = [t.component for t in twins]
+            record.label = (f"{cand.name} in {cand.direction}{by} (as {cand.component}; the same at the tool "
+                            f"through {', '.join(t.component for t in twins)})")
+            record.axis = None
+            record.same_at_tool_as = [t.component for t in twins]
 
 
 def driver_values(diagnosis: Diagnosis, driver: str | None) -> tuple[np.ndarray, str] | None:
@@ -1045,16 +1174,30 @@ def driver_values(diagnosis: Diagnosis, driver: str | None) -> tuple[np.ndarray,
     return None
 
 
-def evidence(diagnosis: Diagnosis, step: int) -> dict | None:
-    """For the change accepted in round ``step`` (an effect's or under-modelled record's
-    ``_step``): its driver per point and the residual along the error direction that changed
+@dataclass
+class Evidence:
+    """What a change did, for pictures: the residual along one error direction against
+    the change's driver, before and after it (um); ``x`` and both residuals have shape
+    (rows,), ``x_label`` names the driver with its unit."""
+
+    x: np.ndarray
+    x_label: str
+    before_um: np.ndarray
+    after_um: np.ndarray
+    direction: str
+    label: str
+
+
+def evidence(diagnosis: Diagnosis, step: int) -> Evidence | None:
+    """For the change accepted in round ``step`` (a :class:`Change`'s
+    ``step``): its driver per point and the residual along the error direction that changed
     most, before and after it was added (um)."""
     record = diagnosis.steps[step].accepted
     if record is None or step + 1 >= len(diagnosis.steps):
         return None
     before = diagnosis.steps[step].residual
     after = diagnosis.steps[step + 1].residual
-    found = driver_values(diagnosis, record["driver"])
+    found = driver_values(diagnosis, record.driver)
     obs = diagnosis.observations
     best = None
     for j in range(3):
@@ -1069,5 +1212,4 @@ def evidence(diagnosis: Diagnosis, step: int) -> dict | None:
     _, j, rows = best
     points = obs.point[rows]
     x, label = found if found is not None else (np.arange(obs.n_points, dtype=float), "point")
-    return {"x": x[points], "x_label": label, "before_um": before[rows] * UM,
-            "after_um": after[rows] * UM, "direction": "xyz"[j], "label": record["label"]}
+    return Evidence(x[points], label, before[rows] * UM, after[rows] * UM, "xyz"[j], record.label)

@@ -44,7 +44,7 @@ def run(args) -> int:
     report["notes"] = [f"{d.source}: columns not used: {', '.join(d.unused)}" for d in data if d.unused]
     if args.out:
         write_spec(result.machine, args.out, {
-            "data": [str(p) for p in args.data], "diagnosis": [e["label"] for e in result.effects],
+            "data": [str(p) for p in args.data], "diagnosis": [e.label for e in result.effects],
             "rms_before_um": result.rms_before_um, "rms_after_um": result.rms_after_um,
             "noise_floor_um": result.noise_floor_um})
         report["out"] = str(args.out)
@@ -69,21 +69,20 @@ def run(args) -> int:
                 "p-value"):
         table.add_column(col)
     for i, e in enumerate(result.effects, 1):
-        twins = e.get("same_at_tool_as") or []
-        site = e["component"] + (f" (the same at the tool as {', '.join(twins)})" if twins else "")
-        table.add_row(str(i), e["name"], e["axis"] or "-", e["direction"] or "-", escape(e["driver"] or "-"),
-                      escape(site),
-                      f"{e['rms_before_um']:.3f} -> {e['rms_after_um']:.3f}", f"{e['p_value']:.2g}")
+        twins = e.same_at_tool_as
+        site = e.component + (f" (the same at the tool as {', '.join(twins)})" if twins else "")
+        table.add_row(str(i), e.name, e.axis or "-", e.direction or "-", escape(e.driver or "-"), escape(site),
+                      f"{e.rms_before_um:.3f} -> {e.rms_after_um:.3f}", f"{e.p_value:.2g}")
     out.print(table)
     for e in result.effects:
-        for name, p in e["parameters"].items():
+        for name, p in e.parameters.items():
             u = "" if p["uncertainty"] is None else f" +- {p['uncertainty']:.3g}"
             out.print(escape(f"  {name} = {p['value']:.5g}{u} {p['unit']}"))
     if result.under_modelled:
         out.print("geometric components under-modelled by the spec (raised; not physical effects): "
-                  + escape(", ".join(f"{u['component']} ({u['from']} -> {u['to']})" for u in result.under_modelled)))
+                  + escape(", ".join(f"{u.component} ({u.form_before} -> {u.form_after})" for u in result.under_modelled)))
     for e in result.dropped:
-        out.print(escape(f"dropped: {e['label']} ({e['note']})"))
+        out.print(escape(f"dropped: {e.label} ({e.note})"))
     verdict = "reaches" if result.reaches_noise_floor else "does not reach"
     floor = "noise floor at most" if result.noise_floor_upper_bound else "noise floor"
     out.print(f"{floor} {result.noise_floor_um:.3f} um ({escape(result.noise_floor_source)}); the final model "

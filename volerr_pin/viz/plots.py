@@ -224,10 +224,10 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
     rms = [s.rms_holdout_um for s in diagnosis.steps]
     def short(step):
         a = step.accepted_all
-        if a[0]["kind"] == "under_modelled":
-            return "+degree\n" + " ".join(r["component"] for r in a[:3]) + (" ..." if len(a) > 3 else "")
+        if a[0].kind == "under_modelled":
+            return "+degree\n" + " ".join(r.component for r in a[:3]) + (" ..." if len(a) > 3 else "")
         e = a[0]
-        return e["name"] + (f"\n{e['axis']}" if e["axis"] else "") + (f" {e['direction']}" if e["direction"] else "")
+        return e.name + (f"\n{e.axis}" if e.axis else "") + (f" {e.direction}" if e.direction else "")
 
     labels = ["base"] + [short(s) for s in diagnosis.steps if s.accepted_all]
     ax.bar(range(len(rms)), rms, color="#4a6fb4")
@@ -246,28 +246,28 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
     for e in diagnosis.effects:
         params = ", ".join(f"{n.split('.')[-1]} = {p['value']:.4g}"
                            + (f" +- {p['uncertainty']:.2g}" if p["uncertainty"] is not None else "") + f" {p['unit']}"
-                           for n, p in e["parameters"].items())
-        lines.append(f"- {e['label']}: {e['rms_before_um']:.3f} -> {e['rms_after_um']:.3f} um; {params}")
+                           for n, p in e.parameters.items())
+        lines.append(f"- {e.label}: {e.rms_before_um:.3f} -> {e.rms_after_um:.3f} um; {params}")
     if diagnosis.under_modelled:
         lines.append("under-modelled geometry (not physical effects): " + ", ".join(
-            f"{u['component']} {u['from']} -> {u['to']}" for u in diagnosis.under_modelled))
+            f"{u.component} {u.form_before} -> {u.form_after}" for u in diagnosis.under_modelled))
     import textwrap
 
     wrapped = [w for line in lines for w in textwrap.wrap(line, 64, subsequent_indent="    ")]
     text.text(0.0, 1.0, "\n".join(wrapped), va="top", fontsize=8, family="monospace")
     for k in range(n_eff):
-        ev = evidence(diagnosis, diagnosis.effects[k]["_step"])
+        ev = evidence(diagnosis, diagnosis.effects[k].step)
         if ev is None:
             continue
         a = fig.add_subplot(grid[1 + k // 2, k % 2])
-        x = ev["x"]
+        x = ev.x
         if len(np.unique(x)) <= 2:  # a +-1 driver: spread the points so they can be seen
             x = x + np.random.default_rng(0).uniform(-0.15, 0.15, len(x))
-        a.scatter(x, ev["before_um"], s=6, color="#c0392b", alpha=0.6, label="before")
-        a.scatter(x, ev["after_um"], s=6, color="#1f6fb2", alpha=0.6, label="after")
-        a.set_xlabel(ev["x_label"], fontsize=8)
-        a.set_ylabel(f"residual d{ev['direction']} [um]", fontsize=8)
-        a.set_title(f"step {k + 1}: {ev['label']}", fontsize=8)
+        a.scatter(x, ev.before_um, s=6, color="#c0392b", alpha=0.6, label="before")
+        a.scatter(x, ev.after_um, s=6, color="#1f6fb2", alpha=0.6, label="after")
+        a.set_xlabel(ev.x_label, fontsize=8)
+        a.set_ylabel(f"residual d{ev.direction} [um]", fontsize=8)
+        a.set_title(f"step {k + 1}: {ev.label}", fontsize=8)
         a.legend(fontsize=7)
         a.grid(alpha=0.3)
     fig.savefig(path)

@@ -324,21 +324,21 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None) ->
         rec.log("residuals/arrows", frame, rr.Arrows3D(origins=positions, vectors=vec * scale,
                                                         colors=colours(norm, 0.0, peak), radii=radius / 2))
         text = (f"step {number}: held-out RMS {step.rms_holdout_um:.3f} um; "
-                + (f"added {'; '.join(a['label'] for a in step.accepted_all)}" if step.accepted
+                + (f"added {'; '.join(a.label for a in step.accepted_all)}" if step.accepted
                    else "no candidate is significant"))
         rec.log("steps", rr.TextLog(text))
         if step.accepted is not None:
             ev = evidence(diagnosis, number)
             if ev is not None:
-                span = float(np.ptp(ev["x"])) or 1.0
-                x = (ev["x"] - ev["x"].min()) / span * 100.0
-                rec.log("evidence/before", rr.Points2D(np.c_[x, -ev["before_um"] * 10], radii=0.6,
+                span = float(np.ptp(ev.x)) or 1.0
+                x = (ev.x - ev.x.min()) / span * 100.0
+                rec.log("evidence/before", rr.Points2D(np.c_[x, -ev.before_um * 10], radii=0.6,
                                                         colors=[200, 60, 50]))
-                rec.log("evidence/after", rr.Points2D(np.c_[x, -ev["after_um"] * 10], radii=0.6,
+                rec.log("evidence/after", rr.Points2D(np.c_[x, -ev.after_um * 10], radii=0.6,
                                                        colors=[40, 110, 190]))
                 rec.log("evidence/label", rr.TextLog(
-                    f"{ev['label']}: residual d{ev['direction']} (red before, blue after, x10 um) vs "
-                    f"{ev['x_label']} (0-100 % of its range)"))
+                    f"{ev.label}: residual d{ev.direction} (red before, blue after, x10 um) vs "
+                    f"{ev.x_label} (0-100 % of its range)"))
     rec.reset_time()
     rec.log("residuals/about", rr.TextDocument(
         f"Residual (measured minus model) at each step of the diagnosis, arrows x{scale:g}; "
