@@ -229,3 +229,26 @@ def test_coefficients_the_data_cannot_determine_are_marked(machines):
     assert "fitted, not determined (its uncertainty exceeds any plausible value)" in statuses
     good = identify(m, [tool_points(m, m, 400, 0.3e-6, seed=3)], folds=0).to_dict()
     assert not any(p["status"].startswith("fitted, not") for p in good["parameters"].values())
+
+
+def test_per_point_rms_is_the_rms_of_point_error_norms(machines):
+    """One helper gives every per-point RMS: the norm of each point's position residual
+    (its x, y, z rows together), then the RMS over the points that have such rows."""
+    from volerr_pin.identify import build_observations, point_squares, residual_rms
+    from volerr_pin.measurements import PointMeasurements
+
+    m = machines["vmc500"]
+    rng = np.random.default_rng(3)
+    q = rng.uniform(m.travel[:, 0], m.travel[:, 1], (7, 3))
+    values = np.full((7, 6), np.nan)
+    values[:, :3] = rng.normal(0, 1e-6, (7, 3))
+    values[2, 1] = np.nan                      # a point with two components only
+    values[:4, 3] = rng.normal(0, 1e-6, 4)     # rotations at four points
+    obs = build_observations(m, [PointMeasurements("t", q, values, {}, np.arange(7))])
+    r = rng.normal(0, 1e-6, len(obs.y))
+    norms = [np.sqrt(sum(r[k] ** 2 for k in range(len(r)) if obs.point[k] == i and not obs.angular[k]))
+             for i in range(7)]
+    assert residual_rms(obs, r) == pytest.approx(np.sqrt(np.mean(np.square(norms))) * 1e6, rel=1e-12)
+    rot = [abs(r[k]) for k in range(len(r)) if obs.angular[k]]
+    assert residual_rms(obs, r, angular=True) == pytest.approx(np.sqrt(np.mean(np.square(rot))) * 1e6, rel=1e-12)
+    np.testing.assert_allclose(point_squares(np.array([5, 2, 5]), np.array([1.0, 2.0, 3.0])), [4.0, 10.0])

@@ -47,8 +47,8 @@ from scipy import stats
 from scipy.signal import lombscargle
 
 from .errors import InputError
-from .identify import (Observations, build_observations, identify, parameter_units, pose_folds,
-                       predict_observations)
+from .identify import (Observations, build_observations, identify, parameter_units, point_squares, pose_folds,
+                       predict_observations, residual_rms)
 from .machine import Machine
 from .spec import build_term, component_name, parse_component_name
 from .specio import add_terms, remove_components, replace_terms, term_tables
@@ -638,11 +638,10 @@ class _Projector:
         for f in self.folds:
             T, V, Q_T, M, e_T, e_V, pos_V = f
             res = (e_V - correction(f)) * obs.sigma[V]
-            per_point = np.bincount(obs.point[V][pos_V], res[pos_V] ** 2, minlength=obs.n_points)
-            used = np.unique(obs.point[V][pos_V])
-            sq += per_point[used].sum()
-            count += used.size
-            peak = max(peak, float(np.sqrt(per_point[used].max())) if used.size else 0.0)
+            per_point = point_squares(obs.point[V][pos_V], res[pos_V])
+            sq += per_point.sum()
+            count += per_point.size
+            peak = max(peak, float(np.sqrt(per_point.max())) if per_point.size else 0.0)
         self.last_max = peak * UM
         return float(np.sqrt(sq / count) * UM) if count else math.nan
 
@@ -1121,9 +1120,7 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
                       else np.zeros(obs.nuisance.shape[1]))
     last = _base_design(current, obs, fitted_final, nuisance_final)
     last_proj = _Projector(last.A, last.r, obs, split)
-    pos = ~obs.angular
-    per_point = np.bincount(obs.point[pos], (last.r[pos] * obs.sigma[pos]) ** 2, minlength=obs.n_points)
-    rms_fit = float(np.sqrt(per_point[np.unique(obs.point[pos])].mean()) * UM)
+    rms_fit = residual_rms(obs, last.r * obs.sigma)
     floor, source, bound = _noise_floor(obs, last.r * obs.sigma, last_proj.rank)
     analysis = residual_analysis(current, obs, steps[0].residual)
     return Diagnosis(current, base_machine, effects, steps, steps[0].rms_holdout_um, last_proj.cv_rms, rms_fit,

@@ -433,15 +433,32 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
     return theta, nuisance, J, r, it, status
 
 
-def _rms(obs: Observations, residual_si: np.ndarray, angular: bool) -> float | None:
-    """RMS over points of the norm of the position (or rotation) residual."""
+def point_squares(point: np.ndarray, residual: np.ndarray) -> np.ndarray:
+    """Squared norm of the residual at each point that has rows.
+
+    Parameters
+    ----------
+    point : ndarray of int, shape (rows,)
+        The point each observation row belongs to (:attr:`Observations.point`).
+    residual : ndarray, shape (rows,)
+        Residual of each row (components of one point add up to its squared norm).
+
+    Returns
+    -------
+    ndarray, shape (points with rows,)
+        Sum of the squared residuals of each point's rows, in the order of the points.
+    """
+    used, index = np.unique(point, return_inverse=True)
+    return np.bincount(index, residual ** 2, minlength=used.size)
+
+
+def residual_rms(obs: Observations, residual_si: np.ndarray, angular: bool = False) -> float | None:
+    """RMS over points of the norm of the position residual [um] (``angular``: of the
+    rotation residual [urad]); None without such rows. ``residual_si`` has shape (rows,)."""
     rows = obs.angular == angular
     if not rows.any():
         return None
-    per_point = np.zeros(obs.n_points)
-    np.add.at(per_point, obs.point[rows], residual_si[rows] ** 2)
-    points = np.unique(obs.point[rows])
-    return float(np.sqrt(per_point[points].mean()) * (UM if not angular else URAD))
+    return float(np.sqrt(point_squares(obs.point[rows], residual_si[rows]).mean()) * (URAD if angular else UM))
 
 
 def identify(machine: Machine, data, *, terms=None, free=None, convention: str = "prior", folds: int = 5,
@@ -516,8 +533,8 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         uncertainty[free[kept_theta]] = std[n_nu:]
     residual_si = r * obs.sigma
     fitted_machine = machine.with_theta(theta)
-    rms_fit = _rms(obs, residual_si, angular=False)
-    rms_fit_rot = _rms(obs, residual_si, angular=True)
+    rms_fit = residual_rms(obs, residual_si)
+    rms_fit_rot = residual_rms(obs, residual_si, angular=True)
     rms_holdout, how = None, "none"
     if holdout is not None or folds >= 2:
         rms_holdout, how = _cross_validate(machine, obs, theta0, free, columns, convention, folds,
@@ -633,11 +650,9 @@ def _cross_validate(machine, obs, theta0, free, columns, convention, folds, hold
         pred = np.einsum("rk,rk->r", test_obs.w, error[test_obs.point]) + test_obs.nuisance @ nuisance
         res = test_obs.y - pred
         pos = ~test_obs.angular
-        per_point = np.zeros(test_obs.n_points)
-        np.add.at(per_point, test_obs.point[pos], res[pos] ** 2)
-        used = np.unique(test_obs.point[pos])
-        sq_pos += per_point[used].sum()
-        count += used.size
+        per_point = point_squares(test_obs.point[pos], res[pos])
+        sq_pos += per_point.sum()
+        count += per_point.size
         if progress:
             progress("cross-validation", k + 1)
     return (float(np.sqrt(sq_pos / count) * UM) if count else None), how
