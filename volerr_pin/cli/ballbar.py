@@ -8,14 +8,14 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from .common import dumps, note_unused, table_console
+from .common import add_json_arg, dumps, note_unused, table_console
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("ballbar", help="ISO 230-4 circular test: circular deviation, hysteresis, radial deviation")
     p.add_argument("file", help="ballbar file: angle_deg, deviation_um[, direction] with '# plane:' and "
                                 "'# radius:' header lines")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(p)
     p.add_argument("--plot", help="write the ISO 230-4 polar picture (PNG)")
     p.set_defaults(func=run)
 

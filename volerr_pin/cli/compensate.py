@@ -7,7 +7,7 @@ from pathlib import Path
 from rich.console import Console
 
 from ..errors import InputError
-from .common import add_machine_args, add_state_arg, axis_config, dumps, machine_of
+from .common import add_json_arg, add_machine_args, add_state_arg, axis_config, dumps, machine_of
 
 
 def add_parser(sub) -> None:
@@ -27,7 +27,7 @@ def add_parser(sub) -> None:
     p.add_argument("--png", help="also draw the error along each move before and after (PNG)")
     p.add_argument("--origin", nargs="+", metavar="AXIS=VALUE",
                    help="axis positions of the program zero (the work offset, G54 ...; mm, deg)")
-    p.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    add_json_arg(p, "print the report as one JSON object")
     p.set_defaults(func=run)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from ..describe import machine_info
 from ..ranking import rank
 from ..workspace import error_summary, grid, sample
-from .common import add_machine_args, add_state_arg, dumps, machine_of, table_console
+from .common import add_json_arg, add_machine_args, add_state_arg, dumps, machine_of, table_console
 from .tables import print_info, print_ranking, print_recording, print_summary
 
 
@@ -16,7 +16,7 @@ def add_parser(sub) -> None:
     p.add_argument("--top", type=int, default=5, help="ranking rows to show (default 5)")
     p.add_argument("--out", default="volerr_demo.rrd",
                    help="Rerun recording to write (default volerr_demo.rrd)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(p)
     add_state_arg(p)
     p.set_defaults(func=run)
 

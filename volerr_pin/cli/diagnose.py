@@ -6,7 +6,7 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from .common import FitProgress, add_machine_args, dumps, machine_of, table_console
+from .common import FitProgress, add_json_arg, add_machine_args, dumps, machine_of, table_console
 
 
 def add_parser(sub) -> None:
@@ -25,7 +25,7 @@ def add_parser(sub) -> None:
     p.add_argument("--out", help="write the final model as a spec (TOML)")
     p.add_argument("--rrd", help="write a Rerun recording of the steps")
     p.add_argument("--png", help="write a one-page summary figure")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 

@@ -7,7 +7,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import InputError
-from .common import add_machine_args, add_state_arg, axis_config, dumps, machine_of, positive, table_console
+from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config, dumps, machine_of, positive,
+                     table_console)
 
 
 def add_parser(sub) -> None:
@@ -25,7 +26,7 @@ def add_parser(sub) -> None:
     p.add_argument("--nodes", type=positive, nargs="+", default=[11], metavar="N",
                    help="table nodes per axis (1 or 3 values; default 11)")
     p.add_argument("--axis-tables", metavar="DIR", help="write ISO 230-1-named per-axis tables here")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 

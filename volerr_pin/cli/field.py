@@ -5,7 +5,7 @@ from __future__ import annotations
 from ..errors import InputError
 from ..ranking import rank
 from ..workspace import sample
-from .common import add_machine_args, add_state_arg, axis_config, dumps, machine_of, positive
+from .common import add_json_arg, add_machine_args, add_state_arg, axis_config, dumps, machine_of, positive
 from .tables import print_recording
 
 
@@ -26,7 +26,7 @@ def add_parser(sub) -> None:
     viewer = p.add_mutually_exclusive_group()
     viewer.add_argument("--spawn", action="store_true", help="also stream to a new Rerun viewer")
     viewer.add_argument("--connect", metavar="URL", help="also stream to a running viewer (gRPC URL)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 

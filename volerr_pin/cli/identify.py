@@ -7,7 +7,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from .common import FitProgress, add_machine_args, axis_components, axis_positions, dumps, machine_of, table_console
+from .common import (FitProgress, add_json_arg, add_machine_args, axis_components, axis_positions, dumps,
+                     machine_of, table_console)
 from .tables import print_groups
 
 
@@ -29,7 +30,7 @@ def add_parser(sub) -> None:
                    help="what the data cannot determine: held at prior values (default) or min-norm")
     p.add_argument("--sigma-um", type=float, default=1.0, help="std. deviation of position data (um)")
     p.add_argument("--sigma-urad", type=float, default=1.0, help="std. deviation of rotation data (urad)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 from ..describe import machine_info
-from .common import add_machine_args, add_state_arg, dumps, machine_of, table_console
+from .common import add_json_arg, add_machine_args, add_state_arg, dumps, machine_of, table_console
 from .tables import print_info
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("info", help="axes, chains, error terms by kind, travels")
     add_machine_args(p)
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(p)
     add_state_arg(p)
     p.set_defaults(func=run)
 

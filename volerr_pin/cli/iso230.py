@@ -9,14 +9,14 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from .common import dumps, note_unused, table_console
+from .common import add_json_arg, dumps, note_unused, table_console
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("iso230-2", help="ISO 230-2 evaluation of positioning runs")
     p.add_argument("runs", help="CSV: target_mm,cycle,direction,deviation_um (or _deg / _arcsec)")
     p.add_argument("--plot", help="write the standard's picture (PNG)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 

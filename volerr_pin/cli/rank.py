@@ -6,7 +6,7 @@ import sys
 
 from ..ranking import rank, read_tolerances, tool_identifiability
 from ..workspace import sample
-from .common import add_machine_args, add_state_arg, dumps, machine_of, positive, table_console
+from .common import add_json_arg, add_machine_args, add_state_arg, dumps, machine_of, positive, table_console
 from .tables import print_groups, print_ranking
 
 
@@ -24,7 +24,7 @@ def add_parser(sub) -> None:
                    help="rank component errors or single coefficients")
     p.add_argument("--png", help="also write a bar chart of the ranking")
     out = p.add_mutually_exclusive_group()
-    out.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(out)
     out.add_argument("--csv", action="store_true", help="print the ranking as CSV")
     p.set_defaults(func=run)
 

@@ -6,7 +6,7 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from .common import dumps, table_console
+from .common import add_json_arg, dumps, table_console
 
 
 def add_parser(sub) -> None:
@@ -24,7 +24,7 @@ def add_parser(sub) -> None:
     held.add_argument("--test", nargs="+", help="held-out files (fit on DATA, predict these)")
     p.add_argument("--top", type=int, default=5, help="sensors to rank (default 5)")
     p.add_argument("--plot", help="write measured vs modelled (PNG)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 
