@@ -518,10 +518,8 @@ def _remove_effect(machine: Machine, effect: Change) -> Machine:
 @dataclass
 class _Base:
     machine: Machine
-    theta_free: np.ndarray        # indices of the fitted coefficients
     A: np.ndarray                 # weighted design [nuisance | fitted coefficients]
     r: np.ndarray                 # weighted residual
-    nuisance: np.ndarray
 
 
 def _base_design(machine: Machine, obs: Observations, fitted: np.ndarray, nuisance: np.ndarray) -> _Base:
@@ -529,7 +527,7 @@ def _base_design(machine: Machine, obs: Observations, fitted: np.ndarray, nuisan
     pred, A = predict_observations(machine, obs, machine.theta, fitted, first_order=True)
     r = (obs.y - pred - obs.nuisance @ nuisance) / obs.sigma
     J = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
-    return _Base(machine, fitted, J, r, nuisance)
+    return _Base(machine, J, r)
 
 
 class _Columns:

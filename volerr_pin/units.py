@@ -42,8 +42,8 @@ URAD = ANGLE["urad"]
 UM_PER_M = 1.0 / UM
 #: arcsec per radian, for reports
 ARCSEC_PER_RAD = 1.0 / ARCSEC
-#: mm per inch (NC programs in G20)
-MM_PER_INCH = 25.4
+#: one inch in metres (NC programs in G20)
+INCH = 25.4e-3
 
 #: engineering unit of an axis position, by axis kind
 AXIS_UNIT = {"linear": "mm", "rotary": "deg"}

@@ -12,6 +12,7 @@ import numpy as np
 from ..compensate import Arc, arc_from_center
 from ..errors import InputError
 from ..machine import Machine
+from ..units import INCH, MM
 from .lexer import (CANNED, CENTRE, MACRO_G, NOT_MOVES, PLANES, Block, GcodeError, Word, parse_block,
                     split_lines, uncommented, word_values)
 
@@ -181,7 +182,7 @@ class Interpreter:
         """
         j = self.axes.index(axis)
         if self.linear[j]:
-            return value * (25.4e-3 if inch else 1e-3)
+            return value * (INCH if inch else MM)
         return math.radians(value)
 
     def from_si(self, axis: str, value: float, inch: bool) -> float:
@@ -203,7 +204,7 @@ class Interpreter:
         """
         j = self.axes.index(axis)
         if self.linear[j]:
-            return value / (25.4e-3 if inch else 1e-3)
+            return value / (INCH if inch else MM)
         return math.degrees(value)
 
     def _position(self, axis: str, value: float, inch: bool) -> float:
@@ -360,7 +361,7 @@ class Interpreter:
             raise GcodeError(f"{self.source}:{block.number}: an arc needs linear axes {', '.join(plane)}")
         i, j, k = (self.axes.index(a) for a in plane)
         words = {w.letter: w.value for w in block.words}
-        scale = 25.4e-3 if state.inch else 1e-3
+        scale = INCH if state.inch else MM
         if "R" in words:
             r = abs(words["R"]) * scale
             d = target[[i, j]] - start[[i, j]]
