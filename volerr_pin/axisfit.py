@@ -32,8 +32,22 @@ from .errors import InputError
 
 @dataclass(frozen=True)
 class Circle:
-    """A fitted circle: ``centre`` (3,), unit ``normal`` (3,), ``radius``, and each point's
-    3D ``distance`` from the circle (same unit as the points)."""
+    """A fitted circle in 3D.
+
+    ``centre`` (3,), unit ``normal`` (3,), ``radius``, and each point's 3D ``distance`` from
+    the circle (same unit as the points).
+
+    Attributes
+    ----------
+    centre : ndarray, shape (3,)
+        Centre, in the unit of the points.
+    normal : ndarray, shape (3,)
+        Unit normal of the circle's plane (its sign is the SVD's).
+    radius : float
+        Radius, in the unit of the points.
+    distance : ndarray, shape (n,)
+        3D distance of each point from the circle, in the unit of the points.
+    """
 
     centre: np.ndarray
     normal: np.ndarray
@@ -42,11 +56,31 @@ class Circle:
 
     @property
     def rms(self) -> float:
+        """RMS of the points' distances from the circle, in the unit of the points (float)."""
         return float(np.sqrt(np.mean(self.distance ** 2)))
 
 
 def fit_circle(points: np.ndarray) -> Circle:
-    """Best circle through 3D points (at least 3, not on one line)."""
+    """Best circle through 3D points (at least 3, not on one line).
+
+    A plane by orthogonal least squares, then the circle in that plane by geometric least
+    squares (an algebraic start, then Gauss-Newton).
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 3)
+        The points, any length unit.
+
+    Returns
+    -------
+    Circle
+        The circle, in the unit of the points.
+
+    Raises
+    ------
+    InputError
+        If there are fewer than 3 distinct points or they lie on a line.
+    """
     points = np.asarray(points, dtype=float)
     distinct = np.unique(np.round(points, 12), axis=0)
     if len(distinct) < 3:
@@ -78,8 +112,27 @@ def fit_circle(points: np.ndarray) -> Circle:
 
 @dataclass(frozen=True)
 class Axis:
-    """A joint's axis line (``point``, unit ``direction``) with the circles it came from and
-    the angle residuals (turned minus commanded, rad) of every pose after the first."""
+    """A joint's axis line with the circles it came from.
+
+    The line (``point``, unit ``direction``) and the angle residuals (turned minus
+    commanded, rad) of every pose after the first.
+
+    Attributes
+    ----------
+    point : ndarray, shape (3,)
+        A point on the axis, in the unit of the targets (the least-squares point of the
+        circle centres).
+    direction : ndarray, shape (3,)
+        Unit direction, oriented so that a positive joint motion turns the targets
+        right-handed about it.
+    circles : tuple of Circle
+        The circle of every target that moved.
+    angle_residual : ndarray, shape (n - 1,)
+        Turned minus commanded angle of every pose after the first [rad], wrapped to
+        [-pi, pi).
+    angle_scale : float
+        Turned / commanded, fitted over the poses.
+    """
 
     point: np.ndarray
     direction: np.ndarray
@@ -89,11 +142,12 @@ class Axis:
 
     @property
     def rms(self) -> float:
-        """RMS 3D distance of all points from their circles."""
+        """RMS 3D distance of all points from their circles, in the unit of the targets (float)."""
         return float(np.sqrt(np.mean(np.concatenate([c.distance ** 2 for c in self.circles]))))
 
     @property
     def max(self) -> float:
+        """Largest 3D distance of a point from its circle, in the unit of the targets (float)."""
         return float(max(c.distance.max() for c in self.circles))
 
 
@@ -102,8 +156,26 @@ def _wrap(angle):
 
 
 def fit_axis(targets: list[np.ndarray], joint_values: np.ndarray) -> Axis:
-    """The axis of a joint from ``targets`` (each (n, 3): one target's positions at the n
-    poses) and the commanded ``joint_values`` (n,) in rad."""
+    """The axis of a joint from targets measured while it alone moves (see the module docstring).
+
+    Parameters
+    ----------
+    targets : list of ndarray, each shape (n, 3)
+        One target's positions at the n poses, per target, any one length unit (a target
+        that does not move is left out).
+    joint_values : ndarray, shape (n,)
+        The commanded joint values [rad].
+
+    Returns
+    -------
+    Axis
+        The axis line, its circles and the angle residuals.
+
+    Raises
+    ------
+    InputError
+        If no target moved, or a target's points do not make a circle (see :func:`fit_circle`).
+    """
     q = np.asarray(joint_values, dtype=float)
     spread = [float(np.linalg.norm(np.asarray(t) - np.mean(t, axis=0), axis=1).max()) for t in targets]
     # a target on the axis does not move: it says nothing about the axis and is left out
@@ -156,11 +228,24 @@ PARALLEL = 0.01  # rad: below it (or within it of 180 deg) the common normal is 
 
 
 def axis_relation(a: Axis, b: Axis) -> dict:
-    """Angle between two axis lines (rad, 0..pi) and their distance along the common normal
-    (the DH alpha and a of the link between them). For (nearly) parallel axes the common
+    """Angle between two axis lines and their distance along the common normal.
+
+    The DH alpha and a of the link between them. For (nearly) parallel axes the common
     normal runs off to infinity with the slightest tilt: then ``parallel`` is true and the
     distance is that of ``b.point`` from the line of ``a`` (the points are the centres'
-    least-squares points, near the measured targets)."""
+    least-squares points, near the measured targets).
+
+    Parameters
+    ----------
+    a, b : Axis
+        The two axes.
+
+    Returns
+    -------
+    dict
+        ``angle`` (float, rad, 0..pi), ``distance`` (float, unit of the axes' points) and
+        ``parallel`` (bool: the sine of the angle is below 0.01, parallel or antiparallel).
+    """
     cross = np.cross(a.direction, b.direction)
     sine = float(np.linalg.norm(cross))
     angle = math.atan2(sine, float(a.direction @ b.direction))
@@ -187,10 +272,34 @@ def _frame(point: np.ndarray, direction: np.ndarray) -> np.ndarray:
 
 def axes_to_urdf(axes: list[Axis], names: list[str], limits: list[tuple[float, float]], *,
                  name: str = "measured", base: str = "world", tool: str = "tool0") -> tuple[str, np.ndarray]:
-    """A URDF of the serial chain whose revolute joints turn about the measured ``axes``
-    (all measured in one configuration, the reference, in the ``base`` frame): joint value 0
-    is that reference configuration. Returns the text and the tool frame's pose in the
-    reference configuration (4x4, base frame): at the last axis, z along it."""
+    """A URDF of the serial chain whose revolute joints turn about the measured ``axes``.
+
+    All measured in one configuration, the reference, in the ``base`` frame: joint value 0
+    is that reference configuration.
+
+    Parameters
+    ----------
+    axes : list of Axis
+        The axes, base to tool, with points in m.
+    names : list of str
+        Joint names, one per axis.
+    limits : list of tuple of (float, float)
+        Lower and upper joint limits [rad], one pair per axis.
+    name : str, default "measured"
+        Robot name.
+    base : str, default "world"
+        Name of the base link.
+    tool : str, default "tool0"
+        Name of the tool link (fixed to the last joint's link).
+
+    Returns
+    -------
+    text : str
+        The URDF.
+    tool_pose : ndarray, shape (4, 4)
+        The tool frame's pose in the reference configuration (base frame, m): at the last
+        axis, z along it.
+    """
     from .dh import urdf_origin
 
     frames = [_frame(a.point, a.direction) for a in axes]

@@ -53,8 +53,34 @@ DEVIATION_RE = re.compile(r"^(?:deviation|radial|dr)_(um|nm|mm)$")
 
 @dataclass(frozen=True)
 class BallbarRun:
-    """One circular test: ``angle`` (N,) rad, ``deviation`` (N,) m, ``direction`` (N,) +1/-1,
-    ``radius`` m, ``plane`` two axis names, ``centre`` axis positions in file units (mm / deg)."""
+    """One circular test in SI.
+
+    ``angle`` (N,) rad, ``deviation`` (N,) m, ``direction`` (N,) +1/-1, ``radius`` m,
+    ``plane`` two axis names, ``centre`` axis positions in file units (mm / deg).
+
+    Attributes
+    ----------
+    source : str
+        The file (or a label for simulated data).
+    angle : ndarray, shape (N,)
+        Angle on the circle, from the first plane axis towards the second [rad].
+    deviation : ndarray, shape (N,)
+        Radial deviation: measured length minus the nominal radius [m].
+    direction : ndarray, shape (N,)
+        +1 for increasing angles (G3 in the XY plane), -1 for decreasing (G2).
+    radius : float
+        Nominal radius [m].
+    plane : tuple of str (2,)
+        The two linear axes that ran the circle, in order.
+    centre : dict of str to float
+        Axis positions at the circle's centre [mm, deg], by axis name.
+    lines : ndarray of int, shape (N,)
+        File line of each sample.
+    unit : str, default "um"
+        Unit of the deviations in the file (um, nm or mm).
+    unused : tuple of str
+        Columns present but not used.
+    """
 
     source: str
     angle: np.ndarray
@@ -69,11 +95,42 @@ class BallbarRun:
 
 
 def is_ballbar_file(header: list[str]) -> bool:
+    """Whether a header is that of a ballbar file.
+
+    Parameters
+    ----------
+    header : list of str
+        Column names.
+
+    Returns
+    -------
+    bool
+        True if the columns include ``angle_deg`` and a radial deviation column
+        (``deviation``, ``radial`` or ``dr`` with unit um, nm or mm).
+    """
     return "angle_deg" in header and any(DEVIATION_RE.match(h) for h in header)
 
 
 def read_ballbar(path: str | Path | Table) -> BallbarRun:
-    """Read a ballbar file (see the module docstring); every error names file, line, column."""
+    """Read a ballbar file (see the module docstring); every error names file, line, column.
+
+    Parameters
+    ----------
+    path : str, Path or Table
+        The file, or a table read already.
+
+    Returns
+    -------
+    BallbarRun
+        The run in SI.
+
+    Raises
+    ------
+    MeasurementError
+        If the table is malformed, ``angle_deg`` or the single deviation column is missing, a
+        direction is not a direction word, or the ``# plane:`` or ``# radius:`` header line
+        is missing or invalid.
+    """
     table = read_table(path)
     header = table.header
     if "angle_deg" not in header:
@@ -156,11 +213,26 @@ def _on_grid(angle, r, grid):
 def evaluate_circular(run: BallbarRun) -> dict:
     """ISO 230-4 figures of a circular test, in um (see the module docstring).
 
-    Returns ``G`` (circular deviation; of both directions together when both were run),
-    ``G_ccw`` / ``G_cw``, ``F_max`` / ``F_min`` (radial deviation about the nominal centre),
-    ``H`` (circular hysteresis, both directions only), ``centre_offset_um`` (the
-    least-squares centre from the nominal one, along the two plane axes' directions),
-    ``radius_error_um`` and the counts per direction.
+    Parameters
+    ----------
+    run : BallbarRun
+        The circular test.
+
+    Returns
+    -------
+    dict
+        ``source``, ``plane``, ``radius_mm``, ``unit`` ("um"), ``n_points``, ``G``
+        (circular deviation; of both directions together when both were run), ``G_ccw`` /
+        ``G_cw`` (None with fewer than 4 samples in that direction), ``F_max`` / ``F_min``
+        (radial deviation about the nominal centre), ``H`` (circular hysteresis, both
+        directions only, else None), ``centre_offset_um`` (the least-squares centre from the
+        nominal one, along the two plane axes' directions), ``radius_error_um`` and the counts
+        per direction ``n_ccw`` / ``n_cw``. Lengths in um.
+
+    Raises
+    ------
+    InputError
+        If the run has fewer than 4 samples.
     """
     r = run.deviation * 1e6
     out: dict = {"source": run.source, "plane": list(run.plane), "radius_mm": run.radius * 1e3,
@@ -195,8 +267,32 @@ def evaluate_circular(run: BallbarRun) -> dict:
 
 
 def ballbar_positions(machine, run: BallbarRun) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Commanded positions (N, n_axes) SI, radial unit vectors (N, 3) of the tool relative to
-    the workpiece, and approach directions (N, n_axes) of a circular test on ``machine``."""
+    """Commanded positions, radial directions and approach directions of a circular test.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine; the run's plane axes must be two of its linear axes.
+    run : BallbarRun
+        The circular test; the centre comes from its ``centre`` (other axes at their default
+        configuration, see :func:`~volerr_pin.workspace.config_from_file`).
+
+    Returns
+    -------
+    q : ndarray, shape (N, n_axes)
+        Commanded NC positions [m, rad].
+    radial : ndarray, shape (N, 3)
+        Unit radial vectors of the tool relative to the workpiece, in the workpiece frame.
+    directions : ndarray, shape (N, n_axes)
+        Approach direction of every axis (+1 / -1): from the motion for the two plane axes
+        (at a reversal point the direction it came with), +1 for the others.
+
+    Raises
+    ------
+    InputError
+        If a plane axis is not an axis of the machine or not linear, the centre is invalid,
+        or the circle leaves the travel.
+    """
     for name in run.plane:
         if name not in machine.axes:
             raise InputError(f"{run.source}: '# plane:' names '{name}', not an axis of {machine.name} "

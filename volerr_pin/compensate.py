@@ -35,7 +35,33 @@ UM = 1e6
 
 @dataclass
 class PointCompensation:
-    """Result of :func:`compensate_points` (SI)."""
+    """Result of :func:`compensate_points` (SI).
+
+    Attributes
+    ----------
+    q : ndarray, shape (N, n_axes)
+        Compensated commands [m, rad].
+    residual : ndarray, shape (N,)
+        Position residual ``|p_actual(q) - p_nominal(q_d)|`` [m].
+    axis_residual : ndarray, shape (N,)
+        Tool-axis residual (sine of the angle between actual and desired tool axes) [rad]; 0
+        where the tool axis is not corrected.
+    before : ndarray, shape (N,)
+        Position error without compensation [m].
+    axis_before : ndarray, shape (N,)
+        Tool-axis error without compensation [rad].
+    iterations : ndarray of int, shape (N,)
+        Iterations used.
+    converged : ndarray of bool, shape (N,)
+        Within tolerance, or at the least-squares optimum.
+    reachable : ndarray of bool, shape (N,)
+        The compensated command lies within the travel.
+    within_tolerance : ndarray of bool, shape (N,)
+        Residuals below the tolerances.
+    history : list of ndarray
+        Recursive scheme: the position residual vectors, shape (N, 3) [m], per step; empty
+        for Newton.
+    """
 
     q: np.ndarray            # (N, n_axes) compensated commands
     residual: np.ndarray     # (N,) position residual |p_actual(q) - p_nominal(q_d)| [m]
@@ -60,11 +86,46 @@ def _has_rotary(machine: Machine) -> bool:
 def compensate_points(machine: Machine, q_desired, *, method: str = "newton", tol_um: float = 0.01,
                       tol_urad: float = 0.1, max_iter: int = 30, orientation: bool | None = None,
                       lever: float = 0.1, **covariates) -> PointCompensation:
-    """Compensated commands for the desired NC positions ``q_desired`` (N, n_axes), SI.
+    """Compensated commands for the desired NC positions ``q_desired``, SI.
 
-    ``orientation`` (default: when the machine has rotary axes) also corrects the tool axis.
-    Iterations stop when the position residual is below ``tol_um`` (and the tool-axis
-    residual below ``tol_urad``) or after ``max_iter``.
+    The target is the nominal tool pose at ``q_desired``; the command makes the actual pose
+    match it (see the module docstring for the two methods). Iterations stop when the position
+    residual is below ``tol_um`` (and the tool-axis residual below ``tol_urad``), when the
+    command stops moving (the least-squares optimum of a machine with fewer axes than error
+    directions), or after ``max_iter``.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine (its errors, and a state set by :meth:`Machine.with_state`).
+    q_desired : array_like, shape (N, n_axes)
+        Desired NC positions [m, rad], within the travel.
+    method : "newton" or "recursive", default "newton"
+        Gauss-Newton on the exact axis Jacobian, or seed 002's recursion (positions only).
+    tol_um : float, default 0.01
+        Position tolerance [um]: iterations stop below it.
+    tol_urad : float, default 0.1
+        Tool-axis tolerance [urad] (when the tool axis is corrected).
+    max_iter : int, default 30
+        Iteration limit.
+    orientation : bool, optional
+        Also correct the tool axis (default: when the machine has rotary axes; never with
+        ``method="recursive"``).
+    lever : float, default 0.1
+        Weight of the tool-axis direction against the position [m per rad]; also the column
+        scale of rotary axes.
+    **covariates
+        As for :meth:`Machine.volumetric_error` (None values are dropped).
+
+    Returns
+    -------
+    PointCompensation
+        The commands, residuals before and after, and per-point status.
+
+    Raises
+    ------
+    InputError
+        If ``method`` is unknown, or ``q_desired`` or the covariates are invalid.
     """
     if method not in ("newton", "recursive"):
         raise InputError(f"method must be 'newton' or 'recursive', got {method!r}")
@@ -154,7 +215,29 @@ def _solve(J: np.ndarray, r: np.ndarray, scale: np.ndarray, damping: float = 0.0
 # ------------------------------------------------------------------------------ paths
 @dataclass
 class Piece:
-    """One commanded piece of a compensated path (SI)."""
+    """One commanded piece of a compensated path (SI).
+
+    Attributes
+    ----------
+    kind : str
+        "line" or "arc".
+    start : ndarray, shape (n_axes,)
+        Compensated command at the start [m, rad].
+    end : ndarray, shape (n_axes,)
+        Compensated command at the end [m, rad].
+    center : ndarray, shape (2,), optional
+        Arc centre in the plane, compensated [m]; None for a line.
+    clockwise : bool
+        Arc sense.
+    turns : float
+        Signed swept angle [rad].
+    residual : float
+        Max residual along the piece [m].
+    k0, k1 : float
+        Parameter range on the original move (0 to 1).
+    limited : bool
+        The tolerance cannot be reached here by any command.
+    """
 
     kind: str                 # "line" or "arc"
     start: np.ndarray         # compensated command at the start (n_axes,)
@@ -170,6 +253,19 @@ class Piece:
 
 @dataclass
 class PathCompensation:
+    """The compensated pieces of one programmed move.
+
+    Attributes
+    ----------
+    pieces : list of Piece
+        The commanded pieces, in order.
+    max_residual : float
+        Largest residual along the compensated pieces [m].
+    max_before : float
+        Largest residual along the uncompensated move [m].
+    samples : int
+        Samples per piece used to find the maximum residual (1 for a rapid move).
+    """
     pieces: list[Piece]
     max_residual: float       # [m]
     max_before: float         # [m] along the uncompensated move
@@ -177,13 +273,33 @@ class PathCompensation:
 
     @property
     def limited(self) -> bool:
+        """True if any piece could not reach the tolerance (bool)."""
         return any(p.limited for p in self.pieces)
 
 
 @dataclass(frozen=True)
 class Arc:
-    """A desired helical move in a plane: ``plane`` = indices (i, j, k) of the machine axes
-    of the arc plane and the linear third axis; angles in radians."""
+    """A desired helical move in a plane; angles in radians.
+
+    Attributes
+    ----------
+    plane : tuple of int (i, j, k)
+        Indices of the machine axes of the arc plane and of the linear third axis.
+    center : ndarray, shape (2,)
+        Centre in the plane [m].
+    radius : float
+        Radius at the start [m].
+    start_angle : float
+        Angle of the start point about the centre [rad].
+    sweep : float
+        Signed swept angle [rad]: > 0 counter-clockwise.
+    start : ndarray, shape (n_axes,)
+        Full desired start [m, rad].
+    end : ndarray, shape (n_axes,)
+        Full desired end [m, rad].
+    end_radius : float, optional
+        Radius at the end [m], when the end lies slightly off the start's circle.
+    """
 
     plane: tuple[int, int, int]
     center: np.ndarray        # (2,) in the plane
@@ -195,9 +311,22 @@ class Arc:
     end_radius: float | None = None  # when the end lies slightly off the start's circle
 
     def point(self, k: np.ndarray) -> np.ndarray:
-        """Points at fractions ``k`` of the move. A small mismatch of start and end radius
-        (as programs written to 4 decimals have) is spread linearly over the sweep, as
-        controllers do, so that the arc ends exactly at the programmed end point."""
+        """Points at fractions ``k`` of the move.
+
+        A small mismatch of start and end radius (as programs written to 4 decimals have) is
+        spread linearly over the sweep, as controllers do, so that the arc ends exactly at the
+        programmed end point. Axes other than the plane's move linearly.
+
+        Parameters
+        ----------
+        k : float or ndarray, shape (M,)
+            Fractions of the move, 0 (start) to 1 (end).
+
+        Returns
+        -------
+        ndarray, shape (M, n_axes)
+            NC positions [m, rad].
+        """
         k = np.atleast_1d(k)
         i, j, l = self.plane
         out = self.start + np.outer(k, self.end - self.start)  # other axes linear
@@ -210,7 +339,33 @@ class Arc:
 
 def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plane: tuple[int, int, int],
                     clockwise: bool, full_turns: int = 0) -> Arc:
-    """The desired arc from ``start`` to ``end`` about ``center`` (in the plane)."""
+    """The desired arc from ``start`` to ``end`` about ``center`` (in the plane).
+
+    Parameters
+    ----------
+    start : ndarray, shape (n_axes,)
+        Desired start [m, rad].
+    end : ndarray, shape (n_axes,)
+        Desired end [m, rad].
+    center : ndarray, shape (2,)
+        Centre in the plane [m].
+    plane : tuple of int (i, j, k)
+        Indices of the plane's axes and of the third (helical) axis.
+    clockwise : bool
+        Sense of the move (G2 is clockwise).
+    full_turns : int, default 0
+        Additional full turns.
+
+    Returns
+    -------
+    Arc
+        The arc; a start and end on one point make a full circle.
+
+    Raises
+    ------
+    InputError
+        If the start and end radii differ by more than 2 um (about what controllers accept).
+    """
     i, j, _ = plane
     a0 = math.atan2(start[j] - center[1], start[i] - center[0])
     a1 = math.atan2(end[j] - center[1], end[i] - center[0])
@@ -245,12 +400,46 @@ def _circle_through(p1, p2, p3):
 
 
 class PathCompensator:
-    """Splits moves until the compensated path is within ``tol`` everywhere (seed 002)."""
+    """Splits moves until the compensated path is within the tolerance everywhere (seed 002).
+
+    A machine with time-, temperature- or load-dependent terms is compensated in one
+    state: ``PathCompensator(machine.with_state(t=3600, temperatures={"spindle": 24}))``.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    tol_um : float, default 1.0
+        Position tolerance of the path [um].
+    samples : int, default 48
+        Samples per piece when searching the maximum residual.
+    max_depth : int, default 14
+        Deepest recursive split.
+    method : "newton" or "recursive", default "newton"
+        Point compensation method (see :func:`compensate_points`).
+    tol_urad : float, optional
+        Tool-axis tolerance [urad] on machines with rotary axes (default 10 urad per um of
+        ``tol_um``): the tool-axis angle counts as ``lever`` x angle against the position
+        tolerance, ``lever = tol_um / tol_urad`` [m per rad].
+
+    Attributes
+    ----------
+    machine : Machine
+        The machine.
+    tol : float
+        Position tolerance [m].
+    samples, max_depth, method
+        As given.
+    orientation : bool
+        Whether the tool axis is corrected (the machine has rotary axes).
+    tol_urad : float
+        Tool-axis tolerance [urad].
+    lever : float
+        Weight of the tool-axis angle [m per rad].
+    """
 
     def __init__(self, machine: Machine, tol_um: float = 1.0, samples: int = 48, max_depth: int = 14,
                  method: str = "newton", tol_urad: float | None = None):
-        """A machine with time-, temperature- or load-dependent terms is compensated in one
-        state: ``PathCompensator(machine.with_state(t=3600, temperatures={"spindle": 24}))``."""
         self.machine = machine
         self.tol = tol_um * 1e-6
         self.samples = samples
@@ -264,13 +453,38 @@ class PathCompensator:
 
     # point helpers -----------------------------------------------------------------
     def points(self, q_d: np.ndarray) -> np.ndarray:
-        """Compensated commands for many desired positions at once (N, n_axes)."""
+        """Compensated commands for many desired positions at once.
+
+        Point tolerances are a twentieth of the path's (at most 0.01 um and 0.1 urad).
+
+        Parameters
+        ----------
+        q_d : ndarray, shape (N, n_axes)
+            Desired NC positions [m, rad].
+
+        Returns
+        -------
+        ndarray, shape (N, n_axes)
+            Compensated commands [m, rad].
+        """
         res = compensate_points(self.machine, q_d, method=self.method,
                                 tol_um=min(0.01, self.tol * 1e6 / 20), tol_urad=min(0.1, self.tol_urad / 20),
                                 lever=self.lever)
         return res.q
 
     def point(self, q_d: np.ndarray) -> np.ndarray:
+        """Compensated command for one desired position (see :meth:`points`).
+
+        Parameters
+        ----------
+        q_d : ndarray, shape (n_axes,)
+            Desired NC position [m, rad].
+
+        Returns
+        -------
+        ndarray, shape (n_axes,)
+            Compensated command [m, rad].
+        """
         return self.points(q_d[None, :])[0]
 
     def _floor(self, c: np.ndarray, q_d: np.ndarray) -> float:
@@ -302,10 +516,27 @@ class PathCompensator:
 
     # moves -------------------------------------------------------------------------
     def screen_lines(self, starts: np.ndarray, ends: np.ndarray, c0: np.ndarray, c1: np.ndarray):
-        """Many straight moves at once: the sampled maximum residual along each commanded
-        line ``c0 -> c1`` against the desired ``starts -> ends``, and along the desired line
-        run uncompensated (two batched evaluations instead of two per move). Moves whose
-        sampled maximum is well inside the tolerance need no splitting."""
+        """Screen many straight moves at once.
+
+        The sampled maximum residual along each commanded line ``c0 -> c1`` against the desired
+        ``starts -> ends``, and along the desired line run uncompensated (two batched evaluations
+        instead of two per move). Moves whose sampled maximum is well inside the tolerance need no
+        splitting.
+
+        Parameters
+        ----------
+        starts, ends : ndarray, shape (M, n_axes)
+            Desired start and end of each move [m, rad].
+        c0, c1 : ndarray, shape (M, n_axes)
+            Compensated commands at the start and end [m, rad].
+
+        Returns
+        -------
+        after : ndarray, shape (M,)
+            Sampled maximum residual along each commanded line [m].
+        before : ndarray, shape (M,)
+            Sampled maximum residual along each desired line, uncompensated [m].
+        """
         n = len(starts)
         k = np.linspace(0.0, 1.0, self.samples + 1)
         desired = (starts[:, None, :] + k[None, :, None] * (ends - starts)[:, None, :]).reshape(-1, starts.shape[1])
@@ -315,12 +546,47 @@ class PathCompensator:
         return after, before
 
     def accept_line(self, q_start, q_end, c0, c1, residual: float, before: float) -> PathCompensation:
-        """One piece for a move :meth:`screen_lines` found inside the tolerance."""
+        """One piece for a move :meth:`screen_lines` found inside the tolerance.
+
+        Parameters
+        ----------
+        q_start, q_end : ndarray, shape (n_axes,)
+            Desired start and end [m, rad] (not used: the piece runs ``c0 -> c1``).
+        c0, c1 : ndarray, shape (n_axes,)
+            Compensated commands at the start and end [m, rad].
+        residual : float
+            The screened residual after compensation [m].
+        before : float
+            The screened residual without compensation [m].
+
+        Returns
+        -------
+        PathCompensation
+            A single line piece over the whole move.
+        """
         piece = Piece("line", c0, c1, residual=float(residual), k0=0.0, k1=1.0)
         return PathCompensation([piece], float(residual), float(before), self.samples)
 
     def rapid(self, q_start: np.ndarray, q_end: np.ndarray, end_c: np.ndarray | None = None,
               start_c: np.ndarray | None = None) -> PathCompensation:
+        """Compensate a rapid move: its end point only.
+
+        Parameters
+        ----------
+        q_start : ndarray, shape (n_axes,)
+            Desired start [m, rad].
+        q_end : ndarray, shape (n_axes,)
+            Desired end [m, rad].
+        end_c : ndarray, shape (n_axes,), optional
+            Compensated end, when known already (default: compensated here).
+        start_c : ndarray, shape (n_axes,), optional
+            Commanded start (default: ``q_start`` as it is).
+
+        Returns
+        -------
+        PathCompensation
+            One line piece; residual and ``before`` are those at the end point [m].
+        """
         end = self.point(q_end) if end_c is None else end_c
         r = self._floor(end, q_end)
         before = self._floor(q_end, q_end)
@@ -329,6 +595,24 @@ class PathCompensator:
 
     def line(self, q_start: np.ndarray, q_end: np.ndarray, start_c: np.ndarray | None = None,
              end_c: np.ndarray | None = None) -> PathCompensation:
+        """Compensate a straight move, splitting it until it is within the tolerance.
+
+        Parameters
+        ----------
+        q_start : ndarray, shape (n_axes,)
+            Desired start [m, rad].
+        q_end : ndarray, shape (n_axes,)
+            Desired end [m, rad].
+        start_c : ndarray, shape (n_axes,), optional
+            Compensated start, when known already (default: compensated here).
+        end_c : ndarray, shape (n_axes,), optional
+            Compensated end, when known already (default: compensated here).
+
+        Returns
+        -------
+        PathCompensation
+            The line pieces.
+        """
         desired = lambda k: q_start + np.outer(np.atleast_1d(k), q_end - q_start)
         before, _ = self._max_along(desired, desired, 0.0, 1.0)
         pieces: list[Piece] = []
@@ -361,18 +645,62 @@ class PathCompensator:
 
     @staticmethod
     def arc_sections(arc: Arc) -> np.ndarray:
-        """Parameters of the quarter-turn sections an arc starts with."""
+        """Parameters of the quarter-turn sections an arc starts with.
+
+        Parameters
+        ----------
+        arc : Arc
+            The desired arc.
+
+        Returns
+        -------
+        ndarray, shape (n + 1,)
+            Fractions 0 to 1 bounding n sections of at most a quarter turn each.
+        """
         n = max(1, math.ceil(abs(arc.sweep) / (math.pi / 2) - 1e-9))
         return np.linspace(0.0, 1.0, n + 1)
 
     def arc_points(self, arc: Arc) -> np.ndarray:
-        """Parameters whose compensated commands the first level of :meth:`arc` needs
-        (section ends and middles), so that a caller can compensate many arcs in a batch."""
+        """Parameters whose compensated commands the first level of :meth:`arc` needs.
+
+        Section ends and middles, so that a caller can compensate many arcs in a batch.
+
+        Parameters
+        ----------
+        arc : Arc
+            The desired arc.
+
+        Returns
+        -------
+        ndarray, shape (2 n - 1,)
+            The inner section ends, then the section middles (fractions of the move).
+        """
         ks = self.arc_sections(arc)
         return np.concatenate([ks[1:-1], 0.5 * (ks[:-1] + ks[1:])])
 
     def arc(self, arc: Arc, start_c: np.ndarray | None = None, end_c: np.ndarray | None = None,
             known: dict | None = None) -> PathCompensation:
+        """Compensate a helical (or circular) move, splitting it until it is within the tolerance.
+
+        Arcs of more than a quarter turn (full circles included) start as quarters; each piece is
+        the helical arc through its compensated start, middle and end.
+
+        Parameters
+        ----------
+        arc : Arc
+            The desired arc.
+        start_c : ndarray, shape (n_axes,), optional
+            Compensated start, when known already (default: compensated here).
+        end_c : ndarray, shape (n_axes,), optional
+            Compensated end, when known already (default: compensated here).
+        known : dict of float to ndarray, optional
+            Compensated commands at fractions of the move already computed (see :meth:`arc_points`).
+
+        Returns
+        -------
+        PathCompensation
+            The arc (or, where degenerate, line) pieces.
+        """
         before, _ = self._max_along(arc.point, arc.point, 0.0, 1.0)
         pieces: list[Piece] = []
         sc = self.point(arc.start) if start_c is None else start_c
@@ -444,8 +772,33 @@ def _sweep(a0: float, a1: float, ccw: bool) -> float:
 
 
 def evaluate_compensation(machine: Machine, q: np.ndarray, **covariates) -> dict:
-    """Predicted tool position error over ``q`` without and with point compensation [um];
-    on machines with rotary axes also the tool-axis error [urad]."""
+    """Predicted tool position error over ``q`` without and with point compensation.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    q : ndarray, shape (N, n_axes)
+        Desired NC positions [m, rad].
+    **covariates
+        Passed to :func:`compensate_points` (covariates, or its keyword options).
+
+    Returns
+    -------
+    dict
+        ``points``, ``reachable``, ``max_before_um``, ``rms_before_um``, ``max_after_um``,
+        ``rms_after_um`` (over the reachable points; None if there are none) [um],
+        ``reduction_percent`` (100 (1 - RMS after / RMS before) over the reachable points;
+        None when there are none or they have no error) and
+        ``max_iterations``; on machines with rotary axes also the tool-axis error
+        ``max_axis_before_urad``, ``rms_axis_before_urad``, ``max_axis_after_urad``,
+        ``rms_axis_after_urad`` [urad] and ``not_within_tolerance`` (count).
+
+    Raises
+    ------
+    InputError
+        If ``q`` or the covariates are invalid.
+    """
     res = compensate_points(machine, q, **covariates)
     before, after = res.before * UM, res.residual * UM
     ok = res.reachable

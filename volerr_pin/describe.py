@@ -14,8 +14,25 @@ from .units import ARCSEC_PER_RAD, UM_PER_M, axis_scale
 def machine_info(machine: Machine) -> dict:
     """Axes, chains, error terms by kind, travels: what ``volerr info`` prints.
 
-    Travels are in mm (linear) or deg (rotary); each axis also reports its nominal
-    direction of motion of the tool relative to the workpiece at the travel centre.
+    Travels are in mm (linear) or deg (rotary); the range of each component error is taken
+    over its axis' travel (201 points, the other axes at mid travel, endless axes over -pi to
+    pi), in um (linear) or arcsec (angular). A machine whose terms read covariates and that
+    has no state gets the ranges of the terms that read none.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+
+    Returns
+    -------
+    dict
+        The fields of docs/reports.md: ``machine``, ``description``, ``source``, ``spec``,
+        ``urdf``, ``tool_frame``, ``workpiece_frame``, ``axes`` (per axis ``name``,
+        ``joint``, ``kind``, ``unit``, ``travel``, ``chain``, ``sign``, ``errors_frame``),
+        ``bodies``, ``chains``, ``terms_by_kind``, ``components`` (per component ``name``,
+        ``owner``, ``kinds``, ``unit``, ``min``, ``max``, ``parameters``), ``ranges_of``,
+        ``n_error_joints`` and ``n_parameters``.
     """
     spec = machine.spec
     chains = machine.chains

@@ -41,7 +41,25 @@ from .units import axis_scale
 
 @dataclass(frozen=True)
 class DHRow:
-    """One joint: lengths in m, angles in rad; ``lower``/``upper`` in rad (revolute) or m."""
+    """One joint of a DH table: lengths in m, angles in rad; ``lower``/``upper`` in rad (revolute) or m.
+
+    Attributes
+    ----------
+    name : str
+        Joint name.
+    a : float
+        Link length [m].
+    alpha : float
+        Link twist [rad].
+    d : float
+        Link offset [m] (offset at zero joint value for a prismatic joint).
+    theta : float
+        Joint angle [rad] (offset at zero joint value for a revolute joint).
+    kind : str, default "revolute"
+        "revolute" or "prismatic".
+    lower, upper : float
+        Joint travel [rad] (revolute) or [m] (prismatic); default -pi, pi.
+    """
 
     name: str
     a: float
@@ -66,7 +84,27 @@ def _trans(axis: str, length: float) -> np.ndarray:
 
 
 def split(row: DHRow, convention: str) -> tuple[np.ndarray, np.ndarray]:
-    """(A, B) with ``T(q) = A J(q) B``, J the joint's motion about / along z."""
+    """(A, B) with ``T(q) = A J(q) B``, J the joint's motion about / along z.
+
+    Parameters
+    ----------
+    row : DHRow
+        The joint.
+    convention : str
+        "standard" or "modified".
+
+    Returns
+    -------
+    A : ndarray, shape (4, 4)
+        Homogeneous transform before the joint's motion [m].
+    B : ndarray, shape (4, 4)
+        Homogeneous transform after it [m].
+
+    Raises
+    ------
+    ValueError
+        If ``convention`` is neither "standard" nor "modified".
+    """
     revolute = row.kind == "revolute"
     if convention == "standard":
         if revolute:
@@ -78,7 +116,22 @@ def split(row: DHRow, convention: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def transform(row: DHRow, q: float, convention: str) -> np.ndarray:
-    """The row's homogeneous transform at joint value ``q`` (rad or m), from the formula."""
+    """The row's homogeneous transform at joint value ``q``, from the formula.
+
+    Parameters
+    ----------
+    row : DHRow
+        The joint.
+    q : float
+        Joint value [rad] (revolute) or [m] (prismatic).
+    convention : str
+        "standard"; any other value is taken as "modified".
+
+    Returns
+    -------
+    ndarray, shape (4, 4)
+        The transform [m].
+    """
     theta, d = (row.theta + q, row.d) if row.kind == "revolute" else (row.theta, row.d + q)
     if convention == "standard":
         return _rot("z", theta) @ _trans("z", d) @ _trans("x", row.a) @ _rot("x", row.alpha)
@@ -86,7 +139,18 @@ def transform(row: DHRow, q: float, convention: str) -> np.ndarray:
 
 
 def urdf_origin(T: np.ndarray) -> str:
-    """The URDF ``<origin>`` element of a 4x4 transform (xyz, and rpy as URDF reads them)."""
+    """The URDF ``<origin>`` element of a 4x4 transform (xyz, and rpy as URDF reads them).
+
+    Parameters
+    ----------
+    T : ndarray, shape (4, 4)
+        Homogeneous transform [m].
+
+    Returns
+    -------
+    str
+        ``<origin xyz="..." rpy="..."/>`` with xyz [m] and fixed-axis roll, pitch, yaw [rad].
+    """
     xyz = " ".join(repr(float(v)) for v in T[:3, 3])
     rpy = " ".join(repr(float(v)) for v in Rotation.from_matrix(T[:3, :3]).as_euler("xyz"))
     return f'<origin xyz="{xyz}" rpy="{rpy}"/>'
@@ -94,7 +158,34 @@ def urdf_origin(T: np.ndarray) -> str:
 
 def dh_to_urdf(rows: list[DHRow], convention: str = "standard", name: str = "robot",
                base: str = "base", tool: str = "tool0", tool_transform: np.ndarray | None = None) -> str:
-    """URDF text of the serial chain ``base`` - joints - ``tool`` (frames by those names)."""
+    """URDF text of the serial chain ``base`` - joints - ``tool`` (frames by those names).
+
+    Parameters
+    ----------
+    rows : list of DHRow
+        The joints, base to tool.
+    convention : str, default "standard"
+        "standard" or "modified".
+    name : str, default "robot"
+        Robot name.
+    base : str, default "base"
+        Name of the base link.
+    tool : str, default "tool0"
+        Name of the tool link.
+    tool_transform : ndarray, shape (4, 4), optional
+        Tool frame in the last joint's frame [m] (default identity).
+
+    Returns
+    -------
+    str
+        The URDF document.
+
+    Raises
+    ------
+    ValueError
+        If there are no rows, joint names repeat or equal ``base`` or ``tool``, or the
+        convention is unknown.
+    """
     if not rows:
         raise ValueError("a DH table needs at least one joint")
     names = [r.name for r in rows]
@@ -124,7 +215,30 @@ def dh_to_urdf(rows: list[DHRow], convention: str = "standard", name: str = "rob
 
 
 def read_dh(path: str | Path) -> tuple[list[DHRow], str, np.ndarray | None]:
-    """Read a DH table file (see the module docstring): rows, convention, tool transform."""
+    """Read a DH table file (see the module docstring): rows, convention, tool transform.
+
+    Parameters
+    ----------
+    path : str or Path
+        The table file.
+
+    Returns
+    -------
+    rows : list of DHRow
+        The joints, in SI.
+    convention : str
+        "standard" (default) or "modified", from ``# convention:``.
+    tool : ndarray, shape (4, 4) or None
+        Tool transform [m] from ``# tool: x, y, z[, rx, ry, rz]`` (mm, deg; fixed-axis xyz
+        angles), None without the line.
+
+    Raises
+    ------
+    MeasurementError
+        If a required column is missing, the convention or a joint type is unknown, a
+        prismatic joint lacks its limits, a lower limit is not below the upper, the tool line
+        is invalid, or the table is malformed.
+    """
     table = read_table(path)
     header = table.header
     needed = ["joint", "a_mm", "alpha_deg", "d_mm", "theta_deg"]

@@ -34,7 +34,24 @@ NODES_PER_ORDER = {1: 8, 2: 20, 3: 32}
 
 
 def natural_nodes(order: int) -> np.ndarray:
-    """(n, 3) natural coordinates of the nodes of an element of ``order`` 1, 2 or 3."""
+    """Natural coordinates of the nodes of an element.
+
+    Parameters
+    ----------
+    order : int
+        1 (8 nodes), 2 (20 nodes) or 3 (32 nodes).
+
+    Returns
+    -------
+    ndarray, shape (n_nodes, 3)
+        Node coordinates in [-1, 1]^3: the 8 corners first, then the edge nodes (edges along
+        xi, then eta, then zeta).
+
+    Raises
+    ------
+    InputError
+        If ``order`` is not 1, 2 or 3.
+    """
     if order not in NODES_PER_ORDER:
         raise InputError(f"element order must be 1 (8 nodes), 2 (20 nodes) or 3 (32 nodes), got {order}")
     corners = np.array(list(itertools.product((-1.0, 1.0), repeat=3)))
@@ -53,7 +70,25 @@ def natural_nodes(order: int) -> np.ndarray:
 
 
 def shape_functions(order: int, xi: np.ndarray) -> np.ndarray:
-    """(M, n_nodes) values of the shape functions at natural coordinates ``xi`` (M, 3)."""
+    """Values of the shape functions at natural coordinates ``xi``.
+
+    Parameters
+    ----------
+    order : int
+        Element order: 1, 2 or 3 (see the module docstring).
+    xi : array_like, shape (M, 3) or (3,)
+        Natural coordinates (xi, eta, zeta), in [-1, 1] inside the element.
+
+    Returns
+    -------
+    ndarray, shape (M, n_nodes)
+        Shape function of every node (order of :func:`natural_nodes`) at every point.
+
+    Raises
+    ------
+    InputError
+        If ``order`` is not 1, 2 or 3.
+    """
     nodes = natural_nodes(order)
     xi = np.atleast_2d(np.asarray(xi, dtype=float))
     x, y, z = (xi[:, k:k + 1] for k in range(3))
@@ -102,6 +137,22 @@ class ErrorMap:
     ``axes``: indices of the three linear machine axes spanned; ``fixed``: the positions of
     the other axes (SI). ``edges``: per spanned axis, the element boundaries (m).
     ``values``: (n_elements, n_nodes, 6) volumetric error at the element nodes (m, rad).
+
+    Attributes
+    ----------
+    machine : Machine
+        The machine mapped.
+    order : int
+        Element order: 1, 2 or 3 (8, 20 or 32 nodes per element).
+    axes : tuple of int (3,)
+        Indices of the three linear machine axes spanned.
+    edges : tuple of 3 ndarray
+        Per spanned axis, the element boundaries, shape (n_elements_along + 1,) [m].
+    fixed : ndarray, shape (n_axes,)
+        NC positions of all axes [m, rad]; those of the axes not spanned hold.
+    values : ndarray, shape (n_elements, n_nodes, 6)
+        Volumetric error at the element nodes: dx, dy, dz [m], rx, ry, rz [rad]. Elements
+        are numbered with the last spanned axis fastest.
     """
 
     machine: Machine
@@ -113,11 +164,34 @@ class ErrorMap:
 
     @classmethod
     def build(cls, machine: Machine, elements=(4, 4, 4), order: int = 2, config: dict | None = None) -> ErrorMap:
-        """Evaluate the model at the nodes of ``elements`` (per axis) over the travel of the
-        machine's linear axes; other axes sit at ``config`` (axis name -> SI value, default
-        the middle of their travel, or 0 for endless axes). A machine with time-,
-        temperature- or load-dependent terms is mapped in one state:
-        ``ErrorMap.build(machine.with_state(t=3600))``."""
+        """Evaluate the model at the nodes of the elements over the travel of the machine's linear axes.
+
+        A machine with time-, temperature- or load-dependent terms is mapped in one state:
+        ``ErrorMap.build(machine.with_state(t=3600))``.
+
+        Parameters
+        ----------
+        machine : Machine
+            A machine with exactly three linear axes.
+        elements : sequence of 3 int, default (4, 4, 4)
+            Elements along each linear axis.
+        order : int, default 2
+            Element order: 1, 2 or 3.
+        config : dict, optional
+            Positions of the other axes, axis name -> SI value [m, rad] (default the middle of
+            their travel, or 0 for endless axes).
+
+        Returns
+        -------
+        ErrorMap
+            The map.
+
+        Raises
+        ------
+        InputError
+            If the machine does not have exactly three linear axes, ``config`` names an unknown
+            axis, ``elements`` is not three positive integers, or ``order`` is not 1, 2 or 3.
+        """
         lin, fixed = _map_axes(machine, config, "an error map")
         elements = tuple(int(e) for e in elements)
         if len(elements) != 3 or min(elements) < 1:
@@ -136,7 +210,7 @@ class ErrorMap:
 
     @property
     def n_nodes(self) -> int:
-        """Distinct nodes (shared between elements)."""
+        """Distinct nodes (shared between elements), int."""
         pts = self._node_points().reshape(-1, 3)
         return len(np.unique(np.round(pts, 12), axis=0))
 
@@ -147,7 +221,25 @@ class ErrorMap:
         return lows[:, None, :] + (nodes[None, :, :] + 1) / 2 * sizes[:, None, :]
 
     def locate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Element index and natural coordinates of points ``x`` (M, 3) in the map's axes."""
+        """Element index and natural coordinates of points in the map's axes.
+
+        Parameters
+        ----------
+        x : array_like, shape (M, 3)
+            Positions of the three spanned axes [m].
+
+        Returns
+        -------
+        element : ndarray of int, shape (M,)
+            Element index (numbering of :attr:`values`).
+        xi : ndarray, shape (M, 3)
+            Natural coordinates in the element, in [-1, 1].
+
+        Raises
+        ------
+        InputError
+            If a point lies outside the map (beyond rounding).
+        """
         x = np.atleast_2d(np.asarray(x, dtype=float))
         idx = []
         xi = np.empty_like(x)
@@ -164,8 +256,26 @@ class ErrorMap:
         return element, xi
 
     def interpolate(self, q) -> np.ndarray:
-        """(M, 6) interpolated volumetric error at NC positions ``q`` (M, n_axes); the axes
-        outside the map must sit where the map was built."""
+        """Interpolated volumetric error at NC positions ``q``.
+
+        The axes outside the map must sit where the map was built.
+
+        Parameters
+        ----------
+        q : array_like, shape (M, n_axes)
+            NC positions [m, rad], within the travel.
+
+        Returns
+        -------
+        ndarray, shape (M, 6)
+            dx, dy, dz [m], rx, ry, rz [rad].
+
+        Raises
+        ------
+        InputError
+            If ``q`` is invalid, an axis outside the map differs from its fixed position, or a
+            point lies outside the map.
+        """
         q = self.machine.check_q(q)
         others = [j for j in range(q.shape[1]) if j not in self.axes]
         if others and not np.allclose(q[:, others], self.fixed[others], atol=1e-12):
@@ -176,8 +286,23 @@ class ErrorMap:
         return np.einsum("mn,mnc->mc", N, self.values[element])
 
     def interpolation_error(self, n: int = 2000, seed: int = 0) -> dict:
-        """Interpolated vs direct model at ``n`` seeded random points: position error of the
-        interpolation (max, RMS, um) and its share of the error itself."""
+        """Interpolated vs direct model at ``n`` seeded random points.
+
+        Parameters
+        ----------
+        n : int, default 2000
+            Number of uniformly random points in the map.
+        seed : int, default 0
+            Seed of the points.
+
+        Returns
+        -------
+        dict
+            ``order``, ``nodes_per_element``, ``elements`` (per axis), ``nodes``, ``points``,
+            ``max_um`` and ``rms_um`` (position error of the interpolation) [um],
+            ``error_rms_um`` (RMS of the position error itself) [um] and ``relative`` (the
+            interpolation's RMS over the error's RMS).
+        """
         rng = np.random.default_rng(seed)
         q = np.tile(self.fixed, (n, 1))
         for k, j in enumerate(self.axes):
@@ -197,10 +322,35 @@ def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), c
     """Write a controller compensation table (CSV) on a regular node grid.
 
     Columns: node position of the three linear axes (mm) and the correction to add to each
-    commanded axis (um for linear axes, urad for rotary ones when orientation is corrected),
-    computed by exact point compensation at the node. Between nodes a controller interpolates
-    trilinearly; the header says so. Returns a summary with the trilinear interpolation
-    error of the table against exact compensation at random points.
+    commanded axis (um for linear axes, urad for rotary ones), computed by exact point
+    compensation of positions at the node (the tool axis is not corrected). Between nodes a
+    controller interpolates trilinearly; the header says so.
+
+    Parameters
+    ----------
+    machine : Machine
+        A machine with exactly three linear axes.
+    path : str or Path
+        The CSV file to write.
+    nodes : sequence of 3 int, default (11, 11, 11)
+        Nodes along each linear axis (at least 2), ends of the travel included.
+    config : dict, optional
+        Positions of the other axes, axis name -> SI value [m, rad] (default mid travel, 0
+        for endless axes).
+
+    Returns
+    -------
+    dict
+        A summary with the trilinear interpolation error of the table against exact
+        compensation at 500 seeded random points: ``file``, ``nodes``, ``rows``,
+        ``max_correction_um``, ``trilinear_max_um``, ``residual_with_table_max_um`` and
+        ``residual_with_table_rms_um`` [um].
+
+    Raises
+    ------
+    InputError
+        If the machine does not have exactly three linear axes, ``config`` names an unknown
+        axis, or ``nodes`` is not three integers >= 2.
     """
     from .compensate import compensate_points
 
@@ -264,9 +414,27 @@ def _trilinear(grids, values, x):
 
 
 def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> list[str]:
-    """ISO 230-1-named per-axis tables: for each axis, its component errors (EXX, EYX, ...)
-    at ``points`` positions over its travel, with the other axes at mid-travel. Linear
-    errors in um, angular in urad; one CSV per axis. Returns the files written."""
+    """ISO 230-1-named per-axis tables of the component errors.
+
+    For each axis, its component errors (EXX, EYX, ...) at ``points`` positions over its
+    travel (one turn, 0 to 2 pi, for an endless axis), with the other axes at mid-travel.
+    Linear errors in um, angular in urad, positions in mm / deg; one CSV per axis that has
+    components, named ``<machine>_<axis>.csv``.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    directory : str or Path
+        Folder to write to (created if missing).
+    points : int, default 21
+        Positions per axis, ends included.
+
+    Returns
+    -------
+    list of str
+        The files written.
+    """
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     travel = machine.travel

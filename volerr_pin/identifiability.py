@@ -17,7 +17,22 @@ import numpy as np
 
 @dataclass(frozen=True)
 class IdentifiabilityGroup:
-    """Coefficients that the data cannot separate, and why."""
+    """Coefficients that the data cannot separate, and why.
+
+    Attributes
+    ----------
+    kind : str
+        "zero", "collinear" or "combination".
+    parameters : tuple of str
+        Column names: for "collinear" the representative (kept) column first, for
+        "combination" the dependent column first, then the kept columns it combines.
+    factors : tuple of float
+        One per parameter, in the columns' own units: (1.0,) for "zero"; for "collinear"
+        each column is its factor times the first's; for "combination" 1.0 and the negated
+        factors of :func:`analyse`, so that the weighted sum of the columns has no effect.
+    reason : str
+        The reason, in words.
+    """
 
     kind: str              # "zero", "collinear" or "combination"
     parameters: tuple[str, ...]
@@ -25,6 +40,13 @@ class IdentifiabilityGroup:
     reason: str
 
     def to_dict(self) -> dict:
+        """The group as JSON fields.
+
+        Returns
+        -------
+        dict
+            ``kind``, ``parameters`` (list), ``factors`` (list) and ``reason``.
+        """
         return {"kind": self.kind, "parameters": list(self.parameters),
                 "factors": list(self.factors), "reason": self.reason}
 
@@ -37,6 +59,21 @@ class Analysis:
     column order); ``dependent``: the others; ``groups``: why each dependent column is
     dependent; ``rank``: numerical rank; ``condition``: condition number of the kept,
     column-scaled matrix (2-norm); ``singular_values`` of that matrix.
+
+    Attributes
+    ----------
+    kept : tuple of int
+        Indices of an independent set of columns.
+    dependent : tuple of int
+        The other columns, sorted.
+    groups : tuple of IdentifiabilityGroup
+        Why each dependent column is dependent.
+    rank : int
+        Numerical rank (number of kept columns).
+    condition : float
+        Condition number of the kept, column-scaled matrix (inf when none is kept).
+    singular_values : ndarray, shape (rank,)
+        Singular values of that matrix, largest first.
     """
 
     kept: tuple[int, ...]
@@ -61,6 +98,27 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
     ``typical`` (one per column, default 1) is a typical size of each coefficient: the zero
     test compares the effects of typical changes (column norm x typical size), so a time
     constant in seconds, whose effect per second is tiny, is not taken for no effect.
+
+    Parameters
+    ----------
+    A : array_like, shape (rows, n)
+        Sensitivity matrix, one column per parameter.
+    names : sequence of str
+        Name of every column (n).
+    protected : int, default 0
+        The first ``protected`` columns (nuisance parameters) are considered first, so the
+        parameters they absorb are the ones reported.
+    rtol : float, default 1e-9
+        Relative tolerance of the tests.
+    what : str, default "the measured quantities"
+        What the rows measure, for the reasons.
+    typical : array_like, shape (n,), optional
+        Typical size of each coefficient, in its unit.
+
+    Returns
+    -------
+    Analysis
+        The kept and dependent columns, the groups, the rank and the conditioning.
     """
     A = np.asarray(A, dtype=float)
     names = list(names)

@@ -39,10 +39,37 @@ DIRECTION_INDEX = {d: i for i, d in enumerate("XYZABC")}
 class Observations:
     """Weighted observations of a machine's error, ready for the solver (SI).
 
-    ``q`` (N, n_axes) and ``covariates`` per point; one row per observation with its point
-    ``point``, 6-vector ``w`` (prediction ``w . e(q_point)``), value ``y``, standard deviation
-    ``sigma``, ``angular`` flag, and the nuisance design ``nuisance`` (rows x n_nuisance)
-    with names ``nuisance_names``; ``sources`` and ``lines`` say where each row came from.
+    ``q`` and ``covariates`` per point; one row per observation with its point ``point``,
+    6-vector ``w`` (prediction ``w . e(q_point)``), value ``y``, standard deviation ``sigma``,
+    ``angular`` flag, and the nuisance design ``nuisance`` with names ``nuisance_names``;
+    ``sources`` and ``lines`` say where each row came from.
+
+    Attributes
+    ----------
+    q : ndarray, shape (N, n_axes)
+        NC positions of the points [m, rad].
+    covariates : dict
+        Keyword covariates of the points for :meth:`Machine.volumetric_error` (``t`` (N,) [s],
+        ``temperatures`` {sensor: (N,)} [degC], ``forces`` (N, 3) [N], ``directions`` (N, n_axes)).
+    point : ndarray of int, shape (rows,)
+        The point each observation row belongs to.
+    w : ndarray, shape (rows, 6)
+        Weights of the error components dx, dy, dz, rx, ry, rz in each observation.
+    y : ndarray, shape (rows,)
+        Observed values [m or rad].
+    sigma : ndarray, shape (rows,)
+        Standard deviations of the observations [m or rad].
+    angular : ndarray of bool, shape (rows,)
+        True for rotation observations (rad), False for position ones (m).
+    nuisance : ndarray, shape (rows, n_nuisance)
+        Design of the nuisance terms (instrument zero, alignment slope, tracker placement,
+        ballbar set-up).
+    nuisance_names : list of str
+        Names of the nuisance columns (e.g. ``offset[positioning run FILE]``).
+    sources : list of str
+        File of each row.
+    lines : ndarray, shape (rows,)
+        File line (or sample index) of each row.
     """
 
     q: np.ndarray
@@ -59,10 +86,22 @@ class Observations:
 
     @property
     def n_points(self) -> int:
+        """Number of points (rows of ``q``), int."""
         return len(self.q)
 
     def subset(self, points: np.ndarray) -> "Observations":
-        """The observations of the given points (nuisance columns kept)."""
+        """The observations of the given points (nuisance columns kept).
+
+        Parameters
+        ----------
+        points : ndarray of int, shape (M,)
+            Indices of the points to keep, in the order the new points take.
+
+        Returns
+        -------
+        Observations
+            The rows of those points, with ``point`` renumbered to 0..M-1.
+        """
         keep = np.isin(self.point, points)
         remap = -np.ones(self.n_points, dtype=int)
         remap[points] = np.arange(len(points))
@@ -83,13 +122,47 @@ def _take_covariates(cov: dict, idx) -> dict:
 def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_urad: float = 1.0,
                        run_axis: str | None = None, run_at: dict[str, float] | None = None
                        ) -> Observations:
-    """Turn measurement objects (:class:`PointMeasurements`, :class:`Runs`) into observations.
+    """Turn measurement objects into observations.
 
-    Runs: the moving axis is the run's (or ``run_axis``); the other axes stand at the
-    run's ``# at:`` positions, ``run_at`` (mm / deg), or mid travel (rotary axes at 0).
-    A positioning run observes the error along the axis' own motion; a component run the
-    component's direction. Every run file gets an offset (the instrument zero); straightness
-    runs also a slope (the reference line's alignment).
+    Point measurements observe each measured deviation direction. Runs: the moving axis is
+    the run's (or ``run_axis``); the other axes stand at the run's ``# at:`` positions,
+    ``run_at`` (mm / deg), or mid travel (rotary axes at 0). A positioning run observes the
+    error along the axis' own motion; a component run the component's direction. Every run
+    file gets an offset (the instrument zero); straightness runs also a slope (the reference
+    line's alignment). A tracker file gets six nuisance terms (a small translation and
+    rotation of the tracker), a ballbar file three (the set-up's centre offset along both
+    plane axes and the bar's length error).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine observed.
+    data : iterable
+        :class:`~volerr_pin.measurements.PointMeasurements`, :class:`~volerr_pin.measurements.Runs`,
+        :class:`~volerr_pin.tracker.TrackerMeasurements` and
+        :class:`~volerr_pin.ballbar.BallbarRun` objects.
+    sigma_um : float, default 1.0
+        Standard deviation of position observations [um].
+    sigma_urad : float, default 1.0
+        Standard deviation of rotation observations [urad].
+    run_axis : str, optional
+        Moving axis of runs that do not name it.
+    run_at : dict of str to float, optional
+        Positions of the other axes during runs [mm, deg]; overrides the files' ``# at:``.
+
+    Returns
+    -------
+    Observations
+        The stacked observations; covariates given by some files only are merged (see the
+        warnings and errors below).
+
+    Raises
+    ------
+    InputError
+        If a run's axis is unknown or not given, its target unit does not fit the axis kind,
+        its positions leave the travel, a component run belongs to another axis, an object
+        is of an unknown type, there are no observations, or a covariate the model reads is
+        missing from some files.
     """
     q_list, cov_list, rows = [], [], []
     nuisance_names: list[str] = []
@@ -242,7 +315,51 @@ def _merge_covariates(parts: list[dict], sizes: list[int], machine: Machine) -> 
 
 @dataclass
 class Identification:
-    """Result of :func:`identify`; :meth:`to_dict` gives the JSON report (docs/reports.md)."""
+    """Result of :func:`identify`; :meth:`to_dict` gives the JSON report (docs/reports.md).
+
+    Attributes
+    ----------
+    machine : Machine
+        The machine with the fitted coefficients.
+    prior : Machine
+        The machine as given (prior values).
+    free : ndarray of int
+        Indices (into theta) of the coefficients that were free to move.
+    analysis : Analysis
+        Identifiability of the columns [nuisance | free coefficients].
+    fitted : ndarray of int
+        Indices (into theta) actually fitted.
+    held : ndarray of int
+        Free but unidentifiable: held at prior (or min-norm).
+    uncertainty : ndarray, shape (P,)
+        Standard uncertainties (SI unit of each coefficient), NaN where not fitted.
+    nuisance : dict of str to float
+        Fitted nuisance values (SI: m or rad).
+    rms_fit_um : float
+        RMS over points of the position residual norm [um] (0.0 without position rows).
+    rms_fit_urad : float or None
+        Same for the rotation residual [urad]; None without rotation rows.
+    rms_holdout_um : float or None
+        Held-out RMS of the position residual [um]; None without cross-validation.
+    holdout : str
+        How the held-out RMS was obtained (or why not).
+    n_points : int
+        Number of points.
+    n_observations : int
+        Number of observation rows.
+    iterations : int
+        Gauss-Newton iterations.
+    convention : str
+        "prior" or "min-norm".
+    residual_sigma : float
+        Weighted residual standard deviation (1 = as stated); NaN without degrees of freedom.
+    groups : list of IdentifiabilityGroup
+        The unidentifiable groups.
+    angular_nuisance : frozenset of str
+        Names of the nuisance terms in rad (reported in urad).
+    solver : str
+        "converged", "stalled" or "iteration limit" (see :attr:`solver_text`).
+    """
 
     machine: Machine                  # with the fitted coefficients
     prior: Machine
@@ -267,16 +384,30 @@ class Identification:
 
     @property
     def converged(self) -> bool:
+        """True when the solver converged (bool)."""
         return self.solver == "converged"
 
     @property
     def solver_text(self) -> str:
+        """The solver status in words, for reports (str)."""
         return {"converged": "converged",
                 "stalled": "stalled (no step lowered the residual the linearised model said it would: "
                            "far from linear here, or ill-conditioned)",
                 "iteration limit": "stopped at the iteration limit before converging"}[self.solver]
 
     def to_dict(self) -> dict:
+        """The JSON report (docs/reports.md).
+
+        Returns
+        -------
+        dict
+            ``machine``, ``n_points``, ``n_observations``, ``rank``, ``n_parameters``,
+            ``condition_number``, ``unidentifiable``, ``convention``, ``solver``,
+            ``rms_fit_um``, ``rms_fit_urad``, ``rms_holdout_um``, ``holdout``,
+            ``residual_sigma``, ``iterations``, ``nuisance`` (value in um or urad, with its
+            ``unit``) and ``parameters``: per coefficient its ``value``, ``prior`` and
+            ``uncertainty`` in the spec's display unit, the ``unit`` and a ``status``.
+        """
         m, prior = self.machine, self.prior
         params = {}
         units = parameter_units(m)
@@ -318,15 +449,46 @@ def _undetermined_limit(machine: Machine, k: int) -> float:
 
 
 def parameter_units(machine: Machine) -> dict[str, tuple[float, str]]:
-    """Coefficient name -> (SI per display unit, display unit), the spec's units."""
+    """Coefficient name -> (SI per display unit, display unit), the spec's units.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+
+    Returns
+    -------
+    dict of str to tuple of (float, str)
+        For every coefficient name, the SI value of one display unit and the unit's name.
+    """
     return {name: unit for comp in machine.spec.components for tspec in comp.terms
             for name, unit in zip(tspec.names(comp.name), tspec.term.coefficient_units())}
 
 
 def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray, free: np.ndarray,
             first_order: bool = False):
-    """Prediction of every observation row and its Jacobian w.r.t. the ``free`` coefficients
-    (``first_order``: the Jacobian of the first-order model, where dependencies are exact)."""
+    """Prediction of every observation row and its Jacobian with respect to the free coefficients.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    obs : Observations
+        The observations.
+    theta : ndarray, shape (P,)
+        Coefficients (SI).
+    free : ndarray of int, shape (F,)
+        Indices of the coefficients to differentiate by.
+    first_order : bool, default False
+        The Jacobian of the first-order model, where dependencies are exact.
+
+    Returns
+    -------
+    pred : ndarray, shape (rows,)
+        ``w . e(q_point)`` of every row [m or rad] (without the nuisance terms).
+    A : ndarray, shape (rows, F)
+        d pred / d theta[free] [m or rad per SI unit of the coefficient].
+    """
     error = machine.volumetric_error(obs.q, theta, **obs.covariates)
     S = machine.sensitivity(obs.q, theta, parameters=free, first_order=first_order, **obs.covariates)
     pred = np.einsum("rk,rk->r", obs.w, error[obs.point])
@@ -364,7 +526,8 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
     period non-positive;
     returns theta, nuisance, J, r, iterations, status: "converged" (the linearised model cannot
     lower the residual; a full Gauss-Newton step, or three damped ones running, lower the
-    weighted RSS by less than 0.001 or 1e-10 of itself; or the step is below ``tol``), "stalled" (no step, however damped, lowers the residual although the linearised model
+    weighted RSS by less than 0.001 or 1e-10 of itself; or the step is below ``tol``),
+    "stalled" (no step, however damped, lowers the residual although the linearised model
     says one should: the model is far from linear there, or badly conditioned) or "iteration limit"."""
     theta = theta0.copy()
     n_nu = obs.nuisance.shape[1]
@@ -441,20 +604,36 @@ def point_squares(point: np.ndarray, residual: np.ndarray) -> np.ndarray:
     point : ndarray of int, shape (rows,)
         The point each observation row belongs to (:attr:`Observations.point`).
     residual : ndarray, shape (rows,)
-        Residual of each row (components of one point add up to its squared norm).
+        Residual of each row (components of one point add up to its squared norm), in any
+        unit.
 
     Returns
     -------
     ndarray, shape (points with rows,)
-        Sum of the squared residuals of each point's rows, in the order of the points.
+        Sum of the squared residuals of each point's rows, in the order of the points
+        (unit of ``residual`` squared).
     """
     used, index = np.unique(point, return_inverse=True)
     return np.bincount(index, residual ** 2, minlength=used.size)
 
 
 def residual_rms(obs: Observations, residual_si: np.ndarray, angular: bool = False) -> float | None:
-    """RMS over points of the norm of the position residual [um] (``angular``: of the
-    rotation residual [urad]); None without such rows. ``residual_si`` has shape (rows,)."""
+    """RMS over points of the norm of the position (or rotation) residual.
+
+    Parameters
+    ----------
+    obs : Observations
+        The observations.
+    residual_si : ndarray, shape (rows,)
+        Residual of every row [m or rad].
+    angular : bool, default False
+        Use the rotation rows [urad] instead of the position rows [um].
+
+    Returns
+    -------
+    float or None
+        The RMS [um] (``angular``: [urad]); None without such rows.
+    """
     rows = obs.angular == angular
     if not rows.any():
         return None
@@ -470,25 +649,59 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
 
     Parameters
     ----------
-    data : list of PointMeasurements / Runs, or an :class:`Observations`
+    machine : Machine
+        The machine: its coefficients are the prior and the start values.
+    data : list of measurement objects, or an :class:`Observations`
+        Measurement objects as :func:`build_observations` takes them (point measurements,
+        runs, tracker, ballbar), or observations built already.
     terms : list of component names, optional
         Components whose coefficients may move (default: all); the rest stay as given.
     free : array of coefficient indices, optional
         The coefficients that may move, one by one (overrides ``terms``).
     convention : "prior" or "min-norm"
         What to do with what the data cannot determine (see the module docstring).
-    folds, holdout : int, float
+    folds : int, default 5
         k-fold cross-validation over poses (``folds`` >= 2; the points at one pose are held
-        out together), or one random split keeping the fraction ``holdout`` of the poses out
-        (overrides ``folds``); ``folds=0`` skips it.
-    sigma_um, sigma_urad : float
-        Standard deviations of position and rotation observations (weights).
+        out together); ``folds=0`` skips it.
+    holdout : float, optional
+        One random split keeping the fraction ``holdout`` (0 to 1) of the poses out
+        (overrides ``folds``).
+    seed : int, default 0
+        Seed of the cross-validation's shuffling of the poses.
+    max_iter : int, default 50
+        Gauss-Newton iteration limit.
+    tol : float, default 1e-8
+        Convergence threshold on the largest component of a full Gauss-Newton step, in units of
+        the observations' standard deviations (column-scaled).
+    sigma_um : float, default 1.0
+        Standard deviation of position observations [um] (weights); only when ``data`` is
+        not an :class:`Observations`.
+    sigma_urad : float, default 1.0
+        Standard deviation of rotation observations [urad] (weights); likewise.
+    run_axis : str, optional
+        Moving axis of runs that do not name it (see :func:`build_observations`).
+    run_at : dict, optional
+        Positions of the other axes during runs [mm, deg] (see :func:`build_observations`).
+    rtol : float, default 1e-9
+        Relative tolerance of the identifiability tests (:func:`~volerr_pin.identifiability.analyse`).
     progress : callable(str, int), optional
         Called with a stage name and a step count, for progress bars.
-    initialise : bool
+    initialise : bool, default True
         Start the non-linear coefficients (time constants, periods) from a grid search
         (default); False starts them from the machine's values, for callers that already
         have good ones.
+
+    Returns
+    -------
+    Identification
+        The fitted machine, the identifiability analysis, uncertainties, residual RMS values
+        and the held-out RMS.
+
+    Raises
+    ------
+    InputError
+        If ``convention`` or ``holdout`` is invalid, ``terms`` names an unknown component,
+        there is nothing to fit, or the data are invalid (see :func:`build_observations`).
     """
     if convention not in ("prior", "min-norm"):
         raise InputError(f"convention must be 'prior' or 'min-norm', got {convention!r}")
@@ -616,9 +829,24 @@ def _poses(obs: Observations, seed: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def pose_folds(obs: Observations, folds: int, seed: int) -> list[np.ndarray] | None:
-    """``folds`` groups of point indices for cross-validation, keeping the points at one pose
-    in one group - a held-out pose must not be half in the fit. None when there are fewer
-    than 2 x ``folds`` poses."""
+    """Groups of point indices for cross-validation, keeping the points at one pose in one group.
+
+    A held-out pose must not be half in the fit.
+
+    Parameters
+    ----------
+    obs : Observations
+        The observations (poses: points with the same positions, to 1e-12).
+    folds : int
+        Number of groups.
+    seed : int
+        Seed of the shuffling of the poses.
+
+    Returns
+    -------
+    list of ndarray of int, or None
+        ``folds`` arrays of point indices; None when there are fewer than 2 x ``folds`` poses.
+    """
     group, order = _poses(obs, seed)
     if len(order) < 2 * folds:
         return None

@@ -22,13 +22,17 @@ from .measurements import Runs
 def evaluate(targets, directions, deviations, unit: str = "um", source: str = "") -> dict:
     """ISO 230-2 parameters of a positioning run.
 
+    Targets are grouped to 1e-9 (of their unit).
+
     Parameters
     ----------
-    targets, directions, deviations : (N,) arrays
+    targets, directions, deviations : array_like, shape (N,)
         Target position, approach direction (+1 / -1) and deviation (actual - target) of
         every approach, in any consistent units.
-    unit : str
+    unit : str, default "um"
         Unit of the deviations, reported back.
+    source : str, optional
+        File name prefixed to error messages.
 
     Returns
     -------
@@ -37,7 +41,13 @@ def evaluate(targets, directions, deviations, unit: str = "um", source: str = ""
         ``M``, ``R``, ``R_up``, ``R_down`` (bidirectional values are None for a
         unidirectional run), ``bidirectional``, ``n_targets`` and ``positions``: per target
         ``target``, ``n_up``, ``n_down``, ``mean_up``, ``mean_down``, ``mean``, ``s_up``,
-        ``s_down``, ``B``, ``R_up``, ``R_down``, ``R``.
+        ``s_down``, ``B``, ``R_up``, ``R_down``, ``R``. Values in the unit of the deviations.
+
+    Raises
+    ------
+    InputError
+        If the arrays are not 1-D of one length, a direction is not +1 or -1, or a target has
+        fewer than 2 approaches in a direction that is run.
     """
     targets = np.asarray(targets, dtype=float)
     directions = np.asarray(directions, dtype=float)
@@ -108,7 +118,23 @@ def evaluate(targets, directions, deviations, unit: str = "um", source: str = ""
 
 
 def evaluate_runs(runs: Runs) -> dict:
-    """:func:`evaluate` on a positioning-run file (values in the file's units)."""
+    """:func:`evaluate` on a positioning-run file (values in the file's units).
+
+    Parameters
+    ----------
+    runs : Runs
+        A positioning run (no component).
+
+    Returns
+    -------
+    dict
+        The fields of :func:`evaluate` plus ``target_unit``, ``source`` and ``n_cycles``.
+
+    Raises
+    ------
+    InputError
+        If ``runs`` is a component run, or as :func:`evaluate`.
+    """
     if runs.component is not None:
         raise InputError(f"{runs.source}: this is a {runs.component} run; ISO 230-2 evaluates "
                          "positioning runs (column deviation_um or deviation_arcsec)")

@@ -50,8 +50,35 @@ class Chain:
     """A serial chain ``T = prod_k (C_k * Motion_k(sign_k * v[col_k])) * C_end``.
 
     Arrays have one row per operation; ``is_error`` marks the error joints, which the
-    nominal pose skips. ``v`` is a (N, nv) array of Pinocchio joint velocities-space
-    values (one per 1-DoF joint).
+    nominal pose skips. ``v`` holds Pinocchio joint velocity-space values (one per 1-DoF
+    joint); the functions of this module take them as ``values`` of shape (nv, N), one row per
+    joint, points contiguous.
+
+    Attributes
+    ----------
+    C_R : ndarray, shape (K, 3, 3)
+        Rotation of the constant placement before each operation.
+    C_p : ndarray, shape (K, 3)
+        Translation of the constant placement before each operation [m].
+    C_identity : ndarray of bool, shape (K,)
+        Whether that placement is the identity (then it is skipped).
+    kind : ndarray of int64, shape (K,)
+        Motion kind of each operation: ``PX``, ``PY``, ``PZ`` (translation along a frame axis),
+        ``RX``, ``RY``, ``RZ`` (rotation about one), ``PG`` / ``RG`` (along / about a general axis).
+    axis : ndarray, shape (K, 3)
+        Unit motion axis of each operation.
+    col : ndarray of int64, shape (K,)
+        Row of ``values`` (Pinocchio velocity index) that drives each operation.
+    sign : ndarray, shape (K,)
+        +1 for joints on the tool branch, -1 for inverted joints on the workpiece branch.
+    is_error : ndarray of bool, shape (K,)
+        True for error joints.
+    end_R : ndarray, shape (1, 3, 3)
+        Rotation of the closing placement to the tool frame.
+    end_p : ndarray, shape (1, 3)
+        Translation of the closing placement to the tool frame [m].
+    joints : tuple of int
+        Pinocchio joint id of each operation.
     """
 
     C_R: np.ndarray
@@ -113,7 +140,33 @@ def _joint_path(model: pin.Model, joint: int) -> list[int]:
 
 def build_chain(model: pin.Model, tool_frame: str, workpiece_frame: str,
                 error_joints: set[int]) -> Chain:
-    """Flatten the model into the relative chain workpiece -> tool."""
+    """Flatten the model into the relative chain workpiece -> tool.
+
+    Up the workpiece branch through inverted joints (nearest the workpiece frame first), then
+    down the tool branch through ordinary ones, with the model's own joint placements and
+    motion axes.
+
+    Parameters
+    ----------
+    model : pinocchio.Model
+        The model (with error joints).
+    tool_frame : str
+        Name of the tool frame in the model.
+    workpiece_frame : str
+        Name of the workpiece frame in the model.
+    error_joints : set of int
+        Pinocchio joint ids of the error joints (marked ``is_error``).
+
+    Returns
+    -------
+    Chain
+        The relative chain.
+
+    Raises
+    ------
+    SpecError
+        If a joint between the two frames does not have exactly one degree of freedom.
+    """
     ft = model.frames[model.getFrameId(tool_frame)]
     fw = model.frames[model.getFrameId(workpiece_frame)]
     tool_path = _joint_path(model, ft.parentJoint)
@@ -427,9 +480,30 @@ def _sensitivity(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R,
 
 def error_sensitivity(chain: Chain, values: np.ndarray, basis: np.ndarray, pcol: np.ndarray,
                       out: np.ndarray | None = None) -> np.ndarray:
-    """(N, 6, P) derivative of the 6-component error w.r.t. coefficients whose joint column is
-    ``pcol`` and whose d(joint value)/d(coefficient) is ``basis`` (N, P); ``values`` (nv, N).
-    ``out``, if given, is a C-contiguous (N, 6, P) array to fill."""
+    """Derivative of the 6-component error with respect to coefficients.
+
+    Each coefficient p drives the joint value of row ``pcol[p]`` with derivative
+    ``basis[:, p]``; the rotation rows go through the inverse left Jacobian of the
+    rotation-vector error.
+
+    Parameters
+    ----------
+    chain : Chain
+        The relative chain.
+    values : ndarray, shape (nv, N)
+        Joint values [m, rad], one row per joint.
+    basis : ndarray, shape (N, P)
+        d(joint value) / d(coefficient) at each point [m or rad per SI unit of the coefficient].
+    pcol : ndarray of int64, shape (P,)
+        The joint row of each coefficient.
+    out : ndarray, shape (N, 6, P), optional
+        A C-contiguous array to fill.
+
+    Returns
+    -------
+    ndarray, shape (N, 6, P)
+        dx, dy, dz [m] and rx, ry, rz [rad] per SI unit of each coefficient (``out`` if given).
+    """
     values = np.ascontiguousarray(values, dtype=float)
     phi = pose_error(chain, values, None)[:, 3:]
     Jl = np.ascontiguousarray(log3_left_jacobian_inverse(phi))
@@ -441,9 +515,25 @@ def error_sensitivity(chain: Chain, values: np.ndarray, basis: np.ndarray, pcol:
 
 def joint_jacobian(chain: Chain, values: np.ndarray, nv: int, nominal: bool = False
                    ) -> np.ndarray:
-    """(N, 6, nv) derivative of the tool pose in the workpiece frame w.r.t. the joint values:
-    rows 0-2 the tool point's velocity, rows 3-5 the angular velocity (workpiece axes).
-    ``values`` is (nv, N); ``nominal`` evaluates at zero error-joint values."""
+    """Derivative of the tool pose in the workpiece frame with respect to the joint values.
+
+    Parameters
+    ----------
+    chain : Chain
+        The relative chain.
+    values : ndarray, shape (nv, N)
+        Joint values [m, rad], one row per joint.
+    nv : int
+        Number of joint values (columns of the result).
+    nominal : bool, default False
+        Evaluate at zero error-joint values.
+
+    Returns
+    -------
+    ndarray, shape (N, 6, nv)
+        Rows 0-2 the tool point's velocity [m per m or rad], rows 3-5 the angular velocity
+        [rad per m or rad], both in workpiece axes; columns of joints not on the chain are 0.
+    """
     values = np.ascontiguousarray(values, dtype=float)
     out = np.empty((values.shape[1], 6, nv))
     _jacobian(values, *_args(chain), nominal, out)
@@ -451,8 +541,18 @@ def joint_jacobian(chain: Chain, values: np.ndarray, nv: int, nominal: bool = Fa
 
 
 def log3_left_jacobian_inverse(phi: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) inverse left Jacobian of SO(3) at rotation vectors ``phi`` (N, 3):
-    d log(exp(dw) exp(phi)) = Jl^-1(phi) dw."""
+    """Inverse left Jacobian of SO(3) at rotation vectors: d log(exp(dw) exp(phi)) = Jl^-1(phi) dw.
+
+    Parameters
+    ----------
+    phi : ndarray, shape (N, 3)
+        Rotation vectors [rad].
+
+    Returns
+    -------
+    ndarray, shape (N, 3, 3)
+        Jl^-1(phi) for each point (a series below 1e-4 rad).
+    """
     theta = np.linalg.norm(phi, axis=1)
     K = np.zeros((len(phi), 3, 3))
     K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -phi[:, 2], phi[:, 1], -phi[:, 0]
@@ -471,11 +571,24 @@ def _args(chain: Chain):
 
 def pose_error(chain: Chain, values: np.ndarray, order: int | None = None,
                out: np.ndarray | None = None) -> np.ndarray:
-    """(N, 6) error of the tool relative to the workpiece: dx, dy, dz [m], rx, ry, rz [rad].
+    """Error of the tool relative to the workpiece: dx, dy, dz [m], rx, ry, rz [rad].
 
-    ``values``: (nv, N) Pinocchio joint values, one row per joint (points contiguous).
-    ``order=None`` is exact (rotation vector of R_actual R_nominal^T); ``order=1`` is the
-    first-order (linearised) error.
+    Parameters
+    ----------
+    chain : Chain
+        The relative chain.
+    values : ndarray, shape (nv, N)
+        Pinocchio joint values [m, rad], one row per joint (points contiguous).
+    order : None or int, optional
+        None is exact (rotation vector of R_actual R_nominal^T); any other value (``order=1``)
+        the first-order (linearised) error.
+    out : ndarray, shape (N, 6), optional
+        An array to fill.
+
+    Returns
+    -------
+    ndarray, shape (N, 6)
+        Actual minus nominal pose of the tool frame, in the workpiece frame (``out`` if given).
     """
     kernel = _exact_error if order is None else _first_order_error
     values = np.ascontiguousarray(values, dtype=float)
@@ -487,8 +600,24 @@ def pose_error(chain: Chain, values: np.ndarray, order: int | None = None,
 
 def relative_poses(chain: Chain, values: np.ndarray, with_errors: bool = True
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 3, 3) rotations and (N, 3) positions of the tool frame in the workpiece frame,
-    from (nv, N) joint values."""
+    """Poses of the tool frame in the workpiece frame.
+
+    Parameters
+    ----------
+    chain : Chain
+        The relative chain.
+    values : ndarray, shape (nv, N)
+        Joint values [m, rad], one row per joint.
+    with_errors : bool, default True
+        Include the error joints (False: the nominal pose).
+
+    Returns
+    -------
+    R : ndarray, shape (N, 3, 3)
+        Rotations.
+    p : ndarray, shape (N, 3)
+        Positions [m].
+    """
     values = np.ascontiguousarray(values, dtype=float)
     out_R = np.empty((values.shape[1], 3, 3))
     out_p = np.empty((values.shape[1], 3))
@@ -497,7 +626,20 @@ def relative_poses(chain: Chain, values: np.ndarray, with_errors: bool = True
 
 
 def pinocchio_configuration(model: pin.Model, values: np.ndarray) -> np.ndarray:
-    """(N, nq) Pinocchio configurations from (N, nv) joint values (cos/sin for unbounded joints)."""
+    """Pinocchio configurations from joint values (cos/sin for unbounded joints).
+
+    Parameters
+    ----------
+    model : pinocchio.Model
+        The model.
+    values : ndarray, shape (N, nv) or (nv,)
+        Joint values [m, rad], one row per point.
+
+    Returns
+    -------
+    ndarray, shape (N, nq)
+        Configurations: the neutral configuration with every 1-DoF joint set.
+    """
     values = np.atleast_2d(values)
     q = np.tile(pin.neutral(model), (values.shape[0], 1))
     for j in range(1, model.njoints):
@@ -511,7 +653,24 @@ def pinocchio_configuration(model: pin.Model, values: np.ndarray) -> np.ndarray:
 
 def relative_pose_pinocchio(model: pin.Model, tool_frame: str, workpiece_frame: str,
                             configuration: np.ndarray) -> pin.SE3:
-    """Reference: the tool frame in the workpiece frame by Pinocchio, for one configuration."""
+    """Reference: the tool frame in the workpiece frame by Pinocchio, for one configuration.
+
+    Parameters
+    ----------
+    model : pinocchio.Model
+        The model.
+    tool_frame : str
+        Name of the tool frame.
+    workpiece_frame : str
+        Name of the workpiece frame.
+    configuration : ndarray, shape (nq,)
+        One Pinocchio configuration.
+
+    Returns
+    -------
+    pinocchio.SE3
+        Pose of the tool frame in the workpiece frame (translation in m).
+    """
     data = model.createData()
     pin.framesForwardKinematics(model, data, configuration)
     oMt = data.oMf[model.getFrameId(tool_frame)]

@@ -22,7 +22,15 @@ SPEC_FILE = "errors.toml"
 
 
 def machines_dir() -> Path:
-    """Folder of the bundled machines (``VOLERR_MACHINES`` overrides it)."""
+    """Folder of the bundled machines (``VOLERR_MACHINES`` overrides it).
+
+    Returns
+    -------
+    Path
+        The ``VOLERR_MACHINES`` environment variable when it is set (whether or not the folder
+        exists); otherwise the first existing folder of ``machines/`` beside the package and
+        ``machines/`` inside it; otherwise ``machines/`` beside the package.
+    """
     env = os.environ.get("VOLERR_MACHINES")
     if env:
         return Path(env)
@@ -34,7 +42,14 @@ def machines_dir() -> Path:
 
 
 def bundled_machines() -> list[str]:
-    """Names of the machines shipped with volerr_pin."""
+    """Names of the machines shipped with volerr_pin.
+
+    Returns
+    -------
+    list of str
+        Sorted names of the sub-folders of :func:`machines_dir` that hold an ``errors.toml``;
+        empty when that folder does not exist.
+    """
     root = machines_dir()
     return sorted(p.name for p in root.iterdir() if (p / SPEC_FILE).is_file()) if root.is_dir() else []
 
@@ -54,6 +69,33 @@ class Machine:
 
     Immutable: ``theta`` returns a copy, :meth:`with_theta` returns a new machine.
     Build it with :func:`load_machine`.
+
+    The constructor injects a group of six error joints (translations X, Y, Z, then rotations
+    A, B, C) for every owner of location errors (before the owner's joint), every axis (after
+    its joint when the axis' errors frame is "moving", before it when "fixed") and every body
+    (after its joint); builds the Pinocchio model of the injected URDF; and flattens it into
+    the relative chain from the workpiece frame to the tool frame (:mod:`volerr_pin.kinematics`).
+
+    Everything is SI: NC positions ``q`` in m (linear axes) and rad (rotary axes), errors in m
+    and rad, coefficients ``theta`` in the SI unit of each coefficient, covariates in s, degC,
+    N and +1/-1.
+
+    Parameters
+    ----------
+    spec : MachineSpec
+        The error specification: axes, bodies, tool and workpiece frames, components and
+        their terms with their coefficient values.
+    urdf : URDF
+        The nominal URDF the spec refers to.
+
+    Raises
+    ------
+    SpecError
+        If an injected joint or link name already exists in the URDF, the tool or workpiece
+        frame is not in the model, a joint between them is not 1-DoF, or an axis, error site
+        or component does not lie between the workpiece frame and the tool frame.
+    URDFError
+        If Pinocchio cannot build the model.
     """
 
     def __init__(self, spec: MachineSpec, urdf: URDF):
@@ -140,44 +182,63 @@ class Machine:
     # ------------------------------------------------------------------ description
     @property
     def name(self) -> str:
+        """The machine's name, from its spec (str)."""
         return self._spec.name
 
     @property
     def spec(self) -> MachineSpec:
+        """The error specification (:class:`~volerr_pin.spec.MachineSpec`) the machine was built from."""
         return self._spec
 
     @property
     def axes(self) -> tuple[str, ...]:
-        """Axis names in the order of the columns of ``q``."""
+        """Axis names in the order of the columns of ``q`` (tuple of str)."""
         return tuple(a.name for a in self._spec.axes)
 
     @property
     def axis_kinds(self) -> tuple[str, ...]:
-        """"linear" or "rotary" per axis (SI unit m or rad)."""
+        """Kind of each axis, "linear" (a prismatic joint, SI unit m) or "rotary" (SI unit rad)."""
         return tuple("linear" if self._urdf.joints[a.joint].type == "prismatic" else "rotary"
                      for a in self._spec.axes)
 
     @property
     def travel(self) -> np.ndarray:
-        """(n_axes, 2) lower and upper NC travel, m or rad."""
+        """Lower and upper NC travel of each axis, ndarray of shape (n_axes, 2) [m, rad], a copy.
+
+        From the joint limits and the axis sign; an endless (continuous) axis has (-inf, inf).
+        """
         return self._travel.copy()
 
     @property
     def mid_travel(self) -> np.ndarray:
-        """(n_axes,) the middle of each axis' travel (0 for an endless axis)."""
+        """The middle of each axis' travel, ndarray of shape (n_axes,) [m, rad]; 0 for an endless axis."""
         t = self._travel
         return np.where(np.isfinite(t).all(axis=1), t.mean(axis=1), 0.0)
 
     def outside_travel(self, q: np.ndarray) -> np.ndarray:
-        """(N, n_axes) bool: where ``q`` (N, n_axes) leaves the travel by more than rounding
-        (1e-9 of the span, at least 1e-9 m or rad)."""
+        """Where positions leave the travel by more than rounding.
+
+        Parameters
+        ----------
+        q : ndarray, shape (N, n_axes)
+            NC positions [m, rad] (not converted or checked).
+
+        Returns
+        -------
+        ndarray of bool, shape (N, n_axes)
+            True where ``q`` is below the lower or above the upper travel by more than 1e-9 of the
+            span (at least 1e-9 m or rad).
+        """
         span = self._travel[:, 1] - self._travel[:, 0]
         tol = 1e-9 * np.where(np.isfinite(span), np.maximum(span, 1.0), 1.0)
         return (q < self._travel[:, 0] - tol) | (q > self._travel[:, 1] + tol)
 
     @property
     def chains(self) -> dict[str, tuple[str, ...]]:
-        """Axes carried by the tool chain and by the workpiece chain."""
+        """Axes carried by the tool chain and by the workpiece chain.
+
+        A dict ``{"tool": (axis names), "workpiece": (axis names)}``, each in the order of :attr:`axes`.
+        """
         return {
             "tool": tuple(a for a, s in zip(self.axes, self._axis_chain) if s > 0),
             "workpiece": tuple(a for a, s in zip(self.axes, self._axis_chain) if s < 0),
@@ -185,22 +246,25 @@ class Machine:
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
-        """Names of the coefficients ``theta`` (e.g. ``EXX.c2``), in order."""
+        """Names of the coefficients ``theta`` (e.g. ``EXX.c2``), in order; tuple of P str."""
         return self._names
 
     @property
     def theta(self) -> np.ndarray:
-        """Current coefficient values (SI), a copy."""
+        """Current coefficient values, ndarray of shape (P,) in the SI unit of each coefficient; a copy."""
         return np.array(self._theta)
 
     @property
     def components(self) -> tuple[str, ...]:
-        """Names of the component and location errors that have terms."""
+        """Names of the component and location errors that have terms (tuple of str).
+
+        This is the order of the columns of :meth:`component_values` and :meth:`component_sensitivity`.
+        """
         return tuple(c.name for c in self._components)
 
     @property
     def error_joints(self) -> tuple[str, ...]:
-        """Names of all injected error joints (six per site)."""
+        """Names of all injected error joints (six per site, X, Y, Z, A, B, C), tuple of str."""
         return tuple(n for s in self._sites for n in s.names)
 
     @property
@@ -210,15 +274,17 @@ class Machine:
 
     @property
     def tool_frame(self) -> str:
+        """Name of the tool frame (str): the error is that of this frame."""
         return self._spec.tool_frame
 
     @property
     def workpiece_frame(self) -> str:
+        """Name of the workpiece frame (str): the error is expressed in this frame."""
         return self._spec.workpiece_frame
 
     @property
     def urdf(self) -> URDF:
-        """The nominal URDF as read."""
+        """The nominal URDF as read (:class:`~volerr_pin.urdf.URDF`), without error joints."""
         return self._urdf
 
     def injected_urdf(self) -> str:
@@ -227,11 +293,32 @@ class Machine:
         Joint values: an axis joint takes ``sign * q``; an error joint takes the error value
         on the tool chain and its negative on the workpiece chain (errors are defined as
         motions of the tool relative to the workpiece).
+
+        Returns
+        -------
+        str
+            The XML document, with declaration, pretty-printed.
         """
         return self._injected.to_string()
 
     def with_theta(self, theta) -> "Machine":
-        """A copy of this machine with other coefficient values."""
+        """A copy of this machine with other coefficient values.
+
+        Parameters
+        ----------
+        theta : array_like, shape (P,)
+            Coefficient values in the SI unit of each coefficient (order of :attr:`parameter_names`).
+
+        Returns
+        -------
+        Machine
+            A new machine sharing everything else (including a state set by :meth:`with_state`).
+
+        Raises
+        ------
+        InputError
+            If ``theta`` does not have shape (P,) or holds a value that is not finite.
+        """
         theta = self._check_theta(theta)
         other = object.__new__(Machine)
         other.__dict__.update(self.__dict__)
@@ -241,9 +328,34 @@ class Machine:
 
     def with_state(self, t: float | None = None, temperatures: Mapping | None = None, forces=None,
                    directions=None) -> "Machine":
-        """A copy of this machine held in one state: covariates a call does not give are
-        taken from here for every point (``t`` s, ``temperatures`` {sensor: degC},
-        ``forces`` (3,) N, ``directions`` (n_axes,) of +1/-1). Calls may still pass their own."""
+        """A copy of this machine held in one state.
+
+        Covariates a call does not give are taken from here for every point. Calls may still
+        pass their own. Values given here are merged into a state already set: temperatures by
+        sensor, the others replaced.
+
+        Parameters
+        ----------
+        t : float, optional
+            Time [s].
+        temperatures : mapping of str to float, optional
+            Temperature by sensor name [degC]. An empty mapping changes nothing.
+        forces : array_like, shape (3,), optional
+            Process force Fx, Fy, Fz [N].
+        directions : array_like, shape (n_axes,), optional
+            Approach direction of each axis, +1 or -1.
+
+        Returns
+        -------
+        Machine
+            A new machine with the state set (see :attr:`state`).
+
+        Raises
+        ------
+        InputError
+            If ``forces`` is not three values, ``directions`` not n_axes values of +1 or -1, or a
+            value of the state is not finite.
+        """
         state = dict(getattr(self, "_state", {}))
         if t is not None:
             state["t"] = float(t)
@@ -272,7 +384,11 @@ class Machine:
 
     @property
     def state(self) -> dict:
-        """The state set by :meth:`with_state` (empty by default)."""
+        """The state set by :meth:`with_state` (empty by default).
+
+        A dict (a copy) with the keys given so far: ``t`` (float, s), ``temperatures`` ({sensor:
+        degC}), ``forces`` (ndarray of shape (3,), N), ``directions`` (ndarray of shape (n_axes,)).
+        """
         return dict(getattr(self, "_state", {}))
 
     def _with_state_defaults(self, n: int, covariates: Mapping) -> dict:
@@ -296,14 +412,38 @@ class Machine:
     @property
     def nonlinear_parameters(self) -> tuple[int, ...]:
         """Indices (into theta) of coefficients the model is not linear in (time constants,
-        periods)."""
+        periods); tuple of int.
+        """
         return tuple(span.start + tspec.term.local_names.index(local)
                      for comp in self._components for tspec, span in comp.terms
                      for local in tspec.term.nonlinear)
 
     def search_grid(self, index: int, theta=None, *, n: int, **covariates) -> np.ndarray:
-        """Candidate values of the non-linear coefficient ``index`` for a grid search, given
-        the ``n`` points' covariates (e.g. time constants spanning the recorded times)."""
+        """Candidate values of a non-linear coefficient for a grid search.
+
+        Parameters
+        ----------
+        index : int
+            Index of the coefficient in ``theta``.
+        theta : array_like, shape (P,), optional
+            Coefficient values (SI); defaults to :attr:`theta`.
+        n : int
+            Number of points the covariates describe.
+        **covariates
+            The points' covariates, as for :meth:`volumetric_error` (e.g. time constants are
+            chosen to span the recorded times ``t``).
+
+        Returns
+        -------
+        ndarray, shape (G,)
+            Candidate values in the coefficient's SI unit (empty for a coefficient without a
+            grid, such as a linear one).
+
+        Raises
+        ------
+        InputError
+            If no coefficient has the index ``index``, or the covariates are invalid.
+        """
         theta = self._check_theta(theta)
         for comp in self._components:
             for tspec, span in comp.terms:
@@ -315,17 +455,32 @@ class Machine:
 
     @property
     def covariates_used(self) -> frozenset[str]:
-        """The covariates the model reads (``t``, ``temperatures``, ``forces``,
-        ``directions``); a purely geometric machine reads none."""
+        """The covariates the model reads (``t``, ``temperatures``, ``forces``, ``directions``);
+        a purely geometric machine reads none. ``t`` is included when a term reads lagged
+        temperatures. A frozenset of str.
+        """
         used = {c for comp in self._components for tspec, _ in comp.terms for c in tspec.term.covariates}
         return frozenset(used | ({"t"} if self._lags else set()))
 
     def term_spans(self) -> list[slice]:
-        """The slice of ``theta`` of every term, in order."""
+        """The slice of ``theta`` of every term, in order.
+
+        Returns
+        -------
+        list of slice
+            One slice into ``theta`` per term of every component, in the order of :meth:`term_info`.
+        """
         return [span for comp in self._components for _, span in comp.terms]
 
     def term_info(self) -> list[dict]:
-        """One entry per term: component, owner, kind, coefficient names."""
+        """One entry per term: component, owner, kind, coefficient names.
+
+        Returns
+        -------
+        list of dict
+            Per term, in order: ``component`` (name), ``owner`` (axis or body name), ``kind`` (the
+            term kind, e.g. "legendre") and ``parameters`` (list of its coefficient names).
+        """
         out = []
         for comp in self._components:
             for tspec, span in comp.terms:
@@ -347,7 +502,26 @@ class Machine:
         return theta
 
     def check_q(self, q, extrapolate: bool = False) -> np.ndarray:
-        """Convert ``q`` to a (N, n_axes) float array and check it; raises InputError."""
+        """Convert ``q`` to a float array of NC positions and check it.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad]; a single point becomes one row.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+
+        Returns
+        -------
+        ndarray, shape (N, n_axes)
+            The positions as a new float array [m, rad].
+
+        Raises
+        ------
+        InputError
+            If ``q`` is not numeric, has the wrong shape, holds a value that is not finite, or
+            (unless ``extrapolate``) leaves the travel (see :meth:`outside_travel`).
+        """
         try:
             q = np.array(q, dtype=float)
         except (TypeError, ValueError) as err:
@@ -373,7 +547,31 @@ class Machine:
         return q
 
     def check_covariates(self, n: int, covariates: Mapping) -> Covariates:
-        """Check keyword covariates (t, temperatures, forces, directions; see :meth:`volumetric_error`)."""
+        """Check keyword covariates (t, temperatures, forces, directions; see :meth:`volumetric_error`).
+
+        Covariates not given are filled in from the state set by :meth:`with_state`, and the
+        lagged temperatures that terms read (``sensor@<lag>s``) are added.
+
+        Parameters
+        ----------
+        n : int
+            Number of points.
+        covariates : mapping
+            ``t`` (n,) [s], ``temperatures`` {sensor: (n,)} [degC], ``forces`` (n, 3) [N],
+            ``directions`` (n, n_axes) of +1/-1; missing or None entries are not given.
+
+        Returns
+        -------
+        Covariates
+            The checked covariates as float arrays (SI).
+
+        Raises
+        ------
+        InputError
+            For an unknown covariate, a value that is not numeric, has the wrong shape or is not
+            finite, a sensor name containing '@' (reserved for lags), directions other than +1 /
+            -1, or a lagged temperature without ``t``.
+        """
         known = {"t", "temperatures", "forces", "directions"}
         covariates = self._with_state_defaults(n, covariates)
         unknown = sorted(set(covariates) - known)
@@ -409,7 +607,32 @@ class Machine:
         return add_lagged_temperatures(Covariates(n, t, temps, forces, directions), self._lags)
 
     def joint_values(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
-        """(N, nv) values of all Pinocchio joints (axes and error joints) at ``q``."""
+        """Values of all Pinocchio joints (axes and error joints) at ``q``.
+
+        An axis joint takes ``sign * q``; an error joint the value of its component error on the
+        tool chain and its negative on the workpiece chain (see :meth:`injected_urdf`).
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives N = 1).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, nv)
+            Joint values [m, rad], columns in Pinocchio's velocity-space order (``model.idx_vs``).
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
         q = self.check_q(q, extrapolate)
         theta = self._check_theta(theta)
         cov = self.check_covariates(q.shape[0], covariates)
@@ -449,11 +672,34 @@ class Machine:
 
     def component_values(self, q, theta=None, *, extrapolate: bool = False, without_covariates: bool = False,
                          **covariates) -> np.ndarray:
-        """(N, n_components) values of the component errors (order of :attr:`components`),
-        SI (m or rad), as motions of the tool relative to the workpiece.
+        """Values of the component errors at ``q``, as motions of the tool relative to the workpiece.
 
-        ``without_covariates``: leave out the terms that read covariates (time, temperature,
-        force, direction), e.g. to show the geometry of a machine that has no state."""
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives N = 1).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        without_covariates : bool, default False
+            Leave out the terms that read covariates (time, temperature, force, direction), e.g.
+            to show the geometry of a machine that has no state; the covariates given are then
+            ignored.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, n_components)
+            Component error values [m, rad], columns in the order of :attr:`components`.
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates (including covariates a term needs and
+            neither the call nor the state gives).
+        """
         q = self.check_q(q, extrapolate)
         theta = self._check_theta(theta)
         cov = self.check_covariates(q.shape[0], {} if without_covariates else covariates)
@@ -465,24 +711,29 @@ class Machine:
 
         Parameters
         ----------
-        q : (N, n_axes) array
+        q : array_like, shape (N, n_axes) or (n_axes,)
             Commanded NC positions, m for linear and rad for rotary axes (a single
             (n_axes,) point gives a (6,) result).
-        theta : (P,) array, optional
+        theta : array_like, shape (P,), optional
             Coefficients, SI; defaults to :attr:`theta`.
         order : None or 1
             None: exact (rotation part is the rotation vector of R_act R_nom^T);
             1: first-order (linearised in the errors).
-        extrapolate : bool
+        extrapolate : bool, default False
             Allow positions outside the travel.
         **covariates
             ``t`` (N,) s, ``temperatures`` {name: (N,)} degC, ``forces`` (N, 3) N,
-            ``directions`` (N, n_axes) of +1/-1.
+            ``directions`` (N, n_axes) of +1/-1. Those not given come from :attr:`state`.
 
         Returns
         -------
-        (N, 6) array
+        ndarray, shape (N, 6) or (6,)
             dx, dy, dz [m], rx, ry, rz [rad]: actual minus nominal.
+
+        Raises
+        ------
+        InputError
+            If ``order`` is not None or 1, or ``q``, ``theta`` or the covariates are invalid.
         """
         single = np.ndim(q) == 1
         if order not in (None, 1):
@@ -513,15 +764,39 @@ class Machine:
 
     def sensitivity(self, q, theta=None, *, parameters=None, first_order: bool = False,
                     extrapolate: bool = False, **covariates) -> np.ndarray:
-        """(N, 6, P) derivative of :meth:`volumetric_error` w.r.t. every coefficient of ``theta``
-        (or only those indexed by ``parameters``, in that order).
+        """Derivative of :meth:`volumetric_error` with respect to the coefficients ``theta``.
 
         Exact: Jacobians of the tool frame relative to the workpiece frame (the same chain
         as the error, checked against Pinocchio's frame Jacobians), chained with the
         derivatives of the error terms; the rotation rows include the inverse left
-        Jacobian of the rotation-vector error. Units: m or rad of error per SI unit of the
-        coefficient. ``first_order=True`` takes the kinematics at zero error (the derivative
-        of the first-order model), where dependencies between coefficients are exact.
+        Jacobian of the rotation-vector error.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives a (6, P') result).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI) at which to differentiate; defaults to :attr:`theta`.
+        parameters : array_like of int, shape (P',), optional
+            Indices of the coefficients to differentiate by, in that order; default all (P' = P).
+        first_order : bool, default False
+            Take the kinematics at zero error (the derivative of the first-order model), where
+            dependencies between coefficients are exact.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, 6, P') or (6, P')
+            d error / d theta: m or rad of error per SI unit of the coefficient; rows dx, dy, dz,
+            rx, ry, rz.
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
         """
         single = np.ndim(q) == 1
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
@@ -549,8 +824,30 @@ class Machine:
 
     def component_sensitivity(self, q, theta=None, *, extrapolate: bool = False,
                               **covariates) -> np.ndarray:
-        """(N, 6, n_components) derivative of the error w.r.t. each component error's value
-        at the point (order of :attr:`components`); per m or rad of the component."""
+        """Derivative of the error with respect to each component error's value at the point.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives a (6, n_components) result).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, 6, n_components) or (6, n_components)
+            Error (dx, dy, dz [m], rx, ry, rz [rad]) per m or rad of each component, in the order
+            of :attr:`components`.
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
         single = np.ndim(q) == 1
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
         out = np.empty((q.shape[0], 6, len(self._components)))
@@ -564,10 +861,34 @@ class Machine:
 
     def error_joint_sensitivity(self, q, theta=None, *, first_order: bool = False,
                                 extrapolate: bool = False, **covariates) -> np.ndarray:
-        """(N, 6, n_error_joints) derivative of the error w.r.t. the value of every injected
-        error joint (order of :attr:`error_joints`, ISO sense), whether or not the spec gives
-        it a term: what adding a term to any component would do. ``first_order``: at zero
-        error."""
+        """Derivative of the error with respect to the value of every injected error joint.
+
+        In the order of :attr:`error_joints`, ISO sense, whether or not the spec gives the joint
+        a term: what adding a term to any component would do.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives a (6, n_error_joints) result).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        first_order : bool, default False
+            Evaluate at zero error.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, 6, n_error_joints) or (6, n_error_joints)
+            Error (dx, dy, dz [m], rx, ry, rz [rad]) per m or rad of each error joint.
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
         single = np.ndim(q) == 1
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
         out = np.empty((q.shape[0], 6, len(self._error_joint_cols)))
@@ -581,10 +902,33 @@ class Machine:
 
     def axis_jacobian(self, q, theta=None, *, nominal: bool = False, extrapolate: bool = False,
                       **covariates) -> np.ndarray:
-        """(N, 6, n_axes) derivative of the tool pose relative to the workpiece w.r.t. the NC
-        positions: rows 0-2 the tool point's displacement [m per m or rad], rows 3-5 the
-        rotation (angular velocity, workpiece axes). ``nominal`` ignores the errors; the
-        actual Jacobian includes the position derivatives of the error terms."""
+        """Derivative of the tool pose relative to the workpiece with respect to the NC positions.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives a (6, n_axes) result).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        nominal : bool, default False
+            Ignore the errors. The actual Jacobian (default) includes the position derivatives
+            of the error terms.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, 6, n_axes) or (6, n_axes)
+            Rows 0-2 the tool point's displacement [m per m or rad], rows 3-5 the rotation
+            (angular velocity, workpiece axes) [rad per m or rad].
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
         single = np.ndim(q) == 1
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
         out = np.empty((q.shape[0], 6, len(self.axes)))
@@ -608,8 +952,33 @@ class Machine:
 
     def joint_jacobian(self, q, theta=None, *, extrapolate: bool = False, **covariates
                        ) -> np.ndarray:
-        """(N, 6, nv) derivative of the tool pose (point velocity, angular velocity; workpiece
-        axes) w.r.t. the values of all Pinocchio joints, as Pinocchio's frame Jacobians give it."""
+        """Derivative of the tool pose with respect to the values of all Pinocchio joints.
+
+        As Pinocchio's frame Jacobians give it: point velocity and angular velocity of the tool,
+        in workpiece axes.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives N = 1).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, 6, nv)
+            Rows 0-2 [m per m or rad of the joint], rows 3-5 [rad per m or rad]; columns in
+            Pinocchio's velocity-space order.
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
         values = self.joint_values(q, theta, extrapolate=extrapolate, **covariates)
         return K.joint_jacobian(self._chain, values.T, self._model.nv)
 
@@ -621,8 +990,33 @@ class Machine:
 
     def tool_poses(self, q, theta=None, *, nominal: bool = False, extrapolate: bool = False,
                    **covariates) -> tuple[np.ndarray, np.ndarray]:
-        """(N, 3, 3) rotations and (N, 3) positions [m] of the tool frame in the workpiece
-        frame, actual (default) or nominal (which needs no covariates)."""
+        """Poses of the tool frame in the workpiece frame, actual (default) or nominal.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives N = 1).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`. Ignored when ``nominal``.
+        nominal : bool, default False
+            The nominal pose (every error joint at zero), which needs no covariates.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`; ignored when ``nominal``.
+
+        Returns
+        -------
+        R : ndarray, shape (N, 3, 3)
+            Rotations of the tool frame in the workpiece frame.
+        p : ndarray, shape (N, 3)
+            Positions of the tool frame's origin in the workpiece frame [m].
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
         if nominal:
             return K.relative_poses(self._chain, self._axis_values(self.check_q(q, extrapolate)),
                                     with_errors=False)
@@ -631,7 +1025,29 @@ class Machine:
 
     def pinocchio_configuration(self, q, theta=None, *, extrapolate: bool = False,
                                 **covariates) -> np.ndarray:
-        """(N, nq) configurations of :attr:`model` for the points ``q``."""
+        """Configurations of :attr:`model` for the points ``q``.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives N = 1).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, nq)
+            Pinocchio configuration vectors (cos, sin pairs for continuous joints).
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
         values = self.joint_values(q, theta, extrapolate=extrapolate, **covariates)
         return K.pinocchio_configuration(self._model, values)
 
@@ -651,6 +1067,24 @@ def load_machine(machine: str | os.PathLike, *, tool_frame: str | None = None,
         a spec file (``.toml``), or a bare URDF file (then ``tool_frame`` and
         ``workpiece_frame`` are required and every movable joint between them gets six
         zero-valued constant error terms).
+    tool_frame : str, optional
+        Name of the tool frame; only with a bare URDF.
+    workpiece_frame : str, optional
+        Name of the workpiece frame; only with a bare URDF.
+
+    Returns
+    -------
+    Machine
+        The machine with the spec's coefficient values.
+
+    Raises
+    ------
+    SpecError
+        If the name is neither a bundled machine nor an existing folder, spec or URDF; a
+        bare URDF lacks ``tool_frame`` or ``workpiece_frame``; they are given with a spec;
+        or the spec is invalid.
+    URDFError
+        If the URDF cannot be read or parsed.
 
     Examples
     --------

@@ -38,12 +38,33 @@ META_RE = re.compile(r"^#\s*(axis|at|plane|radius|centre|center|convention|tool)
 
 
 class MeasurementError(InputError):
-    """A measurement file is malformed (the message names file, line and column)."""
+    """A measurement file is malformed (the message names file, line and column).
+
+    A subclass of :class:`~volerr_pin.errors.InputError`; constructed like it.
+    """
 
 
 @dataclass
 class Table:
-    """A CSV table as read: header, rows with their line numbers, header-comment metadata."""
+    """A CSV table as read: header, rows with their line numbers, header-comment metadata.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    header : list of str
+        Column names, stripped.
+    header_line : int
+        File line of the header (0 for a table built from ``KEY=VALUE`` lines).
+    rows : list of list of str
+        Data rows as text, one cell per column.
+    lines : list of int
+        File line of each row.
+    meta : dict of str to str
+        Header comments before the header row (``# axis:``, ``# at:``, ``# plane:``,
+        ``# radius:``, ``# centre:``, ``# convention:``, ``# tool:``), keys lower-case; a
+        converted run layout adds ``unused``.
+    """
 
     path: str
     header: list[str]
@@ -53,9 +74,44 @@ class Table:
     meta: dict[str, str] = field(default_factory=dict)
 
     def where(self, row: int, col: int) -> str:
+        """Where a cell is, for messages.
+
+        Parameters
+        ----------
+        row : int
+            Row index (0-based, into :attr:`rows`).
+        col : int
+            Column index (0-based).
+
+        Returns
+        -------
+        str
+            ``path:line:column`` with the file line and the 1-based column.
+        """
         return f"{self.path}:{self.lines[row]}:{col + 1}"
 
     def number(self, row: int, col: int, allow_empty: bool = False) -> float:
+        """A cell as a finite float.
+
+        Parameters
+        ----------
+        row : int
+            Row index (0-based).
+        col : int
+            Column index (0-based).
+        allow_empty : bool, default False
+            An empty cell gives NaN instead of an error.
+
+        Returns
+        -------
+        float
+            The value, in the file's unit.
+
+        Raises
+        ------
+        MeasurementError
+            If the cell is not a number or not finite.
+        """
         text = self.rows[row][col].strip()
         if text == "" and allow_empty:
             return math.nan
@@ -70,6 +126,25 @@ class Table:
         return value
 
     def column(self, col: int, allow_empty: bool = False) -> np.ndarray:
+        """A column as finite floats (see :meth:`number`).
+
+        Parameters
+        ----------
+        col : int
+            Column index (0-based).
+        allow_empty : bool, default False
+            Empty cells give NaN instead of an error.
+
+        Returns
+        -------
+        ndarray, shape (n_rows,)
+            The values, in the file's unit.
+
+        Raises
+        ------
+        MeasurementError
+            If a cell is not a number or not finite.
+        """
         return np.array([self.number(i, col, allow_empty) for i in range(len(self.rows))])
 
 
@@ -84,8 +159,27 @@ def _read_text(path: Path) -> str:
 
 def read_table(path: str | Path | Table, text: str | None = None) -> Table:
     """Read a comma-separated file with ``#`` comments; every data row must match the header.
-    A :class:`Table` already read is returned as it is (readers take either); ``text`` is the
-    file's content when the caller has read it already."""
+
+    A :class:`Table` already read is returned as it is (readers take either).
+
+    Parameters
+    ----------
+    path : str, Path or Table
+        The file (UTF-8; a byte-order mark is tolerated).
+    text : str, optional
+        The file's content when the caller has read it already.
+
+    Returns
+    -------
+    Table
+        The header, the data rows and the header-comment metadata.
+
+    Raises
+    ------
+    MeasurementError
+        If the file cannot be read or is not UTF-8, a column name is duplicated or empty, a
+        row has another number of cells than the header, or there is no header or no data row.
+    """
     if isinstance(path, Table):
         return path
     path = Path(path)
@@ -130,6 +224,23 @@ class PointMeasurements:
     ``q`` (N, n_axes) commanded positions [m, rad]; ``values`` (N, 6) deviations dx, dy, dz [m],
     rx, ry, rz [rad] with NaN where not measured; ``covariates`` keyword arrays for the
     model; ``lines`` the file line of each row; ``unused`` columns present but not used.
+
+    Attributes
+    ----------
+    source : str
+        The file (or a label for simulated data).
+    q : ndarray, shape (N, n_axes)
+        Commanded NC positions [m, rad].
+    values : ndarray, shape (N, 6)
+        Deviations dx, dy, dz [m], rx, ry, rz [rad]; NaN where not measured.
+    covariates : dict
+        Keyword covariates for :meth:`Machine.volumetric_error`: ``t`` (N,) [s],
+        ``temperatures`` {sensor: (N,)} [degC], ``forces`` (N, 3) [N], ``directions``
+        (N, n_axes) of +1/-1; only those present.
+    lines : ndarray of int, shape (N,)
+        File line of each row.
+    unused : tuple of str
+        Columns present but not used.
     """
 
     source: str
@@ -141,11 +252,34 @@ class PointMeasurements:
 
     @property
     def measured(self) -> np.ndarray:
+        """Where a deviation was measured: ndarray of bool, shape (N, 6)."""
         return ~np.isnan(self.values)
 
 
 def read_points(path: str | Path | Table, machine) -> PointMeasurements:
-    """Read a point-measurement file for ``machine`` (positions checked against its travel)."""
+    """Read a point-measurement file for ``machine`` (positions checked against its travel).
+
+    See the module docstring for the columns and their units.
+
+    Parameters
+    ----------
+    path : str, Path or Table
+        The file, or a table read already.
+    machine : Machine
+        The machine (its axes name the position columns).
+
+    Returns
+    -------
+    PointMeasurements
+        The measurements in SI.
+
+    Raises
+    ------
+    MeasurementError
+        If the table is malformed, a column's unit is not the file unit, a position column is
+        missing or outside the travel, a covariate column is invalid, there is no deviation
+        column, or a row has no measured deviation.
+    """
     table = read_table(path)
     columns = header_columns(table, machine)
     q, covariates, used = positions_and_covariates(table, columns, machine)
@@ -166,7 +300,26 @@ def read_points(path: str | Path | Table, machine) -> PointMeasurements:
 
 
 def header_columns(table: Table, machine) -> dict[str, int]:
-    """Column stem -> index, with the units in the names checked against the file units."""
+    """Column stem -> index, with the units in the names checked against the file units.
+
+    Parameters
+    ----------
+    table : Table
+        The table.
+    machine : Machine
+        The machine (its axes name the position columns and their units).
+
+    Returns
+    -------
+    dict of str to int
+        Column name without its unit suffix -> column index (0-based).
+
+    Raises
+    ------
+    MeasurementError
+        If a column carries a unit other than the file unit of that column (mm / deg for
+        positions, um / urad for deviations, s, degC, N, mm for tracker coordinates).
+    """
     columns: dict[str, int] = {}
     for col, name in enumerate(table.header):
         stem, unit = split_key(name, ("length", "angle", "time", "temperature", "force"))
@@ -179,7 +332,34 @@ def header_columns(table: Table, machine) -> dict[str, int]:
 
 
 def positions_and_covariates(table: Table, columns: dict[str, int], machine) -> tuple[np.ndarray, dict, set]:
-    """NC positions (SI, checked against the travel), covariates, and the columns used."""
+    """NC positions (SI, checked against the travel), covariates, and the columns used.
+
+    Parameters
+    ----------
+    table : Table
+        The table.
+    columns : dict of str to int
+        Column stem -> index, from :func:`header_columns`.
+    machine : Machine
+        The machine.
+
+    Returns
+    -------
+    q : ndarray, shape (n_rows, n_axes)
+        NC positions [m, rad] (the file gives mm / deg).
+    covariates : dict
+        ``t`` [s], ``temperatures`` {sensor: values} [degC], ``forces`` (n_rows, 3) [N] and
+        ``directions`` (n_rows, n_axes) of +1/-1 (+1 for axes without a column), those the
+        file gives.
+    used : set of int
+        Indices of the columns read.
+
+    Raises
+    ------
+    MeasurementError
+        If a position column is missing or leaves the travel, a value is not a finite number,
+        only some of Fx, Fy, Fz are given, or a direction is not +1 or -1.
+    """
     used = set()
     q = np.empty((len(table.rows), len(machine.axes)))
     for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):
@@ -258,6 +438,37 @@ class Runs:
     ("EYX", "EBX"), or None for a positioning run (the error along the axis' own motion);
     ``axis`` the moving axis if known; ``at`` other axes' positions from the header, in file
     units (mm / deg), by axis name.
+
+    Attributes
+    ----------
+    source : str
+        The file.
+    target : ndarray, shape (N,)
+        Target positions [m or rad].
+    cycle : ndarray of int, shape (N,)
+        Cycle numbers.
+    direction : ndarray of int, shape (N,)
+        Approach directions, +1 or -1.
+    value : ndarray, shape (N,)
+        Measured deviations [m or rad].
+    file_target : ndarray, shape (N,)
+        Targets as in the file [mm or deg].
+    file_value : ndarray, shape (N,)
+        Values as in the file [``unit``].
+    target_unit : str
+        "mm" or "deg".
+    unit : str
+        Unit of the values in the file (um, mm, nm, arcsec, urad, mrad or deg).
+    component : str or None
+        The measured component ("EYX", "EBX"), None for a positioning run.
+    axis : str or None
+        The moving axis, if known.
+    at : dict of str to float
+        Other axes' positions from the header [mm, deg], by axis name.
+    lines : ndarray of int, shape (N,)
+        File line of each row.
+    unused : tuple of str
+        Columns (or keys) present but not used.
     """
 
     source: str
@@ -280,6 +491,18 @@ RUN_VALUE_RE = re.compile(r"^(deviation|E[XYZABC]0?_?[A-Za-z][A-Za-z0-9_]*)_(um|
 
 
 def is_run_file(header: list[str]) -> bool:
+    """Whether a header is that of a run file.
+
+    Parameters
+    ----------
+    header : list of str
+        Column names.
+
+    Returns
+    -------
+    bool
+        True if a column starts with ``target_``.
+    """
     return any(h.startswith("target_") for h in header)
 
 
@@ -419,9 +642,27 @@ def _key_value_run_table(path: Path, text: str) -> Table:
 
 
 def run_table(path: str | Path | Table) -> Table:
-    """A run file in any accepted layout as the long table ``target_*,cycle,direction,value``:
-    long CSV, wide CSV (one column per cycle) or ``KEY=VALUE`` lines (``.dat``). Any other
-    file comes back as read."""
+    """A run file in any accepted layout as the long table ``target_*,cycle,direction,value``.
+
+    Long CSV, wide CSV (one column per cycle) or ``KEY=VALUE`` lines (``.dat``). Any other
+    file comes back as read.
+
+    Parameters
+    ----------
+    path : str, Path or Table
+        The file, or a table read already.
+
+    Returns
+    -------
+    Table
+        The long table (a wide or ``KEY=VALUE`` layout converted: deviations from measured
+        positions in um or arcsec), or the file as read.
+
+    Raises
+    ------
+    MeasurementError
+        If the file cannot be read or a run layout is malformed.
+    """
     if isinstance(path, Table):
         table = path
     else:
@@ -439,7 +680,28 @@ def read_runs(path: str | Path | Table, axis: str | None = None) -> Runs:
 
     Layouts: long CSV ``target_mm,cycle,direction,deviation_um`` (or a component column such
     as ``EYX_um``), wide CSV with one column per cycle, and ``KEY=VALUE`` files (see
-    :func:`run_table` and docs/measurements.md)."""
+    :func:`run_table` and docs/measurements.md).
+
+    Parameters
+    ----------
+    path : str, Path or Table
+        The file, or a table read already.
+    axis : str, optional
+        The moving axis (a component run's own axis is that of its component).
+
+    Returns
+    -------
+    Runs
+        The run, values in SI and as in the file.
+
+    Raises
+    ------
+    MeasurementError
+        If the table is malformed, the target, cycle, direction or value column is missing or
+        ambiguous, the component is unknown or belongs to another axis than ``axis``, the
+        value's unit does not fit the target or component, a direction is not +1 / -1, or a
+        cycle number is not an integer.
+    """
     table = run_table(path)
     header = table.header
     target_cols = [c for c, h in enumerate(header) if h in ("target_mm", "target_deg")]
@@ -516,8 +778,25 @@ def read_runs(path: str | Path | Table, axis: str | None = None) -> Runs:
 
 
 def axis_values(table: Table, key: str) -> dict[str, float]:
-    """A header line ``# at: Y=200, Z=150`` (``key`` "at", "centre", ...) -> {"Y": 200.0,
-    "Z": 150.0} in file units (mm / deg); {} without the line."""
+    """Axis positions of a header line, e.g. ``# at: Y=200, Z=150`` -> {"Y": 200.0, "Z": 150.0}.
+
+    Parameters
+    ----------
+    table : Table
+        The table.
+    key : str
+        The header key: "at", "centre", ...
+
+    Returns
+    -------
+    dict of str to float
+        Axis name -> position in file units (mm / deg); {} without the line.
+
+    Raises
+    ------
+    MeasurementError
+        If the line is not a list of ``AXIS=VALUE`` items.
+    """
     text = table.meta.get(key)
     if not text:
         return {}
@@ -525,7 +804,28 @@ def axis_values(table: Table, key: str) -> dict[str, float]:
 
 
 def read_any(path: str | Path, machine=None, axis: str | None = None):
-    """Read a file of any kind, telling them apart by the header (the file is read once)."""
+    """Read a file of any kind, telling them apart by the header (the file is read once).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    machine : Machine, optional
+        The machine; needed for point measurements and tracker files.
+    axis : str, optional
+        Moving axis of a run file (see :func:`read_runs`).
+
+    Returns
+    -------
+    Runs, BallbarRun, TrackerMeasurements or PointMeasurements
+        A run file, a ballbar file, a tracker file (only with ``machine``), or else point
+        measurements.
+
+    Raises
+    ------
+    MeasurementError
+        If the file is malformed, or point measurements are read without ``machine``.
+    """
     table = run_table(path)
     if is_run_file(table.header):
         return read_runs(table, axis)

@@ -28,7 +28,24 @@ DIRECTIONS = {"x": [0], "y": [1], "z": [2], "all": [0, 1, 2]}
 
 @dataclass(frozen=True)
 class Ranking:
-    """Result of :func:`rank`; ``rows`` are sorted by influence (see :meth:`to_dict`)."""
+    """Result of :func:`rank`; ``rows`` are sorted by influence (see :meth:`to_dict`).
+
+    Attributes
+    ----------
+    machine : str
+        Machine name.
+    points : int
+        Number of workspace points.
+    direction : str
+        "x", "y", "z" or "all": the tool-point error component(s) measured.
+    by : str
+        "component" or "parameter".
+    basis : str
+        "current values" or "tolerances": what sizes the contributions.
+    rows : list of dict
+        One row per component or coefficient, largest mean-square contribution first, with
+        the fields listed in :func:`rank` and ``ms``, the mean-square contribution [um^2].
+    """
 
     machine: str
     points: int
@@ -38,8 +55,20 @@ class Ranking:
     rows: list[dict] = field(default_factory=list)
 
     def to_dict(self, top: int | None = None) -> dict:
-        """The JSON report fields (docs/reports.md); ``share`` is renormalised over the rows listed, ``share_of_all``
-        is over every term."""
+        """The JSON report fields (docs/reports.md).
+
+        Parameters
+        ----------
+        top : int, optional
+            List only the first ``top`` rows (default, or 0: all).
+
+        Returns
+        -------
+        dict
+            ``machine``, ``points``, ``direction``, ``by``, ``basis`` and ``ranking``: the rows
+            without ``ms``, with ``share`` renormalised over the rows listed and
+            ``share_of_all`` over every term.
+        """
         rows = [dict(r) for r in (self.rows[:top] if top else self.rows)]
         total = sum(r["ms"] for r in rows)
         grand = sum(r["ms"] for r in self.rows)
@@ -53,11 +82,28 @@ class Ranking:
 
 
 def read_tolerances(path: str | Path, machine: Machine) -> dict[str, float]:
-    """Read ``term -> expected magnitude`` from a TOML file (``EXX_um = 5``,
-    ``EC0Y_arcsec = 3``, optional ``default_um`` / ``default_arcsec`` for the rest).
+    """Read ``term -> expected magnitude`` from a TOML file.
 
-    Returns SI magnitudes for every component of the machine; raises SpecError naming
-    the file and the term when one is unknown, has the wrong unit or is missing.
+    Keys carry their unit (``EXX_um = 5``, ``EC0Y_arcsec = 3``), with optional
+    ``default_um`` / ``default_arcsec`` for the rest.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+    machine : Machine
+        The machine whose components need tolerances.
+
+    Returns
+    -------
+    dict of str to float
+        SI magnitudes [m, rad] for every component of the machine.
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the term when one is unknown, has no or the wrong unit, is not a
+        non-negative number, or is missing.
     """
     path = Path(path)
     data = read_toml(path)
@@ -101,22 +147,39 @@ def rank(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048, s
 
     Parameters
     ----------
-    q : (N, n_axes) array, optional
-        Workspace points (SI); default: ``points`` scrambled Sobol' points over the travels.
+    machine : Machine
+        The machine (its current errors: the sensitivities are exact there).
+    q : ndarray, shape (N, n_axes), optional
+        Workspace points (SI: m, rad); default: ``points`` scrambled Sobol' points over the
+        travels.
+    points : int, default 2048
+        Number of sampled points when ``q`` is not given.
+    seed : int, default 0
+        Seed of the sampling.
     tolerances : dict, optional
-        Component name -> expected magnitude (SI). Then each term's contribution is its
-        sensitivity times its tolerance and ``share`` is its share of the variance of the
-        tool-point error (independent terms). Default: the spec's current values.
+        Component name -> expected magnitude (SI: m or rad). Then each term's contribution is
+        its sensitivity times its tolerance and ``share`` is its share of the variance of the
+        tool-point error (independent terms). Default: the spec's current values. With
+        ``by="parameter"`` every coefficient of a component takes the component's tolerance.
     direction : "x", "y", "z" or "all"
         Which component(s) of the tool-point error to measure.
     by : "component" or "parameter"
         Rank component errors (EXX) or single coefficients (EXX.c2).
 
-    Each row has ``parameter``, ``term``, ``axis``, ``max_um``, ``rms_um`` (the term's
-    contribution at the tool), ``share`` (mean-square share), ``per_unit_max``,
-    ``per_unit_rms`` and ``per_unit`` (um per um or um per arcsec), ``contribution_degree``
-    (seed 004: the term's per-unit RMS over the sum within its axis and kind, translational
-    or angular), ``orientation_max_arcsec`` and ``orientation_share``.
+    Returns
+    -------
+    Ranking
+        Each row has ``parameter``, ``term``, ``axis``, ``max_um``, ``rms_um`` (the term's
+        contribution at the tool) [um], ``share`` (mean-square share), ``per_unit_max``,
+        ``per_unit_rms`` and ``per_unit`` (um per um or um per arcsec),
+        ``contribution_degree`` (seed 004: the term's per-unit RMS over the sum within its
+        axis and kind, translational or angular; None with ``by="parameter"``),
+        ``orientation_max_arcsec`` [arcsec] and ``orientation_share``.
+
+    Raises
+    ------
+    InputError
+        If ``direction`` or ``by`` is not one of the values above, or ``q`` is invalid.
     """
     if direction not in DIRECTIONS:
         raise InputError(f"direction must be one of x, y, z, all; got {direction!r}")
@@ -185,9 +248,31 @@ def rank(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048, s
 def tool_identifiability(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048,
                          seed: int = 0, orientation: bool = False, rtol: float = 1e-9
                          ) -> list[IdentifiabilityGroup]:
-    """Coefficients whose effect on the tool point (and orientation, if asked) is zero,
-    exactly collinear with another's, or a linear combination of others, over the sampled
+    """Coefficients whose effect at the tool cannot be told apart.
+
+    Those whose effect on the tool point (and orientation, if asked) is zero, exactly
+    collinear with another's, or a linear combination of others, over the sampled
     workspace (see :func:`volerr_pin.identifiability.analyse` for the tests and tolerances).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    q : ndarray, shape (N, n_axes), optional
+        Workspace points [m, rad]; default ``points`` scrambled Sobol' points.
+    points : int, default 2048
+        Number of sampled points when ``q`` is not given.
+    seed : int, default 0
+        Seed of the sampling.
+    orientation : bool, default False
+        Also use the rotation rows (rx, ry, rz) of the sensitivity.
+    rtol : float, default 1e-9
+        Relative tolerance of the tests (see :func:`~volerr_pin.identifiability.analyse`).
+
+    Returns
+    -------
+    list of IdentifiabilityGroup
+        The zero, collinear and combination groups.
     """
     if q is None:
         q = sample(machine, points, seed=seed)

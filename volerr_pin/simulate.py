@@ -17,7 +17,30 @@ from .units import AXIS_UNIT, axis_scale, axis_scales
 
 
 def covariates(n: int, rng: np.random.Generator, hours: float = 6.0, n_axes: int = 3) -> dict:
-    """Time [s], temperatures [degC], forces [N] and directions (+1/-1) for ``n`` points."""
+    """Time [s], temperatures [degC], forces [N] and directions (+1/-1) for ``n`` points.
+
+    Times are sorted uniform draws over ``hours``; three temperature sensors with different
+    dynamics (``spindle`` warming up, ``column`` following a slow cycle, ``ambient``) plus
+    0.1 degC noise; normal process forces (150 N standard deviation) on about half of the
+    points, 0 on the others; random approach directions.
+
+    Parameters
+    ----------
+    n : int
+        Number of points.
+    rng : numpy.random.Generator
+        The random generator (advanced by the draws).
+    hours : float, default 6.0
+        Length of the campaign [h].
+    n_axes : int, default 3
+        Number of axes (columns of ``directions``).
+
+    Returns
+    -------
+    dict
+        ``t`` (n,) [s], ``temperatures`` {"spindle", "column", "ambient": (n,)} [degC],
+        ``forces`` (n, 3) [N], ``directions`` (n, n_axes) of +1/-1.
+    """
     t = np.sort(rng.uniform(0.0, hours * 3600.0, n))
     temps = {"spindle": 22.0 + 8.0 * (1 - np.exp(-t / 2700.0)) + rng.normal(0, 0.1, n),
              "column": 21.0 + 2.0 * np.sin(2 * np.pi * t / (5 * 3600.0)) + rng.normal(0, 0.1, n),
@@ -30,7 +53,32 @@ def covariates(n: int, rng: np.random.Generator, hours: float = 6.0, n_axes: int
 
 def campaign(truth: Machine, n: int = 400, noise_um: float = 0.3, seed: int = 0, hours: float = 6.0,
              source: str = "simulated") -> PointMeasurements:
-    """``n`` tool-point measurements (dx, dy, dz) of the machine ``truth`` with noise."""
+    """``n`` tool-point measurements (dx, dy, dz) of the machine ``truth`` with noise.
+
+    Positions are uniform over the travels (one turn, -pi to pi, for endless axes), the
+    covariates those of :func:`covariates`.
+
+    Parameters
+    ----------
+    truth : Machine
+        The machine measured.
+    n : int, default 400
+        Number of points.
+    noise_um : float, default 0.3
+        Standard deviation of the independent noise on each deviation [um].
+    seed : int, default 0
+        Seed of all draws.
+    hours : float, default 6.0
+        Length of the campaign [h].
+    source : str, default "simulated"
+        Label recorded as the source.
+
+    Returns
+    -------
+    PointMeasurements
+        Positions [m, rad], deviations dx, dy, dz [m] (rotations NaN: not measured), the
+        covariates, and lines 0..n-1.
+    """
     rng = np.random.default_rng(seed)
     travel = truth.travel
     travel = np.where(np.isfinite(travel), travel, np.array([-np.pi, np.pi]))
@@ -42,8 +90,21 @@ def campaign(truth: Machine, n: int = 400, noise_um: float = 0.3, seed: int = 0,
 
 
 def write_points(data: PointMeasurements, machine: Machine, path) -> None:
-    """Write point measurements in the format :func:`~volerr_pin.measurements.read_points` reads
-    (mm / deg, um, covariate columns)."""
+    """Write point measurements in the format :func:`~volerr_pin.measurements.read_points` reads.
+
+    Positions in mm / deg, deviations in um (urad for rotations), covariate columns ``t`` [s],
+    ``T_<sensor>`` [degC], ``Fx, Fy, Fz`` [N] and ``dir_<axis>``, those the data have.
+    Deviation columns that are NaN throughout are left out.
+
+    Parameters
+    ----------
+    data : PointMeasurements
+        The measurements.
+    machine : Machine
+        The machine (its axes name the position columns).
+    path : str or Path
+        The file to write.
+    """
     cols = [a.lower() for a in machine.axes]
     factors = 1.0 / axis_scales(machine.axis_kinds)
     measured = [k for k in range(6) if not np.all(np.isnan(data.values[:, k]))]
@@ -87,6 +148,31 @@ def off_model_geometry(machine: Machine, seed: int = 0, style: str = "spline",
     standard deviation ``size_um`` (translations) or ``size_arcsec`` (rotations).
     Location errors (squareness, offsets) keep their values: they are constants by nature.
     Real machines are like this: their geometry is never exactly the spec's.
+    All six component errors of every axis with a bounded travel get such a function (those the
+    spec lacks are added); endless axes are left unchanged.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine to start from.
+    seed : int, default 0
+        Seed of the random functions.
+    style : str, default "spline"
+        "cubic" or "spline".
+    size_um : float, default 2.0
+        Standard deviation of translational coefficients or node values [um].
+    size_arcsec : float, default 2.0
+        Standard deviation of rotational coefficients or node values [arcsec].
+
+    Returns
+    -------
+    Machine
+        The machine with the replaced terms (:func:`~volerr_pin.specio.replace_terms`).
+
+    Raises
+    ------
+    ValueError
+        If ``style`` is neither "cubic" nor "spline".
     """
     if style not in ("cubic", "spline"):
         raise ValueError(f"style must be 'cubic' or 'spline', got {style!r}")
@@ -122,7 +208,43 @@ def ballbar_run(machine: Machine, plane=("X", "Y"), radius_mm: float = 100.0, ce
     The bar's length is computed exactly - the distance between the tool ball and a table
     ball that sits ``setup_offset_um`` off the nominal centre (along the two plane axes'
     directions), minus the nominal radius, plus the bar's ``length_error_um`` and noise - not
-    from the linearised radial projection the model uses, so that a fit checks that too."""
+    from the linearised radial projection the model uses, so that a fit checks that too.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    plane : tuple of str (2,), default ("X", "Y")
+        The two linear axes that run the circle.
+    radius_mm : float, default 100.0
+        Nominal radius [mm].
+    centre_mm : dict of str to float, optional
+        Axis positions at the centre [mm, deg] (default: the default configuration).
+    directions : sequence of int, default (1, -1)
+        Directions run, in order: +1 counter-clockwise, -1 clockwise.
+    n : int, default 360
+        Samples per direction, evenly spaced in angle.
+    noise_um : float, default 0.1
+        Standard deviation of the noise [um].
+    seed : int, default 0
+        Seed of the noise.
+    setup_offset_um : tuple of float (2,), default (0.0, 0.0)
+        Offset of the table ball from the nominal centre along the two plane axes [um].
+    length_error_um : float, default 0.0
+        Length error of the bar [um].
+    source : str, default "simulated"
+        Label recorded as the source.
+
+    Returns
+    -------
+    BallbarRun
+        The run in SI (lines 0..N-1).
+
+    Raises
+    ------
+    InputError
+        If the plane axes are not linear axes of the machine or the circle leaves the travel.
+    """
     from .ballbar import BallbarRun, ballbar_positions
 
     rng = np.random.default_rng(seed)
@@ -147,7 +269,18 @@ def ballbar_run(machine: Machine, plane=("X", "Y"), radius_mm: float = 100.0, ce
 
 
 def write_ballbar(run, path) -> None:
-    """Write a circular test in the format :func:`volerr_pin.ballbar.read_ballbar` reads."""
+    """Write a circular test in the format :func:`volerr_pin.ballbar.read_ballbar` reads.
+
+    Header lines ``# plane:``, ``# radius:`` [mm] and ``# centre:`` (when given), then
+    ``angle_deg,deviation_um,direction``.
+
+    Parameters
+    ----------
+    run : BallbarRun
+        The circular test.
+    path : str or Path
+        The file to write.
+    """
     centre = ", ".join(f"{k}={v:g}" for k, v in run.centre.items())
     lines = [f"# plane: {run.plane[0]}, {run.plane[1]}", f"# radius: {run.radius * 1e3:g}"]
     lines += [f"# centre: {centre}"] if centre else []
@@ -161,10 +294,38 @@ def write_ballbar(run, path) -> None:
 def tracker_campaign(truth: Machine, n: int = 100, offsets_mm=((0.0, 0.0, 0.0),), noise_um: float = 5.0,
                      seed: int = 0, rotation=None, translation_mm=(2000.0, -1000.0, 300.0),
                      source: str = "simulated"):
-    """Laser-tracker measurements of ``truth``: ``n`` random poses, every target of
-    ``offsets_mm`` (tool frame) measured at each, in a tracker frame placed by ``rotation``
-    (3x3; default 30 deg about z and 5 deg about x) and ``translation_mm``, with isotropic
-    noise. Exact: actual tool poses, not the model's first-order projection."""
+    """Laser-tracker measurements of ``truth``.
+
+    ``n`` random poses, every target of ``offsets_mm`` (tool frame) measured at each, in a
+    tracker frame placed by ``rotation`` (3x3; default 30 deg about z and 5 deg about x) and
+    ``translation_mm``, with isotropic noise. Exact: actual tool poses, not the model's
+    first-order projection. Covariates are drawn (as :func:`covariates`) only when the
+    machine reads them.
+
+    Parameters
+    ----------
+    truth : Machine
+        The machine measured.
+    n : int, default 100
+        Number of poses, uniform over the travels.
+    offsets_mm : array_like, shape (n_targets, 3), default ((0, 0, 0),)
+        Target offsets in the tool frame [mm].
+    noise_um : float, default 5.0
+        Standard deviation of the noise on each coordinate [um].
+    seed : int, default 0
+        Seed of all draws.
+    rotation : array_like, shape (3, 3), optional
+        Rotation of the workpiece frame into the tracker frame.
+    translation_mm : array_like, shape (3,), default (2000, -1000, 300)
+        Translation of the tracker frame [mm].
+    source : str, default "simulated"
+        Label recorded as the source.
+
+    Returns
+    -------
+    TrackerMeasurements
+        N = n x n_targets rows (the targets of a pose together, named T1, T2, ...), in SI.
+    """
     from .tracker import TrackerMeasurements
 
     rng = np.random.default_rng(seed)
@@ -188,8 +349,19 @@ def tracker_campaign(truth: Machine, n: int = 100, offsets_mm=((0.0, 0.0, 0.0),)
 
 
 def write_tracker(data, machine: Machine, path) -> None:
-    """Write tracker measurements in the format :func:`volerr_pin.tracker.read_tracker` reads
-    (positions, targets, offsets, coordinates; covariates are not written)."""
+    """Write tracker measurements in the format :func:`volerr_pin.tracker.read_tracker` reads.
+
+    Positions (mm / deg), targets, offsets and coordinates (mm); covariates are not written.
+
+    Parameters
+    ----------
+    data : TrackerMeasurements
+        The measurements.
+    machine : Machine
+        The machine (its axes name the position columns).
+    path : str or Path
+        The file to write.
+    """
     cols = [a.lower() for a in machine.axes]
     factors = 1.0 / axis_scales(machine.axis_kinds)
     lines = [",".join(cols + ["target", "ox", "oy", "oz", "tx", "ty", "tz"])]

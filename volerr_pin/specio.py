@@ -34,8 +34,30 @@ def _owners(machine: Machine) -> dict:
 
 
 def replace_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Machine:
-    """A new machine whose components ``tables`` (name -> one term table or a list of them,
-    in the spec's TOML form) replace or add to the spec's. Other components are unchanged."""
+    """A new machine whose components ``tables`` replace or add to the spec's.
+
+    Other components are unchanged and keep their current values; the components in
+    ``tables`` take the values the tables give.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    tables : dict of str to dict or list of dict
+        Component name -> one term table or a list of them, in the spec's TOML form (keys
+        with their unit suffixes).
+
+    Returns
+    -------
+    Machine
+        The new machine.
+
+    Raises
+    ------
+    SpecError
+        If a component name or term table is invalid (named in the message as the spec's
+        source with "(replaced terms)").
+    """
     raw = {name: (t if isinstance(t, dict) else {"terms": list(t)}) for name, t in tables.items()}
     new = {c.name: c for c in parse_components(raw, f"{machine.spec.source} (replaced terms)",
                                           _owners(machine))}
@@ -54,7 +76,25 @@ __all__ = ["add_terms", "legendre_terms", "remove_components", "replace_terms", 
 
 
 def remove_components(machine: Machine, names) -> Machine:
-    """A new machine without the components ``names`` (their error joints stay, at zero)."""
+    """A new machine without the components ``names`` (their error joints stay, at zero).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    names : iterable of str
+        Component names.
+
+    Returns
+    -------
+    Machine
+        The new machine; the other coefficients keep their current values.
+
+    Raises
+    ------
+    InputError
+        If a name is not among the machine's components.
+    """
     names = set(names)
     unknown = sorted(names - set(machine.components))
     if unknown:
@@ -67,9 +107,29 @@ def remove_components(machine: Machine, names) -> Machine:
 
 
 def add_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Machine:
-    """A new machine with extra terms: ``tables`` maps a component name to one term table
-    or a list of them (spec TOML form), added to that component's present terms (a new
-    component if it has none). Every coefficient keeps its present value."""
+    """A new machine with extra terms.
+
+    ``tables`` maps a component name to one term table or a list of them (spec TOML form),
+    added to that component's present terms (a new component if it has none). Every
+    coefficient keeps its present value.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    tables : dict of str to dict or list of dict
+        Component name -> extra term table(s).
+
+    Returns
+    -------
+    Machine
+        The new machine.
+
+    Raises
+    ------
+    SpecError
+        If a component name or term table is invalid.
+    """
     current = term_tables(machine)
     merged = {}
     for name, extra in tables.items():
@@ -79,16 +139,53 @@ def add_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Machine
 
 
 def term_tables(machine: Machine) -> dict[str, list[dict]]:
-    """Component name -> the list of its term tables (spec TOML form, current values), as
-    :func:`replace_terms` and :func:`add_terms` take them."""
+    """Component name -> the list of its term tables (spec TOML form, current values).
+
+    As :func:`replace_terms` and :func:`add_terms` take them.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+
+    Returns
+    -------
+    dict of str to list of dict
+        The term tables of every component that has terms.
+    """
     return {name: list(t["terms"]) if "terms" in t else [t]
             for name, t in spec_document(machine)["errors"].items()}
 
 
 def legendre_terms(machine: Machine, components, degree: int, start: int = 0) -> dict:
-    """Legendre tables of ``degree`` for ``components`` whose coefficients reproduce the
-    current component functions as closely as the degree allows (least squares over the
-    travel), so a refit starts from the machine's present state."""
+    """Legendre tables of ``degree`` for ``components``, fitted to the current component functions.
+
+    Their coefficients reproduce the current component functions as closely as the degree
+    allows (least squares at 201 points over the travel, other axes at mid travel), so a refit
+    starts from the machine's present state. A component without terms starts at zero.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    components : iterable of str
+        Component errors of axes (not location errors).
+    degree : int
+        Highest Legendre degree, >= 0.
+    start : int, default 0
+        Lowest degree fitted; the coefficients below it are 0.
+
+    Returns
+    -------
+    dict of str to dict
+        Component name -> ``{"kind": "legendre", "coefficients_um": [...]}`` (or
+        ``coefficients_arcsec`` for an angular component), degree + 1 values.
+
+    Raises
+    ------
+    InputError
+        If ``degree`` is negative or a component is not a component error of an axis.
+    """
     if degree < 0:
         raise InputError(f"degree must be >= 0, got {degree}")
     travel = machine.travel
@@ -114,7 +211,24 @@ def legendre_terms(machine: Machine, components, degree: int, start: int = 0) ->
 
 
 def spec_document(machine: Machine, out: Path | None = None, provenance: dict | None = None) -> dict:
-    """The machine (with its current coefficient values) as a spec document (a dict)."""
+    """The machine (with its current coefficient values) as a spec document (a dict).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    out : Path, optional
+        Where the document will be written: the URDF path is made relative to its folder
+        (default: the current directory).
+    provenance : dict, optional
+        Recorded as the ``[provenance]`` table.
+
+    Returns
+    -------
+    dict
+        The TOML document: ``format``, ``machine``, ``axes``, ``bodies`` (if any), ``errors``
+        (coefficients in the spec's units, reference points in mm) and ``provenance``.
+    """
     spec = machine.spec
     base = Path(out).resolve().parent if out is not None else Path.cwd()
     if isinstance(spec.urdf_ref, dict):
@@ -164,7 +278,22 @@ def spec_document(machine: Machine, out: Path | None = None, provenance: dict | 
 def write_spec(machine: Machine, out: str | Path, provenance: dict | None = None) -> Path:
     """Write the machine's spec with its current values to ``out`` (TOML).
 
-    ``provenance`` (data files, RMS, ...) is recorded with the date of writing.
+    ``provenance`` (data files, RMS, ...) is recorded with the date of writing and the spec the
+    machine was derived from; None values are dropped (TOML has no null).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    out : str or Path
+        The TOML file to write.
+    provenance : dict, optional
+        Extra entries of the ``[provenance]`` table.
+
+    Returns
+    -------
+    Path
+        ``out``.
     """
     out = Path(out)
     record = {"written": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),

@@ -37,13 +37,36 @@ from .errors import InputError
 
 
 def spindle_five_point(s1, s2, s3, s4, s5, l: float, l1: float, l2: float) -> dict:
-    """Thermal drift and tilt of a spindle from five displacement sensors (any consistent
-    length unit for the readings; ``l``, ``l1``, ``l2`` in one unit; tilts in rad when the
-    readings and lengths share a unit).
+    """Thermal drift and tilt of a spindle from five displacement sensors.
 
-    Returns ``dx``, ``dy``, ``dz`` (drift at the tool point), ``tilt_x``, ``tilt_y``
-    (slopes of the mandrel in the xz and yz planes) and ``tilt_share_x``, ``tilt_share_y``
-    (the paper's ``(s3 - s1) l / l1``: the tilts' effect at the tool).
+    Any consistent length unit for the readings; ``l``, ``l1``, ``l2`` in one unit; tilts in
+    rad when the readings and lengths share a unit. See the module docstring for the formulas.
+
+    Parameters
+    ----------
+    s1, s2, s3, s4, s5 : array_like, shape (n,) or scalar
+        Sensor readings: s1, s3 the x displacement of the test mandrel at two axial positions
+        (s1 the nearer to the tool point), s2, s4 the y displacement likewise, s5 the axial
+        displacement [length unit].
+    l : float
+        Distance of sensor 1 (and 2) from the tool point [length unit], >= 0.
+    l1 : float
+        Axial distance between sensors 1 and 3 [length unit], > 0.
+    l2 : float
+        Axial distance between sensors 2 and 4 [length unit], > 0.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``dx``, ``dy``, ``dz`` (drift at the tool point) [length unit], ``tilt_x``,
+        ``tilt_y`` (slopes of the mandrel in the xz and yz planes) [rad] and
+        ``tilt_share_x``, ``tilt_share_y`` (the paper's ``(s3 - s1) l / l1``: the tilts'
+        effect at the tool) [length unit]; each of the readings' shape.
+
+    Raises
+    ------
+    InputError
+        Unless l1 > 0, l2 > 0 and l >= 0.
     """
     s1, s2, s3, s4, s5 = (np.asarray(s, dtype=float) for s in (s1, s2, s3, s4, s5))
     if not (l1 > 0 and l2 > 0 and l >= 0):
@@ -55,7 +78,20 @@ def spindle_five_point(s1, s2, s3, s4, s5, l: float, l1: float, l2: float) -> di
 
 
 def feed_axis_six_point(s6, s7, s8, s9, s10, s11) -> dict:
-    """Thermal drift of a feed axis from three sensor pairs (seed 003's 6-point method)."""
+    """Thermal drift of a feed axis from three sensor pairs (seed 003's 6-point method).
+
+    ``dX = s8 - s9``, ``dY = s6 - s11``, ``dZ = s7 - s10``.
+
+    Parameters
+    ----------
+    s6, s7, s8, s9, s10, s11 : array_like, shape (n,) or scalar
+        Sensor readings, any one length unit.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``dx``, ``dy``, ``dz``: the drift, in the readings' unit and shape.
+    """
     s6, s7, s8, s9, s10, s11 = (np.asarray(s, dtype=float) for s in (s6, s7, s8, s9, s10, s11))
     return {"dx": s8 - s9, "dy": s6 - s11, "dz": s7 - s10}
 
@@ -70,7 +106,19 @@ def _background(x1: np.ndarray, lam: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class GM11:
-    """GM(1,1): development coefficient ``a``, grey input ``b``, first value ``x0_1``."""
+    """GM(1,1): development coefficient ``a``, grey input ``b``, first value ``x0_1``.
+
+    Attributes
+    ----------
+    a : float
+        Development coefficient.
+    b : float
+        Grey input (unit of the series).
+    x0_1 : float
+        First value of the shifted series.
+    shift : float
+        Added to the series before fitting (and removed from predictions).
+    """
 
     a: float
     b: float
@@ -79,8 +127,26 @@ class GM11:
 
     @classmethod
     def fit(cls, x0, shift: float | None = None) -> "GM11":
-        """Fit on a series; ``shift`` (default: none if all values are positive, else
-        ``1 - min``) is added before and removed after, as grey models need positive data."""
+        """Fit on a series.
+
+        Parameters
+        ----------
+        x0 : array_like, shape (n,)
+            The series, n >= 4, any unit.
+        shift : float, optional
+            Added before and removed after, as grey models need positive data (default: none
+            if all values are positive, else ``1 - min``).
+
+        Returns
+        -------
+        GM11
+            The model (least squares with background weight 0.5).
+
+        Raises
+        ------
+        InputError
+            If ``x0`` is not 1-D with at least 4 values, or the development coefficient is zero.
+        """
         x0 = np.asarray(x0, dtype=float)
         if x0.ndim != 1 or x0.size < 4:
             raise InputError(f"GM(1,1) needs a 1-D series of at least 4 values, got shape {x0.shape}")
@@ -95,19 +161,51 @@ class GM11:
         return cls(float(a), float(b), float(x[0]), float(shift))
 
     def accumulated(self, n: int) -> np.ndarray:
-        """x1_hat(k), k = 1..n: the time response (x0(1) - b/a) e^{-a (k-1)} + b/a."""
+        """x1_hat(k), k = 1..n: the time response (x0(1) - b/a) e^{-a (k-1)} + b/a.
+
+        Parameters
+        ----------
+        n : int
+            Number of values.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The accumulated (shifted) series predicted.
+        """
         k = np.arange(n)
         return (self.x0_1 - self.b / self.a) * np.exp(-self.a * k) + self.b / self.a
 
     def predict(self, n: int) -> np.ndarray:
-        """x0_hat(k), k = 1..n (the first ``len(data)`` fit, the rest forecast)."""
+        """x0_hat(k), k = 1..n (the first ``len(data)`` fit, the rest forecast).
+
+        Parameters
+        ----------
+        n : int
+            Number of values.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Predicted series, in its own unit (the shift removed).
+        """
         x1 = self.accumulated(n)
         return np.r_[x1[0], np.diff(x1)] - self.shift
 
 
 @dataclass(frozen=True)
 class GM1N:
-    """GM(1,N) with background weight ``lam`` (0.5: classic; other: variable weight)."""
+    """GM(1,N) with background weight ``lam`` (0.5: classic; other: variable weight).
+
+    Attributes
+    ----------
+    a : float
+        Development coefficient.
+    b : ndarray, shape (N - 1,)
+        Driving coefficients, one per driving series (target unit per driver unit).
+    lam : float
+        Background weight in [0, 1].
+    """
 
     a: float
     b: np.ndarray
@@ -115,9 +213,30 @@ class GM1N:
 
     @classmethod
     def fit(cls, target, drivers, lam: float | None = 0.5, batches=None) -> "GM1N":
-        """Fit on the target series (n,) and driving series (n, N-1). ``lam=None`` chooses
-        the background weight in [0, 1] minimising the one-step error (variable weight).
-        ``batches`` (n,) labels separate experiments: accumulation restarts in each."""
+        """Fit on the target series and driving series.
+
+        Parameters
+        ----------
+        target : array_like, shape (n,)
+            The target series.
+        drivers : array_like, shape (n, N - 1) or (n,)
+            The driving series.
+        lam : float or None, default 0.5
+            Background weight; None chooses it in [0, 1] (steps of 0.01) minimising the one-step
+            error (variable weight).
+        batches : array_like, shape (n,), optional
+            Labels of separate experiments: accumulation restarts in each.
+
+        Returns
+        -------
+        GM1N
+            The model (least squares over all batches).
+
+        Raises
+        ------
+        InputError
+            If the shapes do not match or there are fewer than N + 2 rows.
+        """
         y = np.asarray(target, dtype=float)
         X = np.asarray(drivers, dtype=float)
         if X.ndim == 1:
@@ -147,7 +266,20 @@ class GM1N:
         return float(np.sqrt(np.mean(res**2)))
 
     def one_step(self, target, drivers) -> np.ndarray:
-        """x0_hat(k) from the measured history up to k - 1 and the drivers at k."""
+        """x0_hat(k) from the measured history up to k - 1 and the drivers at k.
+
+        Parameters
+        ----------
+        target : array_like, shape (n,)
+            Measured target series (one experiment).
+        drivers : array_like, shape (n, N - 1) or (n,)
+            Driving series.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            One-step-ahead predictions; the first is the measured first value.
+        """
         y = np.asarray(target, dtype=float)
         X1 = _ago(np.atleast_2d(np.asarray(drivers, dtype=float).T).T)
         y1 = _ago(y)
@@ -157,8 +289,22 @@ class GM1N:
         return out
 
     def simulate(self, first: float, drivers) -> np.ndarray:
-        """x0_hat(k), k = 1..n, from the first target value and the drivers only (the
-        recursion runs on its own accumulated predictions)."""
+        """x0_hat(k), k = 1..n, from the first target value and the drivers only.
+
+        The recursion runs on its own accumulated predictions.
+
+        Parameters
+        ----------
+        first : float
+            First target value.
+        drivers : array_like, shape (n, N - 1) or (n,)
+            Driving series.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Simulated target series.
+        """
         X1 = _ago(np.atleast_2d(np.asarray(drivers, dtype=float).T).T)
         out = np.empty(X1.shape[0])
         out[0] = first

@@ -36,7 +36,17 @@ METHODS = ("linear", "gm11", "gm1n", "vwgm1n")
 
 @dataclass(frozen=True)
 class SeriesData:
-    """Numeric columns of one or more files, rows in time order; ``batch`` (n,) file index."""
+    """Numeric columns of one or more files, rows in time order; ``batch`` (n,) file index.
+
+    Attributes
+    ----------
+    sources : tuple of str
+        The files, in order.
+    columns : dict of str to ndarray
+        Column name -> values, shape (n,), in the file's units.
+    batch : ndarray of int, shape (n,)
+        Index (into ``sources``) of the file of each row.
+    """
 
     sources: tuple[str, ...]
     columns: dict
@@ -44,11 +54,30 @@ class SeriesData:
 
     @property
     def n(self) -> int:
+        """Number of rows (int)."""
         return len(self.batch)
 
 
 def read_series(paths) -> SeriesData:
-    """Read numeric CSV files with the same header (a byte-order mark is tolerated)."""
+    """Read numeric CSV files with the same header (a byte-order mark is tolerated).
+
+    Parameters
+    ----------
+    paths : str, Path or iterable of them
+        The files, in time order.
+
+    Returns
+    -------
+    SeriesData
+        The rows of all files, stacked.
+
+    Raises
+    ------
+    InputError
+        If no file is given.
+    MeasurementError
+        If a file cannot be read, a value is not a finite number, or the headers differ.
+    """
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
     if not paths:
         raise InputError("no data files")
@@ -93,8 +122,45 @@ def _stats(y, yhat, p):
 
 def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, method: str = "linear",
                 holdout: float = 0.0, test: SeriesData | None = None, rank_top: int = 5) -> dict:
-    """Fit a thermal model; returns the report fields (docs/reports.md) plus ``coefficients``, ``sensor_ranking``
-    and the predictions (``fitted``, ``predicted_holdout``)."""
+    """Fit a thermal model of one column from the others (see the module docstring).
+
+    Parameters
+    ----------
+    data : SeriesData
+        The fit data (and, with ``holdout``, the held-out rows).
+    target : str
+        Column to model.
+    sensors : list of str, optional
+        Columns to model it from (default: every other column).
+    lag : int, default 1
+        Linear method: 0 for the static model, K >= 1 for the one-step-ahead model with K
+        lags of the target (reported None for the other methods).
+    method : str, default "linear"
+        "linear", "gm11", "gm1n" or "vwgm1n".
+    holdout : float, default 0.0
+        Fraction in [0, 1) of the last rows held out.
+    test : SeriesData, optional
+        Separate test files instead of ``holdout`` (not with "gm11").
+    rank_top : int, default 5
+        Number of sensors in the greedy sensor ranking.
+
+    Returns
+    -------
+    dict
+        The report fields (docs/reports.md): ``target``, ``method``, ``sensors``, ``lag``,
+        ``n_fit``, ``r2``, ``residual_se``, ``n_holdout``, ``rmse_holdout`` (in the unit of
+        the target column; None without held-out rows), plus ``coefficients``,
+        ``sensor_ranking`` (sensor and R^2 reached, by greedy forward selection) and the
+        predictions ``fitted`` and ``predicted_holdout`` (lists).
+
+    Raises
+    ------
+    InputError
+        For an unknown ``target``, ``method`` or sensor, the target among the sensors, a
+        negative ``lag``, ``holdout`` out of range or given with ``test``, test columns
+        differing from the data's, too few usable rows, "gm11" with test files, or a grey
+        model that cannot be fitted (see :class:`~volerr_pin.thermal.GM11`).
+    """
     if target not in data.columns:
         raise InputError(f"target: no column '{target}' (columns: {', '.join(data.columns)})",
                          parameters=("target",))

@@ -43,8 +43,30 @@ OFFSETS = ("ox", "oy", "oz")
 
 @dataclass(frozen=True)
 class TrackerMeasurements:
-    """``q`` (N, n_axes) SI; ``coordinates`` (N, 3) m in the tracker frame; ``offsets``
-    (N, 3) m in the tool frame; ``targets`` (N,) names; covariates as for point data."""
+    """Laser-tracker measurements of target coordinates, in SI.
+
+    ``q`` (N, n_axes) SI; ``coordinates`` (N, 3) m in the tracker frame; ``offsets``
+    (N, 3) m in the tool frame; ``targets`` (N,) names; covariates as for point data.
+
+    Attributes
+    ----------
+    source : str
+        The file (or a label for simulated data).
+    q : ndarray, shape (N, n_axes)
+        NC positions [m, rad].
+    coordinates : ndarray, shape (N, 3)
+        Measured target coordinates in the tracker frame [m].
+    offsets : ndarray, shape (N, 3)
+        Target offsets in the tool frame [m] (0 when the file gives none).
+    targets : tuple of str
+        Target name of each row ("" when the file gives none).
+    covariates : dict
+        Keyword covariates, as for :class:`~volerr_pin.measurements.PointMeasurements`.
+    lines : ndarray of int, shape (N,)
+        File line of each row.
+    unused : tuple of str
+        Columns present but not used.
+    """
 
     source: str
     q: np.ndarray
@@ -57,12 +79,45 @@ class TrackerMeasurements:
 
 
 def is_tracker_file(header: list[str]) -> bool:
+    """Whether a header is that of a tracker file.
+
+    Parameters
+    ----------
+    header : list of str
+        Column names.
+
+    Returns
+    -------
+    bool
+        True if the columns include ``tx``, ``ty`` and ``tz`` (with or without ``_mm``).
+    """
     stems = {h.rsplit("_mm", 1)[0] if h.endswith("_mm") else h for h in header}
     return set(COORDINATES) <= stems
 
 
 def read_tracker(path: str | Path | Table, machine) -> TrackerMeasurements:
-    """Read a tracker file for ``machine`` (see the module docstring)."""
+    """Read a tracker file for ``machine`` (see the module docstring).
+
+    Parameters
+    ----------
+    path : str, Path or Table
+        The file, or a table read already.
+    machine : Machine
+        The machine (its axes name the position columns, checked against its travel).
+
+    Returns
+    -------
+    TrackerMeasurements
+        The measurements in SI (the file gives mm / deg and mm).
+
+    Raises
+    ------
+    MeasurementError
+        If the table is malformed, ``tx``, ``ty`` or ``tz`` is missing, only some of ``ox``,
+        ``oy``, ``oz`` are given, one target has two different offsets, or a position or
+        covariate column is invalid (see
+        :func:`~volerr_pin.measurements.positions_and_covariates`).
+    """
     table = read_table(path)
     columns = header_columns(table, machine)
     missing = [c for c in COORDINATES if c not in columns]
@@ -98,7 +153,22 @@ def read_tracker(path: str | Path | Table, machine) -> TrackerMeasurements:
 
 
 def register(points: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rotation R and translation t minimising |R points + t - measured| (Kabsch)."""
+    """Rotation R and translation t minimising |R points + t - measured| (Kabsch).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3)
+        Points in the source frame.
+    measured : ndarray, shape (N, 3)
+        The same points measured in the target frame (same unit).
+
+    Returns
+    -------
+    R : ndarray, shape (3, 3)
+        Rotation (proper: determinant +1).
+    t : ndarray, shape (3,)
+        Translation, in the unit of the points.
+    """
     cp, cm = points.mean(axis=0), measured.mean(axis=0)
     H = (points - cp).T @ (measured - cm)
     U, _, Vt = np.linalg.svd(H)
@@ -108,9 +178,35 @@ def register(points: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def tracker_observations(machine, data: TrackerMeasurements) -> dict:
-    """Deviations of each target from its nominal position in the workpiece frame after the
-    first registration, their observation vectors ``w`` (N, 3, 6), and the registration
-    nuisance design (N, 3, 6): translation x, y, z, then small rotation about x, y, z."""
+    """Deviations of each target from its nominal position, ready for the model.
+
+    Deviations in the workpiece frame after the first registration, their observation
+    vectors ``w``, and the registration nuisance design: translation x, y, z, then small
+    rotation about x, y, z.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    data : TrackerMeasurements
+        The measurements (at least 3 target positions, not on one line).
+
+    Returns
+    -------
+    dict
+        ``deviation`` (N, 3) [m]; ``w`` (N, 3, 6): weights of the error dx, dy, dz [m],
+        rx, ry, rz [rad] in each deviation component; ``nuisance`` (N, 3, 6): derivative of
+        each deviation component by the tracker's small translation [m] and rotation [rad];
+        ``rotation`` (3, 3) and ``translation`` (3,) [m] of the first registration
+        (workpiece frame to tracker frame); ``nominal`` (N, 3): nominal target positions in
+        the workpiece frame [m].
+
+    Raises
+    ------
+    InputError
+        If the targets lie on a line or are fewer than 3: the tracker's placement cannot be
+        found.
+    """
     R_nom, p_nom = machine.tool_poses(data.q, nominal=True)
     arm = np.einsum("nij,nj->ni", R_nom, data.offsets)   # target offset in the workpiece frame
     nominal = p_nom + arm

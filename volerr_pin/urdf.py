@@ -29,7 +29,27 @@ ERROR_JOINT_RANGE = 1.0
 
 @dataclass(frozen=True)
 class Joint:
-    """One URDF joint as read from the file (SI units)."""
+    """One URDF joint as read from the file (SI units).
+
+    Attributes
+    ----------
+    name : str
+        Joint name.
+    type : str
+        "fixed", "prismatic", "revolute", "continuous", "floating" or "planar".
+    parent, child : str
+        Parent and child link names.
+    xyz : tuple of float (3,)
+        Origin translation [m].
+    rpy : tuple of float (3,)
+        Origin roll, pitch, yaw [rad].
+    axis : tuple of float (3,)
+        Unit joint axis (default (1, 0, 0)).
+    lower, upper : float
+        Joint limits [m or rad]; -inf, inf for joints other than prismatic and revolute.
+    line : int
+        Line of the ``<joint>`` element in the file (0 if unknown).
+    """
 
     name: str
     type: str
@@ -45,7 +65,23 @@ class Joint:
 
 @dataclass(frozen=True)
 class URDF:
-    """A parsed URDF: its tree and where it came from."""
+    """A parsed URDF: its tree and where it came from.
+
+    Attributes
+    ----------
+    name : str
+        Robot name ("" if the file gives none).
+    source : str
+        File name used in messages.
+    links : tuple of str
+        Link names, in file order.
+    joints : dict of str to Joint
+        Joints by name, in file order.
+    root : str
+        The root link.
+    document : lxml.etree._ElementTree
+        The XML document (everything in the file is kept).
+    """
 
     name: str
     source: str
@@ -55,14 +91,36 @@ class URDF:
     document: etree._ElementTree
 
     def parent_joint(self, link: str) -> Joint | None:
-        """The joint whose child is ``link`` (None for the root)."""
+        """The joint whose child is ``link`` (None for the root).
+
+        Parameters
+        ----------
+        link : str
+            Link name.
+
+        Returns
+        -------
+        Joint or None
+            The parent joint.
+        """
         for joint in self.joints.values():
             if joint.child == link:
                 return joint
         return None
 
     def path_to_root(self, link: str) -> list[Joint]:
-        """Joints from ``link`` up to the root, nearest first."""
+        """Joints from ``link`` up to the root, nearest first.
+
+        Parameters
+        ----------
+        link : str
+            Link name.
+
+        Returns
+        -------
+        list of Joint
+            Empty for the root.
+        """
         path = []
         joint = self.parent_joint(link)
         while joint is not None:
@@ -71,6 +129,13 @@ class URDF:
         return path
 
     def to_string(self) -> str:
+        """The document as XML text.
+
+        Returns
+        -------
+        str
+            Pretty-printed, with an XML declaration (UTF-8).
+        """
         return etree.tostring(self.document, pretty_print=True, xml_declaration=True,
                               encoding="utf-8").decode()
 
@@ -102,12 +167,22 @@ def _floats(source: str, element, attr: str, count: int, default: str | None) ->
 def parse_urdf(text: str | bytes, source: str = "<string>") -> URDF:
     """Parse and check a URDF document.
 
+    Checks: the root element is ``<robot>``; links and joints have unique names; joint types
+    are known; parents and children are defined links; every link has at most one parent
+    joint; numbers are finite; prismatic and revolute joints have limits with lower < upper;
+    the links form one tree.
+
     Parameters
     ----------
     text : str or bytes
         The XML text.
-    source : str
+    source : str, default "<string>"
         File name used in error messages.
+
+    Returns
+    -------
+    URDF
+        The parsed document (joint axes normalised).
 
     Raises
     ------
@@ -203,7 +278,23 @@ def parse_urdf(text: str | bytes, source: str = "<string>") -> URDF:
 
 
 def load_urdf(path: str | Path) -> URDF:
-    """Read and parse a URDF file (see :func:`parse_urdf`)."""
+    """Read and parse a URDF file (see :func:`parse_urdf`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    URDF
+        The parsed document.
+
+    Raises
+    ------
+    URDFError
+        If the file cannot be read or is not a valid URDF.
+    """
     path = Path(path)
     try:
         text = path.read_bytes()
@@ -240,6 +331,19 @@ class Site:
     link and the joint, at the joint origin: the fixed frame). ``reference`` (m) is the
     point, in that frame, about which the angular errors act. ``names`` are the names
     of the six injected joints in the order X, Y, Z, A, B, C.
+
+    Attributes
+    ----------
+    key : str
+        Prefix of the injected link names (``<key>__err0`` ...).
+    joint : str
+        The URDF joint the group is attached to.
+    where : str
+        "after" or "before".
+    reference : tuple of float (3,)
+        Point about which the angular errors act [m].
+    names : tuple of str (6,)
+        Names of the six injected joints, X, Y, Z, A, B, C.
     """
 
     key: str
@@ -250,9 +354,21 @@ class Site:
 
 
 def complete_limits(robot: etree._Element) -> bool:
-    """Give every joint ``<limit>`` an ``effort`` and a ``velocity`` (0 where missing): URDF
-    allows leaving them out, Pinocchio's and Rerun's importers do not. True if any was
-    missing."""
+    """Give every joint ``<limit>`` an ``effort`` and a ``velocity`` (0 where missing).
+
+    URDF allows leaving them out, Pinocchio's and Rerun's importers do not. The element is
+    changed in place.
+
+    Parameters
+    ----------
+    robot : lxml.etree._Element
+        The ``<robot>`` element.
+
+    Returns
+    -------
+    bool
+        True if any was missing.
+    """
     missing = False
     for limit in robot.findall("joint/limit"):
         for key in ("effort", "velocity"):
@@ -263,7 +379,29 @@ def complete_limits(robot: etree._Element) -> bool:
 
 
 def inject(urdf: URDF, sites: list[Site]) -> URDF:
-    """Return a new URDF with the error-joint groups of ``sites`` inserted."""
+    """Return a new URDF with the error-joint groups of ``sites`` inserted.
+
+    Each group is three prismatic joints along x, y, z then three revolute joints about x, y,
+    z (limits +-1 m or rad), placed at the site's reference point (see the module docstring);
+    the original document is not changed.
+
+    Parameters
+    ----------
+    urdf : URDF
+        The nominal URDF.
+    sites : list of Site
+        Where the groups go.
+
+    Returns
+    -------
+    URDF
+        The injected URDF (its source is the original's plus " (with error joints)").
+
+    Raises
+    ------
+    URDFError
+        If a joint origin of the file is invalid.
+    """
     document = copy.deepcopy(urdf.document)
     robot = document.getroot()
     elements = {j.get("name"): j for j in robot.findall("joint")}

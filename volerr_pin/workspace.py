@@ -14,12 +14,25 @@ from .units import ARCSEC_PER_RAD, UM_PER_M, axis_scales, axis_values_to_si
 
 
 def grid(machine: Machine, points_per_axis: int | tuple[int, ...] = 5) -> np.ndarray:
-    """(N, n_axes) full-factorial grid over the travels, ends included.
+    """Full-factorial grid of NC positions over the travels, ends included.
 
     Parameters
     ----------
-    points_per_axis : int or tuple of int
-        Points along each axis (one value for all axes, or one per axis).
+    machine : Machine
+        The machine whose travels the grid spans (an endless axis spans one turn, -pi to pi).
+    points_per_axis : int or tuple of int, default 5
+        Points along each axis (one value for all axes, or one per axis). An axis with one
+        point sits at the middle of its travel.
+
+    Returns
+    -------
+    ndarray, shape (N, n_axes)
+        NC positions [m, rad], N the product of the counts; the last axis varies fastest.
+
+    Raises
+    ------
+    InputError
+        If a count is below 1.
     """
     counts = np.broadcast_to(np.asarray(points_per_axis, dtype=int), (len(machine.axes),))
     if np.any(counts < 1):
@@ -32,7 +45,27 @@ def grid(machine: Machine, points_per_axis: int | tuple[int, ...] = 5) -> np.nda
 
 
 def sample(machine: Machine, n: int, seed: int = 0) -> np.ndarray:
-    """(n, n_axes) scrambled Sobol' space-filling design over the travels (seeded)."""
+    """Scrambled Sobol' space-filling design over the travels (seeded).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine whose travels the points fill (an endless axis spans one turn, -pi to pi).
+    n : int
+        Number of points (the first ``n`` of a 2^m Sobol' sequence).
+    seed : int, default 0
+        Seed of the scrambling.
+
+    Returns
+    -------
+    ndarray, shape (n, n_axes)
+        NC positions [m, rad].
+
+    Raises
+    ------
+    InputError
+        If ``n`` is below 1.
+    """
     if n < 1:
         raise InputError(f"number of points must be >= 1, got {n}")
     travel = _bounded_travel(machine)
@@ -53,10 +86,29 @@ def _bounded_travel(machine: Machine) -> np.ndarray:
 def error_summary(machine: Machine, q: np.ndarray, theta=None, **covariates) -> dict:
     """Summary of the volumetric error over the points ``q``.
 
-    Returns a dict with ``points``, ``max_position_um`` and ``rms_position_um`` (the
-    Euclidean norm of dx, dy, dz), ``max_abs_um`` per direction, ``max_orientation_arcsec``
-    (norm of rx, ry, rz), and ``worst_q`` (the NC position of the largest position error,
-    in mm / deg).
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    q : ndarray, shape (N, n_axes)
+        NC positions [m, rad].
+    theta : array_like, shape (P,), optional
+        Coefficients (SI); defaults to the machine's.
+    **covariates
+        As for :meth:`Machine.volumetric_error`.
+
+    Returns
+    -------
+    dict
+        ``points``, ``max_position_um`` and ``rms_position_um`` (the Euclidean norm of dx,
+        dy, dz) [um], ``max_abs_um`` per direction (``x``, ``y``, ``z``) [um],
+        ``max_orientation_arcsec`` (norm of rx, ry, rz) [arcsec], and ``worst_q`` (the NC
+        position of the largest position error, in mm / deg).
+
+    Raises
+    ------
+    InputError
+        For invalid ``q``, ``theta`` or covariates.
     """
     error = machine.volumetric_error(q, theta, **covariates)
     norm = np.linalg.norm(error[:, :3], axis=1)
@@ -73,12 +125,38 @@ def error_summary(machine: Machine, q: np.ndarray, theta=None, **covariates) -> 
 
 
 def to_engineering(machine: Machine, q: np.ndarray) -> np.ndarray:
-    """NC positions from SI (m, rad) to engineering units (mm, deg)."""
+    """NC positions from SI (m, rad) to engineering units (mm, deg).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine (its axis kinds choose the unit of each column).
+    q : array_like, shape (..., n_axes)
+        NC positions [m, rad].
+
+    Returns
+    -------
+    ndarray, shape (..., n_axes)
+        The positions [mm, deg].
+    """
     return np.asarray(q) / axis_scales(machine.axis_kinds)
 
 
 def from_engineering(machine: Machine, q: np.ndarray) -> np.ndarray:
-    """NC positions from engineering units (mm, deg) to SI (m, rad)."""
+    """NC positions from engineering units (mm, deg) to SI (m, rad).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine (its axis kinds choose the unit of each column).
+    q : array_like, shape (..., n_axes)
+        NC positions [mm, deg].
+
+    Returns
+    -------
+    ndarray, shape (..., n_axes)
+        The positions as floats [m, rad].
+    """
     return np.asarray(q, dtype=float) * axis_scales(machine.axis_kinds)
 
 
@@ -86,9 +164,33 @@ def from_engineering(machine: Machine, q: np.ndarray) -> np.ndarray:
 
 def field_grid(machine: Machine, counts=None, config: dict[str, float] | None = None,
                points: int = 1000) -> np.ndarray:
-    """NC positions of a field: a grid over the linear axes (``counts`` per linear axis),
-    other axes at ``config`` (SI, default: mid travel for linear, 0 or mid for rotary). A
-    machine without linear axes gets ``points`` seeded Sobol' configurations instead."""
+    """NC positions of a field: a grid over the linear axes, the other axes fixed.
+
+    A machine without linear axes gets ``points`` seeded Sobol' configurations instead.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    counts : sequence of int, optional
+        Points per linear axis: one count for all of them or one per linear axis (default 9).
+    config : dict of str to float, optional
+        Positions of the other axes, axis name -> SI value [m, rad] (default: mid travel for
+        linear, 0 or mid for rotary; see :func:`default_config`).
+    points : int, default 1000
+        Number of points for a machine without linear axes.
+
+    Returns
+    -------
+    ndarray, shape (N, n_axes)
+        NC positions [m, rad].
+
+    Raises
+    ------
+    InputError
+        If ``counts`` has neither one nor one-per-linear-axis entries, or ``config`` names an
+        unknown axis or a position outside the travel.
+    """
     base = default_config(machine, config)
     linear = [j for j, k in enumerate(machine.axis_kinds) if k == "linear"]
     if not linear:
@@ -109,15 +211,53 @@ def field_grid(machine: Machine, counts=None, config: dict[str, float] | None = 
 
 
 def config_from_file(machine: Machine, positions: dict[str, float], where: str) -> np.ndarray:
-    """:func:`default_config` with axis positions given in file units (mm / deg), as a file's
-    ``# at:`` or ``# centre:`` line gives them; ``where`` names the file and line for errors."""
+    """:func:`default_config` with axis positions given in file units (mm / deg).
+
+    As a file's ``# at:`` or ``# centre:`` line gives them.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    positions : dict of str to float
+        Axis name -> position [mm, deg].
+    where : str
+        Names the file and line for errors.
+
+    Returns
+    -------
+    ndarray, shape (n_axes,)
+        The configuration [m, rad].
+
+    Raises
+    ------
+    InputError
+        If a name is not an axis of the machine or a position is outside the travel.
+    """
     return default_config(machine, axis_values_to_si(machine.axes, machine.axis_kinds, positions, where,
                                                      machine.name))
 
 
 def default_config(machine: Machine, config: dict[str, float] | None = None) -> np.ndarray:
-    """A displayable configuration: mid travel, rotary axes at 0 when 0 is in travel;
-    ``config`` (axis -> SI value) overrides, checked against the travel."""
+    """A displayable configuration: mid travel, rotary axes at 0 when 0 is in travel.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    config : dict of str to float, optional
+        Axis name -> SI value [m, rad] overriding the default, checked against the travel.
+
+    Returns
+    -------
+    ndarray, shape (n_axes,)
+        The configuration [m, rad] (an endless axis at 0).
+
+    Raises
+    ------
+    InputError
+        If ``config`` names an unknown axis or a value outside the travel.
+    """
     travel = machine.travel
     q = machine.mid_travel
     for j, kind in enumerate(machine.axis_kinds):
@@ -139,8 +279,21 @@ def default_config(machine: Machine, config: dict[str, float] | None = None) -> 
 
 
 def nice_scale(error_um_max: float, extent_m: float) -> float:
-    """A round magnification (1, 2 or 5 x 10^k) making the largest arrow about 8 % of the
-    workspace extent."""
+    """A round magnification (1, 2 or 5 x 10^k) making the largest arrow about 8 % of the workspace extent.
+
+    Parameters
+    ----------
+    error_um_max : float
+        The largest position error [um].
+    extent_m : float
+        The workspace extent [m].
+
+    Returns
+    -------
+    float
+        The magnification: the largest power-of-ten multiple of 5, 2 or 1 not above
+        0.08 x extent / error; 1.0 when either input is not positive.
+    """
     if error_um_max <= 0 or extent_m <= 0:
         return 1.0
     raw = 0.08 * extent_m / (error_um_max / UM_PER_M)
@@ -153,7 +306,19 @@ def nice_scale(error_um_max: float, extent_m: float) -> float:
 
 @dataclass(frozen=True)
 class FieldData:
-    """An evaluated error field: where (workpiece frame) and how large."""
+    """An evaluated error field: where (workpiece frame) and how large.
+
+    Attributes
+    ----------
+    q : ndarray, shape (N, n_axes)
+        NC positions [m, rad].
+    positions : ndarray, shape (N, 3)
+        Nominal tool points in the workpiece frame [m].
+    error : ndarray, shape (N, 6)
+        Volumetric error: dx, dy, dz [m], rx, ry, rz [rad].
+    scale : float
+        Arrow magnification (dimensionless).
+    """
 
     q: np.ndarray          # (N, n_axes) NC positions, SI
     positions: np.ndarray  # (N, 3) nominal tool points in the workpiece frame, m
@@ -163,8 +328,30 @@ class FieldData:
 
 def evaluate_field(machine: Machine, q: np.ndarray, scale: float | None = None,
                    **covariates) -> FieldData:
-    """Volumetric error at ``q`` (with the given covariates) and the nominal tool points it
-    belongs to."""
+    """Volumetric error at ``q`` (with the given covariates) and the nominal tool points it belongs to.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    q : ndarray, shape (N, n_axes)
+        NC positions [m, rad].
+    scale : float, optional
+        Arrow magnification; default from :func:`nice_scale` over the field's extent (1 m for
+        a single point).
+    **covariates
+        As for :meth:`Machine.volumetric_error`.
+
+    Returns
+    -------
+    FieldData
+        The positions, the error and the scale.
+
+    Raises
+    ------
+    InputError
+        If ``scale`` is not a positive finite number, or ``q`` or the covariates are invalid.
+    """
     error = machine.volumetric_error(q, **covariates)
     _, positions = machine.tool_poses(q, nominal=True)
     if scale is None:

@@ -1,0 +1,197 @@
+"""The public API of the library modules has numpydoc docstrings: a summary line, ``Parameters``
+naming every parameter, ``Returns`` for whatever returns a value, ``Attributes`` naming every
+field of a dataclass."""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import importlib
+import inspect
+import re
+import textwrap
+
+import pytest
+
+MODULES = ("machine", "kinematics", "workspace", "ranking", "identify", "compensate", "errormap",
+           "thermal", "thermalfit", "measurements", "tracker", "ballbar", "axisfit", "dh", "iso230",
+           "simulate", "specio", "identifiability", "describe", "urdf")
+
+SECTION_RE = re.compile(r"^(\w[\w ]*)\n-{3,}$", re.MULTILINE)
+
+
+def public_objects(module) -> list[tuple[str, object]]:
+    """Functions and classes a module defines (``__all__`` where it has one, else every
+    top-level name without a leading underscore); names imported from elsewhere excluded."""
+    names = getattr(module, "__all__", None)
+    if names is None:
+        names = [n for n in vars(module) if not n.startswith("_")]
+    return [(n, obj) for n in names for obj in [getattr(module, n)]
+            if (inspect.isfunction(obj) or inspect.isclass(obj)) and obj.__module__ == module.__name__]
+
+
+def sections(doc: str) -> dict[str, str]:
+    """Section title -> body of a cleaned numpydoc docstring."""
+    marks = list(SECTION_RE.finditer(doc))
+    return {m.group(1): doc[m.end():marks[k + 1].start() if k + 1 < len(marks) else len(doc)]
+            for k, m in enumerate(marks)}
+
+
+def documented_names(body: str) -> set[str]:
+    """Names of the entries of a Parameters / Attributes section (``a, b : type`` lines)."""
+    names = set()
+    for line in body.splitlines():
+        if line and not line[0].isspace():
+            names.update(n.strip().lstrip("*") for n in line.split(" : ")[0].split(","))
+    return names
+
+
+def returns_value(fn) -> bool:
+    """Whether ``fn`` returns something: by its annotation, else by a ``return <value>`` in its body."""
+    annotation = inspect.signature(fn).return_annotation
+    if annotation is not inspect.Signature.empty:
+        return annotation not in (None, "None")
+    tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
+
+    def walk(node):
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda, ast.ClassDef)):
+                continue
+            if isinstance(child, (ast.Yield, ast.YieldFrom)):
+                return True
+            if isinstance(child, ast.Return) and child.value is not None and not (
+                    isinstance(child.value, ast.Constant) and child.value.value is None):
+                return True
+            if walk(child):
+                return True
+        return False
+
+    return walk(tree.body[0])
+
+
+def parameters(fn, bound: bool) -> list[str]:
+    names = list(inspect.signature(fn).parameters)
+    return names[1:] if bound and names else names
+
+
+def function_problems(name: str, fn, bound: bool = False) -> list[str]:
+    doc = inspect.getdoc(fn) if fn.__doc__ else None
+    if not doc or not doc.splitlines()[0].strip() or SECTION_RE.match(doc):
+        return [f"{name}: no docstring with a one-line summary"]
+    found = sections(doc)
+    problems = []
+    params = parameters(fn, bound)
+    if params:
+        if "Parameters" not in found:
+            problems.append(f"{name}: no Parameters section")
+        else:
+            missing = [p for p in params if p not in documented_names(found["Parameters"])]
+            if missing:
+                problems.append(f"{name}: Parameters does not name {', '.join(missing)}")
+    if returns_value(fn) and "Returns" not in found and "Yields" not in found:
+        problems.append(f"{name}: no Returns section")
+    return problems
+
+
+def class_problems(name: str, cls) -> list[str]:
+    doc = inspect.getdoc(cls) if cls.__doc__ else None
+    if not doc or not doc.splitlines()[0].strip() or doc.startswith(f"{cls.__name__}("):
+        return [f"{name}: no docstring with a one-line summary"]  # (dataclasses make one up)
+    found = sections(doc)
+    problems = []
+    if dataclasses.is_dataclass(cls):
+        fields = [f.name for f in dataclasses.fields(cls)]
+        if fields and "Attributes" not in found:
+            problems.append(f"{name}: no Attributes section")
+        elif fields:
+            missing = [f for f in fields if f not in documented_names(found["Attributes"])]
+            if missing:
+                problems.append(f"{name}: Attributes does not name {', '.join(missing)}")
+    elif "__init__" in vars(cls):
+        params = parameters(cls.__init__, bound=True)
+        if params and "Parameters" not in found:
+            problems.append(f"{name}: no Parameters section for the constructor")
+        elif params:
+            missing = [p for p in params if p not in documented_names(found["Parameters"])]
+            if missing:
+                problems.append(f"{name}: Parameters does not name {', '.join(missing)}")
+    for member, value in vars(cls).items():
+        if member.startswith("_"):
+            continue
+        label = f"{name}.{member}"
+        if isinstance(value, property):
+            if not (value.fget.__doc__ or "").strip():
+                problems.append(f"{label}: property without a docstring")
+        elif isinstance(value, staticmethod):
+            problems += function_problems(label, value.__func__)
+        elif isinstance(value, classmethod):
+            problems += function_problems(label, value.__func__, bound=True)
+        elif inspect.isfunction(value):
+            problems += function_problems(label, value, bound=True)
+    return problems
+
+
+def problems_of(module) -> list[str]:
+    out = []
+    for name, obj in public_objects(module):
+        out += class_problems(name, obj) if inspect.isclass(obj) else function_problems(name, obj)
+    return out
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_public_api_has_numpydoc_sections(name):
+    module = importlib.import_module(f"volerr_pin.{name}")
+    assert public_objects(module), f"volerr_pin.{name} has no public functions or classes?"
+    problems = problems_of(module)
+    assert not problems, f"volerr_pin.{name}:\n  " + "\n  ".join(problems)
+
+
+def test_the_check_finds_what_is_missing():
+    """The checker itself: undocumented or half-documented callables are reported."""
+
+    def bare(x):
+        return x
+
+    def no_returns(x, *, scale=1.0):
+        """Scale ``x``.
+
+        Parameters
+        ----------
+        x : float
+            A value [m].
+        """
+        return x * scale
+
+    def fine(x) -> None:
+        """Print ``x``.
+
+        Parameters
+        ----------
+        x : float
+            A value [m].
+        """
+        print(x)
+
+    @dataclasses.dataclass
+    class Fields:
+        """Two fields.
+
+        Attributes
+        ----------
+        a : float
+            A length [m].
+        """
+
+        a: float
+        b: float
+
+        @property
+        def total(self) -> float:
+            return self.a + self.b
+
+    assert function_problems("bare", bare) == ["bare: no docstring with a one-line summary"]
+    assert function_problems("no_returns", no_returns) == [
+        "no_returns: Parameters does not name scale", "no_returns: no Returns section"]
+    assert function_problems("fine", fine) == []
+    assert class_problems("Fields", Fields) == ["Fields: Attributes does not name b",
+                                                "Fields.total: property without a docstring"]
