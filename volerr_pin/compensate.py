@@ -29,8 +29,8 @@ import numpy as np
 
 from .errors import InputError
 from .machine import Machine
+from .units import UM_PER_M, URAD_PER_RAD
 
-UM = 1e6
 
 
 @dataclass
@@ -800,7 +800,7 @@ def evaluate_compensation(machine: Machine, q: np.ndarray, **covariates) -> dict
         If ``q`` or the covariates are invalid.
     """
     res = compensate_points(machine, q, **covariates)
-    before, after = res.before * UM, res.residual * UM
+    before, after = res.before * UM_PER_M, res.residual * UM_PER_M
     ok = res.reachable
     out = {"points": int(len(q)), "reachable": int(ok.sum()),
            "max_before_um": float(before.max()), "rms_before_um": float(np.sqrt(np.mean(before**2))),
@@ -810,9 +810,9 @@ def evaluate_compensation(machine: Machine, q: np.ndarray, **covariates) -> dict
            if ok.any() and np.any(before[ok] > 0) else None,
            "max_iterations": int(res.iterations.max()) if len(q) else 0}
     if _has_rotary(machine):
-        axis_before = res.axis_before * UM
+        axis_before = res.axis_before * URAD_PER_RAD
         out["max_axis_before_urad"] = float(axis_before.max())
-        axis_after = (res.axis_residual * UM)[ok]
+        axis_after = (res.axis_residual * URAD_PER_RAD)[ok]
         out["rms_axis_before_urad"] = float(np.sqrt(np.mean(axis_before**2)))
         out["max_axis_after_urad"] = float(axis_after.max()) if ok.any() else None
         out["rms_axis_after_urad"] = float(np.sqrt(np.mean(axis_after**2))) if ok.any() else None

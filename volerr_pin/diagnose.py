@@ -54,9 +54,8 @@ from .spec import build_term, component_name, parse_component_name
 from .specio import add_terms, remove_components, replace_terms, term_tables
 from .termkinds import GEOMETRIC
 from .terms import Context, Covariates
-from .units import AXIS_UNIT, axis_scale
+from .units import AXIS_UNIT, UM_PER_M, axis_scale
 
-UM = 1e6
 LETTERS = "XYZABC"
 PITCH_PERIOD_MM = (1.0, 50.0)   # ball-screw leads
 MIN_PERIODS = 4                 # periods of a pitch error inside the measured travel
@@ -640,8 +639,8 @@ class _Projector:
             sq += per_point.sum()
             count += per_point.size
             peak = max(peak, float(np.sqrt(per_point.max())) if per_point.size else 0.0)
-        self.last_max = peak * UM
-        return float(np.sqrt(sq / count) * UM) if count else math.nan
+        self.last_max = peak * UM_PER_M
+        return float(np.sqrt(sq / count) * UM_PER_M) if count else math.nan
 
     def fit(self, C: np.ndarray):
         """(extra rank, rss after, candidate coefficients in C's units)."""
@@ -800,7 +799,7 @@ def residual_analysis(machine: Machine, obs: Observations, r_si: np.ndarray) -> 
             for j, a in enumerate(machine.axes):
                 d = cov["directions"][obs.point[rows], j]
                 if len(np.unique(d)) == 2:
-                    entry[f"step_dir_{a}_um"] = float((y[d > 0].mean() - y[d < 0].mean()) * UM)
+                    entry[f"step_dir_{a}_um"] = float((y[d > 0].mean() - y[d < 0].mean()) * UM_PER_M)
         out[f"d{letter}"] = dict(sorted(entry.items(), key=lambda kv: -abs(kv[1]))[:6])
     return out
 
@@ -831,10 +830,10 @@ def _noise_floor(obs: Observations, r_si: np.ndarray, n_params: int) -> tuple[fl
             ss += float(((r - r.mean()) ** 2).sum())
             dof += len(rows) - 1
     if dof >= 5:
-        return (float(np.sqrt(ss / dof * comps) * UM), f"repeated points ({dof} degrees of freedom)", False)
+        return (float(np.sqrt(ss / dof * comps) * UM_PER_M), f"repeated points ({dof} degrees of freedom)", False)
     dof = int(pos.sum()) - n_params
     sigma = math.sqrt(float((r_si[pos] ** 2).sum()) / max(dof, 1))
-    return (float(sigma * math.sqrt(comps) * UM),
+    return (float(sigma * math.sqrt(comps) * UM_PER_M),
             "upper bound from the final residual (n - p degrees of freedom): no repeated points "
             "separate the noise from what the model still misses", True)
 
@@ -1207,4 +1206,4 @@ def evidence(diagnosis: Diagnosis, step: int) -> Evidence | None:
     _, j, rows = best
     points = obs.point[rows]
     x, label = found if found is not None else (np.arange(obs.n_points, dtype=float), "point")
-    return Evidence(x[points], label, before[rows] * UM, after[rows] * UM, "xyz"[j], record.label)
+    return Evidence(x[points], label, before[rows] * UM_PER_M, after[rows] * UM_PER_M, "xyz"[j], record.label)

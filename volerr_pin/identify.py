@@ -29,9 +29,8 @@ from .workspace import config_from_file
 from .machine import Machine
 from .measurements import PointMeasurements, Runs
 from .spec import parse_component_name
+from .units import UM_PER_M, URAD_PER_RAD
 
-UM = 1e6
-URAD = 1e6
 DIRECTION_INDEX = {d: i for i, d in enumerate("XYZABC")}
 
 
@@ -433,7 +432,7 @@ class Identification:
             "rms_fit_um": self.rms_fit_um, "rms_fit_urad": self.rms_fit_urad,
             "rms_holdout_um": self.rms_holdout_um, "holdout": self.holdout,
             "residual_sigma": self.residual_sigma, "iterations": self.iterations,
-            "nuisance": {n: {"value": v * (URAD if n in self.angular_nuisance else UM),
+            "nuisance": {n: {"value": v * (URAD_PER_RAD if n in self.angular_nuisance else UM_PER_M),
                              "unit": "urad" if n in self.angular_nuisance else "um"}
                          for n, v in self.nuisance.items()},
             "parameters": params,
@@ -637,7 +636,7 @@ def residual_rms(obs: Observations, residual_si: np.ndarray, angular: bool = Fal
     rows = obs.angular == angular
     if not rows.any():
         return None
-    return float(np.sqrt(point_squares(obs.point[rows], residual_si[rows]).mean()) * (URAD if angular else UM))
+    return float(np.sqrt(point_squares(obs.point[rows], residual_si[rows]).mean()) * (URAD_PER_RAD if angular else UM_PER_M))
 
 
 def identify(machine: Machine, data, *, terms=None, free=None, convention: str = "prior", folds: int = 5,
@@ -883,4 +882,4 @@ def _cross_validate(machine, obs, theta0, free, columns, convention, folds, hold
         count += per_point.size
         if progress:
             progress("cross-validation", k + 1)
-    return (float(np.sqrt(sq_pos / count) * UM) if count else None), how
+    return (float(np.sqrt(sq_pos / count) * UM_PER_M) if count else None), how

@@ -291,7 +291,7 @@ def read_points(path: str | Path | Table, machine) -> PointMeasurements:
     for k in present:
         col = columns[DEVIATIONS[k]]
         used.add(col)
-        values[:, k] = table.column(col, allow_empty=True) * (1e-6 if k < 3 else 1e-6)
+        values[:, k] = table.column(col, allow_empty=True) * 1e-6  # um and urad
     empty = np.flatnonzero(np.all(np.isnan(values), axis=1))
     if empty.size:
         raise MeasurementError(f"{table.path}:{table.lines[empty[0]]}: row has no measured deviation")

@@ -40,6 +40,8 @@ ARCSEC = ANGLE["arcsec"]
 URAD = ANGLE["urad"]
 #: um per metre, for reports
 UM_PER_M = 1.0 / UM
+#: urad per radian, for reports
+URAD_PER_RAD = 1.0 / URAD
 #: arcsec per radian, for reports
 ARCSEC_PER_RAD = 1.0 / ARCSEC
 #: one inch in metres (NC programs in G20)

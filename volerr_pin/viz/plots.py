@@ -13,8 +13,8 @@ import numpy as np  # noqa: E402
 from ..machine import Machine  # noqa: E402
 from ..workspace import default_config, evaluate_field  # noqa: E402
 from ..workspace import sample, to_engineering  # noqa: E402
+from ..units import UM_PER_M
 
-UM = 1e6
 AXES = "xyz"
 
 
@@ -35,7 +35,7 @@ def field_slice_png(machine: Machine, path: str | Path, config: dict[str, float]
     else:
         q = sample(machine, 400, seed=0)
     field = evaluate_field(machine, q)
-    pos, err = field.positions, field.error[:, :3] * UM
+    pos, err = field.positions, field.error[:, :3] * UM_PER_M
     spread = np.ptp(pos, axis=0)
     i, j = sorted(np.argsort(-spread)[:2])
     norm = np.linalg.norm(err, axis=1)

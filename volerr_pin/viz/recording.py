@@ -29,8 +29,8 @@ from matplotlib import colormaps
 from ..errors import InputError
 from ..machine import Machine
 from ..workspace import FieldData, default_config, evaluate_field, field_grid, nice_scale, to_engineering
+from ..units import UM_PER_M
 
-UM = 1e6
 
 
 def new_recording(app_id: str = "volerr_pin", recording_id: str | None = None) -> rr.RecordingStream:
@@ -139,7 +139,7 @@ def log_field(rec: rr.RecordingStream, machine: Machine, field: FieldData, prefi
     """Points coloured by |error| (0 .. ``colour_max`` um, default the field's maximum), arrows
     magnified ``field.scale`` times, per-component fields, the numbers attached to every
     point, a colour legend and an explanation."""
-    e_um = field.error[:, :3] * UM
+    e_um = field.error[:, :3] * UM_PER_M
     norm = np.linalg.norm(e_um, axis=1)
     hi = colour_max if colour_max is not None else (float(norm.max()) if len(norm) else 1.0)
     frame = rr.CoordinateFrame(machine.workpiece_frame)
@@ -244,7 +244,7 @@ def record_field(machine: Machine, path: str | Path | None = None, *, counts=Non
     rec.disconnect()
     size = Path(path).stat().st_size if path is not None and Path(path).exists() else None
     return {"path": str(path) if path is not None else None, "points": int(len(q)),
-            "scale": field.scale, "max_um": float(np.linalg.norm(field.error[:, :3], axis=1).max() * UM),
+            "scale": field.scale, "max_um": float(np.linalg.norm(field.error[:, :3], axis=1).max() * UM_PER_M),
             "sweep_steps": sweep_steps if sweeping else 0, "sweep_axes": list(sweeping),
             "bytes": size, "config": to_engineering(machine, base).tolist()}
 
@@ -269,7 +269,7 @@ def log_rotary_sweep(rec: rr.RecordingStream, machine: Machine, q: np.ndarray, b
         qs = q.copy()
         qs[:, idx] = row
         fields.append(evaluate_field(machine, qs, 1.0))
-    peak = max(float(np.linalg.norm(f.error[:, :3], axis=1).max()) for f in fields) * UM
+    peak = max(float(np.linalg.norm(f.error[:, :3], axis=1).max()) for f in fields) * UM_PER_M
     if scale is None:
         extent = float(np.ptp(fields[0].positions, axis=0).max()) if len(q) > 1 else 1.0
         scale = nice_scale(peak, extent)
@@ -312,13 +312,13 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None) ->
             rows = (obs.w[:, k] > 0.5) & ~obs.angular
             vec[obs.point[rows], k] = step.residual[rows]
         per_step.append(vec)
-    peak = max(float(np.linalg.norm(v, axis=1).max()) for v in per_step) * UM
+    peak = max(float(np.linalg.norm(v, axis=1).max()) for v in per_step) * UM_PER_M
     extent = float(np.ptp(positions, axis=0).max()) if len(positions) > 1 else 0.1
     scale = scale or nice_scale(peak, extent)
     radius = max(extent / 300.0, 1e-4)
     for number, (step, vec) in enumerate(zip(diagnosis.steps, per_step)):
         rec.set_time("step", sequence=number)
-        norm = np.linalg.norm(vec, axis=1) * UM
+        norm = np.linalg.norm(vec, axis=1) * UM_PER_M
         rec.log("residuals/points", frame, rr.Points3D(positions, colors=colours(norm, 0.0, peak), radii=radius),
                 rr.AnyValues(residual_um=norm))
         rec.log("residuals/arrows", frame, rr.Arrows3D(origins=positions, vectors=vec * scale,
