@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 
 import numpy as np
@@ -28,8 +29,6 @@ def in_cli_words(err: VolerrError) -> str:
     ``Machine.with_state``) said as the options that give them (``--holdout``, ``--state``):
     the first mention of each is the parameter; later ones may be plain words ("terms: EQQ
     not among the error terms")."""
-    import re
-
     message = str(err)
     for name in getattr(err, "parameters", ()):
         option = OPTION_OF.get(name, "--" + name.replace("_", "-"))
