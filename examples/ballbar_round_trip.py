@@ -80,7 +80,7 @@ def main(out: Path) -> dict:
 
     found = diagnose(vp.load_machine("vmc500"), [run])
     print("diagnose from the circles alone, on the bundled spec: "
-          + "; ".join(f"{e['name']} of {e['axis'] or e['direction']}: "
+          + "; ".join(f"{e.name} of {e.axis or e.direction}: "
                       + ", ".join(f"{k} = {v['value']:.2f} +- {v['uncertainty']:.2f} {v['unit']}"
                                   for k, v in e.parameters.items()) for e in found.effects)
           + f"; held-out RMS {found.rms_before_um:.2f} -> {found.rms_after_um:.2f} um")
