@@ -64,7 +64,6 @@ MAX_DEGREE = 12                 # a polynomial component is not raised beyond th
 MAX_NODES = 65                  # nor a table beyond this many nodes
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
 RAISE_BY = (1, 2, 4)            # degrees a polynomial may gain in one round
-GEOMETRIC_KINDS = tuple(GEOMETRIC)
 
 
 @dataclass
@@ -416,7 +415,7 @@ def geometric_term(machine: Machine, component: str):
     """(index, TermSpec) of the component's geometric term (constant, polynomial, table)."""
     comp = next(c for c in machine.spec.components if c.name == component)
     for i, tspec in enumerate(comp.terms):
-        if tspec.term.kind in GEOMETRIC_KINDS:
+        if tspec.term.kind in GEOMETRIC:
             return i, tspec
     return None, None
 

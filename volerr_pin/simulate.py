@@ -13,7 +13,8 @@ import numpy as np
 
 from .machine import Machine
 from .measurements import PointMeasurements
-from .units import AXIS_UNIT, axis_scale, axis_scales
+from .units import AXIS_UNIT, axis_scale
+from .workspace import to_engineering
 
 
 def covariates(n: int, rng: np.random.Generator, hours: float = 6.0, n_axes: int = 3) -> dict:
@@ -106,7 +107,7 @@ def write_points(data: PointMeasurements, machine: Machine, path) -> None:
         The file to write.
     """
     cols = [a.lower() for a in machine.axes]
-    factors = 1.0 / axis_scales(machine.axis_kinds)
+    positions = to_engineering(machine, data.q)
     measured = [k for k in range(6) if not np.all(np.isnan(data.values[:, k]))]
     names = ["dx", "dy", "dz", "rx", "ry", "rz"]
     header = cols + [names[k] for k in measured]
@@ -121,7 +122,7 @@ def write_points(data: PointMeasurements, machine: Machine, path) -> None:
         header += [f"dir_{a.lower()}" for a in machine.axes]
     lines = [",".join(header)]
     for i in range(len(data.q)):
-        row = [f"{data.q[i, j] * factors[j]:.6f}" for j in range(len(machine.axes))]
+        row = [f"{v:.6f}" for v in positions[i]]
         row += ["" if np.isnan(data.values[i, k]) else f"{data.values[i, k] * 1e6:.5f}" for k in measured]
         if "t" in cov:
             row.append(f"{cov['t'][i]:.3f}")
@@ -363,10 +364,10 @@ def write_tracker(data, machine: Machine, path) -> None:
         The file to write.
     """
     cols = [a.lower() for a in machine.axes]
-    factors = 1.0 / axis_scales(machine.axis_kinds)
+    positions = to_engineering(machine, data.q)
     lines = [",".join(cols + ["target", "ox", "oy", "oz", "tx", "ty", "tz"])]
     for i in range(len(data.q)):
-        row = [f"{data.q[i, j] * factors[j]:.6f}" for j in range(len(machine.axes))] + [data.targets[i]]
+        row = [f"{v:.6f}" for v in positions[i]] + [data.targets[i]]
         row += [f"{v * 1e3:.4f}" for v in data.offsets[i]] + [f"{v * 1e3:.6f}" for v in data.coordinates[i]]
         lines.append(",".join(row))
     with open(path, "w") as f:
