@@ -234,6 +234,8 @@ class ExpansionTemperature(Term):
     reference: float
     origin: float
     kind = "thermal_expansion"
+    axis_only = True
+    linear_length_only = True
     covariates = ("temperatures",)
 
     local_names = ("alpha",)
@@ -284,6 +286,8 @@ class ExpansionTime(Term):
     origin: float
     time_unit: str
     kind = "thermal_expansion"
+    axis_only = True
+    linear_length_only = True
     covariates = ("t",)
 
     @property
@@ -343,6 +347,7 @@ class Backlash(Term):
     unit: str
     unit_scale: float
     kind = "backlash"
+    axis_only = True
     covariates = ("directions",)
     local_names = ("b",)
 
@@ -453,6 +458,8 @@ class PeriodicPitch(Term):
     position_unit: str
     position_scale: float
     kind = "periodic_pitch"
+    axis_only = True
+    linear_length_only = True
 
     @property
     def local_names(self):  # type: ignore[override]
@@ -519,10 +526,6 @@ EFFECTS = {("thermal_drift", "time"): DriftTime, ("thermal_drift", "temperature"
            ("thermal_expansion", "temperature"): ExpansionTemperature, ("thermal_expansion", "time"): ExpansionTime,
            ("backlash", None): Backlash, ("force_deflection", None): ForceDeflection,
            ("periodic_pitch", None): PeriodicPitch}
-#: kinds that are errors of an axis' own motion
-AXIS_ONLY = ("thermal_expansion", "backlash", "periodic_pitch")
-#: kinds that are length errors along a linear axis
-LINEAR_LENGTH_ONLY = ("thermal_expansion", "periodic_pitch")
 
 
 def _structural_model(table, model, quantity, where):

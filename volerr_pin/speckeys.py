@@ -26,10 +26,9 @@ EXACT_KEYS = ("E_GPa", "G_GPa", "I_mm4", "reference_degC", "lag_s", "strains_ppm
 def stem_of(key: str) -> str:
     """A key without its unit suffix: ``coefficients_um_per_K`` -> ``coefficients``,
     ``time_constants_min`` -> ``time_constants``; :data:`EXACT_KEYS` stay whole."""
-    stem, unit = split_key(key, ("length", "angle", "time"), per=("K", "N"))
-    if unit is not None and "_per_" in unit or key not in EXACT_KEYS:
-        return stem
-    return key
+    if key in EXACT_KEYS:
+        return key
+    return split_key(key, ("length", "angle", "time"), per=("K", "N"))[0]
 
 
 def check_keys(table: dict, allowed: set[str] | frozenset[str], where: str, what: str = "") -> None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .effects import AXIS_ONLY, EFFECTS, LINEAR_LENGTH_ONLY
+from .effects import EFFECTS
 from .errors import SpecError
 from .speckeys import NAME_RE, TermSite, check_keys
 from .terms import Constant, Polynomial, Table, Term
@@ -63,11 +63,11 @@ def read_term(table: dict, site: TermSite) -> tuple[str, Term, np.ndarray]:
     if prefix and not NAME_RE.match(prefix):
         raise SpecError(f"{where}: prefix {prefix!r} is not a plain name")
     kind, driver = table["kind"], table.get("driver")
-    what = f" for {kind}" + (f" driven by {driver}" if cls in EFFECTS.values() and kind in DRIVEN else "")
+    what = f" for {kind}" + (f" driven by {driver}" if kind in DRIVEN else "")
     check_keys(table, cls.keys | {"kind", "prefix"}, where, what)
-    if kind in AXIS_ONLY and not site.owner_is_axis:
+    if cls.axis_only and not site.owner_is_axis:
         raise SpecError(f"{where}: a {kind} term belongs to a component error of an axis")
-    if kind in LINEAR_LENGTH_ONLY and (site.quantity != "length" or site.position_quantity != "length"):
+    if cls.linear_length_only and (site.quantity != "length" or site.position_quantity != "length"):
         raise SpecError(f"{where}: a {kind} term is a length error of a linear axis")
     term, coefficients = cls.from_spec(table, site)
     return prefix, term, coefficients

@@ -118,6 +118,10 @@ class Term:
 
     #: stems of the keys of its spec table besides "kind" and "prefix" (units are suffixes)
     keys: frozenset[str] = frozenset()
+    #: whether the term can only be an error of an axis' own motion
+    axis_only: bool = False
+    #: whether the term can only be a length error of a linear axis
+    linear_length_only: bool = False
 
     @classmethod
     def from_spec(cls, table: dict, site: TermSite) -> tuple["Term", np.ndarray]:
