@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import math
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import stats
@@ -127,6 +127,11 @@ class Score:
     term: object = field(default=None, repr=False)
     coefficients: np.ndarray | None = field(default=None, repr=False)
     columns: np.ndarray | None = field(default=None, repr=False)
+
+    def summary(self) -> "Score":
+        """The score without its term and design columns (what a :class:`Step` keeps: the
+        columns are rows x extra numbers for every candidate of every round)."""
+        return replace(self, term=None, coefficients=None, columns=None)
 
     def to_dict(self) -> dict:
         return {"label": self.label, "extra": self.extra, "p_value": self.p_value, "bic_gain": self.bic_gain,
@@ -1068,7 +1073,7 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
             free_names = names
             current, fitted, nuisance, last_fit = new_fit, new_fitted, new_nuisance, res
             break
-        steps.append(Step(number, base_cv, ranked, base.r * obs.sigma, current if keep_machines else None,
+        steps.append(Step(number, base_cv, [s.summary() for s in ranked], base.r * obs.sigma, current if keep_machines else None,
                           accepted))
         if not accepted:
             break
