@@ -15,7 +15,7 @@ import pytest
 
 MODULES = ("machine", "kinematics", "workspace", "ranking", "identify", "compensate", "errormap",
            "thermal", "thermalfit", "measurements", "tracker", "ballbar", "axisfit", "dh", "iso230",
-           "simulate", "specio", "identifiability", "describe", "urdf")
+           "simulate", "specio", "identifiability", "describe", "urdf", "gear")
 
 SECTION_RE = re.compile(r"^(\w[\w ]*)\n-{3,}$", re.MULTILINE)
 

@@ -72,7 +72,60 @@ def replace_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Mac
 
 
 __all__ = ["add_terms", "legendre_terms", "remove_components", "replace_terms", "spec_document",
-           "term_tables", "write_spec"]
+           "term_tables", "with_axis_errors", "write_spec"]
+
+
+def with_axis_errors(machine: Machine, axes: dict[str, dict]) -> Machine:
+    """A new machine whose axes place their component errors differently.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    axes : dict of str to dict
+        Axis name -> ``{"frame": "moving" or "fixed", "reference": (x, y, z)}`` (either key
+        may be left out): the frame the axis' errors act in ("moving": after the joint, turning
+        with a rotary axis; "fixed": before it) and the point of that frame about which its
+        angular errors act [m].
+
+    Returns
+    -------
+    Machine
+        The new machine with the same terms and coefficient values.
+
+    Raises
+    ------
+    InputError
+        If an axis is unknown, a key is not "frame" or "reference", the frame is neither
+        "moving" nor "fixed", or the reference point is not three finite numbers.
+    """
+    spec = machine.spec
+    names = [a.name for a in spec.axes]
+    changed = []
+    for axis in spec.axes:
+        change = axes.get(axis.name)
+        if change is None:
+            changed.append(axis)
+            continue
+        extra = sorted(set(change) - {"frame", "reference"})
+        if extra:
+            raise InputError(f"axes[{axis.name!r}]: unknown keys {', '.join(extra)} (use frame, reference)",
+                             parameters=("axes",))
+        frame = change.get("frame", axis.frame)
+        if frame not in ("moving", "fixed"):
+            raise InputError(f"axes[{axis.name!r}]: frame must be 'moving' or 'fixed', got {frame!r}",
+                             parameters=("axes",))
+        reference = np.asarray(change.get("reference", axis.reference), dtype=float)
+        if reference.shape != (3,) or not np.isfinite(reference).all():
+            raise InputError(f"axes[{axis.name!r}]: reference must be three finite numbers [m], got "
+                             f"{change.get('reference')!r}", parameters=("axes",))
+        changed.append(dataclasses.replace(axis, frame=frame, reference=tuple(float(v) for v in reference)))
+    unknown = sorted(set(axes) - set(names))
+    if unknown:
+        raise InputError(f"{', '.join(unknown)} not among the axes of {machine.name} ({', '.join(names)})",
+                         parameters=("axes",))
+    fresh = Machine(dataclasses.replace(spec, axes=tuple(changed)), machine.urdf)
+    return fresh.with_theta(machine.theta)
 
 
 def remove_components(machine: Machine, names) -> Machine:
