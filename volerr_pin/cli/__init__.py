@@ -15,13 +15,13 @@ import warnings
 
 from .. import __version__
 from ..errors import VolerrError
-from . import (ballbar, compensate, demo, dh, diagnose, errormap, field, identify, info, iso230, rank,
+from . import (ballbar, compensate, demo, dh, diagnose, errormap, field, gear, identify, info, iso230, rank,
                thermal_fit, urdf)
 from .common import in_cli_words
 
 #: one module per command, in the order ``volerr --help`` lists them
 COMMANDS = (demo, field, rank, iso230, identify, thermal_fit, diagnose, compensate, errormap, ballbar,
-            dh, info, urdf)
+            gear, dh, info, urdf)
 
 __all__ = ["build_parser", "main"]
 

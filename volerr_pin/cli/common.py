@@ -21,7 +21,9 @@ DEFAULT_MACHINE = "vmc500"
 
 #: library names -> the options that give them, where the two are not spelled alike
 #: (``pass_through`` -> ``--pass-through`` needs no entry)
-OPTION_OF = {"Machine.with_state": "--state", "counts": "--grid", "run_axis": "--axis"}
+OPTION_OF = {"Machine.with_state": "--state", "counts": "--grid", "run_axis": "--axis", "module": "--module-mm",
+             "pressure_angle": "--pressure-angle-deg", "face_width": "--face-width-mm", "tooth_numbers": "--tooth",
+             "translation": "--translation-mm", "rotation": "--rotation-deg"}
 
 
 def in_cli_words(err: VolerrError) -> str:

@@ -1,0 +1,149 @@
+"""volerr gear: profile, helix and pitch deviations of the gear a rolling machine generates."""
+
+from __future__ import annotations
+
+from ..errors import InputError
+from ..gear import FLANKS, SEED004_GEAR, GearPair, contribution_degrees, deviations_by_source, unit_error_study
+from ..specio import with_axis_errors
+from ..units import DEG, MM
+from .common import add_json_arg, add_machine_args, add_state_arg, axis_config, dumps, machine_of, positive, \
+    table_console
+
+DEFAULT = SEED004_GEAR
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("gear", help="gear flank deviations (profile, helix, pitch) per error source",
+                       description="Deviations of the spur gear a rolling machine generates: seed 004's total "
+                                   "profile, total helix and single pitch deviation (and ISO 1328-1's F_alpha, "
+                                   "F_beta, f_pt, F_p), for each error source of the machine alone and for all "
+                                   "together; or, with --unit-errors, seed 004's study of unit errors.")
+    add_machine_args(p)
+    add_state_arg(p)
+    g = p.add_argument_group("gear (default: seed 004's, Table 7)")
+    g.add_argument("--module-mm", type=float, default=DEFAULT.module / MM, help="module (default 1.75)")
+    g.add_argument("--pressure-angle-deg", type=float, default=DEFAULT.pressure_angle / DEG,
+                   help="pressure angle (default 20)")
+    g.add_argument("--teeth", type=int, default=DEFAULT.teeth, help="teeth of the workpiece (default 46)")
+    g.add_argument("--tool-teeth", type=int, default=DEFAULT.tool_teeth, help="teeth of the rolling wheel (default 128)")
+    g.add_argument("--face-width-mm", type=float, default=DEFAULT.face_width / MM, help="face width (default 20)")
+    p.add_argument("--spindles", default="B,A", help="workpiece spindle and wheel spindle (default B,A)")
+    p.add_argument("--at", nargs="+", metavar="AXIS=VALUE",
+                   help="positions of the other axes (mm, deg; default 0) during generation")
+    p.add_argument("--flank", choices=list(FLANKS), default="right", help="flank the table shows (default right)")
+    p.add_argument("--tooth", type=int, nargs="+", help="evaluate these teeth only (default every tooth)")
+    p.add_argument("--profile-points", type=positive, default=21, help="points over the profile (odd, default 21)")
+    p.add_argument("--face-points", type=positive, default=11, help="points over the face width (odd, default 11)")
+    u = p.add_argument_group("seed 004's unit-error study")
+    u.add_argument("--unit-errors", action="store_true",
+                   help="each of the six errors of each --axes alone at a unit value, instead of the spec's errors")
+    u.add_argument("--axes", default="A,B", help="axes studied (default A,B)")
+    u.add_argument("--translation-mm", type=float, default=1.0, help="unit translation (default 1)")
+    u.add_argument("--rotation-deg", type=float, default=1.0, help="unit rotation (default 1)")
+    u.add_argument("--errors-frame", choices=["moving", "fixed"],
+                   help="frame the studied axes' errors act in (default: the spec's)")
+    u.add_argument("--reference", nargs="+", metavar="AXIS=X,Y,Z",
+                   help="point (mm, in the axis' error frame) about which an axis' angular errors act")
+    add_json_arg(p)
+    p.set_defaults(func=run)
+
+
+def _names(text: str, option: str) -> tuple[str, ...]:
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    if not names:
+        raise InputError(f"{option}: give axis names separated by commas")
+    return names
+
+
+def _references(machine, items: list[str] | None) -> dict[str, dict]:
+    out: dict[str, dict] = {}
+    for item in items or []:
+        axis, sep, value = item.partition("=")
+        try:
+            point = tuple(float(v) * MM for v in value.split(","))
+        except ValueError:
+            point = ()
+        if not sep or len(point) != 3:
+            raise InputError(f"--reference: {item!r} is not AXIS=X,Y,Z (mm)")
+        if axis not in machine.axes:
+            raise InputError(f"--reference: {axis!r} is not an axis of {machine.name} ({', '.join(machine.axes)})")
+        out[axis] = {"reference": point}
+    return out
+
+
+def run(args) -> int:
+    machine = machine_of(args)
+    gear = GearPair(module=args.module_mm * MM, pressure_angle=args.pressure_angle_deg * DEG, teeth=args.teeth,
+                    tool_teeth=args.tool_teeth, face_width=args.face_width_mm * MM)
+    options = {"spindles": _names(args.spindles, "--spindles"), "at": axis_config(machine, args.at, "--at"),
+               "profile_points": args.profile_points, "face_points": args.face_points, "tooth_numbers": args.tooth}
+    changes = _references(machine, args.reference)
+    if args.unit_errors:
+        axes = _names(args.axes, "--axes")
+        if args.errors_frame:
+            for axis in axes:
+                changes.setdefault(axis, {})["frame"] = args.errors_frame
+        if changes:
+            machine = with_axis_errors(machine, changes)
+        rows = unit_error_study(machine, gear, axes=axes, translation=args.translation_mm * MM,
+                                rotation=args.rotation_deg * DEG, **options)
+    else:
+        if args.errors_frame:
+            raise InputError("--errors-frame goes with --unit-errors (the spec sets the frames of its own errors)")
+        if changes:
+            machine = with_axis_errors(machine, changes)
+        rows = deviations_by_source(machine, gear, **options)
+    shares = contribution_degrees(rows, args.flank)
+    report = {"machine": machine.name, "gear": gear.to_dict(), "mode": "unit errors" if args.unit_errors else "spec",
+              "flank": args.flank, "teeth_evaluated": len(rows[0].deviations.teeth),
+              "frames": {a.name: {"errors_frame": a.frame, "reference_mm": [v / MM for v in a.reference]}
+                         for a in machine.spec.axes if a.name in options["spindles"]},
+              "sources": []}
+    for row, share in zip(rows, shares):
+        entry = row.to_dict()
+        entry["group"] = row.group
+        entry["contribution"] = share
+        report["sources"].append(entry)
+    if args.json:
+        print(dumps(report))
+        return 0
+    _print(report, args.flank)
+    return 0
+
+
+def _um(value) -> str:
+    if value is None:
+        return "-"
+    return f"{0.0 if abs(value) < 5e-4 else value:.3f}"      # no "-0.000"
+
+
+def _pct(value) -> str:
+    return "" if value is None else f"{100 * value:.1f} %"
+
+
+def _print(report: dict, flank: str) -> None:
+    from rich import box
+    from rich.table import Table
+
+    gear = report["gear"]
+    console = table_console()
+    unit = report["mode"] == "unit errors"
+    title = (f"{report['machine']}: {flank} flanks of a {gear['teeth']}-tooth gear, module {gear['module_mm']:g} mm, "
+             f"{gear['pressure_angle_deg']:g} deg, {gear['face_width_mm']:g} mm face "
+             f"({report['teeth_evaluated']} teeth; "
+             f"{'unit errors, each alone' if unit else 'each error source alone, then all'})")
+    table = Table(box=box.SIMPLE, title=title, title_justify="left")
+    for name, justify in (("source", "left"), ("error", "left"), ("value", "right"), ("profile um", "right"),
+                          ("share", "right"), ("helix um", "right"), ("share", "right"), ("pitch um", "right"),
+                          ("share", "right"), ("F_alpha um", "right"), ("F_beta um", "right"), ("f_pt um", "right")):
+        table.add_column(name, justify=justify)
+    for entry in report["sources"]:
+        d, c = entry["flanks"][flank], entry["contribution"]
+        table.add_row(entry["source"], entry["label"], entry["value"], _um(d["profile_um"]), _pct(c["profile"]),
+                      _um(d["helix_um"]), _pct(c["helix"]), _um(d["pitch_um"]), _pct(c["pitch"]),
+                      _um(d["F_alpha_um"]), _um(d["F_beta_um"]), _um(d["f_pt_um"]))
+    console.print(table)
+    print("profile, helix: |largest +| + |largest -| normal deviation (seed 004); pitch: signed normal deviation "
+          "on the pitch circle at mid face; share: seed 004's contribution degree within "
+          + ("the axis' translations or rotations" if unit else "the single sources")
+          + "; F_alpha, F_beta, f_pt: ISO 1328-1 (worst tooth).")
