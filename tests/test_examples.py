@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import volerr_pin as vp
@@ -146,3 +147,14 @@ def test_robot_axes_example_on_real_data():
     raised = {u["component"] for u in result["diagnosis"]["under_modelled"]}
     assert {"EC_J2", "EC_J3"} <= raised
     assert result["diagnosis"]["rms_after_um"] < 0.6 * result["diagnosis"]["rms_before_um"]
+
+
+def test_gear_flanks_seed004_example(capsys):
+    module = load("gear_flanks_seed004")
+    result = module.main()
+    assert "Seed 004 Tables 2 and 4" in capsys.readouterr().out
+    # the paper's Table 5 B row against its own Table 4: ex(B) and ez(B) swapped
+    np.testing.assert_allclose([module.paper_shares_from_table4(n)[0] for n in ("EAB", "EBB", "ECB")],
+                               [12.7, 26.4, 60.9], atol=0.05)
+    assert result["deviations_mm"]["ECA"][0] == pytest.approx(1.8272, rel=0.01)           # Table 4, ez(A)
+    assert result["forces_um"][("40CrNiMo", "x")]["profile"] == pytest.approx(34.3 * np.cos(np.radians(20)))

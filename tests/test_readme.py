@@ -147,6 +147,7 @@ REPORTS = [
     ["compensate", "vmc700", "examples/data/part.nc", "-o", "{tmp}/part.nc", "--json"],
     ["errormap", "vmc500", "--elements", "2", "--points", "100", "--json"],
     ["ballbar", "examples/data/vmc500_ballbar_xy.csv", "--json"],
+    ["gear", "gear_roller", "--profile-points", "5", "--face-points", "3", "--json"],
     ["demo", "--grid", "3", "--out", "{tmp}/demo.rrd", "--json"],
     ["field", "cgm4000", "--grid", "3", "3", "3", "--sweep-steps", "2", "--out", "{tmp}/f.rrd", "--json"],
     pytest.param(["diagnose", "vmc500", "examples/data/vmc500_tracker.csv", "--json"], marks=pytest.mark.slow),
