@@ -61,8 +61,7 @@ def paper_shares_from_table4(source: str) -> tuple[float, ...]:
 
 
 def force_deviations(machine) -> dict:
-    bare = remove_components(machine, [c for c in machine.components
-                                       if any(t["component"] == c for t in machine.term_info())])
+    bare = remove_components(machine, machine.components)
     out = {}
     for material, moves in FORCES.items():
         for direction, um in moves.items():
