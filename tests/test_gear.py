@@ -298,3 +298,12 @@ def test_cli_gear_table_and_errors(capsys):
     assert main(["gear", "gear_roller", "--reference", "B=0,0"]) == 2
     assert "--reference: 'B=0,0' is not AXIS=X,Y,Z" in capsys.readouterr().err
     assert main(["gear", "gear_roller", "--errors-frame", "moving"]) == 2
+
+
+def test_cli_gear_png(tmp_path, capsys):
+    path = tmp_path / "gear.png"
+    assert main(["gear", "gear_roller", "--profile-points", "5", "--face-points", "3", "--png", str(path)]) == 0
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert f"wrote {path}" in capsys.readouterr().err
+    assert main(["gear", "gear_roller", "--unit-errors", "--png", str(path)]) == 2
+    assert "--png draws all sources together" in capsys.readouterr().err

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 from ..errors import InputError
 from ..gear import FLANKS, SEED004_GEAR, GearPair, contribution_degrees, deviations_by_source, unit_error_study
 from ..specio import with_axis_errors
@@ -44,6 +46,8 @@ def add_parser(sub) -> None:
                    help="frame the studied axes' errors act in (default: the spec's)")
     u.add_argument("--reference", nargs="+", metavar="AXIS=X,Y,Z",
                    help="point (mm, in the axis' error frame) about which an axis' angular errors act")
+    p.add_argument("--png", help="also write maps of the normal deviations of all sources together and the "
+                                 "teeth's flank positions")
     add_json_arg(p)
     p.set_defaults(func=run)
 
@@ -93,6 +97,14 @@ def run(args) -> int:
         if changes:
             machine = with_axis_errors(machine, changes)
         rows = deviations_by_source(machine, gear, **options)
+    if args.png:
+        if args.unit_errors:
+            raise InputError("--png draws all sources together: leave out --unit-errors")
+        from ..viz.plots import gear_png
+
+        gear_png(rows[-1].deviations, args.png, f"{machine.name}: normal deviations of the generated flanks, "
+                                                f"all error sources")
+        print(f"wrote {args.png}", file=sys.stderr)
     shares = contribution_degrees(rows, args.flank)
     report = {"machine": machine.name, "gear": gear.to_dict(), "mode": "unit errors" if args.unit_errors else "spec",
               "flank": args.flank, "teeth_evaluated": len(rows[0].deviations.teeth),

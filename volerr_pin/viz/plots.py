@@ -298,3 +298,43 @@ def compensation_png(report, path: str | Path, title: str = "") -> dict:
     fig.savefig(path)
     plt.close(fig)
     return {"path": str(path)}
+
+
+def gear_png(deviations, path: str | Path, title: str = "") -> dict:
+    """The generated flanks' normal deviations: maps over profile x face width of the worst
+    tooth of each flank, and every tooth's flank position on the pitch circle.
+
+    ``deviations`` is a :class:`volerr_pin.gear.FlankDeviations`.
+    """
+    from ..gear import FLANKS
+
+    normal = deviations.normal * UM_PER_M                     # (2, teeth, profile, face) um
+    diameter = 2 * deviations.radius * 1e3
+    face = deviations.face * 1e3
+    mid_u, mid_s = normal.shape[2] // 2, normal.shape[3] // 2
+    fig, axes = plt.subplots(1, 3, figsize=(13.0, 4.2), dpi=120, constrained_layout=True)
+    limit = float(np.abs(normal).max()) or 1.0
+    worst_teeth = []
+    for index, flank in enumerate(FLANKS):
+        k = int(np.argmax(np.abs(normal[index]).max(axis=(1, 2))))
+        worst_teeth.append(int(deviations.teeth[k]))
+        image = axes[index].pcolormesh(face, diameter, normal[index, k], cmap="RdBu_r", vmin=-limit, vmax=limit,
+                                       shading="gouraud")
+        axes[index].set_xlabel("face position from mid face [mm]")
+        axes[index].set_ylabel("diameter [mm]")
+        axes[index].set_title(f"{flank} flank, tooth {deviations.teeth[k]} (worst)", fontsize=10)
+    fig.colorbar(image, ax=axes[:2], label="normal deviation [um] (+: more material)")
+    order = np.argsort(deviations.teeth)
+    for index, flank in enumerate(FLANKS):
+        position = normal[index, order, mid_u, mid_s] / np.cos(deviations.gear.pressure_angle)
+        axes[2].plot(deviations.teeth[order], position, marker="o", ms=3, label=f"{flank} flank")
+    axes[2].set_xlabel("tooth")
+    axes[2].set_ylabel("flank position along the pitch circle [um]")
+    axes[2].set_title("pitch: flank positions at mid face", fontsize=10)
+    axes[2].grid(alpha=0.3)
+    axes[2].legend(fontsize=8)
+    if title:
+        fig.suptitle(title, fontsize=11)
+    fig.savefig(path)
+    plt.close(fig)
+    return {"path": str(path), "worst_teeth": worst_teeth}
