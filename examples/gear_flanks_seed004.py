@@ -14,13 +14,22 @@ Force-induced errors (section 4.2): the paper's spindle displacements of the rol
 applied as constant translations of the wheel spindle in the machine frame (a deflection
 under the rolling force does not turn with the wheel).
 
+Contact springback (section 3.3, Table 6): the paper's formula for the deformation of the
+finite line contact and the CEB critical deformation, with its rolling forces and contact line
+lengths; the material constants it does not give are assumed (40CrNiMo: E = 209 GPa,
+nu = 0.3, yield strength 835 MPa; wheel steel: E = 210 GPa, nu = 0.3), and beside them the
+equivalent modulus E_c that fits Table 6 best.
+
 Run it with ``python examples/gear_flanks_seed004.py``.
 """
 
 from __future__ import annotations
 
+import numpy as np
+from scipy.optimize import least_squares
+
 import volerr_pin as vp
-from volerr_pin.gear import SEED004_GEAR, contribution_degrees, flank_deviations, unit_error_study
+from volerr_pin.gear import SEED004_GEAR, contact_springback, contribution_degrees, flank_deviations, unit_error_study
 from volerr_pin.specio import remove_components, replace_terms, with_axis_errors
 from volerr_pin.units import DEG, UM
 
@@ -39,6 +48,12 @@ PAPER_SHARES = {"EXA": (72.9, 76.2, 77.1), "EYA": (27.1, 23.8, 22.9), "EZA": (0,
 FORCES = {"lead": {"x": 5.45, "y": 0.37}, "40CrNiMo": {"x": 34.3, "y": 2.328}}
 PAPER_FORCE = {("lead", "x"): (4.39, 4.3, 4.3), ("lead", "y"): (0.13, 0.11, 0.11),
                ("40CrNiMo", "x"): (32.48, 32.13, 32.13), ("40CrNiMo", "y"): (0.84, 0.7, 0.7)}
+# seed 004, Table 6: feeding time [s], surface contact force [kN], contact line length [mm],
+# contact springback [um] (the last row, 28.6 s, is the unloaded end)
+TABLE6 = np.array([[0, 30.79, 20, 25.94], [2.03, 30.5, 18.58, 25.8], [4, 30.21, 17.2, 25.9],
+                   [6.93, 25.13, 15.15, 25.95], [9.16, 24.36, 13.59, 27.52], [13.59, 20.8, 10.49, 28.27],
+                   [18.31, 15.35, 7.18, 26.44], [24.4, 6.79, 5.24, 17.61], [26.5, 3.01, 2.9, 7.31]])
+MATERIALS = {"e_tool": 210e9, "e_work": 209e9, "nu_tool": 0.3, "nu_work": 0.3, "yield_strength": 835e6}
 GEAR_MID_FACE_ON_B = (0.0, 0.0, 0.05)   # the workpiece frame's origin, 50 mm above the B spindle nose
 
 
@@ -72,6 +87,21 @@ def force_deviations(machine) -> dict:
     one = replace_terms(bare, {"ECA": {"kind": "constant", "value_deg": 0.497}})
     out["lead", "torsion 0.497 deg"] = flank_deviations(one, SEED004_GEAR).values["right"]
     return out
+
+
+def springback_table() -> dict:
+    force, length, paper = TABLE6[:, 1] * 1e3, TABLE6[:, 2] * 1e-3, TABLE6[:, 3]
+    assumed = contact_springback(force, length, SEED004_GEAR, **MATERIALS)
+    fit = least_squares(lambda p: contact_springback(force, length, SEED004_GEAR, modulus=np.exp(p[0]), **MATERIALS)
+                        .rebound / UM - paper, [np.log(assumed.modulus)])
+    fitted = contact_springback(force, length, SEED004_GEAR, modulus=float(np.exp(fit.x[0])), **MATERIALS)
+    print(f"Seed 004 Table 6: contact springback [um]; E_c {assumed.modulus / 1e9:.1f} GPa from the assumed "
+          f"constants, {fitted.modulus / 1e9:.1f} GPa fitted to the table")
+    print(f"{'t s':>6s} {'F kN':>6s} {'l mm':>6s}   {'paper':>6s} {'E_c':>6s} {'fitted':>6s}")
+    for row, a, f in zip(TABLE6, assumed.rebound / UM, fitted.rebound / UM):
+        print(f"{row[0]:6.2f} {row[1]:6.2f} {row[2]:6.2f}   {row[3]:6.2f} {a:6.2f} {f:6.2f}")
+    return {"assumed_um": assumed.rebound / UM, "fitted_um": fitted.rebound / UM, "fitted_modulus": fitted.modulus,
+            "assumed_modulus": assumed.modulus, "paper_um": paper}
 
 
 def main() -> dict:
@@ -109,7 +139,9 @@ def main() -> dict:
         cells = [f"{v[k] / UM:7.3f} {'' if p is None else f'{p[i]:6.2f}':>6s}"
                  for i, k in enumerate(("profile", "helix", "pitch"))]
         print(f"{material:9s} {what:>18s}   " + "   ".join(cells))
-    return {"deviations_mm": ours, "shares_pct": share_table,
+    print()
+    springback = springback_table()
+    return {"deviations_mm": ours, "shares_pct": share_table, "springback": springback,
             "forces_um": {k: {n: v[n] / UM for n in ("profile", "helix", "pitch")} for k, v in forces.items()},
             "rotation_deg": DEG}
 

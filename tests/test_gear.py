@@ -307,3 +307,30 @@ def test_cli_gear_png(tmp_path, capsys):
     assert f"wrote {path}" in capsys.readouterr().err
     assert main(["gear", "gear_roller", "--unit-errors", "--png", str(path)]) == 2
     assert "--png draws all sources together" in capsys.readouterr().err
+
+
+STEEL = {"e_tool": 210e9, "e_work": 209e9, "nu_tool": 0.3, "nu_work": 0.3, "yield_strength": 835e6}
+
+
+def test_springback_is_dimensionally_consistent():
+    """Seed 004's contact formulas in N, mm, MPa give the SI result in mm: the logarithm's
+    argument and the CEB ratio are dimensionless, as they must be."""
+    from volerr_pin.gear import contact_springback
+
+    si = contact_springback([30.79e3, 3.01e3], [0.02, 0.0029], G, roll=1e-3, **STEEL)
+    in_mm = GearPair(module=1.75, pressure_angle=20 * DEG, teeth=46, tool_teeth=128, face_width=20.0)
+    mm = contact_springback([30.79e3, 3.01e3], [20.0, 2.9], in_mm, roll=1.0, e_tool=210e3, e_work=209e3,
+                            nu_tool=0.3, nu_work=0.3, yield_strength=835.0)
+    np.testing.assert_allclose(mm.deformation, si.deformation * 1e3, rtol=1e-12)
+    assert mm.critical == pytest.approx(si.critical * 1e3, rel=1e-12)
+    assert si.modulus == pytest.approx(1 / (0.91 / 210e9 + 0.91 / 209e9))
+    assert (si.rebound == si.deformation - si.critical).all()                # elastoplastic here
+    # a workpiece that does not yield springs back entirely
+    hard = contact_springback(3.01e3, 0.0029, G, **{**STEEL, "yield_strength": 1e12})
+    assert hard.rebound == pytest.approx(hard.deformation) and hard.critical > hard.deformation
+    with pytest.raises(InputError, match="force must be positive"):
+        contact_springback([-1.0], [0.02], G, **STEEL)
+    with pytest.raises(InputError, match="nu_work must be within"):
+        contact_springback(1e3, 0.02, G, **{**STEEL, "nu_work": 0.6})
+    with pytest.raises(InputError, match="off the involutes"):
+        contact_springback(1e3, 0.02, G, roll=-0.02, **STEEL)
