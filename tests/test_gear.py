@@ -334,3 +334,25 @@ def test_springback_is_dimensionally_consistent():
         contact_springback(1e3, 0.02, G, **{**STEEL, "nu_work": 0.6})
     with pytest.raises(InputError, match="off the involutes"):
         contact_springback(1e3, 0.02, G, roll=-0.02, **STEEL)
+
+
+def test_through_rolling_carries_feed_axis_errors_into_the_helix(bare):
+    """With the feed axis, each section is finished in the wheel's plane at its own Z: a
+    straightness error of Z that grows linearly (dx = c P1 over the 150 mm travel) tilts the
+    helix by its slope x face width x cos 20 deg; generated at one Z it is only an offset."""
+    m = only(bare, {"EXZ": {"kind": "legendre", "coefficients_um": [0.0, 1.0]}})
+    slope = 2 * UM / 0.15                                          # d(dx)/dZ of P1 over the travel
+    through = flank_deviations(m, feed="Z", at={"Z": 0.075})
+    plunge = flank_deviations(m, at={"Z": 0.075})
+    for flank in ("right", "left"):
+        assert through.values[flank]["F_beta"] == pytest.approx(slope * G.face_width * np.cos(G.pressure_angle),
+                                                                rel=1e-6)
+        assert plunge.values[flank]["F_beta"] < 1e-15
+    # the mid section is the same either way
+    np.testing.assert_allclose(through.normal[..., 5], plunge.normal[..., 5], atol=1e-15)
+    with pytest.raises(InputError, match="not a linear axis"):
+        flank_deviations(m, feed="B")
+    with pytest.raises(InputError, match="does not move the tool along the gear axis"):
+        flank_deviations(m, feed="Y")
+    with pytest.raises(InputError, match=r"needs Z from -10 to 10 mm \(travel 0 to 150\)"):
+        flank_deviations(m, feed="Z")                              # Z = 0 - 10 mm for the lower face

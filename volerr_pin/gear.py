@@ -44,13 +44,18 @@ where the flank lies outside the ideal flank (more material, a thicker tooth).
 Conventions: the gear's axis is the z axis of the machine's workpiece frame; the tool point
 (the machine's tool frame) is the pitch point on the wheel, at the nominal configuration
 ``at``; the right flank is the one on the right of a tooth seen from +z with the tooth tip
-up. The whole face width is generated at one position of the feed axis (the contact line
-spans the face), as in seed 004's analysis, and the teeth over one turn of the workpiece
-spindle, from -180 to +180 deg about its position in ``at``.
+up. By default the whole face width is generated at one position of the feed axis (the
+contact line spans the face), as in seed 004's analysis; with ``feed`` (through rolling) each
+transverse section is finished as the feed axis carries it through the wheel's mid plane, so
+errors of the feed axis reach the helix. The teeth are generated over one turn of the
+workpiece spindle, from -180 to +180 deg about its position in ``at`` (with ``feed``, every
+section of a tooth at the same spindle position: the workpiece turns whole turns between
+them, or its errors repeat every turn).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
@@ -231,9 +236,12 @@ class _Mesh:
     z0: float               # its axial position (workpiece frame)
     kappa: float            # +1/-1: d(psi)/d(work spindle)
     ratio: float            # d(tool spindle)/d(work spindle) for rolling without slip
+    feed: int | None = None         # column of the feed axis (through rolling)
+    feed_rate: float = 1.0          # d(tool point's axial position)/d(feed axis), +1 or -1
 
 
-def _mesh(machine: Machine, gear: GearPair, spindles: Sequence[str], at: Mapping | None) -> _Mesh:
+def _mesh(machine: Machine, gear: GearPair, spindles: Sequence[str], at: Mapping | None,
+          feed: str | None = None) -> _Mesh:
     axes = machine.axes
     if len(spindles) != 2:
         raise InputError(f"spindles must name the workpiece and the wheel spindle, got {spindles!r}",
@@ -282,7 +290,21 @@ def _mesh(machine: Machine, gear: GearPair, spindles: Sequence[str], at: Mapping
                          f"{gear.tool_pitch_radius / MM:.3f} mm")
     # rolling without slip: the wheel's pitch point does not move relative to the workpiece
     ratio = float(-np.dot(d_work, d_tool) / np.dot(d_tool, d_tool))
-    return _Mesh(q0, work, tool, float(psi[0]), float(p[0, 2]), float(np.sign(kappa)), ratio)
+    mesh = _Mesh(q0, work, tool, float(psi[0]), float(p[0, 2]), float(np.sign(kappa)), ratio)
+    if feed is None:
+        return mesh
+    if feed not in axes or machine.axis_kinds[axes.index(feed)] != "linear":
+        raise InputError(f"feed {feed!r} is not a linear axis of {machine.name} (axes: {', '.join(axes)})",
+                         parameters=("feed",))
+    column = axes.index(feed)
+    probe = np.repeat(q0[None], 2, axis=0)
+    probe[1, column] += eps
+    _, p = machine.tool_poses(probe, nominal=True, extrapolate=True)
+    step = (p[1] - p[0]) / eps
+    if abs(abs(step[2]) - 1) > 1e-6 or np.hypot(step[0], step[1]) > 1e-6:
+        raise InputError(f"feed axis {feed!r} of {machine.name} does not move the tool along the gear axis",
+                         parameters=("feed",))
+    return dataclasses.replace(mesh, feed=column, feed_rate=float(np.sign(step[2])))
 
 
 @dataclass(frozen=True)
@@ -345,6 +367,8 @@ def _grid(machine: Machine, gear: GearPair, mesh: _Mesh, profile_points: int, fa
         q = np.broadcast_to(mesh.q0, shape + (mesh.q0.size,)).copy()
         q[..., mesh.work] += beta[..., None]
         q[..., mesh.tool] += mesh.ratio * beta[..., None]
+        if mesh.feed is not None:       # each section finished in the wheel's mid plane
+            q[..., mesh.feed] += face / mesh.feed_rate
         points.append(p.reshape(-1, 3))
         normals.append(n.reshape(-1, 3))
         qs.append(q.reshape(-1, mesh.q0.size))
@@ -437,8 +461,9 @@ def _deviations(normal: np.ndarray, gear: GearPair, all_teeth: bool) -> dict:
 
 
 def flank_deviations(machine: Machine, gear: GearPair = SEED004_GEAR, *, spindles: Sequence[str] = ("B", "A"),
-                     at: Mapping | None = None, profile_points: int = 21, face_points: int = 11,
-                     tooth_numbers: Sequence[int] | None = None, theta=None, **covariates) -> FlankDeviations:
+                     at: Mapping | None = None, feed: str | None = None, profile_points: int = 21,
+                     face_points: int = 11, tooth_numbers: Sequence[int] | None = None, theta=None,
+                     **covariates) -> FlankDeviations:
     """Deviations of the gear flanks the machine generates with its present errors.
 
     Parameters
@@ -454,6 +479,10 @@ def flank_deviations(machine: Machine, gear: GearPair = SEED004_GEAR, *, spindle
     at : mapping of str to float, optional
         Positions of the other axes during generation [m, rad], and of the spindles where
         a tooth is centred on the tool point; axes not given are at 0.
+    feed : str, optional
+        The feed axis of through rolling (a linear axis along the gear axis): each transverse
+        section is finished as this axis carries it through the wheel's mid plane. Default:
+        the whole face at the feed position of ``at``, the contact line spanning the face.
     profile_points : int, default 21
         Points over the active profile (odd: the middle one is on the pitch circle).
     face_points : int, default 11
@@ -476,11 +505,22 @@ def flank_deviations(machine: Machine, gear: GearPair = SEED004_GEAR, *, spindle
     ------
     InputError
         If the spindles are not rotary axes of the machine, the gear does not fit the
-        machine's geometry, ``at`` names an unknown axis or leaves the travel, or the point
-        counts or tooth numbers are invalid.
+        machine's geometry, ``at`` names an unknown axis or leaves the travel, ``feed`` is not a
+        linear axis along the gear axis, or the point counts or tooth numbers are invalid.
     """
-    mesh = _mesh(machine, gear, spindles, at)
+    mesh = _mesh(machine, gear, spindles, at, feed)
     grid = _grid(machine, gear, mesh, profile_points, face_points, tooth_numbers)
+    outside = machine.outside_travel(grid.q).any(axis=0)
+    if outside.any():
+        travel = machine.travel
+        parts = []
+        for j in np.flatnonzero(outside):
+            factor = MM if machine.axis_kinds[j] == "linear" else DEG
+            unit = "mm" if factor == MM else "deg"
+            parts.append(f"{machine.axes[j]} from {grid.q[:, j].min() / factor:.6g} to {grid.q[:, j].max() / factor:.6g} "
+                         f"{unit} (travel {travel[j, 0] / factor:.6g} to {travel[j, 1] / factor:.6g})")
+        raise InputError(f"at: generating the gear needs {'; '.join(parts)}; move the nominal configuration",
+                         parameters=("at",))
     normal = _normal_deviation(machine, grid, theta, covariates)
     return FlankDeviations(gear, normal, grid.roll, gear.radius_at(grid.roll), grid.face, grid.teeth,
                            _deviations(normal, gear, grid.teeth.size == gear.teeth))

@@ -32,6 +32,9 @@ def add_parser(sub) -> None:
     p.add_argument("--spindles", default="B,A", help="workpiece spindle and wheel spindle (default B,A)")
     p.add_argument("--at", nargs="+", metavar="AXIS=VALUE",
                    help="positions of the other axes (mm, deg; default 0) during generation")
+    p.add_argument("--feed", metavar="AXIS",
+                   help="through rolling: each section finished as this linear axis carries it through the "
+                        "wheel's mid plane (default: the whole face at one position)")
     p.add_argument("--flank", choices=list(FLANKS), default="right", help="flank the table shows (default right)")
     p.add_argument("--tooth", type=int, nargs="+", help="evaluate these teeth only (default every tooth)")
     p.add_argument("--profile-points", type=positive, default=21, help="points over the profile (odd, default 21)")
@@ -80,7 +83,8 @@ def run(args) -> int:
     gear = GearPair(module=args.module_mm * MM, pressure_angle=args.pressure_angle_deg * DEG, teeth=args.teeth,
                     tool_teeth=args.tool_teeth, face_width=args.face_width_mm * MM)
     options = {"spindles": _names(args.spindles, "--spindles"), "at": axis_config(machine, args.at, "--at"),
-               "profile_points": args.profile_points, "face_points": args.face_points, "tooth_numbers": args.tooth}
+               "profile_points": args.profile_points, "face_points": args.face_points, "tooth_numbers": args.tooth,
+               "feed": args.feed}
     changes = _references(machine, args.reference)
     if args.unit_errors:
         axes = _names(args.axes, "--axes")
@@ -107,7 +111,7 @@ def run(args) -> int:
         print(f"wrote {args.png}", file=sys.stderr)
     shares = contribution_degrees(rows, args.flank)
     report = {"machine": machine.name, "gear": gear.to_dict(), "mode": "unit errors" if args.unit_errors else "spec",
-              "flank": args.flank, "teeth_evaluated": len(rows[0].deviations.teeth),
+              "flank": args.flank, "teeth_evaluated": len(rows[0].deviations.teeth), "feed": args.feed,
               "frames": {a.name: {"errors_frame": a.frame, "reference_mm": [v / MM for v in a.reference]}
                          for a in machine.spec.axes if a.name in options["spindles"]},
               "sources": []}
