@@ -182,3 +182,30 @@ def test_the_model_and_the_pictures_do_not_load_rerun():
             "import volerr_pin.viz.plots; print('rerun' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False", "False"]
+
+
+@pytest.mark.filterwarnings("ignore:RRD file has no footer")
+def test_gear_recording_holds_the_normal_deviations(machines, tmp_path):
+    from volerr_pin.gear import deviations_by_source
+    from volerr_pin.viz.recording import record_gear
+
+    rows = deviations_by_source(machines["gear_roller"], components=["EXA", "ECB"], profile_points=5, face_points=3)
+    path = tmp_path / "gear.rrd"
+    summary = record_gear(rows, path, scale=2000.0)
+    assert summary == {"path": str(path), "sources": 3, "points": 2 * 46 * 5 * 3, "scale": 2000.0}
+    points = chunks(path, "/gear/flanks")
+    values = column(points, "normal_deviation_um")
+    assert len(values) == 3                                            # one step per source
+    for row, logged in zip(rows, values):
+        np.testing.assert_allclose(logged, row.deviations.normal.reshape(-1) * 1e6, rtol=1e-12)
+    positions = np.array(column(points, "Points3D:positions")[0]).reshape(-1, 3)
+    np.testing.assert_allclose(positions, rows[0].deviations.points.reshape(-1, 3), atol=1e-7)
+    arrows = np.array(column(chunks(path, "/gear/deviation"), "Arrows3D:vectors")[2]).reshape(-1, 3)
+    expected = rows[2].deviations.normals.reshape(-1, 3) * rows[2].deviations.normal.reshape(-1, 1) * 2000.0
+    np.testing.assert_allclose(arrows, expected, rtol=1e-6, atol=1e-9)
+
+
+def test_gear_cli_rrd(tmp_path, capsys):
+    path = tmp_path / "g.rrd"
+    assert main(["gear", "gear_roller", "--profile-points", "3", "--face-points", "3", "--rrd", str(path)]) == 0
+    assert path.stat().st_size > 0 and "wrote" in capsys.readouterr().err

@@ -409,6 +409,10 @@ class FlankDeviations:
         Face positions from mid face [m].
     teeth : ndarray, shape (n_teeth,)
         Tooth numbers (0: the tooth centred on the tool point at the nominal configuration).
+    points : ndarray, shape (2, n_teeth, n_profile, n_face, 3)
+        The ideal flank points in the workpiece frame [m].
+    normals : ndarray, shape (2, n_teeth, n_profile, n_face, 3)
+        Their outward unit normals.
     values : dict
         Flank name ("right", "left") -> {deviation name: value [m]} for :data:`DEVIATIONS`;
         ``f_pt`` and ``F_p`` are None unless every tooth was evaluated.
@@ -420,6 +424,8 @@ class FlankDeviations:
     radius: np.ndarray
     face: np.ndarray
     teeth: np.ndarray
+    points: np.ndarray = field(repr=False)
+    normals: np.ndarray = field(repr=False)
     values: dict = field(repr=False)
 
     def to_dict(self) -> dict:
@@ -523,6 +529,7 @@ def flank_deviations(machine: Machine, gear: GearPair = SEED004_GEAR, *, spindle
                          parameters=("at",))
     normal = _normal_deviation(machine, grid, theta, covariates)
     return FlankDeviations(gear, normal, grid.roll, gear.radius_at(grid.roll), grid.face, grid.teeth,
+                           grid.point.reshape(grid.shape + (3,)), grid.normal.reshape(grid.shape + (3,)),
                            _deviations(normal, gear, grid.teeth.size == gear.teeth))
 
 

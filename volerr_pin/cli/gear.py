@@ -49,6 +49,8 @@ def add_parser(sub) -> None:
                    help="frame the studied axes' errors act in (default: the spec's)")
     u.add_argument("--reference", nargs="+", metavar="AXIS=X,Y,Z",
                    help="point (mm, in the axis' error frame) about which an axis' angular errors act")
+    p.add_argument("--rrd", help="also write a Rerun recording: the flanks coloured by normal deviation, one error "
+                                 "source per step of the 'source' timeline")
     p.add_argument("--png", help="also write maps of the normal deviations of all sources together and the "
                                  "teeth's flank positions")
     add_json_arg(p)
@@ -109,6 +111,12 @@ def run(args) -> int:
         gear_png(rows[-1].deviations, args.png, f"{machine.name}: normal deviations of the generated flanks, "
                                                 f"all error sources")
         print(f"wrote {args.png}", file=sys.stderr)
+    if args.rrd:
+        from ..viz.recording import record_gear
+
+        summary = record_gear(rows, args.rrd)
+        print(f"wrote {args.rrd} ({summary['sources']} sources, {summary['points']} flank points, arrows "
+              f"x{summary['scale']:g})", file=sys.stderr)
     shares = contribution_degrees(rows, args.flank)
     report = {"machine": machine.name, "gear": gear.to_dict(), "mode": "unit errors" if args.unit_errors else "spec",
               "flank": args.flank, "teeth_evaluated": len(rows[0].deviations.teeth), "feed": args.feed,

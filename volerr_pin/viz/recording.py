@@ -348,3 +348,42 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None) ->
     rec.disconnect()
     return {"path": str(path), "steps": len(diagnosis.steps), "scale": scale,
             "bytes": Path(path).stat().st_size}
+
+
+def record_gear(rows, path: str | Path, scale: float | None = None) -> dict:
+    """The generated gear flanks, one error source per step of the ``source`` timeline.
+
+    ``rows`` are :class:`volerr_pin.gear.SourceDeviations` (a source alone, or all together):
+    each step shows every evaluated flank point in the workpiece frame coloured by its normal
+    deviation (red: more material, blue: less; one colour scale over all steps, in
+    ``normal_deviation_um``) and arrows along the normals of length deviation x ``scale``.
+    """
+    if not rows:
+        raise InputError("record_gear needs at least one source")
+    first = rows[0].deviations
+    points = first.points.reshape(-1, 3)
+    normals = first.normals.reshape(-1, 3)
+    peak = max(float(np.abs(r.deviations.normal).max()) for r in rows) * UM_PER_M or 1.0
+    extent = float(np.ptp(points, axis=0).max())
+    scale = scale or nice_scale(peak, extent)
+    radius = max(extent / 600.0, 2e-5)
+    rec = new_recording("volerr_pin_gear")
+    blueprint = rrb.Blueprint(
+        rrb.Horizontal(rrb.Spatial3DView(origin="/", contents=["gear/**"], name="flanks"),
+                       rrb.TextLogView(origin="sources", name="sources"), column_shares=[3, 1]),
+        rrb.TimePanel(state="expanded"))
+    rec.save(path, default_blueprint=blueprint)
+    for number, row in enumerate(rows):
+        rec.set_time("source", sequence=number)
+        dn = row.deviations.normal.reshape(-1)
+        colors = colours(dn * UM_PER_M, -peak, peak, "RdBu_r")
+        rec.log("gear/flanks", rr.Points3D(points, colors=colors, radii=radius),
+                rr.AnyValues(normal_deviation_um=dn * UM_PER_M))
+        rec.log("gear/deviation", rr.Arrows3D(origins=points, vectors=normals * (dn * scale)[:, None],
+                                              colors=colors, radii=radius / 2))
+        right = row.deviations.values["right"]
+        rec.log("sources", rr.TextLog(
+            f"{row.source} ({row.label}, {row.value}): profile {right['profile'] * UM_PER_M:.3f} um, "
+            f"helix {right['helix'] * UM_PER_M:.3f} um, pitch {right['pitch'] * UM_PER_M:.3f} um (right flank); "
+            f"arrows x{scale:g}"))
+    return {"path": str(path), "sources": len(rows), "points": int(points.shape[0]), "scale": scale}
