@@ -31,7 +31,7 @@ from scipy.optimize import least_squares
 import volerr_pin as vp
 from volerr_pin.gear import SEED004_GEAR, contact_springback, contribution_degrees, flank_deviations, unit_error_study
 from volerr_pin.specio import remove_components, replace_terms, with_axis_errors
-from volerr_pin.units import DEG, UM
+from volerr_pin.units import UM
 
 # seed 004, Tables 2 and 4: total profile, total helix, single pitch deviation [mm]
 PAPER = {"EXA": (0.973, 0.9611, 0.9575), "EYA": (0.3615, 0.29988, -0.2838), "EZA": (0.0, 0.0, 0.0),
@@ -142,8 +142,7 @@ def main() -> dict:
     print()
     springback = springback_table()
     return {"deviations_mm": ours, "shares_pct": share_table, "springback": springback,
-            "forces_um": {k: {n: v[n] / UM for n in ("profile", "helix", "pitch")} for k, v in forces.items()},
-            "rotation_deg": DEG}
+            "forces_um": {k: {n: v[n] / UM for n in ("profile", "helix", "pitch")} for k, v in forces.items()}}
 
 
 if __name__ == "__main__":

@@ -298,6 +298,11 @@ def test_cli_gear_table_and_errors(capsys):
     assert main(["gear", "gear_roller", "--reference", "B=0,0"]) == 2
     assert "--reference: 'B=0,0' is not AXIS=X,Y,Z" in capsys.readouterr().err
     assert main(["gear", "gear_roller", "--errors-frame", "moving"]) == 2
+    assert "--errors-frame goes with --unit-errors" in capsys.readouterr().err
+    assert main(["gear", "gear_roller", "--reference", "B=0,0,nan"]) == 2
+    assert "is not AXIS=X,Y,Z" in capsys.readouterr().err
+    assert main(["gear", "gear_roller", "--teeth", "47"]) == 2
+    assert "(--module-mm x --teeth / 2) is 41.1250 mm" in capsys.readouterr().err
 
 
 def test_cli_gear_png(tmp_path, capsys):
@@ -356,3 +361,70 @@ def test_through_rolling_carries_feed_axis_errors_into_the_helix(bare):
         flank_deviations(m, feed="Y")
     with pytest.raises(InputError, match=r"needs Z from -10 to 10 mm \(travel 0 to 150\)"):
         flank_deviations(m, feed="Z")                              # Z = 0 - 10 mm for the lower face
+
+
+def test_state_reaches_every_source(roller):
+    """A time-driven term needs the machine's state in every single-source row, not only in
+    'all' (the rebuilt single-source machines keep the state)."""
+    from volerr_pin.specio import add_terms
+
+    warm = add_terms(roller, {"EXA": {"kind": "thermal_drift", "driver": "time", "amplitudes_um": [4.0],
+                                      "time_constants_min": [30.0]}}).with_state(t=3600.0)
+    rows = {r.source: r for r in deviations_by_source(warm, components=["EXA", "EYA"], profile_points=3, face_points=3)}
+    cold = {r.source: r for r in deviations_by_source(warm.with_state(t=0.0), components=["EXA"],
+                                                      profile_points=3, face_points=3)}
+    drift = 4 * UM * (1 - np.exp(-2.0))
+    np.testing.assert_allclose(rows["EXA"].deviations.normal[0] - cold["EXA"].deviations.normal[0],
+                               drift * np.cos(G.pressure_angle), rtol=1e-9)
+    assert with_axis_errors(warm, {"A": {"frame": "moving"}}).state == warm.state
+
+
+def test_pitch_does_not_depend_on_the_order_teeth_are_given(bare):
+    moving = with_axis_errors(only(bare, {"EXB": {"kind": "constant", "value_um": 10.0}}), {"B": {"frame": "moving"}})
+    order = list(range(G.teeth))
+    order[1], order[30] = order[30], order[1]
+    a = flank_deviations(moving, profile_points=3, face_points=3)
+    b = flank_deviations(moving, profile_points=3, face_points=3, tooth_numbers=order)
+    assert a.values == b.values
+    # an eccentricity repeats every turn: the step at the seam continues its neighbours'
+    pos = a.normal[0, :, 1, 1] / np.cos(G.pressure_angle)
+    steps = pos - np.roll(pos, 1)
+    seam = G.teeth // 2 + 1
+    assert a.values["right"]["seam"] == pytest.approx(steps[seam])
+    assert steps[seam] == pytest.approx((steps[seam - 1] + steps[seam + 1]) / 2, rel=0.01)
+
+
+def test_seam_shows_what_does_not_repeat_over_a_turn(bare):
+    """The wheel turns 46/128 of a turn while the workpiece turns once: a wheel-spindle error
+    that grows along A's travel differs at the teeth generated last and first by its slope
+    times that turn; every other pair of adjacent teeth changes little."""
+    m = only(bare, {"EXA": {"kind": "legendre", "coefficients_um": [0.0, 5.0]}})     # dx grows along A's travel
+    d = flank_deviations(m, profile_points=3, face_points=3)
+    pos = d.normal[0, :, 1, 1] / np.cos(G.pressure_angle)
+    steps = pos - np.roll(pos, 1)
+    assert d.values["right"]["seam"] == pytest.approx(steps[G.teeth // 2 + 1])
+    assert abs(d.values["right"]["seam"]) == pytest.approx(d.values["right"]["f_pt"])
+    # the slope of A's travel (5 um over 360 deg) times the wheel's turn of 2 pi 46/128, along the pitch circle
+    a_turn = 2 * np.pi * 46 / 128
+    assert abs(d.values["right"]["seam"]) == pytest.approx(5 * UM / (2 * np.pi) * a_turn, rel=0.03)
+
+
+def test_more_bad_inputs(roller):
+    with pytest.raises(InputError, match="would interfere"):
+        GearPair(module=1e-3, pressure_angle=20 * DEG, teeth=200, tool_teeth=5, face_width=0.02)
+    GearPair(module=np.float32(1e-3), pressure_angle=20 * DEG, teeth=46, tool_teeth=128, face_width=np.float64(0.02))
+    with pytest.raises(InputError, match="module must be a positive number, got -1 mm"):
+        GearPair(module=-1e-3, pressure_angle=20 * DEG, teeth=46, tool_teeth=128, face_width=0.02)
+    with pytest.raises(InputError, match=r"must be a dict"):
+        with_axis_errors(roller, {"A": "moving"})
+    with pytest.raises(InputError, match="unknown keys"):
+        with_axis_errors(roller, {"A": {"frames": "moving"}})
+    with pytest.raises(InputError, match="three finite numbers"):
+        with_axis_errors(roller, {"A": {"reference": "abc"}})
+    with pytest.raises(InputError, match="rotation must be positive, got -2 deg"):
+        unit_error_study(roller, rotation=-2 * DEG)
+    with pytest.raises(InputError, match=r"\(Y=0, Z=-5, A=0, B=0; mm, deg\)"):
+        flank_deviations(roller, at={"Z": -0.005})
+    with pytest.raises(InputError, match="broadcast"):
+        from volerr_pin.gear import contact_springback
+        contact_springback([1e3, 2e3], [0.01, 0.02, 0.03], G, **STEEL)

@@ -33,7 +33,15 @@ The deviations follow seed 004's definitions and, beside them, ISO 1328-1's:
   shifts, not differences between teeth); ISO's single pitch deviation
   ``f_pt`` is the largest difference of adjacent teeth's flank positions along the pitch circle,
   and ``F_p`` (total cumulative pitch deviation) their range: both are zero when every tooth
-  is generated with the same error.
+  is generated with the same error. ``seam`` is the step between the two adjacent teeth
+  generated last and first (a whole turn of the workpiece apart): errors that do not repeat
+  over that turn (a spindle error that is not periodic in B, or any error of the wheel
+  spindle, which turns 46/128 of a turn meanwhile for seed 004) leave a step there, which
+  ``f_pt`` includes.
+
+ISO's deviations are taken over the whole active flank (form to tip circle, the whole face
+width), not over the standard's evaluation ranges, which leave out a tip zone and the ends of
+the face.
 
 The reported value of a deviation is that of the worst tooth. Normal deviations are positive
 where the flank lies outside the ideal flank (more material, a thicker tooth).
@@ -72,7 +80,7 @@ __all__ = ["FLANKS", "DEVIATIONS", "GearPair", "FlankDeviations", "SourceDeviati
 #: the two flanks of a tooth; +1: the clockwise side seen from +z (right), -1: the other
 FLANKS = {"right": 1, "left": -1}
 #: the deviations reported, seed 004's first, then ISO 1328-1's
-DEVIATIONS = ("profile", "helix", "pitch", "F_alpha", "F_beta", "f_pt", "F_p")
+DEVIATIONS = ("profile", "helix", "pitch", "F_alpha", "F_beta", "f_pt", "F_p", "seam")
 
 
 @dataclass(frozen=True)
@@ -116,8 +124,11 @@ class GearPair:
     def __post_init__(self):
         for name in ("module", "face_width", "addendum", "tool_addendum"):
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
-                raise InputError(f"{name} must be a positive number, got {value!r}", parameters=(name,))
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+                    or not (np.isfinite(value) and value > 0):
+                shown = f"{value / MM:g} mm" if name in ("module", "face_width") and isinstance(value, (int, float)) \
+                    else repr(value)
+                raise InputError(f"{name} must be a positive number, got {shown}", parameters=(name,))
         for name in ("teeth", "tool_teeth"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 5:
@@ -129,6 +140,9 @@ class GearPair:
             raise InputError(f"the wheel's tip (radius {self.tool_tip_radius / MM:g} mm) reaches below the "
                              f"workpiece's base circle: the {self.teeth}-tooth gear is undercut",
                              parameters=("tool_addendum",))
+        if self.roll_end >= self.tool_pitch_radius * np.sin(self.pressure_angle):
+            raise InputError(f"the workpiece's tip (radius {self.tip_radius / MM:g} mm) reaches below the wheel's "
+                             f"base circle: the {self.tool_teeth}-tooth wheel would interfere", parameters=("addendum",))
 
     @property
     def pitch_radius(self) -> float:
@@ -264,7 +278,8 @@ def _mesh(machine: Machine, gear: GearPair, spindles: Sequence[str], at: Mapping
                              parameters=("at",))
         q0[axes.index(name)] = float(value)
     if machine.outside_travel(q0[None]).any():
-        raise InputError(f"at: the nominal configuration {dict(zip(axes, q0))} is outside the travel of "
+        shown = ", ".join(f"{a}={v / (MM if k == 'linear' else DEG):g}" for a, k, v in zip(axes, machine.axis_kinds, q0))
+        raise InputError(f"at: the nominal configuration ({shown}; mm, deg) is outside the travel of "
                          f"{machine.name}; give the other axes' positions", parameters=("at",))
 
     eps = 1e-6
@@ -276,7 +291,7 @@ def _mesh(machine: Machine, gear: GearPair, spindles: Sequence[str], at: Mapping
     if abs(r - gear.pitch_radius) > 1e-6:
         raise InputError(f"the tool point of {machine.name} is {r / MM:.4f} mm from the workpiece axis (the "
                          f"workpiece frame's z axis) at the nominal configuration; the gear's pitch radius "
-                         f"(module x teeth / 2) is {gear.pitch_radius / MM:.4f} mm")
+                         f"(module x teeth / 2) is {gear.pitch_radius / MM:.4f} mm", parameters=("module", "teeth"))
     psi = np.arctan2(p[:, 1], p[:, 0])
     kappa = float(np.angle(np.exp(1j * (psi[1] - psi[0]))) / eps)
     if abs(abs(kappa) - 1) > 1e-3 or abs(p[1, 2] - p[0, 2]) > 1e-3 * eps * r:
@@ -286,8 +301,11 @@ def _mesh(machine: Machine, gear: GearPair, spindles: Sequence[str], at: Mapping
     tool_radius = float(np.linalg.norm(d_tool) / eps)
     if abs(tool_radius - gear.tool_pitch_radius) > 1e-3 * gear.tool_pitch_radius or abs(d_tool[2]) > 1e-3 * eps * r:
         raise InputError(f"spindle {spindles[1]!r} of {machine.name} turns the tool point on a radius of "
-                         f"{tool_radius / MM:.3f} mm; the wheel's pitch radius (module x tool teeth / 2) is "
-                         f"{gear.tool_pitch_radius / MM:.3f} mm")
+                         f"{tool_radius / MM:.3f} mm; the wheel's pitch radius (module x tool_teeth / 2) is "
+                         f"{gear.tool_pitch_radius / MM:.3f} mm", parameters=("module", "tool_teeth"))
+    if np.linalg.norm(np.cross(d_work, d_tool)) > 1e-6 * np.linalg.norm(d_work) * np.linalg.norm(d_tool):
+        raise InputError(f"the tool point of {machine.name} is not on the line of centres: the two spindles move it "
+                         f"in different directions, so the wheel cannot roll on the gear there")
     # rolling without slip: the wheel's pitch point does not move relative to the workpiece
     ratio = float(-np.dot(d_work, d_tool) / np.dot(d_tool, d_tool))
     mesh = _Mesh(q0, work, tool, float(psi[0]), float(p[0, 2]), float(np.sign(kappa)), ratio)
@@ -333,6 +351,7 @@ def _grid(machine: Machine, gear: GearPair, mesh: _Mesh, profile_points: int, fa
             or (tooth_numbers < 0).any() or (tooth_numbers >= z).any() or len(set(tooth_numbers.tolist())) != tooth_numbers.size:
         raise InputError(f"tooth_numbers must be distinct tooth numbers 0..{z - 1}, got {chosen!r}",
                          parameters=("tooth_numbers",))
+    tooth_numbers = np.sort(tooth_numbers)      # adjacent teeth next to each other (pitch)
     alpha, rb = gear.pressure_angle, gear.base_radius
     # the profile: the active part of the line of action, with the pitch point in the middle
     half = (profile_points - 1) // 2
@@ -408,14 +427,15 @@ class FlankDeviations:
     face : ndarray, shape (n_face,)
         Face positions from mid face [m].
     teeth : ndarray, shape (n_teeth,)
-        Tooth numbers (0: the tooth centred on the tool point at the nominal configuration).
+        Tooth numbers, ascending (0: the tooth centred on the tool point at the nominal
+        configuration; numbers grow counter-clockwise seen from +z).
     points : ndarray, shape (2, n_teeth, n_profile, n_face, 3)
         The ideal flank points in the workpiece frame [m].
     normals : ndarray, shape (2, n_teeth, n_profile, n_face, 3)
         Their outward unit normals.
     values : dict
         Flank name ("right", "left") -> {deviation name: value [m]} for :data:`DEVIATIONS`;
-        ``f_pt`` and ``F_p`` are None unless every tooth was evaluated.
+        ``f_pt``, ``F_p`` and ``seam`` are None unless every tooth was evaluated.
     """
 
     gear: GearPair
@@ -455,13 +475,16 @@ def _deviations(normal: np.ndarray, gear: GearPair, all_teeth: bool) -> dict:
                 "pitch": float(at_pitch[worst]),
                 "F_alpha": float(np.ptp(profile, axis=1).max()),
                 "F_beta": float(np.ptp(helix, axis=1).max()),
-                "f_pt": None, "F_p": None}
+                "f_pt": None, "F_p": None, "seam": None}
         if all_teeth:
             # flank positions along the pitch circle: a normal offset dN turns an involute
             # by dN / rb, which moves it along the pitch circle by dN / cos(alpha)
             position = at_pitch / np.cos(gear.pressure_angle)
             vals["f_pt"] = float(np.abs(position - np.roll(position, 1)).max())
             vals["F_p"] = float(np.ptp(position))
+            # teeth z//2 and z//2 + 1 are adjacent but generated last and first, a turn apart
+            last = gear.teeth // 2
+            vals["seam"] = float(position[last + 1] - position[last])
         out[flank] = vals
     return out
 
@@ -668,9 +691,9 @@ def unit_error_study(machine: Machine, gear: GearPair = SEED004_GEAR, *, axes: S
     """
     from .specio import remove_components, replace_terms
 
-    for name, value in (("translation", translation), ("rotation", rotation)):
+    for name, value, unit, factor in (("translation", translation, "mm", MM), ("rotation", rotation, "deg", DEG)):
         if not (np.isfinite(value) and value > 0):
-            raise InputError(f"{name} must be positive, got {value!r}", parameters=(name,))
+            raise InputError(f"{name} must be positive, got {value / factor:g} {unit}", parameters=(name,))
     for axis in axes:
         if axis not in machine.axes:
             raise InputError(f"axis {axis!r} is not an axis of {machine.name} (axes: {', '.join(machine.axes)})",
@@ -745,7 +768,9 @@ class Springback:
         The CEB model's critical deformation ``delta_c`` at which plastic flow starts [m].
     rebound : ndarray
         The contact springback: ``delta - delta_c`` where the contact is elastoplastic
-        (``delta > delta_c``), the whole ``delta`` where it stays elastic [m].
+        (``delta > delta_c``), seed 004's eq. 51; the paper gives no rebound for elastic contact,
+        where this takes the whole ``delta`` (so the rebound drops from ``delta_c`` to 0 as
+        ``delta`` passes ``delta_c``) [m].
     modulus : float
         The equivalent modulus ``E_c = ((1 - nu1^2) / E1 + (1 - nu2^2) / E2)^-1`` [Pa].
     """
@@ -799,7 +824,11 @@ def contact_springback(force, length, gear: GearPair = SEED004_GEAR, *, e_tool: 
         If a force, length, modulus or strength is not positive and finite, a Poisson's
         ratio is outside [0, 0.5), or ``roll`` puts the contact off either involute.
     """
-    force, length = np.broadcast_arrays(np.asarray(force, dtype=float), np.asarray(length, dtype=float))
+    try:
+        force, length = np.broadcast_arrays(np.asarray(force, dtype=float), np.asarray(length, dtype=float))
+    except ValueError as err:
+        raise InputError(f"force and length must be numbers of shapes that broadcast: {err}",
+                         parameters=("force", "length")) from None
     for name, value in (("force", force), ("length", length)):
         if value.size == 0 or not (np.isfinite(value).all() and (value > 0).all()):
             raise InputError(f"{name} must be positive and finite", parameters=(name,))
@@ -810,6 +839,8 @@ def contact_springback(force, length, gear: GearPair = SEED004_GEAR, *, e_tool: 
     for name, value in (("nu_tool", nu_tool), ("nu_work", nu_work)):
         if not 0 <= value < 0.5:
             raise InputError(f"{name} must be within [0, 0.5), got {value!r}", parameters=(name,))
+    if not np.isfinite(roll):
+        raise InputError(f"roll must be finite, got {roll!r}", parameters=("roll",))
     s = np.sin(gear.pressure_angle)
     r_work, r_tool = gear.pitch_radius * s + roll, gear.tool_pitch_radius * s - roll
     if r_work <= 0 or r_tool <= 0:

@@ -33,6 +33,14 @@ def _owners(machine: Machine) -> dict:
     return owners
 
 
+def _rebuilt(machine: Machine, spec, theta_of) -> Machine:
+    """A machine of ``spec`` on the same URDF, with coefficients ``theta_of(fresh)`` and the
+    state ``machine`` is held in."""
+    fresh = Machine(spec, machine.urdf)
+    fresh = fresh.with_theta(theta_of(fresh))
+    return fresh.with_state(**machine.state) if machine.state else fresh
+
+
 def replace_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Machine:
     """A new machine whose components ``tables`` replace or add to the spec's.
 
@@ -50,7 +58,7 @@ def replace_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Mac
     Returns
     -------
     Machine
-        The new machine.
+        The new machine, in the same state (:attr:`Machine.state`).
 
     Raises
     ------
@@ -65,10 +73,9 @@ def replace_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Mac
     # keep the current values of untouched components
     old_values = dict(zip(machine.parameter_names, machine.theta))
     spec = dataclasses.replace(machine.spec, components=tuple(components))
-    fresh = Machine(spec, machine.urdf)
-    theta = np.array([old_values.get(n, v) if n.split(".", 1)[0] not in tables else v
-                      for n, v in zip(fresh.parameter_names, fresh.theta)])
-    return fresh.with_theta(theta)
+    return _rebuilt(machine, spec, lambda fresh: np.array(
+        [old_values.get(n, v) if n.split(".", 1)[0] not in tables else v
+         for n, v in zip(fresh.parameter_names, fresh.theta)]))
 
 
 __all__ = ["add_terms", "legendre_terms", "remove_components", "replace_terms", "spec_document",
@@ -91,7 +98,7 @@ def with_axis_errors(machine: Machine, axes: dict[str, dict]) -> Machine:
     Returns
     -------
     Machine
-        The new machine with the same terms and coefficient values.
+        The new machine with the same terms, coefficient values and state.
 
     Raises
     ------
@@ -103,10 +110,13 @@ def with_axis_errors(machine: Machine, axes: dict[str, dict]) -> Machine:
     names = [a.name for a in spec.axes]
     changed = []
     for axis in spec.axes:
-        change = axes.get(axis.name)
-        if change is None:
+        if axis.name not in axes:
             changed.append(axis)
             continue
+        change = axes[axis.name]
+        if not isinstance(change, dict):
+            raise InputError(f"axes[{axis.name!r}] must be a dict with 'frame' and/or 'reference', got {change!r}",
+                             parameters=("axes",))
         extra = sorted(set(change) - {"frame", "reference"})
         if extra:
             raise InputError(f"axes[{axis.name!r}]: unknown keys {', '.join(extra)} (use frame, reference)",
@@ -115,7 +125,10 @@ def with_axis_errors(machine: Machine, axes: dict[str, dict]) -> Machine:
         if frame not in ("moving", "fixed"):
             raise InputError(f"axes[{axis.name!r}]: frame must be 'moving' or 'fixed', got {frame!r}",
                              parameters=("axes",))
-        reference = np.asarray(change.get("reference", axis.reference), dtype=float)
+        try:
+            reference = np.asarray(change.get("reference", axis.reference), dtype=float)
+        except (TypeError, ValueError):
+            reference = np.full(1, np.nan)
         if reference.shape != (3,) or not np.isfinite(reference).all():
             raise InputError(f"axes[{axis.name!r}]: reference must be three finite numbers [m], got "
                              f"{change.get('reference')!r}", parameters=("axes",))
@@ -124,8 +137,7 @@ def with_axis_errors(machine: Machine, axes: dict[str, dict]) -> Machine:
     if unknown:
         raise InputError(f"{', '.join(unknown)} not among the axes of {machine.name} ({', '.join(names)})",
                          parameters=("axes",))
-    fresh = Machine(dataclasses.replace(spec, axes=tuple(changed)), machine.urdf)
-    return fresh.with_theta(machine.theta)
+    return _rebuilt(machine, dataclasses.replace(spec, axes=tuple(changed)), lambda fresh: machine.theta)
 
 
 def remove_components(machine: Machine, names) -> Machine:
@@ -141,7 +153,7 @@ def remove_components(machine: Machine, names) -> Machine:
     Returns
     -------
     Machine
-        The new machine; the other coefficients keep their current values.
+        The new machine; the other coefficients keep their current values, the state stays.
 
     Raises
     ------
@@ -155,8 +167,7 @@ def remove_components(machine: Machine, names) -> Machine:
     values = dict(zip(machine.parameter_names, machine.theta))
     spec = dataclasses.replace(machine.spec, components=tuple(
         c for c in machine.spec.components if c.name not in names))
-    fresh = Machine(spec, machine.urdf)
-    return fresh.with_theta(np.array([values[n] for n in fresh.parameter_names]))
+    return _rebuilt(machine, spec, lambda fresh: np.array([values[n] for n in fresh.parameter_names]))
 
 
 def add_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Machine:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 
 from ..errors import InputError
@@ -72,7 +73,7 @@ def _references(machine, items: list[str] | None) -> dict[str, dict]:
             point = tuple(float(v) * MM for v in value.split(","))
         except ValueError:
             point = ()
-        if not sep or len(point) != 3:
+        if not sep or len(point) != 3 or not all(math.isfinite(v) for v in point):
             raise InputError(f"--reference: {item!r} is not AXIS=X,Y,Z (mm)")
         if axis not in machine.axes:
             raise InputError(f"--reference: {axis!r} is not an axis of {machine.name} ({', '.join(machine.axes)})")
@@ -88,6 +89,10 @@ def run(args) -> int:
                "profile_points": args.profile_points, "face_points": args.face_points, "tooth_numbers": args.tooth,
                "feed": args.feed}
     changes = _references(machine, args.reference)
+    if args.png and args.unit_errors:
+        raise InputError("--png draws all sources together: leave out --unit-errors")
+    if args.errors_frame and not args.unit_errors:
+        raise InputError("--errors-frame goes with --unit-errors (the spec sets the frames of its own errors)")
     if args.unit_errors:
         axes = _names(args.axes, "--axes")
         if args.errors_frame:
@@ -98,14 +103,10 @@ def run(args) -> int:
         rows = unit_error_study(machine, gear, axes=axes, translation=args.translation_mm * MM,
                                 rotation=args.rotation_deg * DEG, **options)
     else:
-        if args.errors_frame:
-            raise InputError("--errors-frame goes with --unit-errors (the spec sets the frames of its own errors)")
         if changes:
             machine = with_axis_errors(machine, changes)
         rows = deviations_by_source(machine, gear, **options)
     if args.png:
-        if args.unit_errors:
-            raise InputError("--png draws all sources together: leave out --unit-errors")
         from ..viz.plots import gear_png
 
         gear_png(rows[-1].deviations, args.png, f"{machine.name}: normal deviations of the generated flanks, "
@@ -121,7 +122,7 @@ def run(args) -> int:
     report = {"machine": machine.name, "gear": gear.to_dict(), "mode": "unit errors" if args.unit_errors else "spec",
               "flank": args.flank, "teeth_evaluated": len(rows[0].deviations.teeth), "feed": args.feed,
               "frames": {a.name: {"errors_frame": a.frame, "reference_mm": [v / MM for v in a.reference]}
-                         for a in machine.spec.axes if a.name in options["spindles"]},
+                         for a in machine.spec.axes},
               "sources": []}
     for row, share in zip(rows, shares):
         entry = row.to_dict()
@@ -159,15 +160,17 @@ def _print(report: dict, flank: str) -> None:
     table = Table(box=box.SIMPLE, title=title, title_justify="left")
     for name, justify in (("source", "left"), ("error", "left"), ("value", "right"), ("profile um", "right"),
                           ("share", "right"), ("helix um", "right"), ("share", "right"), ("pitch um", "right"),
-                          ("share", "right"), ("F_alpha um", "right"), ("F_beta um", "right"), ("f_pt um", "right")):
+                          ("share", "right"), ("F_alpha um", "right"), ("F_beta um", "right"), ("f_pt um", "right"),
+                          ("seam um", "right")):
         table.add_column(name, justify=justify)
     for entry in report["sources"]:
         d, c = entry["flanks"][flank], entry["contribution"]
         table.add_row(entry["source"], entry["label"], entry["value"], _um(d["profile_um"]), _pct(c["profile"]),
                       _um(d["helix_um"]), _pct(c["helix"]), _um(d["pitch_um"]), _pct(c["pitch"]),
-                      _um(d["F_alpha_um"]), _um(d["F_beta_um"]), _um(d["f_pt_um"]))
+                      _um(d["F_alpha_um"]), _um(d["F_beta_um"]), _um(d["f_pt_um"]), _um(d["seam_um"]))
     console.print(table)
     print("profile, helix: |largest +| + |largest -| normal deviation (seed 004); pitch: signed normal deviation "
           "on the pitch circle at mid face; share: seed 004's contribution degree within "
           + ("the axis' translations or rotations" if unit else "the single sources")
-          + "; F_alpha, F_beta, f_pt: ISO 1328-1 (worst tooth).")
+          + "; F_alpha, F_beta (worst tooth), f_pt (worst pair of adjacent teeth): ISO 1328-1 over the whole "
+            "active flank; seam: step between the teeth generated last and first, a turn apart.")
