@@ -507,7 +507,8 @@ def flank_deviations(machine: Machine, gear: GearPair = SEED004_GEAR, *, spindle
         The workpiece spindle and the wheel spindle (rotary axes).
     at : mapping of str to float, optional
         Positions of the other axes during generation [m, rad], and of the spindles where
-        a tooth is centred on the tool point; axes not given are at 0.
+        a tooth is centred on the tool point; axes not given are at 0. The gear's mid face is
+        where the tool point is here (on gear_roller, Z above the workpiece frame's origin).
     feed : str, optional
         The feed axis of through rolling (a linear axis along the gear axis): each transverse
         section is finished as this axis carries it through the wheel's mid plane. Default:

@@ -48,7 +48,7 @@ def add_parser(sub) -> None:
     u.add_argument("--rotation-deg", type=float, default=1.0, help="unit rotation (default 1)")
     u.add_argument("--errors-frame", choices=["moving", "fixed"],
                    help="frame the studied axes' errors act in (default: the spec's)")
-    u.add_argument("--reference", nargs="+", metavar="AXIS=X,Y,Z",
+    p.add_argument("--reference", nargs="+", metavar="AXIS=X,Y,Z",
                    help="point (mm, in the axis' error frame) about which an axis' angular errors act")
     p.add_argument("--rrd", help="also write a Rerun recording: the flanks coloured by normal deviation, one error "
                                  "source per step of the 'source' timeline")
