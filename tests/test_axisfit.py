@@ -121,3 +121,13 @@ def test_a_robot_rebuilt_from_its_measured_axes(machines, tmp_path):
     for o, o_b in zip(offsets, in_tool):
         np.testing.assert_allclose(pb + np.einsum("nij,j->ni", Rb, o_b), p + np.einsum("nij,j->ni", R, o),
                                    atol=1e-9)
+
+
+def test_axes_to_urdf_refuses_mismatched_lists():
+    from volerr_pin.axisfit import Axis, axes_to_urdf
+    from volerr_pin.errors import InputError
+
+    axis = Axis(point=np.zeros(3), direction=np.array([0.0, 0.0, 1.0]), circles=(), angle_residual=np.zeros(0),
+                angle_scale=1.0)
+    with pytest.raises(InputError, match="one entry per joint; got 1, 2 and 1"):
+        axes_to_urdf([axis], ["j1", "j2"], [(-1.0, 1.0)])

@@ -86,3 +86,13 @@ def test_duplicate_joint_names_are_refused(tmp_path, capsys):
     path.write_text("joint,a_mm,alpha_deg,d_mm,theta_deg\nJ1,0,0,0,0\nJ1,100,0,0,0\n")
     assert main(["dh", str(path), "-o", str(tmp_path / "x.urdf")]) == 2
     assert "joint names must be unique" in capsys.readouterr().err
+
+
+def test_unknown_convention_is_refused():
+    from volerr_pin.dh import DHRow, split, transform
+    from volerr_pin.errors import InputError
+
+    row = DHRow(name="j1", a=0.1, alpha=0.0, d=0.0, theta=0.0)
+    for function in (lambda: transform(row, 0.0, "craig"), lambda: split(row, "craig")):
+        with pytest.raises(InputError, match="convention must be 'standard' or 'modified', got 'craig'"):
+            function()

@@ -299,9 +299,17 @@ def axes_to_urdf(axes: list[Axis], names: list[str], limits: list[tuple[float, f
     tool_pose : ndarray, shape (4, 4)
         The tool frame's pose in the reference configuration (base frame, m): at the last
         axis, z along it.
+
+    Raises
+    ------
+    InputError
+        If ``axes``, ``names`` and ``limits`` differ in length.
     """
     from .dh import urdf_origin
 
+    if not len(axes) == len(names) == len(limits):
+        raise InputError(f"axes, names and limits must have one entry per joint; got {len(axes)}, {len(names)} "
+                         f"and {len(limits)}", parameters=("axes", "names", "limits"))
     frames = [_frame(a.point, a.direction) for a in axes]
     lines = ['<?xml version="1.0"?>', f'<robot name="{name}">', f'  <link name="{base}"/>']
     parent, previous = base, np.eye(4)

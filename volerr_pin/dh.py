@@ -35,6 +35,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .errors import InputError
 from .measurements import MeasurementError, read_table
 from .units import axis_scale
 
@@ -102,7 +103,7 @@ def split(row: DHRow, convention: str) -> tuple[np.ndarray, np.ndarray]:
 
     Raises
     ------
-    ValueError
+    InputError
         If ``convention`` is neither "standard" nor "modified".
     """
     revolute = row.kind == "revolute"
@@ -112,7 +113,7 @@ def split(row: DHRow, convention: str) -> tuple[np.ndarray, np.ndarray]:
         return _rot("z", row.theta), _trans("z", row.d) @ _trans("x", row.a) @ _rot("x", row.alpha)
     if convention == "modified":  # Rz(theta + q) = Rz(theta) Rz(q); Tz(d + q) = Tz(q) Tz(d)
         return _rot("x", row.alpha) @ _trans("x", row.a) @ _rot("z", row.theta), _trans("z", row.d)
-    raise ValueError(f"convention must be 'standard' or 'modified', got {convention!r}")
+    raise InputError(f"convention must be 'standard' or 'modified', got {convention!r}", parameters=("convention",))
 
 
 def transform(row: DHRow, q: float, convention: str) -> np.ndarray:
@@ -125,13 +126,21 @@ def transform(row: DHRow, q: float, convention: str) -> np.ndarray:
     q : float
         Joint value [rad] (revolute) or [m] (prismatic).
     convention : str
-        "standard"; any other value is taken as "modified".
+        "standard" or "modified".
 
     Returns
     -------
     ndarray, shape (4, 4)
         The transform [m].
+
+    Raises
+    ------
+    InputError
+        If ``convention`` is neither "standard" nor "modified".
     """
+    if convention not in ("standard", "modified"):
+        raise InputError(f"convention must be 'standard' or 'modified', got {convention!r}",
+                         parameters=("convention",))
     theta, d = (row.theta + q, row.d) if row.kind == "revolute" else (row.theta, row.d + q)
     if convention == "standard":
         return _rot("z", theta) @ _trans("z", d) @ _trans("x", row.a) @ _rot("x", row.alpha)
