@@ -71,10 +71,13 @@ import numpy as np
 
 from .errors import InputError
 from .machine import Machine
-from .units import DEG, MM, UM
+from .spec import parse_component_name
+from .units import DEG, MM, UM, axis_scale
+from .workspace import to_engineering
 
 __all__ = ["FLANKS", "DEVIATIONS", "GearPair", "FlankDeviations", "SourceDeviations", "flank_deviations",
-           "deviations_by_source", "unit_error_study", "contribution_degrees", "Springback", "contact_springback",
+           "deviations_by_source", "unit_error_study", "contribution_degrees", "pitch_positions", "Springback",
+           "contact_springback",
            "SEED004_GEAR"]
 
 #: the two flanks of a tooth; +1: the clockwise side seen from +z (right), -1: the other
@@ -278,7 +281,7 @@ def _mesh(machine: Machine, gear: GearPair, spindles: Sequence[str], at: Mapping
                              parameters=("at",))
         q0[axes.index(name)] = float(value)
     if machine.outside_travel(q0[None]).any():
-        shown = ", ".join(f"{a}={v / (MM if k == 'linear' else DEG):g}" for a, k, v in zip(axes, machine.axis_kinds, q0))
+        shown = ", ".join(f"{a}={v:g}" for a, v in zip(axes, to_engineering(machine, q0)))
         raise InputError(f"at: the nominal configuration ({shown}; mm, deg) is outside the travel of "
                          f"{machine.name}; give the other axes' positions", parameters=("at",))
 
@@ -395,13 +398,78 @@ def _grid(machine: Machine, gear: GearPair, mesh: _Mesh, profile_points: int, fa
                  (2, tooth_numbers.size, roll.size, face.size), roll, face, tooth_numbers)
 
 
-def _normal_deviation(machine: Machine, grid: _Grid, theta, covariates) -> np.ndarray:
-    """(2, n_t, n_u, n_s) normal deviation [m] of the flank points of ``grid``."""
+@dataclass(frozen=True)
+class _Generation:
+    """Where and when every flank point is generated: nominal geometry only, the same for
+    every error the machine may have."""
+
+    grid: _Grid
+    local: np.ndarray       # (M, 3) the wheel's contact points in the tool frame [m]
+
+
+def _generation(machine: Machine, gear: GearPair, spindles: Sequence[str] = ("B", "A"), at: Mapping | None = None,
+                feed: str | None = None, profile_points: int = 21, face_points: int = 11,
+                tooth_numbers: Sequence[int] | None = None) -> _Generation:
+    mesh = _mesh(machine, gear, spindles, at, feed)
+    grid = _grid(machine, gear, mesh, profile_points, face_points, tooth_numbers)
+    outside = machine.outside_travel(grid.q).any(axis=0)
+    if outside.any():
+        travel = machine.travel
+        parts = []
+        for j in np.flatnonzero(outside):
+            factor = axis_scale(machine.axis_kinds[j])
+            unit = "mm" if factor == MM else "deg"
+            parts.append(f"{machine.axes[j]} from {grid.q[:, j].min() / factor:.6g} to {grid.q[:, j].max() / factor:.6g} "
+                         f"{unit} (travel {travel[j, 0] / factor:.6g} to {travel[j, 1] / factor:.6g})")
+        raise InputError(f"at: generating the gear needs {'; '.join(parts)}; move the nominal configuration",
+                         parameters=("at",))
     R0, p0 = machine.tool_poses(grid.q, nominal=True)
+    return _Generation(grid, np.einsum("nji,nj->ni", R0, grid.point - p0))
+
+
+def _flanks(machine: Machine, gear: GearPair, generation: _Generation, theta, covariates) -> FlankDeviations:
+    """The flanks ``machine`` generates: its actual poses move the wheel's contact points."""
+    grid = generation.grid
     R1, p1 = machine.tool_poses(grid.q, theta, **covariates)
-    local = np.einsum("nji,nj->ni", R0, grid.point - p0)           # the wheel's contact point, tool frame
-    moved = np.einsum("nij,nj->ni", R1, local) + p1
-    return np.einsum("ni,ni->n", moved - grid.point, grid.normal).reshape(grid.shape)
+    moved = np.einsum("nij,nj->ni", R1, generation.local) + p1
+    normal = np.einsum("ni,ni->n", moved - grid.point, grid.normal).reshape(grid.shape)
+    return FlankDeviations(gear, normal, grid.roll, gear.radius_at(grid.roll), grid.face, grid.teeth,
+                           grid.point.reshape(grid.shape + (3,)), grid.normal.reshape(grid.shape + (3,)),
+                           _deviations(normal, gear, grid.teeth.size == gear.teeth))
+
+
+_GEOMETRY = ("spindles", "at", "feed", "profile_points", "face_points", "tooth_numbers")
+
+
+def _each(machines, gear: GearPair, options: dict) -> list[FlankDeviations]:
+    """:func:`flank_deviations` of machines that share their nominal geometry (the first's):
+    where each flank point is generated is worked out once."""
+    rest = dict(options)
+    geometry = {k: rest.pop(k) for k in _GEOMETRY if k in rest}
+    theta = rest.pop("theta", None)
+    generation = _generation(machines[0], gear, **geometry)
+    return [_flanks(m, gear, generation, theta, rest) for m in machines]
+
+
+def pitch_positions(normal: np.ndarray, gear: GearPair) -> np.ndarray:
+    """Flank positions along the pitch circle at mid face, from the normal deviations.
+
+    A normal offset dN turns an involute by dN / rb, which moves it along the pitch circle by
+    dN / cos(pressure angle).
+
+    Parameters
+    ----------
+    normal : ndarray, shape (2, n_teeth, n_profile, n_face)
+        Normal deviations [m] (:attr:`FlankDeviations.normal`).
+    gear : GearPair
+        The gear.
+
+    Returns
+    -------
+    ndarray, shape (2, n_teeth)
+        Positions [m] of the right and left flank of each tooth.
+    """
+    return normal[:, :, normal.shape[2] // 2, normal.shape[3] // 2] / np.cos(gear.pressure_angle)
 
 
 def _both_signs(values: np.ndarray, axis: int) -> np.ndarray:
@@ -463,6 +531,7 @@ class FlankDeviations:
 
 def _deviations(normal: np.ndarray, gear: GearPair, all_teeth: bool) -> dict:
     mid_u, mid_s = normal.shape[2] // 2, normal.shape[3] // 2
+    positions = pitch_positions(normal, gear)
     out = {}
     for index, flank in enumerate(FLANKS):
         d = normal[index]
@@ -477,9 +546,7 @@ def _deviations(normal: np.ndarray, gear: GearPair, all_teeth: bool) -> dict:
                 "F_beta": float(np.ptp(helix, axis=1).max()),
                 "f_pt": None, "F_p": None, "seam": None}
         if all_teeth:
-            # flank positions along the pitch circle: a normal offset dN turns an involute
-            # by dN / rb, which moves it along the pitch circle by dN / cos(alpha)
-            position = at_pitch / np.cos(gear.pressure_angle)
+            position = positions[index]
             vals["f_pt"] = float(np.abs(position - np.roll(position, 1)).max())
             vals["F_p"] = float(np.ptp(position))
             # teeth z//2 and z//2 + 1 are adjacent but generated last and first, a turn apart
@@ -538,23 +605,8 @@ def flank_deviations(machine: Machine, gear: GearPair = SEED004_GEAR, *, spindle
         machine's geometry, ``at`` names an unknown axis or leaves the travel, ``feed`` is not a
         linear axis along the gear axis, or the point counts or tooth numbers are invalid.
     """
-    mesh = _mesh(machine, gear, spindles, at, feed)
-    grid = _grid(machine, gear, mesh, profile_points, face_points, tooth_numbers)
-    outside = machine.outside_travel(grid.q).any(axis=0)
-    if outside.any():
-        travel = machine.travel
-        parts = []
-        for j in np.flatnonzero(outside):
-            factor = MM if machine.axis_kinds[j] == "linear" else DEG
-            unit = "mm" if factor == MM else "deg"
-            parts.append(f"{machine.axes[j]} from {grid.q[:, j].min() / factor:.6g} to {grid.q[:, j].max() / factor:.6g} "
-                         f"{unit} (travel {travel[j, 0] / factor:.6g} to {travel[j, 1] / factor:.6g})")
-        raise InputError(f"at: generating the gear needs {'; '.join(parts)}; move the nominal configuration",
-                         parameters=("at",))
-    normal = _normal_deviation(machine, grid, theta, covariates)
-    return FlankDeviations(gear, normal, grid.roll, gear.radius_at(grid.roll), grid.face, grid.teeth,
-                           grid.point.reshape(grid.shape + (3,)), grid.normal.reshape(grid.shape + (3,)),
-                           _deviations(normal, gear, grid.teeth.size == gear.teeth))
+    generation = _generation(machine, gear, spindles, at, feed, profile_points, face_points, tooth_numbers)
+    return _flanks(machine, gear, generation, theta, covariates)
 
 
 @dataclass(frozen=True)
@@ -607,12 +659,13 @@ class SourceDeviations:
 
 
 def _label(name: str) -> str:
-    """Seed 004's name of a component: EXA -> dx(A), ECB -> ez(B); others as they are."""
-    if len(name) == 3 and name[0] == "E" and name[1] in "XYZABC":
-        kind = "d" if name[1] in "XYZ" else "e"
-        direction = "xyzxyz"["XYZABC".index(name[1])]
-        return f"{kind}{direction}({name[2]})"
-    return name
+    """Seed 004's name of a component error: EXA -> dx(A), ECB -> ez(B); location errors
+    (EC0Y) as they are."""
+    direction, location, owner = parse_component_name(name)
+    if location:
+        return name
+    kind = "d" if direction in "XYZ" else "e"
+    return f"{kind}{'xyzxyz'['XYZABC'.index(direction)]}({owner})"
 
 
 def deviations_by_source(machine: Machine, gear: GearPair = SEED004_GEAR, *, components=None,
@@ -648,11 +701,10 @@ def deviations_by_source(machine: Machine, gear: GearPair = SEED004_GEAR, *, com
     if unknown:
         raise InputError(f"components {', '.join(unknown)} have no terms in {machine.name} "
                          f"(those with terms: {', '.join(present)})", parameters=("components",))
-    out = []
-    for name in names:
-        alone = remove_components(machine, [c for c in present if c != name])
-        out.append(SourceDeviations(name, _label(name), "spec", "sources", flank_deviations(alone, gear, **options)))
-    out.append(SourceDeviations("all", "all sources", "spec", "all", flank_deviations(machine, gear, **options)))
+    machines = [remove_components(machine, [c for c in present if c != name]) for name in names]
+    flanks = _each(machines + [machine], gear, options)
+    out = [SourceDeviations(name, _label(name), "spec", "sources", f) for name, f in zip(names, flanks)]
+    out.append(SourceDeviations("all", "all sources", "spec", "all", flanks[-1]))
     return out
 
 
@@ -700,7 +752,7 @@ def unit_error_study(machine: Machine, gear: GearPair = SEED004_GEAR, *, axes: S
             raise InputError(f"axis {axis!r} is not an axis of {machine.name} (axes: {', '.join(machine.axes)})",
                              parameters=("axes",))
     bare = remove_components(machine, machine.components)
-    out = []
+    studied = []
     for axis in axes:
         for direction in "XYZABC":
             name = f"E{direction}{axis}"
@@ -708,10 +760,11 @@ def unit_error_study(machine: Machine, gear: GearPair = SEED004_GEAR, *, axes: S
                 table, value = {"kind": "constant", "value_mm": translation / MM}, f"{translation / MM:g} mm"
             else:
                 table, value = {"kind": "constant", "value_deg": rotation / DEG}, f"{rotation / DEG:g} deg"
-            one = replace_terms(bare, {name: table})
             group = f"{axis} {'translations' if direction in 'XYZ' else 'rotations'}"
-            out.append(SourceDeviations(name, _label(name), value, group, flank_deviations(one, gear, **options)))
-    return out
+            studied.append((name, value, group, replace_terms(bare, {name: table})))
+    flanks = _each([one for *_, one in studied], gear, options)
+    return [SourceDeviations(name, _label(name), value, group, f)
+            for (name, value, group, _), f in zip(studied, flanks)]
 
 
 def contribution_degrees(rows: Sequence[SourceDeviations], flank: str = "right") -> list[dict]:

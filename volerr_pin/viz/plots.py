@@ -306,12 +306,11 @@ def gear_png(deviations, path: str | Path, title: str = "") -> dict:
 
     ``deviations`` is a :class:`volerr_pin.gear.FlankDeviations`.
     """
-    from ..gear import FLANKS
+    from ..gear import FLANKS, pitch_positions
 
     normal = deviations.normal * UM_PER_M                     # (2, teeth, profile, face) um
     diameter = 2 * deviations.radius * 1e3
     face = deviations.face * 1e3
-    mid_u, mid_s = normal.shape[2] // 2, normal.shape[3] // 2
     fig, axes = plt.subplots(1, 3, figsize=(13.0, 4.2), dpi=120, constrained_layout=True)
     limit = float(np.abs(normal).max()) or 1.0
     worst_teeth = []
@@ -324,10 +323,9 @@ def gear_png(deviations, path: str | Path, title: str = "") -> dict:
         axes[index].set_ylabel("diameter [mm]")
         axes[index].set_title(f"{flank} flank, tooth {deviations.teeth[k]} (worst)", fontsize=10)
     fig.colorbar(image, ax=axes[:2], label="normal deviation [um] (+: more material)")
-    order = np.argsort(deviations.teeth)
+    positions = pitch_positions(normal, deviations.gear)           # um, teeth in ascending order
     for index, flank in enumerate(FLANKS):
-        position = normal[index, order, mid_u, mid_s] / np.cos(deviations.gear.pressure_angle)
-        axes[2].plot(deviations.teeth[order], position, marker="o", ms=3, label=f"{flank} flank")
+        axes[2].plot(deviations.teeth, positions[index], marker="o", ms=3, label=f"{flank} flank")
     axes[2].set_xlabel("tooth")
     axes[2].set_ylabel("flank position along the pitch circle [um]")
     axes[2].set_title("pitch: flank positions at mid face", fontsize=10)
