@@ -8,6 +8,8 @@ Every file the product writes goes through this module:
 * :func:`replacing` (and :func:`write_text`) writes to a temporary file in the target's own
   folder, flushes it to disk and renames it over the target only when the writing succeeded.
   A run that fails leaves every existing file as it was and no temporary file behind.
+* :func:`transaction` does the same for all the outputs of one run together: all are
+  written or none.
 * :func:`keep_backup` keeps the file a successful run replaces, for the writers whose
   outputs people edit by hand (machine specs).
 
@@ -26,8 +28,8 @@ from pathlib import Path
 
 from .errors import InputError
 
-__all__ = ["available_memory", "check_outputs", "keep_backup", "replacing", "require_memory", "same_file",
-           "write_text"]
+__all__ = ["Transaction", "available_memory", "check_output_folder", "check_outputs", "keep_backup", "replacing", "require_memory",
+           "same_file", "transaction", "write_text"]
 
 #: fraction of the free memory one request may take
 MEMORY_SHARE = 0.5
@@ -80,8 +82,9 @@ def check_outputs(outputs: Mapping[str, str | os.PathLike | None],
         path = Path(text)
         for source in inputs:
             if same_file(path, source):
-                raise InputError(f"{name}: {path} is an input of this run ({source}); write the result "
-                                 "elsewhere", parameters=(name,))
+                also = "" if os.fspath(path) == os.fspath(source) else f" ({source})"
+                raise InputError(f"{name}: {path} is an input of this run{also}; write the result elsewhere",
+                                 parameters=(name,))
         for other, taken in checked.items():
             if same_file(path, taken):
                 raise InputError(f"{name}: {path} is also given as {other}", parameters=(name, other))
@@ -98,6 +101,43 @@ def check_outputs(outputs: Mapping[str, str | os.PathLike | None],
             raise InputError(f"{name}: {path} exists and is read-only", parameters=(name,))
         checked[name] = path
     return checked
+
+
+def check_output_folder(name: str, folder: str | os.PathLike | None) -> Path | None:
+    """Check a folder a run will write files into, before it does any work: an existing
+    folder that can be written, or one that can be made (its nearest existing parent is a
+    writable folder).
+
+    Parameters
+    ----------
+    name : str
+        The parameter that names the folder.
+    folder : path or None
+        The folder; None (not asked for) is skipped.
+
+    Returns
+    -------
+    Path or None
+        The folder.
+
+    Raises
+    ------
+    InputError
+        Naming the parameter, if the path is a file, or the folder cannot be made or written.
+    """
+    if folder is None:
+        return None
+    path = Path(folder)
+    if not os.fspath(folder).strip():
+        raise InputError(f"{name}: empty folder name", parameters=(name,))
+    existing = path
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise InputError(f"{name}: {existing} is not a folder", parameters=(name,))
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError(f"{name}: {existing} is not writable", parameters=(name,))
+    return path
 
 
 def _mode_for(target: Path) -> int:
@@ -117,6 +157,98 @@ def _fsync_folder(folder: Path) -> None:
             os.fsync(fd)
         finally:
             os.close(fd)
+
+
+class Transaction:
+    """Outputs of one run, written to temporary files beside their targets and renamed over
+    them together when the run succeeds (:func:`transaction`).
+
+    A writer is given :meth:`path` instead of its target; paths the writer reports back can
+    be turned into the targets with :meth:`final`.
+    """
+
+    def __init__(self):
+        self._pending: list[tuple[Path, Path, bool]] = []  # (temporary, target, keep a backup)
+        #: the backups kept of replaced files, once committed
+        self.backups: list[Path] = []
+
+    def path(self, target: str | os.PathLike, *, backup: bool = False) -> Path:
+        """A temporary file beside ``target`` (empty, same suffix) that replaces it on commit.
+
+        Parameters
+        ----------
+        target : path
+            The file the run writes.
+        backup : bool, optional
+            Keep an existing ``target`` as a numbered backup (:func:`keep_backup`).
+
+        Returns
+        -------
+        Path
+            The temporary file to write.
+        """
+        target = Path(target)
+        fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".part{target.suffix}", dir=target.parent)
+        os.close(fd)
+        self._pending.append((Path(name), target, backup))
+        return Path(name)
+
+    def final(self, value):
+        """``value`` (a report: dicts, lists, strings) with every temporary path said as its target."""
+        names = {str(tmp): str(target) for tmp, target, _ in self._pending}
+        if isinstance(value, dict):
+            return {k: self.final(v) for k, v in value.items()}
+        if isinstance(value, (list, tuple)):
+            return type(value)(self.final(v) for v in value)
+        if isinstance(value, (str, Path)) and str(value) in names:
+            return type(value)(names[str(value)])
+        return value
+
+    def commit(self) -> None:
+        """Flush every temporary file to disk and rename it over its target."""
+        for tmp, target, _ in self._pending:
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
+            os.chmod(tmp, _mode_for(target))
+        for tmp, target, backup in self._pending:
+            kept = keep_backup(target) if backup else None
+            if kept is not None:
+                self.backups.append(kept)
+            os.replace(tmp, target)
+        for folder in {target.parent for _, target, _ in self._pending}:
+            _fsync_folder(folder)
+        self._pending.clear()
+
+    def abort(self) -> None:
+        """Remove every temporary file; the targets stay as they were."""
+        for tmp, _, _ in self._pending:
+            with contextlib.suppress(FileNotFoundError):
+                tmp.unlink()
+        self._pending.clear()
+
+
+@contextlib.contextmanager
+def transaction() -> Iterator[Transaction]:
+    """Outputs that are all written or none: the block writes to :meth:`Transaction.path`
+    files; they replace their targets when it ends without an exception, and are removed
+    when it raises.
+
+    Yields
+    ------
+    Transaction
+        Hands out the temporary paths.
+    """
+    tx = Transaction()
+    try:
+        yield tx
+    except BaseException:
+        tx.abort()
+        raise
+    try:
+        tx.commit()
+    except BaseException:
+        tx.abort()
+        raise
 
 
 @contextlib.contextmanager
@@ -140,24 +272,8 @@ def replacing(target: str | os.PathLike, *, backup: bool = False) -> Iterator[Pa
     Path
         The temporary file to write (it exists, empty).
     """
-    target = Path(target)
-    folder = target.parent
-    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".part{target.suffix}", dir=folder)
-    os.close(fd)
-    tmp = Path(name)
-    try:
-        yield tmp
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.chmod(tmp, _mode_for(target))
-        if backup:
-            keep_backup(target)
-        os.replace(tmp, target)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
-        raise
-    _fsync_folder(folder)
+    with transaction() as tx:
+        yield tx.path(target, backup=backup)
 
 
 def write_text(target: str | os.PathLike, text: str, *, backup: bool = False, newline: str | None = None) -> Path:

@@ -13,6 +13,7 @@ import numpy as np
 
 from .machine import Machine
 from .measurements import PointMeasurements
+from .safeio import write_text
 from .units import AXIS_UNIT, axis_scale
 from .workspace import to_engineering
 
@@ -132,8 +133,7 @@ def write_points(data: PointMeasurements, machine: Machine, path) -> None:
         if cov.get("directions") is not None:
             row += [f"{int(v)}" for v in cov["directions"][i]]
         lines.append(",".join(row))
-    with open(path, "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_text(path, "\n".join(lines) + "\n")
 
 
 def off_model_geometry(machine: Machine, seed: int = 0, style: str = "spline",
@@ -288,8 +288,7 @@ def write_ballbar(run, path) -> None:
     lines.append("angle_deg,deviation_um,direction")
     lines += [f"{np.degrees(a):.4f},{v * 1e6:.5f},{int(d)}"
               for a, v, d in zip(run.angle, run.deviation, run.direction)]
-    with open(path, "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_text(path, "\n".join(lines) + "\n")
 
 
 def tracker_campaign(truth: Machine, n: int = 100, offsets_mm=((0.0, 0.0, 0.0),), noise_um: float = 5.0,
@@ -370,5 +369,4 @@ def write_tracker(data, machine: Machine, path) -> None:
         row = [f"{v:.6f}" for v in positions[i]] + [data.targets[i]]
         row += [f"{v * 1e3:.4f}" for v in data.offsets[i]] + [f"{v * 1e3:.6f}" for v in data.coordinates[i]]
         lines.append(",".join(row))
-    with open(path, "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_text(path, "\n".join(lines) + "\n")

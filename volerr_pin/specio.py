@@ -18,8 +18,12 @@ import tomli_w
 
 from .errors import InputError
 from .machine import Machine
+from .safeio import same_file, write_text
 from .spec import axis_travel, parse_component_name, parse_components
 from .units import ANGLE, LENGTH
+
+#: the highest degree :func:`legendre_terms` fits
+MAX_DEGREE = 20
 
 
 def _owners(machine: Machine) -> dict:
@@ -235,7 +239,7 @@ def legendre_terms(machine: Machine, components, degree: int, start: int = 0) ->
     components : iterable of str
         Component errors of axes (not location errors).
     degree : int
-        Highest Legendre degree, >= 0.
+        Highest Legendre degree, 0 to :data:`MAX_DEGREE`.
     start : int, default 0
         Lowest degree fitted; the coefficients below it are 0.
 
@@ -248,10 +252,13 @@ def legendre_terms(machine: Machine, components, degree: int, start: int = 0) ->
     Raises
     ------
     InputError
-        If ``degree`` is negative or a component is not a component error of an axis.
+        If ``degree`` is negative or above :data:`MAX_DEGREE`, or a component is not a
+        component error of an axis.
     """
-    if degree < 0:
-        raise InputError(f"degree must be >= 0, got {degree}")
+    if not 0 <= degree <= MAX_DEGREE:
+        raise InputError(f"degree must be 0 to {MAX_DEGREE}, got {degree} (a polynomial of higher degree over the "
+                         "travel follows the noise, not the geometry; a table term holds finer detail)",
+                         parameters=("degree",))
     travel = machine.travel
     grid = np.tile(machine.mid_travel, (201, 1))
     tables = {}
@@ -339,11 +346,13 @@ def spec_document(machine: Machine, out: Path | None = None, provenance: dict | 
     return document
 
 
-def write_spec(machine: Machine, out: str | Path, provenance: dict | None = None) -> Path:
+def write_spec(machine: Machine, out: str | Path, provenance: dict | None = None, *, backup: bool = True) -> Path:
     """Write the machine's spec with its current values to ``out`` (TOML).
 
     ``provenance`` (data files, RMS, ...) is recorded with the date of writing and the spec the
-    machine was derived from; None values are dropped (TOML has no null).
+    machine was derived from; None values are dropped (TOML has no null). The file is written
+    to a temporary file beside ``out`` and renamed over it only when complete; a spec it
+    replaces is kept as ``<stem>.bak.toml`` (``.bak2.toml`` ... when that is taken).
 
     Parameters
     ----------
@@ -353,21 +362,31 @@ def write_spec(machine: Machine, out: str | Path, provenance: dict | None = None
         The TOML file to write.
     provenance : dict, optional
         Extra entries of the ``[provenance]`` table.
+    backup : bool, default True
+        Keep a spec that ``out`` replaces as a numbered backup beside it.
 
     Returns
     -------
     Path
         ``out``.
+
+    Raises
+    ------
+    InputError
+        If ``out`` is the machine's own spec or URDF.
     """
     out = Path(out)
+    for source in (machine.spec.source, machine.spec.urdf):
+        if same_file(out, source):
+            raise InputError(f"out: {out} is the machine's own {'spec' if source == machine.spec.source else 'URDF'}; "
+                             "write the new spec elsewhere", parameters=("out",))
     record = {"written": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
               "derived_from": str(machine.spec.source)}
     record.update(provenance or {})
     document = spec_document(machine, out, _clean(record))
     header = (f"# volerr_pin error specification for {machine.name}, written by volerr_pin "
               f"from {machine.spec.source}\n")
-    out.write_text(header + tomli_w.dumps(document))
-    return out
+    return write_text(out, header + tomli_w.dumps(document), backup=backup)
 
 
 def _clean(value):

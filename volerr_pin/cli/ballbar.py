@@ -8,7 +8,8 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from .common import add_json_arg, dumps, note_unused, table_console
+from ..safeio import transaction
+from .common import add_json_arg, check_run_outputs, dumps, note_unused, table_console
 
 
 def add_parser(sub) -> None:
@@ -23,13 +24,16 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from ..ballbar import evaluate_circular, read_ballbar
 
+    check_run_outputs({"plot": args.plot}, [args.file])
     run = read_ballbar(args.file)
     note_unused(args.file, run.unused)
     result = evaluate_circular(run)
     if args.plot:
         from ..viz.plots import ballbar_png
 
-        result["plot"] = ballbar_png(run, result, args.plot, title=f"ISO 230-4: {Path(args.file).name}")["path"]
+        with transaction() as tx:
+            ballbar_png(run, result, tx.path(args.plot), title=f"ISO 230-4: {Path(args.file).name}")
+        result["plot"] = str(args.plot)
     if args.json:
         print(dumps(result))
         return 0

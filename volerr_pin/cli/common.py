@@ -6,14 +6,17 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import sys
+from pathlib import Path
 
 import numpy as np
 from rich.console import Console
 
 from ..errors import InputError, VolerrError
 from ..machine import Machine, load_machine
+from ..safeio import check_outputs
 from ..spec import parse_component_name
 from ..units import axis_values_to_si, parse_axis_values
 
@@ -98,6 +101,33 @@ class FitProgress:
         if self.enabled:
             self.bar.__exit__(*exc)
         return False
+
+
+# ------------------------------------------------------------------ files
+
+#: options whose file is a picture: its suffix must be a format the pictures can be written in
+PICTURES = ("png", "plot")
+
+
+def machine_files(machine: Machine) -> list[Path]:
+    """The files a machine was read from (its spec and URDF): inputs no command may write over."""
+    return [Path(p) for p in {os.fspath(machine.spec.source), os.fspath(machine.spec.urdf)} if Path(p).is_file()]
+
+
+def check_run_outputs(outputs: dict, inputs=(), machine: Machine | None = None) -> dict[str, Path]:
+    """Every file a command will write, checked before it does any work (``safeio.check_outputs``):
+    none is an input (``inputs`` and the machine's own files), a folder or a device, or lies in
+    a missing or read-only folder; pictures have a suffix they can be written in.
+
+    ``outputs`` maps the option's name as Python spells it (``"output"``, ``"png"``) to its value;
+    the names are said as options (``--output``) in messages."""
+    checked = check_outputs(outputs, [*inputs, *(machine_files(machine) if machine is not None else ())])
+    for name in PICTURES:
+        if name in checked:
+            from ..viz.plots import picture_format
+
+            picture_format(checked[name], name)
+    return checked
 
 
 # ------------------------------------------------------------------ options

@@ -7,7 +7,11 @@ from pathlib import Path
 from rich.console import Console
 
 from ..errors import InputError
-from .common import add_json_arg, add_machine_args, add_state_arg, axis_config, dumps, machine_of
+from ..safeio import require_memory, transaction
+from .common import add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of
+
+#: memory the compensation holds per byte of program (about 25 kB per block of about 25 bytes)
+BYTES_PER_PROGRAM_BYTE = 1000
 
 
 def add_parser(sub) -> None:
@@ -38,6 +42,8 @@ def run(args) -> int:
 
     machine = machine_of(args)
     path = Path(args.program)
+    check_run_outputs({"output": args.output, "report": args.report, "png": args.png}, [path], machine)
+    require_memory(path.stat().st_size * BYTES_PER_PROGRAM_BYTE, f"compensating {path}")
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as err:
@@ -51,14 +57,16 @@ def run(args) -> int:
                   console=console, transient=True, disable=args.json or not console.is_terminal) as bar:
         task = bar.add_task("", total=text.count("\n") + 1)
         result = program.compensate(text, progress=lambda n: bar.update(task, completed=n))
-    Path(args.output).write_text(result, encoding="utf-8", newline="")
     report = {"machine": machine.name, "input": str(path), "output": str(args.output), **program.report.to_dict()}
-    if args.report:
-        Path(args.report).write_text(dumps(report, indent=2) + "\n")
-    if args.png:
-        from ..viz.plots import compensation_png
+    with transaction() as tx:  # the program, its report and picture are all written, or none
+        tx.path(args.output).write_text(result, encoding="utf-8", newline="")
+        if args.png:
+            from ..viz.plots import compensation_png
 
-        report["png"] = compensation_png(program.report, args.png, title=f"{machine.name}: {path.name}")["path"]
+            compensation_png(program.report, tx.path(args.png), title=f"{machine.name}: {path.name}")
+            report["png"] = str(args.png)
+        if args.report:
+            tx.path(args.report).write_text(dumps(report, indent=2) + "\n", encoding="utf-8")
     if args.json:
         print(dumps(report))
         return 0

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from ..describe import machine_info
 from ..ranking import rank
+from ..safeio import transaction
 from ..workspace import error_summary, grid, sample
-from .common import add_json_arg, add_machine_args, add_state_arg, dumps, machine_of, table_console
+from .common import add_json_arg, add_machine_args, add_state_arg, check_run_outputs, dumps, machine_of, table_console
 from .tables import print_info, print_ranking, print_recording, print_summary
 
 
@@ -23,6 +24,7 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     machine = machine_of(args)
+    check_run_outputs({"out": args.out}, machine=machine)
     info = machine_info(machine)
     points = grid(machine, args.grid)          # one grid for the summary, field and compensation
     summary = error_summary(machine, points)
@@ -31,8 +33,9 @@ def run(args) -> int:
     ranked = rank(machine, sample(machine, 1024))
     ranking = ranked.to_dict(top=args.top)
     linear = sum(k == "linear" for k in machine.axis_kinds)
-    recording = record_field(machine, args.out, ranking=ranked.to_dict(top=15),
-                             counts=[args.grid] * linear if linear else None)
+    with transaction() as tx:
+        recording = tx.final(record_field(machine, tx.path(args.out), ranking=ranked.to_dict(top=15),
+                                          counts=[args.grid] * linear if linear else None))
     from ..compensate import evaluate_compensation
 
     compensation = evaluate_compensation(machine, points)

@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import InputError
+from ..safeio import write_text
+from .common import check_run_outputs
 
 
 def add_parser(sub) -> None:
@@ -21,13 +23,14 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from ..dh import dh_to_urdf, read_dh
 
+    check_run_outputs({"output": args.output}, [args.table])
     rows, convention, tool = read_dh(args.table)
     try:
         text = dh_to_urdf(rows, convention, name=args.name or Path(args.table).stem, base=args.base_frame,
                           tool=args.tool_frame, tool_transform=tool)
     except ValueError as err:
         raise InputError(f"{args.table}: {err}") from None
-    Path(args.output).write_text(text)
+    write_text(args.output, text)
     print(f"wrote {args.output}: {len(rows)} joints ({convention} DH), frames '{args.base_frame}' and "
           f"'{args.tool_frame}'; load it with: volerr info {args.output} --tool-frame {args.tool_frame} "
           f"--workpiece-frame {args.base_frame}")

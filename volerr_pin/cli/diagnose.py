@@ -6,7 +6,8 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from .common import FitProgress, add_json_arg, add_machine_args, dumps, machine_of, table_console
+from ..safeio import transaction
+from .common import FitProgress, add_json_arg, add_machine_args, check_run_outputs, dumps, machine_of, table_console
 
 
 def add_parser(sub) -> None:
@@ -35,6 +36,7 @@ def run(args) -> int:
     from ..specio import write_spec
 
     machine = machine_of(args)
+    check_run_outputs({"out": args.out, "rrd": args.rrd, "png": args.png}, args.data, machine)
     data = [read_any(path, machine) for path in args.data]
     with FitProgress(not args.json) as progress:
         result = diagnose(machine, data, fixed=args.fixed, max_effects=args.max_effects,
@@ -42,21 +44,24 @@ def run(args) -> int:
                           sigma_urad=args.sigma_urad, progress=progress)
     report = result.to_dict()
     report["notes"] = [f"{d.source}: columns not used: {', '.join(d.unused)}" for d in data if d.unused]
+    with transaction() as tx:  # the spec, recording and picture are all written, or none
+        if args.out:
+            write_spec(result.machine, tx.path(args.out, backup=True), {
+                "data": [str(p) for p in args.data], "diagnosis": [e.label for e in result.effects],
+                "rms_before_um": result.rms_before_um, "rms_after_um": result.rms_after_um,
+                "noise_floor_um": result.noise_floor_um})
+            report["out"] = str(args.out)
+        if args.rrd:
+            from ..viz.recording import record_diagnosis
+
+            report["recording"] = tx.final(record_diagnosis(result, tx.path(args.rrd)))
+        if args.png:
+            from ..viz.plots import diagnosis_png
+
+            diagnosis_png(result, tx.path(args.png))
+            report["png"] = args.png
     if args.out:
-        write_spec(result.machine, args.out, {
-            "data": [str(p) for p in args.data], "diagnosis": [e.label for e in result.effects],
-            "rms_before_um": result.rms_before_um, "rms_after_um": result.rms_after_um,
-            "noise_floor_um": result.noise_floor_um})
-        report["out"] = str(args.out)
-    if args.rrd:
-        from ..viz.recording import record_diagnosis
-
-        report["recording"] = record_diagnosis(result, args.rrd)
-    if args.png:
-        from ..viz.plots import diagnosis_png
-
-        diagnosis_png(result, args.png)
-        report["png"] = args.png
+        report["backup"] = str(tx.backups[0]) if tx.backups else None
     if args.json:
         print(dumps(report))
         return 0
@@ -92,5 +97,6 @@ def run(args) -> int:
     for key in ("out", "recording", "png"):
         if key in report:
             value = report[key]["path"] if isinstance(report[key], dict) else report[key]
-            print(f"wrote {value}" + (f" (open it with: rerun {value})" if key == "recording" else ""))
+            print(f"wrote {value}" + (f" (open it with: rerun {value})" if key == "recording" else "")
+                  + (f"; the spec it replaced is kept as {report['backup']}" if key == "out" and report["backup"] else ""))
     return 0

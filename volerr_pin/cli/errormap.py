@@ -7,8 +7,9 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import InputError
-from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config, dumps, machine_of, positive,
-                     table_console)
+from ..safeio import check_output_folder
+from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of,
+                     positive, table_console)
 
 
 def add_parser(sub) -> None:
@@ -34,6 +35,8 @@ def run(args) -> int:
     from ..errormap import ErrorMap, axis_tables, compensation_table
 
     machine = machine_of(args)
+    check_run_outputs({"table": args.table}, machine=machine)
+    check_output_folder("axis_tables", args.axis_tables)
     config = axis_config(machine, args.config, "--config")
     elements = args.elements * 3 if len(args.elements) == 1 else args.elements
     if len(elements) != 3:

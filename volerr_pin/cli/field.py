@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from ..errors import InputError
 from ..ranking import rank
+from ..safeio import transaction
 from ..workspace import sample
-from .common import add_json_arg, add_machine_args, add_state_arg, axis_config, dumps, machine_of, positive
+from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of,
+                     positive)
 from .tables import print_recording
 
 
@@ -34,18 +36,21 @@ def run(args) -> int:
     from ..viz.recording import record_field
 
     machine = machine_of(args)
+    check_run_outputs({"out": args.out, "png": args.png}, machine=machine)
     config = axis_config(machine, args.config, "--config")
     if args.scale is not None and not args.scale > 0:
         raise InputError(f"--scale must be positive, got {args.scale}")
     ranking = rank(machine, sample(machine, 1024)).to_dict(top=15)
-    summary = record_field(machine, args.out, counts=args.grid, config=config, scale=args.scale,
-                           ranking=ranking, sweep_steps=args.sweep_steps, spawn=args.spawn,
-                           connect=args.connect)
-    if args.png:
-        from ..viz.plots import field_slice_png
+    with transaction() as tx:  # the recording and the picture are both written, or neither
+        summary = record_field(machine, tx.path(args.out), counts=args.grid, config=config, scale=args.scale,
+                               ranking=ranking, sweep_steps=args.sweep_steps, spawn=args.spawn,
+                               connect=args.connect)
+        if args.png:
+            from ..viz.plots import field_slice_png
 
-        field_slice_png(machine, args.png, config)
-        summary["png"] = args.png
+            field_slice_png(machine, tx.path(args.png), config)
+            summary["png"] = args.png
+        summary = tx.final(summary)
     if args.json:
         print(dumps(summary))
     else:

@@ -7,10 +7,11 @@ import sys
 
 from ..errors import InputError
 from ..gear import FLANKS, SEED004_GEAR, GearPair, contribution_degrees, deviations_by_source, unit_error_study
+from ..safeio import transaction
 from ..specio import with_axis_errors
 from ..units import DEG, MM
-from .common import add_json_arg, add_machine_args, add_state_arg, axis_config, dumps, machine_of, positive, \
-    table_console
+from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of,
+                     positive, table_console)
 
 DEFAULT = SEED004_GEAR
 
@@ -83,6 +84,7 @@ def _references(machine, items: list[str] | None) -> dict[str, dict]:
 
 def run(args) -> int:
     machine = machine_of(args)
+    check_run_outputs({"png": args.png, "rrd": args.rrd}, machine=machine)
     gear = GearPair(module=args.module_mm * MM, pressure_angle=args.pressure_angle_deg * DEG, teeth=args.teeth,
                     tool_teeth=args.tool_teeth, face_width=args.face_width_mm * MM)
     options = {"spindles": _names(args.spindles, "--spindles"), "at": axis_config(machine, args.at, "--at"),
@@ -106,16 +108,19 @@ def run(args) -> int:
         if changes:
             machine = with_axis_errors(machine, changes)
         rows = deviations_by_source(machine, gear, **options)
-    if args.png:
-        from ..viz.plots import gear_png
+    with transaction() as tx:  # the picture and the recording are both written, or neither
+        if args.png:
+            from ..viz.plots import gear_png
 
-        gear_png(rows[-1].deviations, args.png, f"{machine.name}: normal deviations of the generated flanks, "
-                                                f"all error sources")
+            gear_png(rows[-1].deviations, tx.path(args.png), f"{machine.name}: normal deviations of the generated "
+                                                            f"flanks, all error sources")
+        if args.rrd:
+            from ..viz.recording import record_gear
+
+            summary = record_gear(rows, tx.path(args.rrd))
+    if args.png:
         print(f"wrote {args.png}", file=sys.stderr)
     if args.rrd:
-        from ..viz.recording import record_gear
-
-        summary = record_gear(rows, args.rrd)
         print(f"wrote {args.rrd} ({summary['sources']} sources, {summary['points']} flank points, arrows "
               f"x{summary['scale']:g})", file=sys.stderr)
     shares = contribution_degrees(rows, args.flank)

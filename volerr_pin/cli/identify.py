@@ -7,8 +7,9 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from .common import (FitProgress, add_json_arg, add_machine_args, axis_components, axis_positions, dumps,
-                     machine_of, table_console)
+from ..safeio import transaction
+from .common import (FitProgress, add_json_arg, add_machine_args, axis_components, axis_positions,
+                     check_run_outputs, dumps, machine_of, table_console)
 from .tables import print_groups
 
 
@@ -40,6 +41,7 @@ def run(args) -> int:
     from ..specio import legendre_terms, replace_terms, write_spec
 
     machine = machine_of(args)
+    check_run_outputs({"out": args.out}, args.data, machine)
     if args.degree is not None:
         targets = args.terms or [c for c in machine.components if c in axis_components(machine)]
         machine = replace_terms(machine, legendre_terms(machine, targets, args.degree))
@@ -54,13 +56,15 @@ def run(args) -> int:
     report["data"] = [str(p) for p in args.data]
     report["notes"] = notes
     if args.out:
-        write_spec(result.machine, args.out, {
-            "data": [str(p) for p in args.data], "n_points": report["n_points"],
-            "rank": report["rank"], "n_parameters": report["n_parameters"],
-            "convention": report["convention"], "rms_fit_um": report["rms_fit_um"],
-            "rms_holdout_um": report["rms_holdout_um"], "holdout": report["holdout"],
-            "held_at_prior": [result.machine.parameter_names[k] for k in result.held]})
+        provenance = {"data": [str(p) for p in args.data], "n_points": report["n_points"], "rank": report["rank"],
+                      "n_parameters": report["n_parameters"], "convention": report["convention"],
+                      "rms_fit_um": report["rms_fit_um"], "rms_holdout_um": report["rms_holdout_um"],
+                      "holdout": report["holdout"],
+                      "held_at_prior": [result.machine.parameter_names[k] for k in result.held]}
+        with transaction() as tx:
+            write_spec(result.machine, tx.path(args.out, backup=True), provenance)
         report["out"] = str(args.out)
+        report["backup"] = str(tx.backups[0]) if tx.backups else None
     if args.json:
         print(dumps(report))
         return 0
@@ -70,7 +74,8 @@ def run(args) -> int:
     for note in notes:
         print(f"note: {note}")
     if args.out:
-        print(f"wrote {args.out} (load it with vp.load_machine or any volerr command)")
+        kept = f"; the spec it replaced is kept as {report['backup']}" if report["backup"] else ""
+        print(f"wrote {args.out} (load it with vp.load_machine or any volerr command){kept}")
     return 0
 
 

@@ -9,7 +9,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from .common import add_json_arg, dumps, note_unused, table_console
+from ..safeio import transaction
+from .common import add_json_arg, check_run_outputs, dumps, note_unused, table_console
 
 
 def add_parser(sub) -> None:
@@ -24,13 +25,15 @@ def run(args) -> int:
     from ..iso230 import evaluate_runs
     from ..measurements import read_runs
 
+    check_run_outputs({"plot": args.plot}, [args.runs])
     runs = read_runs(args.runs)
     note_unused(args.runs, runs.unused)
     result = evaluate_runs(runs)
     if args.plot:
         from ..viz.plots import iso230_png
 
-        iso230_png(result, args.plot, title=f"ISO 230-2: {Path(args.runs).name}")
+        with transaction() as tx:
+            iso230_png(result, tx.path(args.plot), title=f"ISO 230-2: {Path(args.runs).name}")
     if args.json:
         print(dumps({k: v for k, v in result.items() if k != "source"} | {"source": result["source"]}))
     else:

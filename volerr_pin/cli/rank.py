@@ -6,7 +6,9 @@ import sys
 
 from ..ranking import rank, read_tolerances, tool_identifiability
 from ..workspace import sample
-from .common import add_json_arg, add_machine_args, add_state_arg, dumps, machine_of, positive, table_console
+from ..safeio import transaction
+from .common import (add_json_arg, add_machine_args, add_state_arg, check_run_outputs, dumps, machine_of, positive,
+                     table_console)
 from .tables import print_groups, print_ranking
 
 
@@ -31,6 +33,7 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     machine = machine_of(args)
+    check_run_outputs({"png": args.png}, [args.tolerances], machine)
     tolerances = read_tolerances(args.tolerances, machine) if args.tolerances else None
     q = sample(machine, args.points, seed=args.seed)
     ranking = rank(machine, q, tolerances=tolerances, direction=args.direction, by=args.by)
@@ -39,7 +42,8 @@ def run(args) -> int:
     if args.png:
         from ..viz.plots import ranking_png
 
-        ranking_png(result, args.png, top=args.top or 15)
+        with transaction() as tx:
+            ranking_png(result, tx.path(args.png), top=args.top or 15)
         print(f"wrote {args.png}", file=sys.stderr)
     if args.json:
         result["identifiability"] = groups

@@ -6,7 +6,8 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from .common import add_json_arg, dumps, table_console
+from ..safeio import transaction
+from .common import add_json_arg, check_run_outputs, dumps, table_console
 
 
 def add_parser(sub) -> None:
@@ -31,6 +32,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from ..thermalfit import read_series, thermal_fit
 
+    check_run_outputs({"plot": args.plot}, [*args.data, *(args.test or ())])
     data = read_series(args.data)
     test = read_series(args.test) if args.test else None
     result = thermal_fit(data, args.target, args.sensors, lag=args.lag, method=args.method,
@@ -38,7 +40,8 @@ def run(args) -> int:
     if args.plot:
         from ..viz.plots import thermal_fit_png
 
-        thermal_fit_png(result, data if test is None else None, args.plot)
+        with transaction() as tx:
+            thermal_fit_png(result, data if test is None else None, tx.path(args.plot))
     if args.json:
         print(dumps({k: v for k, v in result.items() if k not in ("fitted", "predicted_holdout")}))
         return 0

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 import sys
 
-from .common import add_machine_args, machine_of
+from ..safeio import write_text
+from .common import add_machine_args, check_run_outputs, machine_of
 
 
 def add_parser(sub) -> None:
@@ -17,9 +17,10 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     machine = machine_of(args)
+    check_run_outputs({"output": args.output}, machine=machine)
     text = machine.injected_urdf()
     if args.output:
-        Path(args.output).write_text(text)
+        write_text(args.output, text)
         print(f"wrote {args.output}: {len(machine.error_joints)} error joints in "
               f"{len(machine.error_joints) // 6} groups", file=sys.stderr)
     else:

@@ -13,9 +13,54 @@ import numpy as np  # noqa: E402
 from ..machine import Machine  # noqa: E402
 from ..workspace import default_config, evaluate_field  # noqa: E402
 from ..workspace import sample, to_engineering  # noqa: E402
-from ..units import UM_PER_M
+from ..errors import InputError  # noqa: E402
+from ..safeio import replacing  # noqa: E402
+from ..units import UM_PER_M  # noqa: E402
 
 AXES = "xyz"
+
+
+def picture_format(path: str | Path, parameter: str = "path") -> str:
+    """The picture format a file name asks for: its suffix (``.png``, ``.svg``, ``.pdf`` ...), PNG
+    when it has none.
+
+    Parameters
+    ----------
+    path : str or Path
+        The picture file.
+    parameter : str, optional
+        The parameter that gave it, for the message.
+
+    Returns
+    -------
+    str
+        The format, e.g. ``"png"``.
+
+    Raises
+    ------
+    InputError
+        If matplotlib cannot write the suffix's format.
+    """
+    suffix = Path(path).suffix[1:].lower()
+    if not suffix:
+        return "png"
+    formats = plt.figure().canvas.get_supported_filetypes()
+    plt.close("all")
+    if suffix not in formats:
+        raise InputError(f"{parameter}: {path}: '.{suffix}' is not a picture format this product writes "
+                         f"({', '.join('.' + f for f in sorted(formats))})", parameters=(parameter,))
+    return suffix
+
+
+def save(fig, path: str | Path) -> None:
+    """Write ``fig`` to ``path`` through a temporary file beside it (the format from the suffix,
+    :func:`picture_format`), and close it."""
+    try:
+        fmt = picture_format(path)
+        with replacing(path) as tmp:
+            fig.savefig(tmp, format=fmt)
+    finally:
+        plt.close(fig)
 
 
 def field_slice_png(machine: Machine, path: str | Path, config: dict[str, float] | None = None,
@@ -77,8 +122,7 @@ def field_slice_png(machine: Machine, path: str | Path, config: dict[str, float]
                  f"tool points projected on {AXES[i]}{AXES[j]}")
     ax.set_title(title + f"\nmax {norm.max():.2f} um, RMS {np.sqrt(np.mean(norm**2)):.2f} um; "
                  "arrows: in-plane error", fontsize=10, loc="left")
-    fig.savefig(path)
-    plt.close(fig)
+    save(fig, path)
     return {"path": str(path), "points": int(len(q)), "max_um": float(norm.max())}
 
 
@@ -105,8 +149,7 @@ def ranking_png(ranking: dict, path: str | Path, top: int = 15) -> dict:
                  "labels: share of the mean squared tool error", fontsize=10)
     ax.legend(loc="lower right", fontsize=8)
     ax.grid(axis="x", alpha=0.3)
-    fig.savefig(path)
-    plt.close(fig)
+    save(fig, path)
     return {"path": str(path), "rows": len(rows)}
 
 
@@ -148,8 +191,7 @@ def iso230_png(result: dict, path: str | Path, title: str = "") -> dict:
     ax.set_title(title or f"ISO 230-2 positioning run ({result['n_targets']} targets)", fontsize=10)
     ax.legend(fontsize=7, loc="best")
     ax.grid(alpha=0.3)
-    fig.savefig(path)
-    plt.close(fig)
+    save(fig, path)
     return {"path": str(path)}
 
 
@@ -181,8 +223,7 @@ def ballbar_png(run, result: dict, path: str | Path, title: str = "") -> dict:
     fig.text(0.74, 0.92, f"ISO 230-4 [um]\n{text}", va="top", family="monospace", fontsize=8)
     ax.set_title(title or f"circular test, radius {result['radius_mm']:g} mm", fontsize=10)
     ax.legend(fontsize=7, loc="lower left", bbox_to_anchor=(1.0, 0.0))
-    fig.savefig(path)
-    plt.close(fig)
+    save(fig, path)
     return {"path": str(path)}
 
 
@@ -207,8 +248,7 @@ def thermal_fit_png(result: dict, data, path: str | Path) -> dict:
     ax.set_title(f"thermal-fit: {result['method']}{lag}, {len(result['sensors'])} sensors", fontsize=10)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    fig.savefig(path)
-    plt.close(fig)
+    save(fig, path)
     return {"path": str(path)}
 
 
@@ -270,8 +310,7 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
         a.set_title(f"step {k + 1}: {ev.label}", fontsize=8)
         a.legend(fontsize=7)
         a.grid(alpha=0.3)
-    fig.savefig(path)
-    plt.close(fig)
+    save(fig, path)
     return {"path": str(path)}
 
 
@@ -295,8 +334,7 @@ def compensation_png(report, path: str | Path, title: str = "") -> dict:
     ax2.set_ylabel("pieces")
     ax2.set_xlabel("line of the program")
     ax2.grid(alpha=0.3)
-    fig.savefig(path)
-    plt.close(fig)
+    save(fig, path)
     return {"path": str(path)}
 
 
@@ -333,6 +371,5 @@ def gear_png(deviations, path: str | Path, title: str = "") -> dict:
     axes[2].legend(fontsize=8)
     if title:
         fig.suptitle(title, fontsize=11)
-    fig.savefig(path)
-    plt.close(fig)
+    save(fig, path)
     return {"path": str(path), "worst_teeth": worst_teeth}
