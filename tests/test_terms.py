@@ -98,3 +98,24 @@ def test_to_spec_round_trips(table):
 def test_polynomial_on_a_body_without_axis_is_refused():
     with pytest.raises(ValueError, match="needs an axis position"):
         build_term({"kind": "legendre", "coefficients_um": [1.0]}, "errors.EXT", "length", None, None)
+
+
+@pytest.mark.parametrize("table, match", [
+    ({"kind": "table", "positions_mm": ["0", 500], "values_um": [0, 1], "interpolation": "linear"},
+     r"test\.positions_mm: expected a number, got a string '0'"),
+    ({"kind": "table", "positions_mm": [0, 500], "values_um": [0, False], "interpolation": "linear"},
+     r"test\.values_um: expected a number, got a boolean False"),
+    ({"kind": "table", "positions_mm": [0, 250, 500], "values_um": [0, 1, 2]},
+     r"test\.positions_mm: cubic interpolation needs at least 4 positions, got 3"),
+    ({"kind": "table", "positions_mm": [0, 500, 250, 500], "values_um": [0, 1, 2, 3]},
+     r"strictly increasing, got 500 then 250 mm \(entries 2 and 3\)"),
+    ({"kind": "table", "positions_mm": [0, 500], "values_um": [0, 1], "interpolation": "linear",
+      "extrapolate": 1}, r"test\.extrapolate: must be true or false"),
+    ({"kind": "monomial", "over": ["position"], "coefficients_um": [1.0]}, r"test\.over: expected a string"),
+    ({"kind": "legendre", "coefficients_um": [[1.0, 2.0]]}, r"test\.coefficients_um: expected a flat list"),
+    ({"kind": "legendre", "coefficients_um": []}, r"test\.coefficients_um: needs at least one coefficient"),
+    ({"kind": "constant", "value_um": 1.0, "value": 2.0}, r"test: both value_um and value given"),
+])
+def test_bad_term_tables_name_the_key(table, match):
+    with pytest.raises(ValueError, match=match):
+        term(table)

@@ -38,7 +38,7 @@ import numpy as np
 from numpy.polynomial import legendre
 
 from .errors import InputError, SpecError
-from .speckeys import TermSite, find_key, number, numbers, stem_of, unit_of
+from .speckeys import TermSite, find_key, number, numbers, stem_of, text, unit_of, within
 from .terms import Context, Covariates, Term
 from .units import TIME, scale
 
@@ -167,10 +167,11 @@ class DriftTime(Term):
     @classmethod
     def from_spec(cls, table, site):
         amps, unit, factor, _ = site.value(table, "amplitudes")
-        taus, tunit, _, tkey = site.value(table, "time_constants", "time", count=amps.size)
-        if np.any(taus <= 0):
-            raise SpecError(f"{site.where}.{tkey}: time constants must be positive")
-        stop, _, _, _ = site.value(table, "stop", "time", required=False, count=1)
+        taus = _time_constants(table, site, amps.size)
+        tunit = unit_of(find_key(table, "time_constants", site.where)[1], "time_constants")
+        stop, _, _, skey = site.value(table, "stop", "time", required=False, count=1)
+        if stop is not None and stop[0] < 0:
+            raise SpecError(f"{site.where}.{skey}: heating stops at or after t = 0, got {table[skey]}")
         stop = None if stop is None else float(stop[0])
         return cls(unit, factor, amps.size, stop, tunit), np.ravel(np.column_stack([amps, taus]))
 
@@ -216,15 +217,19 @@ class DriftTemperature(Term):
     def from_spec(cls, table, site):
         where = site.where
         sensors = table.get("sensors")
-        if not isinstance(sensors, list) or not sensors or not all(isinstance(s, str) for s in sensors):
-            raise SpecError(f"{where}.sensors: expected a list of sensor names")
-        coef, unit, factor, _ = site.value(table, "coefficients", count=len(sensors))
-        ref = numbers(table.get("reference_degC", 20.0), f"{where}.reference_degC")
+        if not isinstance(sensors, list) or not sensors or not all(isinstance(s, str) and s for s in sensors):
+            raise SpecError(f"{where}.sensors: expected a list of sensor names, got {sensors!r}")
+        twice = sorted({s for s in sensors if sensors.count(s) > 1})
+        if twice:
+            raise SpecError(f"{where}.sensors: sensor '{twice[0]}' is listed twice")
+        coef, unit, factor, _ = site.value(table, "coefficients", count=len(sensors), per="K")
+        ref = _temperatures(table.get("reference_degC", 20.0), f"{where}.reference_degC")
         ref = np.broadcast_to(ref, (len(sensors),)) if ref.size == 1 else numbers(
             ref, f"{where}.reference_degC", len(sensors))
         lag = number(table.get("lag_s", 0.0), f"{where}.lag_s")
         if lag < 0:
             raise SpecError(f"{where}.lag_s: must be >= 0")
+        within(np.array([lag]), "time", f"{where}.lag_s", "s", 1.0)
         return cls(unit, factor, tuple(sensors), tuple(float(r) for r in ref), lag), coef
 
 
@@ -270,13 +275,17 @@ class ExpansionTemperature(Term):
     def from_spec(cls, table, site):
         where = site.where
         sensor = table.get("sensor")
-        if not isinstance(sensor, str):
-            raise SpecError(f"{where}.sensor: expected a sensor name")
+        if not isinstance(sensor, str) or not sensor:
+            raise SpecError(f"{where}.sensor: expected a sensor name, got {sensor!r}")
         if ("coefficient_per_K" in table) == ("coefficient_ppm_per_K" in table):
             raise SpecError(f"{where}: give one of coefficient_per_K or coefficient_ppm_per_K")
         alpha = (number(table.get("coefficient_per_K", 0.0), f"{where}.coefficient_per_K")
                  + number(table.get("coefficient_ppm_per_K", 0.0), f"{where}.coefficient_ppm_per_K") * 1e-6)
-        reference = number(table.get("reference_degC", 20.0), f"{where}.reference_degC")
+        if abs(alpha) > 1.0:  # a strain of 1 per kelvin: a unit mistake, not a material
+            key = "coefficient_per_K" if "coefficient_per_K" in table else "coefficient_ppm_per_K"
+            raise SpecError(f"{where}.{key}: {table[key]} is implausible: an expansion coefficient lies "
+                            "within +-1 per K (+-1e6 ppm/K)")
+        reference = float(_temperatures(table.get("reference_degC", 20.0), f"{where}.reference_degC", 1)[0])
         return cls(sensor, reference, _origin(table, site)), np.array([alpha])
 
 
@@ -336,8 +345,13 @@ class ExpansionTime(Term):
 
     @classmethod
     def from_spec(cls, table, site):
-        strains = numbers(table.get("strains_ppm"), f"{site.where}.strains_ppm")
-        taus, tunit, _, _ = site.value(table, "time_constants", "time", count=strains.size)
+        if "strains_ppm" not in table:
+            raise SpecError(f"{site.where}: missing 'strains_ppm'")
+        strains = numbers(table["strains_ppm"], f"{site.where}.strains_ppm")
+        if np.any(np.abs(strains) > 1e6):
+            raise SpecError(f"{site.where}.strains_ppm: a strain lies within +-1e6 ppm, got {table['strains_ppm']}")
+        taus = _time_constants(table, site, strains.size)
+        tunit = unit_of(find_key(table, "time_constants", site.where)[1], "time_constants")
         return (cls(strains.size, _origin(table, site), tunit),
                 np.ravel(np.column_stack([strains * 1e-6, taus])))
 
@@ -435,15 +449,21 @@ class ForceDeflection(Term):
     def from_spec(cls, table, site):
         where, quantity = site.where, site.quantity
         force = table.get("force")
-        if force not in ("x", "y", "z"):
+        if not isinstance(force, str) or force not in ("x", "y", "z"):
             raise SpecError(f"{where}.force: must be 'x', 'y' or 'z', got {force!r}")
         model = table.get("model")
+        used = {None: {"compliance"}, "beam": {"E_GPa", "L", "b", "d", "I_mm4"},
+                "torsion": {"G_GPa", "d", "e", "a"}}.get(model, set())
+        unused = sorted(k for k in table if stem_of(k) in cls.keys - used - {"force", "model"})
+        if unused:
+            named = f"the {model} model" if model else "a compliance (no model)"
+            raise SpecError(f"{where}: {', '.join(unused)} not used by {named}")
         if model is not None:
             c0, keys = _structural_model(table, model, quantity, where)
             unit = "um" if quantity == "length" else "urad"
             return (cls(unit, scale(unit, quantity, where), "xyz".index(force), 0, None,
                         {"compliance": c0, "keys": keys}), np.array([c0]))
-        comp, unit, factor, _ = site.value(table, "compliance")
+        comp, unit, factor, _ = site.value(table, "compliance", per="N")
         if comp.size > 1 and (site.travel is None or not site.owner_is_axis):
             raise SpecError(f"{where}: a position-dependent compliance needs an axis with a travel")
         return cls(unit, factor, "xyz".index(force), comp.size - 1, site.travel), comp
@@ -515,6 +535,21 @@ class PeriodicPitch(Term):
         return cls(unit, factor, sines.size, _origin(table, site), punit, pscale), coefs
 
 
+def _time_constants(table: dict, site: TermSite, count: int) -> np.ndarray:
+    """``time_constants_<unit>``: ``count`` positive times, s."""
+    taus, _, _, key = site.value(table, "time_constants", "time", count=count)
+    if np.any(taus <= 0):
+        raise SpecError(f"{site.where}.{key}: time constants must be positive, got {table[key]}")
+    return taus
+
+
+def _temperatures(value, where: str, count: int | None = None) -> np.ndarray:
+    """Temperatures [degC] within the plausibility limits."""
+    temps = numbers(value, where, count)
+    within(temps, "temperature", where, "degC", 1.0)
+    return temps
+
+
 def _origin(table: dict, site: TermSite) -> float:
     """The axis position ``q0`` an effect is measured from (``origin_<unit>``, default 0), m."""
     origin, _, _, _ = site.value(table, "origin", "length", required=False, count=1)
@@ -534,14 +569,21 @@ def _structural_model(table, model, quantity, where):
         value, k = find_key(table, key, where, example="mm")
         return number(value, f"{where}.{k}") * scale(unit_of(k, key), "length", f"{where}.{k}")
 
+    def modulus(key):
+        if key not in table:
+            raise SpecError(f"{where}: the {model} model needs {key}")
+        return number(table[key], f"{where}.{key}") * 1e9
+
     keys = {"model": model}
     if model == "beam":
         if quantity != "length":
             raise SpecError(f"{where}: the beam model gives a deflection (a length error)")
-        E = float(table.get("E_GPa", math.nan)) * 1e9
+        E = modulus("E_GPa")
         L, b = length("L"), length("b")
         if "I_mm4" in table:
-            I = float(table["I_mm4"]) * 1e-12
+            if any(stem_of(k) == "d" for k in table):
+                raise SpecError(f"{where}: give either I_mm4 or the diameter d, not both")
+            I = number(table["I_mm4"], f"{where}.I_mm4") * 1e-12
             keys["I_mm4"] = table["I_mm4"]
         else:
             d = length("d")
@@ -554,7 +596,7 @@ def _structural_model(table, model, quantity, where):
     if model == "torsion":
         if quantity != "angle":
             raise SpecError(f"{where}: the torsion model gives an angle (an angular error)")
-        G = float(table.get("G_GPa", math.nan)) * 1e9
+        G = modulus("G_GPa")
         d, e, a = length("d"), length("e"), length("a")
         if not (G > 0 and d > 0):
             raise SpecError(f"{where}: torsion model needs G_GPa > 0 and d > 0")

@@ -7,7 +7,9 @@ joint, NC sign) and the error components with their terms. Units are in the key 
 
 from __future__ import annotations
 
+import os
 import re
+import stat
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,8 +18,9 @@ from typing import Any
 import numpy as np
 
 from . import terms as T
-from .errors import SpecError
-from .speckeys import NAME_RE, TermSite, check_keys, find_key, numbers, unit_of
+from .errors import InputError, SpecError
+from .safeio import require_memory
+from .speckeys import NAME_RE, TermSite, check_keys, find_key, numbers, text, unit_of, within
 from .termkinds import read_term
 from .units import scale
 from .urdf import URDF, load_urdf
@@ -117,11 +120,14 @@ BODY_KEYS = {"joint", "reference_point"}
 
 
 def _point(table: dict, where: str) -> tuple[float, float, float]:
-    value, key = find_key(table, "reference_point", where, required=False)
+    value, key = find_key(table, "reference_point", where, required=False, example="mm")
     if value is None:
         return (0.0, 0.0, 0.0)
-    factor = scale(unit_of(key, "reference_point"), "length", f"{where}.{key}")
-    return tuple(float(v) for v in numbers(value, f"{where}.{key}", 3) * factor)
+    unit = key[len("reference_point_"):]
+    factor = scale(unit, "length", f"{where}.{key}")
+    point = numbers(value, f"{where}.{key}", 3) * factor
+    within(point, "position_length", f"{where}.{key}", unit, factor)
+    return tuple(float(v) for v in point)
 
 
 def build_term(table: dict, where: str, quantity: str, position_quantity: str | None,
@@ -132,13 +138,99 @@ def build_term(table: dict, where: str, quantity: str, position_quantity: str | 
     return TermSpec(prefix, term, coefficients)
 
 
-def read_toml(path: Path) -> dict:
+#: bytes of memory reading a text file takes per byte of file, at most (the text, its lines
+#: or cells, the values parsed from them), for the check before a file is read whole
+READ_OVERHEAD = 20
+
+
+def _line_and_column(data: bytes, offset: int) -> tuple[int, int]:
+    """1-based line and character column of a byte offset (the bytes before it are UTF-8)."""
+    start = data.rfind(b"\n", 0, offset) + 1
+    return data.count(b"\n", 0, offset) + 1, len(data[start:offset].decode("utf-8", "replace")) + 1
+
+
+def read_text(path: str | os.PathLike, error: type[Exception] = SpecError, what: str = "file") -> str:
+    """The text of a file that a user names: a regular file, small enough for the memory the
+    machine has free, UTF-8 (a byte-order mark is dropped), without NUL bytes.
+
+    Every input file is read through here, so that a device, a pipe, a folder, a file larger
+    than memory allows or a file in another encoding is refused with one line naming it
+    before any of it is read.
+
+    Parameters
+    ----------
+    path : str or path
+        The file.
+    error : type
+        Exception class raised (:class:`SpecError`, or ``MeasurementError`` for measurement
+        files); constructed with the message.
+    what : str
+        What the file is, for messages ("spec", "measurement file").
+
+    Returns
+    -------
+    str
+        The text; line ends as in the file.
+
+    Raises
+    ------
+    SpecError
+        (or ``error``) If the file cannot be read, is not a regular file, would need more
+        than half of the free memory, is not UTF-8 (naming line, column and byte) or holds
+        a NUL byte.
+    """
+    path = Path(path)
     try:
-        text = path.read_text()
+        info = path.stat()
     except OSError as err:
-        raise SpecError(f"{path}: cannot read spec: {err.strerror}") from err
+        raise error(f"{path}: cannot read {what}: {err.strerror}") from None
+    if stat.S_ISDIR(info.st_mode):
+        raise error(f"{path}: is a folder, not a {what}")
+    if not stat.S_ISREG(info.st_mode):
+        raise error(f"{path}: not a regular file (a device, pipe or socket); give a {what}")
     try:
-        return tomllib.loads(text)
+        require_memory(info.st_size * READ_OVERHEAD, f"{path}: reading this {what} of {info.st_size:,} bytes")
+    except InputError as err:
+        raise error(str(err)) from None
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        raise error(f"{path}: cannot read {what}: {err.strerror}") from None
+    try:
+        content = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        line, column = _line_and_column(data, err.start)
+        raise error(f"{path}:{line}:{column}: not UTF-8 text (byte 0x{data[err.start]:02x} at offset "
+                    f"{err.start}); save the {what} as UTF-8") from None
+    if b"\x00" in data:
+        line, column = _line_and_column(data, data.index(b"\x00"))
+        raise error(f"{path}:{line}:{column}: a NUL byte; this is not a text file")
+    return content.removeprefix("\ufeff")
+
+
+def read_toml(path: Path) -> dict:
+    """A TOML file (a spec, a tolerance file) as a dict; see :func:`read_text` for what is
+    refused before parsing.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+
+    Returns
+    -------
+    dict
+        The parsed tables.
+
+    Raises
+    ------
+    SpecError
+        If the file cannot be read (see :func:`read_text`) or is not valid TOML (naming line
+        and column; a key given twice is invalid TOML).
+    """
+    content = read_text(path, SpecError, "spec")
+    try:
+        return tomllib.loads(content)
     except tomllib.TOMLDecodeError as err:
         raise SpecError(f"{path}: invalid TOML: {err}") from err
 
@@ -190,8 +282,13 @@ def parse_components(tables: dict, where: str, owners: dict[str, tuple[str | Non
             raise SpecError(f"{here}: expected a table")
         quantity = "length" if direction in "XYZ" else "angle"
         if "terms" in table:
-            if set(table) != {"terms"} or not isinstance(table["terms"], list):
+            if set(table) != {"terms"}:
                 raise SpecError(f"{here}: give either one term's keys or a 'terms' list, not both")
+            if not isinstance(table["terms"], list):
+                raise SpecError(f"{here}.terms: expected a list of term tables, got {table['terms']!r}")
+            if not table["terms"]:
+                raise SpecError(f"{here}.terms: the list is empty; give at least one term or remove "
+                                f"errors.{name}")
             raw = table["terms"]
         else:
             raw = [table]
@@ -212,15 +309,23 @@ def load_spec(path: str | Path) -> tuple[MachineSpec, URDF]:
     data = read_toml(path)
     where = str(path)
     check_keys(data, {"format", "machine", "axes", "bodies", "errors", "provenance"}, where)
-    if data.get("format", 1) != 1:
-        raise SpecError(f"{where}: format {data.get('format')!r} is not supported (expected 1)")
+    fmt = data.get("format", 1)
+    if isinstance(fmt, bool) or fmt != 1:
+        raise SpecError(f"{where}: format {fmt!r} is not supported (expected 1)")
     machine = data.get("machine")
     if not isinstance(machine, dict):
         raise SpecError(f"{where}: missing [machine] table")
+    for key in ("axes", "bodies", "errors", "provenance"):
+        if key in data and not isinstance(data[key], dict):
+            raise SpecError(f"{where}: '{key}' must be a table ([{key}.<name>] sections), got {data[key]!r}")
     check_keys(machine, MACHINE_KEYS, f"{where}: [machine]")
     for key in ("name", "urdf", "tool_frame", "workpiece_frame"):
         if key not in machine:
             raise SpecError(f"{where}: [machine] needs '{key}'")
+    strings = {key: text(machine, key, f"{where}: machine", default="")
+               for key in ("name", "tool_frame", "workpiece_frame", "description", "source")}
+    if not strings["name"].strip():
+        raise SpecError(f"{where}: machine.name is empty")
     urdf = load_urdf(resolve_urdf(machine["urdf"], path.parent, f"{where}: machine.urdf"))
     for key in ("tool_frame", "workpiece_frame"):
         if machine[key] not in urdf.links:
@@ -236,7 +341,7 @@ def load_spec(path: str | Path) -> tuple[MachineSpec, URDF]:
         if not isinstance(table, dict) or "joint" not in table:
             raise SpecError(f"{here}: needs joint = '<URDF joint name>'")
         check_keys(table, AXIS_KEYS, here)
-        joint = table["joint"]
+        joint = text(table, "joint", here)
         if joint not in urdf.joints:
             raise SpecError(f"{here}: joint '{joint}' is not a joint of {urdf.source}")
         jtype = urdf.joints[joint].type
@@ -244,7 +349,7 @@ def load_spec(path: str | Path) -> tuple[MachineSpec, URDF]:
             raise SpecError(f"{here}: joint '{joint}' is {jtype}; an axis must be prismatic, "
                             "revolute or continuous")
         sign = table.get("sign", 1)
-        if sign not in (1, -1):
+        if isinstance(sign, bool) or sign not in (1, -1):
             raise SpecError(f"{here}.sign: must be 1 or -1, got {sign!r}")
         frame = table.get("errors_frame", "moving" if jtype == "prismatic" else "fixed")
         if frame not in ("moving", "fixed"):
@@ -260,7 +365,7 @@ def load_spec(path: str | Path) -> tuple[MachineSpec, URDF]:
         if not isinstance(table, dict) or "joint" not in table:
             raise SpecError(f"{here}: needs joint = '<URDF joint name>'")
         check_keys(table, BODY_KEYS, here)
-        if table["joint"] not in urdf.joints:
+        if text(table, "joint", here) not in urdf.joints:
             raise SpecError(f"{here}: joint '{table['joint']}' is not a joint of {urdf.source}")
         bodies.append(BodySpec(name, table["joint"], _point(table, here)))
         owners[name] = (None, None)
@@ -269,10 +374,9 @@ def load_spec(path: str | Path) -> tuple[MachineSpec, URDF]:
         raise SpecError(f"{where}: a URDF joint is used by two axes or bodies: {used}")
     components = parse_components(data.get("errors", {}), where, owners)
     extra = {k: v for k, v in data.items() if k == "provenance"}
-    spec = MachineSpec(str(machine["name"]), where, Path(urdf.source), machine["tool_frame"],
-                       machine["workpiece_frame"], tuple(axes), tuple(bodies), components,
-                       str(machine.get("description", "")), str(machine.get("source", "")),
-                       extra or None, machine["urdf"])
+    spec = MachineSpec(strings["name"], where, Path(urdf.source), strings["tool_frame"],
+                       strings["workpiece_frame"], tuple(axes), tuple(bodies), components,
+                       strings["description"], strings["source"], extra or None, machine["urdf"])
     return spec, urdf
 
 

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from .errors import SpecError
-from .units import scale, split_key
+from .units import PLAUSIBLE, describe_range, scale, split_key
 
 #: a plain name: components, prefixes, joints, bodies
 NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -54,6 +54,8 @@ def find_key(table: dict, stem: str, where: str, required: bool = True, example:
         hits = [k for k in table if k != stem and stem_of(k) == stem]
     if len(hits) > 1:
         raise SpecError(f"{where}: both {hits[0]} and {hits[1]} given")
+    if hits and stem in table and stem not in EXACT_KEYS:
+        raise SpecError(f"{where}: both {hits[0]} and {stem} given; give the value once, with its unit")
     if not hits:
         if stem in table:
             raise SpecError(f"{where}: key '{stem}' needs a unit suffix, e.g. '{stem}_{example}'")
@@ -69,25 +71,73 @@ def unit_of(key: str, stem: str) -> str:
     return key[len(stem) + 1:].split("_per_")[0]
 
 
+def _is_number(value: Any) -> bool:
+    """An int or float as TOML gives them (a bool is an int to Python, but not a number here)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 def numbers(value: Any, where: str, count: int | None = None) -> np.ndarray:
     """One number or a flat list of finite numbers as an array of shape ``(n,)``
-    (``count`` numbers when given)."""
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise SpecError(f"{where}: expected numbers, got {value!r}") from None
-    if array.ndim == 0:
-        array = array.reshape(1)
-    if array.ndim != 1 or (count is not None and array.size != count):
-        raise SpecError(f"{where}: expected a list of {count or 'some'} numbers, got {value!r}")
+    (``count`` numbers when given). Strings (``"500"``) and booleans (``true``) are refused,
+    naming ``where`` (file, table and key)."""
+    if isinstance(value, np.ndarray) and value.dtype.kind in "iuf":
+        items = list(value.ravel()) if value.ndim <= 1 else [value]
+    else:
+        items = list(value) if isinstance(value, (list, tuple)) else [value]
+    for item in items:
+        if isinstance(item, (list, tuple, np.ndarray)):
+            raise SpecError(f"{where}: expected a flat list of {count or 'some'} numbers, got {_shown(value)}")
+        if not _is_number(item):
+            kind = {str: "a string", bool: "a boolean"}.get(type(item), type(item).__name__)
+            if isinstance(item, dict):
+                kind = "a table"
+            raise SpecError(f"{where}: expected a number, got {kind} {_shown(item)}"
+                            + (" (write it without quotes)" if isinstance(item, str) else ""))
+    array = np.array(items, dtype=float)
+    if count is not None and array.size != count:
+        raise SpecError(f"{where}: expected {'one number' if count == 1 else f'a list of {count} numbers'}, "
+                        f"got {_shown(value)}")
     if not np.all(np.isfinite(array)):
-        raise SpecError(f"{where}: values must be finite, got {value!r}")
+        raise SpecError(f"{where}: values must be finite, got {_shown(value)}")
     return array
 
 
 def number(value: Any, where: str) -> float:
-    """One finite number."""
+    """One finite number (not a string, a boolean or a list)."""
+    if isinstance(value, (list, tuple)):
+        raise SpecError(f"{where}: expected one number, got a list {_shown(value)}")
     return float(numbers(value, where, 1)[0])
+
+
+def text(table: dict, key: str, where: str, default: str | None = None) -> str:
+    """The string ``table[key]`` (``default`` when absent; required when ``default`` is None).
+
+    Raises a :class:`SpecError` naming ``where`` and the key when the value is not a string
+    (``joint = 5``, ``tool_frame = ["tool"]``) or when a required key is missing.
+    """
+    if key not in table:
+        if default is None:
+            raise SpecError(f"{where}: missing '{key}'")
+        return default
+    value = table[key]
+    if not isinstance(value, str):
+        raise SpecError(f"{where}.{key}: expected a string (in quotes), got {_shown(value)}")
+    return value
+
+
+def within(values: np.ndarray, limit: str, where: str, unit: str, unit_scale: float) -> None:
+    """Raise a :class:`SpecError` when an SI value lies beyond the plausibility limit ``limit``
+    (a key of :data:`volerr_pin.units.PLAUSIBLE`), naming ``where`` and the value in ``unit``."""
+    low, high = PLAUSIBLE[limit]
+    bad = np.flatnonzero((values < low) | (values > high))
+    if bad.size:
+        raise SpecError(f"{where}: {values[bad[0]] / unit_scale:g} {unit} is implausible: "
+                        f"{describe_range(limit, unit, unit_scale)}")
 
 
 @dataclass(frozen=True)
@@ -115,12 +165,29 @@ class TermSite:
     owner_is_axis: bool
 
     def value(self, table: dict, stem: str, quantity: str | None = None, required: bool = True,
-              count: int | None = None) -> tuple[np.ndarray | None, str | None, float, str | None]:
-        """``stem_<unit>`` of ``table`` as ``(SI values (n,), unit, SI per unit, key)``;
-        ``quantity`` defaults to the component's, ``count`` fixes the number of values."""
-        raw, key = find_key(table, stem, self.where, required)
+              count: int | None = None, per: str | None = None
+              ) -> tuple[np.ndarray | None, str | None, float, str | None]:
+        """``stem_<unit>`` of ``table`` as ``(SI values (n,), unit, SI per unit, key)``.
+
+        ``quantity`` defaults to the component's (then the values are errors, or error rates
+        with ``per``: ``"K"`` for ``coefficients_um_per_K``, ``"N"`` for ``compliance_um_per_N``);
+        ``count`` fixes the number of values. Values beyond the plausibility limits of
+        :data:`volerr_pin.units.PLAUSIBLE` (an error of more than 1 m or 1 rad, a position
+        beyond 1 km) are refused, naming the key.
+        """
+        what = quantity or self.quantity
+        example = {"length": "mm" if quantity else "um", "angle": "deg" if quantity else "arcsec",
+                   "time": "s"}.get(what, "um")
+        raw, key = find_key(table, stem, self.where, required, example=example + (f"_per_{per}" if per else ""))
         if key is None:
             return None, None, 1.0, None
-        unit = unit_of(key, stem)
-        factor = scale(unit, quantity or self.quantity, f"{self.where}.{key}")
-        return numbers(raw, f"{self.where}.{key}", count) * factor, unit, factor, key
+        suffix = key[len(stem) + 1:]
+        unit, _, rate = suffix.partition("_per_")
+        if rate != (per or ""):
+            wanted = f"{stem}_{example}_per_{per}" if per else f"{stem}_{example}"
+            raise SpecError(f"{self.where}.{key}: unit '{suffix}' does not fit; write it as e.g. {wanted}")
+        factor = scale(unit, what, f"{self.where}.{key}")
+        values = numbers(raw, f"{self.where}.{key}", count) * factor
+        limit = f"error_{what}" if quantity is None else ("time" if what == "time" else f"position_{what}")
+        within(values, limit, f"{self.where}.{key}", suffix.replace("_per_", "/"), factor)
+        return values, unit, factor, key

@@ -13,7 +13,7 @@ import numpy as np
 
 from .effects import EFFECTS
 from .errors import SpecError
-from .speckeys import NAME_RE, TermSite, check_keys
+from .speckeys import NAME_RE, TermSite, check_keys, text
 from .terms import Constant, Polynomial, Table, Term
 
 #: kinds of geometric terms (functions of the axis position only)
@@ -59,7 +59,7 @@ def read_term(table: dict, site: TermSite) -> tuple[str, Term, np.ndarray]:
     if not isinstance(table, dict):
         raise SpecError(f"{where}: expected a table, got {table!r}")
     cls = term_class(table, where)
-    prefix = table.get("prefix", "")
+    prefix = text(table, "prefix", where, default="")
     if prefix and not NAME_RE.match(prefix):
         raise SpecError(f"{where}: prefix {prefix!r} is not a plain name")
     kind, driver = table["kind"], table.get("driver")

@@ -21,7 +21,7 @@ from numpy.polynomial import legendre
 from scipy.interpolate import CubicSpline, make_interp_spline
 
 from .errors import SpecError
-from .speckeys import TermSite
+from .speckeys import TermSite, text
 from .units import scale
 
 
@@ -195,9 +195,8 @@ class Constant(LinearTerm):
     @classmethod
     def from_spec(cls, table, site):
         value, unit, factor, key = site.value(table, "value", count=1)
-        raw = table[key]
-        if isinstance(raw, (list, tuple)) or not isinstance(raw, (int, float)):
-            raise SpecError(f"{site.where}.{key}: expected a number, got {raw!r}")
+        if isinstance(table[key], (list, tuple)):
+            raise SpecError(f"{site.where}.{key}: a constant takes one number, not a list")
         return cls(unit, factor), value
 
 
@@ -281,7 +280,7 @@ class Polynomial(LinearTerm):
         si, unit, factor, key = site.value(table, "coefficients")
         if si.size == 0:
             raise SpecError(f"{where}.{key}: needs at least one coefficient")
-        over = table.get("over", "travel")
+        over = text(table, "over", where, default="travel")
         if family == "legendre" and over != "travel":
             raise SpecError(f"{where}: legendre polynomials are defined over the travel only")
         if over not in ("travel", "position"):
@@ -289,8 +288,11 @@ class Polynomial(LinearTerm):
         if over == "travel" and (travel is None or not np.all(np.isfinite(travel))):
             raise SpecError(f"{where}: a polynomial over the travel needs a bounded travel")
         position_unit, position_scale = None, 1.0
+        if over != "position" and "position_unit" in table:
+            raise SpecError(f"{where}.position_unit: only a monomial over = 'position' has one")
         if over == "position":
-            position_unit = table.get("position_unit", "mm" if site.position_quantity == "length" else "deg")
+            position_unit = text(table, "position_unit", where,
+                                 default="mm" if site.position_quantity == "length" else "deg")
             position_scale = scale(position_unit, site.position_quantity, f"{where}.position_unit")
             si = si / position_scale ** np.arange(si.size)
         return cls(si.size - 1, family, over, travel, unit, factor, position_unit, position_scale), si
@@ -350,7 +352,7 @@ class Table(LinearTerm):
         _needs_position(site, "table")
         nodes, punit, pscale, pkey = site.value(table, "positions", site.position_quantity)
         values, unit, factor, _ = site.value(table, "values")
-        interpolation = table.get("interpolation", "cubic")
+        interpolation = text(table, "interpolation", where, default="cubic")
         if interpolation not in ("linear", "cubic"):
             raise SpecError(f"{where}.interpolation: must be 'linear' or 'cubic', got {interpolation!r}")
         minimum = 2 if interpolation == "linear" else 4
@@ -360,8 +362,12 @@ class Table(LinearTerm):
         if values.size != nodes.size:
             raise SpecError(f"{where}: {nodes.size} positions but {values.size} values")
         if np.any(np.diff(nodes) <= 0):
-            raise SpecError(f"{where}.{pkey}: positions must be strictly increasing")
-        boundary = table.get("boundary", "not-a-knot")
+            k = int(np.flatnonzero(np.diff(nodes) <= 0)[0])
+            raise SpecError(f"{where}.{pkey}: positions must be strictly increasing, got {nodes[k] / pscale:g} "
+                            f"then {nodes[k + 1] / pscale:g} {punit} (entries {k + 1} and {k + 2})")
+        if interpolation == "linear" and "boundary" in table:
+            raise SpecError(f"{where}.boundary: only a cubic table has a boundary condition")
+        boundary = text(table, "boundary", where, default="not-a-knot")
         if boundary not in ("not-a-knot", "natural"):
             raise SpecError(f"{where}.boundary: must be 'not-a-knot' or 'natural', got {boundary!r}")
         extrapolate = table.get("extrapolate", False)

@@ -50,6 +50,104 @@ INCH = 25.4e-3
 #: engineering unit of an axis position, by axis kind
 AXIS_UNIT = {"linear": "mm", "rotary": "deg"}
 
+#: Plausibility limits of what files give, SI, as (lowest, highest). A value beyond them is a
+#: mistake (a wrong unit, a corrupted cell, an overflowing fit), never a measurement, so the
+#: readers refuse it instead of carrying it into a fit. docs/measurements.md lists them.
+PLAUSIBLE = {
+    "error_length": (-1.0, 1.0),                  # a deviation or error of more than 1 m
+    "error_angle": (-1.0, 1.0),                   # an angular error of more than 1 rad (57 deg)
+    "position_length": (-1e3, 1e3),               # positions and coordinates beyond 1 km
+    "position_angle": (-1e7 * DEG, 1e7 * DEG),    # rotary positions beyond 10 million deg
+    "time": (-1e10, 1e10),                        # 317 years (Unix time in s is 1.7e9)
+    "temperature": (-273.15, 1000.0),             # degC: below absolute zero, or melting
+    "force": (-1e7, 1e7),                         # N: 10 MN
+    "reading": (-1e15, 1e15),                     # a series value of unknown unit (epoch ms pass)
+}
+#: what each limit is of, for messages
+PLAUSIBLE_WHAT = {"error_length": "a deviation", "error_angle": "an angular deviation",
+                  "position_length": "a position", "position_angle": "a rotary position",
+                  "time": "a time", "temperature": "a temperature", "force": "a force",
+                  "reading": "a reading in any unit"}
+
+#: a decimal number as files write it: digits, an optional point and exponent; no NaN or
+#: inf spellings, underscores, hex or non-ASCII digits (all of which float() would take)
+NUMBER_RE = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
+
+
+def parse_number(text: str) -> float:
+    """A finite decimal number written as text (surrounding blanks ignored).
+
+    Parameters
+    ----------
+    text : str
+        The text, e.g. ``"-1.5e-3"``.
+
+    Returns
+    -------
+    float
+        Its value.
+
+    Raises
+    ------
+    ValueError
+        With the reason as its message: ``"is not a number"`` (also for ``1_000``, ``0x10``
+        and non-ASCII digits) or ``"is not a finite number"`` (``nan``, ``inf`` and values
+        that overflow, such as ``1e999``).
+    """
+    text = text.strip()
+    if not NUMBER_RE.match(text):
+        try:
+            special = float(text)
+        except ValueError:
+            special = 0.0
+        raise ValueError("is not a finite number" if not math.isfinite(special) else "is not a number")
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError("is not a finite number")
+    return value
+
+
+def plausible_range(kind: str, unit_scale: float = 1.0) -> tuple[float, float]:
+    """The plausibility limits of :data:`PLAUSIBLE` in a file unit.
+
+    Parameters
+    ----------
+    kind : str
+        A key of :data:`PLAUSIBLE`.
+    unit_scale : float, default 1.0
+        SI value of one file unit (1e-6 for um); temperatures are in degC and take 1.
+
+    Returns
+    -------
+    (float, float)
+        Lowest and highest plausible value, in the file unit.
+    """
+    low, high = PLAUSIBLE[kind]
+    return low / unit_scale, high / unit_scale
+
+
+def describe_range(kind: str, unit: str, unit_scale: float = 1.0) -> str:
+    """The plausibility limits of ``kind`` in words for a message, e.g. ``"|value| <= 1e+06 um"``.
+
+    Parameters
+    ----------
+    kind : str
+        A key of :data:`PLAUSIBLE`.
+    unit : str
+        The file unit's name.
+    unit_scale : float, default 1.0
+        SI value of one file unit.
+
+    Returns
+    -------
+    str
+        The range, in the file unit.
+    """
+    low, high = plausible_range(kind, unit_scale)
+    if low == -high:
+        return f"{PLAUSIBLE_WHAT[kind]} lies within +-{high:g} {unit}".rstrip()
+    return f"{PLAUSIBLE_WHAT[kind]} lies within {low:g} .. {high:g} {unit}".rstrip()
+
 
 def scale(unit: str, quantity: str, where: str) -> float:
     """SI factor of a unit.
@@ -75,6 +173,8 @@ def scale(unit: str, quantity: str, where: str) -> float:
         error, say).
     """
     table = QUANTITIES[quantity]
+    if not isinstance(unit, str):
+        raise SpecError(f"{where}: expected a unit name such as {next(iter(table))!r}, got {unit!r}")
     if unit in table:
         return table[unit]
     for other, units in QUANTITIES.items():
@@ -146,20 +246,28 @@ def parse_axis_values(items: str | Iterable[str], where: str, axes: Sequence[str
     -------
     dict
         Axis name -> value in the units given (mm / deg by convention), in the order given.
+
+    Raises
+    ------
+    InputError
+        (``error``) If an item is not ``AXIS=VALUE`` with a finite number, names an axis
+        not in ``axes``, or names an axis given before.
     """
     if isinstance(items, str):
         items = [s for s in re.split(r"[,\s]+", items.strip()) if s]
     out = {}
     for item in items:
         name, sep, text = item.partition("=")
-        try:
-            value = float(text)
-        except ValueError:
-            sep = ""
         if not sep or not name:
             raise error(f"{where}: '{item}' is not AXIS=VALUE")
+        try:
+            value = parse_number(text)
+        except ValueError as err:
+            raise error(f"{where}: '{item}' is not AXIS=VALUE: '{text}' {err}") from None
         if axes is not None and name not in axes:
             raise error(f"{where}: '{item}' names no axis (axes: {', '.join(axes)})")
+        if name in out:
+            raise error(f"{where}: axis {name} is given twice")
         out[name] = value
     return out
 
