@@ -93,3 +93,35 @@ def test_large_input_is_chunked(machines):
     full = m.volumetric_error(q)
     np.testing.assert_allclose(full[-17:], m.volumetric_error(q[-17:]), rtol=1e-14, atol=1e-18)
     np.testing.assert_allclose(full[:5], m.volumetric_error(q[:5]), rtol=1e-14, atol=1e-18)
+
+
+@pytest.mark.parametrize("name", ALL_MACHINES)
+def test_joint_motions_match_forward_kinematics(machines, name):
+    """Each joint's motion is computed alone (no pinocchio.Data, which grows with the cube of a
+    chain's joints): it equals what forward kinematics gives for that joint."""
+    model = machines[name].model
+    moved = K._moved(model)
+    data = model.createData()
+    pin.forwardKinematics(model, data, moved)
+    for j in range(1, model.njoints):
+        kind, axis = K._joint_motion(model, j, moved)
+        motion = model.jointPlacements[j].inverse() * data.liMi[j]
+        if kind in (K.PX, K.PY, K.PZ, K.PG):
+            np.testing.assert_allclose(motion.translation, axis, atol=1e-14)
+            np.testing.assert_allclose(motion.rotation, np.eye(3), atol=1e-14)
+        else:
+            np.testing.assert_allclose(motion.rotation, pin.exp3(axis), atol=1e-14)
+            np.testing.assert_allclose(motion.translation, 0.0, atol=1e-14)
+
+
+def test_evaluation_blocks_do_not_change_results(machines):
+    """Blocks of points are sized by the model's joints (bounded memory for large models);
+    the results do not depend on the block size (beyond the kernels' reassociated rounding)."""
+    m = machines["cgm4000"]
+    q = random_q(m, 40, seed=5)
+    small = m.with_theta(m.theta)
+    small._block = 7
+    for method in ("volumetric_error", "component_sensitivity", "error_joint_sensitivity", "axis_jacobian",
+                   "sensitivity"):
+        np.testing.assert_allclose(getattr(small, method)(q), getattr(m, method)(q), rtol=1e-12, atol=1e-18,
+                                   err_msg=method)

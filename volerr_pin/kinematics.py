@@ -94,10 +94,14 @@ class Chain:
     joints: tuple[int, ...]  # Pinocchio joint id of each operation
 
 
-def _moved(model: pin.Model) -> pin.Data:
-    """Forward kinematics with every joint moved by 1 (m or rad): each joint's motion is
-    read off its own ``liMi``, which depends on that joint alone."""
-    data = model.createData()
+def _moved(model: pin.Model) -> np.ndarray:
+    """The configuration with every 1-DoF joint moved by 1 (m or rad), from which each joint's
+    own motion is computed alone (:func:`_joint_motion`).
+
+    No ``pinocchio.Data`` is made: Pinocchio's Data of a serial chain grows with the cube of
+    its joints (2.8 GB for a chain of 350), and a machine with many axes and six error joints on each
+    would not get one.
+    """
     q = pin.neutral(model)
     for joint in range(1, model.njoints):
         iq = model.idx_qs[joint]
@@ -105,17 +109,20 @@ def _moved(model: pin.Model) -> pin.Data:
             q[iq], q[iq + 1] = np.cos(1.0), np.sin(1.0)
         elif model.nvs[joint] == 1:
             q[iq] = 1.0
-    pin.forwardKinematics(model, data, q)
-    return data
+    return q
 
 
-def _joint_motion(model: pin.Model, joint: int, moved: pin.Data) -> tuple[int, np.ndarray]:
-    """Kind and unit axis of a 1-DoF joint, read off the model moved by :func:`_moved`."""
+def _joint_motion(model: pin.Model, joint: int, moved: np.ndarray) -> tuple[int, np.ndarray]:
+    """Kind and unit axis of a 1-DoF joint, from its motion at the configuration ``moved``
+    (:func:`_moved`)."""
     if model.nvs[joint] != 1:
         raise SpecError(f"joint '{model.names[joint]}' ({model.joints[joint].shortname()}) has "
                         f"{model.nvs[joint]} degrees of freedom; only 1-DoF joints can lie "
                         "between the workpiece and the tool")
-    motion = model.jointPlacements[joint].inverse() * moved.liMi[joint]
+    jmodel = model.joints[joint]
+    jdata = jmodel.createData()
+    jmodel.calc(jdata, moved)  # reads its own entries of the full configuration
+    motion = jdata.M
     rotation, translation = motion.rotation, motion.translation
     if np.abs(rotation - np.eye(3)).max() <= 1e-12:
         axis, base = translation / np.linalg.norm(translation), PX
