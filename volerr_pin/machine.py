@@ -16,9 +16,11 @@ from .spec import (DIRECTIONS, MachineSpec, axis_travel, component_name, load_sp
                    spec_from_urdf)
 from .effects import add_lagged_temperatures
 from .terms import Context, Covariates
-from .urdf import URDF, Site, inject, load_urdf
+from .urdf import URDF, Site, inject, load_urdf, package_folders
 
 SPEC_FILE = "errors.toml"
+#: most memory one block of a batch evaluation takes for its Jacobians [bytes]
+BLOCK_BYTES = 128_000_000
 
 
 def machines_dir() -> Path:
@@ -87,6 +89,10 @@ class Machine:
         their terms with their coefficient values.
     urdf : URDF
         The nominal URDF the spec refers to.
+    package_dirs : path or iterable of path, optional
+        Folders of the ``package://`` packages whose meshes pictures of the machine may read
+        (see :func:`volerr_pin.urdf.package_folders`), besides the package a spec names its URDF
+        by (``urdf = {package = ...}``); the model itself reads no mesh.
 
     Raises
     ------
@@ -95,12 +101,27 @@ class Machine:
         frame is not in the model, a joint between them is not 1-DoF, or an axis, error site
         or component does not lie between the workpiece frame and the tool frame.
     URDFError
-        If Pinocchio cannot build the model.
+        If a ``<mimic>`` joint lies between the workpiece and the tool frames, the model would
+        have more than :data:`~volerr_pin.urdf.MAX_MODEL_JOINTS` joints with its error joints,
+        or Pinocchio cannot build the model.
+    InputError
+        If a folder of ``package_dirs`` does not exist.
     """
 
-    def __init__(self, spec: MachineSpec, urdf: URDF):
+    def __init__(self, spec: MachineSpec, urdf: URDF, *, package_dirs=()):
         self._spec = spec
         self._urdf = urdf
+        self._package_dirs = package_folders(package_folders(package_dirs) + _spec_package(spec))
+        tool_path = urdf.path_to_root(spec.tool_frame)
+        work_path = urdf.path_to_root(spec.workpiece_frame)
+        between = {j.name for j in tool_path} ^ {j.name for j in work_path}
+        for joint in tool_path + work_path:
+            if joint.name in between and joint.mimic is not None and joint.type != "fixed":
+                # Pinocchio's URDF reader would make it a free joint held at 0 while its master moves
+                raise URDFError(f"{urdf.source}:{joint.line}: <joint name='{joint.name}'> follows "
+                                f"'{joint.mimic}' (<mimic>) and lies between the workpiece frame "
+                                f"'{spec.workpiece_frame}' and the tool frame '{spec.tool_frame}'; "
+                                "mimic joints are not supported there")
         sites, owner_joint = [], {}
         for axis in spec.axes:
             owner_joint[axis.name] = (axis.joint, axis.reference)
@@ -135,6 +156,8 @@ class Machine:
             if not model.existFrame(frame):
                 raise SpecError(f"{spec.source}: frame '{frame}' is not in the model")
         self._model = model
+        # points per block: Jacobian blocks (rows, 6, nv) stay within BLOCK_BYTES however many joints
+        self._block = int(max(64, min(K.CHUNK, BLOCK_BYTES // (48 * model.nv))))
         error_names = [n for s in sites for n in s.names]
         error_ids = {model.getJointId(n) for n in error_names}
         self._chain = K.build_chain(model, spec.tool_frame, spec.workpiece_frame, error_ids)
@@ -205,13 +228,15 @@ class Machine:
     def travel(self) -> np.ndarray:
         """Lower and upper NC travel of each axis, ndarray of shape (n_axes, 2) [m, rad], a copy.
 
-        From the joint limits and the axis sign; an endless (continuous) axis has (-inf, inf).
+        From the joint limits and the axis sign; an endless (continuous) axis has one turn,
+        (-pi, pi) (:data:`~volerr_pin.urdf.ENDLESS_TRAVEL`): positions beyond it are outside the
+        travel like any other axis' (wrap them, or pass ``extrapolate=True``).
         """
         return self._travel.copy()
 
     @property
     def mid_travel(self) -> np.ndarray:
-        """The middle of each axis' travel, ndarray of shape (n_axes,) [m, rad]; 0 for an endless axis."""
+        """The middle of each axis' travel, ndarray of shape (n_axes,) [m, rad] (0 for an endless axis)."""
         t = self._travel
         return np.where(np.isfinite(t).all(axis=1), t.mean(axis=1), 0.0)
 
@@ -232,6 +257,13 @@ class Machine:
         span = self._travel[:, 1] - self._travel[:, 0]
         tol = 1e-9 * np.where(np.isfinite(span), np.maximum(span, 1.0), 1.0)
         return (q < self._travel[:, 0] - tol) | (q > self._travel[:, 1] + tol)
+
+    @property
+    def package_dirs(self) -> tuple[Path, ...]:
+        """Folders of ``package://`` packages whose meshes pictures of the machine may read
+        (tuple of Path, resolved): those given to :func:`load_machine` and the package a spec
+        names its URDF by."""
+        return self._package_dirs
 
     @property
     def chains(self) -> dict[str, tuple[str, ...]]:
@@ -742,9 +774,9 @@ class Machine:
         theta = self._check_theta(theta)
         cov = self.check_covariates(q.shape[0], covariates)
         out = np.empty((q.shape[0], 6))
-        buffer = np.empty((self._model.nv, min(K.CHUNK, q.shape[0])))
-        for start in range(0, q.shape[0], K.CHUNK):  # bounded memory for millions of points
-            rows = slice(start, start + K.CHUNK)
+        buffer = np.empty((self._model.nv, min(self._block, q.shape[0])))
+        for start in range(0, q.shape[0], self._block):  # bounded memory for millions of points
+            rows = slice(start, start + self._block)
             values = self._joint_values(q[rows], theta, cov.take(rows), out=buffer)
             K.pose_error(self._chain, values, order, out=out[rows])
         return out[0] if single else out
@@ -802,8 +834,8 @@ class Machine:
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
         cols = np.arange(len(self._names)) if parameters is None else np.asarray(parameters, dtype=int)
         out = np.empty((q.shape[0], 6, len(cols)))
-        for start in range(0, q.shape[0], K.CHUNK):
-            rows = slice(start, start + K.CHUNK)
+        for start in range(0, q.shape[0], self._block):
+            rows = slice(start, start + self._block)
             qb, cb = q[rows], cov.take(rows)
             values = self._axis_values(qb) if first_order else self._joint_values(qb, theta, cb)
             # d v / d theta is one joint column per coefficient, scaled by the term's basis
@@ -853,8 +885,8 @@ class Machine:
         out = np.empty((q.shape[0], 6, len(self._components)))
         cols = np.array([c.column for c in self._components], dtype=int)
         signs = np.array([c.chain_sign for c in self._components])
-        for start in range(0, q.shape[0], K.CHUNK):
-            rows = slice(start, start + K.CHUNK)
+        for start in range(0, q.shape[0], self._block):
+            rows = slice(start, start + self._block)
             J = self._error_jacobian(self._joint_values(q[rows], theta, cov.take(rows)))
             out[rows] = J[:, :, cols] * signs
         return out[0] if single else out
@@ -892,8 +924,8 @@ class Machine:
         single = np.ndim(q) == 1
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
         out = np.empty((q.shape[0], 6, len(self._error_joint_cols)))
-        for start in range(0, q.shape[0], K.CHUNK):
-            rows = slice(start, start + K.CHUNK)
+        for start in range(0, q.shape[0], self._block):
+            rows = slice(start, start + self._block)
             values = (self._axis_values(q[rows]) if first_order
                       else self._joint_values(q[rows], theta, cov.take(rows)))
             J = self._error_jacobian(values)
@@ -932,8 +964,8 @@ class Machine:
         single = np.ndim(q) == 1
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
         out = np.empty((q.shape[0], 6, len(self.axes)))
-        for start in range(0, q.shape[0], K.CHUNK):
-            rows = slice(start, start + K.CHUNK)
+        for start in range(0, q.shape[0], self._block):
+            rows = slice(start, start + self._block)
             qb, cb = q[rows], cov.take(rows)
             values = self._axis_values(qb) if nominal else self._joint_values(qb, theta, cb)
             J = K.joint_jacobian(self._chain, values, self._model.nv, nominal=nominal)
@@ -1057,8 +1089,16 @@ class Machine:
 
 
 def load_machine(machine: str | os.PathLike, *, tool_frame: str | None = None,
-                 workpiece_frame: str | None = None) -> Machine:
+                 workpiece_frame: str | None = None, package_dirs=()) -> Machine:
     """Load a machine.
+
+    Limits, checked before the URDF is parsed or handed to Pinocchio: the URDF file is a regular
+    file of at most 16 MB (:data:`~volerr_pin.urdf.MAX_URDF_BYTES`) with at most 1,000 joints
+    (:data:`~volerr_pin.urdf.MAX_JOINTS`), and the model with its error joints (six per axis,
+    body and location site, and a closing fixed joint per moving-frame site) has at most 2,000
+    joints (:data:`~volerr_pin.urdf.MAX_MODEL_JOINTS`): about 280 axes in one chain, far beyond
+    real machines and robots. A continuous (endless) joint has the travel of one turn, -180 to
+    180 deg. ``<mimic>`` joints between the workpiece and the tool frames are refused.
 
     Parameters
     ----------
@@ -1071,6 +1111,11 @@ def load_machine(machine: str | os.PathLike, *, tool_frame: str | None = None,
         Name of the tool frame; only with a bare URDF.
     workpiece_frame : str, optional
         Name of the workpiece frame; only with a bare URDF.
+    package_dirs : path or iterable of path, optional
+        Folders in which ``package://NAME/...`` meshes of the URDF are looked up, as
+        ``<folder>/NAME/...`` (or ``<folder>/...`` for a folder called NAME), for pictures of
+        the machine (:attr:`Machine.package_dirs`). The package a spec names its URDF by
+        (``urdf = {package = ...}``) is always one.
 
     Returns
     -------
@@ -1084,7 +1129,9 @@ def load_machine(machine: str | os.PathLike, *, tool_frame: str | None = None,
         bare URDF lacks ``tool_frame`` or ``workpiece_frame``; they are given with a spec;
         or the spec is invalid.
     URDFError
-        If the URDF cannot be read or parsed.
+        If the URDF cannot be read or parsed, or is beyond the limits above.
+    InputError
+        If a folder of ``package_dirs`` does not exist.
 
     Examples
     --------
@@ -1093,13 +1140,14 @@ def load_machine(machine: str | os.PathLike, *, tool_frame: str | None = None,
     >>> m.axes
     ('X', 'Y', 'Z')
     """
+    package_dirs = package_folders(package_dirs)
     text = os.fspath(machine)
     path = Path(text)
     if path.suffix.lower() == ".urdf":
         if tool_frame is None or workpiece_frame is None:
             raise SpecError(f"{path}: a bare URDF needs tool_frame= and workpiece_frame=")
         urdf = load_urdf(path)
-        return Machine(spec_from_urdf(urdf, tool_frame, workpiece_frame), urdf)
+        return Machine(spec_from_urdf(urdf, tool_frame, workpiece_frame), urdf, package_dirs=package_dirs)
     if path.suffix.lower() == ".toml":
         spec_path = path
     elif path.is_dir():
@@ -1116,4 +1164,16 @@ def load_machine(machine: str | os.PathLike, *, tool_frame: str | None = None,
     if tool_frame is not None or workpiece_frame is not None:
         raise SpecError(f"{spec_path}: tool_frame/workpiece_frame are given by the spec; "
                         "pass them only with a bare URDF")
-    return Machine(spec, urdf)
+    return Machine(spec, urdf, package_dirs=package_dirs)
+
+
+def _spec_package(spec: MachineSpec) -> tuple[Path, ...]:
+    """The folder of the package a spec names its URDF by (``urdf = {package, path}``): the
+    URDF's path without the spec's ``path``, e.g. ``.../share/example-robot-data``."""
+    ref = spec.urdf_ref
+    if not isinstance(ref, dict) or not isinstance(ref.get("path"), str):
+        return ()
+    urdf, inner = Path(spec.urdf), Path(ref["path"])
+    if urdf.parts[-len(inner.parts):] != inner.parts:
+        return ()
+    return package_folders(Path(*urdf.parts[:-len(inner.parts)]))

@@ -6,25 +6,49 @@ error joints (three prismatic along x, y, z, then three revolute about x, y, z) 
 inserted either *after* an axis joint (errors in the moving frame) or *before* it
 (errors in the fixed frame, at the joint origin). Everything else in the file (visuals,
 inertias, materials, unknown elements) is kept.
+
+Limits, checked before anything else reads the file: a URDF file holds at most
+:data:`MAX_URDF_BYTES` bytes and :data:`MAX_JOINTS` joints, and a model with its error joints
+at most :data:`MAX_MODEL_JOINTS` joints (see :func:`load_urdf`). Files a URDF names (meshes,
+textures) are only read through :func:`checked_meshes`, which keeps them inside the URDF's own
+folder and the package folders named.
 """
 
 from __future__ import annotations
 
 import copy
+import functools
 import math
+import os
+import re
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from lxml import etree
 
-from .errors import URDFError
+from .errors import InputError, URDFError
 
 JOINT_TYPES = ("fixed", "prismatic", "revolute", "continuous", "floating", "planar")
 #: directions of the six error joints of a group, in order
 ERROR_DIRECTIONS = ("X", "Y", "Z", "A", "B", "C")
 #: half-range of the limits written on injected error joints (m or rad): wide, never active
 ERROR_JOINT_RANGE = 1.0
+#: travel of an endless (continuous) joint [rad]: one turn, -180 to 180 deg
+ENDLESS_TRAVEL = (-math.pi, math.pi)
+#: largest URDF file read [bytes]; real machines and robots take well under 1 MB
+MAX_URDF_BYTES = 16_000_000
+#: most joints (of any type) a URDF file may hold
+MAX_JOINTS = 1000
+#: most joints a model may have once its error joints are added (Pinocchio's URDF parser
+#: recurses once per joint of a chain, about 2.2 kB of stack each, and crashes past ~3,700
+#: joints on an 8 MB stack; 2,000 also keeps its building under about a second)
+MAX_MODEL_JOINTS = 2000
+#: largest mesh or texture file a URDF may name [bytes]
+MAX_MESH_BYTES = 64_000_000
+#: largest total of the mesh and texture files of one URDF [bytes]
+MAX_MESHES_BYTES = 256_000_000
 
 
 @dataclass(frozen=True)
@@ -46,9 +70,13 @@ class Joint:
     axis : tuple of float (3,)
         Unit joint axis (default (1, 0, 0)).
     lower, upper : float
-        Joint limits [m or rad]; -inf, inf for joints other than prismatic and revolute.
+        Joint limits [m or rad]: those of the file for prismatic and revolute joints,
+        :data:`ENDLESS_TRAVEL` (one turn, -pi to pi) for continuous joints, -inf, inf for the
+        others.
     line : int
         Line of the ``<joint>`` element in the file (0 if unknown).
+    mimic : str or None
+        The joint a ``<mimic>`` element makes this one follow (None without one).
     """
 
     name: str
@@ -61,6 +89,7 @@ class Joint:
     lower: float
     upper: float
     line: int
+    mimic: str | None = None
 
 
 @dataclass(frozen=True)
@@ -103,10 +132,12 @@ class URDF:
         Joint or None
             The parent joint.
         """
-        for joint in self.joints.values():
-            if joint.child == link:
-                return joint
-        return None
+        return self._parents.get(link)
+
+    @functools.cached_property
+    def _parents(self) -> dict[str, Joint]:
+        # built once: path_to_root walks it for every link of a chain
+        return {joint.child: joint for joint in self.joints.values()}
 
     def path_to_root(self, link: str) -> list[Joint]:
         """Joints from ``link`` up to the root, nearest first.
@@ -164,13 +195,23 @@ def _floats(source: str, element, attr: str, count: int, default: str | None) ->
     return values
 
 
-def parse_urdf(text: str | bytes, source: str = "<string>") -> URDF:
+def _parser() -> etree.XMLParser:
+    # no DTD loading, no network, no external entities: a URDF names no other file to the parser
+    return etree.XMLParser(remove_blank_text=True, resolve_entities=False, no_network=True,
+                           load_dtd=False, huge_tree=False)
+
+
+def parse_urdf(text: str | bytes, source: str = "<string>", *, max_joints: int = MAX_JOINTS,
+               max_bytes: int | None = MAX_URDF_BYTES) -> URDF:
     """Parse and check a URDF document.
 
-    Checks: the root element is ``<robot>``; links and joints have unique names; joint types
-    are known; parents and children are defined links; every link has at most one parent
-    joint; numbers are finite; prismatic and revolute joints have limits with lower < upper;
-    the links form one tree.
+    Checks: the text is at most ``max_bytes`` long and declares no XML entities; the
+    root element is ``<robot>``; it holds at most ``max_joints`` joints (counted before anything
+    else); links and joints have unique names; joint types are known; parents and children are
+    defined links; every link has at most one parent joint; numbers are finite; prismatic and
+    revolute joints have limits with lower < upper; a ``<mimic>`` names a joint of the file; the
+    links form one tree. A continuous joint gets the travel :data:`ENDLESS_TRAVEL` (one turn,
+    -180 to 180 deg).
 
     Parameters
     ----------
@@ -178,6 +219,10 @@ def parse_urdf(text: str | bytes, source: str = "<string>") -> URDF:
         The XML text.
     source : str, default "<string>"
         File name used in error messages.
+    max_joints : int, default MAX_JOINTS
+        Most joints the document may hold.
+    max_bytes : int or None, default MAX_URDF_BYTES
+        Longest text accepted [bytes]; None for no limit.
 
     Returns
     -------
@@ -191,28 +236,43 @@ def parse_urdf(text: str | bytes, source: str = "<string>") -> URDF:
     """
     if isinstance(text, str):
         text = text.encode()
-    parser = etree.XMLParser(remove_blank_text=True)
+    if max_bytes is not None and len(text) > max_bytes:
+        raise URDFError(f"{source}: {len(text):,} bytes, more than the {max_bytes:,} a URDF may have")
     try:
-        document = etree.ElementTree(etree.fromstring(text, parser))
+        document = etree.ElementTree(etree.fromstring(text, _parser()))
     except etree.XMLSyntaxError as err:
         line, col = err.position if err.position else (err.lineno, 0)
         raise URDFError(f"{source}:{line}:{col}: malformed XML: {err.msg}") from err
+    dtd = document.docinfo.internalDTD
+    entities = [e.name for e in dtd.iterentities()] if dtd is not None else []
+    if entities:
+        raise URDFError(f"{source}: <!DOCTYPE>: XML entity declarations are not allowed in a URDF "
+                        f"(<!ENTITY {entities[0]}>)")
     robot = document.getroot()
     if robot.tag != "robot":
         raise URDFError(f"{_where(source, robot)}: root element must be <robot>")
-    links = []
+    elements = robot.findall("joint")
+    if len(elements) > max_joints:
+        raise URDFError(f"{source}: {len(elements):,} joints, more than the {max_joints:,} a URDF may have")
+    for node in robot.iter(etree.Entity):
+        raise URDFError(f"{source}:{node.sourceline}: entity reference {node.text} is not allowed in a URDF")
+    links: dict[str, int] = {}
     for link in robot.findall("link"):
         name = link.get("name")
         if not name:
             raise URDFError(f"{_where(source, link)}: <link> without a name")
         if name in links:
             raise URDFError(f"{_where(source, link)}: duplicate link name '{name}'")
-        links.append(name)
+        links[name] = link.sourceline or 0
     if not links:
         raise URDFError(f"{source}: the robot has no <link>")
+    if len(links) > max_joints + 1:
+        raise URDFError(f"{source}: {len(links):,} links, more than the {max_joints + 1:,} a tree of "
+                        f"{max_joints:,} joints may have")
     joints: dict[str, Joint] = {}
     children: dict[str, str] = {}
-    for element in robot.findall("joint"):
+    mimics: dict[str, etree._Element] = {}
+    for element in elements:
         where = _where(source, element)
         name = element.get("name")
         if not name:
@@ -257,28 +317,46 @@ def parse_urdf(text: str | bytes, source: str = "<string>") -> URDF:
             upper = _floats(source, limit, "upper", 1, None)[0]
             if not lower < upper:
                 raise URDFError(f"{_where(source, limit)}: lower={lower} must be below upper={upper}")
+        elif jtype == "continuous":
+            lower, upper = ENDLESS_TRAVEL  # URDF gives an endless joint no limits; one turn
+        mimic = element.find("mimic")
+        if mimic is not None:
+            mimics[name] = mimic
         joints[name] = Joint(name, jtype, ends["parent"], ends["child"], xyz, rpy, axis,
-                             lower, upper, element.sourceline or 0)
+                             lower, upper, element.sourceline or 0,
+                             mimic.get("joint") if mimic is not None else None)
+    for name, mimic in mimics.items():
+        if mimic.get("joint") not in joints or mimic.get("joint") == name:
+            raise URDFError(f"{_where(source, mimic)}: joint '{name}' mimics '{mimic.get('joint')}', "
+                            f"which is not another joint of {source}")
     roots = [link for link in links if link not in children]
     if len(roots) != 1:
-        raise URDFError(f"{source}: the links must form one tree; root candidates: {roots}")
+        shown = roots[:10] + (["..."] if len(roots) > 10 else [])
+        raise URDFError(f"{source}: the links must form one tree; root candidates: {shown}")
     # a cycle would leave some link unreachable from the root
+    below: dict[str, list[str]] = {}
+    for joint in joints.values():
+        below.setdefault(joint.parent, []).append(joint.child)
     reachable, frontier = {roots[0]}, [roots[0]]
     while frontier:
-        link = frontier.pop()
-        for joint in joints.values():
-            if joint.parent == link and joint.child not in reachable:
-                reachable.add(joint.child)
-                frontier.append(joint.child)
+        for child in below.get(frontier.pop(), ()):
+            if child not in reachable:
+                reachable.add(child)
+                frontier.append(child)
     if len(reachable) != len(links):
         missing = sorted(set(links) - reachable)
-        raise URDFError(f"{source}: links {missing} are not reachable from root '{roots[0]}' "
-                        "(cycle in the joint graph)")
+        raise URDFError(f"{source}: links {missing[:10]}{' ...' if len(missing) > 10 else ''} are not "
+                        f"reachable from root '{roots[0]}' (cycle in the joint graph)")
     return URDF(robot.get("name", ""), source, tuple(links), joints, roots[0], document)
 
 
 def load_urdf(path: str | Path) -> URDF:
     """Read and parse a URDF file (see :func:`parse_urdf`).
+
+    The file must be a regular file of at most :data:`MAX_URDF_BYTES` (16 MB) holding at most
+    :data:`MAX_JOINTS` (1,000) joints; both are checked before it is parsed. A continuous joint
+    gets the travel :data:`ENDLESS_TRAVEL`, one turn from -180 to 180 deg. Meshes the file names
+    are not read here (see :func:`checked_meshes`).
 
     Parameters
     ----------
@@ -293,14 +371,39 @@ def load_urdf(path: str | Path) -> URDF:
     Raises
     ------
     URDFError
-        If the file cannot be read or is not a valid URDF.
+        If the file cannot be read, is not a regular file, is too large, holds too many joints
+        or is not a valid URDF.
     """
     path = Path(path)
     try:
-        text = path.read_bytes()
+        # O_NONBLOCK: a FIFO named as the URDF must not hang the open
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     except OSError as err:
         raise URDFError(f"{path}: cannot read URDF: {err.strerror}") from err
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise URDFError(f"{path}: not a regular file; a URDF must be one")
+        if info.st_size > MAX_URDF_BYTES:
+            raise URDFError(f"{path}: {info.st_size:,} bytes, more than the {MAX_URDF_BYTES:,} a URDF may have")
+        text = _read_at_most(fd, MAX_URDF_BYTES + 1)
+    except OSError as err:
+        raise URDFError(f"{path}: cannot read URDF: {err.strerror}") from err
+    finally:
+        os.close(fd)
     return parse_urdf(text, str(path))
+
+
+def _read_at_most(fd: int, limit: int) -> bytes:
+    """Up to ``limit`` bytes of an open file (it may grow while it is read)."""
+    parts, size = [], 0
+    while size < limit:
+        chunk = os.read(fd, min(1 << 20, limit - size))
+        if not chunk:
+            break
+        parts.append(chunk)
+        size += len(chunk)
+    return b"".join(parts)
 
 
 def _fmt(values) -> str:
@@ -353,6 +456,202 @@ class Site:
     names: tuple[str, ...]
 
 
+def package_folders(package_dirs) -> tuple[Path, ...]:
+    """Check the folders ``package://`` file names may be looked up in.
+
+    Parameters
+    ----------
+    package_dirs : path or iterable of path
+        One folder or several. ``package://NAME/rest`` is ``<folder>/NAME/rest``, or
+        ``<folder>/rest`` when the folder itself is called NAME (as ROS and Pinocchio look
+        packages up).
+
+    Returns
+    -------
+    tuple of Path
+        The folders, resolved (links followed), without repeats.
+
+    Raises
+    ------
+    InputError
+        Naming ``package_dirs``, if one of them is not an existing folder.
+    """
+    if package_dirs is None:
+        return ()
+    if isinstance(package_dirs, (str, os.PathLike)):
+        package_dirs = (package_dirs,)
+    out: list[Path] = []
+    for entry in package_dirs:
+        text = os.fspath(entry)
+        if not str(text).strip() or not os.path.isdir(text):
+            raise InputError(f"package_dirs: {text!r} is not a folder", parameters=("package_dirs",))
+        folder = Path(os.path.realpath(text))
+        if folder not in out:
+            out.append(folder)
+    return tuple(out)
+
+
+class _Refused(Exception):
+    """Why a file a URDF names is not read (the end of a sentence starting with its name)."""
+
+
+_PACKAGE_RE = re.compile(r"^[A-Za-z0-9_.+-]+$")
+_SCHEME_RE = re.compile(r"^([A-Za-z][A-Za-z0-9+.-]*)://")
+
+
+def _inside(path: str, root: str) -> bool:
+    return path == root or path.startswith(root.rstrip(os.sep) + os.sep)
+
+
+def _locate(filename: str, base: Path | None, packages: tuple[Path, ...]) -> tuple[Path, list[Path]]:
+    """The file a URDF file name points at (links not yet followed) and the folders it must
+    lie in once they are."""
+    name = filename.strip()
+    if not name:
+        raise _Refused("is empty")
+    if name.startswith("package://"):
+        package, _, rest = name[len("package://"):].partition("/")
+        if not _PACKAGE_RE.match(package) or package in (".", "..") or not rest:
+            raise _Refused("is not package://NAME/path")
+        for folder in packages:
+            for root in (folder / package, folder if folder.name == package else None):
+                if root is not None and root.is_dir():
+                    return root / rest, [root]
+        named = ", ".join(str(f) for f in packages) if packages else "none named"
+        raise _Refused(f"is in package '{package}', which none of the package folders holds ({named})")
+    scheme = _SCHEME_RE.match(name)
+    if scheme and scheme.group(1).lower() == "file":
+        name = name[len(scheme.group(0)):]
+        if not name.startswith("/"):
+            raise _Refused("is a file:// address without an absolute path")
+    elif scheme:
+        raise _Refused(f"is a {scheme.group(1)}:// address; only files are read")
+    path = Path(name)
+    roots = ([base] if base is not None else []) + list(packages)
+    if not path.is_absolute():
+        if base is None:
+            raise _Refused("is relative, and the URDF was not read from a folder")
+        return base / path, [base]
+    return path, roots
+
+
+def _read_resource(filename: str, base: Path | None, packages: tuple[Path, ...], max_bytes: int
+                   ) -> tuple[tuple[int, int], str, bytes]:
+    """Identity (device, inode), resolved path and content of a file a URDF names, if it lies
+    inside its allowed folders (links followed), is a regular file and is at most ``max_bytes``."""
+    target, roots = _locate(filename, base, packages)
+    real = os.path.realpath(target)
+    allowed = [os.path.realpath(r) for r in roots]
+    where = "the URDF's folder" + (" and the package folders named" if packages else "")
+    if not any(_inside(real, r) for r in allowed):
+        raise _Refused(f"lies outside {where}")
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOFOLLOW", 0)
+    try:
+        fd = os.open(real, flags)  # non-blocking: a FIFO must not hang the open
+    except FileNotFoundError:
+        raise _Refused("does not exist") from None
+    except OSError as err:
+        raise _Refused(f"cannot be read ({err.strerror})") from None
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise _Refused("is not a regular file")
+        if info.st_size > max_bytes:
+            raise _Refused(f"is {info.st_size:,} bytes, more than the {max_bytes:,} a mesh may have")
+        opened = f"/proc/self/fd/{fd}"
+        if os.path.islink(opened) and not any(_inside(os.readlink(opened), r) for r in allowed):
+            raise _Refused(f"lies outside {where}")  # a folder on the way was swapped for a link
+        content = _read_at_most(fd, max_bytes + 1)
+    except OSError as err:
+        raise _Refused(f"cannot be read ({err.strerror})") from None
+    finally:
+        os.close(fd)
+    if len(content) > max_bytes:
+        raise _Refused(f"is more than the {max_bytes:,} bytes a mesh may have")
+    return (info.st_dev, info.st_ino), real, content
+
+
+def checked_meshes(urdf: URDF, folder: str | os.PathLike, package_dirs=(), *, path: str | os.PathLike | None = None,
+                   max_bytes: int = MAX_MESH_BYTES, max_total: int = MAX_MESHES_BYTES
+                   ) -> tuple[etree._ElementTree, list[str]]:
+    """A copy of the URDF whose meshes and textures are copies, in ``folder``, of checked files.
+
+    Any program given the copy (Rerun's URDF importer embeds every mesh file it names in the
+    recording) reads only files that passed these checks: a relative, absolute or ``file://``
+    name must lie inside the URDF's own folder, a ``package://`` name inside its package's
+    folder among ``package_dirs`` (absolute names may also lie in a package folder); once
+    links are followed it must still lie there, be a regular file (no FIFO, device or folder)
+    of at most ``max_bytes``, and all files together at most ``max_total``. Other URI schemes
+    are not read. A ``<visual>`` or ``<collision>`` whose mesh fails is dropped (a
+    ``<texture>``: the element), and a note says which.
+
+    Parameters
+    ----------
+    urdf : URDF
+        The URDF (unchanged).
+    folder : path
+        An existing folder to copy the files into (a temporary one).
+    package_dirs : path or iterable of path, optional
+        Folders of ``package://`` packages (see :func:`package_folders`).
+    path : path, optional
+        The URDF file, whose folder relative names start from; default ``urdf.source`` when
+        that is an existing file, else no folder (only ``package://`` names are read).
+    max_bytes : int, default MAX_MESH_BYTES
+        Largest file read [bytes].
+    max_total : int, default MAX_MESHES_BYTES
+        Largest total of the files read [bytes].
+
+    Returns
+    -------
+    document : lxml.etree._ElementTree
+        The copy, every kept ``filename`` an absolute path in ``folder``.
+    notes : list of str
+        One line per element dropped: URDF file and line, the element, the file name and why.
+
+    Raises
+    ------
+    InputError
+        If a folder of ``package_dirs`` does not exist.
+    """
+    packages = package_folders(package_dirs)
+    folder = Path(folder)
+    if path is None and os.path.isfile(urdf.source):
+        path = urdf.source
+    base = Path(os.path.realpath(Path(path).parent)) if path is not None else None
+    document = copy.deepcopy(urdf.document)
+    robot = document.getroot()
+    notes: list[str] = []
+    copies: dict[tuple[int, int], str] = {}
+    total = 0
+    for element in list(robot.iter("mesh", "texture")):
+        if robot not in element.iterancestors():
+            continue  # its <visual> is already dropped
+        filename = element.get("filename")
+        try:
+            if filename is None:
+                raise _Refused("is missing")
+            key, real, content = _read_resource(filename, base, packages, max_bytes)
+            if key not in copies:
+                if total + len(content) > max_total:
+                    raise _Refused(f"would bring the files of this URDF past {max_total:,} bytes")
+                total += len(content)
+                safe = re.sub(r"[^A-Za-z0-9_.-]", "_", os.path.basename(real))[-80:]
+                copies[key] = str(folder / f"{len(copies):04d}_{safe}")
+                Path(copies[key]).write_bytes(content)
+            element.set("filename", copies[key])
+        except _Refused as why:
+            holder = next((a for a in element.iterancestors() if a.tag in ("visual", "collision")), None) \
+                if element.tag == "mesh" else None
+            drop = holder if holder is not None else element
+            link = next((a.get("name") for a in element.iterancestors() if a.tag == "link"), None)
+            owner = f" of link '{link}'" if link else ""
+            shown = "" if filename is None else f" '{filename}'"
+            notes.append(f"{urdf.source}:{element.sourceline}: <{drop.tag}>{owner} dropped: "
+                         f"{element.tag} file{shown} {why}")
+            drop.getparent().remove(drop)
+    return document, notes
+
+
 def complete_limits(robot: etree._Element) -> bool:
     """Give every joint ``<limit>`` an ``effort`` and a ``velocity`` (0 where missing).
 
@@ -400,8 +699,14 @@ def inject(urdf: URDF, sites: list[Site]) -> URDF:
     Raises
     ------
     URDFError
-        If a joint origin of the file is invalid.
+        If a joint origin of the file is invalid, or the model would have more than
+        :data:`MAX_MODEL_JOINTS` joints (counted before anything is built).
     """
+    added = sum(7 if site.where == "after" else 6 for site in sites)  # "after" closes with a fixed joint
+    if len(urdf.joints) + added > MAX_MODEL_JOINTS:
+        raise URDFError(f"{urdf.source}: {len(urdf.joints) + added:,} joints once the error joints are added "
+                        f"({len(urdf.joints):,} in the file, {added:,} for {len(sites):,} error sites), more "
+                        f"than the {MAX_MODEL_JOINTS:,} a model may have")
     document = copy.deepcopy(urdf.document)
     robot = document.getroot()
     elements = {j.get("name"): j for j in robot.findall("joint")}
@@ -443,7 +748,7 @@ def inject(urdf: URDF, sites: list[Site]) -> URDF:
             etree.SubElement(closing, "origin", xyz=_fmt(-np.asarray(ref)), rpy="0 0 0")
             robot.append(closing)
     text = etree.tostring(document, pretty_print=True, xml_declaration=True, encoding="utf-8")
-    return parse_urdf(text, urdf.source + " (with error joints)")
+    return parse_urdf(text, urdf.source + " (with error joints)", max_joints=MAX_MODEL_JOINTS, max_bytes=None)
 
 
 def _rpy_matrix(rpy) -> np.ndarray:
