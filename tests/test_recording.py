@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 import rerun as rr
 
+import volerr_pin as vp
 from volerr_pin.cli import main
+from volerr_pin.errors import InputError
 from volerr_pin.viz.plots import field_slice_png, ranking_png
 from volerr_pin.ranking import rank
 from volerr_pin.viz.recording import log_field, log_time_series, new_recording, record_field, sweep_angles
@@ -26,7 +28,7 @@ def column(batches, name):
     return [np.asarray(row, dtype=float) for b in batches for row in b.column(name).to_pylist()]
 
 
-@pytest.mark.filterwarnings("ignore:RRD file has no footer")
+@pytest.mark.filterwarnings("error:RRD file has no footer")
 def test_field_recording_holds_the_volumetric_error(machines, tmp_path):
     m = machines["vmc500"]
     path = tmp_path / "vmc500.rrd"
@@ -55,7 +57,7 @@ def test_field_recording_holds_the_volumetric_error(machines, tmp_path):
     assert len(views) == 3  # 3D view, ranking bar chart, ranking table
 
 
-@pytest.mark.filterwarnings("ignore:RRD file has no footer")
+@pytest.mark.filterwarnings("error:RRD file has no footer")
 def test_rotary_sweep_is_on_the_sweep_timeline(machines, tmp_path):
     m = machines["cgm4000"]
     path = tmp_path / "cgm.rrd"
@@ -184,7 +186,7 @@ def test_the_model_and_the_pictures_do_not_load_rerun():
     assert out.stdout.split() == ["False", "False", "False"]
 
 
-@pytest.mark.filterwarnings("ignore:RRD file has no footer")
+@pytest.mark.filterwarnings("error:RRD file has no footer")
 def test_gear_recording_holds_the_normal_deviations(machines, tmp_path):
     from volerr_pin.gear import deviations_by_source
     from volerr_pin.viz.recording import record_gear
@@ -209,3 +211,155 @@ def test_gear_cli_rrd(tmp_path, capsys):
     path = tmp_path / "g.rrd"
     assert main(["gear", "gear_roller", "--profile-points", "3", "--face-points", "3", "--rrd", str(path)]) == 0
     assert path.stat().st_size > 0 and "wrote" in capsys.readouterr().err
+
+
+# --- bad inputs and atomic files (issue 22) -------------------------------------------------
+
+@pytest.mark.parametrize("steps", [-1, 2.5, True, "4"])
+def test_sweep_steps_must_be_a_whole_number(machines, tmp_path, steps):
+    with pytest.raises(InputError, match=r"sweep_steps must be a whole number >= 0 \(0: no sweep\), got") as info:
+        record_field(machines["cgm4000"], tmp_path / "c.rrd", counts=[2], sweep_steps=steps)
+    assert info.value.parameters == ("sweep_steps",)
+    assert not (tmp_path / "c.rrd").exists()
+
+
+def test_sweep_steps_cli(tmp_path, capsys):
+    assert main(["field", "cgm4000", "--out", str(tmp_path / "c.rrd"), "--grid", "2", "--sweep-steps", "-1"]) == 2
+    assert "--sweep-steps must be a whole number >= 0" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("counts, steps, names", [([100_000], 0, "counts"), ([2], 10**9, "counts, sweep_steps")])
+def test_absurd_field_sizes_are_refused_before_allocating(machines, tmp_path, counts, steps, names):
+    machine = machines["vmc500"] if steps == 0 else machines["cgm4000"]
+    with pytest.raises(InputError, match=f"needs about .* of memory, more than this machine can spare .*; reduce {names}"):
+        record_field(machine, tmp_path / "c.rrd", counts=counts, sweep_steps=steps)
+
+
+def test_a_failed_recording_leaves_the_file_as_it_was(machines, tmp_path, monkeypatch):
+    import volerr_pin.viz.recording as recording
+
+    target = tmp_path / "field.rrd"
+    target.write_bytes(b"the recording of yesterday")
+
+    def failing(*args, **kwargs):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(recording, "log_field", failing)
+    with pytest.raises(RuntimeError, match="disk full"):
+        record_field(machines["vmc500"], target, counts=[2])
+    assert target.read_bytes() == b"the recording of yesterday"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["field.rrd"]  # no temporary file left
+
+
+@pytest.mark.filterwarnings("error:RRD file has no footer")
+def test_a_recording_replaces_the_file_complete(machines, tmp_path):
+    """Written beside the target and renamed once Rerun has closed it: the footer is there."""
+    target = tmp_path / "field.rrd"
+    target.write_bytes(b"old")
+    target.chmod(0o640)
+    summary = record_field(machines["vmc500"], target, counts=[2])
+    assert summary["bytes"] == target.stat().st_size > 10_000
+    assert chunks(target, "/field/arrows") and (target.stat().st_mode & 0o777) == 0o640
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["field.rrd"]
+
+
+@pytest.mark.filterwarnings("error:RRD file has no footer")
+def test_the_file_keeps_everything_while_a_viewer_is_fed(machines, tmp_path):
+    """``save`` then ``connect_grpc`` replaced the file sink: the file held only properties."""
+    import socket
+
+    probe = socket.socket()
+    probe.bind(("127.0.0.1", 0))
+    port = probe.getsockname()[1]
+    probe.close()
+    viewer = rr.RecordingStream("stand-in viewer")
+    url = viewer.serve_grpc(grpc_port=port)
+    try:
+        record_field(machines["vmc500"], tmp_path / "tee.rrd", counts=[3], connect=url)
+    finally:
+        viewer.disconnect()
+    assert chunks(tmp_path / "tee.rrd", "/field/arrows") and chunks(tmp_path / "tee.rrd", "/machine/transforms/x_axis")
+
+
+@pytest.mark.parametrize("url", ["nonsense", "rerun+http://127.0.0.1:{port}/proxy"])
+def test_an_unreachable_viewer_is_one_clean_error(machines, tmp_path, url):
+    import socket
+
+    probe = socket.socket()
+    probe.bind(("127.0.0.1", 0))
+    port = probe.getsockname()[1]
+    probe.close()  # nothing listens there now
+    target = tmp_path / "f.rrd"
+    target.write_bytes(b"old")
+    with pytest.raises(InputError, match="connect: cannot reach a Rerun viewer") as info:
+        record_field(machines["vmc500"], target, counts=[2], connect=url.format(port=port))
+    assert info.value.parameters == ("connect",)
+    assert target.read_bytes() == b"old" and len(list(tmp_path.iterdir())) == 1
+
+
+ENDLESS_URDF = """<?xml version="1.0"?>
+<robot name="endless">
+  <link name="base"/><link name="carriage"/><link name="tip"/><link name="table"/>
+  <joint name="x" type="prismatic"><parent link="base"/><child link="carriage"/>
+    <axis xyz="1 0 0"/><limit lower="0" upper="0.3"/></joint>
+  <joint name="tip_mount" type="fixed"><parent link="carriage"/><child link="tip"/>
+    <origin xyz="0 0.1 -0.05"/></joint>
+  <joint name="c" type="continuous"><parent link="base"/><child link="table"/>
+    <axis xyz="0 0 1"/></joint>
+</robot>
+"""
+
+
+@pytest.mark.filterwarnings("error:RRD file has no footer")
+def test_field_of_an_endless_axis_sweeps_one_turn(tmp_path):
+    """``volerr field`` stopped with "q[0, 3] (axis gc) is nan" on a continuous joint."""
+    (tmp_path / "endless.urdf").write_text(ENDLESS_URDF)
+    (tmp_path / "errors.toml").write_text('''format = 1
+[machine]
+name = "endless"
+urdf = "endless.urdf"
+tool_frame = "tip"
+workpiece_frame = "table"
+[axes.C]
+joint = "c"
+[axes.X]
+joint = "x"
+[errors.EXC]
+kind = "legendre"
+coefficients_um = [0.0, 5.0]
+[errors.ECC]
+kind = "legendre"
+coefficients_arcsec = [2.0, 0.0, 3.0]
+''')
+    m = vp.load_machine(tmp_path)
+    summary = record_field(m, tmp_path / "e.rrd", counts=[3], sweep_steps=5, scale=1000.0)
+    assert summary["sweep_axes"] == ["C"] and summary["sweep_steps"] == 5
+    angles = sweep_angles(m, ("C",), 5)
+    np.testing.assert_allclose(angles[:, 0], np.linspace(-np.pi, np.pi, 5))
+    vectors = column(chunks(tmp_path / "e.rrd", "/field/arrows"), "Arrows3D:vectors")
+    q = field_grid(m, [3])
+    for step, angle in enumerate(angles):
+        qs = q.copy()
+        qs[:, 0] = angle
+        expected = m.volumetric_error(qs)[:, :3] * 1000.0
+        assert np.abs(expected).max() > 1e-4
+        np.testing.assert_allclose(np.reshape(vectors[step], (-1, 3)), expected, rtol=1e-6, atol=1e-9)
+
+
+def test_field_cli_on_a_bare_urdf_with_an_endless_axis(tmp_path, capsys):
+    (tmp_path / "endless.urdf").write_text(ENDLESS_URDF)
+    out = tmp_path / "e.rrd"
+    assert main(["field", str(tmp_path / "endless.urdf"), "--tool-frame", "tip", "--workpiece-frame", "table",
+                 "--out", str(out), "--grid", "3", "--sweep-steps", "4", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["sweep_axes"] == ["c"] and summary["config"] == [0.0, 150.0] and out.stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_demo_on_a_bare_urdf_with_an_endless_axis(tmp_path, capsys):
+    (tmp_path / "endless.urdf").write_text(ENDLESS_URDF)
+    out = tmp_path / "d.rrd"
+    assert main(["demo", "--machine", str(tmp_path / "endless.urdf"), "--tool-frame", "tip", "--workpiece-frame",
+                 "table", "--grid", "3", "--out", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["recording"]["sweep_axes"] == ["c"] and out.stat().st_size > 10_000

@@ -13,12 +13,23 @@ logs constant data with ``static=True`` and writes under hierarchical entity pat
 
 Field data sit in the URDF's workpiece frame (``CoordinateFrame``), so they move with the
 table in the 3D view. Rotary axes get a sweep on the ``sweep`` timeline.
+
+Recordings are shared, so Rerun's URDF importer (which embeds every mesh file a URDF names)
+is only ever given a copy of the URDF whose meshes passed :func:`volerr_pin.urdf.checked_meshes`:
+inside the URDF's folder or a package folder named, regular files, limited in size; other
+visuals are dropped with a warning. Files are written through a temporary file beside the
+target, renamed over it once Rerun has closed it (footer written), so a failed run leaves an
+existing file as it was.
 """
 
 from __future__ import annotations
 
 import contextlib
-import os
+import copy
+import math
+import numbers
+import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -28,9 +39,14 @@ from matplotlib import colormaps
 
 from ..errors import InputError
 from ..machine import Machine
+from ..safeio import check_outputs, replacing, require_memory
+from ..urdf import checked_meshes, complete_limits, package_folders
 from ..workspace import FieldData, default_config, evaluate_field, field_grid, nice_scale, to_engineering
 from ..units import UM_PER_M
 
+#: memory a field point takes while it is evaluated and logged, and per sweep step held [bytes]
+#: (measured: about 0.6 kB per point and step for a 5-axis machine; doubled for headroom)
+FIELD_POINT_BYTES = 1200
 
 
 def new_recording(app_id: str = "volerr_pin", recording_id: str | None = None) -> rr.RecordingStream:
@@ -53,13 +69,17 @@ def default_blueprint(time_series: bool = False, sweep: bool = False) -> rrb.Blu
 
 
 def log_machine(rec: rr.RecordingStream, machine: Machine, q: np.ndarray,
-                prefix: str = "machine", moving: tuple[str, ...] = ()) -> None:
+                prefix: str = "machine", moving: tuple[str, ...] = (), package_dirs=None) -> None:
     """The nominal URDF (static) and the axis-joint transforms at NC positions ``q`` (SI),
     static except for the axes named in ``moving`` (those are logged on the active timeline
-    by :func:`log_joint_transforms`)."""
+    by :func:`log_joint_transforms`).
+
+    Meshes are read only as :func:`volerr_pin.urdf.checked_meshes` allows, from the machine's
+    :attr:`~volerr_pin.machine.Machine.package_dirs` and ``package_dirs``; a visual whose mesh
+    is refused is left out with a warning naming the URDF, its line and the mesh."""
     from rerun.urdf import UrdfTree
 
-    with _package_paths(machine.spec.urdf), _complete_urdf(machine) as path:
+    with _rerun_urdf(machine, package_dirs) as path:
         tree = UrdfTree.from_file_path(path, entity_path_prefix=prefix)
         tree.log_urdf_to_recording(rec)
     still = [a for a in machine.axes if a not in moving]
@@ -73,7 +93,7 @@ def log_joint_transforms(rec, machine: Machine, q: np.ndarray, prefix: str = "ma
     from rerun.urdf import UrdfTree
 
     if tree is None:
-        with _complete_urdf(machine) as path:
+        with _rerun_urdf(machine, meshes=False) as path:
             tree = UrdfTree.from_file_path(path, entity_path_prefix=prefix)
     for axis, value in zip(machine.spec.axes, q):
         if axes is not None and axis.name not in axes:
@@ -84,47 +104,80 @@ def log_joint_transforms(rec, machine: Machine, q: np.ndarray, prefix: str = "ma
 
 
 @contextlib.contextmanager
-def _complete_urdf(machine: Machine):
-    """The path of the machine's URDF as Rerun's importer takes it: URDF allows a
-    ``<limit>`` without ``effort`` and ``velocity``, Rerun's importer does not. When they
-    are missing, a copy with them set to 0 and relative mesh paths made absolute is written
-    to a temporary folder for the duration of the block."""
-    import copy
-    import tempfile
-
-    from ..urdf import complete_limits
-
-    path = Path(machine.spec.urdf)
-    document = copy.deepcopy(machine.urdf.document)
-    if not complete_limits(document.getroot()):
-        yield path
-        return
-    for mesh in document.getroot().iter("mesh"):
-        name = mesh.get("filename", "")
-        if name and "://" not in name and not os.path.isabs(name):
-            mesh.set("filename", str((path.parent / name).resolve()))
+def _rerun_urdf(machine: Machine, package_dirs=None, meshes: bool = True):
+    """The path of a copy of the machine's URDF that Rerun's importer may read, in a temporary
+    folder for the duration of the block: every ``<limit>`` with ``effort`` and ``velocity`` (URDF
+    allows leaving them out, the importer does not), and every mesh a checked copy beside it
+    (:func:`volerr_pin.urdf.checked_meshes`; refused ones dropped with a warning), or no visuals
+    at all when ``meshes`` is False."""
     with tempfile.TemporaryDirectory(prefix="volerr_urdf_") as folder:
-        copy_path = Path(folder) / path.name
-        document.write(str(copy_path), xml_declaration=True, encoding="utf-8")
-        yield copy_path
+        if meshes:
+            roots = machine.package_dirs + package_folders(package_dirs)
+            document, notes = checked_meshes(machine.urdf, folder, roots, path=machine.spec.urdf)
+            for note in notes:
+                warnings.warn(note, stacklevel=2)
+        else:
+            document = copy.deepcopy(machine.urdf.document)
+            for element in list(document.getroot().iter("visual", "collision", "texture")):
+                if element.getparent() is not None:
+                    element.getparent().remove(element)
+        complete_limits(document.getroot())
+        path = Path(folder) / f"{Path(machine.spec.urdf).stem or 'machine'}.urdf"
+        document.write(str(path), xml_declaration=True, encoding="utf-8")
+        yield path
 
 
 @contextlib.contextmanager
-def _package_paths(urdf: Path):
-    """Let Rerun's URDF importer resolve ``package://`` meshes of a URDF that lives in an
-    installed data package (example-robot-data): put its ``share`` folder on ROS_PACKAGE_PATH."""
-    parts = Path(urdf).resolve().parts
-    saved = os.environ.get("ROS_PACKAGE_PATH")
-    if "share" in parts:
-        share = str(Path(*parts[:len(parts) - parts[::-1].index("share")]))
-        os.environ["ROS_PACKAGE_PATH"] = share + (os.pathsep + saved if saved else "")
+def _streaming(rec: rr.RecordingStream, path, blueprint, spawn: bool = False, connect: str | None = None):
+    """Send what ``rec`` logs in the block to ``path`` and to the viewers asked for.
+
+    The file is a temporary one beside ``path``, renamed over it when the block ends without an
+    exception and Rerun has closed it (``disconnect`` writes the footer and returns when the file
+    is complete); otherwise it is removed and an existing ``path`` stays as it was. One
+    ``set_sinks`` call tees file and viewers: ``save`` followed by ``spawn`` or ``connect_grpc``
+    would replace the file with the viewer.
+    """
+    with contextlib.ExitStack() as stack:
+        sinks = []
+        if path is not None:
+            sinks.append(rr.FileSink(str(stack.enter_context(replacing(path)))))
+        viewer = ("connect",) if connect else ("spawn",) if spawn else ()
+        try:
+            if spawn:
+                rec.spawn(connect=False)
+                sinks.append(rr.GrpcSink())
+            if connect:
+                sinks.append(rr.GrpcSink(connect))
+                _check_viewer(connect)
+        except (RuntimeError, ValueError, OSError) as err:
+            raise InputError(f"{viewer[0]}: cannot reach a Rerun viewer: {err}", parameters=viewer) from err
+        if sinks:
+            rec.set_sinks(*sinks, default_blueprint=blueprint)
+        try:
+            yield
+            try:
+                rec.flush()
+            except RuntimeError as err:  # the viewer could not be reached
+                raise InputError(f"{viewer[0] if viewer else 'path'}: {err}",
+                                 parameters=viewer or ("path",)) from err
+        finally:
+            rec.disconnect()
+
+
+def _check_viewer(url: str, timeout: float = 3.0) -> None:
+    """Fail at once when nothing listens at a viewer's address (Rerun itself would retry for
+    seconds, then fail only when the recording is flushed)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(url.replace("rerun+", "", 1))
+    secure = parts.scheme in ("https", "rerun")
+    port = parts.port or (443 if secure else 80)
     try:
-        yield
-    finally:
-        if saved is None:
-            os.environ.pop("ROS_PACKAGE_PATH", None)
-        else:
-            os.environ["ROS_PACKAGE_PATH"] = saved
+        with socket.create_connection((parts.hostname or "127.0.0.1", port), timeout=timeout):
+            pass
+    except OSError as err:
+        raise OSError(f"nothing answers at {url} ({err.strerror or err})") from err
 
 
 def colours(values: np.ndarray, lo: float, hi: float, cmap: str = "viridis") -> np.ndarray:
@@ -209,44 +262,102 @@ def log_time_series(rec: rr.RecordingStream, t: np.ndarray, series: dict[str, np
 def record_field(machine: Machine, path: str | Path | None = None, *, counts=None,
                  config: dict[str, float] | None = None, scale: float | None = None,
                  ranking: dict | None = None, sweep_steps: int = 24, spawn: bool = False,
-                 connect: str | None = None) -> dict:
+                 connect: str | None = None, package_dirs=None) -> dict:
     """Write a complete recording: machine, error field, ranking, default blueprint.
 
     Rotary axes not fixed by ``config`` sweep their travel in ``sweep_steps`` steps on the
-    ``sweep`` timeline (machine and field together); otherwise everything is static.
-    Returns a summary: ``path``, ``points``, ``scale``, ``max_um``, ``sweep_steps``,
-    ``sweep_axes``, ``bytes``, ``config`` (mm / deg).
+    ``sweep`` timeline (machine and field together; an endless axis sweeps one turn, -180 to
+    180 deg); otherwise everything is static.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    path : str or Path, optional
+        The ``.rrd`` file, written through a temporary file beside it and renamed over it once
+        complete (a failed run leaves an existing file as it was); None for a viewer only.
+    counts : sequence of int, optional
+        Points per linear axis (see :func:`volerr_pin.workspace.field_grid`).
+    config : dict of str to float, optional
+        Positions of the axes that do not span the field [m, rad].
+    scale : float, optional
+        Arrow magnification (default: a round factor, see :func:`volerr_pin.workspace.nice_scale`).
+    ranking : dict, optional
+        A ranking (:meth:`volerr_pin.ranking.Ranking.to_dict`) to show beside the field.
+    sweep_steps : int, default 24
+        Steps of the rotary-axis sweep; 0 for none.
+    spawn : bool, default False
+        Also stream to a new Rerun viewer.
+    connect : str, optional
+        Also stream to a running viewer at this gRPC URL (``rerun+http://host:port/proxy``).
+    package_dirs : path or iterable of path, optional
+        Folders of ``package://`` meshes, besides the machine's own (see :func:`log_machine`).
+
+    Returns
+    -------
+    dict
+        ``path``, ``points``, ``scale``, ``max_um``, ``sweep_steps``, ``sweep_axes``, ``bytes``
+        (of the file, or None), ``config`` (mm / deg).
+
+    Raises
+    ------
+    InputError
+        If ``sweep_steps`` is not a whole number >= 0, the field would take more memory than
+        this machine has free (naming ``counts`` and ``sweep_steps``), ``path`` cannot be
+        written, a viewer cannot be reached, or an argument of the field is invalid.
     """
+    if isinstance(sweep_steps, bool) or not isinstance(sweep_steps, numbers.Integral) or sweep_steps < 0:
+        raise InputError(f"sweep_steps must be a whole number >= 0 (0: no sweep), got {sweep_steps!r}",
+                         parameters=("sweep_steps",))
+    sweep_steps = int(sweep_steps)
+    if path is not None:
+        check_outputs({"path": path})
     config = dict(config or {})
     base = default_config(machine, config)
-    q = field_grid(machine, counts, config)
     linear_present = any(k == "linear" for k in machine.axis_kinds)
     sweeping = tuple(a for a, k in zip(machine.axes, machine.axis_kinds)
                      if k == "rotary" and a not in config) if (linear_present and sweep_steps > 0) else ()
+    points = _field_points(machine, counts)
+    if points is not None:  # sized before the grid is made; field_grid checks the counts themselves
+        steps = sweep_steps if sweeping else 1
+        require_memory(points * steps * FIELD_POINT_BYTES,
+                       f"a field of {points:,} points" + (f" in {steps:,} sweep steps" if sweeping else ""),
+                       ("counts", "sweep_steps") if sweeping else ("counts",))
+    q = field_grid(machine, counts, config)
     rec = new_recording()
     blueprint = default_blueprint(sweep=bool(sweeping))
-    if path is not None:
-        rec.save(path, default_blueprint=blueprint)
-    if spawn:
-        rec.spawn(default_blueprint=blueprint)
-    if connect:
-        rec.connect_grpc(connect, default_blueprint=blueprint)
-    log_machine(rec, machine, base, moving=sweeping)
-    if sweeping:
-        scale = log_rotary_sweep(rec, machine, q, base, sweeping, scale, sweep_steps)
-        field = evaluate_field(machine, q, scale)
-    else:
-        field = evaluate_field(machine, q, scale)
-        log_field(rec, machine, field)
-    if ranking is not None:
-        log_ranking(rec, ranking)
-    rec.flush()
-    rec.disconnect()
-    size = Path(path).stat().st_size if path is not None and Path(path).exists() else None
+    with _streaming(rec, path, blueprint, spawn, connect):
+        log_machine(rec, machine, base, moving=sweeping, package_dirs=package_dirs)
+        if sweeping:
+            scale = log_rotary_sweep(rec, machine, q, base, sweeping, scale, sweep_steps)
+            field = evaluate_field(machine, q, scale)
+        else:
+            field = evaluate_field(machine, q, scale)
+            log_field(rec, machine, field)
+        if ranking is not None:
+            log_ranking(rec, ranking)
+    size = Path(path).stat().st_size if path is not None else None
     return {"path": str(path) if path is not None else None, "points": int(len(q)),
             "scale": field.scale, "max_um": float(np.linalg.norm(field.error[:, :3], axis=1).max() * UM_PER_M),
             "sweep_steps": sweep_steps if sweeping else 0, "sweep_axes": list(sweeping),
             "bytes": size, "config": to_engineering(machine, base).tolist()}
+
+
+def _field_points(machine: Machine, counts) -> int | None:
+    """How many points :func:`~volerr_pin.workspace.field_grid` will make, without making them;
+    None when ``counts`` is not something it accepts (it then says why)."""
+    linear = sum(k == "linear" for k in machine.axis_kinds)
+    if not linear:
+        return 1000
+    try:
+        values = [9] if counts is None else [int(c) for c in counts]
+    except (TypeError, ValueError):
+        return None
+    if len(values) == 1:
+        values = values * linear
+    if len(values) != linear or min(values) < 1:
+        return None
+    return math.prod(values)
 
 
 def sweep_angles(machine: Machine, axes: tuple[str, ...], steps: int) -> np.ndarray:
@@ -286,25 +397,37 @@ def log_rotary_sweep(rec: rr.RecordingStream, machine: Machine, q: np.ndarray, b
     return scale
 
 
-def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None) -> dict:
+def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, package_dirs=None) -> dict:
     """The residual field at each step of a diagnosis (``step`` timeline) and, for each
-    accepted effect, the residual against its driver before and after (2D view)."""
+    accepted effect, the residual against its driver before and after (2D view).
+
+    Parameters
+    ----------
+    diagnosis : volerr_pin.diagnose.Diagnosis
+        The diagnosis.
+    path : str or Path
+        The ``.rrd`` file, written through a temporary file renamed over it once complete.
+    scale : float, optional
+        Arrow magnification (default: a round factor).
+    package_dirs : path or iterable of path, optional
+        Folders of ``package://`` meshes, besides the machine's own (see :func:`log_machine`).
+
+    Returns
+    -------
+    dict
+        ``path``, ``steps``, ``scale``, ``bytes``.
+
+    Raises
+    ------
+    InputError
+        If ``path`` cannot be written.
+    """
     from ..diagnose import evidence
 
+    check_outputs({"path": path})
     machine = diagnosis.machine
     obs = diagnosis.observations
     _, positions = machine.tool_poses(obs.q, nominal=True)
-    rec = new_recording("volerr_pin_diagnose")
-    blueprint = rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Spatial3DView(origin="/", contents=["machine/**", "residuals/**"], name="residual field"),
-            rrb.Vertical(rrb.Spatial2DView(origin="evidence", name="residual vs driver (um)"),
-                         rrb.TextLogView(origin="steps", name="steps")),
-            column_shares=[3, 2]),
-        rrb.TimePanel(state="expanded"))
-    rec.save(path, default_blueprint=blueprint)
-    log_machine(rec, machine, default_config(machine))
-    frame = rr.CoordinateFrame(machine.workpiece_frame)
     per_step = []
     for step in diagnosis.steps:
         vec = np.zeros((obs.n_points, 3))
@@ -316,36 +439,45 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None) ->
     extent = float(np.ptp(positions, axis=0).max()) if len(positions) > 1 else 0.1
     scale = scale or nice_scale(peak, extent)
     radius = max(extent / 300.0, 1e-4)
-    for number, (step, vec) in enumerate(zip(diagnosis.steps, per_step)):
-        rec.set_time("step", sequence=number)
-        norm = np.linalg.norm(vec, axis=1) * UM_PER_M
-        rec.log("residuals/points", frame, rr.Points3D(positions, colors=colours(norm, 0.0, peak), radii=radius),
-                rr.AnyValues(residual_um=norm))
-        rec.log("residuals/arrows", frame, rr.Arrows3D(origins=positions, vectors=vec * scale,
-                                                        colors=colours(norm, 0.0, peak), radii=radius / 2))
-        text = (f"step {number}: held-out RMS {step.rms_holdout_um:.3f} um; "
-                + (f"added {'; '.join(a.label for a in step.accepted_all)}" if step.accepted
-                   else "no candidate is significant"))
-        rec.log("steps", rr.TextLog(text))
-        if step.accepted is not None:
-            ev = evidence(diagnosis, number)
-            if ev is not None:
-                span = float(np.ptp(ev.x)) or 1.0
-                x = (ev.x - ev.x.min()) / span * 100.0
-                rec.log("evidence/before", rr.Points2D(np.c_[x, -ev.before_um * 10], radii=0.6,
-                                                        colors=[200, 60, 50]))
-                rec.log("evidence/after", rr.Points2D(np.c_[x, -ev.after_um * 10], radii=0.6,
-                                                       colors=[40, 110, 190]))
-                rec.log("evidence/label", rr.TextLog(
-                    f"{ev.label}: residual d{ev.direction} (red before, blue after, x10 um) vs "
-                    f"{ev.x_label} (0-100 % of its range)"))
-    rec.reset_time()
-    rec.log("residuals/about", rr.TextDocument(
-        f"Residual (measured minus model) at each step of the diagnosis, arrows x{scale:g}; "
-        "the `step` timeline walks through the accepted effects.", media_type=rr.MediaType.MARKDOWN),
-        static=True)
-    rec.flush()
-    rec.disconnect()
+    rec = new_recording("volerr_pin_diagnose")
+    blueprint = rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Spatial3DView(origin="/", contents=["machine/**", "residuals/**"], name="residual field"),
+            rrb.Vertical(rrb.Spatial2DView(origin="evidence", name="residual vs driver (um)"),
+                         rrb.TextLogView(origin="steps", name="steps")),
+            column_shares=[3, 2]),
+        rrb.TimePanel(state="expanded"))
+    frame = rr.CoordinateFrame(machine.workpiece_frame)
+    with _streaming(rec, path, blueprint):
+        log_machine(rec, machine, default_config(machine), package_dirs=package_dirs)
+        for number, (step, vec) in enumerate(zip(diagnosis.steps, per_step)):
+            rec.set_time("step", sequence=number)
+            norm = np.linalg.norm(vec, axis=1) * UM_PER_M
+            rec.log("residuals/points", frame, rr.Points3D(positions, colors=colours(norm, 0.0, peak),
+                                                           radii=radius), rr.AnyValues(residual_um=norm))
+            rec.log("residuals/arrows", frame, rr.Arrows3D(origins=positions, vectors=vec * scale,
+                                                            colors=colours(norm, 0.0, peak), radii=radius / 2))
+            text = (f"step {number}: held-out RMS {step.rms_holdout_um:.3f} um; "
+                    + (f"added {'; '.join(a.label for a in step.accepted_all)}" if step.accepted
+                       else "no candidate is significant"))
+            rec.log("steps", rr.TextLog(text))
+            if step.accepted is not None:
+                ev = evidence(diagnosis, number)
+                if ev is not None:
+                    span = float(np.ptp(ev.x)) or 1.0
+                    x = (ev.x - ev.x.min()) / span * 100.0
+                    rec.log("evidence/before", rr.Points2D(np.c_[x, -ev.before_um * 10], radii=0.6,
+                                                            colors=[200, 60, 50]))
+                    rec.log("evidence/after", rr.Points2D(np.c_[x, -ev.after_um * 10], radii=0.6,
+                                                           colors=[40, 110, 190]))
+                    rec.log("evidence/label", rr.TextLog(
+                        f"{ev.label}: residual d{ev.direction} (red before, blue after, x10 um) vs "
+                        f"{ev.x_label} (0-100 % of its range)"))
+        rec.reset_time()
+        rec.log("residuals/about", rr.TextDocument(
+            f"Residual (measured minus model) at each step of the diagnosis, arrows x{scale:g}; "
+            "the `step` timeline walks through the accepted effects.", media_type=rr.MediaType.MARKDOWN),
+            static=True)
     return {"path": str(path), "steps": len(diagnosis.steps), "scale": scale,
             "bytes": Path(path).stat().st_size}
 
@@ -357,9 +489,29 @@ def record_gear(rows, path: str | Path, scale: float | None = None) -> dict:
     each step shows every evaluated flank point in the workpiece frame coloured by its normal
     deviation (red: more material, blue: less; one colour scale over all steps, in
     ``normal_deviation_um``) and arrows along the normals of length deviation x ``scale``.
+
+    Parameters
+    ----------
+    rows : sequence of volerr_pin.gear.SourceDeviations
+        The sources, in the order of the steps.
+    path : str or Path
+        The ``.rrd`` file, written through a temporary file renamed over it once complete.
+    scale : float, optional
+        Arrow magnification (default: a round factor).
+
+    Returns
+    -------
+    dict
+        ``path``, ``sources``, ``points``, ``scale``.
+
+    Raises
+    ------
+    InputError
+        If ``rows`` is empty or ``path`` cannot be written.
     """
     if not rows:
-        raise InputError("record_gear needs at least one source")
+        raise InputError("record_gear needs at least one source", parameters=("rows",))
+    check_outputs({"path": path})
     first = rows[0].deviations
     points = first.points.reshape(-1, 3)
     normals = first.normals.reshape(-1, 3)
@@ -372,18 +524,18 @@ def record_gear(rows, path: str | Path, scale: float | None = None) -> dict:
         rrb.Horizontal(rrb.Spatial3DView(origin="/", contents=["gear/**"], name="flanks"),
                        rrb.TextLogView(origin="sources", name="sources"), column_shares=[3, 1]),
         rrb.TimePanel(state="expanded"))
-    rec.save(path, default_blueprint=blueprint)
-    for number, row in enumerate(rows):
-        rec.set_time("source", sequence=number)
-        dn = row.deviations.normal.reshape(-1)
-        colors = colours(dn * UM_PER_M, -peak, peak, "RdBu_r")
-        rec.log("gear/flanks", rr.Points3D(points, colors=colors, radii=radius),
-                rr.AnyValues(normal_deviation_um=dn * UM_PER_M))
-        rec.log("gear/deviation", rr.Arrows3D(origins=points, vectors=normals * (dn * scale)[:, None],
-                                              colors=colors, radii=radius / 2))
-        right = row.deviations.values["right"]
-        rec.log("sources", rr.TextLog(
-            f"{row.source} ({row.label}, {row.value}): profile {right['profile'] * UM_PER_M:.3f} um, "
-            f"helix {right['helix'] * UM_PER_M:.3f} um, pitch {right['pitch'] * UM_PER_M:.3f} um (right flank); "
-            f"arrows x{scale:g}"))
+    with _streaming(rec, path, blueprint):
+        for number, row in enumerate(rows):
+            rec.set_time("source", sequence=number)
+            dn = row.deviations.normal.reshape(-1)
+            colors = colours(dn * UM_PER_M, -peak, peak, "RdBu_r")
+            rec.log("gear/flanks", rr.Points3D(points, colors=colors, radii=radius),
+                    rr.AnyValues(normal_deviation_um=dn * UM_PER_M))
+            rec.log("gear/deviation", rr.Arrows3D(origins=points, vectors=normals * (dn * scale)[:, None],
+                                                  colors=colors, radii=radius / 2))
+            right = row.deviations.values["right"]
+            rec.log("sources", rr.TextLog(
+                f"{row.source} ({row.label}, {row.value}): profile {right['profile'] * UM_PER_M:.3f} um, "
+                f"helix {right['helix'] * UM_PER_M:.3f} um, pitch {right['pitch'] * UM_PER_M:.3f} um (right flank); "
+                f"arrows x{scale:g}"))
     return {"path": str(path), "sources": len(rows), "points": int(points.shape[0]), "scale": scale}
