@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from .errors import SpecError
-from .units import PLAUSIBLE, describe_range, scale, split_key
+from .units import PLAUSIBLE, describe_range, scale, shown, split_key
 
 #: a plain name: components, prefixes, joints, bodies
 NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -136,7 +136,7 @@ def within(values: np.ndarray, limit: str, where: str, unit: str, unit_scale: fl
     low, high = PLAUSIBLE[limit]
     bad = np.flatnonzero((values < low) | (values > high))
     if bad.size:
-        raise SpecError(f"{where}: {values[bad[0]] / unit_scale:g} {unit} is implausible: "
+        raise SpecError(f"{where}: {shown(values[bad[0]] / unit_scale)} {unit} is implausible: "
                         f"{describe_range(limit, unit, unit_scale)}")
 
 

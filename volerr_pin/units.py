@@ -71,7 +71,7 @@ PLAUSIBLE_WHAT = {"error_length": "a deviation", "error_angle": "an angular devi
 
 #: a decimal number as files write it: digits, an optional point and exponent; no NaN or
 #: inf spellings, underscores, hex or non-ASCII digits (all of which float() would take)
-NUMBER_RE = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
+NUMBER_RE = re.compile(r"^[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")  # ASCII digits only
 
 
 def parse_number(text: str) -> float:
@@ -105,6 +105,11 @@ def parse_number(text: str) -> float:
     if not math.isfinite(value):
         raise ValueError("is not a finite number")
     return value
+
+
+def shown(value: float) -> str:
+    """A value for a message: enough digits to tell it from a limit (``-1000001``, ``1e+300``)."""
+    return f"{value:.10g}"
 
 
 def plausible_range(kind: str, unit_scale: float = 1.0) -> tuple[float, float]:
