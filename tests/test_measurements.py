@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
+from volerr_pin import safeio
 from volerr_pin.measurements import MeasurementError, read_any, read_points, read_runs
 
 POINTS = """# tracker data, vmc500
@@ -190,6 +193,175 @@ def test_key_value_layout(tmp_path):
     (lambda t: t + "just words\n", r"run.dat:15: expected KEY=VALUE"),
 ])
 def test_malformed_key_value_runs(tmp_path, edit, match):
+    (tmp_path / "run.dat").write_text(edit(DAT))
+    with pytest.raises(MeasurementError, match=match):
+        read_runs(tmp_path / "run.dat")
+
+
+# ---------------------------------------------------------------- bad files (issue 22)
+
+@pytest.mark.parametrize("text, match", [
+    ("x,y,z,dx,dx_um\n1,2,3,4,5\n", r"d\.csv:1:5: columns 'dx' \(column 4\) and 'dx_um' are both dx; keep one"),
+    ("x,y,z,x_mm,dx\n1,2,3,4,5\n", r"d\.csv:1:4: columns 'x' \(column 1\) and 'x_mm' are both x"),
+    ("x,y,z,dx,T_a,T_a_degC\n1,2,3,4,20,21\n", r"d\.csv:1:6: columns 'T_a' \(column 5\) and 'T_a_degC' are both T_a"),
+    ("x,y,z,dx,t,t_s\n1,2,3,4,0,0\n", r"d\.csv:1:6: columns 't' \(column 5\) and 't_s' are both t"),
+    ("x,y,z,dx,dx\n1,2,3,4,5\n", r"d\.csv:1:5: duplicate column 'dx'"),
+])
+def test_a_column_given_twice_under_any_spelling_is_refused(tmp_path, machines, text, match):
+    with pytest.raises(MeasurementError, match=match):
+        read_points(write(tmp_path, text), machines["vmc500"])
+
+
+@pytest.mark.parametrize("cell, message", [
+    ("1_000", "'1_000' is not a number"), ("0x10", "'0x10' is not a number"),
+    ("\u0663", "'.' is not a number"),                     # an Arabic-Indic three: float() would take it
+    ("Infinity", "'Infinity' is not a finite number"), ("-inf", "'-inf' is not a finite number"),
+    ("NaN", "'NaN' is not a finite number"), ("1e999", "'1e999' is not a finite number"),
+])
+def test_only_plain_decimal_numbers_are_read(tmp_path, machines, cell, message):
+    with pytest.raises(MeasurementError, match=rf"d\.csv:2:4: column 'dx': {message}"):
+        read_points(write(tmp_path, f"x,y,z,dx\n1,2,3,{cell}\n"), machines["vmc500"])
+
+
+def test_number_syntax_that_is_read(tmp_path, machines):
+    data = read_points(write(tmp_path, "x,y,z,dx\n 1 ,+2.,.5e1,-1E-1\n"), machines["vmc500"])
+    np.testing.assert_allclose(data.q[0], [1e-3, 2e-3, 5e-3])
+    assert data.values[0, 0] == pytest.approx(-0.1e-6)
+
+
+@pytest.mark.parametrize("column, value, match", [
+    ("dx", "1e300", r"column 'dx': 1e\+300 um is implausible: a deviation lies within \+-1e\+06 um"),
+    ("dx", "-1000001", r"column 'dx': -1000001 um is implausible"),
+    ("rx", "2e6", r"column 'rx': 2000000 urad is implausible: an angular deviation lies within \+-1e\+06 urad"),
+    ("t", "1e11", r"column 't': 1e\+11 s is implausible: a time lies within \+-1e\+10 s"),
+    ("T_spindle", "-300", r"column 'T_spindle': -300 degC is implausible: a temperature lies within -273\.15 \.\. 1000"),
+    ("T_spindle", "1e300", r"column 'T_spindle': 1e\+300 degC is implausible"),
+])
+def test_implausible_values_name_file_line_and_column(tmp_path, machines, column, value, match):
+    text = f"x,y,z,dx,{column}\n1,2,3,0.5,0\n1,2,3,0.5,{value}\n" if column != "dx" else \
+        f"x,y,z,dx\n1,2,3,0.5\n1,2,3,{value}\n"
+    col = 4 if column == "dx" else 5
+    with pytest.raises(MeasurementError, match=rf"d\.csv:3:{col}: {match}"):
+        read_points(write(tmp_path, text), machines["vmc500"])
+
+
+def test_forces_beyond_ten_meganewton_are_refused(tmp_path, machines):
+    with pytest.raises(MeasurementError, match=r"d\.csv:2:6: column 'Fy': -20000000 N is implausible"):
+        read_points(write(tmp_path, "x,y,z,dx,Fx,Fy,Fz\n1,2,3,0,0,-2e7,0\n"), machines["vmc500"])
+
+
+def test_values_just_inside_the_limits_are_read(tmp_path, machines):
+    data = read_points(write(tmp_path, "x,y,z,dx,rx,t,T_a,Fx,Fy,Fz\n"
+                                       "1,2,3,-999999,999999,1.7e9,-273.15,9.9e6,0,0\n"), machines["vmc500"])
+    assert data.values[0, 0] == pytest.approx(-0.999999) and data.covariates["t"][0] == 1.7e9
+    assert data.covariates["temperatures"]["a"][0] == -273.15
+
+
+@pytest.mark.parametrize("content, match", [
+    (b"x,y,z,dx\n1,2,3,1 # \xe9\n", r"d\.csv:2:11: not UTF-8 text \(byte 0xe9 at offset 19\); save the "
+                                     r"measurement file as UTF-8"),
+    (b"x,y,z,dx\n1,2,3,1\x00\n", r"d\.csv:2:8: a NUL byte; this is not a text file"),
+    (b"", r"d\.csv: no header row"),
+    (b"\xef\xbb\xbf# only comments\n\n", r"d\.csv: no header row"),
+    (b"x,y,z,dx\r\n", r"d\.csv:1: no data rows after the header"),
+])
+def test_encodings_and_empty_files(tmp_path, machines, content, match):
+    (tmp_path / "d.csv").write_bytes(content)
+    with pytest.raises(MeasurementError, match=match):
+        read_points(tmp_path / "d.csv", machines["vmc500"])
+
+
+@pytest.mark.parametrize("content", [b"\xef\xbb\xbfx,y,z,dx\n1,2,3,1\n", b"x,y,z,dx\r\n1,2,3,1\r\n",
+                                     b"x,y,z,dx\r1,2,3,1\r"])
+def test_byte_order_mark_and_line_ends_are_read(tmp_path, machines, content):
+    (tmp_path / "d.csv").write_bytes(content)
+    data = read_points(tmp_path / "d.csv", machines["vmc500"])
+    assert data.values[0, 0] == pytest.approx(1e-6) and list(data.lines) == [2]
+
+
+def test_folders_pipes_and_files_larger_than_memory_are_refused(tmp_path, machines, monkeypatch):
+    with pytest.raises(MeasurementError, match=r": is a folder, not a measurement file"):
+        read_any(tmp_path, machines["vmc500"])
+    os.mkfifo(tmp_path / "pipe.csv")         # reading it would wait for a writer forever
+    with pytest.raises(MeasurementError, match=r"pipe\.csv: not a regular file"):
+        read_any(tmp_path / "pipe.csv", machines["vmc500"])
+    path = write(tmp_path, POINTS)
+    monkeypatch.setattr(safeio, "available_memory", lambda: 2_000)
+    with pytest.raises(MeasurementError, match=r"d\.csv: reading this measurement file of \d+ bytes needs about "
+                                               r".* more than this machine can spare"):
+        read_any(path, machines["vmc500"])
+
+
+@pytest.mark.parametrize("text, match", [
+    ("# axis: X\n# axis: Y\ntarget_mm,cycle,direction,deviation_um\n0,1,1,0\n",
+     r"d\.csv:2: '# axis:' is given twice \(first on line 1\)"),
+    ("target_mm,cycle,direction,deviation_um\n# at: Y=100\n0,1,1,0\n",
+     r"d\.csv:2: '# at:' comes after the header row \(line 1\); metadata lines go before it"),
+    ("# at: Y=1, Y=2\ntarget_mm,cycle,direction,deviation_um\n0,1,1,0\n", r"axis Y is given twice"),
+    ("# at: Y=nan\ntarget_mm,cycle,direction,deviation_um\n0,1,1,0\n", r"'Y=nan' is not AXIS=VALUE: 'nan' is not a finite"),
+])
+def test_metadata_lines_count_once_and_before_the_header(tmp_path, text, match):
+    with pytest.raises(MeasurementError, match=match):
+        read_runs(write(tmp_path, text))
+
+
+RUN = "target_mm,cycle,direction,deviation_um\n" + "".join(
+    f"{t},{c},{d},{0.1 * c + 0.01 * t}\n" for t in (0, 100) for c in range(1, 6) for d in (1, -1))
+
+
+@pytest.mark.parametrize("text, match", [
+    (RUN + "0,5,1,3.0\n", r"d\.csv:22: target 0 mm, cycle 5, direction \+1 is given twice \(first on line 10\); "
+                          "one approach per target, cycle and direction"),
+    (RUN + "1e-12,5,-1,3.0\n", r"d\.csv:22: target 0 mm, cycle 5, direction -1 is given twice \(first on line 11\)"),
+    ("target_mm,cycle,run,direction,deviation_um\n0,1,1,1,0\n",
+     r"d\.csv:1:3: columns 'cycle' and 'run' are both the cycle; keep one"),
+    ("target_mm,cycle,direction,deviation_um\n0,-1,1,0\n", r"d\.csv:2:2: column 'cycle': cycle numbers are integers "
+                                                          r"from 0 to 1,000,000, got -1"),
+    ("target_mm,cycle,direction,deviation_um\n0,1e300,1,0\n", r"d\.csv:2:2: .*got 1e300"),
+    ("target_mm,cycle,direction,deviation_um\n0,1,1,1e300\n",
+     r"d\.csv:2:4: column 'deviation_um': 1e\+300 um is implausible: a deviation lies within \+-1e\+06 um"),
+    ("target_mm,cycle,direction,deviation_um\n2e6,1,1,1\n", r"d\.csv:2:1: column 'target_mm': 2000000 mm is implausible"),
+    ("target_deg,cycle,direction,deviation_arcsec\n0,1,1,3e5\n",
+     r"d\.csv:2:4: column 'deviation_arcsec': 300000 arcsec is implausible: an angular deviation lies within "
+     r"\+-206265 arcsec"),
+    ("target_mm,cycle,direction,EYX_mm\n0,1,1,1500\n", r"d\.csv:2:4: column 'EYX_mm': 1500 mm is implausible"),
+])
+def test_repeated_approaches_and_implausible_runs_are_refused(tmp_path, text, match):
+    with pytest.raises(MeasurementError, match=match):
+        read_runs(write(tmp_path, text))
+
+
+@pytest.mark.parametrize("text, match", [
+    ("target_mm,direction,ref_c1\n10,fwd,10.001\n10,fwd,10.002\n",
+     r"wide\.csv:3: target 10 mm, cycle 1, direction \+1 is given twice \(first on line 2\)"),
+    ("target_mm,direction,ref_c1,cycle1\n10,fwd,10.001,10.002\n", r"wide\.csv:1:4: columns 'ref_c1' and 'cycle1' "
+                                                                  "are both cycle 1"),
+    ("target_mm,direction,ref_c1\n10,fwd,1e300\n", r"wide\.csv:2:3: column 'ref_c1': 1e\+300 mm is implausible"),
+    ("target_mm,direction,ref_c1\n10,fwd,1200\n", r"wide\.csv:2:3: column 'ref_c1': the deviation 1190000 um "
+                                                  r"\(measured minus target\) is implausible"),
+    ("target_deg,direction,ref_c1\n0,fwd,359.999\n", r"wide\.csv:2:3: .*the deviation 1295996\.4 arcsec"),
+    ("target_mm,direction,dev_c1_um\n10,fwd,5e6\n", r"wide\.csv:2:3: column 'dev_c1_um': 5000000 um is implausible"),
+])
+def test_wide_runs_refuse_repeats_and_implausible_values(tmp_path, text, match):
+    (tmp_path / "wide.csv").write_text(text)
+    with pytest.raises(MeasurementError, match=match):
+        read_runs(tmp_path / "wide.csv")
+
+
+@pytest.mark.parametrize("edit, match", [
+    (lambda t: t.replace("UNIT=mm\n", "UNIT=mm\nUNIT=deg\n"), r"run\.dat:3: UNIT given twice \(first on line 2\)"),
+    (lambda t: t.replace("CYCLES=2", "CYCLES=2.5"), r"run\.dat:3: CYCLES=2\.5 but the data hold 2"),
+    (lambda t: t.replace("TGT_DATA[2]=4", "TGT_DATA[2]=-4").replace("POSITIONS=2\n", ""),
+     r"run\.dat:\d+: target -4 mm, cycle 1, direction \+1 is given twice \(first on line \d+\)"),
+    (lambda t: t.replace("TGT_DATA[2]=4", "TGT_DATA[2,1]=4"), r"run\.dat:6: TGT_DATA needs one index \[target\]"),
+    (lambda t: t.replace("REF_DATA_FWD[1,1]=-4.0012", "REF_DATA_FWD[1,1]=1e300"),
+     r"run\.dat:7: REF_DATA_FWD\[1,1\] = 1e\+300 mm is implausible: a position lies within \+-1e\+06 mm"),
+    (lambda t: t.replace("REF_DATA_FWD[1,1]=-4.0012", "REF_DATA_FWD[1,1]=2000"),
+     r"run\.dat:7: REF_DATA_FWD\[1,1\]: the deviation 2004000 um is implausible"),
+    (lambda t: t.replace("REF_DATA_FWD[1,1]=-4.0012", "REF_DATA_FWD[1,1]=inf"), r"run\.dat:7: .*'inf' is not a finite"),
+    (lambda t: "# axis: X\n# axis: Y\n" + t, r"run\.dat:2: '# axis:' is given twice"),
+])
+def test_key_value_runs_refuse_repeats_and_implausible_values(tmp_path, edit, match):
     (tmp_path / "run.dat").write_text(edit(DAT))
     with pytest.raises(MeasurementError, match=match):
         read_runs(tmp_path / "run.dat")

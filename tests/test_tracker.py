@@ -84,6 +84,12 @@ def test_targets_off_the_tool_see_its_orientation(truth):
     ("x,y,z,target,ox,oy,oz,tx,ty,tz\n1,1,1,A,0,0,0,1,1,1\n2,2,2,A,5,0,0,1,1,1\n",
      r"tracker.csv:3: target 'A' has the offset .* on line 2"),
     ("x,y,z,tx,ty,tz\n1,1,1,1,1,abc\n", r"tracker.csv:2:6: .*'abc' is not a number"),
+    # issue 22: a coordinate or offset beyond 1 km, a column under two spellings, a nameless target
+    ("x,y,z,tx,ty,tz\n1,1,1,1e300,1,1\n",
+     r"tracker.csv:2:4: column 'tx': 1e\+300 mm is implausible: a position lies within \+-1e\+06 mm"),
+    ("x,y,z,tx,ty,tz,ox,oy,oz\n1,1,1,1,1,1,0,-2e6,0\n", r"tracker.csv:2:8: column 'oy': -2000000 mm is implausible"),
+    ("x,y,z,tx,ty,tz,tz_mm\n1,1,1,1,1,1,1\n", r"tracker.csv:1:7: columns 'tz' \(column 6\) and 'tz_mm' are both tz"),
+    ("x,y,z,target,tx,ty,tz\n1,1,1,A,1,1,1\n2,2,2, ,1,1,1\n", r"tracker.csv:3:4: column 'target': empty target name"),
 ])
 def test_malformed_tracker_files(machines, tmp_path, text, match):
     path = tmp_path / "tracker.csv"

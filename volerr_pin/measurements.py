@@ -16,6 +16,10 @@ Three kinds, told apart by their header (comma-separated, ``#`` comment lines al
 
 Runs may say which axis moved and where the other axes stood in header comments:
 ``# axis: X`` and ``# at: Y=200, Z=150`` (mm / deg).
+
+Values beyond the plausibility limits of :data:`volerr_pin.units.PLAUSIBLE` (a deviation of
+more than 1 m, a position beyond 1 km, a temperature below absolute zero...) are refused,
+naming file, line and column: they are mistakes, not measurements (docs/measurements.md).
 """
 
 from __future__ import annotations
@@ -29,11 +33,14 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
-from .spec import parse_component_name
-from .units import ANGLE, AXIS_UNIT, LENGTH, axis_scale, parse_axis_values, split_key
+from .spec import parse_component_name, read_text
+from .units import (ANGLE, AXIS_UNIT, DEG, LENGTH, MM, PLAUSIBLE, axis_scale, describe_range,
+                    parse_axis_values, parse_number, shown, split_key)
 
 DEVIATIONS = ("dx", "dy", "dz", "rx", "ry", "rz")
 DEVIATION_UNITS = {"dx": "um", "dy": "um", "dz": "um", "rx": "urad", "ry": "urad", "rz": "urad"}
+#: largest cycle number of a run (cycles count from 0 or 1)
+MAX_CYCLE = 1_000_000
 META_RE = re.compile(r"^#\s*(axis|at|plane|radius|centre|center|convention|tool)\s*:\s*(.*)$", re.IGNORECASE)
 
 
@@ -64,6 +71,9 @@ class Table:
         Header comments before the header row (``# axis:``, ``# at:``, ``# plane:``,
         ``# radius:``, ``# centre:``, ``# convention:``, ``# tool:``), keys lower-case; a
         converted run layout adds ``unused``.
+    converted : bool, default False
+        Whether the table was converted from another layout (wide or ``KEY=VALUE`` runs):
+        its columns are not the file's, so messages name the line only.
     """
 
     path: str
@@ -72,6 +82,7 @@ class Table:
     rows: list[list[str]]
     lines: list[int]
     meta: dict[str, str] = field(default_factory=dict)
+    converted: bool = False
 
     def where(self, row: int, col: int) -> str:
         """Where a cell is, for messages.
@@ -86,8 +97,11 @@ class Table:
         Returns
         -------
         str
-            ``path:line:column`` with the file line and the 1-based column.
+            ``path:line:column`` with the file line and the 1-based column (``path:line`` for
+            a converted table).
         """
+        if self.converted:
+            return f"{self.path}:{self.lines[row]}"
         return f"{self.path}:{self.lines[row]}:{col + 1}"
 
     def number(self, row: int, col: int, allow_empty: bool = False) -> float:
@@ -110,23 +124,22 @@ class Table:
         Raises
         ------
         MeasurementError
-            If the cell is not a number or not finite.
+            If the cell is not a decimal number (``nan``, ``inf``, ``1_000``, hex and
+            non-ASCII digits are refused) or overflows.
         """
         text = self.rows[row][col].strip()
         if text == "" and allow_empty:
             return math.nan
         try:
-            value = float(text)
-        except ValueError:
+            return parse_number(text)
+        except ValueError as err:
+            shown = text if text.isprintable() else repr(text)
             raise MeasurementError(f"{self.where(row, col)}: column '{self.header[col]}': "
-                                   f"'{text}' is not a number") from None
-        if not math.isfinite(value):
-            raise MeasurementError(f"{self.where(row, col)}: column '{self.header[col]}': "
-                                   f"'{text}' is not a finite number")
-        return value
+                                   f"'{shown}' {err}") from None
 
-    def column(self, col: int, allow_empty: bool = False) -> np.ndarray:
-        """A column as finite floats (see :meth:`number`).
+    def column(self, col: int, allow_empty: bool = False, *, limit: str | None = None, unit: str = "",
+               unit_scale: float = 1.0) -> np.ndarray:
+        """A column as finite floats (see :meth:`number`), within a plausibility limit.
 
         Parameters
         ----------
@@ -134,6 +147,13 @@ class Table:
             Column index (0-based).
         allow_empty : bool, default False
             Empty cells give NaN instead of an error.
+        limit : str, optional
+            A key of :data:`volerr_pin.units.PLAUSIBLE` ("error_length", "time", ...): values
+            beyond it are refused.
+        unit : str, optional
+            The column's unit, for the message.
+        unit_scale : float, default 1.0
+            SI value of one unit of the column (1e-6 for um; 1 for degC).
 
         Returns
         -------
@@ -143,18 +163,63 @@ class Table:
         Raises
         ------
         MeasurementError
-            If a cell is not a number or not finite.
+            If a cell is not a number or not finite, or lies beyond ``limit``.
         """
-        return np.array([self.number(i, col, allow_empty) for i in range(len(self.rows))])
+        values = np.array([self.number(i, col, allow_empty) for i in range(len(self.rows))])
+        if limit is not None:
+            self.check_plausible(col, values, limit, unit, unit_scale)
+        return values
+
+    def check_plausible(self, col: int, values: np.ndarray, limit: str, unit: str, unit_scale: float = 1.0
+                        ) -> None:
+        """Refuse values of a column beyond a plausibility limit, naming the first such cell.
+
+        Parameters
+        ----------
+        col : int
+            Column index (0-based) the values come from.
+        values : ndarray, shape (n_rows,)
+            The values in the column's unit (NaN: not measured, passes).
+        limit : str
+            A key of :data:`volerr_pin.units.PLAUSIBLE`.
+        unit : str
+            The unit of the values, for the message.
+        unit_scale : float, default 1.0
+            SI value of one unit.
+
+        Raises
+        ------
+        MeasurementError
+            Naming file, line, column, the value and the limit.
+        """
+        low, high = PLAUSIBLE[limit]
+        si = values * unit_scale
+        bad = np.flatnonzero((si < low) | (si > high))
+        if bad.size:
+            r = int(bad[0])
+            raise MeasurementError(f"{self.where(r, col)}: column '{self.header[col]}': {shown(values[r])} {unit} "
+                                   f"is implausible: {describe_range(limit, unit, unit_scale)} "
+                                   "(docs/measurements.md)".replace("  ", " "))
 
 
 def _read_text(path: Path) -> str:
-    try:
-        return path.read_text(encoding="utf-8-sig")  # tolerate a byte-order mark
-    except OSError as err:
-        raise MeasurementError(f"{path}: cannot read: {err.strerror}") from None
-    except UnicodeDecodeError as err:
-        raise MeasurementError(f"{path}: not UTF-8 text ({err.reason} at byte {err.start})") from None
+    return read_text(path, MeasurementError, "measurement file")
+
+
+def _add_meta(meta: dict, meta_lines: dict, match: re.Match, number: int, path, header_line: int | None) -> None:
+    """Keep one ``# key: value`` line; refuse it given twice (``centre`` and ``center`` are one
+    key) or after the header row, where it would silently not count."""
+    key = match.group(1).lower()
+    if header_line is not None:
+        raise MeasurementError(f"{path}:{number}: '# {match.group(1)}:' comes after the header row "
+                               f"(line {header_line}); metadata lines go before it")
+    same = {"centre": "center", "center": "centre"}.get(key)
+    for k in (key, same):
+        if k in meta_lines:
+            raise MeasurementError(f"{path}:{number}: '# {match.group(1)}:' is given twice "
+                                   f"(first on line {meta_lines[k]})")
+    meta[key] = match.group(2).strip()
+    meta_lines[key] = number
 
 
 def read_table(path: str | Path | Table, text: str | None = None) -> Table:
@@ -177,22 +242,25 @@ def read_table(path: str | Path | Table, text: str | None = None) -> Table:
     Raises
     ------
     MeasurementError
-        If the file cannot be read or is not UTF-8, a column name is duplicated or empty, a
-        row has another number of cells than the header, or there is no header or no data row.
+        If the file cannot be read (not a regular file, larger than the memory allows, not
+        UTF-8), a column name is duplicated or empty, a metadata line (``# axis:``,
+        ``# plane:``...) is given twice or after the header row, a row has another number of
+        cells than the header, or there is no header or no data row.
     """
     if isinstance(path, Table):
         return path
     path = Path(path)
     text = _read_text(path) if text is None else text
     header, header_line, rows, lines, meta = None, 0, [], [], {}
+    meta_lines: dict[str, int] = {}
     for number, line in enumerate(text.splitlines(), start=1):
         stripped = line.strip()
         if not stripped:
             continue
         if stripped.startswith("#"):
             match = META_RE.match(stripped)
-            if match and header is None:
-                meta[match.group(1).lower()] = match.group(2).strip()
+            if match:
+                _add_meta(meta, meta_lines, match, number, path, header_line if header is not None else None)
             continue
         cells = next(csv.reader([line]))
         if header is None:
@@ -276,9 +344,10 @@ def read_points(path: str | Path | Table, machine) -> PointMeasurements:
     Raises
     ------
     MeasurementError
-        If the table is malformed, a column's unit is not the file unit, a position column is
-        missing or outside the travel, a covariate column is invalid, there is no deviation
-        column, or a row has no measured deviation.
+        If the table is malformed, a column's unit is not the file unit or a column is given
+        twice under two spellings, a position column is missing or outside the travel, a
+        covariate column is invalid, there is no deviation column, a row has no measured
+        deviation, or a value lies beyond its plausibility limit (docs/measurements.md).
     """
     table = read_table(path)
     columns = header_columns(table, machine)
@@ -291,7 +360,9 @@ def read_points(path: str | Path | Table, machine) -> PointMeasurements:
     for k in present:
         col = columns[DEVIATIONS[k]]
         used.add(col)
-        values[:, k] = table.column(col, allow_empty=True) * 1e-6  # um and urad
+        limit = "error_length" if k < 3 else "error_angle"
+        values[:, k] = table.column(col, allow_empty=True, limit=limit, unit=DEVIATION_UNITS[DEVIATIONS[k]],
+                                    unit_scale=1e-6) * 1e-6  # um and urad
     empty = np.flatnonzero(np.all(np.isnan(values), axis=1))
     if empty.size:
         raise MeasurementError(f"{table.path}:{table.lines[empty[0]]}: row has no measured deviation")
@@ -318,11 +389,16 @@ def header_columns(table: Table, machine) -> dict[str, int]:
     ------
     MeasurementError
         If a column carries a unit other than the file unit of that column (mm / deg for
-        positions, um / urad for deviations, s, degC, N, mm for tracker coordinates).
+        positions, um / urad for deviations, s, degC, N, mm for tracker coordinates), or one
+        column is given twice under two spellings (``dx`` and ``dx_um``).
     """
     columns: dict[str, int] = {}
     for col, name in enumerate(table.header):
         stem, unit = split_key(name, ("length", "angle", "time", "temperature", "force"))
+        if stem in columns:
+            first = table.header[columns[stem]]
+            raise MeasurementError(f"{table.path}:{table.header_line}:{col + 1}: columns '{first}' "
+                                   f"(column {columns[stem] + 1}) and '{name}' are both {stem}; keep one")
         columns[stem] = col
         expected = _expected_unit(stem, machine)
         if unit is not None and expected is not None and unit != expected:
@@ -357,8 +433,9 @@ def positions_and_covariates(table: Table, columns: dict[str, int], machine) -> 
     Raises
     ------
     MeasurementError
-        If a position column is missing or leaves the travel, a value is not a finite number,
-        only some of Fx, Fy, Fz are given, or a direction is not +1 or -1.
+        If a position column is missing or leaves the travel, a value is not a finite number
+        or lies beyond its plausibility limit, only some of Fx, Fy, Fz are given, or a
+        direction is not +1 or -1.
     """
     used = set()
     q = np.empty((len(table.rows), len(machine.axes)))
@@ -370,7 +447,8 @@ def positions_and_covariates(table: Table, columns: dict[str, int], machine) -> 
         col = columns[key]
         used.add(col)
         factor = axis_scale(kind)
-        q[:, j] = table.column(col) * factor
+        q[:, j] = table.column(col, limit=f"position_{'length' if kind == 'linear' else 'angle'}",
+                               unit=AXIS_UNIT[kind], unit_scale=factor) * factor
         lo, hi = machine.travel[j]
         bad = np.flatnonzero((q[:, j] < lo - 1e-9 * max(1.0, hi - lo)) | (q[:, j] > hi + 1e-9 * max(1.0, hi - lo)))
         if bad.size:
@@ -379,12 +457,12 @@ def positions_and_covariates(table: Table, columns: dict[str, int], machine) -> 
                                    f"outside the travel of {axis} [{lo * shown:g}, {hi * shown:g}] {unit}")
     covariates: dict = {}
     if "t" in columns:
-        covariates["t"] = table.column(columns["t"])
+        covariates["t"] = table.column(columns["t"], limit="time", unit="s")
         used.add(columns["t"])
     temps = {}
     for name, col in columns.items():
         if name.startswith("T_") and len(name) > 2:
-            temps[name[2:]] = table.column(col)
+            temps[name[2:]] = table.column(col, limit="temperature", unit="degC")
             used.add(col)
     if temps:
         covariates["temperatures"] = temps
@@ -394,7 +472,7 @@ def positions_and_covariates(table: Table, columns: dict[str, int], machine) -> 
         if missing:
             raise MeasurementError(f"{table.path}:{table.header_line}: force columns need all of "
                                    f"Fx, Fy, Fz (missing {', '.join(missing)})")
-        covariates["forces"] = np.column_stack([table.column(c) for c in force_cols])
+        covariates["forces"] = np.column_stack([table.column(c, limit="force", unit="N") for c in force_cols])
         used.update(force_cols)
     dir_cols = [columns.get(f"dir_{a.lower()}") for a in machine.axes]
     if any(c is not None for c in dir_cols):
@@ -539,6 +617,13 @@ def _wide_run_table(table: Table) -> Table | None:
         return None
     tcol, dcol = targets[0], directions[0]
     target_unit = header[tcol].split("_", 1)[1]
+    seen: dict[int, int] = {}
+    for c, m in cycles:
+        n = int(m.group("n"))
+        if n in seen:
+            raise MeasurementError(f"{table.path}:{table.header_line}:{c + 1}: columns '{header[seen[n]]}' and "
+                                   f"'{header[c]}' are both cycle {n}")
+        seen[n] = c
     units = {m.group("unit") for _, m in cycles}
     if len(units) != 1:
         raise MeasurementError(f"{table.path}:{table.header_line}: cycle columns must all give positions "
@@ -550,6 +635,12 @@ def _wide_run_table(table: Table) -> Table | None:
         if unit not in LENGTH and unit not in ANGLE:
             raise MeasurementError(f"{table.path}:{table.header_line}: unknown unit '{unit}' in the cycle columns")
         value_name, scale = f"deviation_{unit}", None
+    kind = "position_length" if target_unit == "mm" else "position_angle"
+    target_scale = MM if target_unit == "mm" else DEG
+    # deviations in the unit of the long layout: um / arcsec from positions, else as given
+    dev_unit = value_name.split("_", 1)[1]
+    dev_scale = LENGTH[dev_unit] if dev_unit in LENGTH else ANGLE[dev_unit]
+    dev_kind = "error_length" if dev_unit in LENGTH else "error_angle"
     rows, lines = [], []
     for r, (cells, line) in enumerate(zip(table.rows, table.lines)):
         word = cells[dcol].strip().lower()
@@ -557,17 +648,37 @@ def _wide_run_table(table: Table) -> Table | None:
             raise MeasurementError(f"{table.where(r, dcol)}: column '{header[dcol]}': '{cells[dcol].strip()}' is "
                                    "not a direction (+1/-1, fwd/bwd, forward/backward, up/down, pos/neg)")
         target = str(table.number(r, tcol))
+        _check_cell(table, r, tcol, float(target), kind, target_unit, target_scale)
         for c, m in cycles:
             if cells[c].strip() == "":
                 continue  # a cycle not measured at this target
             value = table.number(r, c)
-            rows.append([target, m.group("n"), DIRECTION_WORDS[word],
-                         repr(value) if scale is None else _deviation(str(value), target, scale)])
+            if scale is None:
+                _check_cell(table, r, c, value, dev_kind, dev_unit, dev_scale)
+                deviation = repr(value)
+            else:
+                _check_cell(table, r, c, value, kind, target_unit, target_scale)
+                deviation = _deviation(str(value), target, scale)
+                _check_cell(table, r, c, float(deviation), dev_kind, dev_unit, dev_scale,
+                            f"the deviation {shown(float(deviation))} {dev_unit} (measured minus target)")
+            rows.append([target, str(int(m.group("n"))), DIRECTION_WORDS[word], deviation])
             lines.append(line)
     used = {tcol, dcol, *(c for c, _ in cycles)}
     meta = dict(table.meta)
     meta["unused"] = ",".join(h for c, h in enumerate(header) if c not in used)
-    return Table(table.path, [header[tcol], "cycle", "direction", value_name], table.header_line, rows, lines, meta)
+    return Table(table.path, [header[tcol], "cycle", "direction", value_name], table.header_line, rows, lines, meta,
+                 converted=True)
+
+
+def _check_cell(table: Table, row: int, col: int, value: float, limit: str, unit: str, unit_scale: float,
+                what: str | None = None) -> None:
+    """Refuse a cell's value, or a value derived from it (``what``: a deviation from a measured
+    position), beyond the plausibility limit ``limit``."""
+    low, high = PLAUSIBLE[limit]
+    if not low <= value * unit_scale <= high:
+        raise MeasurementError(f"{table.where(row, col)}: column '{table.header[col]}': "
+                               f"{what or f'{shown(value)} {unit}'} is implausible: "
+                               f"{describe_range(limit, unit, unit_scale)} (docs/measurements.md)")
 
 
 def _key_value_run_table(path: Path, text: str) -> Table:
@@ -576,6 +687,7 @@ def _key_value_run_table(path: Path, text: str) -> Table:
     values: dict[str, tuple[str, int]] = {}
     indexed: dict[str, dict[tuple[int, ...], tuple[str, int]]] = {}
     meta: dict[str, str] = {}
+    meta_lines: dict[str, int] = {}
     for number, line in enumerate(text.splitlines(), start=1):
         stripped = line.strip()
         if not stripped:
@@ -583,13 +695,15 @@ def _key_value_run_table(path: Path, text: str) -> Table:
         if stripped.startswith("#"):
             match = META_RE.match(stripped)
             if match:
-                meta[match.group(1).lower()] = match.group(2).strip()
+                _add_meta(meta, meta_lines, match, number, path, None)
             continue
         match = KEY_VALUE_RE.match(stripped)
         if not match:
             raise MeasurementError(f"{path}:{number}: expected KEY=VALUE or KEY[i,j]=VALUE, got '{stripped[:40]}'")
         key, index, value = match.group("key").upper(), match.group("index"), match.group("value").strip()
         if index is None:
+            if key in values:
+                raise MeasurementError(f"{path}:{number}: {key} given twice (first on line {values[key][1]})")
             values[key] = (value, number)
             continue
         try:
@@ -603,12 +717,15 @@ def _key_value_run_table(path: Path, text: str) -> Table:
 
     def number_of(value: str, line: int, what: str) -> float:
         try:
-            x = float(value)
-        except ValueError:
-            raise MeasurementError(f"{path}:{line}: {what}: '{value}' is not a number") from None
-        if not math.isfinite(x):
-            raise MeasurementError(f"{path}:{line}: {what}: '{value}' is not a finite number")
-        return x
+            return parse_number(value)
+        except ValueError as err:
+            raise MeasurementError(f"{path}:{line}: {what}: '{value}' {err}") from None
+
+    def plausible(x: float, line: int, what: str, limit: str, unit: str, unit_scale: float) -> None:
+        low, high = PLAUSIBLE[limit]
+        if not low <= x * unit_scale <= high:
+            raise MeasurementError(f"{path}:{line}: {what} is implausible: {describe_range(limit, unit, unit_scale)} "
+                                   "(docs/measurements.md)")
 
     if "UNIT" not in values:
         raise MeasurementError(f"{path}: no UNIT= line (mm or deg)")
@@ -618,9 +735,15 @@ def _key_value_run_table(path: Path, text: str) -> Table:
     targets = indexed.get("TGT_DATA", {})
     if not targets:
         raise MeasurementError(f"{path}: no TGT_DATA[i]= lines (the target positions)")
+    for idx, (_, line) in targets.items():
+        if len(idx) != 1:
+            raise MeasurementError(f"{path}:{line}: TGT_DATA needs one index [target]")
     if not any(k in indexed for k in ("REF_DATA_FWD", "REF_DATA_BWD")):
         raise MeasurementError(f"{path}: no REF_DATA_FWD[i,c]= or REF_DATA_BWD[i,c]= lines (the measured positions)")
     value_name, scale = _deviation_column(unit)
+    position = ("position_length", MM) if unit == "mm" else ("position_angle", DEG)
+    dev_unit = value_name.split("_", 1)[1]
+    deviation = ("error_length", LENGTH[dev_unit]) if unit == "mm" else ("error_angle", ANGLE[dev_unit])
     rows, lines = [], []
     for key, direction in (("REF_DATA_FWD", "1"), ("REF_DATA_BWD", "-1")):
         for idx, (value, line) in sorted(indexed.get(key, {}).items()):
@@ -629,16 +752,25 @@ def _key_value_run_table(path: Path, text: str) -> Table:
             if (idx[0],) not in targets:
                 raise MeasurementError(f"{path}:{line}: {key}[{idx[0]},{idx[1]}]: no TGT_DATA[{idx[0]}]")
             target_text, target_line = targets[(idx[0],)]
-            target = repr(number_of(target_text, target_line, f"TGT_DATA[{idx[0]}]"))
-            measured = repr(number_of(value, line, f"{key}[{idx[0]},{idx[1]}]"))
-            rows.append([target, str(idx[1]), direction, _deviation(measured, target, scale)])
+            name = f"{key}[{idx[0]},{idx[1]}]"
+            target = number_of(target_text, target_line, f"TGT_DATA[{idx[0]}]")
+            plausible(target, target_line, f"TGT_DATA[{idx[0]}] = {shown(target)} {unit}", position[0], unit, position[1])
+            measured = number_of(value, line, name)
+            plausible(measured, line, f"{name} = {shown(measured)} {unit}", position[0], unit, position[1])
+            dev = _deviation(repr(measured), repr(target), scale)
+            plausible(float(dev), line, f"{name}: the deviation {shown(float(dev))} {dev_unit}", deviation[0], dev_unit,
+                      deviation[1])
+            rows.append([repr(target), str(idx[1]), direction, dev])
             lines.append(line)
     for key, what in (("CYCLES", {r[1] for r in rows}), ("POSITIONS", {r[0] for r in rows})):
-        if key in values and int(number_of(*values[key], key)) != len(what):
-            raise MeasurementError(f"{path}:{values[key][1]}: {key}={values[key][0]} but the data hold {len(what)}")
+        if key in values:
+            count = number_of(*values[key], key)
+            if count != round(count) or int(count) != len(what):
+                raise MeasurementError(f"{path}:{values[key][1]}: {key}={values[key][0]} but the data hold {len(what)}")
     known = {"UNIT", "CYCLES", "POSITIONS", "TGT_DATA", "REF_DATA_FWD", "REF_DATA_BWD"}
     meta["unused"] = ",".join(sorted((set(values) | set(indexed)) - known))
-    return Table(str(path), [f"target_{unit}", "cycle", "direction", value_name], 0, rows, lines, meta)
+    return Table(str(path), [f"target_{unit}", "cycle", "direction", value_name], 0, rows, lines, meta,
+                 converted=True)
 
 
 def run_table(path: str | Path | Table) -> Table:
@@ -699,8 +831,10 @@ def read_runs(path: str | Path | Table, axis: str | None = None) -> Runs:
     MeasurementError
         If the table is malformed, the target, cycle, direction or value column is missing or
         ambiguous, the component is unknown or belongs to another axis than ``axis``, the
-        value's unit does not fit the target or component, a direction is not +1 / -1, or a
-        cycle number is not an integer.
+        value's unit does not fit the target or component, a direction is not +1 / -1, a
+        cycle number is not an integer from 0 to :data:`MAX_CYCLE`, one target, cycle and
+        direction is given twice (naming both lines), or a target or value lies beyond its
+        plausibility limit.
     """
     table = run_table(path)
     header = table.header
@@ -716,6 +850,9 @@ def read_runs(path: str | Path | Table, axis: str | None = None) -> Runs:
         found = [c for c, h in enumerate(header) if h in alternatives]
         if not found:
             raise MeasurementError(f"{table.path}:{table.header_line}: missing column '{name}'")
+        if len(found) > 1:
+            raise MeasurementError(f"{table.path}:{table.header_line}:{found[1] + 1}: columns "
+                                   f"'{header[found[0]]}' and '{header[found[1]]}' are both the {name}; keep one")
         needed[name] = found[0]
     value_cols = [(c, RUN_VALUE_RE.match(h)) for c, h in enumerate(header) if RUN_VALUE_RE.match(h)]
     if len(value_cols) != 1:
@@ -751,8 +888,11 @@ def read_runs(path: str | Path | Table, axis: str | None = None) -> Runs:
             raise MeasurementError(f"{table.path}:{table.header_line}:{vcol + 1}: {quantity} is "
                                    f"{'an angle' if direction_letter in 'ABC' else 'a length'}; unit "
                                    f"'{unit}' does not fit")
-    file_target = table.column(tcol)
-    file_value = table.column(vcol)
+    target_scale = axis_scale("linear" if target_linear else "rotary")
+    file_target = table.column(tcol, limit="position_length" if target_linear else "position_angle",
+                               unit=target_unit, unit_scale=target_scale)
+    file_value = table.column(vcol, limit="error_angle" if angular else "error_length", unit=unit,
+                              unit_scale=value_scale)
     cycle = table.column(needed["cycle"])
     direction = table.column(needed["direction"])
     for k, (values, name) in enumerate(((cycle, "cycle"), (direction, "direction"))):
@@ -763,11 +903,11 @@ def read_runs(path: str | Path | Table, axis: str | None = None) -> Runs:
                 raise MeasurementError(f"{table.where(bad[0], col)}: column 'direction': must be +1 or -1, "
                                        f"got {table.rows[bad[0]][col].strip()}")
         else:
-            bad = np.flatnonzero(values != np.round(values))
+            bad = np.flatnonzero((values != np.round(values)) | (values < 0) | (values > MAX_CYCLE))
             if bad.size:
                 raise MeasurementError(f"{table.where(bad[0], col)}: column '{header[col]}': cycle numbers "
-                                       f"are integers, got {table.rows[bad[0]][col].strip()}")
-    target_scale = axis_scale("linear" if target_linear else "rotary")
+                                       f"are integers from 0 to {MAX_CYCLE:,}, got {table.rows[bad[0]][col].strip()}")
+    _refuse_repeated_approaches(table, file_target, cycle, direction, target_unit)
     at = axis_values(table, "at")
     used = {tcol, vcol, needed["cycle"], needed["direction"]}
     unused = tuple(h for c, h in enumerate(header) if c not in used)
@@ -775,6 +915,22 @@ def read_runs(path: str | Path | Table, axis: str | None = None) -> Runs:
     return Runs(table.path, file_target * target_scale, cycle.astype(int), direction.astype(int),
                 file_value * value_scale, file_target, file_value, target_unit, unit, component, axis,
                 at, np.array(table.lines), unused)
+
+
+def _refuse_repeated_approaches(table: Table, target: np.ndarray, cycle: np.ndarray, direction: np.ndarray,
+                                unit: str) -> None:
+    """One approach per target, cycle and direction: a repeated row would count as one more
+    approach (a sixth of five) and change every statistic. Targets are compared as
+    :func:`volerr_pin.iso230.evaluate` groups them, to 1e-9 of their unit."""
+    first: dict[tuple[float, int, int], int] = {}
+    for r, key in enumerate(zip(np.round(target, 9).tolist(), cycle.astype(int).tolist(),
+                                direction.astype(int).tolist())):
+        if key in first:
+            raise MeasurementError(
+                f"{table.path}:{table.lines[r]}: target {key[0]:g} {unit}, cycle {key[1]}, direction "
+                f"{key[2]:+d} is given twice (first on line {table.lines[first[key]]}); one approach per "
+                "target, cycle and direction")
+        first[key] = r
 
 
 def axis_values(table: Table, key: str) -> dict[str, float]:

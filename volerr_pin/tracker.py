@@ -114,9 +114,9 @@ def read_tracker(path: str | Path | Table, machine) -> TrackerMeasurements:
     ------
     MeasurementError
         If the table is malformed, ``tx``, ``ty`` or ``tz`` is missing, only some of ``ox``,
-        ``oy``, ``oz`` are given, one target has two different offsets, or a position or
-        covariate column is invalid (see
-        :func:`~volerr_pin.measurements.positions_and_covariates`).
+        ``oy``, ``oz`` are given, a coordinate or offset lies beyond 1 km, a target name is
+        empty, one target has two different offsets, or a position or covariate column is
+        invalid (see :func:`~volerr_pin.measurements.positions_and_covariates`).
     """
     table = read_table(path)
     columns = header_columns(table, machine)
@@ -125,7 +125,8 @@ def read_tracker(path: str | Path | Table, machine) -> TrackerMeasurements:
         raise MeasurementError(f"{table.path}:{table.header_line}: a tracker file needs the columns tx, ty, tz "
                                f"(mm, tracker frame); missing {', '.join(missing)}")
     q, covariates, used = positions_and_covariates(table, columns, machine)
-    coordinates = np.column_stack([table.column(columns[c]) for c in COORDINATES]) * 1e-3
+    coordinates = np.column_stack([table.column(columns[c], limit="position_length", unit="mm", unit_scale=1e-3)
+                                   for c in COORDINATES]) * 1e-3
     used.update(columns[c] for c in COORDINATES)
     present = [c for c in OFFSETS if c in columns]
     if present and len(present) != 3:
@@ -133,11 +134,16 @@ def read_tracker(path: str | Path | Table, machine) -> TrackerMeasurements:
                                f"(missing {', '.join(c for c in OFFSETS if c not in columns)})")
     offsets = np.zeros((len(table.rows), 3))
     if present:
-        offsets = np.column_stack([table.column(columns[c]) for c in OFFSETS]) * 1e-3
+        offsets = np.column_stack([table.column(columns[c], limit="position_length", unit="mm", unit_scale=1e-3)
+                                   for c in OFFSETS]) * 1e-3
         used.update(columns[c] for c in OFFSETS)
     if "target" in columns:
         targets = tuple(row[columns["target"]].strip() for row in table.rows)
         used.add(columns["target"])
+        if "" in targets:
+            r = targets.index("")
+            raise MeasurementError(f"{table.where(r, columns['target'])}: column 'target': empty target name "
+                                   "(name every target, or leave the column out)")
         first: dict[str, tuple[np.ndarray, int]] = {}
         for i, name in enumerate(targets):
             if name in first and not np.allclose(first[name][0], offsets[i], rtol=0, atol=1e-12):
