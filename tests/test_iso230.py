@@ -77,6 +77,31 @@ def test_unidirectional_run():
     assert r["A_up"] == pytest.approx(1.2 + 2 * s1 - (0.1 - 2 * s0))
 
 
+def test_a_repeated_approach_is_refused_not_counted(tmp_path):
+    """Issue 22: a row repeating target, cycle and direction was counted as a sixth approach
+    of five, changing the mean and s; the reader names both lines instead."""
+    rows = [f"{t},{c},{d},{0.2 * c + d}" for t in (0, 100) for c in range(1, 6) for d in (1, -1)]
+    path = tmp_path / "runs.csv"
+    path.write_text("\n".join(["target_mm,cycle,direction,deviation_um"] + rows + ["100,3,-1,7.5"]) + "\n")
+    line_of_first = 2 + next(i for i, row in enumerate(rows) if row.startswith("100,3,-1,"))
+    with pytest.raises(ValueError, match=rf"runs\.csv:22: target 100 mm, cycle 3, direction -1 is given twice "
+                                         rf"\(first on line {line_of_first}\)"):
+        read_runs(path)
+    path.write_text("\n".join(["target_mm,cycle,direction,deviation_um"] + rows) + "\n")
+    assert evaluate_runs(read_runs(path))["positions"][1]["n_down"] == 5
+
+
+@pytest.mark.parametrize("args, match", [
+    (([0, 0], [1, 1], [1.0, np.nan]), r"deviations\[1\] is nan; values must be finite"),
+    (([0, np.inf], [1, 1], [1.0, 2.0]), r"targets\[1\] is inf"),
+    (([], [], []), r"targets: no approach given"),
+    (([0, 0], [1, 1], [1.0]), r"must be 1-D of one length"),
+])
+def test_evaluate_refuses_non_finite_and_mismatched_input(args, match):
+    with pytest.raises(ValueError, match=match):
+        evaluate(*args)
+
+
 def test_one_approach_is_refused():
     with pytest.raises(ValueError, match="target 5: 1 approach"):
         run({(0, 1): [0, 1], (5, 1): [2]})

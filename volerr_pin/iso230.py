@@ -46,15 +46,28 @@ def evaluate(targets, directions, deviations, unit: str = "um", source: str = ""
     Raises
     ------
     InputError
-        If the arrays are not 1-D of one length, a direction is not +1 or -1, or a target has
-        fewer than 2 approaches in a direction that is run.
+        If the arrays are not 1-D of one length or hold no value, a value is not a finite
+        number, a direction is not +1 or -1, or a target has fewer than 2 approaches in a
+        direction that is run.
     """
-    targets = np.asarray(targets, dtype=float)
-    directions = np.asarray(directions, dtype=float)
-    deviations = np.asarray(deviations, dtype=float)
     where = f"{source}: " if source else ""
+    arrays = {}
+    for name, value in (("targets", targets), ("directions", directions), ("deviations", deviations)):
+        try:
+            arrays[name] = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"{where}{name} must be numbers", parameters=(name,)) from None
+    targets, directions, deviations = arrays.values()
     if not (targets.shape == directions.shape == deviations.shape) or targets.ndim != 1:
-        raise InputError(f"{where}targets, directions and deviations must be 1-D of one length")
+        raise InputError(f"{where}targets, directions and deviations must be 1-D of one length",
+                         parameters=("targets", "directions", "deviations"))
+    if targets.size == 0:
+        raise InputError(f"{where}targets: no approach given", parameters=("targets",))
+    for name, array in arrays.items():
+        bad = np.flatnonzero(~np.isfinite(array))
+        if bad.size:
+            raise InputError(f"{where}{name}[{bad[0]}] is {array[bad[0]]}; values must be finite",
+                             parameters=(name,))
     if not np.all(np.isin(directions, (-1.0, 1.0))):
         raise InputError(f"{where}directions must be +1 or -1")
     keys = np.round(targets, 9)
