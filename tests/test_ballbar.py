@@ -127,7 +127,8 @@ def test_malformed_ballbar_files(tmp_path, text, match):
 
 def test_a_circle_beyond_the_travel_names_the_file(machines, tmp_path):
     path = tmp_path / "circle.csv"
-    path.write_text("# plane: X, Y\n# radius: 300\n# centre: X=250, Y=200\nangle_deg,deviation_um\n0,1\n90,1\n")
+    path.write_text("# plane: X, Y\n# radius: 300\n# centre: X=250, Y=200\nangle_deg,deviation_um\n"
+                    "0,1\n90,1\n180,1\n270,1\n")
     with pytest.raises(vp.InputError, match=r"circle.csv: the circle leaves the travel"):
         identify(machines["vmc500"], [read_ballbar(path)])
 
@@ -142,3 +143,66 @@ def test_cli_ballbar(machines, tmp_path, capsys):
     assert (tmp_path / "c.png").stat().st_size > 10_000
     assert main(["ballbar", str(path)]) == 0
     assert "circular hysteresis" in capsys.readouterr().out
+
+
+# ---------------------------------------------------------------- degenerate geometry (issue 22)
+
+HEAD = "# plane: X, Y\n# radius: 100\nangle_deg,deviation_um,direction\n"
+
+
+def sweep(first_deg, last_deg, n=40, direction=1):
+    return "".join(f"{float(a)!r},{float(0.5 * np.sin(np.radians(a)))!r},{direction}\n"
+                   for a in np.linspace(first_deg, last_deg, n))
+
+
+@pytest.mark.parametrize("rows, match", [
+    ("".join("0,%d,1\n" % i for i in range(10)),
+     r"circle\.csv: the counter-clockwise \(\+1\) samples cover 0 deg of the circle; a circular test needs at "
+     r"least 90 deg"),
+    (sweep(10.0, 10.05), r"circle\.csv: the counter-clockwise \(\+1\) samples cover 0\.05 deg"),
+    (sweep(0.0, 45.0), r"cover 45 deg of the circle"),
+    (sweep(0.0, 360.0) + sweep(0.0, 20.0, direction=-1), r"the clockwise \(-1\) samples cover 20 deg"),
+    ("0,1,1\n120,1,1\n240,1,1\n", r"circle\.csv: 3 counter-clockwise \(\+1\) sample\(s\); a circular test needs at "
+                                  "least 4 per direction"),
+    (sweep(0.0, 360.0) + "90,-150000,1\n", r"circle\.csv:\d+:2: column 'deviation_um': a radial deviation of "
+                                           r"-150000 um is not smaller than the radius 100 mm"),
+    ("0,1e300,1\n", r"circle\.csv:4:2: column 'deviation_um': 1e\+300 um is implausible"),
+    ("1e300,1,1\n", r"circle\.csv:4:1: column 'angle_deg': 1e\+300 deg is implausible"),
+])
+def test_degenerate_circles_are_refused(tmp_path, rows, match):
+    path = tmp_path / "circle.csv"
+    path.write_text(HEAD + rows)
+    with pytest.raises(MeasurementError, match=match):
+        read_ballbar(path)
+
+
+@pytest.mark.parametrize("radius, match", [
+    ("0", r"must be positive"), ("-5", r"must be positive"), ("1e300", r"must be positive and at most 1e\+06 mm"),
+    ("100 um", r"'# radius: 100 um': not a number of mm"), ("nan", r"not a number of mm"),
+    ("100 mm", None), ("100mm", None),
+])
+def test_the_radius_is_a_positive_length_in_mm(tmp_path, radius, match):
+    path = tmp_path / "circle.csv"
+    path.write_text(HEAD.replace("100", radius) + sweep(0.0, 350.0))
+    if match is None:
+        assert read_ballbar(path).radius == pytest.approx(0.1)
+    else:
+        with pytest.raises(MeasurementError, match=match):
+            read_ballbar(path)
+
+
+def test_a_quarter_circle_is_enough_and_its_figures_are_right(tmp_path):
+    """90 deg (the least arc taken) of a set-up offset alone: the centre comes back, G = 0."""
+    a = np.linspace(0.0, 90.0, 46)
+    r = 3.0 * np.cos(np.radians(a)) - 2.0 * np.sin(np.radians(a)) + 1.5
+    path = tmp_path / "circle.csv"
+    path.write_text(HEAD + "".join(f"{float(x)!r},{float(y)!r},1\n" for x, y in zip(a, r)))
+    result = evaluate_circular(read_ballbar(path))
+    assert result["centre_offset_um"] == pytest.approx([3.0, -2.0], abs=1e-9)
+    assert result["radius_error_um"] == pytest.approx(1.5, abs=1e-9) and result["G"] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_evaluating_a_run_built_in_code_checks_its_arc_too():
+    short = np.radians(np.linspace(0.0, 2.0, 30))
+    with pytest.raises(vp.InputError, match=r"test: the counter-clockwise \(\+1\) samples cover 2 deg"):
+        evaluate_circular(run_of(np.zeros(30), angle=short))

@@ -18,6 +18,11 @@ linear axes run a circle around the table ball. The file gives the **radial devi
 -1 for decreasing (G2), or the words ``ccw`` / ``cw``; without it every row is +1.
 Deviations may be in um, nm or mm (``deviation_mm``).
 
+The samples of each direction run must number at least 4 and cover an arc of at least
+:data:`MIN_ARC_DEG` (90 deg): the least-squares circle's centre and radius are determined
+to a condition number of 20 over a quarter circle, of 7,000 over 5 deg, where a micrometre of
+noise becomes millimetres of radius error. A radial deviation is smaller than the radius.
+
 :func:`evaluate_circular` gives ISO 230-4's figures: the circular deviation G of each
 direction and G(b) of both, about the least-squares circle's centre; the radial deviations
 F_max / F_min about the nominal centre (the set-up's offset included); the circular
@@ -45,10 +50,15 @@ import numpy as np
 
 from .errors import InputError
 from .measurements import DIRECTION_WORDS, MeasurementError, Table, axis_values, read_table
-from .units import LENGTH
+from .units import DEG, LENGTH, MM, PLAUSIBLE, parse_number
 from .workspace import config_from_file
 
 DEVIATION_RE = re.compile(r"^(?:deviation|radial|dr)_(um|nm|mm)$")
+RADIUS_RE = re.compile(r"^(?P<value>[^\s]+?)\s*(?:mm)?$")
+#: the smallest arc [deg] the samples of one direction must cover (see the module docstring)
+MIN_ARC_DEG = 90.0
+#: the fewest samples of one direction
+MIN_SAMPLES = 4
 
 
 @dataclass(frozen=True)
@@ -128,8 +138,10 @@ def read_ballbar(path: str | Path | Table) -> BallbarRun:
     ------
     MeasurementError
         If the table is malformed, ``angle_deg`` or the single deviation column is missing, a
-        direction is not a direction word, or the ``# plane:`` or ``# radius:`` header line
-        is missing or invalid.
+        direction is not a direction word, the ``# plane:`` or ``# radius:`` header line
+        is missing or invalid (the radius is in mm, positive, at most 1 km), a deviation is
+        not smaller than the radius or beyond 1 m, or a direction has fewer than 4 samples or
+        covers less than :data:`MIN_ARC_DEG` of the circle.
     """
     table = read_table(path)
     header = table.header
@@ -142,8 +154,8 @@ def read_ballbar(path: str | Path | Table) -> BallbarRun:
     acol, vcol = header.index("angle_deg"), dev_cols[0]
     unit = DEVIATION_RE.match(header[vcol]).group(1)
     dcol = header.index("direction") if "direction" in header else None
-    angle = np.radians(table.column(acol))
-    file_value = table.column(vcol)
+    angle = np.radians(table.column(acol, limit="position_angle", unit="deg", unit_scale=DEG))
+    file_value = table.column(vcol, limit="error_length", unit=unit, unit_scale=LENGTH[unit])
     if dcol is None:
         direction = np.ones(len(angle))
     else:
@@ -163,16 +175,79 @@ def read_ballbar(path: str | Path | Table) -> BallbarRun:
         raise MeasurementError(f"{table.path}: header '# plane: {meta['plane']}': two different axes expected")
     if "radius" not in meta:
         raise MeasurementError(f"{table.path}: give the nominal radius: '# radius: 100' (mm)")
+    match = RADIUS_RE.match(meta["radius"])
     try:
-        radius = float(meta["radius"].split()[0].removesuffix("mm")) * 1e-3
-    except (ValueError, IndexError):
-        raise MeasurementError(f"{table.path}: header '# radius: {meta['radius']}': not a number of mm") from None
-    if not radius > 0.0 or not math.isfinite(radius):
-        raise MeasurementError(f"{table.path}: header '# radius: {meta['radius']}': must be positive")
+        radius = parse_number(match.group("value")) * MM if match else math.nan
+    except ValueError:
+        radius = math.nan
+    if math.isnan(radius):
+        raise MeasurementError(f"{table.path}: header '# radius: {meta['radius']}': not a number of mm")
+    if not 0.0 < radius <= PLAUSIBLE["position_length"][1]:
+        raise MeasurementError(f"{table.path}: header '# radius: {meta['radius']}': must be positive and at most "
+                               f"{PLAUSIBLE['position_length'][1] / MM:g} mm")
+    deviation = file_value * LENGTH[unit]
+    beyond = np.flatnonzero(np.abs(deviation) >= radius)
+    if beyond.size:
+        r = int(beyond[0])
+        raise MeasurementError(f"{table.where(r, vcol)}: column '{header[vcol]}': a radial deviation of "
+                               f"{file_value[r]:g} {unit} is not smaller than the radius {radius / MM:g} mm")
     centre = axis_values(table, "centre") or axis_values(table, "center")
     unused = tuple(h for c, h in enumerate(header) if c not in {acol, vcol, dcol})
-    return BallbarRun(table.path, angle, file_value * LENGTH[unit], direction, radius, plane, centre,
-                      np.array(table.lines), unit, unused)
+    run = BallbarRun(table.path, angle, deviation, direction, radius, plane, centre, np.array(table.lines), unit,
+                     unused)
+    check_circle(run, MeasurementError)
+    return run
+
+
+def covered_arc(angle: np.ndarray) -> float:
+    """The arc of the circle that angles cover, rad: 2 pi less the largest gap between them.
+
+    Parameters
+    ----------
+    angle : ndarray, shape (n,)
+        Angles [rad], any order, any number of turns.
+
+    Returns
+    -------
+    float
+        In [0, 2 pi): 0 for one angle (or all at one angle), nearly 2 pi for a full circle.
+    """
+    a = np.unique(np.mod(np.asarray(angle, dtype=float), 2 * np.pi))
+    if a.size < 2:
+        return 0.0
+    gaps = np.diff(np.r_[a, a[0] + 2 * np.pi])
+    return float(2 * np.pi - gaps.max())
+
+
+def check_circle(run: BallbarRun, error: type[InputError] = InputError) -> None:
+    """Refuse a circular test whose geometry cannot be evaluated: too few samples, or samples
+    of one direction covering less than :data:`MIN_ARC_DEG` of the circle.
+
+    Parameters
+    ----------
+    run : BallbarRun
+        The circular test.
+    error : type, default InputError
+        Exception class raised (``MeasurementError`` for a file).
+
+    Raises
+    ------
+    InputError
+        (or ``error``) Naming the file (``run.source``), the direction and what it covers.
+    """
+    for d, name in ((1.0, "counter-clockwise (+1)"), (-1.0, "clockwise (-1)")):
+        mask = run.direction == d
+        if not np.any(mask):
+            continue
+        count = int(mask.sum())
+        if count < MIN_SAMPLES:
+            raise error(f"{run.source}: {count} {name} sample(s); a circular test needs at least {MIN_SAMPLES} "
+                        "per direction")
+        arc = np.degrees(covered_arc(run.angle[mask]))
+        if arc < MIN_ARC_DEG:
+            raise error(f"{run.source}: the {name} samples cover {arc:.3g} deg of the circle; a circular test "
+                        f"needs at least {MIN_ARC_DEG:g} deg (the centre and radius of a shorter arc are not "
+                        "determined)")
 
 
 def _lsc(angle: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -223,7 +298,7 @@ def evaluate_circular(run: BallbarRun) -> dict:
     dict
         ``source``, ``plane``, ``radius_mm``, ``unit`` ("um"), ``n_points``, ``G``
         (circular deviation; of both directions together when both were run), ``G_ccw`` /
-        ``G_cw`` (None with fewer than 4 samples in that direction), ``F_max`` / ``F_min``
+        ``G_cw`` (None for a direction not run), ``F_max`` / ``F_min``
         (radial deviation about the nominal centre), ``H`` (circular hysteresis, both
         directions only, else None), ``centre_offset_um`` (the least-squares centre from the
         nominal one, along the two plane axes' directions), ``radius_error_um`` and the counts
@@ -232,24 +307,24 @@ def evaluate_circular(run: BallbarRun) -> dict:
     Raises
     ------
     InputError
-        If the run has fewer than 4 samples.
+        If a direction has fewer than 4 samples or covers less than :data:`MIN_ARC_DEG` of
+        the circle (:func:`check_circle`).
     """
+    check_circle(run)
     r = run.deviation * 1e6
     out: dict = {"source": run.source, "plane": list(run.plane), "radius_mm": run.radius * 1e3,
                  "unit": "um", "n_points": int(len(r))}
     present = {d: run.direction == d for d in (1.0, -1.0) if np.any(run.direction == d)}
     for d, name in ((1.0, "ccw"), (-1.0, "cw")):
         mask = present.get(d)
-        if mask is None or mask.sum() < 4:
+        if mask is None:
             out[f"G_{name}"] = None
-            out[f"n_{name}"] = int(0 if mask is None else mask.sum())
+            out[f"n_{name}"] = 0
             continue
         fit = _lsc(run.angle[mask], r[mask])
         about = radial_about(run.angle[mask], r[mask], fit)
         out[f"G_{name}"] = float(about.max() - about.min())
         out[f"n_{name}"] = int(mask.sum())
-    if len(r) < 4:
-        raise InputError(f"{run.source}: {len(r)} samples are too few for a circular test")
     fit = _lsc(run.angle, r)
     about = radial_about(run.angle, r, fit)
     out["G"] = float(about.max() - about.min())
@@ -291,8 +366,9 @@ def ballbar_positions(machine, run: BallbarRun) -> tuple[np.ndarray, np.ndarray,
     ------
     InputError
         If a plane axis is not an axis of the machine or not linear, the centre is invalid,
-        or the circle leaves the travel.
+        the circle leaves the travel, or the samples cannot be evaluated (:func:`check_circle`).
     """
+    check_circle(run)
     for name in run.plane:
         if name not in machine.axes:
             raise InputError(f"{run.source}: '# plane:' names '{name}', not an axis of {machine.name} "
