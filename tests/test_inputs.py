@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
+from volerr_pin.thermal import GM11, GM1N, feed_axis_six_point, spindle_five_point
+from volerr_pin.units import parse_axis_values
 
 
 def test_wrong_shape(machines):
@@ -75,3 +77,29 @@ def test_machine_is_immutable(machines):
     other = m.with_theta(np.zeros_like(theta))
     assert np.all(other.theta == 0) and np.any(m.theta != 0)
     assert np.abs(other.volumetric_error([[0.1, 0.2, 0.3]])).max() == 0.0
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: spindle_five_point(0, 0, 0, 0, 0, np.inf, 0.05, 0.04), r"finite l1 > 0, l2 > 0 and l >= 0"),
+    (lambda: spindle_five_point([0, np.nan], 0, 0, 0, 0, 0.1, 0.05, 0.04), r"s1 holds a value that is not a finite"),
+    (lambda: feed_axis_six_point(0, 0, np.inf, 0, 0, 0), r"s8 holds a value that is not a finite number"),
+    (lambda: GM11.fit([1.0, 2.0, np.nan, 4.0, 5.0]), r"x0 holds a value that is not a finite number"),
+    (lambda: GM1N.fit(np.arange(1.0, 9.0), np.arange(8.0), lam=1.5), r"lam must be in \[0, 1\], got 1\.5"),
+])
+def test_thermal_methods_refuse_non_finite_input(call, match):
+    with pytest.raises(vp.InputError, match=match) as err:
+        call()
+    assert err.value.parameters
+
+
+@pytest.mark.parametrize("text, match", [
+    ("X=1, X=2", r"here: axis X is given twice"),
+    ("X=nan", r"here: 'X=nan' is not AXIS=VALUE: 'nan' is not a finite number"),
+    ("X=1e999", r"'1e999' is not a finite number"),
+    ("X=1_0", r"'1_0' is not a number"),
+    ("X", r"here: 'X' is not AXIS=VALUE"),
+])
+def test_axis_value_lists_are_strict(text, match):
+    with pytest.raises(vp.InputError, match=match):
+        parse_axis_values(text, "here", ("X", "Y"))
+    assert parse_axis_values(" X=1.5,Y=-2e1 ", "here") == {"X": 1.5, "Y": -20.0}

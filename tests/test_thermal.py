@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
 
 from volerr_pin.cli import main
 from volerr_pin.thermal import GM11, GM1N, feed_axis_six_point, spindle_five_point
-from volerr_pin.thermalfit import read_series, thermal_fit
+from volerr_pin.thermalfit import SeriesData, read_series, thermal_fit
 
 
 def test_gm11_reproduces_a_worked_example_to_the_printed_digits():
@@ -114,9 +115,11 @@ def test_batches_and_test_files(tmp_path):
     assert r["n_fit"] == 2 * 299 and r["n_holdout"] == 299  # lags do not cross batches
     for method in ("gm1n", "vwgm1n", "gm11"):
         kw = {"holdout": 0.2} if method == "gm11" else {"test": read_series(tmp_path / "b2.csv")}
+        sensors = None if method == "gm11" else ["T_bearing", "T_housing"]   # gm11: the target alone
         out = thermal_fit(train if method != "gm11" else read_series(tmp_path / "b0.csv"), "growth um",
-                          ["T_bearing", "T_housing"], method=method, **kw)
+                          sensors, method=method, **kw)
         assert np.isfinite(out["rmse_holdout"]) and out["lag"] is None
+        assert out["sensors"] == (sensors or []) and out["left_out"] == []
 
 
 def test_thermal_fit_errors(tmp_path):
@@ -141,3 +144,84 @@ def test_thermal_fit_cli_contract(tmp_path, capsys):
         assert key in r
     assert r["sensors"] == ["T_bearing", "T_housing", "T_ambient"] and png.stat().st_size > 20_000
     assert main(["thermal-fit", str(tmp_path / "run.csv"), "--target", "nope"]) == 2
+
+
+# ---------------------------------------------------------------- sensors that cannot be fitted (issue 22)
+
+def series(tmp_path, extra: dict, n=120, name="s.csv"):
+    """growth = 1.5 (T_a - 20) - 0.8 (T_b - 20) + noise, plus the ``extra`` columns."""
+    rng = np.random.default_rng(7)
+    t = np.arange(n)
+    cols = {"growth": None, "T_a": 20 + 8 * (1 - np.exp(-t / 30)), "T_b": 20 + 3 * (1 - np.exp(-t / 90))}
+    cols["growth"] = 1.5 * (cols["T_a"] - 20) - 0.8 * (cols["T_b"] - 20) + rng.normal(0, 0.02, n)
+    cols.update({k: v(cols) if callable(v) else v for k, v in extra.items()})
+    path = tmp_path / name
+    path.write_text(",".join(cols) + "\n" + "".join(
+        ",".join(repr(float(np.broadcast_to(v, (n,))[i])) for v in cols.values()) + "\n" for i in range(n)))
+    return read_series(path)
+
+
+@pytest.mark.parametrize("extra, sensor, reason", [
+    ({"T_c": 21.0}, "T_c", r"constant \(21 in every fitted row\)"),
+    ({"T_a2": lambda c: c["T_a"]}, "T_a2", r"the same as 'T_a' in every fitted row"),
+    ({"T_c": lambda c: 2 * c["T_a"] - c["T_b"] + 1.0}, "T_c", r"a linear combination of a constant and 'T_a', 'T_b'"),
+])
+def test_an_unfittable_sensor_is_refused_by_name_and_left_out_with_a_note_by_default(tmp_path, extra, sensor,
+                                                                                     reason):
+    data = series(tmp_path, extra)
+    with pytest.raises(ValueError, match=rf"sensors: '{sensor}' is {reason}; it has no coefficient of its own"):
+        thermal_fit(data, "growth", ["T_a", "T_b", sensor], lag=0)
+    r = thermal_fit(data, "growth", lag=0)
+    assert r["sensors"] == ["T_a", "T_b"] and [n["sensor"] for n in r["left_out"]] == [sensor]
+    assert re.fullmatch(reason, r["left_out"][0]["reason"])
+    assert r["coefficients"]["T_a"] == pytest.approx(1.5, abs=0.01)       # not split over two columns
+    for method in ("gm1n", "vwgm1n"):
+        assert thermal_fit(data, "growth", method=method)["left_out"] == r["left_out"]
+
+
+def test_a_sensor_collinear_to_rounding_in_the_file_is_reported(tmp_path):
+    data = series(tmp_path, {"T_c": lambda c: np.round(2 * c["T_a"] - c["T_b"], 6)})
+    assert thermal_fit(data, "growth", lag=0)["left_out"][0]["sensor"] == "T_c"
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"lag": 1.5}, r"lag must be a whole number of rows, got 1\.5"),
+    ({"lag": True}, r"lag must be a whole number of rows, got True"),
+    ({"lag": -1}, r"lag must be >= 0, got -1"),
+    ({"rank_top": -1}, r"rank_top must be an integer >= 0"),
+    ({"holdout": float("nan")}, r"holdout must be a fraction in \[0, 1\), got nan"),
+    ({"holdout": 0.995}, r"holdout 0\.995 leaves 1 of 120 rows to fit"),
+    ({"sensors": ["T_a", "T_a"]}, r"sensors: 'T_a' is listed twice"),
+    ({"sensors": ["T_a"], "method": "gm11"}, r"sensors: gm11 models the target alone"),
+    ({"lag": 200}, r"0 usable rows for 203 coefficients; reduce lag"),
+    ({"holdout": 0.98, "method": "gm11"}, r"2 fitted rows; gm11 needs at least 4; reduce holdout"),
+])
+def test_bad_thermal_fit_arguments_name_the_parameter(tmp_path, kwargs, match):
+    with pytest.raises(ValueError, match=match) as err:
+        thermal_fit(series(tmp_path, {}), "growth", **kwargs)
+    assert err.value.parameters
+
+
+def test_a_constant_target_or_no_sensor_left_is_refused(tmp_path):
+    data = series(tmp_path, {"flat": 0.0, "T_c": 21.0})
+    with pytest.raises(ValueError, match=r"target: 'flat' is 0 in every fitted row; a constant has nothing to model"):
+        thermal_fit(data, "flat")
+    only_constant = SeriesData(data.sources, {k: data.columns[k] for k in ("T_a", "T_c")}, data.batch)
+    with pytest.raises(ValueError, match=r"sensors: no sensor to model 'T_a' from \(left out: T_c\)"):
+        thermal_fit(only_constant, "T_a", lag=0)
+    assert thermal_fit(only_constant, "T_a", lag=1)["left_out"][0]["sensor"] == "T_c"   # its own lag is enough
+
+
+def test_implausible_series_values_are_refused(tmp_path):
+    (tmp_path / "s.csv").write_text("y,a\n1,2\n1e300,3\n")
+    with pytest.raises(ValueError, match=r"s\.csv:3:1: column 'y': 1e\+300 is implausible: a reading in any unit "
+                                         r"lies within \+-1e\+15"):
+        read_series(tmp_path / "s.csv")
+
+
+def test_cli_refuses_a_named_constant_sensor_with_one_line(tmp_path, capsys):
+    series(tmp_path, {"T_c": 21.0})
+    assert main(["thermal-fit", str(tmp_path / "s.csv"), "--target", "growth", "--sensors", "T_a", "T_c",
+                 "--lag", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "'T_c' is constant" in err and "--sensors" in err

@@ -66,11 +66,13 @@ def spindle_five_point(s1, s2, s3, s4, s5, l: float, l1: float, l2: float) -> di
     Raises
     ------
     InputError
-        Unless l1 > 0, l2 > 0 and l >= 0.
+        Unless l1 > 0, l2 > 0 and l >= 0 are finite and the readings are finite.
     """
     s1, s2, s3, s4, s5 = (np.asarray(s, dtype=float) for s in (s1, s2, s3, s4, s5))
-    if not (l1 > 0 and l2 > 0 and l >= 0):
-        raise InputError(f"spindle five-point method needs l1 > 0, l2 > 0 and l >= 0; got {l1}, {l2}, {l}")
+    if not (l1 > 0 and l2 > 0 and l >= 0 and all(np.isfinite(v) for v in (l, l1, l2))):
+        raise InputError(f"spindle five-point method needs finite l1 > 0, l2 > 0 and l >= 0; got {l1}, {l2}, {l}",
+                         parameters=("l1", "l2", "l"))
+    _finite(s1=s1, s2=s2, s3=s3, s4=s4, s5=s5)
     tilt_x = (s3 - s1) / l1
     tilt_y = (s4 - s2) / l2
     return {"dx": s1 - tilt_x * l, "dy": s2 - tilt_y * l, "dz": -s5, "tilt_x": tilt_x,
@@ -91,9 +93,22 @@ def feed_axis_six_point(s6, s7, s8, s9, s10, s11) -> dict:
     -------
     dict of str to ndarray
         ``dx``, ``dy``, ``dz``: the drift, in the readings' unit and shape.
+
+    Raises
+    ------
+    InputError
+        If a reading is not a finite number.
     """
     s6, s7, s8, s9, s10, s11 = (np.asarray(s, dtype=float) for s in (s6, s7, s8, s9, s10, s11))
+    _finite(s6=s6, s7=s7, s8=s8, s9=s9, s10=s10, s11=s11)
     return {"dx": s8 - s9, "dy": s6 - s11, "dz": s7 - s10}
+
+
+def _finite(**arrays: np.ndarray) -> None:
+    """Refuse a reading that is not a finite number, naming its parameter."""
+    for name, array in arrays.items():
+        if not np.all(np.isfinite(array)):
+            raise InputError(f"{name} holds a value that is not a finite number", parameters=(name,))
 
 
 def _ago(x: np.ndarray) -> np.ndarray:
@@ -145,11 +160,14 @@ class GM11:
         Raises
         ------
         InputError
-            If ``x0`` is not 1-D with at least 4 values, or the development coefficient is zero.
+            If ``x0`` is not 1-D with at least 4 finite values, or the development coefficient
+            is zero.
         """
         x0 = np.asarray(x0, dtype=float)
         if x0.ndim != 1 or x0.size < 4:
-            raise InputError(f"GM(1,1) needs a 1-D series of at least 4 values, got shape {x0.shape}")
+            raise InputError(f"GM(1,1) needs a 1-D series of at least 4 values, got shape {x0.shape}",
+                             parameters=("x0",))
+        _finite(x0=x0)
         if shift is None:
             shift = 0.0 if x0.min() > 0 else 1.0 - float(x0.min())
         x = x0 + shift
@@ -235,14 +253,19 @@ class GM1N:
         Raises
         ------
         InputError
-            If the shapes do not match or there are fewer than N + 2 rows.
+            If the shapes do not match, there are fewer than N + 2 rows, a value is not
+            finite, or ``lam`` is outside [0, 1].
         """
         y = np.asarray(target, dtype=float)
         X = np.asarray(drivers, dtype=float)
         if X.ndim == 1:
             X = X[:, None]
         if y.ndim != 1 or X.shape[0] != y.size or y.size < X.shape[1] + 3:
-            raise InputError(f"GM(1,N) needs n > N + 2 rows; got target {y.shape}, drivers {X.shape}")
+            raise InputError(f"GM(1,N) needs n > N + 2 rows; got target {y.shape}, drivers {X.shape}",
+                             parameters=("target", "drivers"))
+        _finite(target=y, drivers=X)
+        if lam is not None and not 0.0 <= lam <= 1.0:
+            raise InputError(f"lam must be in [0, 1], got {lam}", parameters=("lam",))
         labels = np.zeros(y.size, dtype=int) if batches is None else np.asarray(batches)
         parts = [(y[labels == b], X[labels == b]) for b in np.unique(labels)]
         if lam is None:

@@ -17,11 +17,18 @@ Methods:
 Fit statistics are in the unit of the target column: ``r2`` and ``residual_se`` (RSS / (n - p))
 on the fitted rows; ``rmse_holdout`` on the last ``holdout`` fraction of the rows, or on
 separate test files.
+
+A sensor that cannot be fitted - constant over the fitted rows, the same as another, or a
+linear combination of a constant and the sensors before it (to 1e-6 of its variation) - has
+no coefficient of its own: it is refused when asked for by name, and left out with a note
+(``left_out``: sensor and reason) when the sensors are every other column. A constant target
+has nothing to model and is refused.
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,6 +39,9 @@ from .measurements import MeasurementError, read_table
 from .thermal import GM11, GM1N
 
 METHODS = ("linear", "gm11", "gm1n", "vwgm1n")
+#: a sensor within this fraction of its variation of a linear combination of a constant and
+#: other sensors has no coefficient of its own (exact collinearity, up to rounding in the file)
+COLLINEAR = 1e-6
 
 
 @dataclass(frozen=True)
@@ -76,7 +86,8 @@ def read_series(paths) -> SeriesData:
     InputError
         If no file is given.
     MeasurementError
-        If a file cannot be read, a value is not a finite number, or the headers differ.
+        If a file cannot be read, a value is not a finite number or beyond +-1e15 (no reading
+        in any unit reaches it; docs/measurements.md), or the headers differ.
     """
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
     if not paths:
@@ -88,7 +99,7 @@ def read_series(paths) -> SeriesData:
             header = table.header
         elif table.header != header:
             raise MeasurementError(f"{table.path}:{table.header_line}: columns differ from {paths[0]}")
-        blocks.append(np.column_stack([table.column(c) for c in range(len(header))]))
+        blocks.append(np.column_stack([table.column(c, limit="reading") for c in range(len(header))]))
         batch.append(np.full(len(table.rows), i))
     values = np.vstack(blocks)
     return SeriesData(tuple(str(p) for p in paths), {h: values[:, j] for j, h in enumerate(header)},
@@ -156,26 +167,40 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
     Raises
     ------
     InputError
-        For an unknown ``target``, ``method`` or sensor, the target among the sensors, a
-        negative ``lag``, ``holdout`` out of range or given with ``test``, test columns
-        differing from the data's, too few usable rows, "gm11" with test files, or a grey
-        model that cannot be fitted (see :class:`~volerr_pin.thermal.GM11`).
+        For an unknown ``target``, ``method`` or sensor, a sensor listed twice, the target
+        among the sensors, sensors given to "gm11", a ``lag`` that is not an integer >= 0, a
+        ``holdout`` out of range or given with ``test``, a negative ``rank_top``, test columns
+        differing from the data's, a constant target, a sensor asked for by name that cannot
+        be fitted (constant, a duplicate, or collinear with others), no sensor left for a
+        model that needs one, too few usable rows, or a grey model that cannot be fitted
+        (see :class:`~volerr_pin.thermal.GM11`).
     """
     if target not in data.columns:
         raise InputError(f"target: no column '{target}' (columns: {', '.join(data.columns)})",
                          parameters=("target",))
     if method not in METHODS:
         raise InputError(f"method must be one of {', '.join(METHODS)}, got {method!r}", parameters=("method",))
+    if isinstance(lag, bool) or not isinstance(lag, numbers.Integral):
+        raise InputError(f"lag must be a whole number of rows, got {lag!r}", parameters=("lag",))
+    if lag < 0:
+        raise InputError(f"lag must be >= 0, got {lag}", parameters=("lag",))
+    if isinstance(rank_top, bool) or not isinstance(rank_top, numbers.Integral) or rank_top < 0:
+        raise InputError(f"rank_top must be an integer >= 0, got {rank_top!r}", parameters=("rank_top",))
+    if not (isinstance(holdout, numbers.Real) and 0.0 <= holdout < 1.0):
+        raise InputError(f"holdout must be a fraction in [0, 1), got {holdout}", parameters=("holdout",))
+    named = bool(sensors)
     sensors = [c for c in data.columns if c != target] if not sensors else list(sensors)
     unknown = [s for s in sensors if s not in data.columns]
     if unknown:
-        raise InputError(f"sensors: no column(s) {', '.join(unknown)}", parameters=("sensors",))
+        raise InputError(f"sensors: no column(s) {', '.join(map(str, unknown))}", parameters=("sensors",))
     if target in sensors:
         raise InputError(f"sensors: the target '{target}' cannot also be a sensor", parameters=("sensors",))
-    if lag < 0:
-        raise InputError(f"lag must be >= 0, got {lag}", parameters=("lag",))
-    if not 0.0 <= holdout < 1.0:
-        raise InputError(f"holdout must be a fraction in [0, 1), got {holdout}", parameters=("holdout",))
+    twice = sorted({s for s in sensors if sensors.count(s) > 1})
+    if twice:
+        raise InputError(f"sensors: '{twice[0]}' is listed twice", parameters=("sensors",))
+    if method == "gm11" and named:
+        raise InputError("sensors: gm11 models the target alone; give sensors to linear, gm1n or vwgm1n",
+                         parameters=("sensors",))
     if test is not None and holdout:
         raise InputError("give either holdout or test files, not both", parameters=("holdout",))
     if test is not None and list(test.columns) != list(data.columns):
@@ -188,18 +213,45 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
         cut = data.n - n_hold
         fit_data = _slice(data, slice(0, cut))
         held = _slice(data, slice(cut, data.n)) if n_hold else None
+    y_fit = fit_data.columns[target]
+    if fit_data.n < 2:
+        raise InputError(f"holdout {holdout:g} leaves {fit_data.n} of {data.n} rows to fit", parameters=("holdout",))
+    if np.ptp(y_fit) == 0:
+        raise InputError(f"target: '{target}' is {y_fit[0]:g} in every fitted row; a constant has nothing to model",
+                         parameters=("target",))
+    left_out = _unfittable(fit_data, sensors)
+    if left_out and named:
+        sensor, reason = left_out[0]
+        raise InputError(f"sensors: '{sensor}' is {reason}; it has no coefficient of its own, leave it out",
+                         parameters=("sensors",))
+    sensors = [s for s in sensors if s not in dict(left_out)]
+    if method == "gm11":
+        candidates, sensors = sensors, []
+    else:
+        candidates = sensors
+    if not sensors and (method in ("gm1n", "vwgm1n") or (method == "linear" and lag == 0)):
+        note = f" (left out: {', '.join(s for s, _ in left_out)})" if left_out else ""
+        raise InputError(f"sensors: no sensor to model '{target}' from{note}", parameters=("sensors",))
     result = {"target": target, "method": method, "sensors": sensors,
-              "lag": lag if method == "linear" else None}
+              "lag": lag if method == "linear" else None,
+              "left_out": [{"sensor": s, "reason": reason} for s, reason in left_out]}
     if method == "linear":
         rows, X = _design(fit_data, target, sensors, lag)
         y = fit_data.columns[target][rows]
         if len(rows) <= X.shape[1]:
-            raise InputError(f"{len(rows)} usable rows for {X.shape[1]} coefficients")
+            raise InputError(f"{len(rows)} usable rows for {X.shape[1]} coefficients; reduce lag"
+                             + (" or holdout" if holdout else "") + " (or the sensors)",
+                             parameters=("lag", "holdout") if holdout else ("lag",))
+        names = ["constant"] + [f"{s}(t-1)" if lag else s for s in sensors] + \
+                [f"{target}(t-{k})" for k in range(1, lag + 1)]
+        dependent = _unfittable_columns(X, names)
+        if dependent:
+            j, reason = dependent[0]
+            raise InputError(f"the model's column {names[j]} is {reason}; its coefficient "
+                             "is not determined (leave out a sensor or change lag)", parameters=("lag",))
         coef, *_ = np.linalg.lstsq(X, y, rcond=None)
         fitted = X @ coef
         result.update({"n_fit": int(len(rows)), **_stats(y, fitted, X.shape[1])})
-        names = ["constant"] + [f"{s}(t-1)" if lag else s for s in sensors] + \
-                [f"{target}(t-{k})" for k in range(1, lag + 1)]
         result["coefficients"] = dict(zip(names, (float(c) for c in coef)))
         if held is not None:
             hrows, hX = _design(_join(fit_data, held) if test is None else held, target, sensors, lag)
@@ -215,6 +267,11 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
         result["fitted"] = fitted.tolist()
     else:
         y = fit_data.columns[target]
+        needed = 4 if method == "gm11" else len(sensors) + 3
+        if len(y) < needed:
+            raise InputError(f"{len(y)} fitted rows; {method} needs at least {needed}"
+                             + ("; reduce holdout" if holdout else ""),
+                             parameters=("holdout",) if holdout else ())
         if method == "gm11":
             model = GM11.fit(y)
             fitted = model.predict(len(y))
@@ -244,10 +301,53 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
                     (held.columns[target] - pred) ** 2)))})
                 result["predicted_holdout"] = pred.tolist()
         result["fitted"] = fitted.tolist()
-        result["sensor_ranking"] = _rank_sensors(fit_data, target, sensors, 0, rank_top)
+        result["sensor_ranking"] = _rank_sensors(fit_data, target, candidates, 0, rank_top)
     result.setdefault("n_holdout", 0)
     result.setdefault("rmse_holdout", None)
     return result
+
+
+def _unfittable_columns(X: np.ndarray, names: list[str]) -> list[tuple[int, str]]:
+    """Columns of ``X`` (the first a constant) that have no coefficient of their own: constant,
+    equal to an earlier column, or within :data:`COLLINEAR` of a linear combination of the
+    earlier ones; as (column index, reason naming the others by ``names``). Each is judged
+    against the columns kept before it."""
+    n = X.shape[0]
+    basis = [np.ones(n) / math.sqrt(n)]          # orthonormal basis of the kept columns
+    kept: list[int] = [0]
+    problems = []
+    for j in range(1, X.shape[1]):
+        x = X[:, j]
+        if np.ptp(x) == 0:
+            problems.append((j, f"constant ({x[0]:g} in every fitted row)"))
+            continue
+        twin = next((k for k in kept[1:] if np.array_equal(X[:, k], x)), None)
+        if twin is not None:
+            problems.append((j, f"the same as {names[twin]} in every fitted row"))
+            continue
+        r = x - x.mean()
+        size = np.linalg.norm(r)
+        for _ in range(2):                        # Gram-Schmidt, twice for round-off
+            for q in basis:
+                r = r - (q @ r) * q
+        if np.linalg.norm(r) <= COLLINEAR * size:
+            coef = np.linalg.lstsq(X[:, kept], x, rcond=None)[0]
+            spread = np.abs(coef[1:]) * np.ptp(X[:, kept[1:]], axis=0)
+            others = [names[k] for k, c in zip(kept[1:], spread) if c > COLLINEAR * np.ptp(x)]
+            problems.append((j, f"a linear combination of a constant and {', '.join(others)}"))
+            continue
+        basis.append(r / np.linalg.norm(r))
+        kept.append(j)
+    return problems
+
+
+def _unfittable(data: SeriesData, sensors: list[str]) -> list[tuple[str, str]]:
+    """Sensors that cannot be fitted (see :func:`_unfittable_columns`) on ``data``'s rows."""
+    if not sensors or data.n == 0:
+        return []
+    X = np.column_stack([np.ones(data.n)] + [data.columns[s] for s in sensors])
+    return [(sensors[j - 1], reason)
+            for j, reason in _unfittable_columns(X, ["constant"] + [f"'{s}'" for s in sensors])]
 
 
 def _one_step(model: GM1N, data: SeriesData, target: str, sensors) -> np.ndarray:
