@@ -1,0 +1,237 @@
+"""volerr uncertainty: how uncertain the error map (and a compensation's residual) is, by
+linear propagation and Monte Carlo side by side; and the options every study shares
+(samples, grid, seed, Dask engine, progress bar)."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import csv
+import io
+import sys
+
+from rich import box
+from rich.console import Console
+from rich.table import Table
+
+from ..safeio import transaction
+from ..units import UM
+from .common import (add_json_arg, add_machine_args, add_state_arg, check_run_outputs, dumps, machine_of, positive,
+                     table_console)
+
+
+# ------------------------------------------------------------------ shared by the studies
+
+
+def count(text: str) -> int:
+    """argparse type: a positive whole number, also written as ``1e5``."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}") from None
+    if not value.is_integer() or value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text}")
+    return int(value)
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a positive finite number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not (value > 0 and value != float("inf")):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text}")
+    return value
+
+
+def probability(text: str) -> float:
+    """argparse type: a probability strictly between 0 and 1."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a probability, got {text!r}") from None
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"expected a probability between 0 and 1, got {text}")
+    return value
+
+
+def seed(text: str) -> int:
+    """argparse type: a non-negative whole number."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative whole number, got {value}")
+    return value
+
+
+def add_study_args(p: argparse.ArgumentParser, samples: int, grid: int) -> None:
+    """``--samples``, ``--grid``, ``--seed`` and the engine (``--workers`` | ``--scheduler``)."""
+    p.add_argument("--samples", type=count, default=samples, help=f"Monte Carlo draws (default {samples}; 1e5 is read)")
+    p.add_argument("--grid", type=positive, nargs="+", default=[grid], metavar="N",
+                   help=f"grid points per axis over the travels: one count or one per axis (default {grid})")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the draws (default 0)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=positive,
+                       help="worker processes of the embedded local Dask cluster (default: this machine's cores)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run on an existing Dask cluster, e.g. tcp://10.0.0.5:8786 (its workers need volerr_pin)")
+
+
+@contextlib.contextmanager
+def engine_of(args):
+    """The Dask engine the options ask for, closed (with its local cluster) at the end."""
+    from ..studies.engine import connect, local_cluster
+
+    engine = connect(args.scheduler) if args.scheduler else local_cluster(args.workers)
+    try:
+        yield engine
+    finally:
+        engine.close()
+
+
+class StudyProgress:
+    """Progress bars on stderr, one per stage, with their totals (terminals only, never with
+    ``--json``). ``with StudyProgress(enabled) as progress`` gives ``progress(stage, done, total)``
+    or None."""
+
+    def __init__(self, enabled: bool):
+        self.console = Console(stderr=True, highlight=False)
+        self.enabled = enabled and self.console.is_terminal
+
+    def __enter__(self):
+        if not self.enabled:
+            return None
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+        self.bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
+                            console=self.console, transient=True)
+        self.bar.__enter__()
+        self.tasks = {}
+        return self.update
+
+    def update(self, stage: str, done: int, total: int) -> None:
+        if stage not in self.tasks:
+            self.tasks[stage] = self.bar.add_task(stage, total=total)
+        self.bar.update(self.tasks[stage], completed=done)
+
+    def __exit__(self, *exc):
+        if self.enabled:
+            self.bar.__exit__(*exc)
+        return False
+
+
+# ------------------------------------------------------------------ the command
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("uncertainty", help="uncertainty of the error map and of a compensation (linear and Monte Carlo)")
+    add_machine_args(p)
+    add_state_arg(p)
+    source = p.add_mutually_exclusive_group(required=True)
+    source.add_argument("--from", dest="from_report", metavar="IDENTIFY.json",
+                        help="what volerr identify --json printed: values and standard uncertainties")
+    source.add_argument("--instrument-sigma", type=positive_float, metavar="UM",
+                        help="instrument standard uncertainty per coordinate [um], propagated through the "
+                             "least-squares fit of a tool-point campaign (--campaign-points poses)")
+    p.add_argument("--campaign-points", type=positive, default=200,
+                   help="poses of the stated campaign with --instrument-sigma (Sobol', default 200)")
+    add_study_args(p, samples=2000, grid=7)
+    p.add_argument("--interval-samples", type=count,
+                   help="draws behind the per-point 95 %% intervals (default min(samples, 1000))")
+    p.add_argument("--compensation", choices=["none", "point"], default="none",
+                   help="also the residual after this compensation, computed on the estimate (default none)")
+    p.add_argument("--out", metavar="FIELD.csv", help="write every point's numbers (positions mm/deg, errors um)")
+    p.add_argument("--rrd", metavar="FILE.rrd", help="write a Rerun recording of the uncertainty field")
+    add_json_arg(p)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..studies.covariance import covariance_from_campaign, covariance_from_report
+    from ..studies.montecarlo import grid_points
+    from ..studies.uncertainty import study_uncertainty
+
+    machine = machine_of(args)
+    check_run_outputs({"out": args.out, "rrd": args.rrd}, [args.from_report], machine)
+    if args.from_report:
+        covariance = covariance_from_report(machine, args.from_report)
+    else:
+        covariance = covariance_from_campaign(machine, args.instrument_sigma * UM, points=args.campaign_points,
+                                              seed=args.seed)
+    q = grid_points(covariance.machine, args.grid)
+    compensation = None if args.compensation == "none" else args.compensation
+    with engine_of(args) as engine, StudyProgress(not args.json) as progress:
+        study = study_uncertainty(covariance, q, samples=args.samples, seed=args.seed,
+                                  interval_samples=args.interval_samples, compensation=compensation, engine=engine,
+                                  progress=progress)
+    report = study.to_dict()
+    report["grid"] = list(args.grid)
+    report["engine"] = engine.where
+    with transaction() as tx:
+        if args.out:
+            tx_path = tx.path(args.out)
+            tx_path.write_text(_field_csv(study))
+            report["out"] = args.out
+        if args.rrd:
+            from ..viz.studies import record_uncertainty
+
+            record_uncertainty(study, tx.path(args.rrd))
+            report["rrd"] = args.rrd
+    if args.json:
+        print(dumps(report))
+        return 0
+    _print(study, report)
+    for name in ("out", "rrd"):
+        if name in report:
+            print(f"wrote {report[name]}", file=sys.stderr)
+    return 0
+
+
+def _field_csv(study) -> str:
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    fields = [("map", study.map)] + ([("compensation", study.compensated)] if study.compensated is not None else [])
+    header, _ = study.map.table(study.machine)
+    writer.writerow(["field", *header])
+    for name, field in fields:
+        _, rows = field.table(study.machine)
+        for row in rows:
+            writer.writerow([name, *(f"{v:.6g}" for v in row[:-1]), int(row[-1])])
+    return buffer.getvalue()
+
+
+def _print(study, report: dict) -> None:
+    console = table_console()
+    console.print(f"[bold]{study.machine.name}[/bold]: uncertainty from {report['source']}; {report['samples']:,} draws "
+                  f"(seed {report['seed']}) on {report['engine']}; {report['parameters']} uncertain coefficients"
+                  + (f", {len(report['not_propagated'])} without uncertainty" if report["not_propagated"] else ""))
+    for name in ("map", "compensation"):
+        field = report[name]
+        if field is None:
+            continue
+        title = ("volumetric error" if name == "map" else
+                 f"residual after {report['compensation_method']} compensation") + f" over {field['points']} points (um)"
+        table = Table(box=box.SIMPLE, title=title)
+        for col in ("", "estimate", "u linear", "95 % linear", "mean MC", "u MC", "95 % MC", "agree"):
+            table.add_column(col, justify="right")
+        for key, label in (("max_error_um", "max |e|"), ("rms_error_um", "RMS |e|")):
+            s = field[key]
+            lin, mc = s["linear"], s["monte_carlo"]
+            table.add_row(label, f"{s['value']:.3f}", f"{lin['u']:.3f}", f"{lin['low']:.3f} .. {lin['high']:.3f}",
+                          f"{mc['mean']:.3f}", f"{mc['u']:.3f}", f"{mc['low']:.3f} .. {mc['high']:.3f}",
+                          "yes" if s["agree"] else "NO")
+        console.print(table)
+        u = field["u_position_um"]
+        console.print(f"  standard uncertainty of the position: largest {u['monte_carlo_max']:.3f} um (linear "
+                      f"{u['linear_max']:.3f}), RMS {u['monte_carlo_rms']:.3f} um (linear {u['linear_rms']:.3f})")
+        worst = field["worst_disagreement"]
+        if worst is None:
+            console.print("  per point: Monte Carlo and linear propagation agree everywhere")
+        else:
+            console.print(f"  per point: they disagree at {field['points_disagreeing']} points; the most at "
+                          f"{', '.join(f'{v:g}' for v in worst['q'])}: u {worst['monte_carlo_u_um']:.3f} um (MC) "
+                          f"vs {worst['linear_u_um']:.3f} um (linear), mean shifted {worst['bias_um']:.3f} um "
+                          "(non-linear there: see docs/studies.md)")

@@ -1,0 +1,1 @@
+"""Uncertainty and tolerance studies by Monte Carlo (see docs/studies.md)."""

@@ -1,0 +1,164 @@
+"""Pictures of the uncertainty and tolerance studies: a Rerun recording of the uncertainty
+field and a PNG of the distribution of the largest error.
+
+- :func:`record_uncertainty`: under ``uncertainty/<field>/`` (``map``, and ``compensation``
+  when the study has a residual) the nominal tool points in the workpiece frame, coloured by
+  the Monte Carlo standard uncertainty of the position (``points``) and by the linear one
+  (``linear``), with both and the 95 % interval of ``|e|`` attached to every point; the
+  points where the two methods disagree (``disagree``, red); a colour ``legend`` and an
+  ``about`` text. The machine is drawn at its default configuration under ``machine/``.
+- :func:`max_error_png`: the histogram of the largest position error over the grid,
+  one value per draw, with the target ``T`` and the 95th percentile marked.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..safeio import check_outputs
+from ..units import UM_PER_M
+from ..workspace import default_config
+
+__all__ = ["log_uncertainty_field", "max_error_png", "record_uncertainty"]
+
+
+def log_uncertainty_field(rec, machine, field, prefix: str = "uncertainty/map") -> dict:
+    """Log one field of an uncertainty study (static).
+
+    Parameters
+    ----------
+    rec : rerun.RecordingStream
+        The recording.
+    machine : Machine
+        The machine (its workpiece frame and nominal tool points).
+    field : FieldUncertainty
+        The field (:class:`volerr_pin.studies.uncertainty.FieldUncertainty`).
+    prefix : str, default "uncertainty/map"
+        Entity path.
+
+    Returns
+    -------
+    dict
+        ``points``, ``u_max_um`` (top of the colour scale) and ``disagreeing``.
+    """
+    import rerun as rr
+
+    from .recording import colours
+
+    _, positions = machine.tool_poses(field.q, nominal=True)
+    u_mc = field.u_position * UM_PER_M
+    u_lin = field.linear_u_position * UM_PER_M
+    hi = float(max(u_mc.max(), u_lin.max())) if len(u_mc) else 1.0
+    frame = rr.CoordinateFrame(machine.workpiece_frame)
+    extent = float(np.ptp(positions, axis=0).max()) if len(positions) > 1 else 0.1
+    radius = max(extent / 150.0, 1e-4)
+    values = rr.AnyValues(u_um=u_mc, u_linear_um=u_lin, error_um=field.estimate[:, 3] * UM_PER_M,
+                          low_um=field.interval[:, 3, 0] * UM_PER_M, high_um=field.interval[:, 3, 1] * UM_PER_M)
+    rec.log(f"{prefix}/points", frame, rr.Points3D(positions, colors=colours(u_mc, 0.0, hi), radii=radius), values,
+            static=True)
+    rec.log(f"{prefix}/linear", frame, rr.Points3D(positions, colors=colours(u_lin, 0.0, hi), radii=radius),
+            rr.AnyValues(u_linear_um=u_lin), static=True)
+    bad = np.flatnonzero(field.disagree)
+    rec.log(f"{prefix}/disagree", frame, rr.Points3D(positions[bad], colors=[220, 40, 40], radii=radius * 1.6),
+            rr.AnyValues(u_um=u_mc[bad], u_linear_um=u_lin[bad]), static=True)
+    lo_corner, hi_corner = positions.min(axis=0), positions.max(axis=0)
+    levels = np.linspace(0.0, hi, 11)
+    span = max(extent, 0.05)
+    where = np.c_[np.full(11, hi_corner[0] + 0.15 * span), np.full(11, lo_corner[1]),
+                  np.linspace(lo_corner[2], lo_corner[2] + 0.6 * span, 11)]
+    rec.log(f"{prefix}/legend", frame,
+            rr.Points3D(where, colors=colours(levels, 0.0, hi), radii=radius * 2,
+                        labels=[f"{v:.3g} um" if k % 5 == 0 else "" for k, v in enumerate(levels)], show_labels=True),
+            static=True)
+    rec.log(f"{prefix}/about", rr.TextDocument(
+        f"# Standard uncertainty of the position error ({prefix.rsplit('/', 1)[-1]})\n\n"
+        f"{len(positions)} points; colour: standard uncertainty sqrt(u_x^2 + u_y^2 + u_z^2), 0 to {hi:.3g} um "
+        "(viridis): `points` from Monte Carlo, `linear` from S Sigma S^T. Red `disagree`: points where the two "
+        f"methods differ beyond tolerance ({len(bad)}). Select a point for u_um, u_linear_um, error_um and the "
+        "95 % interval of |e| (low_um, high_um).", media_type=rr.MediaType.MARKDOWN), static=True)
+    return {"points": int(len(positions)), "u_max_um": hi, "disagreeing": int(len(bad))}
+
+
+def record_uncertainty(study, path: str | Path, package_dirs=None) -> dict:
+    """A Rerun recording of an uncertainty study's fields.
+
+    Parameters
+    ----------
+    study : UncertaintyStudy
+        The study (:func:`volerr_pin.studies.uncertainty.study_uncertainty`).
+    path : str or Path
+        The ``.rrd`` file, written through a temporary file renamed over it once complete.
+    package_dirs : path or iterable of path, optional
+        Folders of ``package://`` meshes (see :func:`volerr_pin.viz.recording.log_machine`).
+
+    Returns
+    -------
+    dict
+        ``path``, ``fields`` (names), ``points``, ``bytes``.
+    """
+    import rerun.blueprint as rrb
+
+    from .recording import _streaming, log_machine, new_recording
+
+    check_outputs({"path": path})
+    machine = study.machine
+    fields = {"map": study.map}
+    if study.compensated is not None:
+        fields["compensation"] = study.compensated
+    rec = new_recording("volerr_pin_uncertainty")
+    views = [rrb.Spatial3DView(origin="/", contents=["machine/**", f"uncertainty/{name}/**"],
+                               name=f"standard uncertainty: {name}") for name in fields]
+    blueprint = rrb.Blueprint(rrb.Horizontal(*views, rrb.TextDocumentView(origin="uncertainty/map/about",
+                                                                          name="about")),
+                              rrb.TimePanel(state="collapsed"))
+    with _streaming(rec, path, blueprint):
+        log_machine(rec, machine, default_config(machine), package_dirs=package_dirs)
+        for name, field in fields.items():
+            log_uncertainty_field(rec, machine, field, f"uncertainty/{name}")
+    return {"path": str(path), "fields": list(fields), "points": int(len(study.map.q)),
+            "bytes": Path(path).stat().st_size}
+
+
+def max_error_png(max_um: np.ndarray, path: str | Path, target_um: float | None = None, title: str = "") -> dict:
+    """Histogram of the largest position error over the grid, one value per draw.
+
+    Parameters
+    ----------
+    max_um : ndarray, shape (S,)
+        The largest position error of every draw [um].
+    path : str or Path
+        The picture (format from the suffix).
+    target_um : float, optional
+        The target ``T`` [um], marked with the probability of meeting it.
+    title : str, optional
+        Title.
+
+    Returns
+    -------
+    dict
+        ``path``, ``samples``, ``p95_um`` and ``probability_within_target`` (None without a
+        target).
+    """
+    import matplotlib.pyplot as plt
+
+    from .plots import save
+
+    x = np.asarray(max_um, dtype=float)
+    p95 = float(np.quantile(x, 0.95))
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.hist(x, bins=min(80, max(10, int(np.sqrt(len(x))))), color="#4a7fb5", edgecolor="white", linewidth=0.3)
+    ax.axvline(p95, color="#444444", linestyle="--", label=f"95th percentile {p95:.3g} um")
+    probability = None
+    if target_um is not None:
+        probability = float(np.mean(x <= target_um))
+        ax.axvline(target_um, color="#c0392b", linewidth=2,
+                   label=f"T = {target_um:.3g} um: P(max <= T) = {probability:.3f}")
+    ax.set_xlabel("largest position error over the grid [um]")
+    ax.set_ylabel(f"draws (of {len(x):,})")
+    ax.set_title(title or "distribution of the largest volumetric error")
+    ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    save(fig, path)
+    return {"path": str(path), "samples": int(len(x)), "p95_um": p95, "probability_within_target": probability}
