@@ -252,3 +252,141 @@ def test_per_point_rms_is_the_rms_of_point_error_norms(machines):
     rot = [abs(r[k]) for k in range(len(r)) if obs.angular[k]]
     assert residual_rms(obs, r, angular=True) == pytest.approx(np.sqrt(np.mean(np.square(rot))) * 1e6, rel=1e-12)
     np.testing.assert_allclose(point_squares(np.array([5, 2, 5]), np.array([1.0, 2.0, 3.0])), [4.0, 10.0])
+
+
+# ------------------------------------------------------------------ bad or extreme inputs
+@pytest.fixture(scope="module")
+def small_points(machines):
+    m = machines["vmc500"]
+    return tool_points(m, m, 40, 0.3e-6, seed=21)
+
+
+@pytest.mark.parametrize("option, value, match", [
+    ("sigma_um", 0, "sigma_um must be positive and finite, got 0"),
+    ("sigma_um", -1, "sigma_um must be positive and finite, got -1"),
+    ("sigma_um", float("nan"), "sigma_um must be positive and finite, got nan"),
+    ("sigma_um", float("inf"), "sigma_um must be positive and finite, got inf"),
+    ("sigma_urad", 0, "sigma_urad must be positive and finite, got 0"),
+    ("sigma_urad", float("nan"), "sigma_urad must be positive and finite, got nan"),
+    ("folds", 1, r"folds must be 0 or >= 2 \(0: no cross-validation\), got 1"),
+    ("folds", -3, "folds must be 0 or >= 2"),
+    ("folds", 2.5, "folds must be a whole number, got 2.5"),
+    ("holdout", 0.0, "holdout must be a fraction between 0 and 1"),
+    ("holdout", 1.0, "holdout must be a fraction between 0 and 1"),
+    ("holdout", float("nan"), "holdout must be a fraction between 0 and 1"),
+    ("seed", -1, "seed must be >= 0, got -1"),
+    ("max_iter", 0, "max_iter must be >= 1, got 0"),
+    ("tol", 0.0, "tol must be positive and finite"),
+    ("rtol", float("inf"), "rtol must be positive and finite"),
+    ("rtol", 2.0, "rtol must be below 1"),
+    ("free", [10_000], "free: 10000 is not the index of a coefficient of vmc500"),
+    ("free", [-1], "free: -1 is not the index of a coefficient"),
+    ("convention", "least", "convention must be 'prior' or 'min-norm'"),
+])
+def test_bad_numeric_parameters_are_refused_naming_them(machines, small_points, option, value, match):
+    with pytest.raises(vp.InputError, match=match) as err:
+        identify(machines["vmc500"], [small_points], **{option: value})
+    assert err.value.parameters == (option,)
+
+
+def test_a_holdout_that_leaves_no_pose_to_fit_is_refused(machines, small_points):
+    """Forty points: a split holding out 99.9 % of the poses keeps none to fit."""
+    with pytest.raises(vp.InputError, match="holdout 0.999 of 40 poses holds out 40: none is left to fit"):
+        identify(machines["vmc500"], [small_points], holdout=0.999)
+
+
+def test_observations_a_fit_cannot_use_are_refused_naming_the_line(machines, small_points):
+    from volerr_pin.identify import build_observations
+
+    m = machines["vmc500"]
+    values = small_points.values.copy()
+    values[3, 0] = np.inf
+    bad = PointMeasurements("pts.csv", small_points.q, values, {}, np.arange(2, 42))
+    with pytest.raises(vp.InputError, match="pts.csv:5: observation value is not a finite number"):
+        identify(m, [bad])
+    obs = build_observations(m, [small_points])
+    obs.sigma[4] = 0.0
+    with pytest.raises(vp.InputError, match="observation standard deviation is not a positive finite number"):
+        identify(m, obs)
+
+
+def test_data_too_large_to_fit_are_refused_and_a_fit_is_never_non_finite(machines, small_points):
+    """A deviation of 1e300 um made a fit report an infinite RMS and write 1e296 into a spec.
+    Such a value is refused naming its line; anything below the limit gives a finite fit."""
+    m = machines["vmc500"]
+    values = small_points.values.copy()
+    values[5, 0] = 1e294
+    data = PointMeasurements("pts.csv", small_points.q, values, {}, np.arange(40))
+    with pytest.raises(vp.InputError, match=r"pts.csv:5: observation 1e\+300 um is too large to fit"):
+        identify(m, [data])
+    values[5, 0] = 1e90   # 1e96 standard deviations: still fitted (far from linear), every number finite
+    res = identify(m, [PointMeasurements("pts.csv", small_points.q, values, {}, np.arange(40))], folds=2,
+                   max_iter=3)
+    d = res.to_dict()
+    numbers = [d["rms_fit_um"], d["rms_holdout_um"], d["residual_sigma"]] + [
+        v for p in d["parameters"].values() for v in (p["value"], p["uncertainty"]) if v is not None]
+    assert np.all(np.isfinite(numbers)) and d["rms_fit_um"] > 1e90
+
+
+def test_an_ill_conditioned_fit_says_so(machines):
+    """With the identifiability tolerance turned off (rtol 1e-30) the fit keeps coefficients the
+    tool point cannot separate: its design is numerically rank-deficient, which a warning and
+    the report say, and the coefficients it cannot separate are marked as not determined."""
+    m = machines["vmc500"]
+    data = [tool_points(m, m, 100, 0.3e-6, seed=1)]
+    with pytest.warns(UserWarning, match=r"the fit is ill-conditioned: its column-scaled design .* is "
+                                         r"numerically rank-deficient, beyond what double precision resolves"):
+        res = identify(m, data, folds=0, rtol=1e-30, sigma_um=0.3)
+    d = res.to_dict()
+    assert res.ill_conditioned and d["ill_conditioned"] is True
+    assert any(p["status"].startswith("fitted, not determined") for p in d["parameters"].values())
+    assert identify(m, data, folds=0).to_dict()["ill_conditioned"] is False
+
+
+def test_one_point_one_pose_and_one_object(machines, small_points):
+    """The smallest inputs give an honest report: one point fits (no degrees of freedom, so no
+    residual sigma), points all at one pose cannot be cross-validated, and a single
+    measurement object is taken as a list of one."""
+    m = machines["vmc500"]
+    one = PointMeasurements("one", small_points.q[:1], small_points.values[:1], {}, np.arange(1))
+    res = identify(m, one)
+    assert res.n_points == 1 and np.isnan(res.residual_sigma) and res.rms_holdout_um is None
+    assert res.holdout == "too few poses for 5-fold cross-validation"
+    same = PointMeasurements("same", np.repeat(small_points.q[:1], 12, axis=0),
+                             np.repeat(small_points.values[:1], 12, axis=0), {}, np.arange(12))
+    assert identify(m, [same]).rms_holdout_um is None
+    with pytest.raises(vp.InputError, match="holdout 0.5 of 1 pose holds out 1: none is left to fit"):
+        identify(m, [same], holdout=0.5)
+
+
+def test_chunked_design_gives_the_fit_of_the_whole_design(machines, monkeypatch):
+    """The fit reduces its design chunk by chunk (so it never holds every point's
+    sensitivities); chunks of 64 points give the one-chunk result to rounding."""
+    import volerr_pin.identify as ident
+
+    m = machines["cgm4000"]
+    truth, _ = identifiable_truth(m, 300, seed=5)
+    data = [tool_points(m, truth, 300, 0.3e-6, seed=5)]
+    whole = identify(m, data, folds=0, sigma_um=0.3)
+    monkeypatch.setattr(ident, "CHUNK_BYTES", 1)
+    chunked = identify(m, data, folds=0, sigma_um=0.3)
+    np.testing.assert_array_equal(chunked.fitted, whole.fitted)
+    k = whole.fitted
+    np.testing.assert_allclose(chunked.machine.theta[k], whole.machine.theta[k], rtol=1e-9,
+                               atol=1e-9 * np.abs(whole.machine.theta[k]).max())
+    np.testing.assert_allclose(chunked.uncertainty[k], whole.uncertainty[k], rtol=1e-8)
+    assert chunked.rms_fit_um == pytest.approx(whole.rms_fit_um, rel=1e-10)
+
+
+def test_cli_identify_refuses_bad_options_in_one_line(tmp_path, capsys):
+    path = tmp_path / "points.csv"
+    path.write_text("x,y,z,dx,dy,dz\n" + "".join(f"{10 * i},{5 * i},{2 * i},0.1,0.2,0.3\n" for i in range(12)))
+    for argv, message in ((["--sigma-um", "0"], "--sigma-um must be positive and finite, got 0.0"),
+                          (["--sigma-um", "nan"], "--sigma-um must be positive and finite, got nan"),
+                          (["--sigma-urad", "-1"], "--sigma-urad must be positive and finite, got -1.0"),
+                          (["--folds", "1"], "--folds must be 0 or >= 2"),
+                          (["--holdout", "2"], "--holdout must be a fraction between 0 and 1"),
+                          (["--seed", "-4"], "--seed must be >= 0, got -4")):
+        assert main(["identify", "vmc500", str(path), *argv]) == 2
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err

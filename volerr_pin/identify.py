@@ -28,10 +28,58 @@ from .tracker import TrackerMeasurements, tracker_observations
 from .workspace import config_from_file
 from .machine import Machine
 from .measurements import PointMeasurements, Runs
+from .safeio import require_memory
 from .spec import parse_component_name
 from .units import UM_PER_M, URAD_PER_RAD
 
 DIRECTION_INDEX = {d: i for i, d in enumerate("XYZABC")}
+#: above this condition number of the column-scaled design, rounding (about condition x 2.2e-16
+#: of the coefficients' scale) reaches 1e-4: fewer than four of double precision's sixteen
+#: digits are left along the weakest direction, and a fit says so
+CONDITION_LIMIT = 1e12
+#: largest observation a fit takes, in standard deviations: far beyond any measurement (1e94 m
+#: at 1 um), and far enough below overflow (1e154) that the sums of squares of residuals and
+#: trial residuals stay finite
+WEIGHTED_LIMIT = 1e100
+
+
+# ----------------------------------------------------------------------------- parameter checks
+def _positive(name: str, value) -> float:
+    """``value`` as a float, refused unless it is a positive, finite number."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a positive number, got {value!r}", parameters=(name,)) from None
+    if not (number > 0 and math.isfinite(number)):
+        raise InputError(f"{name} must be positive and finite, got {value}", parameters=(name,))
+    return number
+
+
+def _integer(name: str, value, minimum: int, *, also: tuple[int, ...] = (), what: str = "") -> int:
+    """``value`` as an int, refused unless it is a whole number >= ``minimum`` (or one of ``also``)."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not (math.isfinite(number) and number == int(number)):
+        raise InputError(f"{name} must be a whole number, got {value!r}", parameters=(name,))
+    number = int(number)
+    if number < minimum and number not in also:
+        allowed = " or ".join([str(a) for a in also] + [f">= {minimum}"])
+        raise InputError(f"{name} must be {allowed}{what}, got {number}", parameters=(name,))
+    return number
+
+
+def _fraction(name: str, value, what: str = "") -> float:
+    """``value`` as a float strictly between 0 and 1."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not 0.0 < number < 1.0:
+        raise InputError(f"{name} must be a fraction between 0 and 1 (both excluded){what}, got {value!r}",
+                         parameters=(name,))
+    return number
 
 
 @dataclass
@@ -136,7 +184,7 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
     ----------
     machine : Machine
         The machine observed.
-    data : iterable
+    data : iterable, or one measurement object
         :class:`~volerr_pin.measurements.PointMeasurements`, :class:`~volerr_pin.measurements.Runs`,
         :class:`~volerr_pin.tracker.TrackerMeasurements` and
         :class:`~volerr_pin.ballbar.BallbarRun` objects.
@@ -158,27 +206,32 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
     Raises
     ------
     InputError
-        If a run's axis is unknown or not given, its target unit does not fit the axis kind,
-        its positions leave the travel, a component run belongs to another axis, an object
-        is of an unknown type, there are no observations, or a covariate the model reads is
-        missing from some files.
+        If ``sigma_um`` or ``sigma_urad`` is not positive and finite, a run's axis is unknown
+        or not given, its target unit does not fit the axis kind, its positions leave the
+        travel, a component run belongs to another axis, an object is of an unknown type,
+        there are no observations, or a covariate the model reads is missing from some files.
     """
-    q_list, cov_list, rows = [], [], []
+    sigma_um = _positive("sigma_um", sigma_um)
+    sigma_urad = _positive("sigma_urad", sigma_urad)
+    if isinstance(data, (PointMeasurements, Runs, TrackerMeasurements, BallbarRun)):
+        data = [data]  # one measurement object
+    q_list, cov_list = [], []
+    blocks: list[_Rows] = []
     nuisance_names: list[str] = []
-    nuisance_rows: list[tuple[int, int, float]] = []  # (row, column, value)
     n_points = 0
     for item in data:
         if isinstance(item, PointMeasurements):
+            values = np.asarray(item.values, dtype=float)
+            if values.ndim != 2 or values.shape != (len(item.q), 6):
+                raise InputError(f"{item.source}: values has shape {values.shape}; expected ({len(item.q)}, 6): "
+                                 "dx, dy, dz, rx, ry, rz of every point")
             q_list.append(item.q)
             cov_list.append(item.covariates)
-            for i in range(len(item.q)):
-                for k in range(6):
-                    if not np.isnan(item.values[i, k]):
-                        w = np.zeros(6)
-                        w[k] = 1.0
-                        rows.append((n_points + i, w, item.values[i, k],
-                                     (sigma_urad if k >= 3 else sigma_um) * 1e-6, k >= 3,
-                                     item.source, item.lines[i]))
+            # one row per measured direction, in point order
+            i, k = np.nonzero(~np.isnan(values))
+            blocks.append(_Rows(n_points + i, np.eye(6)[k], values[i, k],
+                                np.where(k >= 3, sigma_urad, sigma_um) * 1e-6, k >= 3, item.source,
+                                np.asarray(item.lines)[i]))
             n_points += len(item.q)
         elif isinstance(item, Runs):
             axis = item.axis or run_axis
@@ -225,14 +278,12 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
             lo, hi = machine.travel[j]
             u = (2 * q[:, j] - lo - hi) / (hi - lo)
             sigma = (sigma_urad if angular else sigma_um) * 1e-6
-            for i in range(len(q)):
-                row = len(rows)
-                rows.append((n_points + i, w_all[i], item.value[i], sigma, angular, item.source,
-                             item.lines[i]))
-                nuisance_rows.append((row, base_col, 1.0))
-                if straightness:
-                    nuisance_rows.append((row, base_col + 1, u[i]))
-            n_points += len(q)
+            n = len(q)
+            local = np.arange(n)
+            nuisance = [(local, base_col, np.ones(n))] + ([(local, base_col + 1, u)] if straightness else [])
+            blocks.append(_Rows(n_points + local, w_all, np.asarray(item.value, dtype=float), np.full(n, sigma),
+                                np.full(n, angular), item.source, np.asarray(item.lines), nuisance))
+            n_points += n
         elif isinstance(item, TrackerMeasurements):
             obs_t = tracker_observations(machine, item)
             q_list.append(item.q)
@@ -240,15 +291,14 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
             tag = f"tracker {item.source}"
             base_col = len(nuisance_names)
             nuisance_names += [f"shift_{a}[{tag}]" for a in "xyz"] + [f"rotation_{a}[{tag}]" for a in "xyz"]
-            for i in range(len(item.q)):
-                for k in range(3):
-                    row = len(rows)
-                    rows.append((n_points + i, obs_t["w"][i, k], obs_t["deviation"][i, k], sigma_um * 1e-6, False,
-                                 item.source, item.lines[i]))
-                    for c in range(6):
-                        if obs_t["nuisance"][i, k, c] != 0.0:
-                            nuisance_rows.append((row, base_col + c, obs_t["nuisance"][i, k, c]))
-            n_points += len(item.q)
+            n = len(item.q)
+            i = np.repeat(np.arange(n), 3)                       # rows: x, y, z of every point
+            design = obs_t["nuisance"].reshape(3 * n, 6)
+            nuisance = [(np.arange(3 * n), base_col + c, design[:, c]) for c in range(6)]
+            blocks.append(_Rows(n_points + i, obs_t["w"].reshape(3 * n, 6), obs_t["deviation"].reshape(3 * n),
+                                np.full(3 * n, sigma_um * 1e-6), np.zeros(3 * n, bool), item.source,
+                                np.asarray(item.lines)[i], nuisance))
+            n_points += n
         elif isinstance(item, BallbarRun):
             q, radial, directions = ballbar_positions(machine, item)
             q_list.append(q)
@@ -257,29 +307,52 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
             base_col = len(nuisance_names)
             nuisance_names += [f"centre_{item.plane[0]}[{tag}]", f"centre_{item.plane[1]}[{tag}]",
                                f"length[{tag}]"]
-            for i in range(len(q)):
-                row = len(rows)
-                w = np.zeros(6)
-                w[:3] = radial[i]
-                rows.append((n_points + i, w, item.deviation[i], sigma_um * 1e-6, False, item.source,
-                             item.lines[i]))
-                for k, v in enumerate((math.cos(item.angle[i]), math.sin(item.angle[i]), 1.0)):
-                    nuisance_rows.append((row, base_col + k, v))
-            n_points += len(q)
+            n = len(q)
+            w = np.zeros((n, 6))
+            w[:, :3] = radial
+            angle = np.asarray(item.angle, dtype=float)
+            local = np.arange(n)
+            nuisance = [(local, base_col, np.cos(angle)), (local, base_col + 1, np.sin(angle)),
+                        (local, base_col + 2, np.ones(n))]
+            blocks.append(_Rows(n_points + local, w, np.asarray(item.deviation, dtype=float),
+                                np.full(n, sigma_um * 1e-6), np.zeros(n, bool), item.source,
+                                np.asarray(item.lines), nuisance))
+            n_points += n
         else:
             raise InputError(f"cannot use {type(item).__name__} as measurements")
-    if not rows:
+    if not sum(len(b.point) for b in blocks):
         raise InputError("no observations")
     q = np.vstack(q_list)
     covariates = _merge_covariates(cov_list, [len(x) for x in q_list], machine)
-    nuisance = np.zeros((len(rows), len(nuisance_names)))
-    for r, c, v in nuisance_rows:
-        nuisance[r, c] = v
+    n_rows = sum(len(b.point) for b in blocks)
+    nuisance = np.zeros((n_rows, len(nuisance_names)))
+    offset = 0
+    for b in blocks:
+        for rows, col, values in b.nuisance:
+            nuisance[offset + rows, col] = values
+        offset += len(b.point)
     return Observations(
-        q, covariates, np.array([r[0] for r in rows]), np.array([r[1] for r in rows]),
-        np.array([r[2] for r in rows]), np.array([r[3] for r in rows]),
-        np.array([r[4] for r in rows], dtype=bool), nuisance, nuisance_names,
-        [r[5] for r in rows], np.array([r[6] for r in rows]))
+        q, covariates, np.concatenate([b.point for b in blocks]).astype(int),
+        np.vstack([b.w for b in blocks]).astype(float), np.concatenate([b.y for b in blocks]).astype(float),
+        np.concatenate([b.sigma for b in blocks]).astype(float),
+        np.concatenate([b.angular for b in blocks]).astype(bool), nuisance, nuisance_names,
+        [src for b in blocks for src in [b.source] * len(b.point)],
+        np.concatenate([b.lines for b in blocks]))
+
+
+@dataclass
+class _Rows:
+    """The observation rows of one measurement object (see :class:`Observations`), with its
+    nuisance entries as (local rows, column, values)."""
+
+    point: np.ndarray
+    w: np.ndarray
+    y: np.ndarray
+    sigma: np.ndarray
+    angular: np.ndarray
+    source: str
+    lines: np.ndarray
+    nuisance: list = field(default_factory=list)
 
 
 def _merge_covariates(parts: list[dict], sizes: list[int], machine: Machine) -> dict:
@@ -358,6 +431,10 @@ class Identification:
         Names of the nuisance terms in rad (reported in urad).
     solver : str
         "converged", "stalled" or "iteration limit" (see :attr:`solver_text`).
+    ill_conditioned : bool
+        The column-scaled design is numerically rank-deficient or its condition number
+        exceeds :data:`CONDITION_LIMIT`: the fitted values along its weakest directions are
+        rounding noise.
     """
 
     machine: Machine                  # with the fitted coefficients
@@ -380,6 +457,7 @@ class Identification:
     groups: list = field(default_factory=list)
     angular_nuisance: frozenset = frozenset()
     solver: str = "converged"         # or "stalled", "iteration limit": see _solve
+    ill_conditioned: bool = False     # beyond what double precision resolves: see CONDITION_LIMIT
 
     @property
     def converged(self) -> bool:
@@ -401,7 +479,9 @@ class Identification:
         -------
         dict
             ``machine``, ``n_points``, ``n_observations``, ``rank``, ``n_parameters``,
-            ``condition_number``, ``unidentifiable``, ``convention``, ``solver``,
+            ``condition_number``, ``ill_conditioned`` (the design is numerically
+            rank-deficient or conditioned beyond what double precision resolves),
+            ``unidentifiable``, ``convention``, ``solver``,
             ``rms_fit_um``, ``rms_fit_urad``, ``rms_holdout_um``, ``holdout``,
             ``residual_sigma``, ``iterations``, ``nuisance`` (value in um or urad, with its
             ``unit``) and ``parameters``: per coefficient its ``value``, ``prior`` and
@@ -420,12 +500,14 @@ class Identification:
                 status = "fitted, not determined (its uncertainty exceeds any plausible value)"
             params[name] = {
                 "value": float(m.theta[k] / factor), "prior": float(prior.theta[k] / factor),
-                "uncertainty": None if math.isnan(self.uncertainty[k]) else float(self.uncertainty[k] / factor),
+                "uncertainty": (float(self.uncertainty[k] / factor) if math.isfinite(self.uncertainty[k])
+                                else None),
                 "unit": unit, "status": status}
         return {
             "machine": m.name, "n_points": self.n_points, "n_observations": self.n_observations,
             "rank": sum(c >= len(self.nuisance) for c in self.analysis.kept), "n_parameters": int(len(self.free)),
             "condition_number": self.analysis.condition,
+            "ill_conditioned": self.ill_conditioned,
             "unidentifiable": [g.to_dict() for g in self.groups],
             "convention": self.convention,
             "solver": self.solver,
@@ -490,8 +572,21 @@ def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray,
     """
     error = machine.volumetric_error(obs.q, theta, **obs.covariates)
     S = machine.sensitivity(obs.q, theta, parameters=free, first_order=first_order, **obs.covariates)
-    pred = np.einsum("rk,rk->r", obs.w, error[obs.point])
-    A = np.einsum("rk,rkp->rp", obs.w, S[obs.point])
+    return _rows_of(obs.w, obs.point, error, S)
+
+
+def _rows_of(w: np.ndarray, point: np.ndarray, error: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``w . e`` and ``w . S`` of every row from per-point errors (N, 6) and sensitivities
+    (N, 6, F), one error direction at a time: gathering S for every row would take six times
+    the memory of the result."""
+    pred = np.einsum("rk,rk->r", w, error[point])
+    direction = np.argmax(np.abs(w), axis=1)
+    if np.array_equal(w, np.eye(6)[direction]):  # each row one error direction (point measurements)
+        return pred, S[point, direction, :]
+    A = np.zeros((len(point), S.shape[2]))
+    for k in range(6):
+        if np.any(w[:, k]):
+            A += w[:, k, None] * S[point, k, :]
     return pred, A
 
 
@@ -517,13 +612,70 @@ def _residual(machine: Machine, obs: Observations, theta: np.ndarray, nuisance: 
     return (obs.y - pred - obs.nuisance @ nuisance) / obs.sigma
 
 
+#: the design is reduced over chunks of points whose sensitivities take about this much memory
+CHUNK_BYTES = 48 << 20
+
+
+def _point_chunks(obs: Observations, n_columns: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Chunks of points whose sensitivities (6 x ``n_columns`` each, a few copies) take about
+    :data:`CHUNK_BYTES`: (point indices, indices of their observation rows)."""
+    size = max(64, CHUNK_BYTES // (6 * 8 * 4 * max(n_columns, 1)))
+    order = np.argsort(obs.point, kind="stable")
+    bounds = np.searchsorted(obs.point[order], np.arange(0, obs.n_points + size, size).clip(max=obs.n_points))
+    return [(np.arange(start, min(start + size, obs.n_points)), order[a:b])
+            for start, a, b in zip(range(0, obs.n_points, size), bounds[:-1], bounds[1:])]
+
+
+def _reduce(machine: Machine, obs: Observations, theta: np.ndarray, columns: np.ndarray,
+            nuisance: np.ndarray, first_order: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The weighted residual and the triangular factor of the weighted design, built chunk by
+    chunk so that neither the design nor the sensitivities are ever held for every point.
+
+    With ``J = [obs.nuisance | d pred / d theta[columns]] / sigma`` (rows x n) and ``r`` the
+    weighted residual, ``[J | r] = Q R`` with Q orthonormal: every least-squares quantity of J
+    and r follows from ``R = [R_J | z]`` (``J^T J = R_J^T R_J``, ``|r - J x| = |z - R_J x|``,
+    equal column norms and inner products), so the fit and the identifiability analysis work
+    on R, whose size does not grow with the data.
+
+    Returns
+    -------
+    r : ndarray, shape (rows,)
+        The weighted residual (y - model - nuisance) / sigma.
+    R : ndarray, shape (min(rows, n + 1), n + 1)
+        Upper-triangular factor of ``[J | r]``.
+    """
+    width = obs.nuisance.shape[1] + len(columns) + 1
+    R = np.zeros((0, width))
+    r = np.empty(len(obs.y))
+    for points, rows in _point_chunks(obs, len(columns)):
+        cov = _take_covariates(obs.covariates, points)
+        q = obs.q[points]
+        error = machine.volumetric_error(q, theta, **cov)
+        S = machine.sensitivity(q, theta, parameters=columns, first_order=first_order, **cov)
+        pred, A = _rows_of(obs.w[rows], obs.point[rows] - points[0], error, S)
+        sigma = obs.sigma[rows]
+        r[rows] = (obs.y[rows] - pred - obs.nuisance[rows] @ nuisance) / sigma
+        block = np.hstack([obs.nuisance[rows] / sigma[:, None], A / sigma[:, None], r[rows, None]])
+        if not np.all(np.isfinite(block)):
+            _refuse_non_finite(obs, {"residuals or sensitivities": block})
+        R = np.linalg.qr(np.vstack([R, block]), mode="r")
+    return r, R
+
+
+def _rcond(rows: int, columns: int) -> float:
+    """What ``lstsq(rcond=None)`` cuts on the full design (rows x columns), for the same cut
+    on its triangular factor."""
+    return float(np.finfo(float).eps * max(rows, columns))
+
+
 def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndarray,
            columns: np.ndarray | None, convention: str, max_iter: int, tol: float,
            step: Callable[[int], None] | None = None):
     """Gauss-Newton on [nuisance | free[columns]], damped (Levenberg-Marquardt, growing
     damping) when a full step does not lower the residual or would make a time constant or
     period non-positive;
-    returns theta, nuisance, J, r, iterations, status: "converged" (the linearised model cannot
+    returns theta, nuisance, R_J (the triangular factor of the weighted design, see
+    :func:`_reduce`), r, iterations, status: "converged" (the linearised model cannot
     lower the residual; a full Gauss-Newton step, or three damped ones running, lower the
     weighted RSS by less than 0.001 or 1e-10 of itself; or the step is below ``tol``),
     "stalled" (no step, however damped, lowers the residual although the linearised model
@@ -533,21 +685,20 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
     nuisance = np.zeros(n_nu)
     use = np.arange(len(free)) if columns is None else columns
     positive = np.array([k in set(machine.nonlinear_parameters) for k in free[use]], dtype=bool)
-    sigma = obs.sigma
+    n_cols = n_nu + len(use)
+    rcond = 1e-9 if convention == "min-norm" else _rcond(len(obs.y), n_cols)
     it = 0
-    rcond = 1e-9 if convention == "min-norm" else None
     status = "iteration limit"
     flat = 0
     for it in range(1, max_iter + 1):
-        pred, A = predict_observations(machine, obs, theta, free)
-        r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
-        J = np.hstack([obs.nuisance, A[:, use]]) / sigma[:, None]
-        scale, Js = _column_scale(J, typical=_typical(machine, theta, free[use], n_nu))
-        step_scaled = np.linalg.lstsq(Js, r, rcond=rcond)[0]
+        r, R = _reduce(machine, obs, theta, free[use], nuisance)
+        z = R[:, -1]
+        scale, Rs = _column_scale(R[:, :-1], typical=_typical(machine, theta, free[use], n_nu))
+        step_scaled = np.linalg.lstsq(Rs, z, rcond=rcond)[0]
         delta = step_scaled / scale
         rss = float(r @ r)
-        predicted = r - Js @ step_scaled
-        gain = rss - float(predicted @ predicted)
+        predicted = z - Rs @ step_scaled
+        gain = float(z @ z) - float(predicted @ predicted)
         if gain <= 1e-12 * rss:
             status = "converged"  # the linearised model cannot lower the residual
             break
@@ -557,9 +708,9 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
         accepted = None
         for damping in (0.0, *(10.0 ** k for k in range(-6, 7))):
             if damping:
-                augmented = np.vstack([Js, math.sqrt(damping) * np.eye(Js.shape[1])])
-                step_scaled = np.linalg.lstsq(augmented, np.concatenate([r, np.zeros(Js.shape[1])]),
-                                              rcond=None)[0]
+                augmented = np.vstack([Rs, math.sqrt(damping) * np.eye(Rs.shape[1])])
+                step_scaled = np.linalg.lstsq(augmented, np.concatenate([z, np.zeros(Rs.shape[1])]),
+                                              rcond=_rcond(len(obs.y) + n_cols, n_cols))[0]
                 delta = step_scaled / scale
             trial_theta = theta.copy()
             trial_theta[free[use]] += delta[n_nu:]
@@ -589,10 +740,8 @@ def _solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.nda
         if accepted == 0.0 and np.abs(delta * scale).max(initial=0.0) < tol:
             status = "converged"
             break
-    pred, A = predict_observations(machine, obs, theta, free)
-    r = (obs.y - pred - obs.nuisance @ nuisance) / sigma
-    J = np.hstack([obs.nuisance, A[:, use]]) / sigma[:, None]
-    return theta, nuisance, J, r, it, status
+    r, R = _reduce(machine, obs, theta, free[use], nuisance)
+    return theta, nuisance, R[:, :-1], r, it, status
 
 
 def point_squares(point: np.ndarray, residual: np.ndarray) -> np.ndarray:
@@ -699,15 +848,50 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     Raises
     ------
     InputError
-        If ``convention`` or ``holdout`` is invalid, ``terms`` names an unknown component,
-        there is nothing to fit, or the data are invalid (see :func:`build_observations`).
+        If ``convention`` is invalid, ``sigma_um`` or ``sigma_urad``, ``tol`` or ``rtol`` is
+        not a positive finite number (``rtol`` below 1), ``folds`` is not 0 or >= 2,
+        ``holdout`` is not a fraction between 0 and 1 or leaves no pose to fit, ``seed`` is
+        negative, ``max_iter`` is below 1, ``terms`` names an unknown component or ``free``
+        an index that is not a coefficient's, there is nothing to fit, the data are invalid
+        (see :func:`build_observations`; observations that are not finite, or whose squares
+        overflow), or the fit comes out non-finite (values too large to fit).
+
+    Warns
+    -----
+    UserWarning
+        When the column-scaled design is numerically rank-deficient or its condition number
+        exceeds :data:`CONDITION_LIMIT` (also :attr:`Identification.ill_conditioned`).
     """
     if convention not in ("prior", "min-norm"):
-        raise InputError(f"convention must be 'prior' or 'min-norm', got {convention!r}")
+        raise InputError(f"convention must be 'prior' or 'min-norm', got {convention!r}",
+                         parameters=("convention",))
+    folds = _integer("folds", folds, 2, also=(0,), what=" (0: no cross-validation)")
+    if holdout is not None:
+        holdout = _fraction("holdout", holdout)
+    seed = _integer("seed", seed, 0)
+    max_iter = _integer("max_iter", max_iter, 1)
+    tol = _positive("tol", tol)
+    rtol = _positive("rtol", rtol)
+    if rtol >= 1:
+        raise InputError(f"rtol must be below 1, got {rtol}", parameters=("rtol",))
     obs = data if isinstance(data, Observations) else build_observations(
         machine, data, sigma_um=sigma_um, sigma_urad=sigma_urad, run_axis=run_axis, run_at=run_at)
+    if isinstance(data, Observations):
+        _positive("sigma_um", sigma_um), _positive("sigma_urad", sigma_urad)
+    check_observations(obs)
+    require_memory(_memory_needed(obs, folds if holdout is None else 1),
+                   f"fitting {obs.n_points} points ({len(obs.y)} observations) of {_data_names(obs)}")
+    n_params = len(machine.parameter_names)
     if free is not None:
-        free = np.unique(np.asarray(free, dtype=int))
+        try:
+            free = np.unique(np.asarray(free, dtype=int).ravel())
+        except (TypeError, ValueError):
+            raise InputError(f"free must hold coefficient indices (integers), got {free!r}",
+                             parameters=("free",)) from None
+        if free.size and (free[0] < 0 or free[-1] >= n_params):
+            bad = free[0] if free[0] < 0 else free[-1]
+            raise InputError(f"free: {bad} is not the index of a coefficient of {machine.name} "
+                             f"(0 to {n_params - 1})", parameters=("free",))
     elif terms:
         unknown = sorted(set(terms) - set(machine.components))
         if unknown:
@@ -716,42 +900,52 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         free = np.array([k for k, n in enumerate(machine.parameter_names)
                          if n.split(".", 1)[0] in set(terms)], dtype=int)
     else:
-        free = np.arange(len(machine.parameter_names))
+        free = np.arange(n_params)
     if free.size == 0 and obs.nuisance.shape[1] == 0:
         raise InputError(f"{machine.name} has no coefficients to fit")
+    if holdout is not None:
+        _holdout_split(obs, holdout, seed)  # refuses a split that leaves nothing to fit, before the fit
     theta0 = (_initialise_nonlinear(machine, obs, machine.theta, free, rtol, progress) if initialise
               else machine.theta.copy())
     # identifiability of the first-order model: exact dependencies, untouched by second-order
     # differences that the errors' own size brings in
-    pred, A = predict_observations(machine, obs, theta0, free, first_order=True)
-    J0 = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
-    names = obs.nuisance_names + [machine.parameter_names[k] for k in free]
     n_nu = obs.nuisance.shape[1]
-    analysis = analyse(J0, names, protected=n_nu, rtol=rtol, what="these measurements",
+    _, R0 = _reduce(machine, obs, theta0, free, np.zeros(n_nu), first_order=True)
+    names = obs.nuisance_names + [machine.parameter_names[k] for k in free]
+    analysis = analyse(R0[:, :-1], names, protected=n_nu, rtol=rtol, what="these measurements",
                        typical=_typical(machine, theta0, free, n_nu))
     kept_theta = np.array([c - n_nu for c in analysis.kept if c >= n_nu], dtype=int)
     held = np.array(sorted(set(range(len(free))) - set(kept_theta.tolist())), dtype=int)
     columns = kept_theta if convention == "prior" else None
     tick = (lambda i: progress("fit", i)) if progress else None
-    theta, nuisance, J, r, iterations, solver = _solve(machine, obs, theta0, free, columns, convention,
-                                               max_iter, tol, tick)
-    dof = len(r) - J.shape[1] if convention == "prior" else len(r) - analysis.rank
+    theta, nuisance, R, r, iterations, solver = _solve(machine, obs, theta0, free, columns, convention,
+                                                       max_iter, tol, tick)
+    dof = len(r) - R.shape[1] if convention == "prior" else len(r) - analysis.rank
     residual_sigma = float(np.sqrt(r @ r / dof)) if dof > 0 else math.nan
     uncertainty = np.full(len(theta), np.nan)
+    ill = _ill_conditioned(analysis.singular_values, len(r))
     if convention == "prior" and dof > 0:
-        scale, Js = _column_scale(J, typical=_typical(machine, theta, free[kept_theta], n_nu))
-        cov = np.linalg.pinv(Js.T @ Js) / np.outer(scale, scale) * residual_sigma**2
-        std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-        uncertainty[free[kept_theta]] = std[n_nu:]
+        std, rank_deficient = _standard_uncertainties(R, len(r), _typical(machine, theta, free[kept_theta], n_nu))
+        uncertainty[free[kept_theta]] = std[n_nu:] * residual_sigma
+        ill = ill or rank_deficient
     residual_si = r * obs.sigma
     fitted_machine = machine.with_theta(theta)
     rms_fit = residual_rms(obs, residual_si)
     rms_fit_rot = residual_rms(obs, residual_si, angular=True)
+    fitted_idx = free[kept_theta] if convention == "prior" else free
+    _refuse_non_finite(obs, {"coefficients": theta[fitted_idx], "nuisance terms": nuisance,
+                             "residual RMS": [rms_fit or 0.0, rms_fit_rot or 0.0],
+                             "residual standard deviation": [0.0 if dof <= 0 else residual_sigma],
+                             # infinite where the design is rank-deficient (then flagged and said)
+                             "uncertainties": [] if ill or convention != "prior" or dof <= 0
+                             else uncertainty[fitted_idx]})
+    if ill:
+        warnings.warn(_conditioning_note(analysis, len(r)), stacklevel=2)
     rms_holdout, how = None, "none"
     if holdout is not None or folds >= 2:
         rms_holdout, how = _cross_validate(machine, obs, theta0, free, columns, convention, folds,
                                            holdout, seed, max_iter, tol, progress)
-    fitted_idx = free[kept_theta] if convention == "prior" else free
+        _refuse_non_finite(obs, {"held-out RMS": [rms_holdout or 0.0]})
     held_idx = free[held] if convention == "prior" else np.array([], dtype=int)
     groups = [g for g in analysis.groups]
     return Identification(
@@ -759,7 +953,114 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         dict(zip(obs.nuisance_names, (float(v) for v in nuisance))), rms_fit or 0.0, rms_fit_rot,
         rms_holdout, how, obs.n_points, len(obs.y), iterations, convention, residual_sigma, groups,
         frozenset(n for c, n in enumerate(obs.nuisance_names)
-                  if np.any(obs.angular[obs.nuisance[:, c] != 0]) or n.startswith("rotation_")), solver)
+                  if np.any(obs.angular[obs.nuisance[:, c] != 0]) or n.startswith("rotation_")), solver,
+        ill)
+
+
+def _memory_needed(obs: Observations, folds: int) -> float:
+    """Peak memory of a fit [bytes]: the observations copied into training and test sets,
+    residual vectors and per-point evaluations, and the chunk buffers of :func:`_reduce` (the
+    design itself is never held whole)."""
+    per_row = 8 * (12 + obs.nuisance.shape[1]) * (2 if folds >= 2 else 1)
+    per_point = 8 * (obs.q.shape[1] + 6) * 3
+    return per_row * len(obs.y) + per_point * obs.n_points + 4 * CHUNK_BYTES
+
+
+def _ill_conditioned(singular_values: np.ndarray, rows: int) -> bool:
+    """Whether a column-scaled design with these singular values is numerically
+    rank-deficient (the smallest at rounding level of the largest) or conditioned beyond
+    :data:`CONDITION_LIMIT`."""
+    sv = np.asarray(singular_values)
+    if sv.size == 0:
+        return False
+    return bool(sv[-1] <= sv[0] * _rcond(rows, sv.size) or sv[0] > CONDITION_LIMIT * sv[-1])
+
+
+def _conditioning_note(analysis: Analysis, rows: int) -> str:
+    sv = analysis.singular_values
+    what = (f"condition number {analysis.condition:.3g}" if sv.size and sv[-1] > sv[0] * _rcond(rows, sv.size)
+            else "numerically rank-deficient")
+    return (f"the fit is ill-conditioned: its column-scaled design ({analysis.rank} columns kept) is "
+            f"{what}, beyond what double precision resolves (limit {CONDITION_LIMIT:.0e}); "
+            "the fitted values along its weakest directions are rounding noise: fit fewer terms or lower "
+            "degrees, or add data that separate them")
+
+
+def _standard_uncertainties(R: np.ndarray, rows: int, typical: np.ndarray) -> tuple[np.ndarray, bool]:
+    """Standard uncertainties of the columns of a design from its triangular factor ``R``
+    (unit weighted-residual scale), by the SVD of the column-scaled factor (the normal
+    matrix would square its condition), and whether directions below rounding were cut: the
+    columns they involve are not determined (infinite uncertainty)."""
+    scale, Rs = _column_scale(R, typical=typical)
+    if Rs.size == 0:
+        return np.zeros(R.shape[1]), False
+    _, s, Vt = np.linalg.svd(Rs, full_matrices=False)
+    keep = s > s[0] * _rcond(rows, Rs.shape[1]) if s.size and s[0] > 0 else np.zeros(s.size, bool)
+    var = (Vt[keep] ** 2 / s[keep, None] ** 2).sum(axis=0)
+    undetermined = np.zeros(Rs.shape[1], bool)
+    if Vt.shape[0] < Rs.shape[1] or not keep.all():
+        # directions of no effect (cut, or beyond the factor's rank): the columns in them
+        basis = Vt[keep]
+        undetermined = 1.0 - (basis ** 2).sum(axis=0) > 1e-12
+    var[undetermined] = np.inf
+    return np.sqrt(var) / scale, bool(undetermined.any())
+
+
+def _refuse_non_finite(obs: Observations, results: dict) -> None:
+    """A fit that comes out non-finite is refused, naming the data and its largest value."""
+    bad = [what for what, values in results.items() if not np.all(np.isfinite(np.asarray(values, dtype=float)))]
+    if not bad:
+        return
+    weighted = np.abs(obs.y / obs.sigma)
+    i = int(np.argmax(np.where(np.isfinite(weighted), weighted, np.inf)))
+    unit, factor = ("urad", URAD_PER_RAD) if obs.angular[i] else ("um", UM_PER_M)
+    raise InputError(f"the fit to {_data_names(obs)} gives non-finite {' and '.join(bad)}: the data hold "
+                     f"values too large to fit (the largest against its sigma: {obs.y[i] * factor:.6g} {unit} at "
+                     f"{obs.sources[i]}:{obs.lines[i]})")
+
+
+def _data_names(obs: Observations) -> str:
+    names = list(dict.fromkeys(obs.sources))
+    return ", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
+
+
+def check_observations(obs: Observations) -> None:
+    """Refuse observations a fit cannot use, naming the file and line of the first bad row.
+
+    Parameters
+    ----------
+    obs : Observations
+        The observations.
+
+    Raises
+    ------
+    InputError
+        If a value, weight or nuisance entry is not finite, a standard deviation is not
+        positive and finite, a position is not finite, or an observation exceeds
+        :data:`WEIGHTED_LIMIT` standard deviations (the fit's sums of squares would overflow).
+    """
+    bad_q = np.argwhere(~np.isfinite(obs.q))
+    if bad_q.size:
+        i = int(bad_q[0][0])
+        rows = np.flatnonzero(obs.point == i)
+        where = f"{obs.sources[rows[0]]}:{obs.lines[rows[0]]}" if rows.size else f"point {i}"
+        raise InputError(f"{where}: position {obs.q[i, bad_q[0][1]]} is not a finite number")
+    checks = (("value", ~np.isfinite(obs.y)), ("standard deviation", ~(np.isfinite(obs.sigma) & (obs.sigma > 0))),
+              ("weight", ~np.all(np.isfinite(obs.w), axis=1)),
+              ("nuisance design", ~np.all(np.isfinite(obs.nuisance), axis=1)))
+    for what, mask in checks:
+        if mask.any():
+            i = int(np.argmax(mask))
+            raise InputError(f"{obs.sources[i]}:{obs.lines[i]}: observation {what} is not a "
+                             f"{'positive ' if what == 'standard deviation' else ''}finite number")
+    with np.errstate(over="ignore"):
+        weighted = np.abs(obs.y / obs.sigma)
+    if not weighted.max(initial=0.0) <= WEIGHTED_LIMIT:
+        i = int(np.argmax(weighted))
+        unit, factor = ("urad", URAD_PER_RAD) if obs.angular[i] else ("um", UM_PER_M)
+        raise InputError(f"{obs.sources[i]}:{obs.lines[i]}: observation {obs.y[i] * factor:.6g} {unit} is too large "
+                         f"to fit: {weighted[i]:.3g} times its standard deviation (the sums of squares a fit forms "
+                         f"overflow double precision beyond {WEIGHTED_LIMIT:.0e})")
 
 
 def _typical(machine: Machine, theta: np.ndarray, free: np.ndarray, n_nuisance: int) -> np.ndarray:
@@ -779,38 +1080,50 @@ def _initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray
     """Variable projection by grid search: for each free non-linear coefficient (time
     constant, period), try the candidates of its term's grid (and the prior value), fitting
     the identifiable linear coefficients and nuisance terms for each, and keep the best. The
-    Gauss-Newton fit then refines all of them together."""
+    Gauss-Newton fit then refines all of them together. Every candidate's design is reduced
+    to its triangular factor in one pass over chunks of points (see :func:`_reduce`)."""
     theta = theta.copy()
     nonlinear = [k for k in machine.nonlinear_parameters if k in set(free.tolist())]
     if not nonlinear:
         return theta
     linear = np.array([k for k in free if k not in set(nonlinear)], dtype=int)
     n_nu = obs.nuisance.shape[1]
-    _, A = predict_observations(machine, obs, theta, linear, first_order=True)
-    J = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
-    kept = analyse(J, [""] * J.shape[1], protected=n_nu, rtol=rtol,
+    _, R = _reduce(machine, obs, theta, linear, np.zeros(n_nu), first_order=True)
+    kept = analyse(R[:, :-1], [""] * (R.shape[1] - 1), protected=n_nu, rtol=rtol,
                    typical=_typical(machine, theta, linear, n_nu)).kept
     lin_cols = np.array([c - n_nu for c in kept if c >= n_nu], dtype=int)
     for step, k in enumerate(nonlinear):
-        # the columns of the other terms hardly depend on this coefficient: compute them once
+        # the columns of the other terms hardly depend on this coefficient: computed once per chunk
         term = next(p for p in machine.term_spans() if p.start <= k < p.stop)
         own = np.array([i for i in range(term.start, term.stop) if i in set(linear[lin_cols].tolist())], dtype=int)
         others = np.array([i for i in linear[lin_cols] if i not in set(own.tolist())], dtype=int)
-        _, A_other = predict_observations(machine, obs, theta, others)
         grid = np.r_[theta[k], machine.search_grid(k, theta, n=obs.n_points, **obs.covariates)]
+        factors = [np.zeros((0, n_nu + len(others) + len(own) + 1)) for _ in grid]
+        for points, rows in _point_chunks(obs, len(others) + len(own)):
+            cov = _take_covariates(obs.covariates, points)
+            q, w, local, sigma = obs.q[points], obs.w[rows], obs.point[rows] - points[0], obs.sigma[rows, None]
+            error = machine.volumetric_error(q, theta, **cov)
+            _, A_other = _rows_of(w, local, error, machine.sensitivity(q, theta, parameters=others, **cov))
+            for g, value in enumerate(grid):
+                trial = theta.copy()
+                trial[k] = value
+                error = machine.volumetric_error(q, trial, **cov)
+                pred, A_own = _rows_of(w, local, error, machine.sensitivity(q, trial, parameters=own, **cov))
+                r = (obs.y[rows] - pred) / sigma[:, 0]
+                block = np.hstack([obs.nuisance[rows] / sigma, A_other / sigma, A_own / sigma, r[:, None]])
+                if not np.all(np.isfinite(block)):
+                    _refuse_non_finite(obs, {"residuals or sensitivities": block})
+                factors[g] = np.linalg.qr(np.vstack([factors[g], block]), mode="r")
         best, best_rss = theta.copy(), math.inf
-        for value in grid:
-            trial = theta.copy()
-            trial[k] = value
-            pred, A_own = predict_observations(machine, obs, trial, own)
-            r = (obs.y - pred) / obs.sigma
-            J = np.hstack([obs.nuisance, A_other, A_own]) / obs.sigma[:, None]
+        for value, R in zip(grid, factors):
+            J, z = R[:, :-1], R[:, -1]
             scale, Js = _column_scale(J)  # linear coefficients only: SI sizes are typical
-            delta = np.linalg.lstsq(Js, r, rcond=None)[0] / scale
-            rss = float(np.sum((r - J @ delta) ** 2))
+            delta = np.linalg.lstsq(Js, z, rcond=_rcond(len(obs.y), J.shape[1]))[0] / scale
+            rss = float(np.sum((z - J @ delta) ** 2))
             if rss < best_rss:
                 best_rss = rss
-                best = trial.copy()
+                best = theta.copy()
+                best[k] = value
                 best[others] += delta[n_nu:n_nu + len(others)]
                 best[own] += delta[n_nu + len(others):]
         theta = best
@@ -822,6 +1135,7 @@ def _initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray
 def _poses(obs: Observations, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Pose index of every point (the same positions: several targets, or repeats) and the
     poses shuffled by ``seed``."""
+    seed = _integer("seed", seed, 0)
     _, group = np.unique(np.round(obs.q, 12), axis=0, return_inverse=True)
     group = group.ravel()
     return group, np.random.default_rng(seed).permutation(int(group.max()) + 1 if group.size else 0)
@@ -845,23 +1159,38 @@ def pose_folds(obs: Observations, folds: int, seed: int) -> list[np.ndarray] | N
     -------
     list of ndarray of int, or None
         ``folds`` arrays of point indices; None when there are fewer than 2 x ``folds`` poses.
+
+    Raises
+    ------
+    InputError
+        If ``folds`` is not a whole number >= 1 or ``seed`` is negative.
     """
+    folds = _integer("folds", folds, 1)
     group, order = _poses(obs, seed)
     if len(order) < 2 * folds:
         return None
     return [np.flatnonzero(np.isin(group, part)) for part in np.array_split(order, folds)]
 
 
+def _holdout_split(obs: Observations, holdout: float, seed: int) -> tuple[list[np.ndarray], str]:
+    """The points held out by a random split of the poses, and how; refuses a split that holds
+    out every pose."""
+    group, order = _poses(obs, seed)
+    n_out = max(1, int(round(holdout * len(order))))
+    if n_out >= len(order):
+        raise InputError(f"holdout {holdout:g} of {len(order)} {'pose' if len(order) == 1 else 'poses'} holds out "
+                         f"{n_out}: none is left to fit "
+                         f"(give a smaller fraction, or data at more poses)", parameters=("holdout",))
+    splits = [np.flatnonzero(np.isin(group, order[:n_out]))]
+    how = (f"random split, {n_out} of {len(order)} poses ({splits[0].size} of {obs.n_points} points) "
+           f"held out (seed {seed})")
+    return splits, how
+
+
 def _cross_validate(machine, obs, theta0, free, columns, convention, folds, holdout, seed,
                     max_iter, tol, progress):
     if holdout is not None:
-        if not 0.0 < holdout < 1.0:
-            raise InputError(f"holdout must be a fraction between 0 and 1, got {holdout}")
-        group, order = _poses(obs, seed)
-        n_out = max(1, int(round(holdout * len(order))))
-        splits = [np.flatnonzero(np.isin(group, order[:n_out]))]
-        how = (f"random split, {n_out} of {len(order)} poses ({splits[0].size} of {obs.n_points} points) "
-               f"held out (seed {seed})")
+        splits, how = _holdout_split(obs, holdout, seed)
     else:
         splits = pose_folds(obs, folds, seed)
         if splits is None:
