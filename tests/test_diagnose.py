@@ -145,7 +145,8 @@ def test_fixed_keeps_the_geometry_and_still_finds_the_effect(machines):
 
 def test_too_few_points_is_an_error(machines):
     m = machines["vmc500"]
-    with pytest.raises(vp.InputError, match="6 points at too few distinct poses for 5-fold"):
+    with pytest.raises(vp.InputError, match=r"6 points at 6 distinct poses: too few for folds = 5 \(k-fold "
+                                            r"cross-validation needs at least 10\)"):
         diagnose(m, [campaign(m, 6, NOISE, 0)])
 
 
@@ -268,3 +269,70 @@ def test_noise_floor_from_repeats_or_an_upper_bound(machines):
     assert not result.noise_floor_upper_bound and result.noise_floor_source == "repeated points (600 degrees of freedom)"
     assert result.noise_floor_um == pytest.approx(FLOOR, rel=0.15)
     assert result.to_dict()["noise_floor_upper_bound"] is False
+
+
+# ------------------------------------------------------------------ bad or extreme inputs
+@pytest.mark.parametrize("option, value, match", [
+    ("sigma_um", 0, "sigma_um must be positive and finite, got 0"),
+    ("sigma_um", float("nan"), "sigma_um must be positive and finite, got nan"),
+    ("sigma_um", -1, "sigma_um must be positive and finite, got -1"),
+    ("sigma_um", float("inf"), "sigma_um must be positive and finite, got inf"),
+    ("sigma_urad", 0, "sigma_urad must be positive and finite, got 0"),
+    ("folds", 0, "folds must be >= 2, got 0"),
+    ("folds", 1, "folds must be >= 2, got 1"),
+    ("alpha", 2, r"alpha must be a fraction between 0 and 1 \(both excluded\), got 2"),
+    ("alpha", 0.0, "alpha must be a fraction between 0 and 1"),
+    ("alpha", float("nan"), "alpha must be a fraction between 0 and 1"),
+    ("max_effects", -1, "max_effects must be >= 0, got -1"),
+    ("max_effects", 1.5, "max_effects must be a whole number, got 1.5"),
+    ("seed", -1, "seed must be >= 0, got -1"),
+    ("max_rounds", -2, "max_rounds must be >= 0, got -2"),
+])
+def test_bad_numeric_parameters_are_refused_naming_them(machines, option, value, match):
+    m = machines["vmc500"]
+    with pytest.raises(vp.InputError, match=match) as err:
+        diagnose(m, [campaign(m, 30, NOISE, 0)], **{option: value})
+    assert err.value.parameters == (option,)
+
+
+def test_data_with_nothing_to_diagnose_are_refused(machines):
+    """Rotations only (diagnose compares position residuals), or so few points that the base
+    model passes through all of them (no residual: a held-out RMS of zero would be nonsense)."""
+    m = machines["vmc500"]
+    data = campaign(m, 40, NOISE, 0)
+    data.values[:, :3], data.values[:, 3:] = np.nan, 1e-6
+    with pytest.raises(vp.InputError, match="the measurements hold no position"):
+        diagnose(m, [data])
+    with pytest.raises(vp.InputError, match=r"30 observations at 10 points do not over-determine the base model "
+                                            r"\(30 independent coefficients and nuisance terms\)"):
+        diagnose(m, [campaign(m, 10, NOISE, 0)])
+    same = campaign(m, 40, NOISE, 0)
+    same.q[:] = same.q[0]
+    with pytest.raises(vp.InputError, match="40 points at 1 distinct pose: too few for folds = 5") as err:
+        diagnose(m, [same])
+    assert err.value.parameters == ("folds",)
+
+
+def test_a_diagnosis_too_large_for_the_memory_is_refused_before_it_starts(machines, monkeypatch):
+    import volerr_pin.safeio as safeio
+
+    m = machines["vmc500"]
+    monkeypatch.setattr(safeio, "available_memory", lambda: 10_000_000)
+    with pytest.raises(vp.InputError, match=r"diagnosing 300 points \(900 observations\) needs about .* MB of "
+                                            r"memory, more than this machine can spare"):
+        diagnose(m, [campaign(m, 300, NOISE, 0)])
+
+
+def test_cli_diagnose_refuses_bad_options_in_one_line(machines, tmp_path, capsys):
+    m = machines["vmc500"]
+    path = tmp_path / "points.csv"
+    write_points(campaign(m, 30, NOISE, 0), m, path)
+    for argv, message in ((["--folds", "0"], "--folds must be >= 2, got 0"),
+                          (["--alpha", "2"], "--alpha must be a fraction between 0 and 1"),
+                          (["--max-effects", "-1"], "--max-effects must be >= 0, got -1"),
+                          (["--sigma-um", "nan"], "--sigma-um must be positive and finite, got nan"),
+                          (["--sigma-urad", "0"], "--sigma-urad must be positive and finite, got 0.0"),
+                          (["--seed", "-1"], "--seed must be >= 0, got -1")):
+        assert main(["diagnose", "vmc500", str(path), *argv]) == 2
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err

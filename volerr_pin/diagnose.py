@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import math
 import time as _time
+import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -47,9 +48,11 @@ from scipy import stats
 from scipy.signal import lombscargle
 
 from .errors import InputError
-from .identify import (Observations, build_observations, identify, parameter_units, point_squares, pose_folds,
+from .identify import (Observations, _conditioning_note, _fraction, _integer, _positive, build_observations,
+                       check_observations, identify, parameter_units, point_squares, pose_folds,
                        predict_observations, residual_rms)
 from .machine import Machine
+from .safeio import require_memory
 from .spec import build_term, component_name, parse_component_name
 from .specio import add_terms, remove_components, replace_terms, term_tables
 from .termkinds import GEOMETRIC
@@ -969,28 +972,79 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     ----------
     machine : Machine
         The model to test (its spec's terms are the base model).
-    measurements : list of PointMeasurements (or runs), or Observations
-    fixed : bool
+    measurements : list of measurement objects, or Observations
+        Point measurements (or runs, tracker, ballbar files) as
+        :func:`~volerr_pin.identify.build_observations` takes them, or observations built
+        already.
+    fixed : bool, default False
         Keep the spec's geometric values instead of identifying them first (a raised
         component then moves as a whole).
-    max_effects : int
-        Stop adding physical effects after this many.
-    alpha : float
+    max_effects : int, default 5
+        Stop adding physical effects after this many (>= 0; 0 still raises under-modelled
+        components).
+    alpha : float, default 0.01
         Family-wise significance level of the F-test in each round (Bonferroni over the
-        candidates of the round).
-    folds, seed : int
-        k-fold cross-validation over poses (points at the same positions - several targets,
-        repeats - stay in one fold), shuffled by ``seed``.
+        candidates of the round), between 0 and 1.
+    folds : int, default 5
+        k of the k-fold cross-validation over poses (>= 2; points at the same positions -
+        several targets, repeats - stay in one fold).
+    seed : int, default 0
+        Seed of the shuffling of the poses into folds (>= 0).
+    sigma_um : float, default 1.0
+        Standard deviation of position observations [um]; only when ``measurements`` are
+        not :class:`~volerr_pin.identify.Observations`.
+    sigma_urad : float, default 1.0
+        Standard deviation of rotation observations [urad]; likewise.
+    progress : callable(str, int), optional
+        Called with a stage name and a step count, for progress bars.
+    keep_machines : bool, default False
+        Keep the machine of every round in :attr:`Step.machine`.
     max_rounds : int, optional
         Rounds of the loop at most (default ``max_effects`` + 8: room for raising
         under-modelled components).
+
+    Returns
+    -------
+    Diagnosis
+        The final model, the effects found in order, the raised components, every round's
+        scores, the held-out RMS before and after and the noise floor.
+
+    Raises
+    ------
+    InputError
+        If a parameter is out of its range above, the measurements are invalid (see
+        :func:`~volerr_pin.identify.identify`), there are too few distinct poses for
+        ``folds``-fold cross-validation, or the diagnosis would need more memory than the
+        machine has free.
+
+    Warns
+    -----
+    UserWarning
+        Once, when the final fit is ill-conditioned (see
+        :attr:`~volerr_pin.identify.Identification.ill_conditioned`).
     """
     start = _time.perf_counter()
+    max_effects = _integer("max_effects", max_effects, 0)
+    alpha = _fraction("alpha", alpha)
+    folds = _integer("folds", folds, 2)
+    seed = _integer("seed", seed, 0)
+    sigma_um, sigma_urad = _positive("sigma_um", sigma_um), _positive("sigma_urad", sigma_urad)
+    if max_rounds is not None:
+        max_rounds = _integer("max_rounds", max_rounds, 0)
     obs = measurements if isinstance(measurements, Observations) else build_observations(
         machine, measurements, sigma_um=sigma_um, sigma_urad=sigma_urad)
+    check_observations(obs)
+    if obs.angular.all():
+        raise InputError("diagnose compares position residuals, and the measurements hold no position "
+                         "(dx, dy, dz) observations")
     split = pose_folds(obs, folds, seed)  # the points at one pose stay in one fold
     if split is None:
-        raise InputError(f"{obs.n_points} points at too few distinct poses for {folds}-fold cross-validation")
+        poses = len(np.unique(np.round(obs.q, 12), axis=0))
+        raise InputError(f"{obs.n_points} points at {poses} distinct {'pose' if poses == 1 else 'poses'}: too few "
+                         f"for folds = {folds} (k-fold cross-validation needs at least {2 * folds})",
+                         parameters=("folds",))
+    require_memory(_memory_needed(machine, obs, folds),
+                   f"diagnosing {obs.n_points} points ({len(obs.y)} observations)")
     cov_obj = machine.check_covariates(obs.n_points, obs.covariates)
     axis_index_of = {a: j for j, a in enumerate(machine.axes)}
     columns = _Columns(obs, cov_obj)
@@ -1000,7 +1054,7 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
         if fixed and not names:
             return model, np.array([], dtype=int), np.zeros(obs.nuisance.shape[1]), None
         free = None if not fixed else [model.parameter_names.index(n) for n in names]
-        res = identify(model, obs, free=free, folds=0, initialise=initialise)
+        res = _quiet_identify(model, obs, free=free, initialise=initialise)
         return res.machine, res.fitted, np.array(list(res.nuisance.values())), res
 
     free_names: list[str] = []        # with ``fixed``: the coefficients that may move
@@ -1013,6 +1067,11 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     for number in range(max_rounds + 1):
         base = _base_design(current, obs, fitted, nuisance)
         proj = _Projector(base.A, base.r, obs, split)
+        if number == 0 and len(obs.y) <= proj.rank:
+            # the base model interpolates the data: no residual, and a held-out RMS of zero
+            raise InputError(f"{len(obs.y)} observations at {obs.n_points} points do not over-determine the "
+                             f"base model ({proj.rank} independent coefficients and nuisance terms): there is "
+                             "no residual to diagnose; measure more points")
         base_cv = proj.cv_rms
         for record in previous:
             record.rms_after_um, record.max_after_um = base_cv, proj.cv_max
@@ -1087,7 +1146,7 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     while True:
         if not fixed or free_names:
             free = None if not fixed else [current.parameter_names.index(n) for n in free_names]
-            final = identify(current, obs, free=free, folds=0, initialise=False)
+            final = _quiet_identify(current, obs, free=free, initialise=False)
             current = final.machine
         trimmed = _trim_raises(current, final, base_machine, {r.component for r in raised})
         if trimmed is not None:
@@ -1124,9 +1183,29 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     rms_fit = residual_rms(obs, last.r * obs.sigma)
     floor, source, bound = _noise_floor(obs, last.r * obs.sigma, last_proj.rank)
     analysis = residual_analysis(current, obs, steps[0].residual)
+    if final is not None and final.ill_conditioned:
+        warnings.warn(_conditioning_note(final.analysis, len(obs.y)), stacklevel=2)
     return Diagnosis(current, base_machine, effects, steps, steps[0].rms_holdout_um, last_proj.cv_rms, rms_fit,
                      floor, source, bool(last_proj.cv_rms <= 1.2 * floor), alpha,
                      _time.perf_counter() - start, obs, analysis, raised, dropped, bound)
+
+
+def _quiet_identify(machine: Machine, obs: Observations, **options):
+    """A fit of the loop, without cross-validation; its conditioning is said once, for the
+    final model, not for every trial."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="the fit is ill-conditioned")
+        return identify(machine, obs, folds=0, **options)
+
+
+def _memory_needed(machine: Machine, obs: Observations, folds: int) -> float:
+    """Peak memory of a diagnosis [bytes], as measured: the weighted columns of every
+    candidate (non-linear ones at several grid values) and the base design with its bases on
+    every training set, per observation row."""
+    candidates = build_candidates(machine, obs)
+    columns = sum(max(1, sum(len(v) for v in c.table.values() if isinstance(v, list))) for c in candidates)
+    base = obs.nuisance.shape[1] + len(machine.parameter_names)
+    return 8.0 * len(obs.y) * (6 * columns + (folds + 4) * base)
 
 
 def twins_of(accepted: list[Change], passing: list[Score], machine: Machine) -> None:
