@@ -208,6 +208,10 @@ def test_seed004_beam_and_torsion_models():
     ({"kind": "periodic_pitch", "period_mm": 10.0, "sine_um": [1.0], "cosine_um": [0.0], "origin_mm": True},
      r"bad\.origin_mm: expected a number, got a boolean"),
     ({"kind": "backlash", "reversal_um": 3.0, "reversal": 3.0}, r"bad: both reversal_um and reversal given"),
+    ({"kind": "periodic_pitch", "period_mm": 10.0, "sine_um": [0.0] * 51, "cosine_um": [0.0] * 51},
+     r"bad\.sine_um: 51 harmonics; give 1 to 50"),
+    ({"kind": "thermal_drift", "driver": "time", "amplitudes_um": [], "time_constants_s": []},
+     r"bad\.amplitudes_um: 0 amplitudes; give 1 to 50"),
 ])
 def test_bad_effect_tables(table, match):
     with pytest.raises(vp.SpecError, match=match):

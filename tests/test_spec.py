@@ -373,3 +373,9 @@ def test_non_increasing_positions_are_named(vmc500_copy):
     with pytest.raises(vp.SpecError, match=r"errors\.EYY\.positions_mm: positions must be strictly increasing, "
                                           r"got 100 then 100 mm \(entries 2 and 3\)"):
         vp.load_machine(vmc500_copy)
+
+
+def test_toml_nested_beyond_the_recursion_limit_is_one_error(vmc500_copy):
+    edit(vmc500_copy, "format = 1", "format = 1\ndeep = " + "[" * 5000 + "]" * 5000)
+    with pytest.raises(vp.SpecError, match=r"errors\.toml: invalid TOML: arrays or tables nested too deeply"):
+        vp.load_machine(vmc500_copy)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from volerr_pin import safeio
 from volerr_pin import terms as T
 from volerr_pin.spec import build_term
 
@@ -115,7 +116,21 @@ def test_polynomial_on_a_body_without_axis_is_refused():
     ({"kind": "legendre", "coefficients_um": [[1.0, 2.0]]}, r"test\.coefficients_um: expected a flat list"),
     ({"kind": "legendre", "coefficients_um": []}, r"test\.coefficients_um: needs at least one coefficient"),
     ({"kind": "constant", "value_um": 1.0, "value": 2.0}, r"test: both value_um and value given"),
+    ({"kind": "legendre", "coefficients_um": [0.0] * 51},
+     r"test\.coefficients_um: 51 coefficients; a polynomial takes at most 50 \(use a table"),
 ])
 def test_bad_term_tables_name_the_key(table, match):
     with pytest.raises(ValueError, match=match):
         term(table)
+
+
+def test_a_table_too_large_for_the_memory_is_refused_before_it_is_built(monkeypatch):
+    """A spline table keeps every node's unit vector: a spec of a few hundred kB with 100,000
+    positions would ask for 400 GB. The check names the key instead."""
+    monkeypatch.setattr(safeio, "available_memory", lambda: 1e9)
+    n = 10_000
+    table = {"kind": "table", "positions_mm": np.linspace(0, 500, n).tolist(), "values_um": [0.0] * n}
+    with pytest.raises(ValueError, match=r"test\.positions_mm: a table of 10,000 positions needs about 4 GB"):
+        term(table)
+    small = {**table, "positions_mm": np.linspace(0, 500, 500).tolist(), "values_um": [0.0] * 500}
+    assert term(small).term.size == 500

@@ -39,7 +39,7 @@ from numpy.polynomial import legendre
 
 from .errors import InputError, SpecError
 from .speckeys import TermSite, find_key, number, numbers, stem_of, text, unit_of, within
-from .terms import Context, Covariates, Term
+from .terms import MAX_COEFFICIENTS, Context, Covariates, Term
 from .units import TIME, scale
 
 
@@ -166,7 +166,8 @@ class DriftTime(Term):
 
     @classmethod
     def from_spec(cls, table, site):
-        amps, unit, factor, _ = site.value(table, "amplitudes")
+        amps, unit, factor, akey = site.value(table, "amplitudes")
+        _count(amps.size, site, akey, "amplitudes")
         taus = _time_constants(table, site, amps.size)
         tunit = unit_of(find_key(table, "time_constants", site.where)[1], "time_constants")
         stop, _, _, skey = site.value(table, "stop", "time", required=False, count=1)
@@ -348,6 +349,7 @@ class ExpansionTime(Term):
         if "strains_ppm" not in table:
             raise SpecError(f"{site.where}: missing 'strains_ppm'")
         strains = numbers(table["strains_ppm"], f"{site.where}.strains_ppm")
+        _count(strains.size, site, "strains_ppm", "strains")
         if np.any(np.abs(strains) > 1e6):
             raise SpecError(f"{site.where}.strains_ppm: a strain lies within +-1e6 ppm, got {table['strains_ppm']}")
         taus = _time_constants(table, site, strains.size)
@@ -463,7 +465,8 @@ class ForceDeflection(Term):
             unit = "um" if quantity == "length" else "urad"
             return (cls(unit, scale(unit, quantity, where), "xyz".index(force), 0, None,
                         {"compliance": c0, "keys": keys}), np.array([c0]))
-        comp, unit, factor, _ = site.value(table, "compliance", per="N")
+        comp, unit, factor, ckey = site.value(table, "compliance", per="N")
+        _count(comp.size, site, ckey, "coefficients")
         if comp.size > 1 and (site.travel is None or not site.owner_is_axis):
             raise SpecError(f"{where}: a position-dependent compliance needs an axis with a travel")
         return cls(unit, factor, "xyz".index(force), comp.size - 1, site.travel), comp
@@ -529,10 +532,17 @@ class PeriodicPitch(Term):
         period, punit, pscale, pkey = site.value(table, "period", "length", count=1)
         if period[0] <= 0:
             raise SpecError(f"{site.where}.{pkey}: the period must be positive")
-        sines, unit, factor, _ = site.value(table, "sine")
+        sines, unit, factor, skey = site.value(table, "sine")
+        _count(sines.size, site, skey, "harmonics")
         cosines, _, _, _ = site.value(table, "cosine", count=sines.size)
         coefs = np.r_[np.ravel(np.column_stack([sines, cosines])), period]
         return cls(unit, factor, sines.size, _origin(table, site), punit, pscale), coefs
+
+
+def _count(count: int, site: TermSite, key: str, what: str) -> None:
+    """Between 1 and :data:`~volerr_pin.terms.MAX_COEFFICIENTS` values of a list key."""
+    if not 1 <= count <= MAX_COEFFICIENTS:
+        raise SpecError(f"{site.where}.{key}: {count} {what}; give 1 to {MAX_COEFFICIENTS}")
 
 
 def _time_constants(table: dict, site: TermSite, count: int) -> np.ndarray:

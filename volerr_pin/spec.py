@@ -226,13 +226,16 @@ def read_toml(path: Path) -> dict:
     ------
     SpecError
         If the file cannot be read (see :func:`read_text`) or is not valid TOML (naming line
-        and column; a key given twice is invalid TOML).
+        and column; a key given twice is invalid TOML; nesting beyond Python's recursion
+        limit is refused too).
     """
     content = read_text(path, SpecError, "spec")
     try:
         return tomllib.loads(content)
     except tomllib.TOMLDecodeError as err:
         raise SpecError(f"{path}: invalid TOML: {err}") from err
+    except RecursionError:  # tomllib parses nested arrays and tables recursively
+        raise SpecError(f"{path}: invalid TOML: arrays or tables nested too deeply") from None
 
 
 def resolve_urdf(value: Any, base: Path, where: str) -> Path:

@@ -20,9 +20,14 @@ import numpy as np
 from numpy.polynomial import legendre
 from scipy.interpolate import CubicSpline, make_interp_spline
 
-from .errors import SpecError
+from .errors import InputError, SpecError
+from .safeio import require_memory
 from .speckeys import TermSite, text
 from .units import scale
+
+#: the most coefficients of a polynomial term: beyond, a table describes an error better (and a
+#: degree of thousands, a few characters in a spec, would take the memory of the evaluation)
+MAX_COEFFICIENTS = 50
 
 
 @dataclass(frozen=True)
@@ -280,6 +285,9 @@ class Polynomial(LinearTerm):
         si, unit, factor, key = site.value(table, "coefficients")
         if si.size == 0:
             raise SpecError(f"{where}.{key}: needs at least one coefficient")
+        if si.size > MAX_COEFFICIENTS:
+            raise SpecError(f"{where}.{key}: {si.size} coefficients; a polynomial takes at most {MAX_COEFFICIENTS} "
+                            "(use a table for finer detail)")
         over = text(table, "over", where, default="travel")
         if family == "legendre" and over != "travel":
             raise SpecError(f"{where}: legendre polynomials are defined over the travel only")
@@ -361,6 +369,10 @@ class Table(LinearTerm):
                             f"least {minimum} positions, got {nodes.size}")
         if values.size != nodes.size:
             raise SpecError(f"{where}: {nodes.size} positions but {values.size} values")
+        try:  # the spline of every node's unit vector: (4 + 1) n^2 numbers
+            require_memory(40.0 * nodes.size**2, f"{where}.{pkey}: a table of {nodes.size:,} positions")
+        except InputError as err:
+            raise SpecError(str(err)) from None
         if np.any(np.diff(nodes) <= 0):
             k = int(np.flatnonzero(np.diff(nodes) <= 0)[0])
             raise SpecError(f"{where}.{pkey}: positions must be strictly increasing, got {nodes[k] / pscale:g} "
