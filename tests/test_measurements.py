@@ -365,3 +365,31 @@ def test_key_value_runs_refuse_repeats_and_implausible_values(tmp_path, edit, ma
     (tmp_path / "run.dat").write_text(edit(DAT))
     with pytest.raises(MeasurementError, match=match):
         read_runs(tmp_path / "run.dat")
+
+
+def test_the_axis_given_and_the_files_own_must_agree(tmp_path):
+    path = write(tmp_path, "# axis: X\n# at: Y=200, Z=200\n" + RUN)
+    assert read_runs(path, axis="X").axis == "X"
+    with pytest.raises(MeasurementError, match=r"^axis Y is not the run's own: .*d\.csv says '# axis: X'$") as err:
+        read_runs(path, axis="Y")
+    assert err.value.parameters == ("axis",)
+    with pytest.raises(MeasurementError, match=r"d\.csv: header '# at: X=100, Y=200' gives X=100, but X is the axis "
+                                               "that moves in this run"):
+        read_runs(write(tmp_path, "# axis: X\n# at: X=100, Y=200\n" + RUN))
+
+
+@pytest.mark.parametrize("row, match", [
+    ('1,2,3,"1\n', r"d\.csv:2: not a comma-separated row \(unexpected end of data\)"),
+    ("1,2,3," + "1" * 200_000 + "\n", r"d\.csv:2: not a comma-separated row \(field larger than field limit"),
+])
+def test_rows_the_csv_module_cannot_read_are_one_error(tmp_path, machines, row, match):
+    with pytest.raises(MeasurementError, match=match):
+        read_points(write(tmp_path, "x,y,z,dx\n" + row), machines["vmc500"])
+
+
+def test_a_header_of_many_columns_is_checked_in_linear_time(tmp_path, machines):
+    """A million-column header took hours (duplicates were counted pairwise); 100,000 now take
+    well under a second, and the repeated last name is still found."""
+    names = ",".join(f"c{i}" for i in range(100_000))
+    with pytest.raises(MeasurementError, match=r"d\.csv:1:100005: duplicate column 'c0'"):
+        read_points(write(tmp_path, f"x,y,z,dx,{names},c0\n"), machines["vmc500"])

@@ -225,3 +225,20 @@ def test_cli_refuses_a_named_constant_sensor_with_one_line(tmp_path, capsys):
                  "--lag", "0"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "'T_c' is constant" in err and "--sensors" in err
+
+
+def test_a_file_read_twice_or_tested_on_itself_is_refused(tmp_path):
+    series(tmp_path, {})
+    path = tmp_path / "s.csv"
+    with pytest.raises(ValueError, match=r"s\.csv: given twice \(as .*s\.csv\); each batch is one file, read once"):
+        read_series([path, tmp_path / "." / "s.csv"])
+    data = read_series(path)
+    with pytest.raises(ValueError, match=r"^test: .*s\.csv is also a data file") as err:
+        thermal_fit(data, "growth", test=read_series(path))
+    assert err.value.parameters == ("test",)
+
+
+def test_a_file_of_one_row_is_named(tmp_path):
+    (tmp_path / "one.csv").write_text("y,a\n1,2\n")
+    with pytest.raises(ValueError, match=r"one\.csv: 1 row\(s\) of data; a model needs more"):
+        thermal_fit(read_series(tmp_path / "one.csv"), "y")

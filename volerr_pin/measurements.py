@@ -262,14 +262,18 @@ def read_table(path: str | Path | Table, text: str | None = None) -> Table:
             if match:
                 _add_meta(meta, meta_lines, match, number, path, header_line if header is not None else None)
             continue
-        cells = next(csv.reader([line]))
+        try:
+            cells = next(csv.reader([line], strict=True))
+        except csv.Error as err:  # an unclosed quote, a cell beyond the csv module's size limit
+            raise MeasurementError(f"{path}:{number}: not a comma-separated row ({err})") from None
         if header is None:
             header = [c.strip() for c in cells]
             header_line = number
-            duplicates = sorted({h for h in header if header.count(h) > 1})
-            if duplicates:
-                col = [i for i, h in enumerate(header) if h == duplicates[0]][1]
-                raise MeasurementError(f"{path}:{number}:{col + 1}: duplicate column '{duplicates[0]}'")
+            seen: dict[str, int] = {}
+            for col, name in enumerate(header):
+                if name in seen:
+                    raise MeasurementError(f"{path}:{number}:{col + 1}: duplicate column '{name}'")
+                seen[name] = col
             if "" in header:
                 raise MeasurementError(f"{path}:{number}:{header.index('') + 1}: empty column name")
             continue
@@ -831,8 +835,9 @@ def read_runs(path: str | Path | Table, axis: str | None = None) -> Runs:
     MeasurementError
         If the table is malformed, the target, cycle, direction or value column is missing or
         ambiguous, the component is unknown or belongs to another axis than ``axis``, the
-        value's unit does not fit the target or component, a direction is not +1 / -1, a
-        cycle number is not an integer from 0 to :data:`MAX_CYCLE`, one target, cycle and
+        value's unit does not fit the target or component, ``axis`` contradicts the file's
+        ``# axis:``, ``# at:`` names the moving axis, a direction is not +1 / -1, a cycle
+        number is not an integer from 0 to :data:`MAX_CYCLE`, one target, cycle and
         direction is given twice (naming both lines), or a target or value lies beyond its
         plausibility limit.
     """
@@ -862,7 +867,11 @@ def read_runs(path: str | Path | Table, axis: str | None = None) -> Runs:
             "EYX_um or EBX_arcsec")
     vcol, match = value_cols[0]
     quantity, unit = match.group(1), match.group(2)
-    axis = axis or table.meta.get("axis")
+    own = table.meta.get("axis")
+    if axis is not None and own is not None and axis != own:
+        raise MeasurementError(f"axis {axis} is not the run's own: {table.path} says '# axis: {own}'",
+                               parameters=("axis",))
+    axis = axis or own
     component = None  # positioning: the error along the axis' own motion
     if quantity != "deviation":
         component = quantity
@@ -909,6 +918,9 @@ def read_runs(path: str | Path | Table, axis: str | None = None) -> Runs:
                                        f"are integers from 0 to {MAX_CYCLE:,}, got {table.rows[bad[0]][col].strip()}")
     _refuse_repeated_approaches(table, file_target, cycle, direction, target_unit)
     at = axis_values(table, "at")
+    if axis is not None and axis in at:
+        raise MeasurementError(f"{table.path}: header '# at: {table.meta['at']}' gives {axis}={at[axis]:g}, but "
+                               f"{axis} is the axis that moves in this run; '# at:' gives the other axes")
     used = {tcol, vcol, needed["cycle"], needed["direction"]}
     unused = tuple(h for c, h in enumerate(header) if c not in used)
     unused += tuple(h for h in table.meta.get("unused", "").split(",") if h)

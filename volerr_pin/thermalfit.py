@@ -36,6 +36,7 @@ import numpy as np
 
 from .errors import InputError
 from .measurements import MeasurementError, read_table
+from .safeio import same_file
 from .thermal import GM11, GM1N
 
 METHODS = ("linear", "gm11", "gm1n", "vwgm1n")
@@ -86,12 +87,16 @@ def read_series(paths) -> SeriesData:
     InputError
         If no file is given.
     MeasurementError
-        If a file cannot be read, a value is not a finite number or beyond +-1e15 (no reading
+        If a file is given twice, a file cannot be read, a value is not a finite number or beyond +-1e15 (no reading
         in any unit reaches it; docs/measurements.md), or the headers differ.
     """
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
     if not paths:
         raise InputError("no data files")
+    for i, path in enumerate(paths):
+        for earlier in paths[:i]:
+            if same_file(path, earlier):
+                raise MeasurementError(f"{path}: given twice (as {earlier}); each batch is one file, read once")
     header, blocks, batch = None, [], []
     for i, path in enumerate(paths):
         table = read_table(path)
@@ -170,7 +175,7 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
         For an unknown ``target``, ``method`` or sensor, a sensor listed twice, the target
         among the sensors, sensors given to "gm11", a ``lag`` that is not an integer >= 0, a
         ``holdout`` out of range or given with ``test``, a negative ``rank_top``, test columns
-        differing from the data's, a constant target, a sensor asked for by name that cannot
+        differing from the data's, a test file that is also a data file, a constant target, a sensor asked for by name that cannot
         be fitted (constant, a duplicate, or collinear with others), no sensor left for a
         model that needs one, too few usable rows, or a grey model that cannot be fitted
         (see :class:`~volerr_pin.thermal.GM11`).
@@ -205,6 +210,11 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
         raise InputError("give either holdout or test files, not both", parameters=("holdout",))
     if test is not None and list(test.columns) != list(data.columns):
         raise InputError("the test files' columns differ from the data files'")
+    if test is not None:
+        shared = [t for t in test.sources if any(same_file(t, d) for d in data.sources)]
+        if shared:
+            raise InputError(f"test: {shared[0]} is also a data file; a test on the fitted rows says nothing "
+                             "of prediction", parameters=("test",))
     # the fit set and the held-out set, in time order
     if test is not None:
         fit_data, held = data, test
@@ -215,7 +225,10 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
         held = _slice(data, slice(cut, data.n)) if n_hold else None
     y_fit = fit_data.columns[target]
     if fit_data.n < 2:
-        raise InputError(f"holdout {holdout:g} leaves {fit_data.n} of {data.n} rows to fit", parameters=("holdout",))
+        if data.n - fit_data.n:
+            raise InputError(f"holdout {holdout:g} leaves {fit_data.n} of {data.n} rows to fit",
+                             parameters=("holdout",))
+        raise InputError(f"{', '.join(data.sources)}: {data.n} row(s) of data; a model needs more")
     if np.ptp(y_fit) == 0:
         raise InputError(f"target: '{target}' is {y_fit[0]:g} in every fitted row; a constant has nothing to model",
                          parameters=("target",))
