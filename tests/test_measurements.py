@@ -341,6 +341,8 @@ def test_repeated_approaches_and_implausible_runs_are_refused(tmp_path, text, ma
                                                   r"\(measured minus target\) is implausible"),
     ("target_deg,direction,ref_c1\n0,fwd,359.999\n", r"wide\.csv:2:3: .*the deviation 1295996\.4 arcsec"),
     ("target_mm,direction,dev_c1_um\n10,fwd,5e6\n", r"wide\.csv:2:3: column 'dev_c1_um': 5000000 um is implausible"),
+    ("target_mm,direction,dir,ref_c1\n10,fwd,bwd,10.001\n",
+     r"wide\.csv:1:3: columns 'direction' and 'dir' are both the direction"),
 ])
 def test_wide_runs_refuse_repeats_and_implausible_values(tmp_path, text, match):
     (tmp_path / "wide.csv").write_text(text)

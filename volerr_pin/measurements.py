@@ -617,6 +617,9 @@ def _wide_run_table(table: Table) -> Table | None:
     cycles = [(c, WIDE_CYCLE_RE.match(h)) for c, h in enumerate(header)]
     cycles = [(c, m) for c, m in cycles if m]
     directions = [c for c, h in enumerate(header) if h.lower() in ("direction", "dir")]
+    if len(targets) == 1 and cycles and len(directions) > 1:
+        raise MeasurementError(f"{table.path}:{table.header_line}:{directions[1] + 1}: columns "
+                               f"'{header[directions[0]]}' and '{header[directions[1]]}' are both the direction")
     if len(targets) != 1 or not cycles or len(directions) != 1:
         return None
     tcol, dcol = targets[0], directions[0]
