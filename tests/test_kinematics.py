@@ -6,6 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+import volerr_pin as vp
 from volerr_pin import kinematics as K
 
 from conftest import ALL_MACHINES, random_q
@@ -125,3 +126,29 @@ def test_evaluation_blocks_do_not_change_results(machines):
                    "sensitivity"):
         np.testing.assert_allclose(getattr(small, method)(q), getattr(m, method)(q), rtol=1e-12, atol=1e-18,
                                    err_msg=method)
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda m: m.volumetric_error([[0.1, 0.1], [0.1, 0.1, 0.1]]), r"^q \(shape \(N, 3\)\) must be real numbers: "),
+    (lambda m: m.volumetric_error(np.array([[0.1 + 1j, 0.1, 0.1]])),
+     r"^q \(shape \(N, 3\)\) must be real numbers, got complex values$"),
+    (lambda m: m.volumetric_error(m.mid_travel, ["a"] * len(m.theta)), r"^theta must be real numbers: "),
+    (lambda m: m.volumetric_error(m.mid_travel, m.theta + 0j), r"^theta must be real numbers, got complex"),
+    (lambda m: m.with_state(temperatures={"spindle": "hot"}), r"^temperatures\['spindle'\] must be real numbers"),
+    (lambda m: m.with_state(temperatures=[20.0]), r"^temperatures must map sensor names to degC$"),
+    (lambda m: m.with_state(t="soon"), r"^t must be real numbers"),
+    (lambda m: m.with_state(forces=[1j, 0, 0]), r"^forces must be real numbers, got complex"),
+    (lambda m: m.sensitivity(m.mid_travel, parameters=["EXX.n0"]), r"^parameters must be indices of theta, "
+                                                                    r"0 to 66, got 'EXX\.n0'"),
+    (lambda m: m.sensitivity(m.mid_travel, parameters=[10**6]), r"^parameters must be indices of theta, 0 to 66, "
+                                                                r"got 1000000"),
+    (lambda m: m.sensitivity(m.mid_travel, parameters=[-1]), r"^parameters must be indices .* got -1 "),
+], ids=["ragged-q", "complex-q", "text-theta", "complex-theta", "text-temperature", "temperatures-list",
+        "text-time", "complex-force", "parameter-name", "parameter-beyond", "parameter-negative"])
+def test_values_numpy_would_bend_are_refused(machines, call, message):
+    """Ragged rows, text and complex numbers (numpy drops the imaginary part with a warning),
+    and parameter indices that would wrap or overflow are refused, naming the parameter."""
+    with pytest.raises(vp.InputError, match=message) as info:
+        call(machines["vmc500"])
+    assert len(info.value.parameters) == 1
+    assert info.value.parameters[0] in str(info.value).split()[0]

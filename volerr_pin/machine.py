@@ -56,6 +56,28 @@ def bundled_machines() -> list[str]:
     return sorted(p.name for p in root.iterdir() if (p / SPEC_FILE).is_file()) if root.is_dir() else []
 
 
+def _real(value, name: str, parameter: str) -> np.ndarray:
+    """``value`` as a new float array; an InputError naming ``parameter`` if it is not an array of
+    real numbers (text, ragged rows, complex values: numpy would drop the imaginary part)."""
+    try:
+        raw = np.asarray(value)
+        complex_ = np.iscomplexobj(raw)
+        array = None if complex_ else np.array(raw, dtype=float)
+    except (TypeError, ValueError) as err:
+        raise InputError(f"{name} must be real numbers: {err}", parameters=(parameter,)) from None
+    if complex_:
+        raise InputError(f"{name} must be real numbers, got complex values", parameters=(parameter,))
+    return array
+
+
+def _single(q) -> bool:
+    """Whether ``q`` is one point (one dimension); ragged input is left to :meth:`Machine.check_q`."""
+    try:
+        return np.ndim(q) == 1
+    except ValueError:
+        return False
+
+
 @dataclass(frozen=True)
 class _Component:
     name: str
@@ -385,22 +407,33 @@ class Machine:
         Raises
         ------
         InputError
-            If ``forces`` is not three values, ``directions`` not n_axes values of +1 or -1, or a
-            value of the state is not finite.
+            If a value is not a real number, ``forces`` is not three values, ``directions`` not
+            n_axes values of +1 or -1, or a value of the state is not finite.
         """
         state = dict(getattr(self, "_state", {}))
         if t is not None:
-            state["t"] = float(t)
+            value = _real(t, "t", "t")
+            if value.shape != ():
+                raise InputError(f"t must be one time in s, got shape {value.shape}", parameters=("t",))
+            state["t"] = float(value)
         if temperatures:
-            state["temperatures"] = {**state.get("temperatures", {}),
-                                     **{str(k): float(v) for k, v in dict(temperatures).items()}}
+            if not isinstance(temperatures, Mapping):
+                raise InputError("temperatures must map sensor names to degC", parameters=("temperatures",))
+            given = {}
+            for k, v in temperatures.items():
+                value = _real(v, f"temperatures[{k!r}]", "temperatures")
+                if value.shape != ():
+                    raise InputError(f"temperatures[{k!r}] must be one value in degC, got shape {value.shape}",
+                                     parameters=("temperatures",))
+                given[str(k)] = float(value)
+            state["temperatures"] = {**state.get("temperatures", {}), **given}
         if forces is not None:
-            f = np.asarray(forces, dtype=float)
+            f = _real(forces, "forces", "forces")
             if f.shape != (3,):
                 raise InputError(f"forces must be three values (Fx, Fy, Fz in N), got shape {f.shape}")
             state["forces"] = f
         if directions is not None:
-            d = np.asarray(directions, dtype=float)
+            d = _real(directions, "directions", "directions")
             if d.shape != (len(self.axes),) or not np.all(np.isin(d, (-1.0, 1.0))):
                 raise InputError(f"directions must be {len(self.axes)} values of +1 or -1 "
                                  f"(axes {', '.join(self.axes)})")
@@ -524,7 +557,7 @@ class Machine:
     def _check_theta(self, theta) -> np.ndarray:
         if theta is None:
             return self._theta
-        theta = np.array(theta, dtype=float)
+        theta = _real(theta, "theta", "theta")
         if theta.shape != (len(self._names),):
             raise InputError(f"theta has shape {theta.shape}; expected ({len(self._names)},) "
                              f"for the parameters of {self.name}")
@@ -551,13 +584,10 @@ class Machine:
         Raises
         ------
         InputError
-            If ``q`` is not numeric, has the wrong shape, holds a value that is not finite, or
+            If ``q`` is not real numbers, has the wrong shape, holds a value that is not finite, or
             (unless ``extrapolate``) leaves the travel (see :meth:`outside_travel`).
         """
-        try:
-            q = np.array(q, dtype=float)
-        except (TypeError, ValueError) as err:
-            raise InputError(f"q must be numeric with shape (N, {len(self.axes)}): {err}") from None
+        q = _real(q, f"q (shape (N, {len(self.axes)}))", "q")
         if q.ndim == 1 and q.shape[0] == len(self.axes):
             q = q[None, :]
         if q.ndim != 2 or q.shape[1] != len(self.axes):
@@ -611,10 +641,7 @@ class Machine:
             raise InputError(f"unknown covariate(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
 
         def vector(name, value, shape):
-            try:
-                array = np.array(value, dtype=float)
-            except (TypeError, ValueError):
-                raise InputError(f"covariate '{name}' is not numeric") from None
+            array = _real(value, f"covariate '{name}'", name.split("[")[0])
             if array.shape != shape:
                 raise InputError(f"covariate '{name}' has shape {array.shape}; expected {shape}")
             bad = np.argwhere(~np.isfinite(array))
@@ -767,7 +794,7 @@ class Machine:
         InputError
             If ``order`` is not None or 1, or ``q``, ``theta`` or the covariates are invalid.
         """
-        single = np.ndim(q) == 1
+        single = _single(q)
         if order not in (None, 1):
             raise InputError(f"order must be None (exact) or 1 (first order), got {order!r}")
         q = self.check_q(q, extrapolate)
@@ -828,11 +855,12 @@ class Machine:
         Raises
         ------
         InputError
-            For invalid ``q``, ``theta`` or covariates.
+            For invalid ``q``, ``theta`` or covariates, or ``parameters`` that are not indices of
+            ``theta``.
         """
-        single = np.ndim(q) == 1
+        single = _single(q)
+        cols = self._parameter_columns(parameters)
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
-        cols = np.arange(len(self._names)) if parameters is None else np.asarray(parameters, dtype=int)
         out = np.empty((q.shape[0], 6, len(cols)))
         for start in range(0, q.shape[0], self._block):
             rows = slice(start, start + self._block)
@@ -843,6 +871,20 @@ class Machine:
                                 np.ascontiguousarray(self._parameter_jacobian(qb, theta, cb)[:, cols]),
                                 np.ascontiguousarray(self._param_column[cols]), out=out[rows])
         return out[0] if single else out
+
+    def _parameter_columns(self, parameters) -> np.ndarray:
+        """Indices of ``theta`` (all when None), checked: negative indices would wrap."""
+        count = len(self._names)
+        if parameters is None:
+            return np.arange(count)
+        raw = np.atleast_1d(np.asarray(parameters, dtype=object))
+        if raw.ndim != 1 or not all(isinstance(p, (int, np.integer)) and not isinstance(p, bool)
+                                    and 0 <= p < count for p in raw):
+            bad = next((p for p in raw.ravel() if not (isinstance(p, (int, np.integer)) and not isinstance(p, bool)
+                                                      and 0 <= p < count)), raw)
+            raise InputError(f"parameters must be indices of theta, 0 to {count - 1}, got {bad!r} (an index of "
+                             "a name is parameter_names.index(name))", parameters=("parameters",))
+        return raw.astype(int)
 
     def _parameter_jacobian(self, q: np.ndarray, theta: np.ndarray, cov: Covariates) -> np.ndarray:
         """(N, P): d (error-joint value) / d theta_p, i.e. chain sign times the term's
@@ -880,7 +922,7 @@ class Machine:
         InputError
             For invalid ``q``, ``theta`` or covariates.
         """
-        single = np.ndim(q) == 1
+        single = _single(q)
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
         out = np.empty((q.shape[0], 6, len(self._components)))
         cols = np.array([c.column for c in self._components], dtype=int)
@@ -921,7 +963,7 @@ class Machine:
         InputError
             For invalid ``q``, ``theta`` or covariates.
         """
-        single = np.ndim(q) == 1
+        single = _single(q)
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
         out = np.empty((q.shape[0], 6, len(self._error_joint_cols)))
         for start in range(0, q.shape[0], self._block):
@@ -961,7 +1003,7 @@ class Machine:
         InputError
             For invalid ``q``, ``theta`` or covariates.
         """
-        single = np.ndim(q) == 1
+        single = _single(q)
         q, theta, cov = self._prepare(q, theta, extrapolate, covariates)
         out = np.empty((q.shape[0], 6, len(self.axes)))
         for start in range(0, q.shape[0], self._block):
