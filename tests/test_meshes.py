@@ -132,6 +132,21 @@ def test_package_meshes_resolve_in_the_package_folders_named(site):
     assert kept == [] and "lies outside" in notes[0]
 
 
+def test_a_sibling_meshes_folder_needs_its_root_named(site):
+    """robot/urdf/robot.urdf naming ../meshes/part.stl (a common layout): outside the URDF's
+    folder unless a folder holding both is named."""
+    (site / "robot" / "urdf").mkdir()
+    path = site / "robot" / "urdf" / "robot.urdf"
+    path.write_text(robot_text("../meshes/good.stl"))
+    _, notes = checked_meshes(load_urdf(path), site)
+    assert "'../meshes/good.stl' lies outside the URDF's folder" in notes[0]
+    document, notes = checked_meshes(load_urdf(path), site, [site / "robot"])
+    assert notes == [] and Path(next(document.getroot().iter("mesh")).get("filename")).read_bytes() == STL
+    path.write_text(robot_text("../../secret.txt"))
+    _, notes = checked_meshes(load_urdf(path), site, [site / "robot"])
+    assert "lies outside the URDF's folder and the package folders named" in notes[0]
+
+
 def test_mesh_size_limits(site):
     (site / "robot" / "meshes" / "other.stl").write_bytes(STL + b" ")
     kept, notes = check(site, "meshes/good.stl", max_bytes=len(STL) - 1)

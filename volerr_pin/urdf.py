@@ -531,7 +531,7 @@ def _locate(filename: str, base: Path | None, packages: tuple[Path, ...]) -> tup
     if not path.is_absolute():
         if base is None:
             raise _Refused("is relative, and the URDF was not read from a folder")
-        return base / path, [base]
+        return base / path, roots  # ../meshes beside urdf/ is read when a package folder holds it
     return path, roots
 
 
@@ -578,9 +578,9 @@ def checked_meshes(urdf: URDF, folder: str | os.PathLike, package_dirs=(), *, pa
 
     Any program given the copy (Rerun's URDF importer embeds every mesh file it names in the
     recording) reads only files that passed these checks: a relative, absolute or ``file://``
-    name must lie inside the URDF's own folder, a ``package://`` name inside its package's
-    folder among ``package_dirs`` (absolute names may also lie in a package folder); once
-    links are followed it must still lie there, be a regular file (no FIFO, device or folder)
+    name must lie inside the URDF's own folder or one of ``package_dirs``, a ``package://``
+    name inside its package's folder among ``package_dirs``; once links are followed it
+    must still lie there, be a regular file (no FIFO, device or folder)
     of at most ``max_bytes``, and all files together at most ``max_total``. Other URI schemes
     are not read. A ``<visual>`` or ``<collision>`` whose mesh fails is dropped (a
     ``<texture>``: the element), and a note says which.
