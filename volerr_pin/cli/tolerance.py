@@ -38,11 +38,13 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     from ..studies.montecarlo import grid_points
-    from ..studies.tolerance import study_tolerances
+    from ..studies.tolerance import check_arguments, study_tolerances
     from ..studies.tolerances import read_tolerance_file, tolerances_toml
 
     machine = machine_of(args)
     check_run_outputs({"out": args.out, "png": args.png}, [args.tolerances], machine)
+    check_arguments(args.samples, args.seed, None, args.target_probability,
+                    None if args.no_sobol else args.sobol_samples)
     tolerances = read_tolerance_file(args.tolerances, machine)
     q = grid_points(machine, args.grid)
     target = None if args.target_um is None else args.target_um * UM

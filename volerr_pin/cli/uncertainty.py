@@ -56,7 +56,7 @@ def probability(text: str) -> float:
     return value
 
 
-def seed(text: str) -> int:
+def non_negative(text: str) -> int:
     """argparse type: a non-negative whole number."""
     try:
         value = int(text)
@@ -72,10 +72,11 @@ def add_study_args(p: argparse.ArgumentParser, samples: int, grid: int) -> None:
     p.add_argument("--samples", type=count, default=samples, help=f"Monte Carlo draws (default {samples}; 1e5 is read)")
     p.add_argument("--grid", type=positive, nargs="+", default=[grid], metavar="N",
                    help=f"grid points per axis over the travels: one count or one per axis (default {grid})")
-    p.add_argument("--seed", type=seed, default=0, help="seed of the draws (default 0)")
+    p.add_argument("--seed", type=non_negative, default=0, help="seed of the draws (default 0)")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=positive,
-                       help="worker processes of the embedded local Dask cluster (default: this machine's cores)")
+    where.add_argument("--workers", type=non_negative, metavar="N",
+                       help="worker processes of the embedded local Dask cluster (default: this machine's cores); "
+                            "0 runs in this process, without a cluster (small studies: no start-up)")
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="run on an existing Dask cluster, e.g. tcp://10.0.0.5:8786 (its workers need volerr_pin)")
 
@@ -83,9 +84,10 @@ def add_study_args(p: argparse.ArgumentParser, samples: int, grid: int) -> None:
 @contextlib.contextmanager
 def engine_of(args):
     """The Dask engine the options ask for, closed (with its local cluster) at the end."""
-    from ..studies.engine import connect, local_cluster
+    from ..studies.engine import InProcess, connect, local_cluster
 
-    engine = connect(args.scheduler) if args.scheduler else local_cluster(args.workers)
+    engine = (connect(args.scheduler) if args.scheduler else InProcess() if args.workers == 0
+              else local_cluster(args.workers))
     try:
         yield engine
     finally:
@@ -152,10 +154,11 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from ..studies.covariance import covariance_from_campaign, covariance_from_report
     from ..studies.montecarlo import grid_points
-    from ..studies.uncertainty import study_uncertainty
+    from ..studies.uncertainty import check_arguments, study_uncertainty
 
     machine = machine_of(args)
     check_run_outputs({"out": args.out, "rrd": args.rrd}, [args.from_report], machine)
+    check_arguments(args.samples, args.seed, args.interval_samples)
     if args.from_report:
         covariance = covariance_from_report(machine, args.from_report)
     else:

@@ -209,6 +209,9 @@ class InProcess:
             if progress is not None:
                 progress(done)
 
+    def close(self) -> None:
+        """Nothing to close (the same interface as :class:`DaskEngine`)."""
+
 
 def _on_worker(fn, *args):
     """Run a task on a Dask worker: the worker's processes are the parallelism, so numba's

@@ -29,7 +29,7 @@ from .montecarlo import MonteCarlo, RowsSource, ToleranceSource, make_points, ru
 from .sobol import SobolIndices, sobol_indices
 from .tolerances import Tolerances
 
-__all__ = ["ToleranceStudy", "study_tolerances", "tolerance_machine"]
+__all__ = ["ToleranceStudy", "check_arguments", "study_tolerances", "tolerance_machine"]
 
 
 def tolerance_machine(machine: Machine) -> tuple[Machine, np.ndarray]:
@@ -146,6 +146,48 @@ def _source(tolerances: Tolerances, index: np.ndarray, n_params: int, seed: int)
     return ToleranceSource(scale, tuple(dists), seed)
 
 
+def check_arguments(samples, seed, target=None, target_probability: float = 0.95, sobol_samples=None
+                    ) -> tuple[int, int]:
+    """Check the size, seed and target of a tolerance study before any work.
+
+    Parameters
+    ----------
+    samples : int
+        Monte Carlo draws (>= 2).
+    seed : int
+        Seed (>= 0).
+    target : float, optional
+        Target ``T`` [m] (> 0).
+    target_probability : float, default 0.95
+        Strictly between 0 and 1.
+    sobol_samples : int, optional
+        A power of 2 (at least 4), or None / 0 for none.
+
+    Returns
+    -------
+    tuple of int
+        ``samples`` and ``seed``.
+
+    Raises
+    ------
+    InputError
+        Naming the parameter that is out of range.
+    """
+    if isinstance(samples, bool) or not float(samples).is_integer() or samples < 2:
+        raise InputError(f"samples must be a whole number >= 2, got {samples!r}", parameters=("samples",))
+    if isinstance(seed, bool) or int(seed) != seed or seed < 0:
+        raise InputError(f"seed must be a non-negative whole number, got {seed!r}", parameters=("seed",))
+    if target is not None and not (isinstance(target, (int, float)) and math.isfinite(target) and target > 0):
+        raise InputError(f"target must be a positive length, got {target!r}", parameters=("target",))
+    if not 0 < target_probability < 1:
+        raise InputError(f"target_probability must lie between 0 and 1, got {target_probability!r}",
+                         parameters=("target_probability",))
+    n = sobol_samples
+    if n and (isinstance(n, bool) or int(n) != n or n < 4 or int(n) & (int(n) - 1)):
+        raise InputError(f"sobol_samples must be a power of 2 (at least 4), got {n!r}", parameters=("sobol_samples",))
+    return int(samples), int(seed)
+
+
 def study_tolerances(machine: Machine, tolerances: Tolerances, q: np.ndarray, *, samples: int = 10_000,
                      seed: int = 0, target: float | None = None, target_probability: float = 0.95,
                      sobol_samples: int | None = 256, reallocation: bool = True, engine: Engine | None = None,
@@ -191,16 +233,7 @@ def study_tolerances(machine: Machine, tolerances: Tolerances, q: np.ndarray, *,
         positive length, ``target_probability`` is not between 0 and 1, ``sobol_samples`` is
         not a power of 2, the tolerances are not those of this machine, or ``q`` is invalid.
     """
-    if isinstance(samples, bool) or not float(samples).is_integer() or samples < 2:
-        raise InputError(f"samples must be a whole number >= 2, got {samples!r}", parameters=("samples",))
-    samples = int(samples)
-    if isinstance(seed, bool) or int(seed) != seed or seed < 0:
-        raise InputError(f"seed must be a non-negative whole number, got {seed!r}", parameters=("seed",))
-    if target is not None and not (isinstance(target, (int, float)) and math.isfinite(target) and target > 0):
-        raise InputError(f"target must be a positive length, got {target!r}", parameters=("target",))
-    if not 0 < target_probability < 1:
-        raise InputError(f"target_probability must lie between 0 and 1, got {target_probability!r}",
-                         parameters=("target_probability",))
+    samples, seed = check_arguments(samples, seed, target, target_probability, sobol_samples)
     if tolerances.components != machine.components:
         raise InputError(f"tolerances: {tolerances.source} gives the components {', '.join(tolerances.components)}, "
                          f"not those of {machine.name}", parameters=("tolerances",))

@@ -62,7 +62,8 @@ from .engine import Engine, InProcess
 from .montecarlo import (SAMPLE_CHUNK, MonteCarlo, NormalSource, Points, make_points, point_quantiles,
                          run_monte_carlo)
 
-__all__ = ["FieldUncertainty", "Linear", "Scalar", "UncertaintyStudy", "compensated_points", "compare_scalar",
+__all__ = ["FieldUncertainty", "Linear", "Scalar", "UncertaintyStudy", "check_arguments", "compensated_points",
+           "compare_scalar",
            "linear_propagation", "numerical_tolerance", "point_compensation", "study_uncertainty", "z_family"]
 
 #: coverage probability of the intervals and the normal coverage factor of the linear ones
@@ -545,6 +546,41 @@ class UncertaintyStudy:
                 "compensation": None if self.compensated is None else self.compensated.to_dict(self.machine)}
 
 
+def check_arguments(samples, seed, interval_samples=None) -> tuple[int, int, int]:
+    """Check the size and seed of an uncertainty study before any work.
+
+    Parameters
+    ----------
+    samples : int
+        Monte Carlo draws (>= 2).
+    seed : int
+        Seed (>= 0).
+    interval_samples : int, optional
+        Draws behind the per-point intervals (2 to ``samples``; default ``min(samples, 1000)``).
+
+    Returns
+    -------
+    tuple of int
+        ``samples``, ``seed``, ``interval_samples``.
+
+    Raises
+    ------
+    InputError
+        Naming the parameter that is out of range or not a whole number.
+    """
+    if isinstance(samples, bool) or not float(samples).is_integer() or samples < 2:
+        raise InputError(f"samples must be a whole number >= 2, got {samples!r}", parameters=("samples",))
+    samples = int(samples)
+    if isinstance(seed, bool) or int(seed) != seed or seed < 0:
+        raise InputError(f"seed must be a non-negative whole number, got {seed!r}", parameters=("seed",))
+    interval_samples = min(samples, 1000) if interval_samples is None else interval_samples
+    if isinstance(interval_samples, bool) or int(interval_samples) != interval_samples or \
+            not 2 <= interval_samples <= samples:
+        raise InputError(f"interval_samples must be a whole number from 2 to samples ({samples}), got "
+                         f"{interval_samples!r}", parameters=("interval_samples", "samples"))
+    return samples, int(seed), int(interval_samples)
+
+
 def study_uncertainty(covariance: Covariance, q: np.ndarray, *, samples: int = 2000, seed: int = 0,
                       interval_samples: int | None = None, compensation: Callable | str | None = None,
                       engine: Engine | None = None, progress=None) -> UncertaintyStudy:
@@ -582,16 +618,7 @@ def study_uncertainty(covariance: Covariance, q: np.ndarray, *, samples: int = 2
         at most ``samples``), ``seed`` is negative, or ``q`` is invalid.
     """
     machine = covariance.machine
-    if isinstance(samples, bool) or not float(samples).is_integer() or samples < 2:
-        raise InputError(f"samples must be a whole number >= 2, got {samples!r}", parameters=("samples",))
-    samples = int(samples)
-    if isinstance(seed, bool) or int(seed) != seed or seed < 0:
-        raise InputError(f"seed must be a non-negative whole number, got {seed!r}", parameters=("seed",))
-    interval_samples = min(samples, 1000) if interval_samples is None else interval_samples
-    if isinstance(interval_samples, bool) or int(interval_samples) != interval_samples or \
-            not 2 <= interval_samples <= samples:
-        raise InputError(f"interval_samples must be a whole number from 2 to samples ({samples}), got "
-                         f"{interval_samples!r}", parameters=("interval_samples", "samples"))
+    samples, seed, interval_samples = check_arguments(samples, seed, interval_samples)
     engine = engine or InProcess()
     q = machine.check_q(q)
     source = NormalSource(machine.theta, covariance.factor(), int(seed))

@@ -1,0 +1,289 @@
+"""Tolerance studies: the tolerance file, the distribution of the largest error, Sobol'
+drivers, the re-allocation (re-simulated), and the command line.
+
+Closed forms: one toleranced offset gives a largest error uniform on [0, t]; an additive model
+has first-order = total Sobol' indices with known shares. The re-allocation is re-simulated
+independently (another seed, more draws, the tolerances read back from the file the command
+writes) and must meet the target at the stated probability.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import volerr_pin as vp
+from volerr_pin.ranking import read_tolerances
+from volerr_pin.studies.sobol import sobol_indices
+from volerr_pin.studies.tolerance import study_tolerances, tolerance_machine
+from volerr_pin.studies.tolerances import read_tolerance_file, tolerances_toml
+from volerr_pin.units import ARCSEC, UM
+from volerr_pin.workspace import grid
+
+from test_uncertainty import cluster  # noqa: F401  (the session's loopback cluster)
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLE = ROOT / "examples" / "data" / "vmc500_tolerances.toml"
+
+
+def _write(tmp_path, text, name="tol.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+# ------------------------------------------------------------------ the file
+
+
+def test_a_rank_tolerance_file_means_the_same_to_the_studies(machines):
+    m = machines["vmc500"]
+    tol = read_tolerance_file(EXAMPLE, m)
+    rank = read_tolerances(EXAMPLE, m)
+    assert tol.components == m.components
+    np.testing.assert_allclose(tol.values, [rank[c] for c in m.components], rtol=1e-15)
+    assert all(e.distribution.name == "uniform" and e.cost == 1.0 for e in tol.entries)
+
+
+def test_the_extended_format_gives_distributions_and_costs(machines, tmp_path):
+    m = machines["vmc500"]
+    path = _write(tmp_path, 'distribution = "normal"\nEXX_um = 5\n'
+                            'EBX_arcsec = { value = 2, distribution = "uniform", cost = 3 }\n'
+                            'EC0Y_arcsec = { value = 0 }\ndefault_um = 1\ndefault_arcsec = 0.5\n')
+    tol = read_tolerance_file(path, m)
+    by = {e.component: e for e in tol.entries}
+    assert by["EXX"].value == pytest.approx(5 * UM) and by["EXX"].distribution.name == "normal"
+    assert by["EBX"].value == pytest.approx(2 * ARCSEC) and by["EBX"].distribution.name == "uniform"
+    assert by["EBX"].cost == 3.0 and by["EC0Y"].value == 0.0
+    assert by["EYX"].value == pytest.approx(UM) and by["EAX"].value == pytest.approx(0.5 * ARCSEC)
+    assert by["EYX"].distribution.name == "normal"            # the file's default distribution
+    # what the writer writes reads back the same
+    again = read_tolerance_file(_write(tmp_path, tolerances_toml(tol, "a header"), "back.toml"), m)
+    np.testing.assert_allclose(again.values, tol.values, rtol=1e-6)
+    assert [e.distribution.name for e in again.entries] == [e.distribution.name for e in tol.entries]
+    np.testing.assert_array_equal(again.costs, tol.costs)
+
+
+@pytest.mark.parametrize("text, match", [
+    ("EQQ_um = 5\ndefault_um = 1\ndefault_arcsec = 1\n", r"tol.toml: EQQ_um: 'EQQ' is not an error term of vmc500"),
+    ("EXX = 5\ndefault_um = 1\ndefault_arcsec = 1\n", "EXX: give the unit in the key"),
+    ("EXX_arcsec = 5\ndefault_um = 1\ndefault_arcsec = 1\n", "unit 'arcsec' is an angle unit"),
+    ("EXX_um = -5\ndefault_um = 1\ndefault_arcsec = 1\n", "expected a non-negative number, got -5"),
+    ("EXX_um = { value = 5, distribution = \"cauchy\" }\ndefault_um = 1\ndefault_arcsec = 1\n",
+     "unknown distribution 'cauchy'"),
+    ("EXX_um = { value = 5, shape = 2 }\ndefault_um = 1\ndefault_arcsec = 1\n", "unknown key 'shape'"),
+    ("EXX_um = { value = 5, cost = 0 }\ndefault_um = 1\ndefault_arcsec = 1\n", "cost: expected a positive number"),
+    ("EXX_um = 5\ndefault_um = 1\n", "no tolerance for EAX"),
+    ("EXX_um = 5\nEXX_um = 6\n", "invalid TOML"),
+])
+def test_a_bad_tolerance_file_is_refused_naming_file_and_key(machines, tmp_path, text, match):
+    with pytest.raises(vp.SpecError, match=match):
+        read_tolerance_file(_write(tmp_path, text), machines["vmc500"])
+
+
+# ------------------------------------------------------------------ closed forms
+
+
+def test_one_toleranced_offset_gives_a_uniform_largest_error(machines, tmp_path):
+    """Only EXX, uniform within +-t: the error is the same offset at every point, so the
+    largest error is |U(-t, t)|, uniform on [0, t]: quantiles p t, P(max <= T) = T / t."""
+    m = machines["vmc500"]
+    t = 5.0
+    tol = read_tolerance_file(_write(tmp_path, f"EXX_um = {t}\ndefault_um = 0\ndefault_arcsec = 0\n"), m)
+    n = 20_000
+    study = study_tolerances(m, tol, grid(m, 3), samples=n, seed=4, target=3.0 * UM, sobol_samples=None,
+                             reallocation=False)
+    r = study.to_dict()
+    se = t * math.sqrt(0.25 / n) * 4  # a quantile's standard error, generously
+    assert r["max_error_um"]["p50"] == pytest.approx(0.5 * t, abs=se)
+    assert r["max_error_um"]["p95"] == pytest.approx(0.95 * t, abs=se)
+    assert r["max_error_um"]["mean"] == pytest.approx(t / 2, abs=4 * t / math.sqrt(12 * n))
+    assert r["max_error_um"]["std"] == pytest.approx(t / math.sqrt(12), rel=0.03)
+    np.testing.assert_allclose(study.run.rms, study.run.max, rtol=0, atol=1e-15)   # the same error everywhere
+    assert r["probability_within_target"] == pytest.approx(0.6, abs=4 * math.sqrt(0.24 / n))
+    assert r["probability_se"] == pytest.approx(math.sqrt(0.24 / n), rel=0.05)
+
+
+def test_a_normal_tolerance_is_a_standard_deviation(machines, tmp_path):
+    """EXX normal with sigma = t: the largest error is |N(0, t^2)|, median 0.674 t."""
+    m = machines["vmc500"]
+    tol = read_tolerance_file(_write(tmp_path, 'EXX_um = { value = 2, distribution = "normal" }\n'
+                                               'default_um = 0\ndefault_arcsec = 0\n'), m)
+    study = study_tolerances(m, tol, grid(m, 2), samples=20_000, seed=1, sobol_samples=None)
+    assert study.to_dict()["max_error_um"]["p50"] == pytest.approx(0.6745 * 2, abs=0.04)
+    assert study.probability is None and study.reallocation is None
+
+
+@pytest.mark.parametrize("dists", [("unif", "unif", "unif"), ("unif", "norm", "unif")])
+def test_sobol_indices_of_an_additive_model_are_its_variance_shares(dists):
+    """Y = sum c_i X_i with independent X_i: first order = total = c_i^2 var_i / sum."""
+    c = np.array([3.0, 1.0, 0.5])
+    bounds = [[-1.0, 1.0], [0.0, 2.0] if dists[1] == "norm" else [-2.0, 2.0], [-1.0, 1.0]]
+    var = np.array([(b[1] - b[0]) ** 2 / 12 if d == "unif" else b[1] ** 2 for b, d in zip(bounds, dists)])
+    share = c**2 * var / np.sum(c**2 * var)
+    problem = {"num_vars": 3, "names": ["a", "b", "c"], "bounds": bounds, "dists": list(dists)}
+    result = sobol_indices(problem, lambda X: X @ c, n=4096, seed=3)
+    np.testing.assert_allclose(result.first_order, share, atol=0.03)
+    np.testing.assert_allclose(result.total, share, atol=0.03)
+    assert result.runs == 4096 * 5
+    assert [r["component"] for r in result.rows()] == [n for _, n in sorted(zip(-share, "abc"))]
+
+
+def test_sobol_samples_must_be_a_power_of_two():
+    problem = {"num_vars": 1, "names": ["a"], "bounds": [[-1, 1]], "dists": ["unif"]}
+    with pytest.raises(vp.InputError, match="sobol_samples must be a power of 2"):
+        sobol_indices(problem, lambda X: X[:, 0], n=100)
+
+
+def test_the_drivers_of_the_largest_error_are_the_toleranced_components(machines, tmp_path):
+    """Two toleranced components, one four times the other (offsets along x and y): the
+    largest error sqrt(x^2 + y^2) is driven by the larger one; ECZ (a rotation about the
+    tool axis) moves no tool point and has no index."""
+    m = machines["vmc500"]
+    tol = read_tolerance_file(_write(tmp_path, "EXX_um = 8\nEYY_um = 2\nECZ_arcsec = 5\n"
+                                               "default_um = 0\ndefault_arcsec = 0\n"), m)
+    study = study_tolerances(m, tol, grid(m, 2), samples=200, sobol_samples=512, reallocation=False)
+    drivers = {d["component"]: d for d in study.to_dict()["drivers"]}
+    assert list(drivers)[0] == "EXX" and drivers["EXX"]["total"] > 0.85
+    assert drivers["EYY"]["total"] < 0.15 and abs(drivers["ECZ"]["total"]) < 1e-9
+
+
+def test_the_tolerance_machine_has_one_constant_per_component(machines):
+    m = machines["cgm4000"]
+    constant, index = tolerance_machine(m)
+    assert constant.components == m.components and len(constant.theta) == len(m.components)
+    assert not constant.theta.any()
+    assert [constant.parameter_names[k].split(".")[0] for k in index] == list(m.components)
+
+
+# ------------------------------------------------------------------ Done when: re-allocation
+
+
+def test_the_reallocation_re_simulated_meets_the_target_at_the_stated_probability(machines, tmp_path):
+    m = machines["vmc500"]
+    tol = read_tolerance_file(EXAMPLE, m)
+    q = grid(m, 3)
+    target, p = 11.0 * UM, 0.9
+    study = study_tolerances(m, tol, q, samples=3000, seed=7, target=target, target_probability=p,
+                             sobol_samples=None)
+    assert study.probability < p                          # the present tolerances miss it
+    r = study.reallocation
+    assert r.met and r.probability_lower >= p
+    assert r.cost_after < r.uniform_cost                   # cheaper than scaling all alike
+    # an independent re-simulation: the suggestion as the file states it, another seed, more draws
+    path = _write(tmp_path, tolerances_toml(r.tolerances), "suggested.toml")
+    suggested = read_tolerance_file(path, m)
+    check = study_tolerances(m, suggested, q, samples=8000, seed=12345, target=target, sobol_samples=None,
+                             reallocation=False)
+    assert check.probability >= p
+    # cost: sum of w t0 / t, as stated
+    np.testing.assert_allclose(r.cost_after, np.sum(tol.values[tol.values > 0] / suggested.values[tol.values > 0]),
+                               rtol=1e-5)
+    # a component that moves no tool point is loosened to the bound
+    ecz = list(m.components).index("ECZ")
+    assert suggested.values[ecz] == pytest.approx(10 * tol.values[ecz], rel=1e-5)
+
+
+# ------------------------------------------------------------------ bad input, command line
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"samples": 0}, "samples must be a whole number >= 2"),
+    ({"target": -1.0}, "target must be a positive length"),
+    ({"target": 0.0}, "target must be a positive length"),
+    ({"target_probability": 1.0}, "target_probability must lie between 0 and 1"),
+    ({"sobol_samples": 100}, "sobol_samples must be a power of 2"),
+])
+def test_bad_study_arguments_are_refused(machines, kwargs, match):
+    m = machines["vmc500"]
+    with pytest.raises(vp.InputError, match=match):
+        study_tolerances(m, read_tolerance_file(EXAMPLE, m), grid(m, 2), **kwargs)
+
+
+def _cli(argv, capsys):
+    from volerr_pin.cli import main
+
+    try:
+        code = main(argv)
+    except SystemExit as stop:
+        code = stop.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_volerr_tolerance_json_png_and_suggested_file(tmp_path, capsys):
+    png, out = tmp_path / "max.png", tmp_path / "suggested.toml"
+    code, text, err = _cli(["tolerance", "vmc500", "--tolerances", str(EXAMPLE), "--samples", "1e3", "--grid", "3",
+                            "--target-um", "12", "--sobol-samples", "64", "--workers", "0", "--png", str(png),
+                            "--out", str(out), "--json"], capsys)
+    assert code == 0, err
+    report = json.loads(text)
+    # the contract's fields
+    assert {"machine", "samples", "workers", "seed", "max_error_um", "rms_error_um", "probability_within_target",
+            "drivers"} <= set(report)
+    assert set(report["max_error_um"]) >= {"mean", "std", "p50", "p95", "p99"}
+    assert set(report["rms_error_um"]) >= {"mean", "std", "p95"}
+    assert all(set(d) >= {"component", "first_order", "total"} for d in report["drivers"])
+    assert report["samples"] == 1000 and report["workers"] == 1 and report["seed"] == 0
+    assert png.stat().st_size > 5000 and report["png"] == str(png)
+    assert read_tolerance_file(out, vp.load_machine("vmc500")).components
+    # every field is documented
+    import re
+
+    from test_readme import _keys
+
+    documented = set(re.findall(r"`([a-z][a-z0-9_]*)`", (ROOT / "docs" / "reports.md").read_text()))
+    assert not _keys(report, set()) - documented, sorted(_keys(report, set()) - documented)
+
+
+def test_volerr_uncertainty_fields_are_documented(tmp_path, capsys):
+    import re
+
+    from test_readme import _keys
+
+    code, text, err = _cli(["uncertainty", "vmc500", "--instrument-sigma", "1", "--campaign-points", "40",
+                            "--samples", "50", "--grid", "2", "--compensation", "point", "--workers", "0", "--json"],
+                           capsys)
+    assert code == 0, err
+    report = json.loads(text)
+    documented = set(re.findall(r"`([a-z][a-z0-9_]*)`", (ROOT / "docs" / "reports.md").read_text()))
+    assert not _keys(report, set()) - documented, sorted(_keys(report, set()) - documented)
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["--target-um", "0"], "argument --target-um: expected a positive number, got 0"),
+    (["--target-um", "-3"], "argument --target-um: expected a positive number"),
+    (["--samples", "0"], "argument --samples: expected a positive whole number, got 0"),
+    (["--sobol-samples", "100"], "--sobol-samples must be a power of 2 (at least 4), got 100"),
+    (["--target-probability", "1.5"], "argument --target-probability: expected a probability between 0 and 1"),
+])
+def test_volerr_tolerance_bad_input_is_one_line(capsys, argv, match):
+    code, out, err = _cli(["tolerance", "vmc500", "--tolerances", str(EXAMPLE), "--workers", "0", *argv], capsys)
+    assert code == 2 and out == "" and match in err.rstrip("\n").splitlines()[-1]
+
+
+def test_volerr_tolerance_names_an_unknown_component_in_one_line(tmp_path, capsys):
+    path = _write(tmp_path, "EQQ_um = 5\ndefault_um = 1\ndefault_arcsec = 1\n")
+    code, out, err = _cli(["tolerance", "vmc500", "--tolerances", str(path), "--workers", "0"], capsys)
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert err.startswith(f"volerr: error: {path}: EQQ_um: 'EQQ' is not an error term of vmc500")
+
+
+@pytest.mark.slow
+def test_one_and_two_local_worker_processes_give_the_same_report(tmp_path, capsys, cluster):  # noqa: F811
+    """The command line's own local clusters (1 and 2 worker processes) and a scheduler:
+    the same seed gives the same report to the bit, whatever runs it."""
+    base = ["tolerance", "vmc500", "--tolerances", str(EXAMPLE), "--samples", "1200", "--grid", "3",
+            "--target-um", "12", "--sobol-samples", "32", "--seed", "9", "--json"]
+    reports = []
+    for where in (["--workers", "1"], ["--workers", "2"], ["--scheduler", cluster.scheduler_address]):
+        code, text, err = _cli(base + where, capsys)
+        assert code == 0, err
+        reports.append(json.loads(text))
+    assert [r["workers"] for r in reports] == [1, 2, 2]
+    for r in reports:
+        r.pop("workers"), r.pop("engine")
+    assert reports[0] == reports[1] == reports[2]
