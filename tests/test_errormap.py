@@ -118,3 +118,94 @@ def test_axis_tables_carry_iso_names_and_model_values(machines, tmp_path):
     vals = m.component_values(q[None, :])[0]
     col = rows[0].index("EYX_um")
     assert float(rows[3][col]) == pytest.approx(vals[m.components.index("EYX")] * 1e6, abs=1e-4)
+
+
+# ------------------------------------------------------------------ bad or extreme inputs
+def test_a_table_written_in_chunks_is_the_table_written_at_once(machines, tmp_path, monkeypatch):
+    """The table is computed and written chunk by chunk; with chunks of 7 nodes every byte and
+    every summary number is what one chunk gives."""
+    import volerr_pin.errormap as errormap
+
+    m = machines["vmc500"]
+    whole = compensation_table(m, tmp_path / "whole.csv", nodes=(4, 3, 5))
+    monkeypatch.setattr(errormap, "TABLE_CHUNK", 7)
+    chunked = compensation_table(m, tmp_path / "chunked.csv", nodes=(4, 3, 5))
+    assert (tmp_path / "whole.csv").read_bytes() == (tmp_path / "chunked.csv").read_bytes()
+    assert {k: v for k, v in whole.items() if k != "file"} == {k: v for k, v in chunked.items() if k != "file"}
+
+
+def test_a_table_the_disk_cannot_hold_is_refused_before_any_work(machines, tmp_path):
+    """--nodes 2000 asked for 8e9 nodes and was killed at 23.5 GB: the table is streamed, and one
+    larger than the free disk is refused up front, naming nodes; the file is not touched."""
+    target = tmp_path / "table.csv"
+    target.write_text("old\n")
+    with pytest.raises(InputError, match=r"nodes: a table of 2000 x 2000 x 2000 = 8,000,000,000 nodes takes about "
+                                         r".* GB, more than the .* GB free on the disk of") as err:
+        compensation_table(machines["vmc500"], target, nodes=(2000, 2000, 2000))
+    assert err.value.parameters == ("nodes",)
+    assert target.read_text() == "old\n" and sorted(p.name for p in tmp_path.iterdir()) == ["table.csv"]
+
+
+def test_a_failed_table_leaves_the_old_file_and_no_temporary(machines, tmp_path, monkeypatch):
+    import volerr_pin.compensate as compensate
+
+    target = tmp_path / "table.csv"
+    target.write_text("old\n")
+    calls = []
+
+    def failing(*args, **kwargs):
+        calls.append(1)
+        if len(calls) > 1:  # the disk probe passes, the table itself fails
+            raise RuntimeError("interrupted")
+        return compensate_points(*args, **kwargs)
+
+    monkeypatch.setattr(compensate, "compensate_points", failing)
+    with pytest.raises(RuntimeError, match="interrupted"):
+        compensation_table(machines["vmc500"], target, nodes=(3, 3, 3))
+    assert target.read_text() == "old\n" and sorted(p.name for p in tmp_path.iterdir()) == ["table.csv"]
+
+
+@pytest.mark.parametrize("call, match, parameter", [
+    (lambda m, d: compensation_table(m, d / "t.csv", nodes=(1, 3, 3)), r"nodes must be 3 whole numbers >= 2, got \(1, 3, 3\)", "nodes"),
+    (lambda m, d: compensation_table(m, d / "t.csv", nodes=(2.5, 3, 3)), "nodes must be 3 whole numbers >= 2", "nodes"),
+    (lambda m, d: compensation_table(m, d / "t.csv", nodes=(3, 3)), "nodes must be 3 whole numbers >= 2", "nodes"),
+    (lambda m, d: ErrorMap.build(m, (2.5, 2, 2)), r"elements must be 3 whole numbers >= 1, got \(2.5, 2, 2\)", "elements"),
+    (lambda m, d: ErrorMap.build(m, (0, 2, 2)), "elements must be 3 whole numbers >= 1", "elements"),
+    (lambda m, d: ErrorMap.build(m, (1000, 1000, 1000), 1), r"an error map of 1000 x 1000 x 1000 hexahedra "
+                                                            r"\(8,000,000,000 element nodes\) needs about .* of memory",
+     "elements"),
+    (lambda m, d: ErrorMap.build(m, (1, 1, 1), 1).interpolation_error(0), "points must be a whole number >= 1, got 0", "points"),
+    (lambda m, d: ErrorMap.build(m, (1, 1, 1), 1).interpolation_error(10**10), "an interpolation test at "
+                                                                          "10,000,000,000 random positions needs", "points"),
+    (lambda m, d: ErrorMap.build(m, (1, 1, 1), 1).interpolation_error(10, seed=-1), "seed must be a whole number >= 0", "seed"),
+    (lambda m, d: axis_tables(m, d, points=1), "points must be a whole number >= 2, got 1", "points"),
+    (lambda m, d: axis_tables(m, d, points=10**11), "axis tables at 100,000,000,000 positions needs", "points"),
+    (lambda m, d: ErrorMap.build(m, config={"X": 0.1}), "config: X is one of the axes an error map spans", "config"),
+    (lambda m, d: ErrorMap.build(m, config={"Q": 0.1}), "config: vmc500 has no axis 'Q'", "config"),
+])
+def test_bad_sizes_and_counts_are_refused_naming_them(machines, tmp_path, call, match, parameter):
+    with pytest.raises(InputError, match=match) as err:
+        call(machines["vmc500"], tmp_path)
+    assert err.value.parameters == (parameter,)
+
+
+def test_fixed_axes_outside_their_travel_and_nan_positions_are_refused(machines):
+    m = machines["cgm4000"]
+    with pytest.raises(InputError, match=r"config: A = 3 rad is outside its travel"):
+        ErrorMap.build(m, (1, 1, 1), 1, config={"A": 3.0})
+    with pytest.raises(InputError, match="config: A = nan rad is outside its travel"):
+        ErrorMap.build(m, (1, 1, 1), 1, config={"A": float("nan")})
+    emap = ErrorMap.build(machines["vmc500"], (1, 1, 1), 1)
+    with pytest.raises(InputError, match=r"x\[0, 1\] is nan: positions must be finite"):
+        emap.locate(np.array([[0.1, np.nan, 0.1]]))
+
+
+def test_axis_tables_are_written_whole(machines, tmp_path):
+    """Each per-axis table goes through a temporary file: a folder that is a file is refused
+    in one line, and nothing but the tables is left behind."""
+    m = machines["vmc500"]
+    (tmp_path / "taken").write_text("")
+    with pytest.raises(InputError, match="directory: cannot make the folder"):
+        axis_tables(m, tmp_path / "taken" / "sub", points=3)
+    files = axis_tables(m, tmp_path / "tables", points=3)
+    assert sorted(p.name for p in (tmp_path / "tables").iterdir()) == sorted(f.rsplit("/", 1)[1] for f in files)

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import csv
 import itertools
+import math
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,9 +30,34 @@ import numpy as np
 
 from .errors import InputError
 from .machine import Machine
+from .safeio import replacing, require_memory
 from .units import AXIS_UNIT, axis_scale
 
 NODES_PER_ORDER = {1: 8, 2: 20, 3: 32}
+#: memory of one evaluated point beyond its own arrays (the kinematics' working set) [bytes]
+EVALUATION_BYTES = 300
+#: memory of one point compensated by :func:`~volerr_pin.compensate.compensate_points` [bytes]
+COMPENSATION_BYTES = 2500
+#: nodes of a compensation table compensated and written at once
+TABLE_CHUNK = 32768
+
+
+def _counts(name: str, values, minimum: int, n: int = 3) -> tuple[int, ...]:
+    """``n`` whole numbers >= ``minimum`` (a non-integer is refused, not truncated)."""
+    what = f"{n} whole numbers >= {minimum}" if n > 1 else f"a whole number >= {minimum}"
+    try:
+        items = [float(v) for v in values]
+    except (TypeError, ValueError):
+        items = []
+    if len(items) != n or not all(math.isfinite(v) and v == int(v) and v >= minimum for v in items):
+        shown = values[0] if n == 1 and len(items) == 1 else tuple(values) if len(items) else values
+        raise InputError(f"{name} must be {what}, got {shown!r}", parameters=(name,))
+    return tuple(int(v) for v in items)
+
+
+def _count(name: str, value, minimum: int) -> int:
+    """One whole number >= ``minimum``."""
+    return _counts(name, [value], minimum, 1)[0]
 
 
 def natural_nodes(order: int) -> np.ndarray:
@@ -125,8 +152,17 @@ def _map_axes(machine: Machine, config: dict | None, what: str) -> tuple[list[in
     fixed = machine.mid_travel
     for name, value in (config or {}).items():
         if name not in machine.axes:
-            raise InputError(f"{machine.name} has no axis {name!r} (axes: {', '.join(machine.axes)})")
-        fixed[machine.axes.index(name)] = float(value)
+            raise InputError(f"config: {machine.name} has no axis {name!r} (axes: {', '.join(machine.axes)})",
+                             parameters=("config",))
+        j = machine.axes.index(name)
+        lo, hi = machine.travel[j]
+        if not lo <= float(value) <= hi:  # NaN too
+            raise InputError(f"config: {name} = {float(value):.6g} {'m' if machine.axis_kinds[j] == 'linear' else 'rad'} "
+                             f"is outside its travel [{lo:.6g}, {hi:.6g}]", parameters=("config",))
+        if j in lin:
+            raise InputError(f"config: {name} is one of the axes {what} spans, not a fixed one",
+                             parameters=("config",))
+        fixed[j] = float(value)
     return lin, fixed
 
 
@@ -190,12 +226,17 @@ class ErrorMap:
         ------
         InputError
             If the machine does not have exactly three linear axes, ``config`` names an unknown
-            axis, ``elements`` is not three positive integers, or ``order`` is not 1, 2 or 3.
+            axis, a spanned one or a position outside the travel, ``elements`` is not three
+            whole numbers >= 1 or the map would not fit in the free memory, or ``order`` is not
+            1, 2 or 3.
         """
         lin, fixed = _map_axes(machine, config, "an error map")
-        elements = tuple(int(e) for e in elements)
-        if len(elements) != 3 or min(elements) < 1:
-            raise InputError(f"elements must be three positive integers, got {elements}")
+        elements = _counts("elements", elements, 1)
+        npe = len(natural_nodes(order))
+        count = math.prod(elements) * npe
+        # nodal values, node positions and configurations, and their evaluation
+        require_memory(count * (8 * (6 + 2 * 3 + len(machine.axes)) + EVALUATION_BYTES),
+                       f"an error map of {' x '.join(map(str, elements))} hexahedra ({count:,} element nodes)", ("elements",))
         travel = machine.travel
         edges = tuple(np.linspace(travel[j, 0], travel[j, 1], n + 1) for j, n in zip(lin, elements))
         emap = cls(machine, order, tuple(lin), edges, fixed, np.empty((0, 0, 6)))
@@ -238,9 +279,15 @@ class ErrorMap:
         Raises
         ------
         InputError
-            If a point lies outside the map (beyond rounding).
+            If ``x`` is not (M, 3) finite positions, or a point lies outside the map (beyond
+            rounding).
         """
         x = np.atleast_2d(np.asarray(x, dtype=float))
+        if x.ndim != 2 or x.shape[1] != 3:
+            raise InputError(f"x has shape {x.shape}; expected (M, 3): positions of the three mapped axes")
+        if not np.all(np.isfinite(x)):
+            i, k = np.argwhere(~np.isfinite(x))[0]
+            raise InputError(f"x[{i}, {k}] is {x[i, k]}: positions must be finite")
         idx = []
         xi = np.empty_like(x)
         for k, e in enumerate(self.edges):
@@ -285,15 +332,15 @@ class ErrorMap:
         N = shape_functions(self.order, xi)
         return np.einsum("mn,mnc->mc", N, self.values[element])
 
-    def interpolation_error(self, n: int = 2000, seed: int = 0) -> dict:
-        """Interpolated vs direct model at ``n`` seeded random points.
+    def interpolation_error(self, points: int = 2000, seed: int = 0) -> dict:
+        """Interpolated vs direct model at ``points`` seeded random points.
 
         Parameters
         ----------
-        n : int, default 2000
+        points : int, default 2000
             Number of uniformly random points in the map.
         seed : int, default 0
-            Seed of the points.
+            Seed of the points (>= 0).
 
         Returns
         -------
@@ -302,7 +349,19 @@ class ErrorMap:
             ``max_um`` and ``rms_um`` (position error of the interpolation) [um],
             ``error_rms_um`` (RMS of the position error itself) [um] and ``relative`` (the
             interpolation's RMS over the error's RMS).
+
+        Raises
+        ------
+        InputError
+            If ``points`` is not a whole number >= 1 or would not fit in the free memory, or
+            ``seed`` is negative.
         """
+        n = _count("points", points, 1)
+        seed = _count("seed", seed, 0)
+        npe = NODES_PER_ORDER[self.order]
+        # positions, shape functions and gathered nodal values of every point, and its evaluation
+        require_memory(n * (8 * (3 * len(self.fixed) + 14 * npe + 30) + EVALUATION_BYTES),
+                       f"an interpolation test at {n:,} random positions", ("points",))
         rng = np.random.default_rng(seed)
         q = np.tile(self.fixed, (n, 1))
         for k, j in enumerate(self.axes):
@@ -325,6 +384,10 @@ def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), c
     commanded axis (um for linear axes, urad for rotary ones), computed by exact point
     compensation of positions at the node (the tool axis is not corrected). Between nodes a
     controller interpolates trilinearly; the header says so.
+
+    The table is computed and written in chunks of :data:`TABLE_CHUNK` nodes, whatever its
+    size, through a temporary file beside ``path`` that replaces it only when the table is
+    complete; a table the folder's disk cannot hold is refused before any work.
 
     Parameters
     ----------
@@ -350,67 +413,98 @@ def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), c
     ------
     InputError
         If the machine does not have exactly three linear axes, ``config`` names an unknown
-        axis, or ``nodes`` is not three integers >= 2.
+        axis, a spanned one or a position outside the travel, ``nodes`` is not three whole
+        numbers >= 2, or the table would not fit on the disk of ``path``'s folder.
     """
     from .compensate import compensate_points
 
     lin, fixed = _map_axes(machine, config, "a compensation table")
-    nodes = tuple(int(n) for n in nodes)
-    if len(nodes) != 3 or min(nodes) < 2:
-        raise InputError(f"nodes must be three integers >= 2, got {nodes}")
+    nodes = _counts("nodes", nodes, 2)
+    require_memory(8 * sum(nodes), f"node positions of {' x '.join(map(str, nodes))} nodes", ("nodes",))
     travel = machine.travel
     grids = [np.linspace(travel[j, 0], travel[j, 1], n) for j, n in zip(lin, nodes)]
-    pts = np.array(list(itertools.product(*grids)))
-    q = np.tile(fixed, (len(pts), 1))
-    q[:, lin] = pts
-    res = compensate_points(machine, q, orientation=False)
-    corr = res.q - q
+    rows = math.prod(nodes)
     names = [machine.axes[j] for j in lin]
+
+    def configurations(flat: np.ndarray) -> np.ndarray:
+        """The configurations of nodes by flat index (the last axis fastest)."""
+        index = np.unravel_index(flat, nodes)
+        q = np.tile(fixed, (len(flat), 1))
+        for k, j in enumerate(lin):
+            q[:, j] = grids[k][index[k]]
+        return q
+
+    def corrections(q: np.ndarray) -> np.ndarray:
+        return compensate_points(machine, q, orientation=False).q - q
+
+    row_format = ",".join(["%.4f"] * (3 + len(machine.axes))) + "\n"
+
+    def lines(q: np.ndarray, corr: np.ndarray) -> str:
+        return "".join(row_format % tuple(row) for row in np.hstack([q[:, lin] * 1e3, corr * 1e6]).tolist())
+
     path = Path(path)
-    with path.open("w", newline="") as fh:
-        fh.write(f"# volerr_pin compensation table for {machine.name}\n")
-        fh.write(f"# nodes: {' x '.join(str(n) for n in nodes)} over the travel of {', '.join(names)}"
-                 + "".join(f"; {machine.axes[j]} = {fixed[j]:.6g}" for j in range(len(fixed)) if j not in lin)
-                 + "\n")
-        fh.write("# correction = value to ADD to the commanded axis position at the node "
-                 "(exact point compensation of the model)\n")
-        fh.write("# between nodes interpolate trilinearly in the node grid (as controllers do)\n")
-        w = csv.writer(fh, lineterminator="\n")
-        w.writerow([f"{a}_mm" for a in names] + [
-            f"d{a}_{'um' if machine.axis_kinds[j] == 'linear' else 'urad'}" for j, a in enumerate(machine.axes)])
-        for p, c in zip(pts, corr):
-            w.writerow([f"{v * 1e3:.4f}" for v in p] + [f"{v * 1e6:.4f}" for v in c])
-    # how well trilinear interpolation of the table reproduces exact compensation
+    header = (f"# volerr_pin compensation table for {machine.name}\n"
+              f"# nodes: {' x '.join(str(n) for n in nodes)} over the travel of {', '.join(names)}"
+              + "".join(f"; {machine.axes[j]} = {fixed[j]:.6g}" for j in range(len(fixed)) if j not in lin) + "\n"
+              "# correction = value to ADD to the commanded axis position at the node "
+              "(exact point compensation of the model)\n"
+              "# between nodes interpolate trilinearly in the node grid (as controllers do)\n"
+              + ",".join([f"{a}_mm" for a in names] + [
+                  f"d{a}_{'um' if machine.axis_kinds[j] == 'linear' else 'urad'}" for j, a in enumerate(machine.axes)])
+              + "\n")
+    # the size on disk, from the longest row at the corners and a sample of nodes, with room
+    # for a larger correction elsewhere
+    probe = np.unique(np.r_[np.ravel_multi_index(np.array(list(itertools.product(*[(0, n - 1) for n in nodes]))).T,
+                                                 nodes),
+                            np.random.default_rng(0).integers(0, rows, 56)])
+    q_probe = configurations(probe)
+    longest = max(len(line) for line in lines(q_probe, corrections(q_probe)).splitlines()) + 1
+    needed = len(header) + rows * (longest + 2 * len(machine.axes))
+    free = shutil.disk_usage(path.parent if str(path.parent) else ".").free
+    if needed > free:
+        raise InputError(f"nodes: a table of {' x '.join(map(str, nodes))} = {rows:,} nodes takes about "
+                         f"{needed / 1e9:.3g} GB, more than the {free / 1e9:.3g} GB free on the disk of "
+                         f"{path.parent}; reduce nodes", parameters=("nodes",))
+    largest = 0.0
+    with replacing(path) as tmp, open(tmp, "w", newline="") as fh:
+        fh.write(header)
+        for start in range(0, rows, TABLE_CHUNK):
+            q = configurations(np.arange(start, min(start + TABLE_CHUNK, rows)))
+            corr = corrections(q)
+            largest = max(largest, float(np.abs(corr[:, lin]).max()))
+            fh.write(lines(q, corr))
+    # how well trilinear interpolation of the table reproduces exact compensation: the
+    # corrections at the corners of the cells of 500 seeded points (the same per node as in
+    # the table: each point is compensated on its own)
     rng = np.random.default_rng(0)
     test = np.tile(fixed, (500, 1))
     for k, j in enumerate(lin):
         test[:, j] = grids[k][0] + rng.random(500) * (grids[k][-1] - grids[k][0])
-    exact = compensate_points(machine, test, orientation=False).q - test
-    tri = _trilinear(grids, corr.reshape(*nodes, -1), test[:, lin])
+    exact = corrections(test)
+    cells, frac = [], []
+    for k, g in enumerate(grids):
+        i = np.clip(np.searchsorted(g, test[:, lin[k]], side="right") - 1, 0, len(g) - 2)
+        cells.append(i)
+        frac.append((test[:, lin[k]] - g[i]) / (g[i + 1] - g[i]))
+    corners = list(itertools.product((0, 1), repeat=3))
+    flat = np.stack([np.ravel_multi_index(tuple(cells[k] + c[k] for k in range(3)), nodes) for c in corners])
+    used, where = np.unique(flat, return_inverse=True)
+    at_nodes = corrections(configurations(used))[where.reshape(flat.shape)]   # (8, 500, n_axes)
+    tri = 0.0
+    for corner, values in zip(corners, at_nodes):
+        w = np.ones(len(test))
+        for k, c in enumerate(corner):
+            w = w * (frac[k] if c else 1 - frac[k])
+        tri = tri + w[:, None] * values
     err = np.abs(tri - exact)[:, lin].max(axis=1)
     _, p_cmd = machine.tool_poses(test + tri, extrapolate=True)
     _, p_d = machine.tool_poses(test, nominal=True)
     resid = np.linalg.norm(p_cmd - p_d, axis=1)
-    return {"file": str(path), "nodes": list(nodes), "rows": len(pts),
-            "max_correction_um": float(np.abs(corr[:, lin]).max() * 1e6),
+    return {"file": str(path), "nodes": list(nodes), "rows": rows,
+            "max_correction_um": largest * 1e6,
             "trilinear_max_um": float(err.max() * 1e6),
             "residual_with_table_max_um": float(resid.max() * 1e6),
             "residual_with_table_rms_um": float(np.sqrt(np.mean(resid**2)) * 1e6)}
-
-
-def _trilinear(grids, values, x):
-    idx, frac = [], []
-    for k, g in enumerate(grids):
-        i = np.clip(np.searchsorted(g, x[:, k], side="right") - 1, 0, len(g) - 2)
-        idx.append(i)
-        frac.append((x[:, k] - g[i]) / (g[i + 1] - g[i]))
-    out = 0.0
-    for corner in itertools.product((0, 1), repeat=3):
-        w = np.ones(len(x))
-        for k, c in enumerate(corner):
-            w = w * (frac[k] if c else 1 - frac[k])
-        out = out + w[:, None] * values[idx[0] + corner[0], idx[1] + corner[1], idx[2] + corner[2]]
-    return out
 
 
 def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> list[str]:
@@ -428,15 +522,28 @@ def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> li
     directory : str or Path
         Folder to write to (created if missing).
     points : int, default 21
-        Positions per axis, ends included.
+        Positions per axis, ends included (>= 2).
 
     Returns
     -------
     list of str
-        The files written.
+        The files written (each through a temporary file renamed over it when complete).
+
+    Raises
+    ------
+    InputError
+        If ``points`` is not a whole number >= 2 or the tables would not fit in the free
+        memory, or ``directory`` is not a folder that can be made.
     """
+    points = _count("points", points, 2)
+    require_memory(points * (8 * 3 * (len(machine.axes) + len(machine.components)) + EVALUATION_BYTES),
+                   f"axis tables at {points:,} positions", ("points",))
     directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise InputError(f"directory: cannot make the folder {directory}: {err.strerror or err}",
+                         parameters=("directory",)) from None
     travel = machine.travel
     mid = machine.mid_travel
     info = {t["component"]: t["owner"] for t in machine.term_info()}
@@ -451,7 +558,7 @@ def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> li
         vals = machine.component_values(q)
         cols = [machine.components.index(c) for c in comps]
         path = directory / f"{machine.name}_{axis}.csv"
-        with path.open("w", newline="") as fh:
+        with replacing(path) as tmp, open(tmp, "w", newline="") as fh:
             fh.write(f"# volerr_pin ISO 230-1 component errors of axis {axis} ({machine.name}); "
                      "errors as motions of the tool relative to the workpiece\n")
             w = csv.writer(fh, lineterminator="\n")
