@@ -191,8 +191,8 @@ def test_incremental_sections_do_not_accumulate_rounding(machines):
 
 
 @pytest.mark.parametrize("text, line, message", [
-    ("G90 G0 X10 Y10 Z10\nG1 X20 Y\n", 2, "cannot read"),
-    ("G90 G0 X10 Y10 Z10\nG1 X2$0\n", 2, "cannot read"),
+    ("G90 G0 X10 Y10 Z10\nG1 X20 Y\n", 2, "'Y' is not followed by a number"),
+    ("G90 G0 X10 Y10 Z10\nG1 X2$0\n", 2, r"cannot read '\$'"),
     ("G90 G0 X10 Y10 Z10\n(open comment\nG1 X20\n", 2, "parenthesis"),
     ("G90 G0 X10 Y10 Z10\nG1 X20\nG2 X30 Y10\n", 3, "I/J or R"),
     ("G90 G0 X10 Y10 Z10\nG2 X30 Y10 R5\n", 2, "cannot join"),
@@ -207,8 +207,112 @@ def test_incremental_sections_do_not_accumulate_rounding(machines):
     ("G90 G0 X450 Y200 Z10\nG3 X450 Y200 I0 J100\n", 2, "leaves the travel"),
 ])
 def test_malformed_programs_fail_with_the_line_number(machines, text, line, message):
-    with pytest.raises(GcodeError, match=rf"prog\.nc:{line}: .*{message}"):
+    with pytest.raises(GcodeError, match=rf"prog\.nc:{line}:(\d+:)? .*{message}"):
         compensate_program(machines["vmc500"], text, source="prog.nc")
+
+
+START = "G90 G21 G17 G0 X100 Y100 Z100\n"
+
+
+@pytest.mark.parametrize("block, where, message", [
+    # the cases of the issue
+    ("G2 X200 Y100 R50 I30 J0 F100", "2:14", "R50 and I30 J0 disagree: their centres are 20.0000 mm apart"),
+    ("G1 X200 X300", "2:9", r"X appears twice in the block \(X200 and X300\)"),
+    ("G0 G1 X200", "2:4", "G0 and G1 in one block: both are motion codes"),
+    ("G77 X200", "2", r"G77 \(a G code this reader does not know\) cannot be compensated"),
+    ("G77", "2", "G77 .*cannot be compensated"),
+    ("G1 X1E300 Z100.0009E300", "2:4", "'X1E300': NC numbers have no exponent"),
+    ("G1 X150 Z100.0009E300", "2:9", "'Z100.0009E300': NC numbers have no exponent"),
+    ("G2 X100.0001 Y100 R0.00005", "2:19", r"degenerate arc \(R0.00005\)"),
+    ("G2 X100.0001 Y100 I0.00005 J0", "2", r"degenerate arc \(I0.00005 J0\): its radius 5e-05 mm"),
+    ("G2 X100 Y100 I0 J0", "2", r"degenerate arc \(I0 J0\): its radius 0 mm is zero"),
+    ("G2 X200 Y100 R0", "2:14", r"degenerate arc \(R0\)"),
+    # words and numbers
+    ("G1 X", "2:4", "'X' is not followed by a number$"),
+    ("G1 X1.2.3", "2:8", "'X1.2.3' is not a number"),
+    ("G1 X--5", "2:4", r"'X' is not followed by a number \('X--5'\)"),
+    ("G1 X+-5", "2:4", "'X' is not followed by a number"),
+    ("G1 X - 5", "2:4", "'X' is not followed by a number"),
+    ("G1 X1 0", "2:7", "a number without an address letter .*blanks do not join digits"),
+    ("G1 X10 )", "2:8", r"unbalanced parenthesis: '\)' without '\('"),
+    ("G1 X10 (a (b) c)", "2:11", "comments do not nest"),
+    ("G1 X10 (open", "2:8", "not closed"),
+    ("G1 X1" + "0" * 400, "2:4", "too large a number"),
+    ("G1 X99999999999999999999", "2:4", "outside the travel"),
+    ("G1 Xnan", "2:4", "not followed by a number"),
+    ("G1 XINF", "2:4", "not followed by a number"),
+    ("G1 X150 Y120 \u00e9", "2:14", r"U\+00E9 .*not an ASCII character"),
+    ("G1 X\u0661\u0665\u0660", "2:4", "not followed by a number"),
+    ("G1 X\u2212150", "2:4", "not followed by a number"),
+    ("G1 X150\u00a0Y120", "2:8", r"U\+00A0.*not an ASCII character"),
+    ("G1 X2\u200b00", "2:6", r"U\+200B"),
+    ("G1 X150\x00", "2:8", r"cannot read U\+0000"),
+    ("G1 X150\f", "2:8", r"cannot read U\+000C"),
+    ("G1 X150\rG1 X160", "2:8", r"carriage return \(CR\) inside a line"),
+    ("G1 X150 %", "2:9", "a '%' must stand on its own line"),
+    ("%abc", "2:2", "text after '%'"),
+    ("G1 X150 /Y120", "2:9", "a block delete '/' must begin the block"),
+    # codes
+    ("N10.5 G1 X150", "2:1", "N10.5: an N word is a whole number"),
+    ("N-10 G1 X150", "2:1", "N-10: an N word has no sign"),
+    ("G1 N10 X150", "2:4", "N10: a sequence number begins its block"),
+    ("N10 N20 G1 X150", "2:5", "N20: a sequence number begins its block"),
+    ("O1234 G1 X150", "2:1", "O1234: a program number stands alone"),
+    ("G+1 X150", "2:1", "G\\+1: a G word has no sign"),
+    ("G-1 X150", "2", "G-1 .*does not know"),
+    ("G1.5 X150", "2", "G1.5 .*does not know"),
+    ("G1000000000000000000000 X150", "2", "G1000000000000000000000 .*does not know"),
+    ("G16", "2", "G16 .*does not know"),
+    ("G68.2 X0 Y0 Z0 I0 J45 K0", "2", "G68.2 .*does not know"),
+    ("G43.4 H1", "2", "G43.4 .*does not know"),
+    ("G1 G1 X150", "2:4", "G1 appears twice"),
+    ("G90 G91 G1 X150", "2:5", "G90 and G91 in one block: both are distance codes"),
+    ("G17 G18 G2 X200 Y100 I50 J0", "2:5", "G17 and G18 in one block: both are plane codes"),
+    ("G20 G21 G1 X150", "2:5", "G20 and G21 in one block: both are units codes"),
+    ("G2 G3 X200 Y100 I50 J0", "2:4", "G2 and G3 in one block"),
+    ("G1 X200 G4 P1", "2:1", "G1 and G4 \\(dwell\\) in one block"),
+    ("G4 Y10", "2:4", r"Y10 in a dwell \(G4\)"),
+    ("M3 M4", "2:4", "M3 and M4 in one block: both are spindle codes"),
+    ("M3 M3", "2:4", "M3 appears twice"),
+    ("M1.5", "2:1", "M1.5: an M word is a whole number"),
+    ("T1.5 M6", "2:1", "T1.5: a T word is a whole number"),
+    ("G1 X150 F-100", "2:9", "F-100: an F word has no sign"),
+    ("G1 X150 S-100", "2:9", "S-100: an S word has no sign"),
+    ("G1 X150 F100 F200", "2:14", r"F appears twice in the block \(F100 and F200\)"),
+    # words that mean nothing here
+    ("G1 X150 A10", "2:9", "A10: vmc500 has no axis A"),
+    ("G1 X150 U10", "2:9", "U10: vmc500 has no axis U"),
+    ("G1 X150 R2", "2:9", r"R2: R on a straight move \(G1\).*corner rounding"),
+    ("G1 X150 I2", "2:9", "I2: I on a straight move"),
+    ("I2", "2:1", "I2: I outside an arc move"),
+    ("G2 I50", "2:4", "I50: an arc without end point words"),
+    ("G1 X150 P2", "2:9", "P2: P words mean nothing this reader knows here"),
+    ("G1 X150 Q2", "2:9", "Q2: Q words mean nothing"),
+    ("G1 X150 L2", "2:9", "L2: L words mean nothing"),
+    ("G1 X150 E5", "2:9", "E5: E words mean nothing"),
+    ("G1 X150 E-5", "2:9", "E-5: E words mean nothing"),
+    # arcs
+    ("G2 X200 Y110 I50 J0", "2", "end radius 50.9902 mm differ by 990.2 um"),
+    ("G2 X200 Y100.01 R50", "2:17", "R50 cannot join these end points: the end points are 100.0000 mm apart"),
+    ("G2 X100 Y100 R50", "2:14", "R cannot program a full circle"),
+    ("G2 X200 Y100 I200000 J0", "2:14", "I200000: an arc radius or centre offset over 100 m"),
+    ("G2 X200 Y100 I50 J0 P0", "2:21", "P0 on an arc must be a whole number of turns from 1 to 1000"),
+    ("G2 X200 Y100 I50 J0 P1.5", "2:21", "P1.5 on an arc"),
+    ("G2 X200 Y100 I50 J0 P1000000000", "2:21", "P1000000000 on an arc"),
+    ("G2 X200 Y100 I1e6 J0", "2:14", "'I1e6': NC numbers have no exponent"),
+    # program structure
+    ("G54 G1 X150\nG55 G1 X160", "3:1", r"G55 changes the work offset from G54 \(line 2\)"),
+    ("G54.1 P1 G1 X150\nG54.1 P2 G1 X160", "3:1", "G54.1 P2 changes the work offset from G54.1 P1"),
+    ("M6\nG91 G1 X10", "3:8", "an incremental move of X before its position is known"),
+    ("O1\nG1 X150\nO2", "4", r"O2 \(a second program number: the start of a subprogram\)"),
+    ("/G91", "2", r"G codes with block delete \(/\)"),
+    ("/G1 X150", "2", r"a move with block delete \(/\)"),
+])
+def test_bad_blocks_are_refused_naming_line_and_column(machines, block, where, message):
+    """Each used to be read as something else (or its error named no column): now one error
+    naming the line (and the column where a character or word is to blame)."""
+    with pytest.raises(GcodeError, match=rf"^prog\.nc:{where}: .*{message}"):
+        compensate_program(machines["vmc500"], START + block + "\n", source="prog.nc")
 
 
 def test_pass_through_keeps_unsupported_blocks_and_warns(machines):
@@ -290,7 +394,7 @@ def test_review_cases(machines):
     out, report = compensate_program(m, "G90 G0 X10 Y10 Z10\nG91 G28 Z0\nG90 G1 X200 Y20 Z30 F100\n",
                                      pass_through=True)
     assert "line 3: the position before this move is not known" in " ".join(report.warnings)
-    with pytest.raises(GcodeError, match=":3: an incremental move"):
+    with pytest.raises(GcodeError, match=":3:4: an incremental move"):
         compensate_program(m, "G90 G0 X10 Y10 Z10\nG91 G28 Z0\nG1 X20 F100\n", pass_through=True)
     # P turns on a helix
     program = "G90 G0 X100 Y100 Z100\nG2 X100 Y100 Z200 I50 J0 P3 F100\n"
@@ -353,3 +457,170 @@ def test_modal_state_follows_the_blocks(machines):
     assert state.canned and state.motion is None and not state.known.any()
     assert "cycle is still active" in reader.unsupported("X30", state)
     assert reader.unsupported("G80", state) is None and not state.canned
+
+
+def test_accepted_spellings_read_as_their_plain_form(machines):
+    """Lower case, leading zeros, blanks between letter and number, words without blanks,
+    a decimal point without digits after it, a plus sign, tabs, a byte order mark: each reads
+    as the plain program, and the rewritten words keep their letters' case."""
+    m = machines["vmc500"]
+    plain = "G90 G21 G17\nG0 X100 Y100 Z100\nG1 X150 Y120 F100\nG2 X200 Y120 I25 J0\nG1 X0.5 Z90\n"
+    spelled = ("\ufeffg90 g21 g17\nG00 X 100 Y100 Z+100\nG1X150.Y120F100\ng02\tx200 y120 i25 j0\nG1.0 X.5 Z90.\n")
+    a, b = interpret(m, plain), interpret(m, spelled)
+    assert [s.kind for s in a] == [s.kind for s in b] == ["rapid", "line", "arc", "line"]
+    for s, t in zip(a, b):
+        np.testing.assert_array_equal(s.end, t.end)
+    out, _ = compensate_program(m, spelled)
+    lines = out.splitlines()
+    assert lines[0] == "\ufeffg90 g21 g17"
+    assert re.fullmatch(r"g02\tx[\d.]+ y[\d.]+ i[-\d.]+ j[-\d.]+ Z[\d.]+", lines[3]), lines[3]
+
+
+def test_non_motion_lines_of_every_kind_stay_byte_identical(machines):
+    m = machines["vmc500"]
+    program = ("%\nO0042 (part \u00e9 42)\n(header; with a semicolon)\n; a whole-line comment ( with a paren\n"
+               "N10 G21 G90 G17 G40 G49 G80 G94\n   \n\t\nN20 T1 M6\n/M8\nM7 M8\nM77\n()\nN30 S8000 M3\n"
+               "G0 X10 Y10 Z10\nG4 P500\nG4 X1.5\nG1 F200\nG2\nG1 X20\nM5\nM30\n%_N_SUB_SPF\n%\n")
+    out, report = compensate_program(m, program)
+    kept = [ln for ln in program.splitlines() if not re.match(r"G[01] X", ln)]
+    assert [ln for ln in out.splitlines() if not re.match(r"G[01] X", ln)] == kept
+    # an M code the reader does not know is kept, and said so once, naming its line
+    assert [w for w in report.warnings if "M77" in w] == [
+        "line 11: M77 is not an M code this reader knows: kept unchanged, taken to move no axis"]
+
+
+def test_unknown_g_codes_pass_through_only_when_asked_and_never_as_moves(machines):
+    m = machines["vmc500"]
+    program = START + "G77 X200 Y50\nG1 X150 Y120 Z90 F100\n"
+    with pytest.raises(GcodeError, match=r"prog\.nc:2: G77 .*does not know.*\(pass_through keeps it unchanged\)"):
+        compensate_program(m, program, source="prog.nc")
+    out, report = compensate_program(m, program, pass_through=True)
+    assert out.splitlines()[1] == "G77 X200 Y50"
+    assert "line 2: G77 (a G code this reader does not know) kept unchanged; if it sets a mode, the blocks " \
+           "after it are misread" in report.warnings
+    # it named axes: where the machine went is not known, so the next move is end point only
+    assert any(w.startswith("line 3: the position before this move is not known (axes X, Y, Z not known "
+                            "since line 2)") for w in report.warnings)
+    assert report.moves == 2 and report.pieces == 2
+
+
+def test_a_tool_change_loses_the_position(machines):
+    """M6 runs the machine's tool change, which moves the axes: the move after it starts
+    where the change left the tool, not at the last programmed point."""
+    m = machines["vmc500"]
+    out, report = compensate_program(m, START + "T2 M6\nG1 X450 Y390 Z390 F300\n")
+    assert out.splitlines()[1] == "T2 M6" and len(out.splitlines()) == 3  # end point only, not split
+    assert any("not known since line 2's M6 tool change" in w for w in report.warnings)
+
+
+def test_r_and_ijk_that_agree_are_both_rewritten(machines):
+    m = machines["vmc500"]
+    program = START + "G2 X200 Y100 R50 I50 J0 F100\n"
+    out, report = compensate_program(m, program)
+    first = out.splitlines()[1]
+    assert re.search(r" R4\d\.\d{4} I4\d\.\d{4} J-?0\.\d{4} ", first), first
+    assert report.arcs_kept == 1
+    assert round_trip(m, program, out)[0] <= 1e-6  # reading it back checks that R and I/J agree
+
+
+def _written_arcs(text: str, inch: bool):
+    """(start, end, centre offsets or None, radius or None) of every arc block as written
+    (absolute XY, plane G17), from the numbers alone."""
+    pos, arcs, motion = {}, [], None
+    for line in text.splitlines():
+        words = dict((k.upper(), float(v)) for k, v in re.findall(r"([A-Za-z])([-+]?[\d.]+)", line))
+        motion = int(words["G"]) if words.get("G") in (0, 1, 2, 3) else motion
+        start = (pos.get("X"), pos.get("Y"))
+        pos.update({k: v for k, v in words.items() if k in "XYZ"})
+        if motion in (2, 3) and ("X" in words or "Y" in words):
+            ijk = (words.get("I", 0.0), words.get("J", 0.0)) if "I" in words or "J" in words else None
+            arcs.append((start, (pos["X"], pos["Y"]), ijk, words.get("R")))
+    return arcs
+
+
+@pytest.mark.parametrize("units, program, resolution", [
+    ("mm", "G90 G21 G17 G0 X100 Y100 Z100\nG1 X100 Y100 F100\n" + "".join(
+        f"G2 X{100 + 2 * r:.4f} Y100 I{r:.4f} J0\nG1 X100 Y100\n" for r in (0.0021, 0.003, 0.02)), 1e-4),
+    ("inch", "G90 G20 G17 G0 X4 Y4 Z4\nG1 X4 Y4 F10\n" + "".join(
+        f"G3 X{4 + 2 * r:.6f} Y4 R{r:.6f}\nG1 X4 Y4\n" for r in (0.0001, 0.0003, 0.001)), 1e-6),
+])
+def test_written_arcs_are_defined_at_the_written_precision(machines, units, program, resolution):
+    """Small arcs (radius 2.1 um up): no output arc has centre words or a radius that round
+    to zero, or a start and end radius that disagree beyond the rounding of the numbers."""
+    m = machines["vmc500"]
+    out, report = compensate_program(m, program)
+    arcs = _written_arcs(out, units == "inch")
+    assert len(arcs) == 6 and report.arcs_kept == 3
+    for (sx, sy), (ex, ey), ijk, r in arcs:
+        if ijk is not None:
+            assert ijk != (0.0, 0.0)
+            cx, cy = sx + ijk[0], sy + ijk[1]
+            r_start, r_end = math.hypot(sx - cx, sy - cy), math.hypot(ex - cx, ey - cy)
+            assert abs(r_start - r_end) <= 3 * resolution, (r_start, r_end)
+        if r is not None:
+            assert r != 0.0 and math.hypot(ex - sx, ey - sy) <= 2 * abs(r) + 2 * resolution
+    assert round_trip(m, program, out)[0] <= 1e-6
+
+
+def test_an_arc_the_written_numbers_cannot_hold_is_written_as_chords(machines):
+    """A compensated arc piece whose centre words would round to zero, whose written ends
+    would read as nearly a full circle, or whose centre is too far for nine digits, becomes
+    straight pieces along it, within the tolerance."""
+    from volerr_pin.compensate import Piece
+    from volerr_pin.gcode import Program, parse_block
+
+    m = machines["vmc500"]
+    program = Program(m, tol_um=1.0)
+    st = {"absolute": True, "inch": False, "plane": 17, "out_motion": 2}
+    start = np.array([0.1, 0.1, 0.05])
+
+    def piece(radius, sweep):
+        centre = start[:2] - np.array([radius, 0.0])
+        end = start.copy()
+        end[:2] = centre + radius * np.array([math.cos(sweep), math.sin(sweep)])
+        return Piece("arc", start, end, center=centre, clockwise=sweep < 0, turns=sweep, residual=0.2e-6)
+
+    normal = piece(0.05, -math.pi / 2)
+    assert program._writable([normal], st, {"ijk"}) == [normal]
+    for p in (piece(0.3e-6, -math.pi / 2),  # I/J round to zero
+              piece(5e-6, -0.004),  # 20 nm long: the written ends read as a full turn
+              piece(200.0, -2e-4)):  # a centre 200 m away: too many digits
+        out = program._writable([p], st, {"ijk"})
+        assert out and all(q.kind == "line" for q in out)
+        np.testing.assert_array_equal(out[0].start, p.start)
+        np.testing.assert_array_equal(out[-1].end, p.end)
+        r = math.hypot(*(p.start[:2] - p.center))
+        for q in out:  # chord ends on the arc, chord middles within the tolerance of it
+            assert abs(math.hypot(*(q.end[:2] - p.center)) - r) < 1e-12
+            assert r - math.hypot(*((q.start[:2] + q.end[:2]) / 2 - p.center)) <= 1e-6 - p.residual
+            assert q.residual <= 1e-6
+    block = parse_block("N5 G2 X100.0000 Y100.0003 I-0.0003 J0 F200", 5, "p")
+    tiny = piece(0.3e-6, -math.pi / 2)
+    line = program._writable([tiny], st, {"ijk"})[0]
+    text = program._rewrite(block, line, line.start, st, 2, [w for w in block.words if w.letter in "XY"])
+    assert text.startswith("N5 G1 X") and "I" not in text and "J" not in text
+
+
+@pytest.mark.parametrize("kwargs, parameter", [
+    ({"tol_um": 0.0}, "tol_um"), ({"tol_um": -1.0}, "tol_um"), ({"tol_um": math.nan}, "tol_um"),
+    ({"tol_um": math.inf}, "tol_um"), ({"tol_um": 1e-9}, "tol_um"),
+    ({"tol_urad": -1.0}, "tol_urad"), ({"tol_urad": math.nan}, "tol_urad"),
+    ({"origin": [0.0, math.inf, 0.0]}, "origin"), ({"origin": [0.0, 0.0]}, "origin"),
+])
+def test_program_arguments_are_checked(machines, kwargs, parameter):
+    with pytest.raises(GcodeError, match=rf"^{parameter} must") as info:
+        compensate_program(machines["vmc500"], START, **kwargs)
+    assert info.value.parameters == (parameter,)
+
+
+def test_start_is_checked(machines):
+    from volerr_pin.gcode import Program
+
+    with pytest.raises(GcodeError, match="^start must hold 3 finite values") as info:
+        Program(machines["vmc500"], start=[0.1, math.nan, 0.1])
+    assert info.value.parameters == ("start",)
+
+
+def test_a_block_delete_without_moves_or_modes_is_kept(machines):
+    out, report = compensate_program(machines["vmc500"], START + "/M8\n/1 M9 (switch 1)\nG1 X150 F100\n")
+    assert out.splitlines()[1:3] == ["/M8", "/1 M9 (switch 1)"] and report.moves == 2

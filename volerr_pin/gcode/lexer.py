@@ -1,14 +1,27 @@
-"""Words, blocks and lines of an NC program, and the tables of the codes it knows."""
+"""Words, blocks and lines of an NC program, and the tables of the codes it knows.
+
+The reader is strict: outside comments, every character of a block is a blank (space or
+tab), part of a word (an ASCII address letter and a plain decimal number), the block delete
+``/`` that begins a block, or the ``%`` of a tape start or end line. Anything else is an
+error naming the line and the column: a reader that skips what it does not understand
+compensates a program other than the one the controller runs.
+"""
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 
 from ..errors import InputError
 
-WORD = re.compile(r"([A-Za-z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
+NUMBER = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"  # ASCII digits only: no exponent, no inf/nan
+WORD = re.compile(rf"([A-Za-z])[ \t]*({NUMBER})")
 COMMENT = re.compile(r"\([^)]*\)|;.*$")
+BLANKS = " \t"
+PERCENT = re.compile(r"%(_[A-Za-z0-9_.]*)?")  # tape start/end, with a Siemens-style name
+MACRO = re.compile(r"\b(IF|WHILE|GOTO|DO\d*|END\d*|SUB|ENDSUB|CALL|RETURN|ELSE|ELSEIF|ENDIF|ENDWHILE|REPEAT|"
+                   r"ENDREPEAT|BREAK|CONTINUE|THEN)\b")
 CANNED = {73, 74, 76, 81, 82, 83, 84, 85, 86, 87, 88, 89}
 MACRO_G = {65, 66, 67}
 # G codes whose axis words are not a move the program interpolates (data, reference returns,
@@ -18,9 +31,29 @@ NOT_MOVES = {10: "data setting", 27: "reference check", 28: "reference return", 
              52: "local coordinate system", 68: "coordinate rotation", 51: "scaling", 41: "cutter compensation",
              42: "cutter compensation", 90.1: "absolute arc centres", 91.1: "incremental arc centres"}
 WORK_OFFSETS = {54, 55, 56, 57, 58, 59, 54.1, 59.1, 59.2, 59.3}
+# the modal group of every G code the reader knows; a code not listed here is refused (or
+# passed through with a warning), never read as a move
+G_GROUPS = {
+    **dict.fromkeys((0, 1, 2, 3), "motion"),
+    **dict.fromkeys((4, 9, 10, 27, 28, 29, 30, 31, 52, 53, 65, 92), "non-modal"),
+    **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
+    **dict.fromkeys((40, 41, 42), "cutter compensation"), **dict.fromkeys((43, 44, 49), "tool length offset"),
+    51: "scaling", **dict.fromkeys(WORK_OFFSETS, "work offset"), **dict.fromkeys((61, 64), "path control"),
+    **dict.fromkeys((66, 67), "modal macro"), **dict.fromkeys((68, 69), "coordinate rotation"),
+    **dict.fromkeys(CANNED | {80}, "canned cycle"), **dict.fromkeys((90, 91), "distance"),
+    **dict.fromkeys((90.1, 91.1), "arc centre distance"), **dict.fromkeys((93, 94, 95), "feed"),
+    **dict.fromkeys((96, 97), "spindle speed"), **dict.fromkeys((98, 99), "canned cycle return")}
+# M codes the reader knows, by group; two of one group in a block contradict each other
+# (except mist and flood coolant, M7 M8, which run together)
+M_GROUPS = {**dict.fromkeys((0, 1, 2, 30), "stop"), **dict.fromkeys((3, 4, 5, 19), "spindle"), 6: "tool change",
+            **dict.fromkeys((7, 8, 9), "coolant"), **dict.fromkeys((48, 49), "override"),
+            **dict.fromkeys((98, 99), "subprogram")}
+TOOL_CHANGE_M = 6  # its macro moves the axes to the change position: the position is lost
 LATE_M = (0, 1, 2, 5, 9, 30)  # M codes that act at the end of their block's move
 PLANES = {17: ("X", "Y", "Z"), 18: ("Z", "X", "Y"), 19: ("Y", "Z", "X")}  # arc plane axes, then the third
 CENTRE = {"X": "I", "Y": "J", "Z": "K"}  # the arc centre word of each linear axis
+WHOLE = "NOMTHD"  # letters whose number is a whole, unsigned code
+UNSIGNED = "GFS"  # letters whose number has no sign (G codes, feed, spindle speed)
 
 
 class GcodeError(InputError):
@@ -40,7 +73,7 @@ class Word:
     text : str
         The word as written in the line.
     start, end : int
-        Span of the word in the line.
+        Span of the word in the line (0-based; the column is ``start + 1``).
     """
 
     letter: str
@@ -48,6 +81,12 @@ class Word:
     text: str
     start: int
     end: int
+
+    @property
+    def name(self) -> str:
+        """The word without blanks, upper case, shortened for messages (str)."""
+        text = re.sub(r"[ \t]", "", self.text).upper()
+        return text if len(text) <= 24 else text[:20] + "..."
 
 
 @dataclass
@@ -64,16 +103,69 @@ class Block:
         The words of the line, in order, comments skipped.
     code : str
         The line with its comments blanked out (same spans as ``text``).
+    delete : bool
+        The block starts with a block delete ``/``: the controller skips it when the
+        operator's switch is on.
     """
 
     number: int
     text: str
     words: list[Word]
     code: str
+    delete: bool = False
 
 
-def parse_block(line: str, number: int, source: str) -> Block:
-    """Words of a line, with their spans in the original text (comments skipped).
+def show(text: str) -> str:
+    """A piece of a line for a message: quoted, control and non-ASCII characters named, shortened.
+
+    Parameters
+    ----------
+    text : str
+        The piece.
+
+    Returns
+    -------
+    str
+        E.g. ``'X--5'`` or ``U+2212 ('−')``.
+    """
+    if len(text) == 1 and (not text.isascii() or not text.isprintable()):
+        shown = f" ({text!r})" if text.isprintable() else ""
+        return f"U+{ord(text):04X}{shown}"
+    return repr(text if len(text) <= 24 else text[:20] + "...")
+
+
+def _a(letter: str) -> str:
+    return "an" if letter in "AEFHILMNORSX" else "a"
+
+
+def _where(source: str, number: int, col: int) -> str:
+    return f"{source}:{number}:{col + 1}"
+
+
+def _stray(line: str, i: int, source: str, number: int) -> GcodeError:
+    """The error for a character at ``i`` that does not begin a word."""
+    ch = line[i]
+    where = _where(source, number, i)
+    if ch == "\r":
+        return GcodeError(f"{where}: a carriage return (CR) inside a line; only LF and CR LF end lines")
+    if not ch.isascii():
+        hint = " (write '-' for a minus)" if ch in "\u2212\u2013\u2014\ufe63\uff0d" else ""
+        return GcodeError(f"{where}: cannot read {show(ch)}, which is not an ASCII character{hint}")
+    if ch.isalpha():
+        context = re.match(r"[^ \t]*", line[i:]).group(0)
+        shown = f" ({show(context)})" if len(context) > 1 else ""
+        return GcodeError(f"{where}: '{ch}' is not followed by a number{shown}")
+    if ch in "0123456789+-.":
+        context = re.match(r"[^ \t]*", line[i:]).group(0)
+        return GcodeError(f"{where}: a number without an address letter ({show(context)}); blanks do not join "
+                          "digits")
+    return GcodeError(f"{where}: cannot read {show(ch)}")
+
+
+def mask_comments(line: str, number: int, source: str) -> str:
+    """A line with its comments replaced by blanks (same length and spans).
+
+    Comments are ``( ... )`` (not nested) and ``;`` to the end of the line.
 
     Parameters
     ----------
@@ -86,52 +178,166 @@ def parse_block(line: str, number: int, source: str) -> Block:
 
     Returns
     -------
+    str
+        The code of the line.
+
+    Raises
+    ------
+    GcodeError
+        A comment that is not closed, a ``(`` inside a comment or a ``)`` outside one,
+        naming line and column.
+    """
+    out = list(line)
+    i = 0
+    while i < len(line):
+        ch = line[i]
+        if ch == ";":
+            out[i:] = " " * (len(line) - i)
+            break
+        if ch == ")":
+            raise GcodeError(f"{_where(source, number, i)}: unbalanced parenthesis: ')' without '('")
+        if ch == "(":
+            close = line.find(")", i + 1)
+            if close < 0:
+                raise GcodeError(f"{_where(source, number, i)}: unbalanced parenthesis: the comment opened "
+                                 "here is not closed on its line")
+            inner = line.find("(", i + 1, close)
+            if inner >= 0:
+                raise GcodeError(f"{_where(source, number, inner)}: unbalanced parenthesis: '(' inside a "
+                                 "comment (comments do not nest)")
+            out[i:close + 1] = " " * (close + 1 - i)
+            i = close + 1
+            continue
+        i += 1
+    return "".join(out)
+
+
+def parse_block(line: str, number: int, source: str) -> Block:
+    """Words of a line, with their spans in the original text (comments skipped).
+
+    Parameters
+    ----------
+    line : str
+        The line without its line ending.
+    number : int
+        Its 1-based line number, for messages (a byte order mark may begin line 1).
+    source : str
+        Name of the program, for messages.
+
+    Returns
+    -------
     Block
         The line and its words.
 
     Raises
     ------
     GcodeError
-        Unbalanced parentheses, or text that is not a word (a ``%`` ending the line is allowed).
+        Naming line and column: unbalanced parentheses; a character that is not a blank and
+        not part of a word (an address letter without a number, a second decimal point or
+        sign, an exponent, a non-ASCII character, a CR); a number too large to hold; a ``/``
+        that does not begin the block; a ``%`` that does not begin its line, or text after it.
     """
-    inside = False
-    for ch in line:
-        if ch == ";" and not inside:
+    code = mask_comments(line, number, source)
+    words: list[Word] = []
+    delete = False
+    i = 1 if number == 1 and code.startswith("\ufeff") else 0  # a byte order mark
+    n = len(code)
+    first = True  # nothing but blanks (and comments) read yet
+    while i < n:
+        ch = code[i]
+        if ch in BLANKS:
+            i += 1
+            continue
+        if ch == "/" and first:
+            delete, first = True, False
+            i += 2 if i + 1 < n and code[i + 1] in "123456789" else 1  # /1 ... /9 select a switch
+            continue
+        if ch == "%" and first:
+            m = PERCENT.match(code, i)
+            rest = code[m.end():]
+            if rest.strip(BLANKS):
+                j = m.end() + len(rest) - len(rest.lstrip(BLANKS))
+                raise GcodeError(f"{_where(source, number, j)}: text after '%' (a tape start or end line holds "
+                                 "nothing else)")
             break
-        if ch == "(" and not inside:
-            inside = True
-        elif ch == ")" and inside:
-            inside = False
-        elif ch in "()":
-            inside = None
-            break
-    if inside is not False:
-        raise GcodeError(f"{source}:{number}: unbalanced parenthesis in '{line.strip()}'")
-    masked = list(line)
-    for m in COMMENT.finditer(line):
-        for i in range(m.start(), m.end()):
-            masked[i] = " "
-    code = "".join(masked)
-    words = []
-    pos = 0
-    stripped = code.rstrip()
-    for m in WORD.finditer(code):
-        gap = code[pos:m.start()]
-        if gap.strip():
-            raise GcodeError(f"{source}:{number}: cannot read '{gap.strip()}' in '{line.strip()}'")
-        words.append(Word(m.group(1).upper(), float(m.group(2)), m.group(0), m.start(), m.end()))
-        pos = m.end()
-    rest = code[pos:len(stripped)]
-    if rest.strip() and not rest.strip().startswith("%"):
-        raise GcodeError(f"{source}:{number}: cannot read '{rest.strip()}' in '{line.strip()}'")
-    return Block(number, line, words, code)
+        if ch == "/":
+            raise GcodeError(f"{_where(source, number, i)}: a block delete '/' must begin the block")
+        if ch == "%":
+            raise GcodeError(f"{_where(source, number, i)}: a '%' must stand on its own line")
+        m = WORD.match(code, i)
+        if m is None:
+            raise _stray(code, i, source, number)
+        end = m.end()
+        if end < n and code[end] in ".0123456789":
+            run = re.match(r"[-+.0-9]*", code[end:]).group(0)
+            raise GcodeError(f"{_where(source, number, end)}: {show(m.group(0) + run)} is not a number "
+                             "(a second decimal point?)")
+        if end < n and code[end] in "eE" and re.match(r"[eE][-+]?[0-9]", code[end:end + 3]):
+            exp = re.match(r"[eE][-+]?[0-9]*", code[end:]).group(0)
+            raise GcodeError(f"{_where(source, number, i)}: {show(m.group(0) + exp)}: NC numbers have no "
+                             "exponent; write the value in full")
+        value = float(m.group(2))
+        if not math.isfinite(value):
+            raise GcodeError(f"{_where(source, number, i)}: {show(m.group(0))} is too large a number")
+        words.append(Word(m.group(1).upper(), value, m.group(0), i, end))
+        first = False
+        i = end
+    return Block(number, line, words, code, delete)
+
+
+def check_words(block: Block, source: str) -> None:
+    """Check the words of a block against each other, whatever the machine and the modes.
+
+    Each address appears once (G and M words once per code and group); N begins the block,
+    O stands alone; N, O, M, T, H, D are whole numbers without a sign, and G, F, S have no
+    sign.
+
+    Parameters
+    ----------
+    block : Block
+        The block.
+    source : str
+        Name of the program, for messages.
+
+    Raises
+    ------
+    GcodeError
+        Naming line, column and word: a repeated address, two codes of one group, a
+        misplaced N or O, a code that is not a whole number, a sign where none belongs.
+    """
+    seen: dict[str, Word] = {}
+    groups: dict[tuple[str, str], Word] = {}
+    for k, w in enumerate(block.words):
+        where = _where(source, block.number, w.start)
+        letter = w.letter
+        if letter in WHOLE + UNSIGNED and re.search(r"[-+]", w.text):
+            raise GcodeError(f"{where}: {w.name}: {_a(letter)} {letter} word has no sign")
+        if letter in WHOLE and w.value != int(w.value):
+            raise GcodeError(f"{where}: {w.name}: {_a(letter)} {letter} word is a whole number")
+        if letter == "N" and k > 0:
+            raise GcodeError(f"{where}: {w.name}: a sequence number begins its block")
+        if letter == "O" and (k > 0 or len(block.words) > 1):
+            raise GcodeError(f"{where}: {w.name}: a program number stands alone on its line")
+        if letter in "GM":
+            table = G_GROUPS if letter == "G" else M_GROUPS
+            key = (letter, table.get(w.value, f"{w.value!r}"))  # an unknown code is its own group
+            other = groups.get(key)
+            if other is not None and other.value == w.value:
+                raise GcodeError(f"{where}: {w.name} appears twice in the block")
+            if other is not None and {other.value, w.value} != {7, 8}:
+                raise GcodeError(f"{where}: {other.name} and {w.name} in one block: both are {key[1]} codes")
+            groups[key] = w
+            continue
+        if letter in seen:
+            raise GcodeError(f"{where}: {letter} appears twice in the block ({seen[letter].name} and {w.name})")
+        seen[letter] = w
 
 
 def split_lines(text: str) -> list[tuple[str, str]]:
     """The lines of a program with their endings.
 
-    Only LF and CR LF end a line (a form feed or other Unicode line separators inside a
-    block stay part of it).
+    Only LF and CR LF end a line (a lone CR or other Unicode line separators inside a
+    block stay part of it, and :func:`parse_block` refuses them).
 
     Parameters
     ----------
@@ -182,6 +388,32 @@ def word_values(code: str) -> list[tuple[str, float]]:
     Returns
     -------
     list of (str, float)
-        (letter, value) per word, in order.
+        (letter, value) per word, in order; numbers too large to hold are left out.
     """
-    return [(m.group(1).upper(), float(m.group(2))) for m in WORD.finditer(code)]
+    out = []
+    for m in WORD.finditer(code):
+        value = float(m.group(2))
+        if math.isfinite(value):
+            out.append((m.group(1).upper(), value))
+    return out
+
+
+def macro_statement(code: str) -> str | None:
+    """What makes a line a macro statement, if anything.
+
+    Parameters
+    ----------
+    code : str
+        The line with its comments blanked out.
+
+    Returns
+    -------
+    str or None
+        ``"a macro variable (#)"``, ``"a macro statement (IF)"`` ...; None for a plain block.
+    """
+    if "#" in code:
+        return "a macro variable (#)"
+    keyword = MACRO.search(code.upper())
+    if keyword:
+        return f"a macro statement ({keyword.group(1)})"
+    return None

@@ -7,11 +7,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..compensate import Arc, PathCompensator
+from ..compensate import Arc, PathCompensator, Piece, arc_from_center
 from ..errors import InputError
 from ..machine import Machine
-from .lexer import CENTRE, LATE_M, PLANES, WORK_OFFSETS, Block, GcodeError, Word, parse_block, split_lines
-from .modal import Interpreter, check_axes
+from ..units import INCH, MM
+from .lexer import CENTRE, LATE_M, PLANES, WORK_OFFSETS, Block, GcodeError, Word, split_lines
+from .modal import ARC_SLACK, Interpreter, check_axes, centre_from_radius
+
+#: the finest tolerance taken [um]: the point compensation itself stops at 0.01 um, and the
+#: written numbers resolve 0.05 um
+MIN_TOL_UM = 0.01
+#: digits a written number may have (controllers read nine: 99999.9999 mm)
+MAX_DIGITS = 9
 
 
 @dataclass
@@ -112,21 +119,26 @@ class Program:
     Raises
     ------
     GcodeError
-        An axis that is not an NC address letter, a tolerance that is not positive, or an
-        invalid ``origin``.
+        An axis that is not an NC address letter, a tolerance that is not finite or finer
+        than :data:`MIN_TOL_UM`, a ``tol_urad`` that is not positive and finite, or an
+        invalid ``start`` or ``origin``.
     """
 
     def __init__(self, machine: Machine, tol_um: float = 1.0, pass_through: bool = False,
                  start=None, method: str = "newton", source: str = "<program>", tol_urad: float | None = None,
                  origin=None):
         check_axes(machine)  # the machine is reported before the tolerance
-        if not tol_um > 0:
-            raise GcodeError(f"the tolerance must be positive, got {tol_um} um")
+        if not (math.isfinite(tol_um) and tol_um >= MIN_TOL_UM):
+            raise GcodeError(f"tol_um must be finite and at least {MIN_TOL_UM:g} um (what the point compensation "
+                             f"resolves), got {tol_um}", parameters=("tol_um",))
+        if tol_urad is not None and not (math.isfinite(tol_urad) and tol_urad > 0):
+            raise GcodeError(f"tol_urad must be positive and finite, got {tol_urad}", parameters=("tol_urad",))
         self.reader = Interpreter(machine, source=source, start=start, origin=origin)
         # the written numbers are rounded (0.05 um per linear axis at most): the paths are
         # compensated to the tolerance less that margin, so the program as written meets it
         rounding = 0.05 * math.sqrt(sum(self.reader.linear))
         margin = min(rounding, 0.5 * tol_um)
+        self.margin = margin * 1e-6
         self.tol_urad = 10.0 * tol_um if tol_urad is None else tol_urad
         inner_urad = None if tol_urad is None else tol_urad * (tol_um - margin) / tol_um
         self.comp = PathCompensator(machine, tol_um=tol_um - margin, method=method, tol_urad=inner_urad)
@@ -198,42 +210,37 @@ class Program:
         for number, (body, newline) in enumerate(split_lines(text), start=1):
             raw = body + newline
             self.report.blocks_in += 1
-            problem = reader.unsupported(body, state)
+            block, problem = reader.classify(body, number, state)
             if problem:
                 if not self.pass_through:
                     raise GcodeError(f"{source}:{number}: {problem} cannot be compensated "
                                      "(pass_through keeps it unchanged)", parameters=("pass_through",))
-                self.report.warnings.append(f"line {number}: {problem} kept unchanged")
+                self.report.warnings.append(
+                    f"line {number}: {problem} kept unchanged" +
+                    ("; if it sets a mode, the blocks after it are misread" if problem.modes_unknown else ""))
                 entries.append(("raw", raw, newline))
-                reader.skip(body, state)
+                reader.skip(body, state, block, number)
                 continue
-            block = parse_block(body, number, source)
-            for w in block.words:
-                if w.letter == "G" and w.value in WORK_OFFSETS and "offset" not in noted and not reader.origin.any():
-                    noted.add("offset")
-                    self.report.warnings.append(
-                        f"line {number}: work offset G{w.value:g}: program coordinates are taken as axis "
-                        "positions (give the work offset as the program origin, in mm / deg)")
-                if w.letter == "G" and w.value == 43 and "g43" not in noted:
-                    noted.add("g43")
-                    self.report.warnings.append(
-                        f"line {number}: G43 tool length offset: the errors are those of the model's tool "
-                        "point; a different tool length changes the angular errors' lever arms")
+            self._note_offsets(block, noted)
+            lost = state.lost
             move = reader.advance(block, state)
             if move is None:
                 entries.append(("plain", block, newline))
                 continue
             kind = move.motion
             if not move.start_known.all():
-                missing = [a for a, k in zip(reader.axes, move.start_known) if not k]
+                missing = ", ".join(a for a, k in zip(reader.axes, move.start_known) if not k)
+                why = f"axes {missing} not known since {lost}" if lost else f"axes {missing} not yet programmed"
                 if move.motion in (2, 3):
-                    raise GcodeError(f"{source}:{number}: an arc from an unknown position (axes "
-                                     f"{', '.join(missing)} not yet programmed); move every axis to a known "
-                                     "point with G0 or G1 first")
-                self.report.warnings.append(
-                    f"line {number}: the position before this move is not known (axes {', '.join(missing)} "
-                    "not yet programmed); it is compensated at its end point only" +
-                    (", taking the unprogrammed axes at mid-travel" if not state.known.all() else ""))
+                    raise GcodeError(f"{source}:{number}: an arc from an unknown position ({why}); move every "
+                                     "axis to a known point with G0 or G1 first")
+                rest = ""
+                if not state.known.all():
+                    rest = (", taking the axes it does not name where they were last programmed" if lost else
+                            ", taking the unprogrammed axes at " +
+                            ("the start position given" if reader.start_given else "mid-travel"))
+                self.report.warnings.append(f"line {number}: the position before this move is not known ({why}); "
+                                            f"it is compensated at its end point only{rest}")
                 kind = 0
             arc = None
             if kind in (2, 3):
@@ -245,7 +252,24 @@ class Program:
                      "all_known": bool(state.known.all())}
             entries.append(("move", block, newline,
                             _Move(kind, move.motion, move.start, move.target, arc, move.coord_words, modes, number)))
+        self.report.warnings.extend(reader.warnings)
         return entries
+
+    def _note_offsets(self, block: Block, noted: set) -> None:
+        """Warn (once) of work and tool offsets, which the model does not know."""
+        for w in block.words:
+            if (w.letter == "G" and w.value in WORK_OFFSETS and "offset" not in noted
+                    and not self.reader.origin.any()):
+                noted.add("offset")
+                self.report.warnings.append(
+                    f"line {block.number}: work offset G{w.value:g}: program coordinates are taken as axis "
+                    "positions (give the work offset as the program origin, in mm / deg)")
+            if ((w.letter == "G" and w.value in (43, 44)) or w.letter in "HD") and "tool" not in noted:
+                noted.add("tool")
+                what = f"G{w.value:g} tool length offset" if w.letter == "G" else f"tool offset word {w.name}"
+                self.report.warnings.append(
+                    f"line {block.number}: {what}: the errors are those of the model's tool point; a "
+                    "different tool length changes the angular errors' lever arms")
 
     def _compensate_moves(self, moves: list[_Move], progress=None) -> list:
         if not moves:
@@ -307,45 +331,169 @@ class Program:
     # ``st`` below is the output state: the modes the block is written in ("absolute",
     # "inch", "plane", "all_known") and the output's modal motion ("out_motion", updated)
     def _write(self, block: Block, newline: str, mv: _Move, result, st: dict) -> list[str]:
-        self.report.pieces += len(result.pieces)
-        self.report.detail.append((block.number, len(result.pieces), result.max_before * 1e6,
-                                   result.max_residual * 1e6))
-        self.report.max_residual_um = max(self.report.max_residual_um, result.max_residual * 1e6)
+        forms = self._forms(block, st) if mv.kind in (2, 3) else set()
+        pieces = self._writable(result.pieces, st, forms)
+        max_residual = max(p.residual for p in pieces)
+        self.report.pieces += len(pieces)
+        self.report.detail.append((block.number, len(pieces), result.max_before * 1e6, max_residual * 1e6))
+        self.report.max_residual_um = max(self.report.max_residual_um, max_residual * 1e6)
         self.report.max_before_um = max(self.report.max_before_um, result.max_before * 1e6)
         if result.limited:
             what = (f"{self.report.tolerance_um:g} um / {self.tol_urad:g} urad" if self.comp.orientation
                     else f"{self.report.tolerance_um:g} um")
             self.report.warnings.append(
-                f"line {block.number}: the residual stays at {result.max_residual * 1e6:.2f} um "
+                f"line {block.number}: the residual stays at {max_residual * 1e6:.2f} um "
                 f"(tolerance {what}); no command reaches the desired pose there (singular pose of "
                 "the rotary axes, or an error the axes cannot undo)")
-        outside = self._outside(np.array([p.end for p in result.pieces]))
+        outside = self._outside(np.array([p.end for p in pieces]))
         if outside:
             self.report.warnings.append(f"line {block.number}: the compensated command leaves the travel "
                                         f"({outside}); check the machine's soft limits")
         if mv.kind in (2, 3):
-            if all(p.kind == "arc" for p in result.pieces):
+            if all(p.kind == "arc" for p in pieces):
                 self.report.arcs_kept += 1
             else:
                 self.report.arcs_as_lines += 1
         # the original block carries the first piece (so its F, S, T, M and modal words act
         # where they did); the further pieces follow as new blocks with explicit G words, and
         # M codes that act at the end of the move (M0, M1, M2, M5, M9, M30) move to the last
-        late = [w for w in block.words if w.letter == "M" and w.value in LATE_M] if len(result.pieces) > 1 else []
+        late = [w for w in block.words if w.letter == "M" and w.value in LATE_M] if len(pieces) > 1 else []
         eol = newline if newline else self._eol
-        prev = result.pieces[0].start
-        first = self._rewrite(block, result.pieces[0], prev, st, mv.motion, mv.coord_words, drop=late,
+        prev = pieces[0].start
+        first = self._rewrite(block, pieces[0], prev, st, mv.motion, mv.coord_words, drop=late,
                               append_missing=st["all_known"])
-        lines = [first + (eol if len(result.pieces) > 1 else newline)]
-        prev = result.pieces[0].end
-        for n, piece in enumerate(result.pieces[1:], start=2):
+        lines = [first + (eol if len(pieces) > 1 else newline)]
+        prev = pieces[0].end
+        for n, piece in enumerate(pieces[1:], start=2):
             text = self._new_line(piece, prev, st, mv.motion)
-            if n == len(result.pieces):
+            if n == len(pieces):
                 lines.append(text + "".join(" " + w.text for w in late) + newline)
             else:
                 lines.append(text + eol)
             prev = piece.end
         return lines
+
+    # arcs as written ------------------------------------------------------------
+    # The numbers of an arc block are rounded like every other; a small arc's centre words
+    # can round to zero, or to a centre whose circle misses the written end points, or turn
+    # a short arc into nearly a full circle. Every arc piece is read back from its written
+    # numbers, as a controller reads it, and one whose path leaves the piece's by more than
+    # the tolerance allows is written as straight pieces instead.
+    @staticmethod
+    def _forms(block: Block, st: dict) -> set:
+        """The centre forms an arc block is written in: "ijk" (centre offsets), "r" (radius)."""
+        plane = PLANES[st["plane"]]
+        letters = {w.letter for w in block.words}
+        forms = {"r"} if "R" in letters else set()
+        if letters & {CENTRE[plane[0]], CENTRE[plane[1]]}:
+            forms.add("ijk")
+        return forms
+
+    def _written(self, q: np.ndarray, inch: bool) -> np.ndarray:
+        """Axis positions [m, rad] as the written (rounded) program numbers give them back."""
+        reader = self.reader
+        out = np.array(q, dtype=float)
+        for j, axis in enumerate(reader.axes):
+            v = round(reader.from_si(axis, q[j] - reader.origin[j], inch), self._digits(axis, inch))
+            out[j] = reader.to_si(axis, v, inch) + reader.origin[j]
+        return out
+
+    def _centre_values(self, piece, prev, st: dict, forms: set) -> dict[str, float]:
+        """The centre words of an arc piece, rounded as written: offsets from the written
+        start, and a radius that puts the centre where it is."""
+        reader, inch = self.reader, st["inch"]
+        plane = PLANES[st["plane"]]
+        i, j = reader.axes.index(plane[0]), reader.axes.index(plane[1])
+        d = self._digits(plane[0], inch)
+        s = self._written(prev, inch)
+        out = {}
+        if "ijk" in forms:
+            for axis, c, p in ((plane[0], piece.center[0], s[i]), (plane[1], piece.center[1], s[j])):
+                out[CENTRE[axis]] = round(reader.from_si(axis, c - p, inch), d)
+        if "r" in forms:
+            e = self._written(piece.end, inch)
+            r = 0.5 * (math.hypot(s[i] - piece.center[0], s[j] - piece.center[1]) +
+                       math.hypot(e[i] - piece.center[0], e[j] - piece.center[1]))
+            out["R"] = round(reader.from_si(plane[0], -r if abs(piece.turns) > math.pi else r, inch), d)
+        return out
+
+    def _piece_points(self, piece, plane: tuple[int, int], u: np.ndarray) -> np.ndarray:
+        """Points of an arc piece's commanded path at fractions ``u``, shape (len(u), n_axes)."""
+        i, j = plane
+        c = piece.center
+        a0 = math.atan2(piece.start[j] - c[1], piece.start[i] - c[0])
+        r = math.hypot(piece.start[i] - c[0], piece.start[j] - c[1])
+        out = piece.start + np.outer(u, piece.end - piece.start)
+        out[:, i] = c[0] + r * np.cos(a0 + u * piece.turns)
+        out[:, j] = c[1] + r * np.sin(a0 + u * piece.turns)
+        return out
+
+    def _arc_error(self, piece, prev, st: dict, forms: set) -> float:
+        """How far the arc a controller reads from a piece's written numbers leaves the
+        piece's path [m] (inf if the numbers define no arc, or have too many digits)."""
+        reader, inch = self.reader, st["inch"]
+        plane = PLANES[st["plane"]]
+        i, j, k = (reader.axes.index(a) for a in plane)
+        vals = self._centre_values(piece, prev, st, forms)
+        if any(abs(v) >= 10.0 ** (MAX_DIGITS - self._digits(plane[0], inch)) for v in vals.values()):
+            return math.inf
+        scale = INCH if inch else MM
+        s, e = self._written(prev, inch), self._written(piece.end, inch)
+        centre = None
+        if "ijk" in forms:
+            offset = np.array([vals[CENTRE[plane[0]]], vals[CENTRE[plane[1]]]]) * scale
+            if math.hypot(*offset) <= ARC_SLACK:
+                return math.inf
+            centre = s[[i, j]] + offset
+        if "r" in forms:
+            r = vals["R"] * scale
+            from_r = None if abs(r) <= ARC_SLACK else centre_from_radius(s[[i, j]], e[[i, j]], r, piece.clockwise)
+            if from_r is None or (centre is not None and math.hypot(*(from_r - centre)) > ARC_SLACK):
+                return math.inf
+            centre = from_r if centre is None else centre
+        try:
+            arc = arc_from_center(s, e, centre, (i, j, k), piece.clockwise)
+        except InputError:
+            return math.inf
+        if abs(arc.sweep - piece.turns) > math.pi / 2:
+            return math.inf  # read as (nearly) the rest of the circle
+        u = np.linspace(0.0, 1.0, 17)
+        linear = np.array(reader.linear)
+        gap = arc.point(u)[:, linear] - self._piece_points(piece, (i, j), u)[:, linear]
+        return float(np.linalg.norm(gap, axis=1).max())
+
+    def _writable(self, pieces: list, st: dict, forms: set) -> list:
+        """The pieces of a move with every arc the written numbers cannot hold within the
+        tolerance replaced by straight pieces (chords) along it."""
+        tol = self.report.tolerance_um * 1e-6
+        out = []
+        prev = pieces[0].start
+        for n, piece in enumerate(pieces):
+            # the original block keeps its centre form; inserted blocks use I/J/K
+            piece_forms = (forms or {"ijk"}) if n == 0 else {"ijk"}
+            if piece.kind == "arc" and self._arc_error(piece, prev, st, piece_forms) > max(tol - piece.residual,
+                                                                                          self.margin):
+                out.extend(self._chords(piece, st, tol))
+            else:
+                out.append(piece)
+            prev = piece.end
+        return out
+
+    def _chords(self, piece, st: dict, tol: float) -> list:
+        """An arc piece as straight pieces whose sagitta keeps the tolerance."""
+        plane = PLANES[st["plane"]]
+        i, j = self.reader.axes.index(plane[0]), self.reader.axes.index(plane[1])
+        r = math.hypot(piece.start[i] - piece.center[0], piece.start[j] - piece.center[1])
+        sweep = abs(piece.turns)
+        allowed = max(tol - piece.residual - self.margin, 0.25 * self.margin)
+        n = 1 if r <= allowed else max(1, math.ceil(sweep / (2 * math.acos(1 - allowed / r))))
+        u = np.linspace(0.0, 1.0, n + 1)
+        points = self._piece_points(piece, (i, j), u)
+        points[0], points[-1] = piece.start, piece.end
+        sagitta = r * (1 - math.cos(sweep / (2 * n)))
+        ks = piece.k0 + u * (piece.k1 - piece.k0)
+        return [Piece("line", points[m], points[m + 1], residual=piece.residual + sagitta, k0=ks[m], k1=ks[m + 1],
+                      limited=piece.limited) for m in range(n)]
 
     @staticmethod
     def _g_of(piece, motion: int) -> int:
@@ -377,25 +525,17 @@ class Program:
             vals[axis] = self._fmt(axis, end, st["inch"])
         return vals
 
-    def _centre_words(self, piece, prev, st: dict, radius_form: bool) -> list[str]:
-        reader = self.reader
+    def _centre_words(self, piece, prev, st: dict, forms: set) -> list[str]:
         plane = PLANES[st["plane"]]
-        i, j = reader.axes.index(plane[0]), reader.axes.index(plane[1])
-        if radius_form:
-            r = math.hypot(prev[i] - piece.center[0], prev[j] - piece.center[1])
-            r = -r if abs(piece.turns) > math.pi else r
-            return [f"R{self._fmt(plane[0], reader.from_si(plane[0], r, st['inch']), st['inch'])}"]
-        out = []
-        for axis, c, p in ((plane[0], piece.center[0], prev[i]), (plane[1], piece.center[1], prev[j])):
-            out.append(f"{CENTRE[axis]}{self._fmt(axis, reader.from_si(axis, c - p, st['inch']), st['inch'])}")
-        return out
+        return [f"{letter}{self._fmt(plane[0], value, st['inch'])}"
+                for letter, value in self._centre_values(piece, prev, st, forms).items()]
 
     def _new_line(self, piece, prev, st: dict, motion: int) -> str:
         vals = self._values(piece, prev, st)
         g = self._g_of(piece, motion)
         words = [f"G{g}"] + [f"{a}{vals[a]}" for a in self.reader.axes]
         if piece.kind == "arc":
-            words += self._centre_words(piece, prev, st, False)
+            words += self._centre_words(piece, prev, st, {"ijk"})
         st["out_motion"] = g
         return " ".join(words)
 
@@ -409,7 +549,8 @@ class Program:
         their separating space); ``append_missing`` false while some axes' positions are
         still unknown (those axes are not commanded)."""
         vals = self._values(piece, prev, st)
-        edits = [(w.start, w.end, f"{w.letter}{vals[w.letter]}") for w in coord_words]
+        # a word keeps the case its letter is written in
+        edits = [(w.start, w.end, f"{block.text[w.start]}{vals[w.letter]}") for w in coord_words]
         present = {w.letter for w in coord_words}
         extra = [f"{a}{vals[a]}" for a in self.reader.axes if a not in present] if append_missing else []
 
@@ -436,13 +577,12 @@ class Program:
             plane = PLANES[st["plane"]]
             letters = (CENTRE[plane[0]], CENTRE[plane[1]], "R")
             centre_words = [w for w in block.words if w.letter in letters]
-            radius_form = any(w.letter == "R" for w in centre_words)
-            new = ({t[0]: t for t in self._centre_words(piece, prev, st, radius_form)}
+            new = ({t[0]: t for t in self._centre_words(piece, prev, st, self._forms(block, st))}
                    if piece.kind == "arc" else {})
             for w in centre_words:
                 replacement = new.pop(w.letter, "")
                 if replacement:
-                    edits.append((w.start, w.end, replacement))
+                    edits.append((w.start, w.end, block.text[w.start] + replacement[1:]))
                 else:
                     remove(w)
             for w in block.words:  # turns (P): every piece is less than a quarter turn
