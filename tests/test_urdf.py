@@ -124,7 +124,7 @@ def test_injected_urdf_round_trips_through_yourdfpy_and_pinocchio(machines, tmp_
 
 def test_injected_urdf_keeps_visuals_and_names_error_joints(machines):
     text = machines["vmc500"].injected_urdf()
-    assert text.count("<visual>") == parse_urdf(open(machines["vmc500"].spec.urdf, "rb").read()).to_string().count("<visual>")
+    assert text.count("<visual>") == parse_urdf(machines["vmc500"].spec.urdf.read_bytes()).to_string().count("<visual>")
     for name in ("EXX", "EYX", "ECZ", "EC0Y", "EA0Z"):
         assert f'<joint name="{name}"' in text
 
