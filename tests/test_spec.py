@@ -379,3 +379,19 @@ def test_toml_nested_beyond_the_recursion_limit_is_one_error(vmc500_copy):
     edit(vmc500_copy, "format = 1", "format = 1\ndeep = " + "[" * 5000 + "]" * 5000)
     with pytest.raises(vp.SpecError, match=r"errors\.toml: invalid TOML: arrays or tables nested too deeply"):
         vp.load_machine(vmc500_copy)
+
+
+@pytest.mark.parametrize("new, match", [
+    ('urdf = {package = 5, path = "x.urdf"}', r"machine\.urdf: package and path must be non-empty strings"),
+    ('urdf = {package = "example-robot-data", path = ["x"]}', r"machine\.urdf: package and path must be"),
+    ('urdf = {package = "example-robot-data", path = ""}', r"machine\.urdf: package and path must be"),
+    ('urdf = {package = "example-robot-data", path = "5_robot.urdf"}',
+     r"machine\.urdf: package 'example-robot-data' has no file '5_robot\.urdf'"),
+    ('urdf = ""', r"machine\.urdf: empty path"),
+])
+def test_the_urdf_reference_is_checked(vmc500_copy, new, match):
+    """A path suffix matched any file ending in it ('5_robot.urdf' found 'ur5_robot.urdf');
+    non-strings crashed."""
+    edit(vmc500_copy, 'urdf = "vmc500.urdf"', new)
+    with pytest.raises(vp.SpecError, match=match):
+        vp.load_machine(vmc500_copy)

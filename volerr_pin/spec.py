@@ -242,18 +242,28 @@ def resolve_urdf(value: Any, base: Path, where: str) -> Path:
     """A spec's ``urdf``: a path relative to the spec, or ``{package=..., path=...}``
     naming a file inside an installed distribution (e.g. example-robot-data)."""
     if isinstance(value, str):
+        if not value.strip():
+            raise SpecError(f"{where}: empty path")
         return (base / value).resolve()
     if isinstance(value, dict) and set(value) == {"package", "path"}:
         from importlib import metadata
 
+        package, wanted = value["package"], value["path"]
+        if not isinstance(package, str) or not isinstance(wanted, str) or not package or not wanted.strip("/"):
+            raise SpecError(f"{where}: package and path must be non-empty strings, got {value!r}")
         try:
-            dist = metadata.distribution(value["package"])
+            dist = metadata.distribution(package)
         except metadata.PackageNotFoundError:
-            raise SpecError(f"{where}: package '{value['package']}' is not installed") from None
-        for file in dist.files or ():
-            if str(file).replace("\\", "/").endswith(value["path"]):
-                return Path(dist.locate_file(file)).resolve()
-        raise SpecError(f"{where}: package '{value['package']}' has no file '{value['path']}'")
+            raise SpecError(f"{where}: package '{package}' is not installed") from None
+        wanted = wanted.strip("/")
+        found = [file for file in dist.files or ()
+                 if (name := str(file).replace("\\", "/")) == wanted or name.endswith("/" + wanted)]
+        if len(found) > 1:
+            raise SpecError(f"{where}: package '{package}' has {len(found)} files '{wanted}' ({found[0]}, "
+                            f"{found[1]}); give more of the path")
+        if found:
+            return Path(dist.locate_file(found[0])).resolve()
+        raise SpecError(f"{where}: package '{package}' has no file '{wanted}'")
     raise SpecError(f"{where}: expected a path or {{package = ..., path = ...}}, got {value!r}")
 
 
