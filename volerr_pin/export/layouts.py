@@ -11,7 +11,7 @@ import numpy as np
 
 from ..errors import InputError, SpecError
 from ..machine import Machine
-from .tables import Table
+from .tables import Table, fixed
 from .zone import Zone, node_positions
 
 __all__ = ["best_masters", "check_count", "cross_table", "explained_scores", "fixed", "linear_xyz",
@@ -260,27 +260,3 @@ def best_masters(machine: Machine, zone: Zone, slaves: list[int], candidates: li
         if ranked:
             out[s] = ranked[-1][1]
     return out
-
-
-def fixed(value: float, digits: int, plus: bool = False) -> str:
-    """``value`` with ``digits`` decimals, never ``-0.000`` (a rounded zero is written unsigned,
-    or ``+0.000`` with ``plus``).
-
-    Parameters
-    ----------
-    value : float
-        The number.
-    digits : int
-        Decimals.
-    plus : bool, default False
-        Always write the sign.
-
-    Returns
-    -------
-    str
-        The text.
-    """
-    value = float(value)
-    if round(value, digits) == 0.0:
-        value = 0.0
-    return f"{value:+.{digits}f}" if plus else f"{value:.{digits}f}"

@@ -60,6 +60,8 @@ class ExportResult:
         Points whose every tabulated axis sits on a table node.
     node_after, node_exact : ndarray, shape (M, 3)
         Residuals there with the files and with exact compensation [m].
+    notes : list of str
+        Facts about the layout (which master each cross table reads, tables left out).
     files : list of str
         The files written (paths), once :func:`write_export` ran.
     """
@@ -79,6 +81,7 @@ class ExportResult:
     node_points: Points
     node_after: np.ndarray
     node_exact: np.ndarray
+    notes: list[str] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
 
     @property
@@ -115,7 +118,7 @@ class ExportResult:
             "node_points": len(self.node_points), "node_residual_max_um": s["node"].max_um,
             "node_exact_residual_max_um": s["node_exact"].max_um,
             "tables": self.compensation.describe(machine),
-            "notes": list(getattr(self.compensation, "notes", ())),
+            "notes": list(self.notes),
             "read_back": True,
         }
 
@@ -248,7 +251,7 @@ def export_tables(machine: Machine, controller: str | ControllerFormat, folder: 
     result = ExportResult(machine, fmt, kind, zone, back, naive, texts, evaluation,
                           residuals(machine, None, evaluation), residuals(machine, back, evaluation),
                           residuals(machine, naive, evaluation), exact, at_nodes,
-                          residuals(machine, back, at_nodes), node_exact)
+                          residuals(machine, back, at_nodes), node_exact, list(meant.notes))
     if folder is not None:
         with transaction() as tx:
             write_export(result, folder, tx)

@@ -23,7 +23,7 @@ import scipy.sparse as sp
 from ..errors import InputError
 from ..machine import Machine
 
-__all__ = ["SetpointTables", "Table", "interpolation_weights", "quantised"]
+__all__ = ["SetpointTables", "Table", "fixed", "interpolation_weights", "quantised"]
 
 
 def interpolation_weights(nodes: np.ndarray, x: np.ndarray, step: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -336,7 +336,13 @@ class SetpointTables:
 
     def contents(self) -> tuple:
         """Everything the files say about the tables, values included: for comparing what was
-        written with what was read back (nested tuples of ints, bools and arrays, SI)."""
+        written with what was read back.
+
+        Returns
+        -------
+        tuple
+            Per table: output, inputs, directional, only, step, nodes and values (SI).
+        """
         return tuple((t.output, t.inputs, t.directional, t.only, t.step, t.nodes, t.values) for t in self.tables)
 
     def axis_nodes(self) -> list[np.ndarray | None]:
@@ -374,8 +380,8 @@ class SetpointTables:
             kind = " per direction" if t.directional else f" (only moving {'+' if t.only > 0 else '-'})" \
                 if t.only else ""
             unit, scale = ("um", 1e6) if machine.axis_kinds[t.output] == "linear" else ("arcsec", 206264.80624709636)
-            lines.append(f"{t.label}: {nodes} nodes{kind}, corrections {t.values.min() * scale:+.3f} .. "
-                         f"{t.values.max() * scale:+.3f} {unit}")
+            lines.append(f"{t.label}: {nodes} nodes{kind}, corrections {fixed(t.values.min() * scale, 3, True)} .. "
+                         f"{fixed(t.values.max() * scale, 3, True)} {unit}")
         return lines
 
 
@@ -439,3 +445,27 @@ def quantised(values: np.ndarray, unit: float) -> np.ndarray:
     """
     counts = np.asarray(values, dtype=float) / unit
     return np.sign(counts) * np.floor(np.abs(counts) + 0.5) * unit
+
+
+def fixed(value: float, digits: int, plus: bool = False) -> str:
+    """``value`` with ``digits`` decimals, never ``-0.000`` (a rounded zero is written unsigned,
+    or ``+0.000`` with ``plus``).
+
+    Parameters
+    ----------
+    value : float
+        The number.
+    digits : int
+        Decimals.
+    plus : bool, default False
+        Always write the sign.
+
+    Returns
+    -------
+    str
+        The text.
+    """
+    value = float(value)
+    if round(value, digits) == 0.0:
+        value = 0.0
+    return f"{value:+.{digits}f}" if plus else f"{value:.{digits}f}"
