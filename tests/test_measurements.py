@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 
 import numpy as np
 import pytest
@@ -395,3 +396,34 @@ def test_a_header_of_many_columns_is_checked_in_linear_time(tmp_path, machines):
     names = ",".join(f"c{i}" for i in range(100_000))
     with pytest.raises(MeasurementError, match=r"d\.csv:1:100005: duplicate column 'c0'"):
         read_points(write(tmp_path, f"x,y,z,dx,{names},c0\n"), machines["vmc500"])
+
+
+def test_identify_on_a_deviation_of_1e300_writes_nothing_and_names_the_cell(tmp_path, capsys):
+    """Issue 22: one deviation of 1e300 um gave a spec with a coefficient of 1e296."""
+    from volerr_pin.cli import main
+
+    rows = "".join(f"{x},{y},{z},0.5,0.2,-0.1\n" for x, y, z in ((100, 100, 100), (400, 300, 50), (250, 50, 350),
+                                                                   (50, 350, 200)))
+    path = write(tmp_path, "x,y,z,dx,dy,dz\n" + rows + "300,200,100,1e300,0,0\n")
+    out = tmp_path / "fitted.toml"
+    assert main(["identify", "vmc500", str(path), "--folds", "0", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and re.search(r"d\.csv:6:4: column 'dx': 1e\+300 um is implausible", err)
+    assert not out.exists()
+
+
+def test_the_documented_plausibility_limits_are_the_ones_applied():
+    """docs/measurements.md states each limit; a change of one without the other fails here."""
+    from pathlib import Path
+
+    from volerr_pin.units import DEG, PLAUSIBLE
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "measurements.md").read_text()
+    section = doc[doc.index("### Plausibility limits"):doc.index("## Point measurements")]
+    stated = {"error_length": ("1 m (1e6 um)", 1.0), "error_angle": ("1 rad (206,265 arcsec)", 1.0),
+              "position_length": ("1 km (1e6 mm)", 1e3), "position_angle": ("1e7 deg", 1e7 * DEG),
+              "time": ("1e10 s", 1e10), "force": ("10 MN (1e7 N)", 1e7), "reading": ("| 1e15 |", 1e15)}
+    for kind, (text, limit) in stated.items():
+        assert text in section, text
+        assert PLAUSIBLE[kind] == (-limit, limit), kind
+    assert "below -273.15 degC or above 1000 degC" in section and PLAUSIBLE["temperature"] == (-273.15, 1000.0)
