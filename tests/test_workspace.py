@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
-from volerr_pin.workspace import error_summary, from_engineering, grid, sample, to_engineering
+import volerr_pin as vp
+from volerr_pin.workspace import (error_summary, evaluate_field, field_grid, from_engineering, grid, nice_scale, sample,
+                                  to_engineering)
 
 
 def test_grid_covers_travel_corners(machines):
@@ -38,3 +41,47 @@ def test_engineering_units_round_trip(machines):
     q = sample(m, 10)
     np.testing.assert_allclose(from_engineering(m, to_engineering(m, q)), q, rtol=1e-15)
     assert to_engineering(m, [[1.0, 0, 0, np.pi, 0]])[0, 3] == 180.0
+
+
+# ------------------------------------------------------------------ bad or extreme inputs
+@pytest.mark.parametrize("call, match, parameter", [
+    (lambda m: grid(m, (3, 2.5, 4)), r"points_per_axis must be whole numbers >= 1, got \(3, 2.5, 4\)", "points_per_axis"),
+    (lambda m: grid(m, 0), "points_per_axis must be a whole number >= 1, got 0", "points_per_axis"),
+    (lambda m: grid(m, (3, 3)), "points_per_axis: give 1 or 3 counts", "points_per_axis"),
+    (lambda m: grid(m, 100_000), r"a grid of 100000 x 100000 x 100000 = 1,000,000,000,000,000 points needs about",
+     "points_per_axis"),
+    (lambda m: sample(m, 0), "points must be >= 1, got 0", "points"),
+    (lambda m: sample(m, 10**12), "a sample of 1,000,000,000,000 positions needs about", "points"),
+    (lambda m: sample(m, 10, seed=-1), "seed must be >= 0, got -1", "seed"),
+    (lambda m: field_grid(m, [1000]), r"a field grid of 1000 x 1000 x 1000 = 1,000,000,000 points needs about .* "
+                                      r"of memory, more than this machine can spare", "counts"),
+    (lambda m: field_grid(m, [0]), "counts must be whole numbers >= 1", "counts"),
+    (lambda m: field_grid(m, [4.5]), "counts must be whole numbers >= 1", "counts"),
+    (lambda m: error_summary(m, np.zeros((0, 3))), "q holds no points", "q"),
+    (lambda m: evaluate_field(m, np.zeros((0, 3))), "q holds no points", "q"),
+])
+def test_bad_counts_and_sizes_are_refused_naming_them(machines, monkeypatch, call, match, parameter):
+    """volerr field --grid 1000 gave a MemoryError traceback: sizes are checked against the free
+    memory (here 1 GB) before anything is allocated, naming the parameter that sets them."""
+    import volerr_pin.safeio as safeio
+
+    monkeypatch.setattr(safeio, "available_memory", lambda: 1_000_000_000)
+    with pytest.raises(vp.InputError, match=match) as err:
+        call(machines["vmc500"])
+    assert err.value.parameters == (parameter,)
+
+
+def test_a_machine_without_linear_axes_sizes_its_field_by_points(machines, monkeypatch):
+    import volerr_pin.safeio as safeio
+
+    monkeypatch.setattr(safeio, "available_memory", lambda: 1_000_000_000)
+    m = machines["ur5"]
+    assert field_grid(m, points=10).shape == (10, len(m.axes))
+    with pytest.raises(vp.InputError, match="a field of 1,000,000,000 configurations needs") as err:
+        field_grid(m, points=10**9)
+    assert err.value.parameters == ("points",)
+
+
+def test_nice_scale_of_non_finite_sizes_is_one():
+    assert nice_scale(float("nan"), 1.0) == nice_scale(1.0, float("inf")) == nice_scale(float("inf"), 1.0) == 1.0
+    assert nice_scale(10.0, 1.0) == 5000.0

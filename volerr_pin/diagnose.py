@@ -48,9 +48,8 @@ from scipy import stats
 from scipy.signal import lombscargle
 
 from .errors import InputError
-from .identify import (Observations, _conditioning_note, _fraction, _integer, _positive, build_observations,
-                       check_observations, identify, parameter_units, point_squares, pose_folds,
-                       predict_observations, residual_rms)
+from .identify import (Observations, _conditioning_note, build_observations, check_observations, identify,
+                       parameter_units, point_squares, pose_folds, predict_observations, residual_rms)
 from .machine import Machine
 from .safeio import require_memory
 from .spec import build_term, component_name, parse_component_name
@@ -58,6 +57,7 @@ from .specio import add_terms, remove_components, replace_terms, term_tables
 from .termkinds import GEOMETRIC
 from .terms import Context, Covariates
 from .units import AXIS_UNIT, UM_PER_M, axis_scale
+from .workspace import _fraction, _integer, _positive
 
 LETTERS = "XYZABC"
 PITCH_PERIOD_MM = (1.0, 50.0)   # ball-screw leads

@@ -32,6 +32,7 @@ from .errors import InputError
 from .machine import Machine
 from .safeio import replacing, require_memory
 from .units import AXIS_UNIT, axis_scale
+from .workspace import _counts, _integer
 
 NODES_PER_ORDER = {1: 8, 2: 20, 3: 32}
 #: memory of one evaluated point beyond its own arrays (the kinematics' working set) [bytes]
@@ -40,24 +41,6 @@ EVALUATION_BYTES = 300
 COMPENSATION_BYTES = 2500
 #: nodes of a compensation table compensated and written at once
 TABLE_CHUNK = 32768
-
-
-def _counts(name: str, values, minimum: int, n: int = 3) -> tuple[int, ...]:
-    """``n`` whole numbers >= ``minimum`` (a non-integer is refused, not truncated)."""
-    what = f"{n} whole numbers >= {minimum}" if n > 1 else f"a whole number >= {minimum}"
-    try:
-        items = [float(v) for v in values]
-    except (TypeError, ValueError):
-        items = []
-    if len(items) != n or not all(math.isfinite(v) and v == int(v) and v >= minimum for v in items):
-        shown = values[0] if n == 1 and len(items) == 1 else tuple(values) if len(items) else values
-        raise InputError(f"{name} must be {what}, got {shown!r}", parameters=(name,))
-    return tuple(int(v) for v in items)
-
-
-def _count(name: str, value, minimum: int) -> int:
-    """One whole number >= ``minimum``."""
-    return _counts(name, [value], minimum, 1)[0]
 
 
 def natural_nodes(order: int) -> np.ndarray:
@@ -356,8 +339,8 @@ class ErrorMap:
             If ``points`` is not a whole number >= 1 or would not fit in the free memory, or
             ``seed`` is negative.
         """
-        n = _count("points", points, 1)
-        seed = _count("seed", seed, 0)
+        n = _integer("points", points, 1)
+        seed = _integer("seed", seed, 0)
         npe = NODES_PER_ORDER[self.order]
         # positions, shape functions and gathered nodal values of every point, and its evaluation
         require_memory(n * (8 * (3 * len(self.fixed) + 14 * npe + 30) + EVALUATION_BYTES),
@@ -535,7 +518,7 @@ def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> li
         If ``points`` is not a whole number >= 2 or the tables would not fit in the free
         memory, or ``directory`` is not a folder that can be made.
     """
-    points = _count("points", points, 2)
+    points = _integer("points", points, 2)
     require_memory(points * (8 * 3 * (len(machine.axes) + len(machine.components)) + EVALUATION_BYTES),
                    f"axis tables at {points:,} positions", ("points",))
     directory = Path(directory)

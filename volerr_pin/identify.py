@@ -25,7 +25,7 @@ from .errors import InputError
 from .ballbar import BallbarRun, ballbar_positions
 from .identifiability import Analysis, analyse
 from .tracker import TrackerMeasurements, tracker_observations
-from .workspace import config_from_file
+from .workspace import _fraction, _integer, _positive, config_from_file
 from .machine import Machine
 from .measurements import PointMeasurements, Runs
 from .safeio import require_memory
@@ -41,45 +41,6 @@ CONDITION_LIMIT = 1e12
 #: at 1 um), and far enough below overflow (1e154) that the sums of squares of residuals and
 #: trial residuals stay finite
 WEIGHTED_LIMIT = 1e100
-
-
-# ----------------------------------------------------------------------------- parameter checks
-def _positive(name: str, value) -> float:
-    """``value`` as a float, refused unless it is a positive, finite number."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a positive number, got {value!r}", parameters=(name,)) from None
-    if not (number > 0 and math.isfinite(number)):
-        raise InputError(f"{name} must be positive and finite, got {value}", parameters=(name,))
-    return number
-
-
-def _integer(name: str, value, minimum: int, *, also: tuple[int, ...] = (), what: str = "") -> int:
-    """``value`` as an int, refused unless it is a whole number >= ``minimum`` (or one of ``also``)."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        number = math.nan
-    if not (math.isfinite(number) and number == int(number)):
-        raise InputError(f"{name} must be a whole number, got {value!r}", parameters=(name,))
-    number = int(number)
-    if number < minimum and number not in also:
-        allowed = " or ".join([str(a) for a in also] + [f">= {minimum}"])
-        raise InputError(f"{name} must be {allowed}{what}, got {number}", parameters=(name,))
-    return number
-
-
-def _fraction(name: str, value, what: str = "") -> float:
-    """``value`` as a float strictly between 0 and 1."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        number = math.nan
-    if not 0.0 < number < 1.0:
-        raise InputError(f"{name} must be a fraction between 0 and 1 (both excluded){what}, got {value!r}",
-                         parameters=(name,))
-    return number
 
 
 @dataclass

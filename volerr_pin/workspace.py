@@ -10,7 +10,83 @@ from scipy.stats import qmc
 
 from .errors import InputError
 from .machine import Machine
+from .safeio import require_memory
 from .units import ARCSEC_PER_RAD, UM_PER_M, axis_scales, axis_values_to_si
+
+
+# ------------------------------------------------------------------ parameter checks
+# (the checks of every public function of the methods on the model; each refuses with the
+# parameter's name, never clamps or truncates)
+def _positive(name: str, value) -> float:
+    """``value`` as a float, refused unless it is a positive, finite number."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a positive number, got {value!r}", parameters=(name,)) from None
+    if not (number > 0 and math.isfinite(number)):
+        raise InputError(f"{name} must be positive and finite, got {value}", parameters=(name,))
+    return number
+
+
+def _integer(name: str, value, minimum: int, *, also: tuple[int, ...] = (), what: str = "") -> int:
+    """``value`` as an int, refused unless it is a whole number >= ``minimum`` (or one of ``also``)."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not (math.isfinite(number) and number == int(number)):
+        raise InputError(f"{name} must be a whole number, got {value!r}", parameters=(name,))
+    number = int(number)
+    if number < minimum and number not in also:
+        allowed = " or ".join([str(a) for a in also] + [f">= {minimum}"])
+        raise InputError(f"{name} must be {allowed}{what}, got {number}", parameters=(name,))
+    return number
+
+
+def _fraction(name: str, value, what: str = "") -> float:
+    """``value`` as a float strictly between 0 and 1."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not 0.0 < number < 1.0:
+        raise InputError(f"{name} must be a fraction between 0 and 1 (both excluded){what}, got {value!r}",
+                         parameters=(name,))
+    return number
+
+
+def _whole(name: str, values, minimum: int) -> np.ndarray:
+    """``values`` (a number or a sequence) as whole numbers >= ``minimum``; others are refused,
+    not truncated."""
+    try:
+        numbers = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        numbers = np.array([np.nan])
+    if numbers.ndim > 1 or numbers.size == 0 or not np.all(np.isfinite(numbers) & (numbers == np.round(numbers))
+                                                           & (numbers >= minimum)):
+        what = "a whole number" if np.ndim(values) == 0 else "whole numbers"
+        raise InputError(f"{name} must be {what} >= {minimum}, got {values!r}", parameters=(name,))
+    return numbers.astype(np.int64)
+
+
+def _counts(name: str, values, minimum: int, n: int = 3) -> tuple[int, ...]:
+    """Exactly ``n`` whole numbers >= ``minimum``."""
+    try:
+        counts = _whole(name, values, minimum)
+    except InputError:
+        counts = None
+    if counts is None or counts.ndim != 1 or counts.size != n:
+        shown = tuple(values) if isinstance(values, (list, tuple, np.ndarray)) else values
+        raise InputError(f"{name} must be {n} whole numbers >= {minimum}, got {shown!r}", parameters=(name,))
+    return tuple(int(c) for c in counts)
+
+
+def _size_of_grid(counts) -> int:
+    return math.prod(int(c) for c in counts)
+
+
+#: bytes per point that a grid or sample takes while it is made: its columns, the mesh and a copy
+POINT_BYTES = 8 * 4
 
 
 def grid(machine: Machine, points_per_axis: int | tuple[int, ...] = 5) -> np.ndarray:
@@ -32,11 +108,17 @@ def grid(machine: Machine, points_per_axis: int | tuple[int, ...] = 5) -> np.nda
     Raises
     ------
     InputError
-        If a count is below 1.
+        If a count is not a whole number >= 1, there is neither one count nor one per axis,
+        or the grid would not fit in the free memory.
     """
-    counts = np.broadcast_to(np.asarray(points_per_axis, dtype=int), (len(machine.axes),))
-    if np.any(counts < 1):
-        raise InputError(f"points_per_axis must be >= 1, got {points_per_axis}")
+    counts = _whole("points_per_axis", points_per_axis, 1)
+    if counts.ndim == 1 and counts.size not in (1, len(machine.axes)):
+        raise InputError(f"points_per_axis: give 1 or {len(machine.axes)} counts (axes {', '.join(machine.axes)}), "
+                         f"got {counts.size}", parameters=("points_per_axis",))
+    counts = np.broadcast_to(counts, (len(machine.axes),))
+    n = _size_of_grid(counts)
+    require_memory(n * POINT_BYTES * len(machine.axes), f"a grid of {' x '.join(map(str, counts))} = {n:,} points",
+                   ("points_per_axis",))
     travel = _bounded_travel(machine)
     axes = [np.linspace(lo, hi, n) if n > 1 else np.array([(lo + hi) / 2])
             for (lo, hi), n in zip(travel, counts)]
@@ -44,35 +126,38 @@ def grid(machine: Machine, points_per_axis: int | tuple[int, ...] = 5) -> np.nda
     return np.stack([m.ravel() for m in mesh], axis=1)
 
 
-def sample(machine: Machine, n: int, seed: int = 0) -> np.ndarray:
+def sample(machine: Machine, points: int, seed: int = 0) -> np.ndarray:
     """Scrambled Sobol' space-filling design over the travels (seeded).
 
     Parameters
     ----------
     machine : Machine
         The machine whose travels the points fill (an endless axis spans one turn, -pi to pi).
-    n : int
-        Number of points (the first ``n`` of a 2^m Sobol' sequence).
+    points : int
+        Number of points (the first ``points`` of a 2^m Sobol' sequence).
     seed : int, default 0
-        Seed of the scrambling.
+        Seed of the scrambling (>= 0).
 
     Returns
     -------
-    ndarray, shape (n, n_axes)
+    ndarray, shape (points, n_axes)
         NC positions [m, rad].
 
     Raises
     ------
     InputError
-        If ``n`` is below 1.
+        If ``points`` is not a whole number >= 1 or would not fit in the free memory, or
+        ``seed`` is not a whole number >= 0.
     """
-    if n < 1:
-        raise InputError(f"number of points must be >= 1, got {n}")
+    n = _integer("points", points, 1)
+    seed = _integer("seed", seed, 0)
+    # the Sobol' sequence is drawn to the next power of two
+    require_memory(2 * n * POINT_BYTES * len(machine.axes), f"a sample of {n:,} positions", ("points",))
     travel = _bounded_travel(machine)
     sobol = qmc.Sobol(d=len(machine.axes), scramble=True, seed=seed)
     m = int(np.ceil(np.log2(n)))
     unit = sobol.random_base2(m)[:n]
-    return qmc.scale(unit, travel[:, 0], travel[:, 1]) if n else unit
+    return qmc.scale(unit, travel[:, 0], travel[:, 1])
 
 
 def _bounded_travel(machine: Machine) -> np.ndarray:
@@ -108,9 +193,11 @@ def error_summary(machine: Machine, q: np.ndarray, theta=None, **covariates) -> 
     Raises
     ------
     InputError
-        For invalid ``q``, ``theta`` or covariates.
+        For invalid ``q`` (or one without points), ``theta`` or covariates.
     """
     error = machine.volumetric_error(q, theta, **covariates)
+    if len(error) == 0:
+        raise InputError("q holds no points: there is no error to summarise", parameters=("q",))
     norm = np.linalg.norm(error[:, :3], axis=1)
     rot = np.linalg.norm(error[:, 3:], axis=1)
     worst = int(np.argmax(norm))
@@ -188,14 +275,18 @@ def field_grid(machine: Machine, counts=None, config: dict[str, float] | None = 
     Raises
     ------
     InputError
-        If ``counts`` has neither one nor one-per-linear-axis entries, or ``config`` names an
-        unknown axis or a position outside the travel.
+        If ``counts`` has neither one nor one-per-linear-axis entries or a count that is not
+        a whole number >= 1, the grid (or ``points``) would not fit in the free memory, or
+        ``config`` names an unknown axis or a position outside the travel.
     """
     base = default_config(machine, config)
     linear = [j for j, k in enumerate(machine.axis_kinds) if k == "linear"]
     if not linear:
+        points = _integer("points", points, 1)
+        require_memory(2 * points * POINT_BYTES * len(machine.axes), f"a field of {points:,} configurations",
+                       ("points",))
         return sample(machine, points, seed=0)
-    counts = [9] if counts is None else list(counts)
+    counts = [9] if counts is None else [int(c) for c in _whole("counts", counts, 1).reshape(-1)]
     if len(counts) == 1:
         counts = counts * len(linear)
     if len(counts) != len(linear):
@@ -204,6 +295,9 @@ def field_grid(machine: Machine, counts=None, config: dict[str, float] | None = 
     full = [1] * len(machine.axes)
     for j, n in zip(linear, counts):
         full[j] = n
+    n = _size_of_grid(full)
+    require_memory(n * POINT_BYTES * len(machine.axes), f"a field grid of {' x '.join(map(str, counts))} = {n:,} points",
+                   ("counts",))
     q = grid(machine, tuple(full))
     fixed = [j for j in range(len(machine.axes)) if j not in linear]
     q[:, fixed] = base[fixed]
@@ -292,9 +386,9 @@ def nice_scale(error_um_max: float, extent_m: float) -> float:
     -------
     float
         The magnification: the largest power-of-ten multiple of 5, 2 or 1 not above
-        0.08 x extent / error; 1.0 when either input is not positive.
+        0.08 x extent / error; 1.0 when either input is not a positive finite number.
     """
-    if error_um_max <= 0 or extent_m <= 0:
+    if not (0 < error_um_max < math.inf and 0 < extent_m < math.inf):
         return 1.0
     raw = 0.08 * extent_m / (error_um_max / UM_PER_M)
     exponent = math.floor(math.log10(raw))
@@ -350,9 +444,12 @@ def evaluate_field(machine: Machine, q: np.ndarray, scale: float | None = None,
     Raises
     ------
     InputError
-        If ``scale`` is not a positive finite number, or ``q`` or the covariates are invalid.
+        If ``scale`` is not a positive finite number, ``q`` holds no points, or ``q`` or the
+        covariates are invalid.
     """
     error = machine.volumetric_error(q, **covariates)
+    if len(error) == 0:
+        raise InputError("q holds no points: there is no field to evaluate", parameters=("q",))
     _, positions = machine.tool_poses(q, nominal=True)
     if scale is None:
         extent = float(np.ptp(positions, axis=0).max()) if len(positions) > 1 else 1.0
