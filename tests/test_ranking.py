@@ -195,3 +195,48 @@ def test_rank_cli_bad_tolerances_exit_2(tmp_path, capsys):
     path.write_text("EXX = 3\n")
     assert main(["rank", "vmc500", "--tolerances", str(path)]) == 2
     assert "give the unit in the key" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------ bad or extreme inputs
+@pytest.mark.parametrize("call, match, parameter", [
+    (lambda m: rank(m, points=0), "points must be >= 1, got 0", "points"),
+    (lambda m: rank(m, points=10, seed=-2), "seed must be >= 0, got -2", "seed"),
+    (lambda m: rank(m, points=10**9), r"a ranking over 1,000,000,000 workspace samples needs about .* of memory",
+     "points"),
+    (lambda m: rank(m, np.zeros((0, 3))), "q holds no points", "q"),
+    (lambda m: rank(m, points=8, direction="w"), "direction must be one of x, y, z, all", "direction"),
+    (lambda m: rank(m, points=8, tolerances={"EXX": 1e-6}), "tolerances: no value for", "tolerances"),
+    (lambda m: rank(m, points=8, tolerances={c: float("nan") for c in m.components}),
+     "tolerances: EXX = nan is not a non-negative finite number", "tolerances"),
+    (lambda m: tool_identifiability(m, points=0), "points must be >= 1, got 0", "points"),
+    (lambda m: tool_identifiability(m, points=10**9), "an identifiability analysis over 1,000,000,000 workspace "
+                                                      "samples needs", "points"),
+    (lambda m: tool_identifiability(m, points=8, rtol=0), "rtol must be positive and finite", "rtol"),
+])
+def test_bad_studies_are_refused_naming_the_parameter(machines, monkeypatch, call, match, parameter):
+    import volerr_pin.safeio as safeio
+
+    monkeypatch.setattr(safeio, "available_memory", lambda: 2_000_000_000)
+    with pytest.raises(vp.InputError, match=match) as err:
+        call(machines["vmc500"])
+    assert err.value.parameters == (parameter,)
+
+
+def test_the_identifiability_analysis_refuses_what_it_cannot_analyse():
+    from volerr_pin.identifiability import analyse
+
+    A = np.random.default_rng(0).normal(size=(20, 3))
+    assert analyse(A, ["a", "b", "c"]).rank == 3
+    bad = A.copy()
+    bad[4, 1] = np.nan
+    for args, kwargs, match, parameter in (
+            ((bad, ["a", "b", "c"]), {}, r"A\[4, 1\] is nan: the sensitivities must be finite", "A"),
+            ((A[0], ["a"]), {}, r"A has shape \(3,\); expected \(rows, columns\)", "A"),
+            ((A, ["a", "b"]), {}, "names: 2 names for 3 columns", "names"),
+            ((A, ["a", "b", "c"]), {"protected": 4}, "protected must be a whole number from 0 to 3", "protected"),
+            ((A, ["a", "b", "c"]), {"rtol": 1.5}, "rtol must be between 0 and 1", "rtol"),
+            ((A, ["a", "b", "c"]), {"typical": [1.0, 0.0, 1.0]}, "typical must be one positive finite size",
+             "typical")):
+        with pytest.raises(vp.InputError, match=match) as err:
+            analyse(*args, **kwargs)
+        assert err.value.parameters == (parameter,)

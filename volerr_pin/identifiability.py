@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import InputError
+
 
 @dataclass(frozen=True)
 class IdentifiabilityGroup:
@@ -119,12 +121,38 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
     -------
     Analysis
         The kept and dependent columns, the groups, the rank and the conditioning.
+
+    Raises
+    ------
+    InputError
+        If ``A`` is not a two-dimensional array of finite numbers, ``names`` does not name
+        every column, ``protected`` is not between 0 and the number of columns, ``rtol`` is
+        not between 0 and 1, or ``typical`` is not one positive finite size per column.
     """
-    A = np.asarray(A, dtype=float)
+    try:
+        A = np.asarray(A, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError("A must be a numeric array (rows x columns)", parameters=("A",)) from None
+    if A.ndim != 2:
+        raise InputError(f"A has shape {A.shape}; expected (rows, columns)", parameters=("A",))
+    if not np.all(np.isfinite(A)):
+        i, j = np.argwhere(~np.isfinite(A))[0]
+        raise InputError(f"A[{i}, {j}] is {A[i, j]}: the sensitivities must be finite", parameters=("A",))
     names = list(names)
     n = A.shape[1]
+    if len(names) != n:
+        raise InputError(f"names: {len(names)} names for {n} columns", parameters=("names",))
+    if not (isinstance(protected, (int, np.integer)) and 0 <= protected <= n):
+        raise InputError(f"protected must be a whole number from 0 to {n}, got {protected!r}",
+                         parameters=("protected",))
+    if not 0.0 < rtol < 1.0:
+        raise InputError(f"rtol must be between 0 and 1, got {rtol!r}", parameters=("rtol",))
+    if typical is not None:
+        typical = np.asarray(typical, dtype=float)
+        if typical.shape != (n,) or not np.all(np.isfinite(typical) & (typical > 0)):
+            raise InputError(f"typical must be one positive finite size per column ({n})", parameters=("typical",))
     norms = np.linalg.norm(A, axis=0)
-    effect = norms if typical is None else norms * np.asarray(typical, dtype=float)
+    effect = norms if typical is None else norms * typical
     positive = effect[effect > 0]
     reference = float(np.median(positive)) if positive.size else 1.0
     zero = effect <= rtol * reference

@@ -20,8 +20,9 @@ from .errors import InputError, SpecError
 from .identifiability import IdentifiabilityGroup, analyse
 from .machine import Machine
 from .spec import parse_component_name, read_toml
+from .safeio import require_memory
 from .units import ARCSEC, ARCSEC_PER_RAD, UM, UM_PER_M, scale, split_key
-from .workspace import sample
+from .workspace import _integer, _positive, sample
 
 DIRECTIONS = {"x": [0], "y": [1], "z": [2], "all": [0, 1, 2]}
 
@@ -179,15 +180,19 @@ def rank(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048, s
     Raises
     ------
     InputError
-        If ``direction`` or ``by`` is not one of the values above, or ``q`` is invalid.
+        If ``direction`` or ``by`` is not one of the values above, ``q`` is invalid or holds no
+        points, ``points`` is not a whole number >= 1 or ``seed`` one >= 0, the ranking would
+        not fit in the free memory, or ``tolerances`` misses a component or gives one a
+        value that is not a non-negative finite number.
     """
     if direction not in DIRECTIONS:
-        raise InputError(f"direction must be one of x, y, z, all; got {direction!r}")
+        raise InputError(f"direction must be one of x, y, z, all; got {direction!r}", parameters=("direction",))
     if by not in ("component", "parameter"):
-        raise InputError(f"by must be 'component' or 'parameter'; got {by!r}")
-    if q is None:
-        q = sample(machine, points, seed=seed)
-    q = machine.check_q(q)
+        raise InputError(f"by must be 'component' or 'parameter'; got {by!r}", parameters=("by",))
+    if tolerances is not None:
+        _check_tolerances(machine, tolerances)
+    q = _points(machine, q, points, seed, 8 * 6 * 4 * (len(machine.parameter_names) + len(machine.components)),
+                "a ranking")
     rows_dir = DIRECTIONS[direction]
     if by == "component":
         sens = machine.component_sensitivity(q)          # (N, 6, C) per SI unit
@@ -245,6 +250,38 @@ def rank(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048, s
                    "tolerances" if tolerances is not None else "current values", rows)
 
 
+def _points(machine: Machine, q, points, seed, point_bytes: int, what: str) -> np.ndarray:
+    """The workspace points of a study: ``q`` checked, or ``points`` Sobol' points, sized
+    (``point_bytes`` per point) before anything is allocated."""
+    if q is None:
+        points = _integer("points", points, 1)
+        seed = _integer("seed", seed, 0)
+        require_memory(points * (point_bytes + 8 * 4 * len(machine.axes)), f"{what} over {points:,} workspace samples",
+                       ("points",))
+        q = sample(machine, points, seed=seed)
+    q = machine.check_q(q)
+    if len(q) == 0:
+        raise InputError("q holds no points", parameters=("q",))
+    require_memory(len(q) * point_bytes, f"{what} over the {len(q):,} positions given")
+    return q
+
+
+def _check_tolerances(machine: Machine, tolerances: dict) -> None:
+    missing = [c for c in machine.components if c not in tolerances]
+    if missing:
+        raise InputError(f"tolerances: no value for {', '.join(missing)} (every component of {machine.name} needs "
+                         "one)", parameters=("tolerances",))
+    for name in machine.components:
+        value = tolerances[name]
+        try:
+            ok = math.isfinite(float(value)) and float(value) >= 0
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise InputError(f"tolerances: {name} = {value!r} is not a non-negative finite number [m or rad]",
+                             parameters=("tolerances",))
+
+
 def tool_identifiability(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048,
                          seed: int = 0, orientation: bool = False, rtol: float = 1e-9
                          ) -> list[IdentifiabilityGroup]:
@@ -273,9 +310,21 @@ def tool_identifiability(machine: Machine, q: np.ndarray | None = None, *, point
     -------
     list of IdentifiabilityGroup
         The zero, collinear and combination groups.
+
+    Raises
+    ------
+    InputError
+        If ``q`` is invalid or holds no points, ``points`` is not a whole number >= 1 or
+        ``seed`` one >= 0, ``rtol`` is not between 0 and 1, or the analysis would not fit in
+        the free memory.
     """
-    if q is None:
-        q = sample(machine, points, seed=seed)
+    rtol = _positive("rtol", rtol)
+    if rtol >= 1:
+        raise InputError(f"rtol must be below 1, got {rtol}", parameters=("rtol",))
+    # the sensitivities and the analysis' three copies of their rows
+    rows = 6 if orientation else 3
+    q = _points(machine, q, points, seed, 8 * len(machine.parameter_names) * (6 + 3 * rows) + 400,
+                "an identifiability analysis")
     S = machine.sensitivity(q)
     rows = slice(0, 6) if orientation else slice(0, 3)
     A = S[:, rows, :].reshape(-1, S.shape[2])
