@@ -182,3 +182,47 @@ def test_evaluation_reduces_error_on_every_machine(machines, name):
     assert ev["points"] == 60 and ev["reachable"] >= 55
     assert ev["reduction_percent"] > 95
     assert ev["max_after_um"] < 0.05 * ev["max_before_um"]
+
+
+# ------------------------------------------------------------------ bad or extreme inputs
+@pytest.mark.parametrize("kwargs, match, parameter", [
+    ({"tol_um": 0.0}, "tol_um must be positive and finite, got 0.0", "tol_um"),
+    ({"tol_um": float("nan")}, "tol_um must be positive and finite, got nan", "tol_um"),
+    ({"tol_urad": -1.0}, "tol_urad must be positive and finite, got -1.0", "tol_urad"),
+    ({"lever": float("inf")}, "lever must be positive and finite, got inf", "lever"),
+    ({"max_iter": -1}, "max_iter must be >= 0, got -1", "max_iter"),
+    ({"max_iter": 2.5}, "max_iter must be a whole number, got 2.5", "max_iter"),
+    ({"method": "magic"}, "method must be 'newton' or 'recursive'", "method"),
+])
+def test_bad_point_compensation_options_are_refused(machines, kwargs, match, parameter):
+    m = machines["vmc500"]
+    with pytest.raises(InputError, match=match) as err:
+        compensate_points(m, m.mid_travel, **kwargs)
+    assert err.value.parameters == (parameter,)
+
+
+@pytest.mark.parametrize("kwargs, match, parameter", [
+    ({"tol_um": 0.0}, "tol_um must be positive and finite, got 0.0", "tol_um"),
+    ({"tol_um": float("inf")}, "tol_um must be positive and finite, got inf", "tol_um"),
+    ({"tol_urad": float("nan")}, "tol_urad must be positive and finite, got nan", "tol_urad"),
+    ({"samples": 0}, "samples must be >= 1, got 0", "samples"),
+    ({"max_depth": -1}, "max_depth must be >= 0, got -1", "max_depth"),
+    ({"method": "magic"}, "method must be 'newton' or 'recursive'", "method"),
+])
+def test_bad_path_compensation_options_are_refused(machines, kwargs, match, parameter):
+    with pytest.raises(InputError, match=match) as err:
+        PathCompensator(machines["vmc500"], **kwargs)
+    assert err.value.parameters == (parameter,)
+
+
+def test_empty_positions_and_degenerate_arcs_are_refused(machines):
+    m = machines["vmc500"]
+    with pytest.raises(InputError, match="q holds no points: there is nothing to compensate"):
+        evaluate_compensation(m, np.zeros((0, 3)))
+    s, e = np.array([0.1, 0.1, 0.1]), np.array([0.1, 0.1, 0.1])
+    with pytest.raises(InputError, match="the arc starts at its centre: a radius of zero"):
+        arc_from_center(s, e, np.array([0.1, 0.1]), (0, 1, 2), True)
+    with pytest.raises(InputError, match="center of the arc is not finite"):
+        arc_from_center(s, e, np.array([np.nan, 0.1]), (0, 1, 2), True)
+    with pytest.raises(InputError, match="full_turns must be >= 0, got -1"):
+        arc_from_center(s, e, np.array([0.2, 0.1]), (0, 1, 2), True, full_turns=-1)

@@ -30,6 +30,7 @@ import numpy as np
 from .errors import InputError
 from .machine import Machine
 from .units import UM_PER_M, URAD_PER_RAD
+from .workspace import _integer, _positive
 
 
 
@@ -125,10 +126,14 @@ def compensate_points(machine: Machine, q_desired, *, method: str = "newton", to
     Raises
     ------
     InputError
-        If ``method`` is unknown, or ``q_desired`` or the covariates are invalid.
+        If ``method`` is unknown, ``tol_um``, ``tol_urad`` or ``lever`` is not a positive
+        finite number, ``max_iter`` is not a whole number >= 0, or ``q_desired`` or the
+        covariates are invalid.
     """
     if method not in ("newton", "recursive"):
-        raise InputError(f"method must be 'newton' or 'recursive', got {method!r}")
+        raise InputError(f"method must be 'newton' or 'recursive', got {method!r}", parameters=("method",))
+    tol_um, tol_urad, lever = _positive("tol_um", tol_um), _positive("tol_urad", tol_urad), _positive("lever", lever)
+    max_iter = _integer("max_iter", max_iter, 0)
     q_d = machine.check_q(q_desired)
     n = len(q_d)
     orientation = _has_rotary(machine) if orientation is None else orientation
@@ -364,8 +369,15 @@ def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plan
     Raises
     ------
     InputError
-        If the start and end radii differ by more than 2 um (about what controllers accept).
+        If a position or the centre is not finite, ``full_turns`` is not a whole number >= 0,
+        the radius is zero, or the start and end radii differ by more than 2 um (about what
+        controllers accept).
     """
+    full_turns = _integer("full_turns", full_turns, 0)
+    start, end, center = (np.asarray(v, dtype=float) for v in (start, end, center))
+    for name, value in (("start", start), ("end", end), ("center", center)):
+        if not np.all(np.isfinite(value)):
+            raise InputError(f"{name} of the arc is not finite: {value}", parameters=(name,))
     i, j, _ = plane
     a0 = math.atan2(start[j] - center[1], start[i] - center[0])
     a1 = math.atan2(end[j] - center[1], end[i] - center[0])
@@ -379,6 +391,8 @@ def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plan
     sweep += (-1 if clockwise else 1) * 2 * math.pi * full_turns
     r0 = math.hypot(start[i] - center[0], start[j] - center[1])
     r1 = math.hypot(end[i] - center[0], end[j] - center[1])
+    if r0 == 0.0:
+        raise InputError("the arc starts at its centre: a radius of zero")
     if abs(r0 - r1) > 2e-6:  # 2 um, about what controllers accept
         raise InputError(f"arc start radius {r0 * 1e3:.4f} mm and end radius {r1 * 1e3:.4f} mm differ "
                          f"by {abs(r0 - r1) * 1e6:.1f} um")
@@ -436,14 +450,25 @@ class PathCompensator:
         Tool-axis tolerance [urad].
     lever : float
         Weight of the tool-axis angle [m per rad].
+
+    Raises
+    ------
+    InputError
+        If ``tol_um`` or ``tol_urad`` is not a positive finite number, ``samples`` is not a
+        whole number >= 1, ``max_depth`` one >= 0, or ``method`` is unknown.
     """
 
     def __init__(self, machine: Machine, tol_um: float = 1.0, samples: int = 48, max_depth: int = 14,
                  method: str = "newton", tol_urad: float | None = None):
+        tol_um = _positive("tol_um", tol_um)
+        if tol_urad is not None:
+            tol_urad = _positive("tol_urad", tol_urad)
+        if method not in ("newton", "recursive"):
+            raise InputError(f"method must be 'newton' or 'recursive', got {method!r}", parameters=("method",))
         self.machine = machine
         self.tol = tol_um * 1e-6
-        self.samples = samples
-        self.max_depth = max_depth
+        self.samples = _integer("samples", samples, 1)
+        self.max_depth = _integer("max_depth", max_depth, 0)
         self.method = method
         self.orientation = _has_rotary(machine)
         # tool-axis tolerance (default 10 urad per um): the tool-axis angle counts as
@@ -797,9 +822,11 @@ def evaluate_compensation(machine: Machine, q: np.ndarray, **covariates) -> dict
     Raises
     ------
     InputError
-        If ``q`` or the covariates are invalid.
+        If ``q`` holds no points, or ``q`` or the covariates are invalid.
     """
     res = compensate_points(machine, q, **covariates)
+    if len(res.q) == 0:
+        raise InputError("q holds no points: there is nothing to compensate", parameters=("q",))
     before, after = res.before * UM_PER_M, res.residual * UM_PER_M
     ok = res.reachable
     out = {"points": int(len(q)), "reachable": int(ok.sum()),
