@@ -242,3 +242,8 @@ def test_a_file_of_one_row_is_named(tmp_path):
     (tmp_path / "one.csv").write_text("y,a\n1,2\n")
     with pytest.raises(ValueError, match=r"one\.csv: 1 row\(s\) of data; a model needs more"):
         thermal_fit(read_series(tmp_path / "one.csv"), "y")
+
+
+def test_one_sensor_may_be_given_as_a_string(tmp_path):
+    r = thermal_fit(series(tmp_path, {}), "growth", "T_a", lag=0)
+    assert r["sensors"] == ["T_a"] and set(r["coefficients"]) == {"constant", "T_a"}

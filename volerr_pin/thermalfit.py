@@ -146,8 +146,9 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
         The fit data (and, with ``holdout``, the held-out rows).
     target : str
         Column to model.
-    sensors : list of str, optional
-        Columns to model it from (default: every other column).
+    sensors : list of str or str, optional
+        Columns to model it from (default: every other column; those that cannot be fitted
+        are left out and listed in ``left_out``).
     lag : int, default 1
         Linear method: 0 for the static model, K >= 1 for the one-step-ahead model with K
         lags of the target (reported None for the other methods).
@@ -165,7 +166,8 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
     dict
         The report fields (docs/reports.md): ``target``, ``method``, ``sensors``, ``lag``,
         ``n_fit``, ``r2``, ``residual_se``, ``n_holdout``, ``rmse_holdout`` (in the unit of
-        the target column; None without held-out rows), plus ``coefficients``,
+        the target column; None without held-out rows), ``left_out`` (default sensors that
+        cannot be fitted: ``sensor`` and ``reason``), plus ``coefficients``,
         ``sensor_ranking`` (sensor and R^2 reached, by greedy forward selection) and the
         predictions ``fitted`` and ``predicted_holdout`` (lists).
 
@@ -193,6 +195,8 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
         raise InputError(f"rank_top must be an integer >= 0, got {rank_top!r}", parameters=("rank_top",))
     if not (isinstance(holdout, numbers.Real) and 0.0 <= holdout < 1.0):
         raise InputError(f"holdout must be a fraction in [0, 1), got {holdout}", parameters=("holdout",))
+    if isinstance(sensors, str):  # one name, not its letters
+        sensors = [sensors]
     named = bool(sensors)
     sensors = [c for c in data.columns if c != target] if not sensors else list(sensors)
     unknown = [s for s in sensors if s not in data.columns]
