@@ -226,3 +226,17 @@ def test_empty_positions_and_degenerate_arcs_are_refused(machines):
         arc_from_center(s, e, np.array([np.nan, 0.1]), (0, 1, 2), True)
     with pytest.raises(InputError, match="full_turns must be >= 0, got -1"):
         arc_from_center(s, e, np.array([0.2, 0.1]), (0, 1, 2), True, full_turns=-1)
+
+
+def test_path_sizes_are_bounded(machines, monkeypatch):
+    """A depth beyond double precision would only reach Python's recursion limit; samples are
+    sized against the free memory."""
+    import volerr_pin.safeio as safeio
+
+    monkeypatch.setattr(safeio, "available_memory", lambda: 1_000_000_000)
+    m = machines["vmc500"]
+    with pytest.raises(InputError, match=r"max_depth must be at most 60 .* got 1000"):
+        PathCompensator(m, max_depth=1000)
+    with pytest.raises(InputError, match="10,000,000,000 samples along a move needs about") as err:
+        PathCompensator(m, samples=10**10)
+    assert err.value.parameters == ("samples",)

@@ -336,3 +336,19 @@ def test_cli_diagnose_refuses_bad_options_in_one_line(machines, tmp_path, capsys
         assert main(["diagnose", "vmc500", str(path), *argv]) == 2
         err = capsys.readouterr().err
         assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_evidence_and_terms_of_rounds_and_components_that_do_not_exist(machines):
+    from types import SimpleNamespace
+
+    from volerr_pin.diagnose import Step, evidence, geometric_term
+
+    m = machines["vmc500"]
+    result = SimpleNamespace(steps=[Step(0, 1.0, [], np.zeros(3))])   # one round, nothing accepted
+    assert evidence(result, 0) is None
+    with pytest.raises(vp.InputError, match="step: the diagnosis has rounds 0 to 0, not 3"):
+        evidence(result, 3)
+    with pytest.raises(vp.InputError, match="step must be >= 0, got -1"):
+        evidence(result, -1)
+    with pytest.raises(vp.InputError, match="component: 'EQQ' is not an error term of vmc500"):
+        geometric_term(m, "EQQ")

@@ -209,3 +209,20 @@ def test_axis_tables_are_written_whole(machines, tmp_path):
         axis_tables(m, tmp_path / "taken" / "sub", points=3)
     files = axis_tables(m, tmp_path / "tables", points=3)
     assert sorted(p.name for p in (tmp_path / "tables").iterdir()) == sorted(f.rsplit("/", 1)[1] for f in files)
+
+
+def test_interpolation_in_chunks_is_the_interpolation_at_once(machines, monkeypatch):
+    import volerr_pin.errormap as errormap
+
+    m = machines["vmc500"]
+    emap = ErrorMap.build(m, (2, 2, 2), 3)
+    q = np.tile(m.mid_travel, (50, 1))
+    q[:, :3] = m.travel[:, 0] + np.random.default_rng(2).random((50, 3)) * (m.travel[:, 1] - m.travel[:, 0])
+    whole = emap.interpolate(q)
+    monkeypatch.setattr(errormap, "INTERPOLATION_CHUNK", 7)
+    np.testing.assert_array_equal(emap.interpolate(q), whole)
+    with pytest.raises(InputError, match=r"xi has shape \(4, 2\); expected \(M, 3\)"):
+        shape_functions(2, np.zeros((4, 2)))
+    with pytest.raises(InputError, match="order must be 1 .* got 4") as err:
+        natural_nodes(4)
+    assert err.value.parameters == ("order",)

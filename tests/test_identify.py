@@ -390,3 +390,11 @@ def test_cli_identify_refuses_bad_options_in_one_line(tmp_path, capsys):
         assert main(["identify", "vmc500", str(path), *argv]) == 2
         err = capsys.readouterr().err
         assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_one_term_given_as_a_string_is_that_term(machines, small_points):
+    m = machines["vmc500"]
+    one = identify(m, [small_points], terms="EXX", folds=0)
+    listed = identify(m, [small_points], terms=["EXX"], folds=0)
+    np.testing.assert_array_equal(one.free, listed.free)
+    assert {m.parameter_names[k].split(".")[0] for k in one.free} == {"EXX"}

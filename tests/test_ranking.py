@@ -240,3 +240,10 @@ def test_the_identifiability_analysis_refuses_what_it_cannot_analyse():
         with pytest.raises(vp.InputError, match=match) as err:
             analyse(*args, **kwargs)
         assert err.value.parameters == (parameter,)
+
+
+def test_a_negative_top_is_refused_not_taken_as_all_but_the_last(machines):
+    r = rank(machines["vmc500"], points=16)
+    assert len(r.to_dict(top=2)["ranking"]) == 2 and len(r.to_dict(top=0)["ranking"]) == len(r.rows)
+    with pytest.raises(vp.InputError, match="top must be >= 0, got -1"):
+        r.to_dict(top=-1)

@@ -30,7 +30,12 @@ import numpy as np
 from .errors import InputError
 from .machine import Machine
 from .units import UM_PER_M, URAD_PER_RAD
+from .safeio import require_memory
 from .workspace import _integer, _positive
+
+#: deepest split of a move: 2^-60 of it is below double precision, and the recursion stays far
+#: from Python's limit
+MAX_DEPTH = 60
 
 
 
@@ -455,7 +460,8 @@ class PathCompensator:
     ------
     InputError
         If ``tol_um`` or ``tol_urad`` is not a positive finite number, ``samples`` is not a
-        whole number >= 1, ``max_depth`` one >= 0, or ``method`` is unknown.
+        whole number >= 1 or too many for the free memory, ``max_depth`` not one from 0 to
+        :data:`MAX_DEPTH`, or ``method`` is unknown.
     """
 
     def __init__(self, machine: Machine, tol_um: float = 1.0, samples: int = 48, max_depth: int = 14,
@@ -468,7 +474,13 @@ class PathCompensator:
         self.machine = machine
         self.tol = tol_um * 1e-6
         self.samples = _integer("samples", samples, 1)
+        # the sampled commands, desired points and their poses along one piece
+        require_memory(self.samples * (8 * 6 * len(machine.axes) + 600), f"{self.samples:,} samples along a move",
+                       ("samples",))
         self.max_depth = _integer("max_depth", max_depth, 0)
+        if self.max_depth > MAX_DEPTH:
+            raise InputError(f"max_depth must be at most {MAX_DEPTH} (a piece of 2^-{MAX_DEPTH} of a move is below "
+                             f"double precision), got {self.max_depth}", parameters=("max_depth",))
         self.method = method
         self.orientation = _has_rotary(machine)
         # tool-axis tolerance (default 10 urad per um): the tool-axis angle counts as

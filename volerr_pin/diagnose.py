@@ -420,8 +420,11 @@ def build_candidates(machine: Machine, obs: Observations) -> list[Candidate]:
 
 
 def geometric_term(machine: Machine, component: str):
-    """(index, TermSpec) of the component's geometric term (constant, polynomial, table)."""
-    comp = next(c for c in machine.spec.components if c.name == component)
+    """(index, TermSpec) of the component's geometric term (constant, polynomial, table);
+    (None, None) when it has none. An unknown component is an :class:`InputError`."""
+    comp = next((c for c in machine.spec.components if c.name == component), None)
+    if comp is None:
+        raise InputError(f"component: {component!r} is not an error term of {machine.name}", parameters=("component",))
     for i, tspec in enumerate(comp.terms):
         if tspec.term.kind in GEOMETRIC:
             return i, tspec
@@ -1268,7 +1271,17 @@ class Evidence:
 def evidence(diagnosis: Diagnosis, step: int) -> Evidence | None:
     """For the change accepted in round ``step`` (a :class:`Change`'s
     ``step``): its driver per point and the residual along the error direction that changed
-    most, before and after it was added (um)."""
+    most, before and after it was added (um).
+
+    Raises
+    ------
+    InputError
+        If ``step`` is not the number of a round of the diagnosis.
+    """
+    step = _integer("step", step, 0)
+    if step >= len(diagnosis.steps):
+        raise InputError(f"step: the diagnosis has rounds 0 to {len(diagnosis.steps) - 1}, not {step}",
+                         parameters=("step",))
     record = diagnosis.steps[step].accepted
     if record is None or step + 1 >= len(diagnosis.steps):
         return None

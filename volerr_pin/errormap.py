@@ -41,6 +41,8 @@ EVALUATION_BYTES = 300
 COMPENSATION_BYTES = 2500
 #: nodes of a compensation table compensated and written at once
 TABLE_CHUNK = 32768
+#: points interpolated at once
+INTERPOLATION_CHUNK = 65536
 
 
 def natural_nodes(order: int) -> np.ndarray:
@@ -63,7 +65,8 @@ def natural_nodes(order: int) -> np.ndarray:
         If ``order`` is not 1, 2 or 3.
     """
     if order not in NODES_PER_ORDER:
-        raise InputError(f"element order must be 1 (8 nodes), 2 (20 nodes) or 3 (32 nodes), got {order}")
+        raise InputError(f"order must be 1 (8 nodes), 2 (20 nodes) or 3 (32 nodes), got {order!r}",
+                         parameters=("order",))
     corners = np.array(list(itertools.product((-1.0, 1.0), repeat=3)))
     if order == 1:
         return corners
@@ -97,10 +100,12 @@ def shape_functions(order: int, xi: np.ndarray) -> np.ndarray:
     Raises
     ------
     InputError
-        If ``order`` is not 1, 2 or 3.
+        If ``order`` is not 1, 2 or 3, or ``xi`` is not (M, 3).
     """
     nodes = natural_nodes(order)
     xi = np.atleast_2d(np.asarray(xi, dtype=float))
+    if xi.ndim != 2 or xi.shape[1] != 3:
+        raise InputError(f"xi has shape {xi.shape}; expected (M, 3) natural coordinates", parameters=("xi",))
     x, y, z = (xi[:, k:k + 1] for k in range(3))
     nx, ny, nz = (nodes[None, :, k] for k in range(3))
     N = np.empty((len(xi), len(nodes)))
@@ -312,8 +317,13 @@ class ErrorMap:
             raise InputError("the error map was built with " + ", ".join(
                 f"{self.machine.axes[j]}={self.fixed[j]:.6g}" for j in others) + "; q differs there")
         element, xi = self.locate(q[:, list(self.axes)])
-        N = shape_functions(self.order, xi)
-        return np.einsum("mn,mnc->mc", N, self.values[element])
+        # in chunks: the shape functions and gathered nodal values take ~14 x nodes floats a point
+        out = np.empty((len(q), 6))
+        for start in range(0, len(q), INTERPOLATION_CHUNK):
+            part = slice(start, start + INTERPOLATION_CHUNK)
+            N = shape_functions(self.order, xi[part])
+            out[part] = np.einsum("mn,mnc->mc", N, self.values[element[part]])
+        return out
 
     def interpolation_error(self, points: int = 2000, seed: int = 0) -> dict:
         """Interpolated vs direct model at ``points`` seeded random points.

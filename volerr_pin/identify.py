@@ -854,6 +854,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
             raise InputError(f"free: {bad} is not the index of a coefficient of {machine.name} "
                              f"(0 to {n_params - 1})", parameters=("free",))
     elif terms:
+        terms = [terms] if isinstance(terms, str) else list(terms)  # one name, not its letters
         unknown = sorted(set(terms) - set(machine.components))
         if unknown:
             raise InputError(f"terms: {', '.join(unknown)} not among the error terms of "

@@ -69,7 +69,13 @@ class Ranking:
             ``machine``, ``points``, ``direction``, ``by``, ``basis`` and ``ranking``: the rows
             without ``ms``, with ``share`` renormalised over the rows listed and
             ``share_of_all`` over every term.
+
+        Raises
+        ------
+        InputError
+            If ``top`` is not a whole number >= 0.
         """
+        top = None if top is None else _integer("top", top, 0)
         rows = [dict(r) for r in (self.rows[:top] if top else self.rows)]
         total = sum(r["ms"] for r in rows)
         grand = sum(r["ms"] for r in self.rows)
