@@ -232,3 +232,19 @@ def test_bundled_ur5_keeps_its_package_meshes(machines, tmp_path):
     rec.flush()
     rec.disconnect()
     assert len(assets(out)) == 14  # 7 visual and 7 collision meshes
+
+
+def test_field_cli_reads_package_meshes_from_the_folders_named(site, capsys):
+    path = site / "robot" / "robot.urdf"
+    path.write_text(robot_text("meshes/good.stl", "package://pkg/meshes/part.stl"))
+    out = site / "f.rrd"
+    argv = ["field", str(path), "--tool-frame", "carriage", "--workpiece-frame", "base", "--out", str(out),
+            "--grid", "2", "--sweep-steps", "0"]
+    assert main(argv) == 0
+    assert "'package://pkg/meshes/part.stl'" in capsys.readouterr().err  # no package folder named: dropped
+    assert assets(out) == [STL]
+    assert main(argv + ["--package-dir", str(site / "share")]) == 0
+    assert "dropped" not in capsys.readouterr().err
+    assert sorted(assets(out)) == sorted([STL, STL + b"\n"])
+    assert main(argv + ["--package-dir", str(site / "nowhere")]) == 2
+    assert "--package-dir" in capsys.readouterr().err

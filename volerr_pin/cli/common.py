@@ -26,7 +26,7 @@ DEFAULT_MACHINE = "vmc500"
 #: (``pass_through`` -> ``--pass-through`` needs no entry)
 OPTION_OF = {"Machine.with_state": "--state", "counts": "--grid", "run_axis": "--axis", "module": "--module-mm",
              "pressure_angle": "--pressure-angle-deg", "face_width": "--face-width-mm", "tooth_numbers": "--tooth",
-             "translation": "--translation-mm", "rotation": "--rotation-deg"}
+             "translation": "--translation-mm", "rotation": "--rotation-deg", "package_dirs": "--package-dir"}
 
 
 def in_cli_words(err: VolerrError) -> str:
@@ -153,6 +153,9 @@ def add_machine_args(parser: argparse.ArgumentParser, positional: bool = True) -
         parser.add_argument("--machine", default=DEFAULT_MACHINE, help=f"machine (default {DEFAULT_MACHINE})")
     parser.add_argument("--tool-frame", help="tool frame (bare URDF only)")
     parser.add_argument("--workpiece-frame", help="workpiece frame (bare URDF only)")
+    parser.add_argument("--package-dir", action="append", metavar="DIR",
+                        help="folder holding the packages that package:// meshes name (repeatable); meshes are read "
+                             "only from there and from the URDF's own folder")
 
 
 def add_state_arg(parser: argparse.ArgumentParser) -> None:
@@ -167,7 +170,8 @@ def add_json_arg(parser, help: str = "print one JSON object") -> None:
 
 def machine_of(args) -> Machine:
     """The machine the options name, held in the ``--state`` given (when the command has one)."""
-    machine = load_machine(args.machine, tool_frame=args.tool_frame, workpiece_frame=args.workpiece_frame)
+    machine = load_machine(args.machine, tool_frame=args.tool_frame, workpiece_frame=args.workpiece_frame,
+                           package_dirs=args.package_dir or ())
     return with_state(machine, getattr(args, "state", None))
 
 
