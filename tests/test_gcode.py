@@ -301,8 +301,8 @@ START = "G90 G21 G17 G0 X100 Y100 Z100\n"
     ("G2 X200 Y100 I50 J0 P1000000000", "2:21", "P1000000000 on an arc"),
     ("G2 X200 Y100 I1e6 J0", "2:14", "'I1e6': NC numbers have no exponent"),
     # program structure
-    ("G54 G1 X150\nG55 G1 X160", "3:1", r"G55 changes the work offset from G54 \(line 2\)"),
-    ("G54.1 P1 G1 X150\nG54.1 P2 G1 X160", "3:1", "G54.1 P2 changes the work offset from G54.1 P1"),
+    ("G54 G1 X150\nG55 G1 X160", "3", r"G55 changes the work offset from G54 \(line 2\)"),
+    ("G54.1 P1 G1 X150\nG54.1 P2 G1 X160", "3", "G54.1 P2 changes the work offset from G54.1 P1"),
     ("M6\nG91 G1 X10", "3:8", "an incremental move of X before its position is known"),
     ("O1\nG1 X150\nO2", "4", r"O2 \(a second program number: the start of a subprogram\)"),
     ("/G91", "2", r"G codes with block delete \(/\)"),
@@ -619,6 +619,14 @@ def test_start_is_checked(machines):
     with pytest.raises(GcodeError, match="^start must hold 3 finite values") as info:
         Program(machines["vmc500"], start=[0.1, math.nan, 0.1])
     assert info.value.parameters == ("start",)
+
+
+def test_a_kept_block_cannot_change_the_work_offset(machines):
+    """pass_through keeps a cycle unchanged, but not the origin the blocks after it are
+    compensated at."""
+    program = START + "G54 G1 X150 F100\nG55 G81 X20 Y20 Z5 R12\nG80\nG1 X160\n"
+    with pytest.raises(GcodeError, match=r"^prog\.nc:3: G55 changes the work offset from G54 \(line 2\)"):
+        compensate_program(machines["vmc500"], program, pass_through=True, source="prog.nc")
 
 
 def test_a_block_delete_without_moves_or_modes_is_kept(machines):

@@ -19,6 +19,8 @@ NUMBER = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"  # ASCII digits only: no exponent,
 WORD = re.compile(rf"([A-Za-z])[ \t]*({NUMBER})")
 COMMENT = re.compile(r"\([^)]*\)|;.*$")
 BLANKS = " \t"
+BLANK_RUN = re.compile(r"[ \t]+")
+DELIMITER = re.compile(r"[();]")
 PERCENT = re.compile(r"%(_[A-Za-z0-9_.]*)?")  # tape start/end, with a Siemens-style name
 MACRO = re.compile(r"\b(IF|WHILE|GOTO|DO\d*|END\d*|SUB|ENDSUB|CALL|RETURN|ELSE|ELSEIF|ENDIF|ENDWHILE|REPEAT|"
                    r"ENDREPEAT|BREAK|CONTINUE|THEN)\b")
@@ -187,32 +189,34 @@ def mask_comments(line: str, number: int, source: str) -> str:
         A comment that is not closed, a ``(`` inside a comment or a ``)`` outside one,
         naming line and column.
     """
+    if "(" not in line and ")" not in line and ";" not in line:
+        return line
     out = list(line)
     i = 0
-    while i < len(line):
-        ch = line[i]
+    for m in DELIMITER.finditer(line):
+        at = m.start()
+        if at < i:
+            continue  # inside a comment already blanked
+        ch = m.group(0)
         if ch == ";":
-            out[i:] = " " * (len(line) - i)
+            out[at:] = " " * (len(line) - at)
             break
         if ch == ")":
-            raise GcodeError(f"{_where(source, number, i)}: unbalanced parenthesis: ')' without '('")
-        if ch == "(":
-            close = line.find(")", i + 1)
-            if close < 0:
-                raise GcodeError(f"{_where(source, number, i)}: unbalanced parenthesis: the comment opened "
-                                 "here is not closed on its line")
-            inner = line.find("(", i + 1, close)
-            if inner >= 0:
-                raise GcodeError(f"{_where(source, number, inner)}: unbalanced parenthesis: '(' inside a "
-                                 "comment (comments do not nest)")
-            out[i:close + 1] = " " * (close + 1 - i)
-            i = close + 1
-            continue
-        i += 1
+            raise GcodeError(f"{_where(source, number, at)}: unbalanced parenthesis: ')' without '('")
+        close = line.find(")", at + 1)
+        if close < 0:
+            raise GcodeError(f"{_where(source, number, at)}: unbalanced parenthesis: the comment opened "
+                             "here is not closed on its line")
+        inner = line.find("(", at + 1, close)
+        if inner >= 0:
+            raise GcodeError(f"{_where(source, number, inner)}: unbalanced parenthesis: '(' inside a "
+                             "comment (comments do not nest)")
+        out[at:close + 1] = " " * (close + 1 - at)
+        i = close + 1
     return "".join(out)
 
 
-def parse_block(line: str, number: int, source: str) -> Block:
+def parse_block(line: str, number: int, source: str, code: str | None = None) -> Block:
     """Words of a line, with their spans in the original text (comments skipped).
 
     Parameters
@@ -223,6 +227,8 @@ def parse_block(line: str, number: int, source: str) -> Block:
         Its 1-based line number, for messages (a byte order mark may begin line 1).
     source : str
         Name of the program, for messages.
+    code : str, optional
+        The line as :func:`mask_comments` returns it, when the caller has it already.
 
     Returns
     -------
@@ -237,7 +243,8 @@ def parse_block(line: str, number: int, source: str) -> Block:
         sign, an exponent, a non-ASCII character, a CR); a number too large to hold; a ``/``
         that does not begin the block; a ``%`` that does not begin its line, or text after it.
     """
-    code = mask_comments(line, number, source)
+    if code is None:
+        code = mask_comments(line, number, source)
     words: list[Word] = []
     delete = False
     i = 1 if number == 1 and code.startswith("\ufeff") else 0  # a byte order mark
@@ -246,7 +253,7 @@ def parse_block(line: str, number: int, source: str) -> Block:
     while i < n:
         ch = code[i]
         if ch in BLANKS:
-            i += 1
+            i = BLANK_RUN.match(code, i).end()
             continue
         if ch == "/" and first:
             delete, first = True, False
@@ -308,29 +315,32 @@ def check_words(block: Block, source: str) -> None:
     seen: dict[str, Word] = {}
     groups: dict[tuple[str, str], Word] = {}
     for k, w in enumerate(block.words):
-        where = _where(source, block.number, w.start)
         letter = w.letter
-        if letter in WHOLE + UNSIGNED and re.search(r"[-+]", w.text):
-            raise GcodeError(f"{where}: {w.name}: {_a(letter)} {letter} word has no sign")
-        if letter in WHOLE and w.value != int(w.value):
-            raise GcodeError(f"{where}: {w.name}: {_a(letter)} {letter} word is a whole number")
-        if letter == "N" and k > 0:
-            raise GcodeError(f"{where}: {w.name}: a sequence number begins its block")
-        if letter == "O" and (k > 0 or len(block.words) > 1):
-            raise GcodeError(f"{where}: {w.name}: a program number stands alone on its line")
-        if letter in "GM":
+        problem = None
+        if letter in WHOLE or letter in UNSIGNED:
+            if "-" in w.text or "+" in w.text:
+                problem = f"{w.name}: {_a(letter)} {letter} word has no sign"
+            elif letter in WHOLE and w.value != int(w.value):
+                problem = f"{w.name}: {_a(letter)} {letter} word is a whole number"
+            elif letter == "N" and k > 0:
+                problem = f"{w.name}: a sequence number begins its block"
+            elif letter == "O" and (k > 0 or len(block.words) > 1):
+                problem = f"{w.name}: a program number stands alone on its line"
+        if problem is None and letter in "GM":
             table = G_GROUPS if letter == "G" else M_GROUPS
             key = (letter, table.get(w.value, f"{w.value!r}"))  # an unknown code is its own group
             other = groups.get(key)
             if other is not None and other.value == w.value:
-                raise GcodeError(f"{where}: {w.name} appears twice in the block")
-            if other is not None and {other.value, w.value} != {7, 8}:
-                raise GcodeError(f"{where}: {other.name} and {w.name} in one block: both are {key[1]} codes")
+                problem = f"{w.name} appears twice in the block"
+            elif other is not None and {other.value, w.value} != {7, 8}:
+                problem = f"{other.name} and {w.name} in one block: both are {key[1]} codes"
             groups[key] = w
-            continue
-        if letter in seen:
-            raise GcodeError(f"{where}: {letter} appears twice in the block ({seen[letter].name} and {w.name})")
-        seen[letter] = w
+        elif problem is None:
+            if letter in seen:
+                problem = f"{letter} appears twice in the block ({seen[letter].name} and {w.name})"
+            seen[letter] = w
+        if problem is not None:
+            raise GcodeError(f"{_where(source, block.number, w.start)}: {problem}")
 
 
 def split_lines(text: str) -> list[tuple[str, str]]:

@@ -355,10 +355,11 @@ class Interpreter:
         GcodeError
             A line that cannot be read (see :func:`~volerr_pin.gcode.lexer.parse_block`).
         """
-        macro = macro_statement(mask_comments(line, number, self.source))
+        code = mask_comments(line, number, self.source)
+        macro = macro_statement(code)
         if macro:
             return None, Problem(macro)
-        block = parse_block(line, number, self.source)
+        block = parse_block(line, number, self.source, code)
         return block, self._problem(block, state)
 
     def unsupported(self, line: str, state: ModalState) -> str | None:
@@ -438,6 +439,7 @@ class Interpreter:
             words = [(w.letter, w.value) for w in block.words]
         else:
             words = word_values(uncommented(line))
+        self._work_offset(words, number, state)
         state.apply_g([v for letter, v in words if letter == "G"])
         if any(letter in self.axes or letter in AXIS_LETTERS + "O" or (letter, v) == ("M", TOOL_CHANGE_M)
                for letter, v in words):
@@ -473,7 +475,7 @@ class Interpreter:
         """
         check_words(block, self.source)
         gs = [w.value for w in block.words if w.letter == "G"]
-        self._work_offset(block, state)
+        self._work_offset([(w.letter, w.value) for w in block.words], block.number, state)
         state.apply_g(gs)
         coord_words = [w for w in block.words if w.letter in self.axes]
         dwell = 4 in gs
@@ -508,32 +510,33 @@ class Interpreter:
             state.known[j] = True
         if check_travel:
             outside = self.machine.outside_travel(target[None, :])[0]
-            for w in coord_words:
-                j = self.axes.index(w.letter)
-                if outside[j]:
-                    lo, hi = (self.from_si(w.letter, t, False) for t in self.machine.travel[j])
-                    unit = "mm" if self.linear[j] else "deg"
-                    raise GcodeError(f"{self._where(block, w)}: {w.name} takes axis {w.letter} to "
-                                     f"{self.from_si(w.letter, target[j], False):.10g} {unit}, outside the travel "
-                                     f"[{lo:g}, {hi:g}] {unit}")
+            for j in sorted(np.flatnonzero(outside), key=lambda j: self.axes[j] not in [w.letter for w in coord_words]):
+                axis = self.axes[j]
+                lo, hi = (self.from_si(axis, t, False) for t in self.machine.travel[j])
+                unit = "mm" if self.linear[j] else "deg"
+                word = [w for w in coord_words if w.letter == axis]
+                what = (f"{self._where(block, word[0])}: {word[0].name} takes axis {axis} to" if word else
+                        f"{self._where(block)}: axis {axis} (not named, from the start position) is at")
+                raise GcodeError(f"{what} {self.from_si(axis, target[j], False):.10g} {unit}, outside the travel "
+                                 f"[{lo:g}, {hi:g}] {unit}")
         move = BlockMove(state.motion, state.position.copy(), target, start_known, coord_words)
         state.position = target
         return move
 
-    def _work_offset(self, block: Block, state: ModalState) -> None:
-        """One work offset per program: the program is compensated with one origin."""
-        for w in block.words:
-            if w.letter != "G" or w.value not in WORK_OFFSETS:
+    def _work_offset(self, words: list[tuple[str, float]], number: int, state: ModalState) -> None:
+        """One work offset per program (kept blocks included): it is compensated with one origin."""
+        for letter, value in words:
+            if letter != "G" or value not in WORK_OFFSETS:
                 continue
-            name = f"G{w.value:g}"
-            if w.value == 54.1:
-                p = [x for x in block.words if x.letter == "P"]
-                name += f" P{p[0].value:g}" if p else ""
+            name = f"G{value:g}"
+            if value == 54.1:
+                p = [v for other, v in words if other == "P"]
+                name += f" P{p[0]:g}" if p else ""
             if state.offset is not None and state.offset[0] != name:
-                raise GcodeError(f"{self._where(block, w)}: {name} changes the work offset from {state.offset[0]} "
+                raise GcodeError(f"{self.source}:{number}: {name} changes the work offset from {state.offset[0]} "
                                  f"(line {state.offset[1]}); a program is compensated with one origin: compensate "
                                  "the blocks of each work offset as a program of their own")
-            state.offset = (name, block.number)
+            state.offset = (name, number)
 
     def check_letters(self, block: Block, state: ModalState, coord_words: list[Word]) -> None:
         """Check that every word of a block means something in its modal state.

@@ -464,15 +464,21 @@ class Program:
 
     def _writable(self, pieces: list, st: dict, forms: set) -> list:
         """The pieces of a move with every arc the written numbers cannot hold within the
-        tolerance replaced by straight pieces (chords) along it."""
+        tolerance replaced by straight pieces (chords) along it.
+
+        Rounding moves a well-formed written arc by a few half-units of the last digit (its
+        centre, radius and ends each by up to 0.07 um in mm): that much is always accepted,
+        so that only arcs the numbers define badly become chords."""
         tol = self.report.tolerance_um * 1e-6
+        plane = PLANES[st["plane"]]
+        rounding = 8 * 0.5 * 10.0 ** -self._digits(plane[0], st["inch"]) * (INCH if st["inch"] else MM)
         out = []
         prev = pieces[0].start
         for n, piece in enumerate(pieces):
             # the original block keeps its centre form; inserted blocks use I/J/K
             piece_forms = (forms or {"ijk"}) if n == 0 else {"ijk"}
             if piece.kind == "arc" and self._arc_error(piece, prev, st, piece_forms) > max(tol - piece.residual,
-                                                                                          self.margin):
+                                                                                          rounding):
                 out.extend(self._chords(piece, st, tol))
             else:
                 out.append(piece)
