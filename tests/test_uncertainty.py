@@ -312,7 +312,7 @@ def test_bad_grids_and_sigmas_are_refused(machines):
     m = machines["vmc500"]
     with pytest.raises(vp.InputError, match=r"grid: give 1 or 3 counts"):
         grid_points(m, [3, 3])
-    with pytest.raises(vp.InputError, match="a grid of .* points needs about .*; reduce grid"):
+    with pytest.raises(vp.InputError, match="a workspace of .* points needs about .*; reduce grid"):
         grid_points(m, [100_000])
     with pytest.raises(vp.InputError, match="instrument_sigma must be a positive"):
         covariance_from_campaign(m, 0.0)
@@ -382,12 +382,18 @@ def test_volerr_uncertainty_from_an_identify_report_on_a_scheduler(cluster, tmp_
     (["--interval-samples", "50", "--samples", "20"], "--interval-samples must be a whole number from 2 to --samples"),
     (["--samples", "1"], "--samples must be a whole number >= 2, got 1"),
     (["--seed", "-2"], "--seed: expected a non-negative whole number"),
+    (["--samples", "1e13"], "a study of 10,000,000,000,000 draws needs about"),
+    (["--workers", "100000"], "a cluster of 100000 worker processes needs about"),
+    (["--grid", "5000"], "reduce --grid"),
+    (["--interval-samples", "2000000", "--samples", "3000000"], "--interval-samples: 2,000,000 draws at one point"),
+    (["--campaign-points", "1000000000"], "reduce --campaign-points"),
     pytest.param(["--scheduler", "tcp://127.0.0.1:9"], "--scheduler: no Dask scheduler answers at",
                  marks=pytest.mark.slow),  # waits for the connection timeout
 ])
 def test_volerr_uncertainty_bad_input_is_one_line(tmp_path, capsys, argv, match):
     code, out, err = _cli(["uncertainty", "vmc500", "--instrument-sigma", "1", "--campaign-points", "30",
-                           "--workers", "0", *argv], capsys)
+                           "--workers", "0", *argv] if "--workers" not in argv else
+                          ["uncertainty", "vmc500", "--instrument-sigma", "1", *argv], capsys)
     assert code == 2 and out == ""
     last = err.rstrip("\n").splitlines()[-1]
     assert match in last

@@ -27,6 +27,7 @@ from ..errors import InputError
 from ..identifiability import analyse
 from ..identify import parameter_units
 from ..machine import Machine
+from ..safeio import require_memory
 from ..spec import read_text
 from ..units import UM
 from ..workspace import sample
@@ -212,6 +213,8 @@ def covariance_from_campaign(machine: Machine, sigma: float, *, points: int = 20
                          parameters=("instrument_sigma",))
     if isinstance(points, bool) or int(points) != points or points < 1:
         raise InputError(f"campaign_points must be >= 1, got {points!r}", parameters=("campaign_points",))
+    require_memory(points * 6.0 * len(machine.parameter_names) * 8 * 3, f"a campaign of {points:,} poses",
+                   ("campaign_points",))
     q = sample(machine, int(points), seed=seed)
     J = machine.sensitivity(q)[:, :3, :].reshape(-1, len(machine.parameter_names))
     analysis = analyse(J, machine.parameter_names, rtol=rtol, what="a tool-point campaign")

@@ -579,5 +579,5 @@ def grid_points(machine: Machine, counts) -> np.ndarray:
         raise InputError(f"grid: give 1 or {n_axes} counts of at least 1 (axes {', '.join(machine.axes)}), got "
                          f"{counts}", parameters=("grid",))
     total = float(np.prod(np.array(counts, dtype=float)))
-    require_memory(total * n_axes * 8 * 12, f"a grid of {total:,.0f} points", ("grid",))
+    require_memory(total * n_axes * 8 * 12, f"a workspace of {total:,.0f} points", ("grid",))
     return grid(machine, tuple(counts))

@@ -22,6 +22,7 @@ from ..errors import InputError
 from ..machine import Machine
 from ..spec import parse_component_name
 from ..specio import replace_terms
+from ..safeio import require_memory
 from ..units import UM_PER_M
 from .allocation import Reallocation, reallocate
 from .engine import Engine, InProcess
@@ -29,7 +30,7 @@ from .montecarlo import MonteCarlo, RowsSource, ToleranceSource, make_points, ru
 from .sobol import SobolIndices, sobol_indices
 from .tolerances import Tolerances
 
-__all__ = ["ToleranceStudy", "check_arguments", "study_tolerances", "tolerance_machine"]
+__all__ = ["ToleranceStudy", "check_arguments", "study_tolerances", "tolerance_machine", "tolerance_source"]
 
 
 def tolerance_machine(machine: Machine) -> tuple[Machine, np.ndarray]:
@@ -135,7 +136,25 @@ class ToleranceStudy:
                 "reallocation": None if self.reallocation is None else self.reallocation.to_dict()}
 
 
-def _source(tolerances: Tolerances, index: np.ndarray, n_params: int, seed: int) -> ToleranceSource:
+def tolerance_source(tolerances: Tolerances, index: np.ndarray, n_params: int, seed: int) -> ToleranceSource:
+    """The draws of a tolerance study: each component's coefficient within its tolerance.
+
+    Parameters
+    ----------
+    tolerances : Tolerances
+        One per component.
+    index : ndarray of int, shape (n_components,)
+        The coefficient of each component (from :func:`tolerance_machine`).
+    n_params : int
+        Coefficients of the tolerance machine.
+    seed : int
+        The study's seed.
+
+    Returns
+    -------
+    ToleranceSource
+        Scales and distributions per coefficient.
+    """
     from .distributions import DISTRIBUTIONS
 
     scale = np.zeros(n_params)
@@ -185,6 +204,7 @@ def check_arguments(samples, seed, target=None, target_probability: float = 0.95
     n = sobol_samples
     if n and (isinstance(n, bool) or int(n) != n or n < 4 or int(n) & (int(n) - 1)):
         raise InputError(f"sobol_samples must be a power of 2 (at least 4), got {n!r}", parameters=("sobol_samples",))
+    require_memory(samples * 24.0, f"a study of {samples:,} draws", ("samples",))
     return int(samples), int(seed)
 
 
@@ -240,13 +260,16 @@ def study_tolerances(machine: Machine, tolerances: Tolerances, q: np.ndarray, *,
     engine = engine or InProcess()
     constant, index = tolerance_machine(machine)
     points = make_points(constant, q)
-    source = _source(tolerances, index, len(constant.parameter_names), int(seed))
+    source = tolerance_source(tolerances, index, len(constant.parameter_names), int(seed))
     stage = (lambda name: (lambda done, total: progress(name, done, total))) if progress else (lambda name: None)
     run = run_monte_carlo(constant, source, points, samples, engine=engine, per_point=False,
                           progress=stage("Monte Carlo"))
     indices = None
     active = [k for k, e in enumerate(tolerances.entries) if e.value > 0]
     if sobol_samples and active:
+        runs = sobol_samples * (len(active) + 2)
+        require_memory(runs * (len(active) + len(constant.parameter_names) + 4) * 8.0,
+                       f"a Sobol' design of {runs:,} runs", ("sobol_samples",))
         problem = {"num_vars": len(active), "names": [tolerances.entries[k].component for k in active],
                    "bounds": [], "dists": []}
         for k in active:

@@ -59,7 +59,8 @@ from ..units import UM_PER_M
 from ..workspace import to_engineering
 from .covariance import Covariance
 from .engine import Engine, InProcess
-from .montecarlo import (SAMPLE_CHUNK, MonteCarlo, NormalSource, Points, make_points, point_quantiles,
+from ..safeio import require_memory
+from .montecarlo import (QUANTILE_TASK_BYTES, MonteCarlo, NormalSource, Points, make_points, point_quantiles,
                          run_monte_carlo)
 
 __all__ = ["FieldUncertainty", "Linear", "Scalar", "UncertaintyStudy", "check_arguments", "compensated_points",
@@ -578,6 +579,11 @@ def check_arguments(samples, seed, interval_samples=None) -> tuple[int, int, int
             not 2 <= interval_samples <= samples:
         raise InputError(f"interval_samples must be a whole number from 2 to samples ({samples}), got "
                          f"{interval_samples!r}", parameters=("interval_samples", "samples"))
+    if interval_samples * 32 > QUANTILE_TASK_BYTES:
+        raise InputError(f"interval_samples: {interval_samples:,} draws at one point need more than "
+                         f"{QUANTILE_TASK_BYTES >> 20} MB; the per-point intervals take at most "
+                         f"{QUANTILE_TASK_BYTES // 32:,}", parameters=("interval_samples",))
+    require_memory(samples * 24.0, f"a study of {samples:,} draws", ("samples",))
     return samples, int(seed), int(interval_samples)
 
 
