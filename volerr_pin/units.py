@@ -71,7 +71,8 @@ PLAUSIBLE_WHAT = {"error_length": "a deviation", "error_angle": "an angular devi
 
 #: a decimal number as files write it: digits, an optional point and exponent; no NaN or
 #: inf spellings, underscores, hex or non-ASCII digits (all of which float() would take)
-NUMBER_RE = re.compile(r"^[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")  # ASCII digits only
+NUMBER = r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"  # ASCII digits; no backtracking
+NUMBER_RE = re.compile(NUMBER)
 
 
 def parse_number(text: str) -> float:
@@ -95,7 +96,7 @@ def parse_number(text: str) -> float:
         that overflow, such as ``1e999``).
     """
     text = text.strip()
-    if not NUMBER_RE.match(text):
+    if not NUMBER_RE.fullmatch(text):
         try:
             special = float(text)
         except ValueError:
