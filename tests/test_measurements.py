@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from volerr_pin import safeio
-from volerr_pin.measurements import MeasurementError, read_any, read_points, read_runs
+from volerr_pin.measurements import MeasurementError, Table, read_any, read_points, read_runs
 
 POINTS = """# tracker data, vmc500
 x,y,z,dx,dy,dz,rx,t,T_spindle,Fx,Fy,Fz,dir_x,operator
@@ -427,3 +427,20 @@ def test_the_documented_plausibility_limits_are_the_ones_applied():
         assert text in section, text
         assert PLAUSIBLE[kind] == (-limit, limit), kind
     assert "below -273.15 degC or above 1000 degC" in section and PLAUSIBLE["temperature"] == (-273.15, 1000.0)
+
+
+@pytest.mark.parametrize("cell", ["1", " -2.5 ", "+.5e-3", "1.", "1E+05", "007", "", " ", "nan", "-Infinity", "1e999",
+                                  "1_0", "0x10", "\u0663", "1e", ".", "+", "1 2", "\t3\t"])
+@pytest.mark.parametrize("allow_empty", [False, True])
+def test_a_column_reads_each_cell_as_the_cell_reader_does(cell, allow_empty):
+    """Table.column's fast path (float() on a whole column) and Table.number agree on every
+    spelling: the same value, or the same error."""
+    table = Table("t.csv", ["a"], 1, [["4"], [cell], ["5"]], [2, 3, 4])
+    try:
+        expected = table.number(1, 0, allow_empty)
+    except MeasurementError as err:
+        with pytest.raises(MeasurementError, match=re.escape(str(err))):
+            table.column(0, allow_empty)
+    else:
+        got = table.column(0, allow_empty)[1]
+        assert got == expected or (np.isnan(got) and np.isnan(expected))
