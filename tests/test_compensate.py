@@ -240,3 +240,13 @@ def test_path_sizes_are_bounded(machines, monkeypatch):
     with pytest.raises(InputError, match="10,000,000,000 samples along a move needs about") as err:
         PathCompensator(m, samples=10**10)
     assert err.value.parameters == ("samples",)
+
+
+def test_more_points_than_the_memory_can_compensate_at_once_are_refused(machines, monkeypatch):
+    import volerr_pin.safeio as safeio
+
+    monkeypatch.setattr(safeio, "available_memory", lambda: 1_000_000)
+    m = machines["vmc500"]
+    with pytest.raises(InputError, match=r"compensating 1,000 positions needs about 2.5 MB") as err:
+        compensate_points(m, np.tile(m.mid_travel, (1000, 1)))
+    assert err.value.parameters == ("q_desired",)

@@ -226,3 +226,9 @@ def test_interpolation_in_chunks_is_the_interpolation_at_once(machines, monkeypa
     with pytest.raises(InputError, match="order must be 1 .* got 4") as err:
         natural_nodes(4)
     assert err.value.parameters == ("order",)
+
+
+def test_a_table_in_a_missing_folder_is_refused_in_one_line(machines, tmp_path):
+    with pytest.raises(InputError, match="path: .* folder .* does not exist") as err:
+        compensation_table(machines["vmc500"], tmp_path / "nowhere" / "t.csv", nodes=(2, 2, 2))
+    assert err.value.parameters == ("path",)

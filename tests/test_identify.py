@@ -398,3 +398,18 @@ def test_one_term_given_as_a_string_is_that_term(machines, small_points):
     listed = identify(m, [small_points], terms=["EXX"], folds=0)
     np.testing.assert_array_equal(one.free, listed.free)
     assert {m.parameter_names[k].split(".")[0] for k in one.free} == {"EXX"}
+
+
+def test_observations_built_by_hand_must_be_consistent(machines, small_points):
+    from volerr_pin.identify import build_observations
+
+    m = machines["vmc500"]
+    obs = build_observations(m, [small_points])
+    obs.point = obs.point.copy()
+    obs.point[0] = 99
+    with pytest.raises(vp.InputError, match="obs.point refers to points outside 0 to 39"):
+        identify(m, obs)
+    obs = build_observations(m, [small_points])
+    obs.sigma = obs.sigma[:-1]
+    with pytest.raises(vp.InputError, match=r"obs.sigma has shape \(119,\); expected \(120,\)"):
+        identify(m, obs)

@@ -30,15 +30,13 @@ import numpy as np
 
 from .errors import InputError
 from .machine import Machine
-from .safeio import replacing, require_memory
+from .safeio import check_outputs, replacing, require_memory
 from .units import AXIS_UNIT, axis_scale
 from .workspace import _counts, _integer
 
 NODES_PER_ORDER = {1: 8, 2: 20, 3: 32}
 #: memory of one evaluated point beyond its own arrays (the kinematics' working set) [bytes]
 EVALUATION_BYTES = 300
-#: memory of one point compensated by :func:`~volerr_pin.compensate.compensate_points` [bytes]
-COMPENSATION_BYTES = 2500
 #: nodes of a compensation table compensated and written at once
 TABLE_CHUNK = 32768
 #: points interpolated at once
@@ -405,12 +403,14 @@ def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), c
     Raises
     ------
     InputError
-        If the machine does not have exactly three linear axes, ``config`` names an unknown
-        axis, a spanned one or a position outside the travel, ``nodes`` is not three whole
-        numbers >= 2, or the table would not fit on the disk of ``path``'s folder.
+        If ``path`` cannot be written (see :func:`~volerr_pin.safeio.check_outputs`), the
+        machine does not have exactly three linear axes, ``config`` names an unknown axis, a
+        spanned one or a position outside the travel, ``nodes`` is not three whole numbers
+        >= 2, or the table would not fit on the disk of ``path``'s folder.
     """
     from .compensate import compensate_points
 
+    path = check_outputs({"path": path})["path"]
     lin, fixed = _map_axes(machine, config, "a compensation table")
     nodes = _counts("nodes", nodes, 2)
     require_memory(8 * sum(nodes), f"node positions of {' x '.join(map(str, nodes))} nodes", ("nodes",))

@@ -997,10 +997,24 @@ def check_observations(obs: Observations) -> None:
     Raises
     ------
     InputError
-        If a value, weight or nuisance entry is not finite, a standard deviation is not
+        If the arrays do not have one entry per row (or point indices leave the points), a
+        value, weight or nuisance entry is not finite, a standard deviation is not
         positive and finite, a position is not finite, or an observation exceeds
         :data:`WEIGHTED_LIMIT` standard deviations (the fit's sums of squares would overflow).
     """
+    rows = len(obs.y)
+    shapes = {"point": np.shape(obs.point), "w": np.shape(obs.w), "sigma": np.shape(obs.sigma),
+              "angular": np.shape(obs.angular), "nuisance": np.shape(obs.nuisance)[:1], "lines": np.shape(obs.lines)}
+    expected = {"w": (rows, 6), "nuisance": (rows,)}
+    for name, shape in shapes.items():
+        if shape != expected.get(name, (rows,)):
+            raise InputError(f"obs.{name} has shape {shape}; expected {expected.get(name, (rows,))} (one per row)",
+                             parameters=("obs",))
+    if len(obs.sources) != rows or np.shape(obs.nuisance)[1:] != (len(obs.nuisance_names),):
+        raise InputError("obs.sources and obs.nuisance_names must name every row and nuisance column",
+                         parameters=("obs",))
+    if rows and (obs.point.min() < 0 or obs.point.max() >= obs.n_points):
+        raise InputError(f"obs.point refers to points outside 0 to {obs.n_points - 1}", parameters=("obs",))
     bad_q = np.argwhere(~np.isfinite(obs.q))
     if bad_q.size:
         i = int(bad_q[0][0])
