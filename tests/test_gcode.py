@@ -496,12 +496,28 @@ def test_unknown_g_codes_pass_through_only_when_asked_and_never_as_moves(machine
         compensate_program(m, program, source="prog.nc")
     out, report = compensate_program(m, program, pass_through=True)
     assert out.splitlines()[1] == "G77 X200 Y50"
-    assert "line 2: G77 (a G code this reader does not know) kept unchanged; if it sets a mode, the blocks " \
-           "after it are misread" in report.warnings
+    assert "line 2: G77 (a G code this reader does not know) kept unchanged; what it changes is not followed, " \
+           "so the blocks after it may be misread" in report.warnings
     # it named axes: where the machine went is not known, so the next move is end point only
     assert any(w.startswith("line 3: the position before this move is not known (axes X, Y, Z not known "
                             "since line 2)") for w in report.warnings)
     assert report.moves == 2 and report.pieces == 2
+
+
+@pytest.mark.parametrize("kept, lost", [
+    ("#1 = 5", False), ("N10 #100 = [#1 + 2] (scale)", False),
+    ("G1 X#1", True), ("G1 X[#1 + 2]", True), ("G#1 X10", True), ("IF [#1 GT 2] GOTO 10", True),
+    ("WHILE [#1 LT 10] DO1", True), ("END1", True), ("M98 P100", True), ("G65 P9010 A1", True),
+    ("G81 X20 Y20 Z5 R12", True), ("G77", False),
+])
+def test_a_kept_block_that_may_move_loses_the_position(machines, kept, lost):
+    """A jump, a loop, a call or a word whose value is a variable may move the machine or run
+    the blocks in another order: the move after it is compensated at its end point only."""
+    program = START + f"{kept}\nG80\nG1 X150 F100\n"
+    out, report = compensate_program(machines["vmc500"], program, pass_through=True)
+    assert out.splitlines()[1] == kept
+    assert any(w.startswith("line 2: ") and "kept unchanged" in w for w in report.warnings)
+    assert any(w.startswith("line 4: the position before this move is not known") for w in report.warnings) == lost
 
 
 def test_a_tool_change_loses_the_position(machines):

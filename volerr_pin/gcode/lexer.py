@@ -21,6 +21,7 @@ COMMENT = re.compile(r"\([^)]*\)|;.*$")
 BLANKS = " \t"
 BLANK_RUN = re.compile(r"[ \t]+")
 DELIMITER = re.compile(r"[();]")
+VARIABLE_WORD = re.compile(r"[A-Z][ \t]*[#\[]")  # X#1, X[#1+2], G#3
 PERCENT = re.compile(r"%(_[A-Za-z0-9_.]*)?")  # tape start/end, with a Siemens-style name
 MACRO = re.compile(r"\b(IF|WHILE|GOTO|DO\d*|END\d*|SUB|ENDSUB|CALL|RETURN|ELSE|ELSEIF|ENDIF|ENDWHILE|REPEAT|"
                    r"ENDREPEAT|BREAK|CONTINUE|THEN)\b")
@@ -408,7 +409,7 @@ def word_values(code: str) -> list[tuple[str, float]]:
     return out
 
 
-def macro_statement(code: str) -> str | None:
+def macro_statement(code: str) -> tuple[str, bool] | None:
     """What makes a line a macro statement, if anything.
 
     Parameters
@@ -418,12 +419,19 @@ def macro_statement(code: str) -> str | None:
 
     Returns
     -------
-    str or None
-        ``"a macro variable (#)"``, ``"a macro statement (IF)"`` ...; None for a plain block.
+    (str, bool) or None
+        What it is (``"a macro statement (IF)"``, ``"a macro variable (#)"`` ...), and whether
+        it may move the machine or change which blocks run (a jump, a loop, a call, a word
+        whose value is a variable or an expression) rather than only set a variable; None for
+        a plain block.
     """
-    if "#" in code:
-        return "a macro variable (#)"
-    keyword = MACRO.search(code.upper())
+    upper = code.upper()
+    keyword = MACRO.search(upper)
     if keyword:
-        return f"a macro statement ({keyword.group(1)})"
+        return f"a macro statement ({keyword.group(1)})", True
+    word = VARIABLE_WORD.search(upper)
+    if word:
+        return f"a word whose value is a macro variable or expression ({word.group(0).replace(' ', '')}...)", True
+    if "#" in code:
+        return "a macro variable (#)", False
     return None

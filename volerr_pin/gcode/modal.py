@@ -358,7 +358,9 @@ class Interpreter:
         code = mask_comments(line, number, self.source)
         macro = macro_statement(code)
         if macro:
-            return None, Problem(macro)
+            problem = Problem(macro[0])
+            problem.modes_unknown = macro[1]
+            return None, problem
         block = parse_block(line, number, self.source, code)
         return block, self._problem(block, state)
 
@@ -421,8 +423,9 @@ class Interpreter:
         """Follow a block that is kept unchanged rather than interpreted.
 
         It still sets its modal words (G91 G28 ... stays G91), and if it names axes (or
-        changes tools, or starts another program) it moves the machine somewhere not
-        followed: every axis position becomes unknown.
+        changes tools, calls or returns from a subprogram or macro, starts another program,
+        jumps or loops, or has a word whose value is a macro variable) it moves the machine
+        somewhere not followed: every axis position becomes unknown.
 
         Parameters
         ----------
@@ -439,10 +442,13 @@ class Interpreter:
             words = [(w.letter, w.value) for w in block.words]
         else:
             words = word_values(uncommented(line))
+            macro = macro_statement(mask_comments(line, number, self.source))
+            if macro and macro[1]:  # a jump, loop or variable word: where the machine goes is not known
+                state.lose_position(f"line {number}")
         self._work_offset(words, number, state)
         state.apply_g([v for letter, v in words if letter == "G"])
-        if any(letter in self.axes or letter in AXIS_LETTERS + "O" or (letter, v) == ("M", TOOL_CHANGE_M)
-               for letter, v in words):
+        calls = {("M", TOOL_CHANGE_M), ("M", 98), ("M", 99)} | {("G", g) for g in MACRO_G}
+        if any(letter in self.axes or letter in AXIS_LETTERS + "O" or (letter, v) in calls for letter, v in words):
             state.lose_position(f"line {number}")
 
     def advance(self, block: Block, state: ModalState, check_travel: bool = True) -> BlockMove | None:
@@ -508,17 +514,17 @@ class Interpreter:
             if not math.isfinite(target[j]):
                 raise GcodeError(f"{self._where(block, w)}: {w.name} takes axis {w.letter} beyond any number")
             state.known[j] = True
-        if check_travel:
-            outside = self.machine.outside_travel(target[None, :])[0]
-            for j in sorted(np.flatnonzero(outside), key=lambda j: self.axes[j] not in [w.letter for w in coord_words]):
-                axis = self.axes[j]
-                lo, hi = (self.from_si(axis, t, False) for t in self.machine.travel[j])
-                unit = "mm" if self.linear[j] else "deg"
-                word = [w for w in coord_words if w.letter == axis]
-                what = (f"{self._where(block, word[0])}: {word[0].name} takes axis {axis} to" if word else
-                        f"{self._where(block)}: axis {axis} (not named, from the start position) is at")
-                raise GcodeError(f"{what} {self.from_si(axis, target[j], False):.10g} {unit}, outside the travel "
-                                 f"[{lo:g}, {hi:g}] {unit}")
+        outside = np.flatnonzero(self.machine.outside_travel(target[None, :])[0]) if check_travel else []
+        if len(outside):
+            named = {w.letter: w for w in coord_words}
+            j = next((j for j in outside if self.axes[j] in named), outside[0])  # a word to blame first
+            axis = self.axes[j]
+            lo, hi = (self.from_si(axis, t, False) for t in self.machine.travel[j])
+            unit = "mm" if self.linear[j] else "deg"
+            what = (f"{self._where(block, named[axis])}: {named[axis].name} takes axis {axis} to" if axis in named
+                    else f"{self._where(block)}: axis {axis} (not named, from the start position) is at")
+            raise GcodeError(f"{what} {self.from_si(axis, target[j], False):.10g} {unit}, outside the travel "
+                             f"[{lo:g}, {hi:g}] {unit}")
         move = BlockMove(state.motion, state.position.copy(), target, start_known, coord_words)
         state.position = target
         return move
@@ -666,9 +672,10 @@ class Interpreter:
             from_r = centre_from_radius(s, e, r, clockwise)
             if from_r is None:
                 chord = math.hypot(*(e - s))
-                why = ("R cannot program a full circle (start and end are one point): use "
-                       f"{offs[0]}/{offs[1]}") if chord < 1e-12 else \
-                    f"the end points are {chord / scale:.4f} {unit} apart, more than its diameter"
+                if chord < 1e-12:
+                    why = f"R cannot program a full circle (start and end are one point): use {offs[0]}/{offs[1]}"
+                else:
+                    why = f"the end points are {chord / scale:.4f} {unit} apart, more than its diameter"
                 raise GcodeError(f"{self._where(block, rw)}: {rw.name} cannot join these end points: {why}")
             if centre is not None and math.hypot(*(from_r - centre)) > ARC_SLACK:
                 text = " ".join(w.name for w in named)

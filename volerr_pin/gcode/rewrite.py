@@ -217,7 +217,8 @@ class Program:
                                      "(pass_through keeps it unchanged)", parameters=("pass_through",))
                 self.report.warnings.append(
                     f"line {number}: {problem} kept unchanged" +
-                    ("; if it sets a mode, the blocks after it are misread" if problem.modes_unknown else ""))
+                    ("; what it changes is not followed, so the blocks after it may be misread" if problem.modes_unknown
+                     else ""))
                 entries.append(("raw", raw, newline))
                 reader.skip(body, state, block, number)
                 continue
