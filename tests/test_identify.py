@@ -413,3 +413,18 @@ def test_observations_built_by_hand_must_be_consistent(machines, small_points):
     obs.sigma = obs.sigma[:-1]
     with pytest.raises(vp.InputError, match=r"obs.sigma has shape \(119,\); expected \(120,\)"):
         identify(m, obs)
+
+
+def test_cli_says_an_ill_conditioned_fit_in_one_note_and_the_report(tmp_path, capsys, monkeypatch):
+    """The limit lowered to 1 makes any fit ill-conditioned: the command prints the warning as
+    one note and the JSON report carries the flag."""
+    import volerr_pin.identify as ident
+
+    monkeypatch.setattr(ident, "CONDITION_LIMIT", 1.0)
+    path = tmp_path / "points.csv"
+    path.write_text("x,y,z,dx,dy,dz\n" + "".join(f"{10 * i},{5 * i},{2 * i},0.1,0.2,0.3\n" for i in range(12)))
+    assert main(["identify", "vmc500", str(path), "--json", "--folds", "0"]) == 0
+    captured = capsys.readouterr()
+    notes = [line for line in captured.err.splitlines() if "ill-conditioned" in line]
+    assert len(notes) == 1 and notes[0].startswith("volerr: note: the fit is ill-conditioned: its column-scaled design")
+    assert json.loads(captured.out)["ill_conditioned"] is True
