@@ -47,8 +47,8 @@ def main(folder: str | Path, machines=MACHINES, points: int = 4096) -> dict[str,
         print("|---|---|---|---|---|")
         for r in rows:
             files = ", ".join(f"`{f}`" for f in r["files"])
-            print(f"| {r['controller']} | {r['kind']} | {files} | {r['residual_max_um']:.3g} / {r['residual_rms_um']:.3g} "
-                  f"| {r['naive_max_um']:.3g} / {r['naive_rms_um']:.3g} |")
+            print(f"| {r['controller']} | {r['kind']} | {files} | {r['residual_max_um']:.3g} / "
+                  f"{r['residual_rms_um']:.3g} | {r['naive_max_um']:.3g} / {r['naive_rms_um']:.3g} |")
     return out
 
 

@@ -27,17 +27,22 @@ def chunks(path, entity):
 
 @pytest.fixture(scope="module")
 def cli_run(tmp_path_factory):
+    """One run of the command with every output, its report parsed."""
     folder = tmp_path_factory.mktemp("cli")
     out = folder / "tables"
     argv = ["export", "vmc500", "--controller", "siemens-840d", "-o", str(out), "--points", "512", "--zone",
             "X=0:400", "tool=0:50", "--png", str(folder / "e.png"), "--rrd", str(folder / "e.rrd"), "--json"]
-    return folder, out, argv
+    import contextlib
+    import io
+
+    stdout = io.StringIO()
+    with contextlib.redirect_stdout(stdout):
+        assert main(argv) == 0
+    return folder, json.loads(stdout.getvalue())
 
 
-def test_export_cli_writes_tables_report_and_pictures(cli_run, capsys):
-    folder, out, argv = cli_run
-    assert main(argv) == 0
-    report = json.loads(capsys.readouterr().out)
+def test_export_cli_writes_tables_report_and_pictures(cli_run):
+    folder, report = cli_run
     assert report["machine"] == "vmc500" and report["controller"] == "siemens-840d" and report["kind"] == "cec"
     assert sorted(Path(f).name for f in report["files"]) == ["AX_EEC.INI", "NC_CEC.INI"]
     assert all(Path(f).is_file() for f in report["files"])
@@ -47,9 +52,12 @@ def test_export_cli_writes_tables_report_and_pictures(cli_run, capsys):
     assert mpimg.imread(folder / "e.png").shape[2] in (3, 4)
     # the recording: one step per stage, arrows = error x scale on the same points
     arrows = chunks(folder / "e.rrd", "/export/error")
-    vectors = [np.asarray(row, dtype=float).reshape(-1, 3) for b in arrows for row in b.column("Arrows3D:vectors").to_pylist()]
+    vectors = [np.asarray(row, dtype=float).reshape(-1, 3)
+               for b in arrows for row in b.column("Arrows3D:vectors").to_pylist()]
     assert len(vectors) == 4 and vectors[0].shape == (512, 3)
-    assert np.abs(vectors[2]).max() < np.abs(vectors[0]).max() / 3          # written tables shrink the arrows
+    rms = [np.sqrt(np.mean(np.sum(v ** 2, axis=1))) for v in vectors]
+    assert rms[2] < rms[0] / 3 and rms[3] < rms[2] / 100                  # written tables shrink the arrows
+    np.testing.assert_allclose(rms[2] / rms[0], report["residual_rms_um"] / report["uncompensated_rms_um"], rtol=1e-5)
     assert chunks(folder / "e.rrd", "/summary")
 
 
@@ -64,7 +72,8 @@ def test_export_cli_prints_a_table_and_the_files(tmp_path, capsys):
     (["--controller", "linuxcnc", "--zone", "Q=1:2"], "volerr: error: --zone: 'Q=1:2' names no axis of vmc500"),
     (["--controller", "fanuc", "--kind", "cec"], "volerr: error: --kind: fanuc has no tables of kind 'cec'"),
     (["--controller", "linuxcnc", "--nodes", "300"], "volerr: error: --nodes: LinuxCNC holds 2 to 256 entries"),
-    (["--controller", "isg", "--kind", "volumetric", "--zone", "X=9:8"], "volerr: error: --zone: 'X=9:8': the range runs"),
+    (["--controller", "isg", "--kind", "volumetric", "--zone", "X=9:8"],
+     "volerr: error: --zone: 'X=9:8': the range runs"),
 ])
 def test_export_cli_refuses_with_one_line_before_any_work(tmp_path, capsys, argv, message):
     out = tmp_path / "never"
@@ -83,10 +92,8 @@ def test_export_cli_refuses_a_machine_and_an_output_that_is_a_file(tmp_path, cap
     assert (tmp_path / "file").read_text() == "keep"
 
 
-def test_every_export_field_is_documented(cli_run, capsys):
-    folder, out, argv = cli_run
-    assert main(argv) == 0
-    report = json.loads(capsys.readouterr().out)
+def test_every_export_field_is_documented(cli_run):
+    folder, report = cli_run
     fields = set()
 
     def walk(value):

@@ -185,7 +185,8 @@ def test_our_reader_refuses_what_linuxcnc_would_cut_or_refuse(export):
         with pytest.raises(InputError, match=match):
             fmt.read({**texts, name: bad}, m)
     with pytest.raises(InputError, match="COMP_FILE_TYPE must be 1"):
-        fmt.read({**texts, "compensation.ini": texts["compensation.ini"].replace("COMP_FILE_TYPE = 1", "COMP_FILE_TYPE = 0", 1)}, m)
+        ini = texts["compensation.ini"].replace("COMP_FILE_TYPE = 1", "COMP_FILE_TYPE = 0", 1)
+        fmt.read({**texts, "compensation.ini": ini}, m)
     with pytest.raises(InputError, match="nodes: LinuxCNC holds 2 to 256"):
         export_tables(m, "linuxcnc", nodes=257)
 

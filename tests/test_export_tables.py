@@ -50,7 +50,7 @@ def test_directional_and_one_way_tables_read_the_first_inputs_direction():
     nodes = (np.array([0.0, 1.0]),)
     table = Table(0, (1,), nodes, np.array([[1.0, 3.0], [-1.0, -3.0]]), directional=True)
     q = np.array([[9.0, 0.5], [9.0, 0.5]])
-    d = np.array([[-1.0, 1.0], [1.0, -1.0]])                                   # the output axis' own direction is not read
+    d = np.array([[-1.0, 1.0], [1.0, -1.0]])            # the output axis' own direction is not read
     np.testing.assert_allclose(table.correction(q, d), [2.0, -2.0])
     up = Table(0, (0,), nodes, np.array([1.0, 1.0]), only=1)
     np.testing.assert_allclose(up.correction(np.array([[0.5], [0.5]]), np.array([[1.0], [-1.0]])), [1.0, 0.0])

@@ -27,7 +27,8 @@ def add_parser(sub) -> None:
                    help="working zone: AXIS=LO:HI (mm, deg) or AXIS=V per axis, tool=LO:HI or tool=L (mm, the tool "
                         "beyond the machine's tool point); axes not named keep their travel")
     p.add_argument("--nodes", type=positive, help="table nodes per axis (default: the format's)")
-    p.add_argument("--points", type=positive, default=4096, help="points fitted on, and as many judged on (default 4096)")
+    p.add_argument("--points", type=positive, default=4096,
+                   help="points judged on, and as many others fitted on (at least 8 per table value; default 4096)")
     p.add_argument("--seed", type=int, default=0, help="seed of the points")
     p.add_argument("--png", help="also draw the error before and after (PNG)")
     p.add_argument("--rrd", help="also write a Rerun recording of the error before and after")

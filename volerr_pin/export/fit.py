@@ -9,12 +9,15 @@ smallest in the least-squares sense:
     minimise  sum_i |p_actual(q_i + c_i(v)) - p_nominal(q_i)|^2 + lambda |v - v_naive|^2
 
 The residual is linear in the corrections to first order, and the corrections are linear in
-the values ``v`` (exactly for tables, to first order for a controller's model), so each
-Gauss-Newton step is one sparse linear least-squares problem with the exact tool-point
-Jacobian of the actual machine; two or three steps reach the machine's non-linearity at the
+the values ``v`` (exactly for tables, to first order for a controller's model), so each step
+is one sparse linear least-squares problem with the exact tool-point Jacobian of the actual
+machine, built and factorised once (the design changes with the values only by products of
+errors); two or three steps on the exact residual reach the machine's non-linearity at the
 nanometre level. The tiny ridge ``lambda`` (1e-9 of the largest diagonal of the normal
 matrix) only settles values no point can tell apart (the same constant in two tables of one
-axis), towards the naive ones; it moves determined values by far less than a nanometre.
+axis), towards the naive ones; it moves determined values by far less than a nanometre. The
+points come at least eight per value (:func:`volerr_pin.export.export_tables`), so every node
+is well inside the data.
 """
 
 from __future__ import annotations
@@ -48,17 +51,21 @@ def _design(machine: Machine, compensation: Compensation, points: Points, setpoi
     return (blockdiag @ compensation.basis(points.q, points.directions, points.tool)).tocsr()
 
 
-def _solve(normal: sp.spmatrix, rhs: np.ndarray) -> np.ndarray:
+def _factor(normal: sp.spmatrix):
+    """A solver of ``normal x = b`` (Cholesky when dense enough and positive, else LU)."""
     if normal.shape[0] <= DENSE_LIMIT:
         dense = normal.toarray()
         try:
-            return scipy.linalg.cho_solve(scipy.linalg.cho_factor(dense), rhs)
+            chol = scipy.linalg.cho_factor(dense)
+            return lambda rhs: scipy.linalg.cho_solve(chol, rhs)
         except np.linalg.LinAlgError:
-            return np.linalg.lstsq(dense, rhs, rcond=None)[0]
-    return scipy.sparse.linalg.spsolve(normal.tocsc(), rhs)
+            lu = scipy.linalg.lu_factor(dense)
+            return lambda rhs: scipy.linalg.lu_solve(lu, rhs)
+    lu = scipy.sparse.linalg.splu(normal.tocsc())
+    return lu.solve
 
 
-def fit(machine: Machine, compensation: Compensation, points: Points, *, iterations: int = 4,
+def fit(machine: Machine, compensation: Compensation, points: Points, *, iterations: int = 6,
         tol: float = 1e-11) -> Compensation:
     """The values of ``compensation`` that make the simulated residual over ``points``
     smallest (see the module docstring).
@@ -71,8 +78,8 @@ def fit(machine: Machine, compensation: Compensation, points: Points, *, iterati
         The layout (tables or model) whose values are chosen; its current values are ignored.
     points : Points
         Commanded positions, motion directions and tools the residual is summed over.
-    iterations : int, default 4
-        Gauss-Newton steps at most.
+    iterations : int, default 6
+        Steps at most.
     tol : float, default 1e-11
         Stop when a step changes no value by more than this [m, rad].
 
@@ -89,16 +96,19 @@ def fit(machine: Machine, compensation: Compensation, points: Points, *, iterati
     require_memory(len(points) * (3 * n_axes + 3) * 8 * max(8, v_prior.size // 50) + 8.0 * v_prior.size ** 2,
                    f"fitting {v_prior.size} table values over {len(points)} points", ("points", "nodes"))
     current = prior
+    factor = None
     for _ in range(iterations):
         v = current.values
-        setpoints = points.q + current.correction(points.q, points.directions, points.tool)
         r = residuals(machine, current, points).ravel()
-        A = _design(machine, current, points, setpoints)
-        normal = (A.T @ A).tocsr()
-        ridge = RIDGE * max(float(normal.diagonal().max()), 1e-300)
-        normal = normal + ridge * sp.identity(v.size, format="csr")
-        rhs = -(A.T @ r) - ridge * (v - v_prior)
-        step = _solve(normal, rhs)
+        if factor is None:
+            # the design changes with the values only by products of errors (1e-4 relative): it is
+            # built and factorised once, and the steps iterate on the exact residual (chord method)
+            setpoints = points.q + current.correction(points.q, points.directions, points.tool)
+            A = _design(machine, current, points, setpoints)
+            normal = (A.T @ A).tocsr()
+            ridge = RIDGE * max(float(normal.diagonal().max()), 1e-300)
+            factor = _factor(normal + ridge * sp.identity(v.size, format="csr"))
+        step = factor(-(A.T @ r) - ridge * (v - v_prior))
         current = current.with_values(v + step)
         if np.abs(step).max() < tol:
             break

@@ -59,7 +59,8 @@ class Heidenhain:
     convention = ("values are errors (actual minus nominal, positive when the travel is too long), mm or deg; "
                   "BACKLASH holds the table's own axis moving in the negative direction")
     manual = ("HEIDENHAIN TNC 407/415/425 Technical Manual: linear and non-linear axis-error compensation (MP720, "
-              "MP730, .CMA/.COM, module 9095); MANUALplus 620 Technical Manual 6.10.3 Nonlinear axis error compensation")
+              "MP730, .CMA/.COM, module 9095); MANUALplus 620 Technical Manual 6.10.3 Nonlinear axis error "
+              "compensation")
     default_nodes = 41
 
     def layout(self, machine: Machine, zone: Zone, kind: str, nodes: int | None) -> SetpointTables:
@@ -154,7 +155,8 @@ class Heidenhain:
             out[com_name(axis)] = "\n".join(rows) + "\n"
         axes = list(machine.axes)
         cma = [f"BEGIN {CMA}", f"{'NR':>6}" + "".join(f"{a:>10}" for a in axes) + f"{'ACTIVE':>8}",
-               f"{0:>6}" + "".join(f"{com_name(a) if j in groups else '':>10}" for j, a in enumerate(axes)) + f"{'*':>8}",
+               f"{0:>6}" + "".join(f"{com_name(a) if j in groups else '':>10}" for j, a in enumerate(axes))
+               + f"{'*':>8}",
                "[END]"]
         out[CMA] = "\n".join(cma) + "\n"
         return out

@@ -220,7 +220,8 @@ class ISG:
         ints = np.rint(t.nodes[0] / UNITS[machine.axis_kinds[m] == "rotary"]).astype(int)
         errors = np.rint(-t.values / unit).astype(int)
         lines = [f"# cross compensation: {machine.axes[t.output]} over the command position of {machine.axes[m]}",
-                 "kw.crosscomp.unit 1", f"kw.crosscomp.last_index {len(ints) - 1}", f"kw.crosscomp.master_ax_nr {m + 1}"]
+                 "kw.crosscomp.unit 1", f"kw.crosscomp.last_index {len(ints) - 1}",
+                 f"kw.crosscomp.master_ax_nr {m + 1}"]
         lines += [f"kw.crosscomp.table[{i}].setpoint {v}" for i, v in enumerate(ints)]
         lines += [f"kw.crosscomp.table[{i}].correction {v}" for i, v in enumerate(errors)]
         return lines
@@ -307,7 +308,8 @@ class ISG:
         unit = _unit(machine, j)
         tables = []
         if "kw.ssfk.kw_nr_max" in entries:
-            for key, want in (("kw.ssfk.unit", 1), ("kw.ssfk.interval", 0), ("kw.ssfk.bilateral", 1), ("kw.ssfk.modulo", 0)):
+            for key, want in (("kw.ssfk.unit", 1), ("kw.ssfk.interval", 0), ("kw.ssfk.bilateral", 1),
+                              ("kw.ssfk.modulo", 0)):
                 if integer(key) != want:
                     raise InputError(f"{name}: {key} must be {want}")
             n = integer("kw.ssfk.kw_nr_max")

@@ -394,5 +394,6 @@ class VolumetricModel:
         for k, name in enumerate(self.names):
             t = self.tables[k]
             lines.append(f"{name}: {len(self.nodes[k])} nodes, E?{name} translations up to "
-                         f"{np.abs(t[:, :3]).max() * 1e6:.3f} um, rotations up to {np.abs(t[:, 3:]).max() * 1e6:.3f} urad")
+                         f"{np.abs(t[:, :3]).max() * 1e6:.3f} um, rotations up to "
+                         f"{np.abs(t[:, 3:]).max() * 1e6:.3f} urad")
         return lines

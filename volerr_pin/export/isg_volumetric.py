@@ -118,9 +118,9 @@ def model_of(machine: Machine, zone: Zone, nodes: int) -> VolumetricModel:
             v = J[:3, j]
             centres[k] = p0[0] + np.cross(u, v) / (u @ u)
         if abs(u[want] - 1.0) > TOLERANCE or np.abs(np.delete(u, want)).max() > TOLERANCE:
-            raise SpecError(f"{machine.name}: axis {names[j]} does not {'move along' if kinds[j] == 'linear' else 'turn about'} "
-                            f"+{'xyz'[want]} at zero ({np.round(u, 9).tolist()}); the kernel's model takes axis letters "
-                            "as directions")
+            verb = "move along" if kinds[j] == "linear" else "turn about"
+            raise SpecError(f"{machine.name}: axis {names[j]} does not {verb} +{'xyz'[want]} at zero "
+                            f"({np.round(u, 9).tolist()}); the kernel's model takes axis letters as directions")
         directions[k] = np.eye(3)[want]
     count = check_count(nodes, 2, 100000, "a TF5280 component table")
     grids = tuple(node_positions(*zone.ranges[j], count, kinds[j]) for j in chain)
@@ -179,8 +179,9 @@ def volumetric_files(model: VolumetricModel, machine: Machine) -> dict[str, str]
         lines.append("  ".join([name] + [f"E{d}{name}" for d in DIRECTIONS]))
         scale = DEG if model.rotary[k] else MM
         for x, row in zip(model.nodes[k], model.tables[k]):
-            lines.append("  ".join([_fmt(x / scale, DEG_DIGITS if model.rotary[k] else MM_DIGITS)]
-                                   + [_fmt(v / MM, MM_DIGITS) for v in row[:3]] + [_fmt(v, RAD_DIGITS) for v in row[3:]]))
+            cells = [_fmt(x / scale, DEG_DIGITS if model.rotary[k] else MM_DIGITS)]
+            cells += [_fmt(v / MM, MM_DIGITS) for v in row[:3]] + [_fmt(v, RAD_DIGITS) for v in row[3:]]
+            lines.append("  ".join(cells))
     header, row = ["P0X", "P0Y", "P0Z", "N0X", "N0Y", "N0Z"], [*(model.p0 / MM), *model.n0]
     digits = [MM_DIGITS] * 3 + [RAD_DIGITS] * 3
     for k, name in enumerate(model.names):
@@ -194,7 +195,8 @@ def volumetric_files(model: VolumetricModel, machine: Machine) -> dict[str, str]
                 header.append(f"{d}0{name}")
                 row.append(model.positions[k, c] / (MM if c < 3 else 1.0))
                 digits.append(MM_DIGITS if c < 3 else RAD_DIGITS)
-    geometry = [f"// volerr_pin: kinematic model and position errors of {machine.name} (mm, rad; N0: tool axis at zero)",
+    geometry = [f"// volerr_pin: kinematic model and position errors of {machine.name} "
+                "(mm, rad; N0: tool axis at zero)",
                 "  ".join(header), "  ".join(_fmt(v, d) for v, d in zip(row, digits))]
     records = sum(len(n) for n in model.nodes) + 1
     config = [f"# volerr_pin: TF5280 Volumetric Compensation of {machine.name} (compensation 0)",
@@ -258,7 +260,8 @@ def read_volumetric(texts: Mapping[str, str], machine: Machine) -> VolumetricMod
         raise InputError(f"{CONFIG}: chain {chain_text!r} is not an order of the axes {''.join(names)}")
     for j, name in enumerate(names):
         if config.get(name.lower()) != str(j + 1):
-            raise InputError(f"{CONFIG}: logical axis number of {name} must be {j + 1}, got {config.get(name.lower())!r}")
+            raise InputError(f"{CONFIG}: logical axis number of {name} must be {j + 1}, "
+                             f"got {config.get(name.lower())!r}")
     blocks: dict[str, tuple[list, list]] = {}
     header = None
     for line, tokens in _rows(COMPONENTS, texts[COMPONENTS]):
@@ -268,7 +271,8 @@ def read_volumetric(texts: Mapping[str, str], machine: Machine) -> VolumetricMod
         if header is None:
             axis = tokens[0]
             if axis not in names or tokens[1:] != [f"E{d}{axis}" for d in DIRECTIONS] or axis in blocks:
-                raise InputError(f"{COMPONENTS}:{line}: expected the header '{axis} EX{axis} ... EC{axis}' of a new axis")
+                raise InputError(f"{COMPONENTS}:{line}: expected the header '{axis} EX{axis} ... EC{axis}' "
+                                 "of a new axis")
             header = axis
             blocks[axis] = ([], [])
             continue
@@ -344,7 +348,8 @@ def quantise_model(model: VolumetricModel) -> VolumetricModel:
         t[:, :3] = r(t[:, :3], MM, MM_DIGITS)
         t[:, 3:] = r(t[:, 3:], 1.0, RAD_DIGITS)
         tables.append(t)
-    nodes = tuple(r(n, DEG if rot else MM, DEG_DIGITS if rot else MM_DIGITS) for n, rot in zip(model.nodes, model.rotary))
+    nodes = tuple(r(n, DEG if rot else MM, DEG_DIGITS if rot else MM_DIGITS)
+                  for n, rot in zip(model.nodes, model.rotary))
     positions = model.positions.copy()
     positions[:, :3] = r(positions[:, :3], MM, MM_DIGITS)
     positions[:, 3:] = r(positions[:, 3:], 1.0, RAD_DIGITS)

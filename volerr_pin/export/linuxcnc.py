@@ -198,7 +198,8 @@ class LinuxCNC:
             if section is None:
                 raise InputError(f"{INI_NAME}: no [JOINT_{j}] section (axis {axis})")
             if section.get("COMP_FILE_TYPE") != "1":
-                raise InputError(f"{INI_NAME}: [JOINT_{j}] COMP_FILE_TYPE must be 1, got {section.get('COMP_FILE_TYPE')!r}")
+                raise InputError(f"{INI_NAME}: [JOINT_{j}] COMP_FILE_TYPE must be 1, "
+                                 f"got {section.get('COMP_FILE_TYPE')!r}")
             name = section.get("COMP_FILE")
             if name not in texts:
                 raise InputError(f"{INI_NAME}: [JOINT_{j}] COMP_FILE {name!r} is not among the files")

@@ -17,7 +17,8 @@ from .siemens import Siemens840D
 __all__ = ["CONTROLLERS", "controller_format"]
 
 #: name -> format, in the order help texts list them
-CONTROLLERS: dict[str, ControllerFormat] = {f.name: f for f in (LinuxCNC(), ISG(), Siemens840D(), Heidenhain(), Fanuc())}
+CONTROLLERS: dict[str, ControllerFormat] = {f.name: f for f in (LinuxCNC(), ISG(), Siemens840D(), Heidenhain(),
+                                                                 Fanuc())}
 
 
 def controller_format(name: str) -> ControllerFormat:

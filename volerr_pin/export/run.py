@@ -29,6 +29,8 @@ __all__ = ["ExportResult", "export_tables", "layout_files", "write_export"]
 
 #: points at the table nodes where the residual is also reported
 NODE_POINTS = 512
+#: the fit takes at least this many points per value it chooses (every node well inside the data)
+FIT_POINTS_PER_VALUE = 8
 
 
 @dataclass
@@ -60,6 +62,8 @@ class ExportResult:
         Points whose every tabulated axis sits on a table node.
     node_after, node_exact : ndarray, shape (M, 3)
         Residuals there with the files and with exact compensation [m].
+    fit_points : int
+        Points the values were fitted on.
     notes : list of str
         Facts about the layout (which master each cross table reads, tables left out).
     files : list of str
@@ -81,6 +85,7 @@ class ExportResult:
     node_points: Points
     node_after: np.ndarray
     node_exact: np.ndarray
+    fit_points: int = 0
     notes: list[str] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
 
@@ -110,7 +115,7 @@ class ExportResult:
             "files": list(self.files) or sorted(self.texts),
             "zone": {"ranges": zone, "units": {a: AXIS_UNIT[k] for a, k in zip(machine.axes, machine.axis_kinds)},
                      "tool_mm": [self.zone.tool[0] / MM, self.zone.tool[1] / MM]},
-            "points": len(self.points),
+            "points": len(self.points), "fit_points": self.fit_points, "values": int(self.naive.values.size),
             "uncompensated_max_um": s["uncompensated"].max_um, "uncompensated_rms_um": s["uncompensated"].rms_um,
             "residual_max_um": s["residual"].max_um, "residual_rms_um": s["residual"].rms_um,
             "naive_residual_max_um": s["naive"].max_um, "naive_residual_rms_um": s["naive"].rms_um,
@@ -123,8 +128,8 @@ class ExportResult:
         }
 
 
-def layout_files(machine: Machine, controller: str | ControllerFormat, *, zone: Zone | None = None, kind: str | None = None,
-                 nodes: int | None = None) -> list[str]:
+def layout_files(machine: Machine, controller: str | ControllerFormat, *, zone: Zone | None = None,
+                 kind: str | None = None, nodes: int | None = None) -> list[str]:
     """The names of the files an export will write (checked before any work is done).
 
     Parameters
@@ -209,7 +214,8 @@ def export_tables(machine: Machine, controller: str | ControllerFormat, folder: 
     nodes : int, optional
         Nodes per axis (default: the format's).
     points : int, default 4096
-        Points fitted on, and as many other points judged on.
+        Points judged on, and at least as many other points fitted on (8 per table value at
+        least, so every node is well determined).
     seed : int, default 0
         Seed of the points.
     progress : callable, optional
@@ -234,7 +240,8 @@ def export_tables(machine: Machine, controller: str | ControllerFormat, folder: 
     step = progress or (lambda stage: None)
     layout = fmt.layout(machine, zone, kind, nodes)
     step("fitting")
-    fitted = fit(machine, layout, zone.sample(points, seed))
+    fit_points = max(points, FIT_POINTS_PER_VALUE * layout.values.size)
+    fitted = fit(machine, layout, zone.sample(fit_points, seed))
     meant = fmt.quantise(fitted, machine)
     naive = fmt.quantise(layout.naive(machine), machine)
     texts = fmt.files(meant, machine)
@@ -251,7 +258,7 @@ def export_tables(machine: Machine, controller: str | ControllerFormat, folder: 
     result = ExportResult(machine, fmt, kind, zone, back, naive, texts, evaluation,
                           residuals(machine, None, evaluation), residuals(machine, back, evaluation),
                           residuals(machine, naive, evaluation), exact, at_nodes,
-                          residuals(machine, back, at_nodes), node_exact, list(meant.notes))
+                          residuals(machine, back, at_nodes), node_exact, fit_points, list(meant.notes))
     if folder is not None:
         with transaction() as tx:
             write_export(result, folder, tx)

@@ -128,7 +128,8 @@ class Siemens840D:
                 if len(cec) < self.max_tables:
                     cec.append(cross_table(machine, zone, s, m, count, self.units))
                 else:
-                    notes.append(f"no room for {machine.axes[s]}({machine.axes[m]}) within {self.max_tables} CEC tables")
+                    notes.append(f"no room for {machine.axes[s]}({machine.axes[m]}) within "
+                                 f"{self.max_tables} CEC tables")
             tables += cec[:self.max_tables]
         return SetpointTables(tuple(tables), len(machine.axes), tuple(notes), kind=kind)
 
@@ -186,7 +187,8 @@ class Siemens840D:
             if len(t.inputs) == 1 and m == j and not t.only:
                 ax = f"AX{j + 1}"
                 lec += [f"$AA_ENC_COMP[0,{i},{ax}]={self._number(-v, machine, j)}" for i, v in enumerate(t.values)]
-                lec += [f"$AA_ENC_COMP_STEP[0,{ax}]={step}", f"$AA_ENC_COMP_MIN[0,{ax}]={self._number(grid[0], machine, m)}",
+                lec += [f"$AA_ENC_COMP_STEP[0,{ax}]={step}",
+                        f"$AA_ENC_COMP_MIN[0,{ax}]={self._number(grid[0], machine, m)}",
                         f"$AA_ENC_COMP_MAX[0,{ax}]={self._number(grid[-1], machine, m)}",
                         f"$AA_ENC_COMP_IS_MODULO[0,{ax}]=0"]
                 continue
@@ -238,8 +240,8 @@ class Siemens840D:
             grid = self._grid(LEC_FILE, lec, "AA_ENC_COMP", f"0,{ax}", len(values), machine, j)
             if lec.pop(("AA_ENC_COMP_IS_MODULO", f"0,{ax}"), None) != "0":
                 raise InputError(f"{LEC_FILE}: $AA_ENC_COMP_IS_MODULO[0,{ax}] must be 0")
-            tables.append(Table(j, (j,), (grid,), -np.array(values) * (MM if machine.axis_kinds[j] == "linear" else DEG),
-                                label=f"{axis}({axis})"))
+            scale = MM if machine.axis_kinds[j] == "linear" else DEG
+            tables.append(Table(j, (j,), (grid,), -np.array(values) * scale, label=f"{axis}({axis})"))
         self._nothing_left(LEC_FILE, lec)
         kind = "lec"
         if CEC_FILE in texts:
@@ -310,7 +312,8 @@ class Siemens840D:
         scale = MM if machine.axis_kinds[j] == "linear" else DEG
         unit = self._unit(machine, j) / scale
         if step <= 0 or abs(lo + step * (count - 1) - hi) > unit / 2:
-            raise InputError(f"{name}: ${variable}[{index}]: MIN {lo:g} + {count - 1} x STEP {step:g} is not MAX {hi:g}")
+            raise InputError(f"{name}: ${variable}[{index}]: MIN {lo:g} + {count - 1} x STEP {step:g} "
+                             f"is not MAX {hi:g}")
         return (lo + step * np.arange(count)) * scale
 
     @staticmethod
