@@ -444,16 +444,14 @@ def evaluate_field(machine: Machine, q: np.ndarray, scale: float | None = None,
     Raises
     ------
     InputError
-        If ``scale`` is not a positive finite number, ``q`` holds no points, or ``q`` or the
-        covariates are invalid.
+        If ``scale`` is not a positive finite number, or ``q`` or the covariates are invalid.
     """
     error = machine.volumetric_error(q, **covariates)
-    if len(error) == 0:
-        raise InputError("q holds no points: there is no field to evaluate", parameters=("q",))
     _, positions = machine.tool_poses(q, nominal=True)
     if scale is None:
         extent = float(np.ptp(positions, axis=0).max()) if len(positions) > 1 else 1.0
-        scale = nice_scale(float(np.linalg.norm(error[:, :3], axis=1).max() * UM_PER_M), extent)
+        largest = float(np.linalg.norm(error[:, :3], axis=1).max(initial=0.0) * UM_PER_M)
+        scale = nice_scale(largest, extent)  # 1 for an empty field
     if not (scale > 0 and math.isfinite(scale)):
         raise InputError(f"scale must be a positive number, got {scale}")
     return FieldData(q, positions, error, float(scale))
