@@ -18,10 +18,11 @@ from ..errors import VolerrError
 from . import (ballbar, compensate, demo, dh, diagnose, errormap, field, gear, identify, info, iso230, rank,
                thermal_fit, urdf)
 from . import tolerance, uncertainty
+from . import export
 from .common import in_cli_words
 
 #: one module per command, in the order ``volerr --help`` lists them
-COMMANDS = (demo, field, rank, iso230, identify, thermal_fit, diagnose, compensate, errormap, ballbar,
+COMMANDS = (demo, field, rank, iso230, identify, thermal_fit, diagnose, compensate, export, errormap, ballbar,
             gear, dh, info, urdf)
 COMMANDS += (uncertainty, tolerance)
 
