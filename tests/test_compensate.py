@@ -226,6 +226,9 @@ def test_empty_positions_and_degenerate_arcs_are_refused(machines):
         arc_from_center(s, e, np.array([np.nan, 0.1]), (0, 1, 2), True)
     with pytest.raises(InputError, match="full_turns must be >= 0, got -1"):
         arc_from_center(s, e, np.array([0.2, 0.1]), (0, 1, 2), True, full_turns=-1)
+    with pytest.raises(InputError, match="an arc of 1,000,000,001 turns needs about") as err:
+        arc_from_center(s, e, np.array([0.2, 0.1]), (0, 1, 2), True, full_turns=10**9)
+    assert err.value.parameters == ("full_turns",)
 
 
 def test_path_sizes_are_bounded(machines, monkeypatch):

@@ -38,6 +38,8 @@ from .workspace import _integer, _positive
 MAX_DEPTH = 60
 #: memory of one point compensated by :func:`compensate_points` (measured: 1.4-2.1 kB) [bytes]
 COMPENSATION_BYTES = 2500
+#: memory of a quarter turn of a compensated arc: its points, samples and pieces [bytes]
+ARC_QUARTER_BYTES = 8 * COMPENSATION_BYTES
 
 
 
@@ -379,11 +381,13 @@ def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plan
     Raises
     ------
     InputError
-        If a position or the centre is not finite, ``full_turns`` is not a whole number >= 0,
-        the radius is zero, or the start and end radii differ by more than 2 um (about what
-        controllers accept).
+        If a position or the centre is not finite, ``full_turns`` is not a whole number >= 0
+        or more turns than the free memory can compensate, the radius is zero, or the start
+        and end radii differ by more than 2 um (about what controllers accept).
     """
     full_turns = _integer("full_turns", full_turns, 0)
+    # an arc is compensated in quarter turns, each a few compensated points and pieces
+    require_memory(4 * (full_turns + 1) * ARC_QUARTER_BYTES, f"an arc of {full_turns + 1:,} turns", ("full_turns",))
     start, end, center = (np.asarray(v, dtype=float) for v in (start, end, center))
     for name, value in (("start", start), ("end", end), ("center", center)):
         if not np.all(np.isfinite(value)):
