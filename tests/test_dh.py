@@ -85,7 +85,7 @@ def test_duplicate_joint_names_are_refused(tmp_path, capsys):
     path = tmp_path / "dh.csv"
     path.write_text("joint,a_mm,alpha_deg,d_mm,theta_deg\nJ1,0,0,0,0\nJ1,100,0,0,0\n")
     assert main(["dh", str(path), "-o", str(tmp_path / "x.urdf")]) == 2
-    assert "joint names must be unique" in capsys.readouterr().err
+    assert "joint 'J1' is given twice" in capsys.readouterr().err
 
 
 def test_unknown_convention_is_refused():
@@ -96,3 +96,38 @@ def test_unknown_convention_is_refused():
     for function in (lambda: transform(row, 0.0, "craig"), lambda: split(row, "craig")):
         with pytest.raises(InputError, match="convention must be 'standard' or 'modified', got 'craig'"):
             function()
+
+
+@pytest.mark.parametrize("names, kwargs, message, parameter", [
+    ([], {}, "a DH table needs at least one joint", "rows"),
+    (["j1", ""], {}, "joint 2: empty name", None),
+    (["j1", "j1"], {}, "joint 'j1' is given twice", None),
+    (["j1", "j2"], {"tool": "j1_link"}, "tool = 'j1_link' gives the URDF link 'j1_link', which is also the link of "
+                                        "joint 'j1'", "tool"),
+    (["j1", "j2"], {"tool": "base"}, "tool = 'base' gives the URDF link 'base', which is also the base frame", "tool"),
+    (["j1", "j2"], {"base": "j2_link"}, "base = 'j2_link' gives the URDF link 'j2_link', which is also the link of "
+                                        "joint 'j2'", "base"),
+    (["j1", "tool0_fixed"], {}, "tool = 'tool0' gives the URDF joint 'tool0_fixed', which is also joint "
+                                "'tool0_fixed'", "tool"),
+    (["j1"], {"base": " "}, "base: empty name", "base"),
+])
+def test_names_that_would_make_a_broken_urdf_are_refused(names, kwargs, message, parameter):
+    rows = [DHRow(n, 0.1, 0.0, 0.0, 0.0, "revolute", -1.0, 1.0) for n in names]
+    with pytest.raises(vp.InputError, match=message.replace("(", r"\(")) as info:
+        dh_to_urdf(rows, **kwargs)
+    assert info.value.parameters == ((parameter,) if parameter else ())
+
+
+def test_cli_names_the_frame_options_and_the_table(tmp_path, capsys):
+    table = tmp_path / "t.csv"
+    table.write_text("# tool: 0, nan, 100\njoint,a_mm,alpha_deg,d_mm,theta_deg\nJ1,1,0,0,0\n")
+    assert main(["dh", str(table), "-o", str(tmp_path / "r.urdf")]) == 2
+    assert "'# tool: 0, nan, 100': finite numbers expected" in capsys.readouterr().err
+    table.write_text("joint,a_mm,alpha_deg,d_mm,theta_deg\nJ1,1,0,0,0\nJ1,2,0,0,0\n")
+    assert main(["dh", str(table), "-o", str(tmp_path / "r.urdf")]) == 2
+    assert capsys.readouterr().err.strip() == f"volerr: error: {table}: joint 'J1' is given twice"
+    table.write_text("joint,a_mm,alpha_deg,d_mm,theta_deg\nJ1,1,0,0,0\n")
+    assert main(["dh", str(table), "-o", str(tmp_path / "r.urdf"), "--tool-frame", "J1_link"]) == 2
+    assert capsys.readouterr().err.strip() == ("volerr: error: --tool-frame = 'J1_link' gives the URDF link 'J1_link', "
+                                               "which is also the link of joint 'J1'; choose another name")
+    assert not (tmp_path / "r.urdf").exists()

@@ -191,15 +191,37 @@ def dh_to_urdf(rows: list[DHRow], convention: str = "standard", name: str = "rob
 
     Raises
     ------
-    ValueError
-        If there are no rows, joint names repeat or equal ``base`` or ``tool``, or the
-        convention is unknown.
+    InputError
+        If there are no rows, or a link or joint name of the URDF (``base``, ``tool``, each
+        joint's name and its ``<name>_link``, ``<tool>_fixed``) is empty or given twice, or
+        the convention is unknown.
     """
     if not rows:
-        raise ValueError("a DH table needs at least one joint")
-    names = [r.name for r in rows]
-    if len(set(names)) != len(names) or {base, tool} & set(names):
-        raise ValueError(f"joint names must be unique and differ from the frames {base!r}, {tool!r}")
+        raise InputError("a DH table needs at least one joint", parameters=("rows",))
+    for what, text, parameter in [("base frame", base, "base"), ("tool frame", tool, "tool")] + \
+            [(f"joint {k + 1}", r.name, None) for k, r in enumerate(rows)]:
+        if not text.strip():
+            raise InputError(f"{parameter or what}: empty name", parameters=(parameter,) if parameter else ())
+    twice = sorted({r.name for r in rows if [q.name for q in rows].count(r.name) > 1})
+    if twice:
+        raise InputError(f"joint '{twice[0]}' is given twice")
+    # (what, URDF name, the parameter that gives it) of every link and joint the URDF will have
+    links = [("the base frame", base, "base")] + [(f"the link of joint {r.name!r}", f"{r.name}_link", None)
+                                                  for r in rows] + [("the tool frame", tool, "tool")]
+    joints = [(f"joint {r.name!r}", r.name, None) for r in rows] + [("the tool frame's fixed joint", f"{tool}_fixed",
+                                                                      "tool")]
+    for kind, named in (("link", links), ("joint", joints)):
+        seen = {}
+        for what, text, parameter in named:
+            if text in seen:
+                other, first = seen[text], parameter or seen[text][1]
+                if first is None:
+                    raise InputError(f"{other[0]} and {what} would both be the URDF {kind} '{text}'")
+                value = base if first == "base" else tool
+                raise InputError(f"{first} = {value!r} gives the URDF {kind} '{text}', which is also "
+                                 f"{what if first != parameter else other[0]}; choose another name",
+                                 parameters=(first,))
+            seen[text] = (what, parameter)
     lines = ['<?xml version="1.0"?>', f"<robot name={quoteattr(name)}>", f"  <link name={quoteattr(base)}/>"]
     parent, before = base, np.eye(4)
     for i, row in enumerate(rows):
@@ -271,6 +293,8 @@ def read_dh(path: str | Path) -> tuple[list[DHRow], str, np.ndarray | None]:
             raise MeasurementError(f"{table.path}:{table.lines[r]}: a prismatic joint needs lower and upper (mm)")
         if not limits[0] < limits[1]:
             raise MeasurementError(f"{table.path}:{table.lines[r]}: lower must be below upper")
+        if not cells[col["joint"]].strip():
+            raise MeasurementError(f"{table.where(r, col['joint'])}: column 'joint': empty joint name")
         rows.append(DHRow(cells[col["joint"]].strip(), table.number(r, col["a_mm"]) * 1e-3,
                           math.radians(table.number(r, col["alpha_deg"])), table.number(r, col["d_mm"]) * 1e-3,
                           math.radians(table.number(r, col["theta_deg"])), kind, *limits))
@@ -280,6 +304,8 @@ def read_dh(path: str | Path) -> tuple[list[DHRow], str, np.ndarray | None]:
             values = [float(v) for v in table.meta["tool"].split(",")]
         except ValueError:
             raise MeasurementError(f"{table.path}: '# tool: {table.meta['tool']}': numbers expected") from None
+        if not all(math.isfinite(v) for v in values):
+            raise MeasurementError(f"{table.path}: '# tool: {table.meta['tool']}': finite numbers expected")
         if len(values) not in (3, 6):
             raise MeasurementError(f"{table.path}: '# tool: ...': x, y, z (mm) and optionally rx, ry, rz (deg)")
         tool = np.eye(4)

@@ -71,9 +71,13 @@ import numpy as np
 
 from .errors import InputError
 from .machine import Machine
+from .safeio import require_memory
 from .spec import parse_component_name
 from .units import DEG, MM, UM, axis_scale
 from .workspace import to_engineering
+
+#: memory a study holds per flank point (measured: about 780 bytes for all sources of gear_roller)
+BYTES_PER_FLANK_POINT = 1000
 
 __all__ = ["FLANKS", "DEVIATIONS", "GearPair", "FlankDeviations", "SourceDeviations", "flank_deviations",
            "deviations_by_source", "unit_error_study", "contribution_degrees", "pitch_positions", "Springback",
@@ -355,6 +359,9 @@ def _grid(machine: Machine, gear: GearPair, mesh: _Mesh, profile_points: int, fa
         raise InputError(f"tooth_numbers must be distinct tooth numbers 0..{z - 1}, got {chosen!r}",
                          parameters=("tooth_numbers",))
     tooth_numbers = np.sort(tooth_numbers)      # adjacent teeth next to each other (pitch)
+    require_memory(BYTES_PER_FLANK_POINT * 2 * tooth_numbers.size * profile_points * face_points,
+                   f"a study of {2 * tooth_numbers.size * profile_points * face_points:,} flank points",
+                   ("profile_points", "face_points", "tooth_numbers"))
     alpha, rb = gear.pressure_angle, gear.base_radius
     # the profile: the active part of the line of action, with the pitch point in the middle
     half = (profile_points - 1) // 2

@@ -26,7 +26,8 @@ DEFAULT_MACHINE = "vmc500"
 #: (``pass_through`` -> ``--pass-through`` needs no entry)
 OPTION_OF = {"Machine.with_state": "--state", "counts": "--grid", "run_axis": "--axis", "module": "--module-mm",
              "pressure_angle": "--pressure-angle-deg", "face_width": "--face-width-mm", "tooth_numbers": "--tooth",
-             "translation": "--translation-mm", "rotation": "--rotation-deg", "package_dirs": "--package-dir"}
+             "translation": "--translation-mm", "rotation": "--rotation-deg", "package_dirs": "--package-dir",
+             "rank_top": "--top", "tool": "--tool-frame", "base": "--base-frame"}
 
 
 def in_cli_words(err: VolerrError) -> str:

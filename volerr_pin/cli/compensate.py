@@ -8,6 +8,7 @@ from rich.console import Console
 
 from ..errors import InputError
 from ..safeio import require_memory, transaction
+from ..spec import read_text
 from .common import add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of
 
 #: memory the compensation holds per byte of program (about 25 kB per block of about 25 bytes)
@@ -43,11 +44,8 @@ def run(args) -> int:
     machine = machine_of(args)
     path = Path(args.program)
     check_run_outputs({"output": args.output, "report": args.report, "png": args.png}, [path], machine)
-    require_memory(path.stat().st_size * BYTES_PER_PROGRAM_BYTE, f"compensating {path}")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as err:
-        raise InputError(f"{path}: not UTF-8/ASCII text (byte {err.start})") from None
+    text = read_text(path, InputError, "program file")  # a regular UTF-8 file, line ends as written
+    require_memory(len(text) * BYTES_PER_PROGRAM_BYTE, f"compensating {path}")
     offset = axis_config(machine, args.origin, "--origin")
     origin = [offset.get(axis, 0.0) for axis in machine.axes] if offset else None
     program = Program(machine, tol_um=args.tol_um, tol_urad=args.tol_urad, pass_through=args.pass_through,

@@ -28,6 +28,10 @@ def run(args) -> int:
     try:
         text = dh_to_urdf(rows, convention, name=args.name or Path(args.table).stem, base=args.base_frame,
                           tool=args.tool_frame, tool_transform=tool)
+    except InputError as err:
+        if err.parameters:  # an option's value
+            raise
+        raise InputError(f"{args.table}: {err}") from None
     except ValueError as err:
         raise InputError(f"{args.table}: {err}") from None
     write_text(args.output, text)

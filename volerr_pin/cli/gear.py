@@ -44,9 +44,9 @@ def add_parser(sub) -> None:
     u = p.add_argument_group("seed 004's unit-error study")
     u.add_argument("--unit-errors", action="store_true",
                    help="each of the six errors of each --axes alone at a unit value, instead of the spec's errors")
-    u.add_argument("--axes", default="A,B", help="axes studied (default A,B)")
-    u.add_argument("--translation-mm", type=float, default=1.0, help="unit translation (default 1)")
-    u.add_argument("--rotation-deg", type=float, default=1.0, help="unit rotation (default 1)")
+    u.add_argument("--axes", help="axes studied (default A,B)")
+    u.add_argument("--translation-mm", type=float, help="unit translation (default 1)")
+    u.add_argument("--rotation-deg", type=float, help="unit rotation (default 1)")
     u.add_argument("--errors-frame", choices=["moving", "fixed"],
                    help="frame the studied axes' errors act in (default: the spec's)")
     p.add_argument("--reference", nargs="+", metavar="AXIS=X,Y,Z",
@@ -59,10 +59,17 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
+def _or(value, default):
+    return default if value is None else value
+
+
 def _names(text: str, option: str) -> tuple[str, ...]:
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     if not names:
         raise InputError(f"{option}: give axis names separated by commas")
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise InputError(f"{option}: axis {twice[0]} is named twice")
     return names
 
 
@@ -95,15 +102,19 @@ def run(args) -> int:
         raise InputError("--png draws all sources together: leave out --unit-errors")
     if args.errors_frame and not args.unit_errors:
         raise InputError("--errors-frame goes with --unit-errors (the spec sets the frames of its own errors)")
+    study = [o for o, v in (("--axes", args.axes), ("--translation-mm", args.translation_mm),
+                            ("--rotation-deg", args.rotation_deg)) if v is not None]
+    if study and not args.unit_errors:
+        raise InputError(f"{study[0]} goes with --unit-errors (it sets the unit-error study)")
     if args.unit_errors:
-        axes = _names(args.axes, "--axes")
+        axes = _names(args.axes or "A,B", "--axes")
         if args.errors_frame:
             for axis in axes:
                 changes.setdefault(axis, {})["frame"] = args.errors_frame
         if changes:
             machine = with_axis_errors(machine, changes)
-        rows = unit_error_study(machine, gear, axes=axes, translation=args.translation_mm * MM,
-                                rotation=args.rotation_deg * DEG, **options)
+        rows = unit_error_study(machine, gear, axes=axes, translation=_or(args.translation_mm, 1.0) * MM,
+                                rotation=_or(args.rotation_deg, 1.0) * DEG, **options)
     else:
         if changes:
             machine = with_axis_errors(machine, changes)
