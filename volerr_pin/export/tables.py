@@ -377,8 +377,10 @@ class SetpointTables:
         lines = []
         for t in self.tables:
             nodes = " x ".join(str(len(n)) for n in t.nodes)
-            kind = " per direction" if t.directional else f" (only moving {'+' if t.only > 0 else '-'})" \
-                if t.only else ""
+            if t.directional:
+                kind = " per direction" if not np.array_equal(t.values[0], t.values[1]) else ", both directions alike"
+            else:
+                kind = f" (only moving {'+' if t.only > 0 else '-'})" if t.only else ""
             unit, scale = ("um", 1e6) if machine.axis_kinds[t.output] == "linear" else ("arcsec", 206264.80624709636)
             lines.append(f"{t.label}: {nodes} nodes{kind}, corrections {fixed(t.values.min() * scale, 3, True)} .. "
                          f"{fixed(t.values.max() * scale, 3, True)} {unit}")
