@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 from rich import box
 from rich.markup import escape
 from rich.table import Table
@@ -45,6 +47,8 @@ def run(args) -> int:
     if args.json:
         print(dumps({k: v for k, v in result.items() if k not in ("fitted", "predicted_holdout")}))
         return 0
+    for left in result["left_out"]:
+        print(f"volerr: note: sensor '{left['sensor']}' left out: {left['reason']}", file=sys.stderr)
     console = table_console()
     lag = f", lag {result['lag']}" if result["lag"] is not None else ""
     console.print(escape(f"{result['method']} model of '{result['target']}'{lag} from "
