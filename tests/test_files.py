@@ -252,3 +252,11 @@ def test_identify_keeps_the_spec_it_replaces(work, capsys):
     assert vp.load_machine(work / "new.bak.toml").name == "vmc500"  # a backup still loads
     assert main(argv[:-1]) == 0
     assert "the spec it replaced is kept as new.bak2.toml" in capsys.readouterr().out
+
+
+def test_a_data_file_given_twice_is_refused(work, capsys):
+    data = DATA / "vmc500_x_positioning.csv"
+    os.symlink(data, "again.csv")
+    refused(capsys, ["identify", "vmc500", str(data), str(data), "--folds", "0"], "DATA: ")
+    refused(capsys, ["identify", "vmc500", str(data), "again.csv", "--folds", "0"], f"again.csv is given twice (as {data})")
+    refused(capsys, ["diagnose", "vmc500", "again.csv", str(data)], "its data would count twice")

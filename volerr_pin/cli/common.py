@@ -16,7 +16,7 @@ from rich.console import Console
 
 from ..errors import InputError, VolerrError
 from ..machine import Machine, load_machine
-from ..safeio import check_outputs
+from ..safeio import check_outputs, same_file
 from ..spec import parse_component_name
 from ..units import axis_values_to_si, parse_axis_values
 
@@ -113,6 +113,17 @@ PICTURES = ("png", "plot")
 def machine_files(machine: Machine) -> list[Path]:
     """The files a machine was read from (its spec and URDF): inputs no command may write over."""
     return [Path(p) for p in {os.fspath(machine.spec.source), os.fspath(machine.spec.urdf)} if Path(p).is_file()]
+
+
+def distinct_inputs(paths, option: str) -> None:
+    """Refuse a file given twice among ``paths`` (by path, link or hard link): its data would
+    count twice."""
+    paths = list(paths)
+    for i, a in enumerate(paths):
+        for b in paths[:i]:
+            if same_file(a, b):
+                raise InputError(f"{option}: {a} is given twice" + ("" if str(a) == str(b) else f" (as {b})")
+                                 + "; its data would count twice")
 
 
 def check_run_outputs(outputs: dict, inputs=(), machine: Machine | None = None) -> dict[str, Path]:

@@ -7,7 +7,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..safeio import transaction
-from .common import FitProgress, add_json_arg, add_machine_args, check_run_outputs, dumps, machine_of, table_console
+from .common import (FitProgress, add_json_arg, add_machine_args, check_run_outputs, distinct_inputs, dumps,
+                     machine_of, table_console)
 
 
 def add_parser(sub) -> None:
@@ -36,6 +37,7 @@ def run(args) -> int:
     from ..specio import write_spec
 
     machine = machine_of(args)
+    distinct_inputs(args.data, "DATA")
     check_run_outputs({"out": args.out, "rrd": args.rrd, "png": args.png}, args.data, machine)
     data = [read_any(path, machine) for path in args.data]
     with FitProgress(not args.json) as progress:

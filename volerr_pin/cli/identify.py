@@ -9,7 +9,7 @@ from rich.table import Table
 
 from ..safeio import transaction
 from .common import (FitProgress, add_json_arg, add_machine_args, axis_components, axis_positions,
-                     check_run_outputs, dumps, machine_of, table_console)
+                     check_run_outputs, distinct_inputs, dumps, machine_of, table_console)
 from .tables import print_groups
 
 
@@ -41,6 +41,7 @@ def run(args) -> int:
     from ..specio import legendre_terms, replace_terms, write_spec
 
     machine = machine_of(args)
+    distinct_inputs(args.data, "DATA")
     check_run_outputs({"out": args.out}, args.data, machine)
     if args.degree is not None:
         targets = args.terms or [c for c in machine.components if c in axis_components(machine)]
