@@ -527,6 +527,10 @@ def test_a_tool_change_loses_the_position(machines):
     out, report = compensate_program(m, START + "T2 M6\nG1 X450 Y390 Z390 F300\n")
     assert out.splitlines()[1] == "T2 M6" and len(out.splitlines()) == 3  # end point only, not split
     assert any("not known since line 2's M6 tool change" in w for w in report.warnings)
+    # before any move nothing is lost: the axes are not yet programmed
+    _, report = compensate_program(m, "G90 G21\nT1 M6\nG0 X10 Y10 Z10\n")
+    assert report.warnings == ["line 3: the position before this move is not known (axes X, Y, Z not yet "
+                               "programmed); it is compensated at its end point only"]
 
 
 def test_r_and_ijk_that_agree_are_both_rewritten(machines):

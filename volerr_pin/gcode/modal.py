@@ -102,8 +102,9 @@ class ModalState:
         why : str
             What moved it, for messages (``"line 5"``).
         """
+        if self.known.any():  # what was never programmed is "not yet programmed", not lost
+            self.lost = why
         self.known[:] = False
-        self.lost = why
 
 
 class Problem(str):
