@@ -146,6 +146,7 @@ REPORTS = [
      "--folds", "0", "--json"],
     ["compensate", "vmc700", "examples/data/part.nc", "-o", "{tmp}/part.nc", "--json"],
     ["errormap", "vmc500", "--elements", "2", "--points", "100", "--json"],
+    ["export", "vmc500", "--controller", "linuxcnc", "-o", "{tmp}/comp", "--points", "256", "--json"],
     ["ballbar", "examples/data/vmc500_ballbar_xy.csv", "--json"],
     ["gear", "gear_roller", "--profile-points", "5", "--face-points", "3", "--json"],
     ["demo", "--grid", "3", "--out", "{tmp}/demo.rrd", "--json"],

@@ -37,7 +37,18 @@ MEMORY_SHARE = 0.5
 
 def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
     """Whether two paths name the same file: the same resolved path, or (both existing) the
-    same inode through a link or hard link."""
+    same inode through a link or hard link.
+
+    Parameters
+    ----------
+    a, b : path
+        The two paths.
+
+    Returns
+    -------
+    bool
+        True when writing one would change the other.
+    """
     pa, pb = Path(a), Path(b)
     if os.path.realpath(pa) == os.path.realpath(pb):
         return True
@@ -194,7 +205,19 @@ class Transaction:
         return Path(name)
 
     def final(self, value):
-        """``value`` (a report: dicts, lists, strings) with every temporary path said as its target."""
+        """A report with every temporary path said as its target.
+
+        Parameters
+        ----------
+        value : dict, list, tuple, str or Path
+            The report (nested dicts and lists of strings, paths and other values).
+
+        Returns
+        -------
+        same type as ``value``
+            The report with the temporary paths this transaction handed out replaced by their
+            targets.
+        """
         names = {str(tmp): str(target) for tmp, target, _ in self._pending}
         if isinstance(value, dict):
             return {k: self.final(v) for k, v in value.items()}
@@ -338,8 +361,14 @@ def keep_backup(target: str | os.PathLike) -> Path | None:
 
 
 def available_memory() -> int:
-    """Bytes of memory this process may still allocate: the system's available memory
-    (``MemAvailable``), or less when an address-space limit is set."""
+    """Bytes of memory this process may still allocate.
+
+    Returns
+    -------
+    int
+        The system's available memory (``MemAvailable``), or less when an address-space limit
+        is set.
+    """
     free = None
     with contextlib.suppress(OSError, ValueError):
         with open("/proc/meminfo") as fh:
