@@ -16,7 +16,8 @@ import pytest
 MODULES = ("machine", "kinematics", "workspace", "ranking", "identify", "compensate", "errormap",
            "thermal", "thermalfit", "measurements", "tracker", "ballbar", "axisfit", "dh", "iso230",
            "simulate", "specio", "identifiability", "describe", "urdf", "gear", "safeio", "export.run",
-           "export.fit", "export.simulate", "export.tables", "export.zone", "export.registry")
+           "export.fit", "export.simulate", "export.tables", "export.zone", "export.registry",
+           "gcode.lexer", "gcode.modal", "gcode.rewrite")
 
 SECTION_RE = re.compile(r"^(\w[\w ]*)\n-{3,}$", re.MULTILINE)
 
