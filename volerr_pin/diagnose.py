@@ -1016,9 +1016,10 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     ------
     InputError
         If a parameter is out of its range above, the measurements are invalid (see
-        :func:`~volerr_pin.identify.identify`), there are too few distinct poses for
-        ``folds``-fold cross-validation, or the diagnosis would need more memory than the
-        machine has free.
+        :func:`~volerr_pin.identify.identify`), hold no position observations, are too few to
+        over-determine the base model (it would pass through every point, leaving no
+        residual), sit at too few distinct poses for ``folds``-fold cross-validation, or the
+        diagnosis would need more memory than the machine has free.
 
     Warns
     -----
