@@ -392,8 +392,8 @@ def test_volerr_uncertainty_from_an_identify_report_on_a_scheduler(cluster, tmp_
 ])
 def test_volerr_uncertainty_bad_input_is_one_line(tmp_path, capsys, argv, match):
     code, out, err = _cli(["uncertainty", "vmc500", "--instrument-sigma", "1", "--campaign-points", "30",
-                           "--workers", "0", *argv] if "--workers" not in argv else
-                          ["uncertainty", "vmc500", "--instrument-sigma", "1", *argv], capsys)
+                           *argv, *([] if {"--workers", "--scheduler"} & set(argv) else ["--workers", "0"])],
+                          capsys)
     assert code == 2 and out == ""
     last = err.rstrip("\n").splitlines()[-1]
     assert match in last
