@@ -11,6 +11,19 @@ ALL_MACHINES = ["vmc500", "vmc700", "lathe_2axis", "cgm4000", "gear_roller", "ur
 
 
 @pytest.fixture(scope="session")
+def cluster():
+    """A Dask cluster of two worker processes on the loopback, one thread each, shared by the
+    session's study tests."""
+    import logging
+
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+                      silence_logs=logging.ERROR) as c:
+        yield c
+
+
+@pytest.fixture(scope="session")
 def machines():
     return {name: vp.load_machine(name) for name in ALL_MACHINES}
 

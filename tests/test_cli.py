@@ -265,3 +265,26 @@ def test_library_errors_name_parameters_and_the_cli_its_options(tmp_path, capsys
         for tok in tokenize.generate_tokens(io.StringIO(path.read_text()).readline):
             if tok.type == tokenize.STRING:
                 assert not re.search(r"(^|[\s(\"'])--[a-z]", tok.string), (path.name, tok.start, tok.string)
+
+
+def test_state_the_machine_does_not_read_is_noted(tmp_path, capsys):
+    import volerr_pin as vp
+    from volerr_pin.specio import replace_terms, write_spec
+
+    assert vp.load_machine("vmc500").sensors == ()
+    assert main(["rank", "vmc500", "--points", "16", "--state", "nosuch=25", "t=3", "--json"]) == 0
+    assert capsys.readouterr().err.strip() == ("volerr: note: --state: vmc500 does not read sensor 'nosuch', t, which "
+                                               "change nothing (temperature sensors it reads: none)")
+    m = replace_terms(vp.load_machine("vmc500"), {
+        "EYZ": {"kind": "thermal_drift", "driver": "temperature", "prefix": "h", "sensors": ["column", "bed"],
+                "coefficients_um_per_K": [2.0, 1.0], "reference_degC": 21.0},
+        "EXX": {"kind": "thermal_expansion", "driver": "temperature", "prefix": "e", "sensor": "spindle",
+                "coefficient_ppm_per_K": 2.0, "reference_degC": 22.0}})
+    assert m.sensors == ("bed", "column", "spindle")
+    spec = write_spec(m, tmp_path / "thermal.toml")
+    assert main(["rank", str(spec), "--points", "16", "--state", "column=25", "bed=21", "spindle=23", "--json"]) == 0
+    assert capsys.readouterr().err == ""
+    assert main(["rank", str(spec), "--points", "16", "--state", "column=25", "bed=21", "spindle=23", "colum=24",
+                 "--json"]) == 0
+    assert "does not read sensor 'colum', which change nothing (temperature sensors it reads: bed, column, " \
+           "spindle)" in capsys.readouterr().err

@@ -24,7 +24,6 @@ from volerr_pin.studies.tolerances import read_tolerance_file, tolerances_toml
 from volerr_pin.units import ARCSEC, UM
 from volerr_pin.workspace import grid
 
-from test_uncertainty import cluster  # noqa: F401  (the session's loopback cluster)
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "data" / "vmc500_tolerances.toml"
@@ -273,7 +272,7 @@ def test_volerr_tolerance_names_an_unknown_component_in_one_line(tmp_path, capsy
 
 
 @pytest.mark.slow
-def test_one_and_two_local_worker_processes_give_the_same_report(tmp_path, capsys, cluster):  # noqa: F811
+def test_one_and_two_local_worker_processes_give_the_same_report(tmp_path, capsys, cluster):
     """The command line's own local clusters (1 and 2 worker processes) and a scheduler:
     the same seed gives the same report to the bit, whatever runs it."""
     base = ["tolerance", "vmc500", "--tolerances", str(EXAMPLE), "--samples", "1200", "--grid", "3",

@@ -10,7 +10,6 @@ simulation of the campaign they describe.
 from __future__ import annotations
 
 import json
-import logging
 import math
 
 import numpy as np
@@ -27,17 +26,6 @@ from volerr_pin.studies.uncertainty import (K95, compare_scalar, numerical_toler
 from volerr_pin.workspace import grid
 
 ARM = "examples/data/two_link_arm.urdf"
-
-
-@pytest.fixture(scope="session")
-def cluster():
-    """Two worker processes on the loopback, one thread each (one cluster for the session:
-    test_tolerance.py uses it too)."""
-    from distributed import LocalCluster
-
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
-                      silence_logs=logging.ERROR) as c:
-        yield c
 
 
 @pytest.fixture(scope="module")

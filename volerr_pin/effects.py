@@ -38,7 +38,7 @@ import numpy as np
 from numpy.polynomial import legendre
 
 from .errors import InputError, SpecError
-from .speckeys import TermSite, find_key, number, numbers, stem_of, text, unit_of, within
+from .speckeys import TermSite, find_key, number, numbers, stem_of, unit_of, within
 from .terms import MAX_COEFFICIENTS, Context, Covariates, Term
 from .units import TIME, scale
 
@@ -194,6 +194,9 @@ class DriftTemperature(Term):
     def lag_requests(self):
         return tuple((s, self.lag) for s in self.sensors) if self.lag else ()
 
+    def temperature_sensors(self):
+        return self.sensors
+
     def coefficient_units(self):
         return [(self.unit_scale, f"{self.unit}/K")] * self.size
 
@@ -245,6 +248,9 @@ class ExpansionTemperature(Term):
     covariates = ("temperatures",)
 
     local_names = ("alpha",)
+
+    def temperature_sensors(self):
+        return (self.sensor,)
 
     def coefficient_units(self):
         return [(1e-6, "ppm/K")]

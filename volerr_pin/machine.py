@@ -527,6 +527,13 @@ class Machine:
         used = {c for comp in self._components for tspec, _ in comp.terms for c in tspec.term.covariates}
         return frozenset(used | ({"t"} if self._lags else set()))
 
+    @property
+    def sensors(self) -> tuple[str, ...]:
+        """Names of the temperature sensors the model reads, sorted (a tuple of str; empty for a
+        machine without temperature-driven terms)."""
+        return tuple(sorted({s for comp in self._components for tspec, _ in comp.terms
+                             for s in tspec.term.temperature_sensors()}))
+
     def term_spans(self) -> list[slice]:
         """The slice of ``theta`` of every term, in order.
 

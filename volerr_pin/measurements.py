@@ -33,7 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
-from .spec import parse_component_name, read_text
+from .safeio import read_text
+from .spec import parse_component_name
 from .units import (ANGLE, AXIS_UNIT, DEG, LENGTH, MM, PLAUSIBLE, axis_scale, describe_range,
                     parse_axis_values, parse_number, shown, split_key)
 

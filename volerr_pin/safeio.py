@@ -10,6 +10,8 @@ Every file the product writes goes through this module:
   A run that fails leaves every existing file as it was and no temporary file behind.
 * :func:`transaction` does the same for all the outputs of one run together: all are
   written or none.
+* :func:`read_text` reads an input file whole only when it is a regular file that fits in
+  memory, as UTF-8 (naming line, column and byte where it is not).
 * :func:`keep_backup` keeps the file a successful run replaces, for the writers whose
   outputs people edit by hand (machine specs).
 
@@ -28,8 +30,8 @@ from pathlib import Path
 
 from .errors import InputError
 
-__all__ = ["Transaction", "available_memory", "check_output_folder", "check_outputs", "keep_backup", "replacing", "require_memory",
-           "same_file", "transaction", "write_text"]
+__all__ = ["READ_OVERHEAD", "Transaction", "available_memory", "check_output_folder", "check_outputs", "keep_backup", "replacing", "require_memory",
+           "read_text", "same_file", "transaction", "write_text"]
 
 #: fraction of the free memory one request may take
 MEMORY_SHARE = 0.5
@@ -419,3 +421,73 @@ def require_memory(nbytes: float, what: str, parameters: tuple[str, ...] = ()) -
         hint = f"; reduce {', '.join(parameters)}" if parameters else ""
         raise InputError(f"{what} needs about {_size(nbytes)} of memory, more than this machine can "
                          f"spare ({_size(free)} free){hint}", parameters=parameters)
+
+
+#: bytes of memory reading a text file takes per byte of file, at most (the text, its lines
+#: or cells, the values parsed from them), for the check before a file is read whole
+READ_OVERHEAD = 20
+
+
+def _line_and_column(data: bytes, offset: int) -> tuple[int, int]:
+    """1-based line and character column of a byte offset (the bytes before it are UTF-8)."""
+    start = data.rfind(b"\n", 0, offset) + 1
+    return data.count(b"\n", 0, offset) + 1, len(data[start:offset].decode("utf-8", "replace")) + 1
+
+
+def read_text(path: str | os.PathLike, error: type[Exception] = InputError, what: str = "file") -> str:
+    """The text of a file that a user names: a regular file, small enough for the memory the
+    machine has free, UTF-8 (a byte-order mark is dropped), without NUL bytes.
+
+    Every input file is read through here, so that a device, a pipe, a folder, a file larger
+    than memory allows or a file in another encoding is refused with one line naming it
+    before any of it is read.
+
+    Parameters
+    ----------
+    path : str or path
+        The file.
+    error : type, default InputError
+        Exception class raised (``SpecError`` for specs, ``MeasurementError`` for measurement
+        files); constructed with the message.
+    what : str
+        What the file is, for messages ("spec", "measurement file").
+
+    Returns
+    -------
+    str
+        The text; line ends as in the file.
+
+    Raises
+    ------
+    InputError
+        (or ``error``) If the file cannot be read, is not a regular file, would need more
+        than half of the free memory, is not UTF-8 (naming line, column and byte) or holds
+        a NUL byte.
+    """
+    path = Path(path)
+    try:
+        info = path.stat()
+    except OSError as err:
+        raise error(f"{path}: cannot read {what}: {err.strerror}") from None
+    if stat.S_ISDIR(info.st_mode):
+        raise error(f"{path}: is a folder, not a {what}")
+    if not stat.S_ISREG(info.st_mode):
+        raise error(f"{path}: not a regular file (a device, pipe or socket); give a {what}")
+    try:
+        require_memory(info.st_size * READ_OVERHEAD, f"{path}: reading this {what} of {info.st_size:,} bytes")
+    except InputError as err:
+        raise error(str(err)) from None
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        raise error(f"{path}: cannot read {what}: {err.strerror}") from None
+    try:
+        content = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        line, column = _line_and_column(data, err.start)
+        raise error(f"{path}:{line}:{column}: not UTF-8 text (byte 0x{data[err.start]:02x} at offset "
+                    f"{err.start}); save the {what} as UTF-8") from None
+    if b"\x00" in data:
+        line, column = _line_and_column(data, data.index(b"\x00"))
+        raise error(f"{path}:{line}:{column}: a NUL byte; this is not a text file")
+    return content.removeprefix("\ufeff")

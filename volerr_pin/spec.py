@@ -7,9 +7,7 @@ joint, NC sign) and the error components with their terms. Units are in the key 
 
 from __future__ import annotations
 
-import os
 import re
-import stat
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,9 +16,9 @@ from typing import Any
 import numpy as np
 
 from . import terms as T
-from .errors import InputError, SpecError
-from .safeio import require_memory
-from .speckeys import NAME_RE, TermSite, check_keys, find_key, numbers, text, unit_of, within
+from .errors import SpecError
+from .safeio import read_text
+from .speckeys import NAME_RE, TermSite, check_keys, find_key, numbers, text, within
 from .termkinds import read_term
 from .units import scale
 from .urdf import URDF, load_urdf
@@ -136,76 +134,6 @@ def build_term(table: dict, where: str, quantity: str, position_quantity: str | 
     prefix, term, coefficients = read_term(table, TermSite(where, quantity, position_quantity, travel,
                                                             owner_is_axis=position_quantity is not None))
     return TermSpec(prefix, term, coefficients)
-
-
-#: bytes of memory reading a text file takes per byte of file, at most (the text, its lines
-#: or cells, the values parsed from them), for the check before a file is read whole
-READ_OVERHEAD = 20
-
-
-def _line_and_column(data: bytes, offset: int) -> tuple[int, int]:
-    """1-based line and character column of a byte offset (the bytes before it are UTF-8)."""
-    start = data.rfind(b"\n", 0, offset) + 1
-    return data.count(b"\n", 0, offset) + 1, len(data[start:offset].decode("utf-8", "replace")) + 1
-
-
-def read_text(path: str | os.PathLike, error: type[Exception] = SpecError, what: str = "file") -> str:
-    """The text of a file that a user names: a regular file, small enough for the memory the
-    machine has free, UTF-8 (a byte-order mark is dropped), without NUL bytes.
-
-    Every input file is read through here, so that a device, a pipe, a folder, a file larger
-    than memory allows or a file in another encoding is refused with one line naming it
-    before any of it is read.
-
-    Parameters
-    ----------
-    path : str or path
-        The file.
-    error : type
-        Exception class raised (:class:`SpecError`, or ``MeasurementError`` for measurement
-        files); constructed with the message.
-    what : str
-        What the file is, for messages ("spec", "measurement file").
-
-    Returns
-    -------
-    str
-        The text; line ends as in the file.
-
-    Raises
-    ------
-    SpecError
-        (or ``error``) If the file cannot be read, is not a regular file, would need more
-        than half of the free memory, is not UTF-8 (naming line, column and byte) or holds
-        a NUL byte.
-    """
-    path = Path(path)
-    try:
-        info = path.stat()
-    except OSError as err:
-        raise error(f"{path}: cannot read {what}: {err.strerror}") from None
-    if stat.S_ISDIR(info.st_mode):
-        raise error(f"{path}: is a folder, not a {what}")
-    if not stat.S_ISREG(info.st_mode):
-        raise error(f"{path}: not a regular file (a device, pipe or socket); give a {what}")
-    try:
-        require_memory(info.st_size * READ_OVERHEAD, f"{path}: reading this {what} of {info.st_size:,} bytes")
-    except InputError as err:
-        raise error(str(err)) from None
-    try:
-        data = path.read_bytes()
-    except OSError as err:
-        raise error(f"{path}: cannot read {what}: {err.strerror}") from None
-    try:
-        content = data.decode("utf-8")
-    except UnicodeDecodeError as err:
-        line, column = _line_and_column(data, err.start)
-        raise error(f"{path}:{line}:{column}: not UTF-8 text (byte 0x{data[err.start]:02x} at offset "
-                    f"{err.start}); save the {what} as UTF-8") from None
-    if b"\x00" in data:
-        line, column = _line_and_column(data, data.index(b"\x00"))
-        raise error(f"{path}:{line}:{column}: a NUL byte; this is not a text file")
-    return content.removeprefix("\ufeff")
 
 
 def read_toml(path: Path) -> dict:

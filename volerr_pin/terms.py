@@ -117,6 +117,10 @@ class Term:
         """(sensor, lag [s]) pairs whose delayed temperatures the term reads."""
         return ()
 
+    def temperature_sensors(self) -> tuple[str, ...]:
+        """Names of the temperature sensors the term reads."""
+        return ()
+
     def to_spec(self, coefficients: np.ndarray) -> dict:
         """The term as a spec table, in the units it was read in."""
         raise NotImplementedError

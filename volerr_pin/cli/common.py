@@ -210,6 +210,14 @@ def with_state(machine: Machine, items: list[str] | None) -> Machine:
             t = values[0]
         else:
             temps[name] = values[0]
+    read = machine.covariates_used
+    unused = [f"sensor '{name}'" for name in temps if name not in machine.sensors]
+    unused += [what for what, value, key in (("t", t, "t"), ("forces", forces, "forces"),
+                                             ("directions", directions, "directions"))
+               if value is not None and key not in read]
+    if unused:
+        print(f"volerr: note: --state: {machine.name} does not read {', '.join(unused)}, which change nothing "
+              f"(temperature sensors it reads: {', '.join(machine.sensors) or 'none'})", file=sys.stderr)
     return machine.with_state(t=t, temperatures=temps, forces=forces, directions=directions)
 
 

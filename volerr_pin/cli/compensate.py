@@ -7,8 +7,7 @@ from pathlib import Path
 from rich.console import Console
 
 from ..errors import InputError
-from ..safeio import require_memory, transaction
-from ..spec import read_text
+from ..safeio import read_text, require_memory, transaction
 from .common import add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of
 
 #: memory the compensation holds per byte of program (about 25 kB per block of about 25 bytes)

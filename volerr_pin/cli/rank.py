@@ -5,7 +5,6 @@ from __future__ import annotations
 import sys
 
 from ..ranking import rank, read_tolerances, tool_identifiability
-from ..workspace import sample
 from ..safeio import transaction
 from .common import (add_json_arg, add_machine_args, add_state_arg, check_run_outputs, dumps, machine_of, positive,
                      table_console)
@@ -35,10 +34,11 @@ def run(args) -> int:
     machine = machine_of(args)
     check_run_outputs({"png": args.png}, [args.tolerances], machine)
     tolerances = read_tolerances(args.tolerances, machine) if args.tolerances else None
-    q = sample(machine, args.points, seed=args.seed)
-    ranking = rank(machine, q, tolerances=tolerances, direction=args.direction, by=args.by)
+    # both sample the same points (Sobol', same seed), each sized against the free memory first
+    ranking = rank(machine, points=args.points, seed=args.seed, tolerances=tolerances, direction=args.direction,
+                   by=args.by)
     result = ranking.to_dict(top=args.top)
-    groups = [g.to_dict() for g in tool_identifiability(machine, q)]
+    groups = [g.to_dict() for g in tool_identifiability(machine, points=args.points, seed=args.seed)]
     if args.png:
         from ..viz.plots import ranking_png
 

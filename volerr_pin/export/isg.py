@@ -39,7 +39,6 @@ import numpy as np
 from ..errors import InputError
 from ..machine import Machine
 from ..units import DEG, UM
-from .isg_model import VolumetricModel
 from .isg_volumetric import CONFIG, model_of, quantise_model, read_volumetric, volumetric_files
 from .layouts import best_masters, check_count, cross_table, linear_xyz, nc_axes, own_table, plane_table
 from .protocol import Compensation

@@ -28,7 +28,7 @@ from ..identifiability import analyse
 from ..identify import parameter_units
 from ..machine import Machine
 from ..safeio import require_memory
-from ..spec import read_text
+from ..safeio import read_text
 from ..units import UM
 from ..workspace import sample
 
