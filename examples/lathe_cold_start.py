@@ -26,7 +26,7 @@ import numpy as np
 import rerun.blueprint as rrb
 
 import volerr_pin as vp
-from volerr_pin.viz.recording import log_field, log_machine, log_time_series, new_recording
+from volerr_pin.viz.recording import log_field, log_machine, log_time_series, new_recording, streaming
 from volerr_pin.specio import add_terms
 from volerr_pin.workspace import evaluate_field, field_grid
 
@@ -70,20 +70,18 @@ def main(out: Path) -> dict:
                        rrb.TimeSeriesView(origin="thermal", name="error at the reference point [um]"),
                        column_shares=[3, 2]),
         rrb.TimePanel(state="expanded"))
-    rec.save(out, default_blueprint=blueprint)
-    log_machine(rec, machine, np.array(REFERENCE_MM) * 1e-3)
-    log_time_series(rec, t, {"resultant_um": resultant, "dx_um": error[:, 0], "dz_um": error[:, 2]})
-    q = field_grid(machine, [9, 5])
-    frames = t[::10]
-    peak = max(np.linalg.norm(machine.volumetric_error(q, t=np.full(len(q), s))[:, :3], axis=1).max()
-               for s in frames[:3]) * 1e6
-    scale = 500.0
-    for s in frames:
-        rec.set_time("time", duration=float(s))
-        field = evaluate_field(machine, q, scale, t=np.full(len(q), s))
-        log_field(rec, machine, field, static=False, legend=s == frames[0], colour_max=peak)
-    rec.flush()
-    rec.disconnect()
+    with streaming(rec, out, blueprint):   # a temporary file beside out, renamed on success
+        log_machine(rec, machine, np.array(REFERENCE_MM) * 1e-3)
+        log_time_series(rec, t, {"resultant_um": resultant, "dx_um": error[:, 0], "dz_um": error[:, 2]})
+        q = field_grid(machine, [9, 5])
+        frames = t[::10]
+        peak = max(np.linalg.norm(machine.volumetric_error(q, t=np.full(len(q), s))[:, :3], axis=1).max()
+                   for s in frames[:3]) * 1e6
+        scale = 500.0
+        for s in frames:
+            rec.set_time("time", duration=float(s))
+            field = evaluate_field(machine, q, scale, t=np.full(len(q), s))
+            log_field(rec, machine, field, static=False, legend=s == frames[0], colour_max=peak)
     print(f"wrote {out} ({out.stat().st_size / 1e6:.2f} MB): field on the 'time' timeline "
           f"({len(frames)} frames), arrows x{scale:g}; open it with: rerun {out}")
     return {"t": t, "resultant_um": resultant, "path": out, "frames": len(frames)}

@@ -22,7 +22,7 @@ from ..safeio import check_outputs
 from ..units import UM_PER_M
 from ..workspace import nice_scale, to_engineering
 from .plots import plt, save
-from .recording import _streaming, colours, new_recording
+from .recording import colours, new_recording, streaming
 
 __all__ = ["export_png", "record_export"]
 
@@ -121,7 +121,7 @@ def record_export(result: ExportResult, path: str | Path, scale: float | None = 
              "| stage | max um | RMS um |", "|---|---|---|"]
     for (label, _), key in zip(STAGES, ("uncompensated", "naive", "residual", "exact")):
         lines.append(f"| {label} | {s[key].max_um:.4g} | {s[key].rms_um:.4g} |")
-    with _streaming(rec, path, blueprint):
+    with streaming(rec, path, blueprint):
         rec.log("summary", rr.TextDocument("\n".join(lines), media_type=rr.MediaType.MARKDOWN), static=True)
         for step, (label, field) in enumerate(STAGES):
             rec.set_time("stage", sequence=step)

@@ -128,7 +128,7 @@ def _rerun_urdf(machine: Machine, package_dirs=None, meshes: bool = True):
 
 
 @contextlib.contextmanager
-def _streaming(rec: rr.RecordingStream, path, blueprint, spawn: bool = False, connect: str | None = None):
+def streaming(rec: rr.RecordingStream, path, blueprint, spawn: bool = False, connect: str | None = None):
     """Send what ``rec`` logs in the block to ``path`` and to the viewers asked for.
 
     The file is a temporary one beside ``path``, renamed over it when the block ends without an
@@ -136,6 +136,30 @@ def _streaming(rec: rr.RecordingStream, path, blueprint, spawn: bool = False, co
     is complete); otherwise it is removed and an existing ``path`` stays as it was. One
     ``set_sinks`` call tees file and viewers: ``save`` followed by ``spawn`` or ``connect_grpc``
     would replace the file with the viewer.
+
+    Parameters
+    ----------
+    rec : rerun.RecordingStream
+        The recording; it is disconnected when the block ends.
+    path : str, Path or None
+        The ``.rrd`` file to write (None: viewers only).
+    blueprint : rerun.blueprint.Blueprint or None
+        The default blueprint sent with the recording.
+    spawn : bool, default False
+        Also send to a viewer started for it.
+    connect : str, optional
+        Also send to the viewer at this address (``rerun+http://host:port/proxy``).
+
+    Yields
+    ------
+    None
+        Log to ``rec`` inside the block.
+
+    Raises
+    ------
+    InputError
+        Naming ``spawn`` or ``connect`` when no viewer can be reached there, or ``path`` when
+        the recording cannot be flushed.
     """
     with contextlib.ExitStack() as stack:
         sinks = []
@@ -326,7 +350,7 @@ def record_field(machine: Machine, path: str | Path | None = None, *, counts=Non
     q = field_grid(machine, counts, config)
     rec = new_recording()
     blueprint = default_blueprint(sweep=bool(sweeping))
-    with _streaming(rec, path, blueprint, spawn, connect):
+    with streaming(rec, path, blueprint, spawn, connect):
         log_machine(rec, machine, base, moving=sweeping, package_dirs=package_dirs)
         if sweeping:
             scale = log_rotary_sweep(rec, machine, q, base, sweeping, scale, sweep_steps)
@@ -448,7 +472,7 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, pa
             column_shares=[3, 2]),
         rrb.TimePanel(state="expanded"))
     frame = rr.CoordinateFrame(machine.workpiece_frame)
-    with _streaming(rec, path, blueprint):
+    with streaming(rec, path, blueprint):
         log_machine(rec, machine, default_config(machine), package_dirs=package_dirs)
         for number, (step, vec) in enumerate(zip(diagnosis.steps, per_step)):
             rec.set_time("step", sequence=number)
@@ -524,7 +548,7 @@ def record_gear(rows, path: str | Path, scale: float | None = None) -> dict:
         rrb.Horizontal(rrb.Spatial3DView(origin="/", contents=["gear/**"], name="flanks"),
                        rrb.TextLogView(origin="sources", name="sources"), column_shares=[3, 1]),
         rrb.TimePanel(state="expanded"))
-    with _streaming(rec, path, blueprint):
+    with streaming(rec, path, blueprint):
         for number, row in enumerate(rows):
             rec.set_time("source", sequence=number)
             dn = row.deviations.normal.reshape(-1)

@@ -100,7 +100,7 @@ def record_uncertainty(study, path: str | Path, package_dirs=None) -> dict:
     """
     import rerun.blueprint as rrb
 
-    from .recording import _streaming, log_machine, new_recording
+    from .recording import log_machine, new_recording, streaming
 
     check_outputs({"path": path})
     machine = study.machine
@@ -113,7 +113,7 @@ def record_uncertainty(study, path: str | Path, package_dirs=None) -> dict:
     blueprint = rrb.Blueprint(rrb.Horizontal(*views, rrb.TextDocumentView(origin="uncertainty/map/about",
                                                                           name="about")),
                               rrb.TimePanel(state="collapsed"))
-    with _streaming(rec, path, blueprint):
+    with streaming(rec, path, blueprint):
         log_machine(rec, machine, default_config(machine), package_dirs=package_dirs)
         for name, field in fields.items():
             log_uncertainty_field(rec, machine, field, f"uncertainty/{name}")
