@@ -27,7 +27,8 @@ DEFAULT_MACHINE = "vmc500"
 OPTION_OF = {"Machine.with_state": "--state", "counts": "--grid", "run_axis": "--axis", "module": "--module-mm",
              "pressure_angle": "--pressure-angle-deg", "face_width": "--face-width-mm", "tooth_numbers": "--tooth",
              "translation": "--translation-mm", "rotation": "--rotation-deg", "package_dirs": "--package-dir",
-             "rank_top": "--top", "tool": "--tool-frame", "base": "--base-frame"}
+             "rank_top": "--top", "tool": "--tool-frame", "base": "--base-frame",
+             "points_per_axis": "--grid"}
 
 
 def in_cli_words(err: VolerrError) -> str:
