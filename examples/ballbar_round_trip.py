@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 import volerr_pin as vp
-from volerr_pin.ballbar import evaluate_circular, read_ballbar
+from volerr_pin.measurements.ballbar import evaluate_circular, read_ballbar
 from volerr_pin.diagnose import diagnose
 from volerr_pin.identify import identify
 from volerr_pin.viz.plots import ballbar_png

@@ -95,7 +95,7 @@ def whole_robot(table: np.ndarray, axes: list, out: Path | None = None) -> dict:
     import volerr_pin as vp
     from volerr_pin.axisfit import axes_to_urdf
     from volerr_pin.identify import identify
-    from volerr_pin.tracker import read_tracker
+    from volerr_pin.measurements.tracker import read_tracker
 
     joints = table[:, 15:21].copy()
     joints[:, 2] += joints[:, 1]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.ballbar import BallbarRun, evaluate_circular, read_ballbar
+from volerr_pin.measurements.ballbar import BallbarRun, evaluate_circular, read_ballbar
 from volerr_pin.cli import main
 from volerr_pin.diagnose import diagnose
 from volerr_pin.identify import identify

@@ -233,7 +233,8 @@ def test_library_errors_name_parameters_and_the_cli_its_options(tmp_path, capsys
     from pathlib import Path
 
     import volerr_pin as vp
-    from volerr_pin.thermalfit import read_series, thermal_fit
+    from volerr_pin.measurements import read_series
+    from volerr_pin.thermalfit import thermal_fit
 
     data = Path(__file__).parents[1] / "examples" / "data" / "vmc500_spindle_thermal.csv"
     series = read_series([str(data)])

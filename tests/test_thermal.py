@@ -10,7 +10,8 @@ import pytest
 
 from volerr_pin.cli import main
 from volerr_pin.thermal import GM11, GM1N, feed_axis_six_point, spindle_five_point
-from volerr_pin.thermalfit import SeriesData, read_series, thermal_fit
+from volerr_pin.measurements import SeriesData, read_series
+from volerr_pin.thermalfit import thermal_fit
 
 
 def test_gm11_reproduces_a_worked_example_to_the_printed_digits():

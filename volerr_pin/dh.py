@@ -36,7 +36,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .errors import InputError
-from .measurements import MeasurementError, read_table
+from .measurements.table import MeasurementError, read_table
 from .units import axis_scale
 
 

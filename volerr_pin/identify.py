@@ -22,17 +22,13 @@ from typing import Callable
 import numpy as np
 
 from .errors import InputError
-from .ballbar import BallbarRun, ballbar_positions
 from .identifiability import Analysis, analyse
-from .tracker import TrackerMeasurements, tracker_observations
-from .workspace import _fraction, _integer, _positive, config_from_file
 from .machine import Machine
-from .measurements import PointMeasurements, Runs
+from .measurements.protocol import Measurement, ObservationBlock, ObservationOptions
 from .safeio import require_memory
-from .spec import parse_component_name
 from .units import UM_PER_M, URAD_PER_RAD
+from .workspace import _fraction, _integer, _positive
 
-DIRECTION_INDEX = {d: i for i, d in enumerate("XYZABC")}
 #: above this condition number of the column-scaled design, rounding (about condition x 2.2e-16
 #: of the coefficients' scale) reaches 1e-4: fewer than four of double precision's sixteen
 #: digits are left along the weakest direction, and a fit says so
@@ -78,6 +74,12 @@ class Observations:
         File of each row.
     lines : ndarray, shape (rows,)
         File line (or sample index) of each row.
+    nuisance_angular : ndarray of bool, shape (n_nuisance,), optional
+        True for nuisance terms in rad (reported in urad). Default: a term is angular when a
+        row it acts on is.
+    pose : ndarray of int, shape (N,), optional
+        The pose of every point (the points of one pose are held out together). Default:
+        points at the same positions (to 1e-12) are one pose.
     """
 
     q: np.ndarray
@@ -91,6 +93,13 @@ class Observations:
     nuisance_names: list[str]
     sources: list[str]
     lines: np.ndarray
+    nuisance_angular: np.ndarray | None = None
+    pose: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.nuisance_angular is None:
+            self.nuisance_angular = np.array([bool(np.any(self.angular[self.nuisance[:, c] != 0]))
+                                              for c in range(np.shape(self.nuisance)[1])], dtype=bool)
 
     @property
     def n_points(self) -> int:
@@ -117,7 +126,21 @@ class Observations:
         return Observations(self.q[points], cov, remap[self.point[keep]], self.w[keep], self.y[keep],
                             self.sigma[keep], self.angular[keep], self.nuisance[keep],
                             self.nuisance_names, [s for s, k in zip(self.sources, keep) if k],
-                            self.lines[keep])
+                            self.lines[keep], self.nuisance_angular, None if self.pose is None else self.pose[points])
+
+    def poses(self) -> np.ndarray:
+        """The pose of every point, numbered from 0 (see :attr:`pose`).
+
+        Returns
+        -------
+        ndarray of int, shape (N,)
+            :attr:`pose` when given, else the index of each point's positions (rounded to
+            1e-12) among the distinct positions, in sorted order.
+        """
+        if self.pose is not None:
+            return np.asarray(self.pose)
+        _, group = np.unique(np.round(self.q, 12), axis=0, return_inverse=True)
+        return group.ravel()
 
 
 def _take_covariates(cov: dict, idx) -> dict:
@@ -130,7 +153,8 @@ def _take_covariates(cov: dict, idx) -> dict:
 def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_urad: float = 1.0,
                        run_axis: str | None = None, run_at: dict[str, float] | None = None
                        ) -> Observations:
-    """Turn measurement objects into observations.
+    """Turn measurements into observations: each measurement gives its own block (see
+    :class:`~volerr_pin.measurements.protocol.Measurement`), stacked here.
 
     Point measurements observe each measured deviation direction. Runs: the moving axis is
     the run's (or ``run_axis``); the other axes stand at the run's ``# at:`` positions,
@@ -145,10 +169,12 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
     ----------
     machine : Machine
         The machine observed.
-    data : iterable, or one measurement object
-        :class:`~volerr_pin.measurements.PointMeasurements`, :class:`~volerr_pin.measurements.Runs`,
-        :class:`~volerr_pin.tracker.TrackerMeasurements` and
-        :class:`~volerr_pin.ballbar.BallbarRun` objects.
+    data : iterable of measurements, or one measurement
+        Objects following :class:`~volerr_pin.measurements.protocol.Measurement`:
+        :class:`~volerr_pin.measurements.points.PointMeasurements`,
+        :class:`~volerr_pin.measurements.runs.Runs`,
+        :class:`~volerr_pin.measurements.tracker.TrackerMeasurements`,
+        :class:`~volerr_pin.measurements.ballbar.BallbarRun`, or a registered kind's.
     sigma_um : float, default 1.0
         Standard deviation of position observations [um].
     sigma_urad : float, default 1.0
@@ -169,151 +195,86 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
     InputError
         If ``sigma_um`` or ``sigma_urad`` is not positive and finite, a run's axis is unknown
         or not given, its target unit does not fit the axis kind, its positions leave the
-        travel, a component run belongs to another axis, an object is of an unknown type,
+        travel, a component run belongs to another axis, an object is not a measurement,
         there are no observations, or a covariate the model reads is missing from some files.
     """
     sigma_um = _positive("sigma_um", sigma_um)
     sigma_urad = _positive("sigma_urad", sigma_urad)
-    if isinstance(data, (PointMeasurements, Runs, TrackerMeasurements, BallbarRun)):
+    options = ObservationOptions(sigma_um, sigma_urad, run_axis, run_at)
+    if isinstance(data, Measurement):
         data = [data]  # one measurement object
-    q_list, cov_list = [], []
-    blocks: list[_Rows] = []
-    nuisance_names: list[str] = []
-    n_points = 0
+    blocks = []
     for item in data:
-        if isinstance(item, PointMeasurements):
-            values = np.asarray(item.values, dtype=float)
-            if values.ndim != 2 or values.shape != (len(item.q), 6):
-                raise InputError(f"{item.source}: values has shape {values.shape}; expected ({len(item.q)}, 6): "
-                                 "dx, dy, dz, rx, ry, rz of every point")
-            q_list.append(item.q)
-            cov_list.append(item.covariates)
-            # one row per measured direction, in point order
-            i, k = np.nonzero(~np.isnan(values))
-            blocks.append(_Rows(n_points + i, np.eye(6)[k], values[i, k],
-                                np.where(k >= 3, sigma_urad, sigma_um) * 1e-6, k >= 3, item.source,
-                                np.asarray(item.lines)[i]))
-            n_points += len(item.q)
-        elif isinstance(item, Runs):
-            axis = item.axis or run_axis
-            if axis is None:
-                raise InputError(f"{item.source}: which axis moved? Give '# axis: X' in the file or run_axis",
-                                 parameters=("run_axis",))
-            if axis not in machine.axes:
-                raise InputError(f"{item.source}: axis '{axis}' is not an axis of {machine.name} "
-                                 f"({', '.join(machine.axes)})")
-            j = machine.axes.index(axis)
-            kind = machine.axis_kinds[j]
-            if (item.target_unit == "mm") != (kind == "linear"):
-                raise InputError(f"{item.source}: targets in {item.target_unit} but axis {axis} is {kind}")
-            base = config_from_file(machine, {**item.at, **(run_at or {})}, f"{item.source}: '# at:'")
-            q = np.tile(base, (len(item.target), 1))
-            q[:, j] = item.target
-            try:
-                machine.check_q(q)
-            except InputError as err:
-                raise InputError(f"{item.source}: {err}") from None
-            q_list.append(q)
-            cov_list.append({"directions": np.where(np.arange(len(machine.axes)) == j,
-                                                    item.direction[:, None], 1.0)})
-            if item.component is None:
-                nominal = machine.axis_jacobian(q, nominal=True)[:, :, j]
-                w_all = nominal / np.linalg.norm(nominal, axis=1, keepdims=True)
-                angular = kind == "rotary"
-                label = "positioning"
-            else:
-                direction, _, owner = parse_component_name(item.component)
-                if owner != axis:
-                    raise InputError(f"{item.source}: {item.component} is an error of {owner}, not {axis}")
-                w_all = np.zeros((len(q), 6))
-                w_all[:, DIRECTION_INDEX[direction]] = 1.0
-                angular = direction in "ABC"
-                label = item.component
-            straightness = (item.component is not None and not angular and kind == "linear"
-                            and item.component[1] != axis)
-            base_col = len(nuisance_names)
-            tag = f"{label} run {item.source}"
-            nuisance_names.append(f"offset[{tag}]")
-            if straightness:
-                nuisance_names.append(f"slope[{tag}]")
-            lo, hi = machine.travel[j]
-            u = (2 * q[:, j] - lo - hi) / (hi - lo)
-            sigma = (sigma_urad if angular else sigma_um) * 1e-6
-            n = len(q)
-            local = np.arange(n)
-            nuisance = [(local, base_col, np.ones(n))] + ([(local, base_col + 1, u)] if straightness else [])
-            blocks.append(_Rows(n_points + local, w_all, np.asarray(item.value, dtype=float), np.full(n, sigma),
-                                np.full(n, angular), item.source, np.asarray(item.lines), nuisance))
-            n_points += n
-        elif isinstance(item, TrackerMeasurements):
-            obs_t = tracker_observations(machine, item)
-            q_list.append(item.q)
-            cov_list.append(item.covariates)
-            tag = f"tracker {item.source}"
-            base_col = len(nuisance_names)
-            nuisance_names += [f"shift_{a}[{tag}]" for a in "xyz"] + [f"rotation_{a}[{tag}]" for a in "xyz"]
-            n = len(item.q)
-            i = np.repeat(np.arange(n), 3)                       # rows: x, y, z of every point
-            design = obs_t["nuisance"].reshape(3 * n, 6)
-            nuisance = [(np.arange(3 * n), base_col + c, design[:, c]) for c in range(6)]
-            blocks.append(_Rows(n_points + i, obs_t["w"].reshape(3 * n, 6), obs_t["deviation"].reshape(3 * n),
-                                np.full(3 * n, sigma_um * 1e-6), np.zeros(3 * n, bool), item.source,
-                                np.asarray(item.lines)[i], nuisance))
-            n_points += n
-        elif isinstance(item, BallbarRun):
-            q, radial, directions = ballbar_positions(machine, item)
-            q_list.append(q)
-            cov_list.append({"directions": directions})
-            tag = f"ballbar {item.source}"
-            base_col = len(nuisance_names)
-            nuisance_names += [f"centre_{item.plane[0]}[{tag}]", f"centre_{item.plane[1]}[{tag}]",
-                               f"length[{tag}]"]
-            n = len(q)
-            w = np.zeros((n, 6))
-            w[:, :3] = radial
-            angle = np.asarray(item.angle, dtype=float)
-            local = np.arange(n)
-            nuisance = [(local, base_col, np.cos(angle)), (local, base_col + 1, np.sin(angle)),
-                        (local, base_col + 2, np.ones(n))]
-            blocks.append(_Rows(n_points + local, w, np.asarray(item.deviation, dtype=float),
-                                np.full(n, sigma_um * 1e-6), np.zeros(n, bool), item.source,
-                                np.asarray(item.lines), nuisance))
-            n_points += n
-        else:
+        if not isinstance(item, Measurement):
             raise InputError(f"cannot use {type(item).__name__} as measurements")
+        blocks.append(item.observations(machine, options))
+    return stack_blocks(blocks, machine)
+
+
+def stack_blocks(blocks: list[ObservationBlock], machine: Machine) -> Observations:
+    """The observations of several measurements as one set: points, rows and nuisance columns
+    in the order of the blocks.
+
+    Parameters
+    ----------
+    blocks : list of ObservationBlock
+        The measurements' observations.
+    machine : Machine
+        The machine observed (which covariates it reads).
+
+    Returns
+    -------
+    Observations
+        The stacked observations. Poses: the points of a block that gives its ``poses`` keep
+        them; all other points at the same commanded positions (to 1e-12) are one pose.
+
+    Raises
+    ------
+    InputError
+        If there are no observation rows, or a covariate the model reads is missing from some
+        blocks.
+    """
     if not sum(len(b.point) for b in blocks):
         raise InputError("no observations")
-    q = np.vstack(q_list)
-    covariates = _merge_covariates(cov_list, [len(x) for x in q_list], machine)
-    n_rows = sum(len(b.point) for b in blocks)
-    nuisance = np.zeros((n_rows, len(nuisance_names)))
-    offset = 0
-    for b in blocks:
-        for rows, col, values in b.nuisance:
-            nuisance[offset + rows, col] = values
-        offset += len(b.point)
+    sizes = [len(b.q) for b in blocks]
+    q = np.vstack([b.q for b in blocks])
+    covariates = _merge_covariates([b.covariates for b in blocks], sizes, machine)
+    starts = np.cumsum([0] + sizes)
+    rows = np.cumsum([0] + [len(b.point) for b in blocks])
+    cols = np.cumsum([0] + [len(b.nuisance_terms) for b in blocks])
+    nuisance = np.zeros((int(rows[-1]), int(cols[-1])))
+    for k, b in enumerate(blocks):
+        nuisance[rows[k]:rows[k + 1], cols[k]:cols[k + 1]] = b.nuisance
+    terms = [t for b in blocks for t in b.nuisance_terms]
     return Observations(
-        q, covariates, np.concatenate([b.point for b in blocks]).astype(int),
+        q, covariates, np.concatenate([b.point + start for b, start in zip(blocks, starts)]).astype(int),
         np.vstack([b.w for b in blocks]).astype(float), np.concatenate([b.y for b in blocks]).astype(float),
         np.concatenate([b.sigma for b in blocks]).astype(float),
-        np.concatenate([b.angular for b in blocks]).astype(bool), nuisance, nuisance_names,
+        np.concatenate([b.angular for b in blocks]).astype(bool), nuisance, [t.name for t in terms],
         [src for b in blocks for src in [b.source] * len(b.point)],
-        np.concatenate([b.lines for b in blocks]))
+        np.concatenate([b.lines for b in blocks]), np.array([t.angular for t in terms], dtype=bool),
+        _stacked_poses(blocks, q, starts))
 
 
-@dataclass
-class _Rows:
-    """The observation rows of one measurement object (see :class:`Observations`), with its
-    nuisance entries as (local rows, column, values)."""
-
-    point: np.ndarray
-    w: np.ndarray
-    y: np.ndarray
-    sigma: np.ndarray
-    angular: np.ndarray
-    source: str
-    lines: np.ndarray
-    nuisance: list = field(default_factory=list)
+def _stacked_poses(blocks: list[ObservationBlock], q: np.ndarray, starts: np.ndarray) -> np.ndarray | None:
+    """Pose labels over all points; None when no block gives its own (poses are then found by
+    position when asked for, :meth:`Observations.poses`)."""
+    if all(b.poses is None for b in blocks):
+        return None
+    pose = np.empty(len(q), dtype=int)
+    by_position = np.concatenate([np.arange(starts[k], starts[k + 1]) for k, b in enumerate(blocks)
+                                  if b.poses is None] or [np.zeros(0, int)])
+    count = 0
+    if by_position.size:
+        _, group = np.unique(np.round(q[by_position], 12), axis=0, return_inverse=True)
+        pose[by_position] = group.ravel()
+        count = int(group.max()) + 1
+    for k, b in enumerate(blocks):
+        if b.poses is not None:
+            _, labels = np.unique(np.asarray(b.poses), return_inverse=True)
+            pose[starts[k]:starts[k + 1]] = labels.ravel() + count
+            count += int(labels.max()) + 1 if labels.size else 0
+    return pose
 
 
 def _merge_covariates(parts: list[dict], sizes: list[int], machine: Machine) -> dict:
@@ -334,7 +295,7 @@ def _merge_covariates(parts: list[dict], sizes: list[int], machine: Machine) -> 
                                  f"(missing from {len(missing)} of {len(parts)}); the model of "
                                  f"{machine.name} needs it at every point")
             warnings.warn(f"covariate '{key}' is in some measurement files but not in others; "
-                          f"{machine.name}'s model does not read it, so it is not used", stacklevel=4)
+                          f"{machine.name}'s model does not read it, so it is not used", stacklevel=5)
             continue
         if key == "temperatures":
             sensors = set(parts[0][key])
@@ -914,9 +875,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         fitted_machine, machine, free, analysis, fitted_idx, held_idx, uncertainty,
         dict(zip(obs.nuisance_names, (float(v) for v in nuisance))), rms_fit or 0.0, rms_fit_rot,
         rms_holdout, how, obs.n_points, len(obs.y), iterations, convention, residual_sigma, groups,
-        frozenset(n for c, n in enumerate(obs.nuisance_names)
-                  if np.any(obs.angular[obs.nuisance[:, c] != 0]) or n.startswith("rotation_")), solver,
-        ill)
+        frozenset(n for n, angular in zip(obs.nuisance_names, obs.nuisance_angular) if angular), solver, ill)
 
 
 def _memory_needed(obs: Observations, folds: int) -> float:
@@ -997,7 +956,8 @@ def check_observations(obs: Observations) -> None:
     Raises
     ------
     InputError
-        If the arrays do not have one entry per row (or point indices leave the points), a
+        If the arrays do not have one entry per row (or point indices leave the points, or
+        the nuisance flags or poses do not have one per column or point), a
         value, weight or nuisance entry is not finite, a standard deviation is not
         positive and finite, a position is not finite, or an observation exceeds
         :data:`WEIGHTED_LIMIT` standard deviations (the fit's sums of squares would overflow).
@@ -1013,6 +973,13 @@ def check_observations(obs: Observations) -> None:
     if len(obs.sources) != rows or np.shape(obs.nuisance)[1:] != (len(obs.nuisance_names),):
         raise InputError("obs.sources and obs.nuisance_names must name every row and nuisance column",
                          parameters=("obs",))
+    if np.shape(obs.nuisance_angular) != (len(obs.nuisance_names),):
+        raise InputError(f"obs.nuisance_angular has shape {np.shape(obs.nuisance_angular)}; expected "
+                         f"({len(obs.nuisance_names)},) (one per nuisance column)", parameters=("obs",))
+    if obs.pose is not None and (np.shape(obs.pose) != (obs.n_points,)
+                                 or not np.issubdtype(np.asarray(obs.pose).dtype, np.integer)):
+        raise InputError(f"obs.pose must hold one integer pose per point ({obs.n_points}), got shape "
+                         f"{np.shape(obs.pose)}", parameters=("obs",))
     if rows and (obs.point.min() < 0 or obs.point.max() >= obs.n_points):
         raise InputError(f"obs.point refers to points outside 0 to {obs.n_points - 1}", parameters=("obs",))
     bad_q = np.argwhere(~np.isfinite(obs.q))
@@ -1112,8 +1079,7 @@ def _poses(obs: Observations, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Pose index of every point (the same positions: several targets, or repeats) and the
     poses shuffled by ``seed``."""
     seed = _integer("seed", seed, 0)
-    _, group = np.unique(np.round(obs.q, 12), axis=0, return_inverse=True)
-    group = group.ravel()
+    group = obs.poses()
     return group, np.random.default_rng(seed).permutation(int(group.max()) + 1 if group.size else 0)
 
 

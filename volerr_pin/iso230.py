@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import InputError
-from .measurements import Runs
+from .measurements.runs import Runs
 
 
 def evaluate(targets, directions, deviations, unit: str = "um", source: str = "") -> dict:

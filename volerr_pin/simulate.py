@@ -12,7 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from .machine import Machine
-from .measurements import PointMeasurements
+from .measurements.ballbar import BallbarRun, ballbar_positions
+from .measurements.points import PointMeasurements
+from .measurements.tracker import TrackerMeasurements
 from .safeio import write_text
 from .units import AXIS_UNIT, axis_scale
 from .workspace import to_engineering
@@ -246,8 +248,6 @@ def ballbar_run(machine: Machine, plane=("X", "Y"), radius_mm: float = 100.0, ce
     InputError
         If the plane axes are not linear axes of the machine or the circle leaves the travel.
     """
-    from .ballbar import BallbarRun, ballbar_positions
-
     rng = np.random.default_rng(seed)
     angles = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
     angle = np.concatenate([angles if d > 0 else angles[::-1] for d in directions])
@@ -270,7 +270,7 @@ def ballbar_run(machine: Machine, plane=("X", "Y"), radius_mm: float = 100.0, ce
 
 
 def write_ballbar(run, path) -> None:
-    """Write a circular test in the format :func:`volerr_pin.ballbar.read_ballbar` reads.
+    """Write a circular test in the format :func:`volerr_pin.measurements.ballbar.read_ballbar` reads.
 
     Header lines ``# plane:``, ``# radius:`` [mm] and ``# centre:`` (when given), then
     ``angle_deg,deviation_um,direction``.
@@ -326,8 +326,6 @@ def tracker_campaign(truth: Machine, n: int = 100, offsets_mm=((0.0, 0.0, 0.0),)
     TrackerMeasurements
         N = n x n_targets rows (the targets of a pose together, named T1, T2, ...), in SI.
     """
-    from .tracker import TrackerMeasurements
-
     rng = np.random.default_rng(seed)
     travel = np.where(np.isfinite(truth.travel), truth.travel, np.array([-np.pi, np.pi]))
     q0 = rng.uniform(travel[:, 0], travel[:, 1], (n, len(truth.axes)))
@@ -349,7 +347,7 @@ def tracker_campaign(truth: Machine, n: int = 100, offsets_mm=((0.0, 0.0, 0.0),)
 
 
 def write_tracker(data, machine: Machine, path) -> None:
-    """Write tracker measurements in the format :func:`volerr_pin.tracker.read_tracker` reads.
+    """Write tracker measurements in the format :func:`volerr_pin.measurements.tracker.read_tracker` reads.
 
     Positions (mm / deg), targets, offsets and coordinates (mm); covariates are not written.
 

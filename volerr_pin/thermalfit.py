@@ -29,13 +29,11 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from .errors import InputError
-from .measurements import MeasurementError, read_table
+from .measurements.series import SeriesData, read_series
 from .safeio import same_file
 from .thermal import GM11, GM1N
 
@@ -44,71 +42,7 @@ METHODS = ("linear", "gm11", "gm1n", "vwgm1n")
 #: other sensors has no coefficient of its own (exact collinearity, up to rounding in the file)
 COLLINEAR = 1e-6
 
-
-@dataclass(frozen=True)
-class SeriesData:
-    """Numeric columns of one or more files, rows in time order; ``batch`` (n,) file index.
-
-    Attributes
-    ----------
-    sources : tuple of str
-        The files, in order.
-    columns : dict of str to ndarray
-        Column name -> values, shape (n,), in the file's units.
-    batch : ndarray of int, shape (n,)
-        Index (into ``sources``) of the file of each row.
-    """
-
-    sources: tuple[str, ...]
-    columns: dict
-    batch: np.ndarray
-
-    @property
-    def n(self) -> int:
-        """Number of rows (int)."""
-        return len(self.batch)
-
-
-def read_series(paths) -> SeriesData:
-    """Read numeric CSV files with the same header (a byte-order mark is tolerated).
-
-    Parameters
-    ----------
-    paths : str, Path or iterable of them
-        The files, in time order.
-
-    Returns
-    -------
-    SeriesData
-        The rows of all files, stacked.
-
-    Raises
-    ------
-    InputError
-        If no file is given.
-    MeasurementError
-        If a file is given twice, a file cannot be read, a value is not a finite number or beyond +-1e15 (no reading
-        in any unit reaches it; docs/measurements.md), or the headers differ.
-    """
-    paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
-    if not paths:
-        raise InputError("no data files")
-    for i, path in enumerate(paths):
-        for earlier in paths[:i]:
-            if same_file(path, earlier):
-                raise MeasurementError(f"{path}: given twice (as {earlier}); each batch is one file, read once")
-    header, blocks, batch = None, [], []
-    for i, path in enumerate(paths):
-        table = read_table(path)
-        if header is None:
-            header = table.header
-        elif table.header != header:
-            raise MeasurementError(f"{table.path}:{table.header_line}: columns differ from {paths[0]}")
-        blocks.append(np.column_stack([table.column(c, limit="reading") for c in range(len(header))]))
-        batch.append(np.full(len(table.rows), i))
-    values = np.vstack(blocks)
-    return SeriesData(tuple(str(p) for p in paths), {h: values[:, j] for j, h in enumerate(header)},
-                      np.concatenate(batch))
+__all__ = ["METHODS", "SeriesData", "read_series", "thermal_fit"]
 
 
 def _design(data: SeriesData, target: str, sensors: list[str], lag: int):

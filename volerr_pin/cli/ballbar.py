@@ -22,7 +22,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..ballbar import evaluate_circular, read_ballbar
+    from ..measurements.ballbar import evaluate_circular, read_ballbar
 
     check_run_outputs({"plot": args.plot}, [args.file])
     run = read_ballbar(args.file)

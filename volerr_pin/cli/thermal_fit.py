@@ -32,7 +32,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..thermalfit import read_series, thermal_fit
+    from ..measurements.series import read_series
+    from ..thermalfit import thermal_fit
 
     check_run_outputs({"plot": args.plot}, [*args.data, *(args.test or ())])
     data = read_series(args.data)

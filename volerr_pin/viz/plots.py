@@ -198,7 +198,7 @@ def iso230_png(result: dict, path: str | Path, title: str = "") -> dict:
 def ballbar_png(run, result: dict, path: str | Path, title: str = "") -> dict:
     """The ISO 230-4 picture: both traces about the least-squares centre on a polar plot whose
     radial scale is the deviation (um), with the figures beside it."""
-    from ..ballbar import radial_about
+    from ..measurements.ballbar import radial_about
 
     r = run.deviation * 1e6
     about = radial_about(run.angle, r, np.array([0.0, *result["centre_offset_um"]])) - result["radius_error_um"]

@@ -15,7 +15,7 @@ measured coordinates ``tx, ty, tz`` (mm, tracker frame), and optionally which ta
 Covariate columns (``t``, ``T_<sensor>``, ``Fx..``, ``dir_<axis>``) are read as for point
 measurements.
 
-In the model (:func:`volerr_pin.identify.build_observations`) the tracker's placement is a
+As observations (:meth:`TrackerMeasurements.observations`) the tracker's placement is a
 nuisance: a first registration maps the nominal target positions onto the measured ones by
 least squares (Kabsch); the measurements, brought into the workpiece frame with it, become
 deviations of each target from its nominal position, and six nuisance terms per file - a
@@ -34,8 +34,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
-from .measurements import MeasurementError, Table, header_columns, positions_and_covariates, read_table
+from ..errors import InputError
+from .columns import header_columns, positions_and_covariates
+from .protocol import MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
+from .table import MeasurementError, Table, read_table
+
+__all__ = ["KIND", "TrackerMeasurements", "is_tracker_file", "read_tracker", "register", "tracker_observations"]
 
 COORDINATES = ("tx", "ty", "tz")
 OFFSETS = ("ox", "oy", "oz")
@@ -61,7 +65,7 @@ class TrackerMeasurements:
     targets : tuple of str
         Target name of each row ("" when the file gives none).
     covariates : dict
-        Keyword covariates, as for :class:`~volerr_pin.measurements.PointMeasurements`.
+        Keyword covariates, as for :class:`~volerr_pin.measurements.points.PointMeasurements`.
     lines : ndarray of int, shape (N,)
         File line of each row.
     unused : tuple of str
@@ -76,6 +80,39 @@ class TrackerMeasurements:
     covariates: dict
     lines: np.ndarray
     unused: tuple[str, ...] = ()
+
+    def observations(self, machine, options: ObservationOptions) -> ObservationBlock:
+        """Three rows per target (its deviation from its nominal position along x, y, z, in the
+        workpiece frame after the first registration) and six nuisance terms: the tracker's
+        small translation and rotation (see :func:`tracker_observations`).
+
+        Parameters
+        ----------
+        machine : Machine
+            The machine observed.
+        options : ObservationOptions
+            ``sigma_um``: standard deviation of each coordinate [um].
+
+        Returns
+        -------
+        ObservationBlock
+            Rows x, y, z of every target, in row order.
+
+        Raises
+        ------
+        InputError
+            If the targets lie on a line or are fewer than 3.
+        """
+        obs = tracker_observations(machine, self)
+        tag = f"tracker {self.source}"
+        terms = tuple(NuisanceTerm(f"shift_{a}[{tag}]", False) for a in "xyz") + tuple(
+            NuisanceTerm(f"rotation_{a}[{tag}]", True) for a in "xyz")
+        n = len(self.q)
+        i = np.repeat(np.arange(n), 3)                       # rows: x, y, z of every point
+        return ObservationBlock(self.source, self.q, self.covariates, i, obs["w"].reshape(3 * n, 6),
+                                obs["deviation"].reshape(3 * n), np.full(3 * n, options.sigma_um * 1e-6),
+                                np.zeros(3 * n, bool), np.asarray(self.lines)[i], obs["nuisance"].reshape(3 * n, 6),
+                                terms)
 
 
 def is_tracker_file(header: list[str]) -> bool:
@@ -116,7 +153,7 @@ def read_tracker(path: str | Path | Table, machine) -> TrackerMeasurements:
         If the table is malformed, ``tx``, ``ty`` or ``tz`` is missing, only some of ``ox``,
         ``oy``, ``oz`` are given, a coordinate or offset lies beyond 1 km, a target name is
         empty, one target has two different offsets, or a position or covariate column is
-        invalid (see :func:`~volerr_pin.measurements.positions_and_covariates`).
+        invalid (see :func:`~volerr_pin.measurements.columns.positions_and_covariates`).
     """
     table = read_table(path)
     columns = header_columns(table, machine)
@@ -231,3 +268,8 @@ def tracker_observations(machine, data: TrackerMeasurements) -> dict:
     nuisance[:, :, 3:] = np.cross(eye[None, :, :], nominal[:, None, :]).transpose(0, 2, 1)  # (e_j x p)_k
     return {"deviation": deviation, "w": w, "nuisance": nuisance, "rotation": R0, "translation": t0,
             "nominal": nominal}
+
+
+#: laser-tracker target coordinates (tx, ty, tz)
+KIND = MeasurementKind("tracker", "tracker measurements", True, recognises=is_tracker_file,
+                       read=lambda table, machine=None, axis=None: read_tracker(table, machine))

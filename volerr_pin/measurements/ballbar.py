@@ -30,7 +30,7 @@ hysteresis H (the largest radial difference between the two directions at one an
 least-squares centre is the linearised fit ``r(a) = r0 + cx cos a + cy sin a``, exact to
 (offset / radius)^2 of the offset - 1e-10 of it for 10 um on 100 mm.
 
-In the model (:func:`volerr_pin.identify.build_observations`), a ballbar sample is the
+As observations (:meth:`BallbarRun.observations`), a ballbar sample is the
 tool's error relative to the workpiece projected on the radial direction at the commanded
 position, with three nuisance terms per file: the set-up's centre offset along both plane
 directions and the bar's length error. Approach directions of the two axes come from the
@@ -48,10 +48,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
-from .measurements import DIRECTION_WORDS, MeasurementError, Table, axis_values, read_table
-from .units import DEG, LENGTH, MM, PLAUSIBLE, parse_number
-from .workspace import config_from_file
+from ..errors import InputError
+from ..units import DEG, LENGTH, MM, PLAUSIBLE, parse_number
+from ..workspace import config_from_file
+from .protocol import MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
+from .table import DIRECTION_WORDS, MeasurementError, Table, axis_values, read_table
+
+__all__ = ["KIND", "MIN_ARC_DEG", "MIN_SAMPLES", "BallbarRun", "ballbar_positions", "check_circle", "covered_arc",
+           "evaluate_circular", "is_ballbar_file", "radial_about", "read_ballbar"]
 
 DEVIATION_RE = re.compile(r"^(?:deviation|radial|dr)_(um|nm|mm)$")
 RADIUS_RE = re.compile(r"^(?P<value>[^\s]+?)\s*(?:mm)?$")
@@ -102,6 +106,41 @@ class BallbarRun:
     lines: np.ndarray
     unit: str = "um"
     unused: tuple[str, ...] = ()
+
+    def observations(self, machine, options: ObservationOptions) -> ObservationBlock:
+        """One row per sample: the tool's error along the radius at the commanded position;
+        three nuisance terms: the set-up's centre offset along both plane axes and the bar's
+        length error. Approach directions come from the motion (see :func:`ballbar_positions`).
+
+        Parameters
+        ----------
+        machine : Machine
+            The machine observed.
+        options : ObservationOptions
+            ``sigma_um``: standard deviation of a radial deviation [um].
+
+        Returns
+        -------
+        ObservationBlock
+            One row per sample.
+
+        Raises
+        ------
+        InputError
+            As :func:`ballbar_positions`.
+        """
+        q, radial, directions = ballbar_positions(machine, self)
+        tag = f"ballbar {self.source}"
+        terms = (NuisanceTerm(f"centre_{self.plane[0]}[{tag}]", False),
+                 NuisanceTerm(f"centre_{self.plane[1]}[{tag}]", False), NuisanceTerm(f"length[{tag}]", False))
+        n = len(q)
+        w = np.zeros((n, 6))
+        w[:, :3] = radial
+        angle = np.asarray(self.angle, dtype=float)
+        return ObservationBlock(self.source, q, {"directions": directions}, np.arange(n), w,
+                                np.asarray(self.deviation, dtype=float), np.full(n, options.sigma_um * 1e-6),
+                                np.zeros(n, bool), np.asarray(self.lines),
+                                np.column_stack([np.cos(angle), np.sin(angle), np.ones(n)]), terms)
 
 
 def is_ballbar_file(header: list[str]) -> bool:
@@ -396,3 +435,8 @@ def ballbar_positions(machine, run: BallbarRun) -> tuple[np.ndarray, np.ndarray,
         v = np.where(np.abs(v) < 1e-12, before * run.direction, v)
         directions[:, j] = np.where(v >= 0.0, 1.0, -1.0)
     return q, radial, directions
+
+
+#: circular tests (ISO 230-4): radial deviation against the angle
+KIND = MeasurementKind("ballbar", "circular tests", False, recognises=is_ballbar_file,
+                       read=lambda table, machine=None, axis=None: read_ballbar(table))
