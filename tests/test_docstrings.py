@@ -13,7 +13,8 @@ import textwrap
 
 import pytest
 
-MODULES = ("machine", "kinematics", "workspace", "ranking", "identify", "compensate", "errormap",
+MODULES = ("machine", "kinematics", "workspace", "ranking", "identify.observations", "identify.design",
+           "identify.solver", "identify.crossval", "identify.result", "identify.fit", "checks", "compensate", "errormap",
            "thermal", "thermalfit", "measurements.table", "measurements.columns", "measurements.protocol",
            "measurements.points", "measurements.runs", "measurements.tracker", "measurements.ballbar",
            "measurements.series", "measurements.registry", "axisfit", "dh", "iso230",

@@ -362,13 +362,13 @@ def test_one_point_one_pose_and_one_object(machines, small_points):
 def test_chunked_design_gives_the_fit_of_the_whole_design(machines, monkeypatch):
     """The fit reduces its design chunk by chunk (so it never holds every point's
     sensitivities); chunks of 64 points give the one-chunk result to rounding."""
-    import volerr_pin.identify as ident
+    import volerr_pin.identify.design as design
 
     m = machines["cgm4000"]
     truth, _ = identifiable_truth(m, 300, seed=5)
     data = [tool_points(m, truth, 300, 0.3e-6, seed=5)]
     whole = identify(m, data, folds=0, sigma_um=0.3)
-    monkeypatch.setattr(ident, "CHUNK_BYTES", 1)
+    monkeypatch.setattr(design, "CHUNK_BYTES", 1)
     chunked = identify(m, data, folds=0, sigma_um=0.3)
     np.testing.assert_array_equal(chunked.fitted, whole.fitted)
     k = whole.fitted
@@ -418,9 +418,9 @@ def test_observations_built_by_hand_must_be_consistent(machines, small_points):
 def test_cli_says_an_ill_conditioned_fit_in_one_note_and_the_report(tmp_path, capsys, monkeypatch):
     """The limit lowered to 1 makes any fit ill-conditioned: the command prints the warning as
     one note and the JSON report carries the flag."""
-    import volerr_pin.identify as ident
+    import volerr_pin.identify.solver as solver
 
-    monkeypatch.setattr(ident, "CONDITION_LIMIT", 1.0)
+    monkeypatch.setattr(solver, "CONDITION_LIMIT", 1.0)
     path = tmp_path / "points.csv"
     path.write_text("x,y,z,dx,dy,dz\n" + "".join(f"{10 * i},{5 * i},{2 * i},0.1,0.2,0.3\n" for i in range(12)))
     assert main(["identify", "vmc500", str(path), "--json", "--folds", "0"]) == 0

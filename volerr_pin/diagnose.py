@@ -48,7 +48,7 @@ from scipy import stats
 from scipy.signal import lombscargle
 
 from .errors import InputError
-from .identify import (Observations, _conditioning_note, build_observations, check_observations, identify,
+from .identify import (Observations, conditioning_note, build_observations, check_observations, identify,
                        parameter_units, point_squares, pose_folds, predict_observations, residual_rms)
 from .machine import Machine
 from .safeio import require_memory
@@ -57,7 +57,7 @@ from .specio import add_terms, remove_components, replace_terms, term_tables
 from .termkinds import GEOMETRIC
 from .terms import Context, Covariates
 from .units import AXIS_UNIT, UM_PER_M, axis_scale
-from .workspace import _fraction, _integer, _positive
+from .checks import fraction, integer, positive
 
 LETTERS = "XYZABC"
 PITCH_PERIOD_MM = (1.0, 50.0)   # ball-screw leads
@@ -1028,13 +1028,13 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
         :attr:`~volerr_pin.identify.Identification.ill_conditioned`).
     """
     start = _time.perf_counter()
-    max_effects = _integer("max_effects", max_effects, 0)
-    alpha = _fraction("alpha", alpha)
-    folds = _integer("folds", folds, 2)
-    seed = _integer("seed", seed, 0)
-    sigma_um, sigma_urad = _positive("sigma_um", sigma_um), _positive("sigma_urad", sigma_urad)
+    max_effects = integer("max_effects", max_effects, 0)
+    alpha = fraction("alpha", alpha)
+    folds = integer("folds", folds, 2)
+    seed = integer("seed", seed, 0)
+    sigma_um, sigma_urad = positive("sigma_um", sigma_um), positive("sigma_urad", sigma_urad)
     if max_rounds is not None:
-        max_rounds = _integer("max_rounds", max_rounds, 0)
+        max_rounds = integer("max_rounds", max_rounds, 0)
     obs = measurements if isinstance(measurements, Observations) else build_observations(
         machine, measurements, sigma_um=sigma_um, sigma_urad=sigma_urad)
     check_observations(obs)
@@ -1188,7 +1188,7 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     floor, source, bound = _noise_floor(obs, last.r * obs.sigma, last_proj.rank)
     analysis = residual_analysis(current, obs, steps[0].residual)
     if final is not None and final.ill_conditioned:
-        warnings.warn(_conditioning_note(final.analysis, len(obs.y)), stacklevel=2)
+        warnings.warn(conditioning_note(final.analysis, len(obs.y)), stacklevel=2)
     return Diagnosis(current, base_machine, effects, steps, steps[0].rms_holdout_um, last_proj.cv_rms, rms_fit,
                      floor, source, bool(last_proj.cv_rms <= 1.2 * floor), alpha,
                      _time.perf_counter() - start, obs, analysis, raised, dropped, bound)
@@ -1279,7 +1279,7 @@ def evidence(diagnosis: Diagnosis, step: int) -> Evidence | None:
     InputError
         If ``step`` is not the number of a round of the diagnosis.
     """
-    step = _integer("step", step, 0)
+    step = integer("step", step, 0)
     if step >= len(diagnosis.steps):
         raise InputError(f"step: the diagnosis has rounds 0 to {len(diagnosis.steps) - 1}, not {step}",
                          parameters=("step",))

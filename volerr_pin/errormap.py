@@ -32,7 +32,7 @@ from .errors import InputError
 from .machine import Machine
 from .safeio import check_outputs, replacing, require_memory
 from .units import AXIS_UNIT, axis_scale
-from .workspace import _counts, _integer
+from .checks import counts, integer
 
 NODES_PER_ORDER = {1: 8, 2: 20, 3: 32}
 #: memory of one evaluated point beyond its own arrays (the kinematics' working set) [bytes]
@@ -217,7 +217,7 @@ class ErrorMap:
             1, 2 or 3.
         """
         lin, fixed = _map_axes(machine, config, "an error map")
-        elements = _counts("elements", elements, 1)
+        elements = counts("elements", elements, 1)
         npe = len(natural_nodes(order))
         count = math.prod(elements) * npe
         # nodal values, node positions and configurations, and their evaluation
@@ -347,8 +347,8 @@ class ErrorMap:
             If ``points`` is not a whole number >= 1 or would not fit in the free memory, or
             ``seed`` is negative.
         """
-        n = _integer("points", points, 1)
-        seed = _integer("seed", seed, 0)
+        n = integer("points", points, 1)
+        seed = integer("seed", seed, 0)
         npe = NODES_PER_ORDER[self.order]
         # positions, shape functions and gathered nodal values of every point, and its evaluation
         require_memory(n * (8 * (3 * len(self.fixed) + 14 * npe + 30) + EVALUATION_BYTES),
@@ -412,7 +412,7 @@ def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), c
 
     path = check_outputs({"path": path})["path"]
     lin, fixed = _map_axes(machine, config, "a compensation table")
-    nodes = _counts("nodes", nodes, 2)
+    nodes = counts("nodes", nodes, 2)
     require_memory(8 * sum(nodes), f"node positions of {' x '.join(map(str, nodes))} nodes", ("nodes",))
     travel = machine.travel
     grids = [np.linspace(travel[j, 0], travel[j, 1], n) for j, n in zip(lin, nodes)]
@@ -528,7 +528,7 @@ def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> li
         If ``points`` is not a whole number >= 2 or the tables would not fit in the free
         memory, or ``directory`` is not a folder that can be made.
     """
-    points = _integer("points", points, 2)
+    points = integer("points", points, 2)
     require_memory(points * (8 * 3 * (len(machine.axes) + len(machine.components)) + EVALUATION_BYTES),
                    f"axis tables at {points:,} positions", ("points",))
     directory = Path(directory)

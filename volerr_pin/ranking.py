@@ -22,7 +22,8 @@ from .machine import Machine
 from .spec import parse_component_name, read_toml
 from .safeio import require_memory
 from .units import ARCSEC, ARCSEC_PER_RAD, UM, UM_PER_M, scale, split_key
-from .workspace import _integer, _positive, sample
+from .checks import integer, positive
+from .workspace import sample
 
 DIRECTIONS = {"x": [0], "y": [1], "z": [2], "all": [0, 1, 2]}
 
@@ -75,7 +76,7 @@ class Ranking:
         InputError
             If ``top`` is not a whole number >= 0.
         """
-        top = None if top is None else _integer("top", top, 0)
+        top = None if top is None else integer("top", top, 0)
         rows = [dict(r) for r in (self.rows[:top] if top else self.rows)]
         total = sum(r["ms"] for r in rows)
         grand = sum(r["ms"] for r in self.rows)
@@ -260,8 +261,8 @@ def _points(machine: Machine, q, points, seed, point_bytes: int, what: str) -> n
     """The workspace points of a study: ``q`` checked, or ``points`` Sobol' points, sized
     (``point_bytes`` per point) before anything is allocated."""
     if q is None:
-        points = _integer("points", points, 1)
-        seed = _integer("seed", seed, 0)
+        points = integer("points", points, 1)
+        seed = integer("seed", seed, 0)
         require_memory(points * (point_bytes + 8 * 4 * len(machine.axes)), f"{what} over {points:,} workspace samples",
                        ("points",))
         q = sample(machine, points, seed=seed)
@@ -324,7 +325,7 @@ def tool_identifiability(machine: Machine, q: np.ndarray | None = None, *, point
         ``seed`` one >= 0, ``rtol`` is not between 0 and 1, or the analysis would not fit in
         the free memory.
     """
-    rtol = _positive("rtol", rtol)
+    rtol = positive("rtol", rtol)
     if rtol >= 1:
         raise InputError(f"rtol must be below 1, got {rtol}", parameters=("rtol",))
     # the sensitivities and the analysis' three copies of their rows
