@@ -1,0 +1,270 @@
+"""What a diagnosis reports beside its changes: the residual against every driver, the noise
+floor, effects that are the same at the tool through several sites, the raised components from
+the spec's form to the final one, and the evidence of each change for pictures.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..checks import integer
+from ..errors import InputError
+from ..identify import Observations
+from ..machine import Machine
+from ..units import AXIS_UNIT, UM_PER_M, axis_scale
+from .candidates import form_of
+from .results import Change, Diagnosis, Evidence, Raise, Score
+
+__all__ = ["driver_values", "evidence", "noise_floor", "raised_summary", "residual_analysis", "twins_of"]
+
+
+def residual_analysis(machine: Machine, obs: Observations, r_si: np.ndarray) -> dict:
+    """Residual structure against positions and covariates: for every driver, the share of
+    the residual variance a straight line in it explains (R^2), per error direction; the
+    mean reversal step per axis.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    obs : Observations
+        The observations.
+    r_si : ndarray, shape (rows,)
+        The residual of every row [m or rad].
+
+    Returns
+    -------
+    dict
+        Per error direction ("dx", "dy", "dz"), the six strongest relations: driver ->
+        R^2, and ``step_dir_<axis>_um`` -> mean reversal step [um].
+    """
+    out = {}
+    cov = obs.covariates
+    drivers = {f"q_{a}": obs.q[:, j] for j, a in enumerate(machine.axes)}
+    if "t" in cov:
+        drivers["t"] = cov["t"]
+    for s, v in (cov.get("temperatures") or {}).items():
+        drivers[f"T_{s}"] = v
+    if cov.get("forces") is not None:
+        for i, c in enumerate("xyz"):
+            drivers[f"F{c}"] = cov["forces"][:, i]
+    for k, letter in enumerate("xyz"):
+        rows = obs.w[:, k] > 0.5
+        if rows.sum() < 5:
+            continue
+        y = r_si[rows]
+        entry = {}
+        for name, values in drivers.items():
+            x = values[obs.point[rows]]
+            if np.ptp(x) > 0:
+                entry[name] = float(np.corrcoef(x, y)[0, 1] ** 2)
+        if cov.get("directions") is not None:
+            for j, a in enumerate(machine.axes):
+                d = cov["directions"][obs.point[rows], j]
+                if len(np.unique(d)) == 2:
+                    entry[f"step_dir_{a}_um"] = float((y[d > 0].mean() - y[d < 0].mean()) * UM_PER_M)
+        out[f"d{letter}"] = dict(sorted(entry.items(), key=lambda kv: -abs(kv[1]))[:6])
+    return out
+
+
+def noise_floor(obs: Observations, r_si: np.ndarray, n_params: int) -> tuple[float, str, bool]:
+    """(floor, source, upper bound?): from repeated observations when there are enough, else
+    from the final residual - an upper bound, since whatever the model still misses is in it.
+
+    Observations repeat when they measure the same quantity (direction ``w``) at the same
+    positions with the same approach directions and forces - a ballbar's clockwise and
+    counter-clockwise passes meet at every angle but differ by the backlash, which is not
+    noise. Their scatter is taken from the final residuals, so that instrument offsets of
+    different files cancel.
+
+    Parameters
+    ----------
+    obs : Observations
+        The observations.
+    r_si : ndarray, shape (rows,)
+        The final residual of every row [m or rad].
+    n_params : int
+        Independent coefficients and nuisance terms of the final model.
+
+    Returns
+    -------
+    tuple of (float, str, bool)
+        The floor [um] (in the measure of the RMS values), where it comes from, and whether it
+        is only an upper bound.
+    """
+    pos = ~obs.angular
+    cov = obs.covariates
+    extra = [np.asarray(cov[k]) for k in ("directions", "forces") if cov.get(k) is not None]
+    groups: dict = {}
+    for row in np.flatnonzero(pos):
+        i = obs.point[row]
+        key = (tuple(np.round(obs.q[i], 12)), tuple(np.round(obs.w[row], 9)),
+               *(tuple(np.round(np.atleast_1d(x[i]), 9)) for x in extra))
+        groups.setdefault(key, []).append(row)
+    comps = max(1.0, pos.sum() / max(1, len(np.unique(obs.point[pos]))))
+    ss, dof = 0.0, 0
+    for rows in groups.values():
+        if len(rows) > 1:
+            r = r_si[rows]
+            ss += float(((r - r.mean()) ** 2).sum())
+            dof += len(rows) - 1
+    if dof >= 5:
+        return (float(np.sqrt(ss / dof * comps) * UM_PER_M), f"repeated points ({dof} degrees of freedom)", False)
+    dof = int(pos.sum()) - n_params
+    sigma = math.sqrt(float((r_si[pos] ** 2).sum()) / max(dof, 1))
+    return (float(sigma * math.sqrt(comps) * UM_PER_M),
+            "upper bound from the final residual (n - p degrees of freedom): no repeated points "
+            "separate the noise from what the model still misses", True)
+
+
+def twins_of(accepted: list[Change], passing: list[Score], machine: Machine) -> None:
+    """An accepted effect whose effect at the tool is the same through other sites (a drift
+    in x through X, Y or Z of a Cartesian machine) is labelled as such, with ``axis`` None:
+    the data cannot tell which site carries it.
+
+    Parameters
+    ----------
+    accepted : list of Change
+        The changes of a round (updated in place).
+    passing : list of Score
+        The round's passing scores.
+    machine : Machine
+        The machine.
+    """
+    for record in accepted:
+        if record.kind != "effect":
+            continue
+        best = next(s for s in passing if s.candidate.label == record.label)
+        cand = best.candidate
+        twins = [s.candidate for s in passing if s is not best and s.candidate.name == cand.name
+                 and s.candidate.kind == "effect"
+                 and s.candidate.driver == cand.driver and s.candidate.direction == cand.direction
+                 and abs(s.bic_gain - best.bic_gain) <= 1e-4 * abs(best.bic_gain)]
+        if twins:
+            by = f" driven by {cand.driver}" if cand.driver else ""
+            record.label = (f"{cand.name} in {cand.direction}{by} (as {cand.component}; the same at the tool "
+                            f"through {', '.join(t.component for t in twins)})")
+            record.axis = None
+            record.same_at_tool_as = [t.component for t in twins]
+
+
+def raised_summary(records: list[Change], base: Machine, final: Machine) -> list[Raise]:
+    """One entry per raised component, from the spec's form to the final one (components
+    whose raise the final fit did not keep are left out).
+
+    Parameters
+    ----------
+    records : list of Change
+        Every raise accepted, in order.
+    base : Machine
+        The base model.
+    final : Machine
+        The final model.
+
+    Returns
+    -------
+    list of Raise
+        The raised components.
+    """
+    out: dict[str, Raise] = {}
+    for r in records:
+        entry = out.setdefault(r.component, Raise(
+            "", r.name, r.component, r.axis, r.direction, form_of(base, r.component), "", [], r.rms_before_um,
+            r.rms_after_um, r.p_value))
+        entry.rounds.append(r.step + 1)
+        entry.p_value = min(entry.p_value, r.p_value)
+    kept = []
+    for component, entry in out.items():
+        entry.form_after = form_of(final, component)
+        if entry.form_after == entry.form_before or entry.form_after == "degree 0":
+            continue
+        entry.label = f"geometric component {component} under-modelled ({entry.form_before} -> {entry.form_after})"
+        kept.append(entry)
+    return kept
+
+
+def driver_values(diagnosis: Diagnosis, driver: str | None) -> tuple[np.ndarray, str] | None:
+    """Per-point values of an effect's driver and a label with its unit.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        The diagnosis.
+    driver : str or None
+        The driver ("t", "T_spindle", "Fx", "dir_X", "q_X").
+
+    Returns
+    -------
+    tuple of (ndarray, str) or None
+        Values (N,) (time in h, temperatures in degC, forces in N, directions +1/-1,
+        positions in mm / deg) and the label; None without a driver.
+    """
+    obs, machine = diagnosis.observations, diagnosis.machine
+    cov = obs.covariates
+    if driver is None:
+        return None
+    if driver == "t":
+        return cov["t"] / 3600.0, "time [h]"
+    if driver.startswith("T_"):
+        return cov["temperatures"][driver[2:]], f"{driver} [degC]"
+    if driver.startswith("F"):
+        return cov["forces"][:, "xyz".index(driver[1])], f"{driver} [N]"
+    if driver.startswith("dir_"):
+        j = machine.axes.index(driver[4:])
+        return cov["directions"][:, j], f"approach direction of {driver[4:]}"
+    if driver.startswith("q_"):
+        j = machine.axes.index(driver[2:])
+        kind = machine.axis_kinds[j]
+        return obs.q[:, j] / axis_scale(kind), f"{driver[2:]} [{AXIS_UNIT[kind]}]"
+    return None
+
+
+def evidence(diagnosis: Diagnosis, step: int) -> Evidence | None:
+    """For the change accepted in round ``step`` (a :class:`Change`'s
+    ``step``): its driver per point and the residual along the error direction that changed
+    most, before and after it was added (um).
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        The diagnosis.
+    step : int
+        The round.
+
+    Returns
+    -------
+    Evidence or None
+        None when nothing was accepted in that round, or it was the last.
+
+    Raises
+    ------
+    InputError
+        If ``step`` is not the number of a round of the diagnosis.
+    """
+    step = integer("step", step, 0)
+    if step >= len(diagnosis.steps):
+        raise InputError(f"step: the diagnosis has rounds 0 to {len(diagnosis.steps) - 1}, not {step}",
+                         parameters=("step",))
+    record = diagnosis.steps[step].accepted
+    if record is None or step + 1 >= len(diagnosis.steps):
+        return None
+    before = diagnosis.steps[step].residual
+    after = diagnosis.steps[step + 1].residual
+    found = driver_values(diagnosis, record.driver)
+    obs = diagnosis.observations
+    best = None
+    for j in range(3):
+        rows = (obs.w[:, j] > 0.5) & ~obs.angular
+        if rows.sum() == 0:
+            continue
+        drop = float(np.mean(before[rows] ** 2) - np.mean(after[rows] ** 2))
+        if best is None or drop > best[0]:
+            best = (drop, j, rows)
+    if best is None:
+        return None
+    _, j, rows = best
+    points = obs.point[rows]
+    x, label = found if found is not None else (np.arange(obs.n_points, dtype=float), "point")
+    return Evidence(x[points], label, before[rows] * UM_PER_M, after[rows] * UM_PER_M, "xyz"[j], record.label)

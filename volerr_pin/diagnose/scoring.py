@@ -1,0 +1,420 @@
+"""Fitting and scoring a candidate: jointly with the base model, linearised at the base fit,
+by projection on orthonormal bases of the base design that are computed once per round (on
+all rows and on every cross-validation training set); non-linear coefficients by grid search,
+a pitch's period from a periodogram. A candidate's score is its F-test p-value, its BIC gain
+and, for those that could pass, its k-fold cross-validated RMS.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+from scipy.signal import lombscargle
+
+from ..identify import Observations, point_squares, predict_observations
+from ..machine import Machine
+from ..spec import build_term, parse_component_name
+from ..terms import Context, Covariates
+from ..units import UM_PER_M
+from .candidates import MIN_PERIODS, PITCH_PERIOD_MM
+from .results import Candidate, Score
+
+__all__ = ["PERIODOGRAM_POINTS", "Base", "Columns", "Projector", "base_design", "periodogram_period", "score"]
+
+PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
+
+
+@dataclass
+class Base:
+    """The base model of a round, linearised.
+
+    Attributes
+    ----------
+    machine : Machine
+        The base model.
+    A : ndarray, shape (rows, n_nuisance + F)
+        Weighted design [nuisance | fitted coefficients] of the first-order model.
+    r : ndarray, shape (rows,)
+        Weighted residual of the exact model.
+    """
+
+    machine: Machine
+    A: np.ndarray
+    r: np.ndarray
+
+
+def base_design(machine: Machine, obs: Observations, fitted: np.ndarray, nuisance: np.ndarray) -> Base:
+    """The residual of the exact model and the design of the first-order model (exact
+    dependencies) at the base fit.
+
+    Parameters
+    ----------
+    machine : Machine
+        The fitted base model.
+    obs : Observations
+        The observations.
+    fitted : ndarray of int
+        The coefficients that were fitted.
+    nuisance : ndarray, shape (n_nuisance,)
+        Fitted nuisance values (SI).
+
+    Returns
+    -------
+    Base
+        Design and residual, weighted.
+    """
+    pred, A = predict_observations(machine, obs, machine.theta, fitted, first_order=True)
+    r = (obs.y - pred - obs.nuisance @ nuisance) / obs.sigma
+    J = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
+    return Base(machine, J, r)
+
+
+class Columns:
+    """Weighted columns of a candidate's coefficients, linearised at the base.
+
+    The term's own Jacobian depends only on the positions and covariates, which stay the
+    same through the diagnosis: it is computed once per (candidate table, non-linear
+    value) and kept.
+
+    Parameters
+    ----------
+    obs : Observations
+        The observations.
+    cov_obj : Covariates
+        Their covariates, checked.
+    """
+
+    def __init__(self, obs: Observations, cov_obj: Covariates):
+        self.obs, self.cov_obj = obs, cov_obj
+        self.cache: dict = {}
+        self.weights: dict = {}   # (round's E, component) -> weighted row factors
+
+    def term(self, machine: Machine, cand: Candidate) -> tuple:
+        """The candidate's term and where it is evaluated.
+
+        Parameters
+        ----------
+        machine : Machine
+            The present model.
+        cand : Candidate
+            The candidate.
+
+        Returns
+        -------
+        tuple of (TermSpec, Context)
+            The zero-valued term and its context at the observations' points.
+        """
+        direction, location, owner = parse_component_name(cand.component)
+        quantity = "length" if direction in "XYZ" else "angle"
+        axis_index = machine.axes.index(owner) if owner in machine.axes else None
+        travel = tuple(machine.travel[axis_index]) if axis_index is not None else None
+        position_quantity = None if (location or axis_index is None) else (
+            "length" if machine.axis_kinds[axis_index] == "linear" else "angle")
+        tspec = build_term(dict(cand.table), f"candidate {cand.label}", quantity, position_quantity, travel)
+        position = None if position_quantity is None else self.obs.q[:, axis_index]
+        ctx = Context(position, travel, self.cov_obj, axis_index, cand.component)
+        return tspec, ctx
+
+    def __call__(self, machine: Machine, E: np.ndarray, joints: list[str], cand: Candidate,
+                 coefs=None, columns=None):
+        """The candidate's weighted columns.
+
+        Parameters
+        ----------
+        machine : Machine
+            The present model.
+        E : ndarray, shape (N, 6, n_error_joints)
+            First-order sensitivity of the error to every error joint.
+        joints : list of str
+            The error joints, in the order of ``E``.
+        cand : Candidate
+            The candidate.
+        coefs : ndarray, optional
+            Coefficients at which to linearise (default: the term's, zero).
+        columns : list of int, optional
+            Which coefficients' columns (default all).
+
+        Returns
+        -------
+        tuple of (ndarray, TermSpec, ndarray)
+            The columns (rows, k), the term and the coefficients used.
+        """
+        obs = self.obs
+        key = (cand.component, repr(sorted(cand.table.items())),
+               None if coefs is None else tuple(np.round(coefs, 15)))
+        if key not in self.cache:
+            tspec, ctx = self.term(machine, cand)
+            c = tspec.coefficients if coefs is None else coefs
+            self.cache[key] = (tspec, c, tspec.term.jacobian(c, ctx)[obs.point])
+        tspec, c, jac = self.cache[key]
+        weight_key = (id(E), cand.component)
+        if weight_key not in self.weights:
+            if len(self.weights) > 256:
+                self.weights.clear()
+            col = E[:, :, joints.index(cand.component)]                 # (points, 6)
+            self.weights[weight_key] = (np.einsum("rk,rk->r", obs.w, col[obs.point]) / obs.sigma)[:, None]
+        jac = jac if columns is None else jac[:, columns]
+        return self.weights[weight_key] * jac, tspec, c
+
+
+def _scaled(A: np.ndarray) -> np.ndarray:
+    """A's non-negligible columns scaled to unit norm."""
+    if A.shape[1] == 0:
+        return A
+    norms = np.linalg.norm(A, axis=0)
+    ok = norms > 1e-12 * max(norms.max(), 1e-300)
+    return A[:, ok] / norms[ok]
+
+
+def _svd(A: np.ndarray, rtol: float = 1e-10):
+    """(U, s, Vt) of A truncated to the singular values above ``rtol`` of the largest."""
+    if A.shape[1] == 0:
+        return np.zeros((A.shape[0], 0)), np.zeros(0), np.zeros((0, 0))
+    U, s, Vt = np.linalg.svd(A, full_matrices=False)
+    keep = s > rtol * s[0] if s.size and s[0] > 0 else np.zeros(s.size, bool)
+    return U[:, keep], s[keep], Vt[keep]
+
+
+def _small_lstsq(G: np.ndarray, r: np.ndarray, tol: float = 1e-6):
+    """Least squares with few columns through the eigen-decomposition of G^T G: (rank with
+    singular values above ``tol`` (G's columns have unit norm), coefficients, rss)."""
+    w, V = np.linalg.eigh(G.T @ G)
+    keep = w > tol**2
+    b = V.T @ (G.T @ r)
+    gamma = V[:, keep] @ (b[keep] / w[keep])
+    res = r - G @ gamma
+    return int(keep.sum()), gamma, float(res @ res)
+
+
+class Projector:
+    """Least squares of a candidate jointly with the base design, by projection.
+
+    The base design ``A`` (weighted rows x base coefficients) and residual ``r`` are fixed for
+    a round; orthonormal bases of the design on all rows and on every cross-validation
+    training set are computed once, so a candidate costs a few small products.
+
+    Parameters
+    ----------
+    A : ndarray, shape (rows, n)
+        The base design, weighted.
+    r : ndarray, shape (rows,)
+        The base residual, weighted.
+    obs : Observations
+        The observations.
+    folds : list of ndarray of int
+        The points held out in each fold.
+    """
+
+    def __init__(self, A: np.ndarray, r: np.ndarray, obs: Observations, folds: list[np.ndarray]):
+        self.obs = obs
+        self.r = r
+        A = _scaled(A)
+        self.Q = _svd(A)[0]
+        self.rank = self.Q.shape[1]
+        self.folds = []
+        pos = ~obs.angular
+        for test in folds:
+            V = np.isin(obs.point, test)
+            T = ~V
+            Q_T, s, Vt = _svd(A[T])
+            # a training fit predicts the validation rows as A[V] pinv(A[T]) r[T] = M Q_T^T r[T]
+            M = A[V] @ (Vt.T / s) if s.size else np.zeros((int(V.sum()), 0))
+            e_T = r[T] - Q_T @ (Q_T.T @ r[T])
+            e_V = r[V] - M @ (Q_T.T @ r[T])
+            self.folds.append((T, V, Q_T, M, e_T, e_V, pos[V]))
+        self.cv_rms = self._cv(lambda f: np.zeros(f[5].shape))
+        self.cv_max = self.last_max
+
+    def _cv(self, correction) -> float:
+        sq, count, peak = 0.0, 0, 0.0
+        obs = self.obs
+        for f in self.folds:
+            T, V, Q_T, M, e_T, e_V, pos_V = f
+            res = (e_V - correction(f)) * obs.sigma[V]
+            per_point = point_squares(obs.point[V][pos_V], res[pos_V])
+            sq += per_point.sum()
+            count += per_point.size
+            peak = max(peak, float(np.sqrt(per_point.max())) if per_point.size else 0.0)
+        self.last_max = peak * UM_PER_M
+        return float(np.sqrt(sq / count) * UM_PER_M) if count else math.nan
+
+    def fit(self, C: np.ndarray) -> tuple[int, float, np.ndarray]:
+        """Least squares of the candidate's columns jointly with the base.
+
+        Parameters
+        ----------
+        C : ndarray, shape (rows, k)
+            The candidate's weighted columns.
+
+        Returns
+        -------
+        tuple of (int, float, ndarray)
+            The rank it adds, the residual sum of squares after, and its coefficients in C's
+            units.
+        """
+        norms = np.linalg.norm(C, axis=0)
+        norms[norms == 0] = 1.0
+        Cs = C / norms
+        G = Cs - self.Q @ (self.Q.T @ Cs)
+        extra, gamma, rss = _small_lstsq(G, self.r)
+        if extra == 0:
+            return 0, float(self.r @ self.r), np.zeros(C.shape[1])
+        return extra, rss, gamma / norms
+
+    def cv(self, C: np.ndarray) -> float:
+        """k-fold cross-validated RMS with the candidate.
+
+        Parameters
+        ----------
+        C : ndarray, shape (rows, k)
+            The candidate's weighted columns.
+
+        Returns
+        -------
+        float
+            RMS over held-out points of the position residual norm [um].
+        """
+        norms = np.linalg.norm(C, axis=0)
+        norms[norms == 0] = 1.0
+        Cs = C / norms
+
+        def correction(f):
+            T, V, Q_T, M, e_T, e_V, pos_V = f
+            B = Q_T.T @ Cs[T]
+            G_T = Cs[T] - Q_T @ B
+            _, gamma, _ = _small_lstsq(G_T, e_T)
+            return (Cs[V] - M @ B) @ gamma
+
+        return self._cv(correction)
+
+
+def periodogram_period(machine: Machine, obs: Observations, r: np.ndarray, axis_index: int, letter: str
+                       ) -> tuple[float, float] | None:
+    """Period of the strongest sinusoid in the residual along an axis' own direction, among
+    the plausible ones (:data:`PITCH_PERIOD_MM`, at least :data:`MIN_PERIODS` periods in the
+    measured span, at least two points per period on average), and the number of
+    independent periods searched (for the look-elsewhere correction).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    obs : Observations
+        The observations.
+    r : ndarray, shape (rows,)
+        The weighted residual.
+    axis_index : int
+        The axis.
+    letter : str
+        The direction of its own motion ("X", "Y", "Z").
+
+    Returns
+    -------
+    tuple of (float, float) or None
+        The period [m] and the independent periods searched; None when no period is plausible
+        for these data.
+    """
+    rows = obs.w[:, "XYZ".index(letter)] > 0.5
+    if rows.sum() < 20:
+        return None
+    x = obs.q[obs.point[rows], axis_index]
+    y = r[rows] * obs.sigma[rows]
+    if x.size > PERIODOGRAM_POINTS:  # enough to pick the period; the fit then uses every point
+        keep = np.random.default_rng(0).choice(x.size, PERIODOGRAM_POINTS, replace=False)
+        x, y = x[keep], y[keep]
+    span = float(np.ptp(x))
+    if span <= 0:
+        return None
+    u = 2 * (x - x.min()) / span - 1
+    y = y - np.polynomial.legendre.legval(u, np.polynomial.legendre.legfit(u, y, 5))
+    shortest = max(PITCH_PERIOD_MM[0] * 1e-3, 2 * span / len(np.unique(x)))
+    longest = min(PITCH_PERIOD_MM[1] * 1e-3, span / MIN_PERIODS)
+    if shortest >= longest:
+        return None
+    independent = max(1.0, span * (1 / shortest - 1 / longest))
+    # one frequency per independent period, then a finer look around the strongest
+    f = np.linspace(1 / longest, 1 / shortest, int(min(2000, independent)) + 2)
+    y = y - y.mean()
+    k = int(np.argmax(lombscargle(x, y, 2 * np.pi * f)))
+    fine = np.linspace(f[max(k - 1, 0)], f[min(k + 1, len(f) - 1)], 17)
+    return float(1.0 / fine[int(np.argmax(lombscargle(x, y, 2 * np.pi * fine)))]), independent
+
+
+def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints: list[str], cand: Candidate,
+          cov_obj: Covariates, axis_index_of: dict[str, int], columns: Columns) -> Score | None:
+    """Fit the candidate jointly with the base (linearised) and score it.
+
+    Parameters
+    ----------
+    base : Base
+        The round's base.
+    proj : Projector
+        Its projector.
+    obs : Observations
+        The observations.
+    E : ndarray, shape (N, 6, n_error_joints)
+        First-order sensitivity of the error to every error joint.
+    joints : list of str
+        The error joints, in the order of ``E``.
+    cand : Candidate
+        The candidate (a pitch's period is set here, from the periodogram).
+    cov_obj : Covariates
+        The checked covariates (grids of non-linear coefficients span them).
+    axis_index_of : dict of str to int
+        Axis name -> index.
+    columns : Columns
+        The cache of candidate columns.
+
+    Returns
+    -------
+    Score or None
+        Its score; None for a pitch with no plausible period.
+    """
+    n = len(base.r)
+    searched = 1.0
+    if cand.name == "periodic_pitch" and cand.kind == "effect":
+        found = periodogram_period(base.machine, obs, base.r, axis_index_of[cand.axis], cand.component[1])
+        if found is None:
+            return None
+        period, searched = found
+        cand.table = dict(cand.table, period_mm=period * 1e3)
+    _, tspec, coefs = columns(base.machine, E, joints, cand)
+    nonlinear = [tspec.term.local_names.index(k) for k in tspec.term.nonlinear]
+    lin = [i for i in range(len(coefs)) if i not in nonlinear]
+    full = np.array([np.nan])
+    if nonlinear and cand.name != "periodic_pitch":  # periods come from the periodogram
+        full = np.asarray(tspec.term.search_grid(tspec.term.local_names[nonlinear[0]], coefs, cov_obj))
+    tried: dict = {}
+
+    def trial(k):
+        if k not in tried:
+            value = full[k]
+            c = coefs.copy()
+            if not np.isnan(value):
+                c[nonlinear[0]] = value
+            # columns of the linear coefficients at this value of the non-linear one
+            C, _, _ = columns(base.machine, E, joints, cand, None if np.isnan(value) else c, lin)
+            extra, rss1, gamma = proj.fit(C)
+            tried[k] = (extra, rss1, gamma, c, C)
+        return tried[k]
+
+    # a coarse pass over every third grid value, then the values around the best one
+    coarse = range(0, len(full), 3) if len(full) > 6 else range(len(full))
+    best = min(coarse, key=lambda k: trial(k)[1])
+    best = min(range(max(0, best - 2), min(len(full), best + 3)), key=lambda k: trial(k)[1])
+    extra, rss1, gamma, c, C = tried[best]
+    rss0 = float(base.r @ base.r)
+    if extra == 0 or rss1 <= 0:
+        return Score(cand.label, 0, 1.0, 0.0, proj.cv_rms, 0.0, cand)
+    k = extra + len(nonlinear)
+    dof = n - proj.rank - k
+    F = ((rss0 - rss1) / k) / (rss1 / dof) if dof > 0 else 0.0
+    p_value = min(1.0, float(stats.f.sf(F, k, dof)) * searched) if dof > 0 else 1.0
+    bic_gain = n * math.log(rss0 / rss1) - k * math.log(n) - 2 * math.log(searched)
+    values = c.copy()
+    values[lin] = gamma
+    return Score(cand.label, int(extra), p_value, float(bic_gain), None, (rss0 - rss1) / rss0 if rss0 > 0 else 0.0,
+                 cand, tspec, values, C)
