@@ -252,6 +252,10 @@ def test_identify_keeps_the_spec_it_replaces(work, capsys):
     assert vp.load_machine(work / "new.bak.toml").name == "vmc500"  # a backup still loads
     assert main(argv[:-1]) == 0
     assert "the spec it replaced is kept as new.bak2.toml" in capsys.readouterr().out
+    # the transaction keeps the backups, nothing else: no copy of its own temporary file
+    assert not [p.name for p in work.iterdir() if p.name.startswith(".")]
+    assert main(["diagnose", "vmc500", data, "--out", "diagnosed.toml", "--max-effects", "0", "--json"]) == 0
+    assert not [p.name for p in work.iterdir() if p.name.startswith(".")]
 
 
 def test_a_data_file_given_twice_is_refused(work, capsys):

@@ -51,7 +51,7 @@ def run(args) -> int:
             write_spec(result.machine, tx.path(args.out, backup=True), {
                 "data": [str(p) for p in args.data], "diagnosis": [e.label for e in result.effects],
                 "rms_before_um": result.rms_before_um, "rms_after_um": result.rms_after_um,
-                "noise_floor_um": result.noise_floor_um})
+                "noise_floor_um": result.noise_floor_um}, backup=False)  # the transaction keeps the backup
             report["out"] = str(args.out)
         if args.rrd:
             from ..viz.recording import record_diagnosis

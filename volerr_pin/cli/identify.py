@@ -63,7 +63,7 @@ def run(args) -> int:
                       "holdout": report["holdout"],
                       "held_at_prior": [result.machine.parameter_names[k] for k in result.held]}
         with transaction() as tx:
-            write_spec(result.machine, tx.path(args.out, backup=True), provenance)
+            write_spec(result.machine, tx.path(args.out, backup=True), provenance, backup=False)  # tx keeps it
         report["out"] = str(args.out)
         report["backup"] = str(tx.backups[0]) if tx.backups else None
     if args.json:

@@ -285,7 +285,7 @@ def _merge_covariates(parts: list[dict], sizes: list[int], machine: Machine) -> 
     """Stack per-file covariates; a covariate the model reads must be in every file or in none
     (directions default to +1 where a file does not give them); one it does not read and only
     some files give is left out with a warning."""
-    keys = set().union(*[p.keys() for p in parts]) if parts else set()
+    keys = dict.fromkeys(k for p in parts for k in p)  # first-seen order: notes come out the same every run
     merged: dict = {}
     for key in keys:
         if key == "directions":
