@@ -38,6 +38,7 @@ import pinocchio as pin
 
 import volerr_pin as vp
 from volerr_pin import kinematics as K
+from volerr_pin.assembly import parameter_jacobian
 from volerr_pin.workspace import sample
 
 
@@ -94,7 +95,7 @@ def _homogeneous(R, p):
 def naive_numpy_loop(machine, values):
     """Per point: multiply 4x4 matrices along the workpiece -> tool chain, once with the
     error joints and once without, then the relative pose and its rotation vector."""
-    ch = machine._chain
+    ch = machine.assembly.chain
     consts = [_homogeneous(ch.C_R[k], ch.C_p[k]) for k in range(len(ch.kind))]
     end = _homogeneous(ch.end_R[0], ch.end_p[0])
     out = np.empty((len(values), 6))
@@ -196,11 +197,11 @@ def bench_sensitivity(name, n, n_loop):
     values = m.joint_values(q_loop).T
     theta = m.theta
     cov = m.check_covariates(n_loop, {})
-    basis = m._parameter_jacobian(q_loop, theta, cov)
-    pcol = m._param_column
+    basis = parameter_jacobian(m.assembly, q_loop, theta, cov)
+    pcol = m.assembly.param_column
     # the batch's rotation rows carry Jl^-1 of the rotation error; apply it to the loop's
     # relative Jacobian the same way so that both compute the same numbers
-    phi = K.pose_error(m._chain, values, None)[:, 3:]
+    phi = K.pose_error(m.assembly.chain, values, None)[:, 3:]
     Jl_inv = K.log3_left_jacobian_inverse(phi)
     out = np.empty((n_loop, 6, len(theta)))
     pinocchio_sensitivity_loop(m, configs, basis, pcol, out)

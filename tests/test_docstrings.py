@@ -13,13 +13,14 @@ import textwrap
 
 import pytest
 
-MODULES = ("machine", "kinematics", "workspace", "ranking", "identify.observations", "identify.design",
+MODULES = ("machine", "assembly", "state", "inputs", "poses", "sensitivities", "kinematics", "workspace", "ranking", "identify.observations", "identify.design",
            "identify.solver", "identify.crossval", "identify.result", "identify.fit", "diagnose.results",
            "diagnose.candidates", "diagnose.scoring", "diagnose.changes", "diagnose.report", "diagnose.loop", "checks", "compensate", "errormap",
            "thermal", "thermalfit", "measurements.table", "measurements.columns", "measurements.protocol",
            "measurements.points", "measurements.runs", "measurements.tracker", "measurements.ballbar",
            "measurements.series", "measurements.registry", "axisfit", "dh", "iso230",
-           "simulate", "specio", "identifiability", "describe", "urdf", "gear", "safeio", "export.run",
+           "simulate", "specio", "identifiability", "describe", "urdf", "gear.geometry", "gear.generation", "gear.flanks", "gear.sources",
+           "gear.springback", "safeio", "export.run",
            "export.fit", "export.simulate", "export.tables", "export.zone", "export.registry",
            "gcode.lexer", "gcode.modal", "gcode.rewrite")
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["counts", "fraction", "integer", "positive", "real_array"]
+__all__ = ["counts", "fraction", "integer", "one_point", "positive", "real_array", "whole_numbers"]
 
 
 def positive(name: str, value) -> float:
@@ -213,3 +213,23 @@ def real_array(value, name: str, parameter: str) -> np.ndarray:
     if complex_:
         raise InputError(f"{name} must be real numbers, got complex values", parameters=(parameter,))
     return array
+
+
+def one_point(q) -> bool:
+    """Whether NC positions are one point (one dimension) rather than rows of points; ragged
+    input is left to the machine's check of ``q``.
+
+    Parameters
+    ----------
+    q : array_like
+        NC positions.
+
+    Returns
+    -------
+    bool
+        True for one point.
+    """
+    try:
+        return np.ndim(q) == 1
+    except ValueError:
+        return False

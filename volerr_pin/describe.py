@@ -49,7 +49,7 @@ def machine_info(machine: Machine) -> dict:
             "sign": int(axis.sign),
             "errors_frame": axis.frame,
         })
-    terms = machine.term_info()
+    terms = machine.assembly.term_info()
     by_kind: dict[str, list[str]] = {}
     per_component: dict[str, list[dict]] = {}
     for term in terms:

@@ -539,7 +539,7 @@ def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> li
                          parameters=("directory",)) from None
     travel = machine.travel
     mid = machine.mid_travel
-    info = {t["component"]: t["owner"] for t in machine.term_info()}
+    info = {t["component"]: t["owner"] for t in machine.assembly.term_info()}
     files = []
     for j, axis in enumerate(machine.axes):
         comps = [c for c in machine.components if info.get(c) == axis]

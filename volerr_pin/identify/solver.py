@@ -171,7 +171,7 @@ def initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray,
     lin_cols = np.array([c - n_nu for c in kept if c >= n_nu], dtype=int)
     for step, k in enumerate(nonlinear):
         # the columns of the other terms hardly depend on this coefficient: computed once per chunk
-        term = next(p for p in machine.term_spans() if p.start <= k < p.stop)
+        term = next(p for p in machine.assembly.term_spans() if p.start <= k < p.stop)
         own = np.array([i for i in range(term.start, term.stop) if i in set(linear[lin_cols].tolist())], dtype=int)
         others = np.array([i for i in linear[lin_cols] if i not in set(own.tolist())], dtype=int)
         grid = np.r_[theta[k], machine.search_grid(k, theta, n=obs.n_points, **obs.covariates)]
