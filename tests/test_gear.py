@@ -11,8 +11,9 @@ from scipy.spatial.transform import Rotation
 import volerr_pin as vp
 from volerr_pin.cli import main
 from volerr_pin.errors import InputError
-from volerr_pin.gear import (SEED004_GEAR, GearPair, _grid, _mesh, contribution_degrees, deviations_by_source,
+from volerr_pin.gear import (SEED004_GEAR, GearPair, contribution_degrees, deviations_by_source,
                              flank_deviations, unit_error_study)
+from volerr_pin.gear.generation import flank_grid, mesh_of
 from volerr_pin.specio import remove_components, replace_terms, with_axis_errors
 from volerr_pin.units import ARCSEC, DEG, MM, UM
 
@@ -62,8 +63,8 @@ def test_generated_flanks_are_the_involutes_of_the_gear(roller):
     """The ideal flank points the generation visits lie on the right involutes: radius from
     the roll position, polar angle = pitch-circle angle -/+ (inv(a_r) - inv(a)), tooth
     thickness half the pitch on the pitch circle, outward normals along the base tangents."""
-    mesh = _mesh(roller, G, ("B", "A"), None)
-    grid = _grid(roller, G, mesh, 21, 5, None)
+    mesh = mesh_of(roller, G, ("B", "A"), None)
+    grid = flank_grid(roller, G, mesh, 21, 5, None)
     p = grid.point.reshape(grid.shape + (3,))
     n = grid.normal.reshape(grid.shape + (3,))
     r = np.hypot(p[..., 0], p[..., 1])
@@ -128,8 +129,8 @@ def test_normal_deviation_matches_the_volumetric_error(roller):
     """Independent path: the tool's 6-D pose error from volumetric_error (rotation vector and
     translation of the tool frame) moves the contact point; its normal component is the
     deviation flank_deviations finds from the two poses."""
-    mesh = _mesh(roller, G, ("B", "A"), None)
-    grid = _grid(roller, G, mesh, 7, 3, [0, 5, 30])
+    mesh = mesh_of(roller, G, ("B", "A"), None)
+    grid = flank_grid(roller, G, mesh, 7, 3, [0, 5, 30])
     result = flank_deviations(roller, profile_points=7, face_points=3, tooth_numbers=[0, 5, 30])
     err = roller.volumetric_error(grid.q)
     _, p_nom = roller.tool_poses(grid.q, nominal=True)
@@ -155,9 +156,9 @@ def test_first_order_matches_an_independent_envelope(roller, bare):
     the sweep leaves (min over the generating positions). Without errors the sweep touches
     the ideal involute and never cuts into it (conjugate generation); with errors it leaves
     the first-order normal deviation, to 1e-3 of the error."""
-    mesh = _mesh(roller, G, ("B", "A"), None)
-    grid = _grid(roller, G, mesh, 11, 3, [0])
-    dense = _grid(roller, G, mesh, 301, 3, [0])
+    mesh = mesh_of(roller, G, ("B", "A"), None)
+    grid = flank_grid(roller, G, mesh, 11, 3, [0])
+    dense = flank_grid(roller, G, mesh, 301, 3, [0])
     machines = {"none": bare,
                 "errors": only(bare, {"EXA": {"kind": "constant", "value_um": 4.0},
                                       "ECA": {"kind": "constant", "value_arcsec": 3.0},
