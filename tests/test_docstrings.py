@@ -28,13 +28,15 @@ SECTION_RE = re.compile(r"^(\w[\w ]*)\n-{3,}$", re.MULTILINE)
 
 
 def public_objects(module) -> list[tuple[str, object]]:
-    """Functions and classes a module defines (``__all__`` where it has one, else every
-    top-level name without a leading underscore); names imported from elsewhere excluded."""
+    """Functions and classes a module offers: those of its ``__all__`` (which may re-export the
+    library's own from the modules that define them: a curated entry point), else every
+    top-level name without a leading underscore that it defines itself."""
     names = getattr(module, "__all__", None)
     if names is None:
-        names = [n for n in vars(module) if not n.startswith("_")]
+        return [(n, obj) for n, obj in vars(module).items() if not n.startswith("_")
+                and (inspect.isfunction(obj) or inspect.isclass(obj)) and obj.__module__ == module.__name__]
     return [(n, obj) for n in names for obj in [getattr(module, n)]
-            if (inspect.isfunction(obj) or inspect.isclass(obj)) and obj.__module__ == module.__name__]
+            if (inspect.isfunction(obj) or inspect.isclass(obj)) and obj.__module__.startswith("volerr_pin")]
 
 
 def sections(doc: str) -> dict[str, str]:
