@@ -86,8 +86,8 @@ def tool_poses(machine: "Machine", q, theta=None, *, nominal: bool = False, extr
         For invalid ``q``, ``theta`` or covariates.
     """
     if nominal:
-        return K.relative_poses(machine.assembly.chain, assembly.axis_values(machine.assembly, machine.check_q(q, extrapolate)),
-                                with_errors=False)
+        values = assembly.axis_values(machine.assembly, machine.check_q(q, extrapolate))
+        return K.relative_poses(machine.assembly.chain, values, with_errors=False)
     values = machine.joint_values(q, theta, extrapolate=extrapolate, **covariates)
     return K.relative_poses(machine.assembly.chain, values.T, with_errors=True)
 

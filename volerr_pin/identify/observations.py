@@ -430,4 +430,5 @@ def residual_rms(obs: Observations, residual_si: np.ndarray, angular: bool = Fal
     rows = obs.angular == angular
     if not rows.any():
         return None
-    return float(np.sqrt(point_squares(obs.point[rows], residual_si[rows]).mean()) * (URAD_PER_RAD if angular else UM_PER_M))
+    rms = np.sqrt(point_squares(obs.point[rows], residual_si[rows]).mean())
+    return float(rms * (URAD_PER_RAD if angular else UM_PER_M))
