@@ -112,7 +112,10 @@ def sobol_indices(problem: dict, model: Callable[[np.ndarray], np.ndarray], n: i
     Y = np.asarray(model(X), dtype=float)
     if not np.isfinite(Y).all() or np.var(Y) <= 0:
         raise InputError("the output does not vary over the inputs' ranges: no sensitivity indices")
-    result = sobol.analyze(problem, Y, calc_second_order=False, num_resamples=200, conf_level=0.95, seed=seed,
-                           print_to_console=False)
+    # SALib seeds its bootstrap only when ``seed`` is truthy (seed 0 would draw from the global state, and the
+    # confidence intervals would change from run to run): give it a nonzero seed derived from ours.
+    bootstrap_seed = int(np.random.SeedSequence(int(seed)).generate_state(1)[0]) | 1
+    result = sobol.analyze(problem, Y, calc_second_order=False, num_resamples=200, conf_level=0.95,
+                           seed=bootstrap_seed, print_to_console=False)
     return SobolIndices(tuple(problem["names"]), np.asarray(result["S1"]), np.asarray(result["ST"]),
                         np.asarray(result["S1_conf"]), np.asarray(result["ST_conf"]), int(len(X)))
