@@ -59,6 +59,11 @@ def markdown(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def section(quick: bool = False) -> str:
+    """This benchmark's Markdown for ``benchmarks/run.py`` (fewer fit points with ``quick``)."""
+    return markdown(bench(1024 if quick else 4096))
+
+
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=4096)

@@ -17,6 +17,10 @@
    function space), compensation of a 10,000-block NC program at 1 um.
 4. Scaling of the batch evaluator with N (1e3 .. 1e6).
 
+5. The benchmarks of the other parts, each a script of its own in this folder that also runs
+   alone (``SECTIONS``): controller exports, uncertainty and tolerance studies. Each gives
+   ``section(quick) -> str``, its Markdown, appended under its own heading.
+
 Every loop is checked against the batch result before it is timed; the loops get their
 joint configurations precomputed (not timed), so the ratios are, if anything, modest.
 Tests never assert wall-clock times; this script reports them.
@@ -25,6 +29,8 @@ Tests never assert wall-clock times; this script reports them.
 from __future__ import annotations
 
 import argparse
+import datetime
+import importlib.util
 import json
 import math
 import os
@@ -32,6 +38,7 @@ import platform
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -346,8 +353,19 @@ def bench_scaling(sizes):
 
 
 # ------------------------------------------------------------------ report
+SECTIONS = {"export": "Controller exports", "studies": "Uncertainty and tolerance studies"}
+
+
+def run_section(name: str, quick: bool) -> str:
+    """The Markdown of ``benchmarks/<name>.py``'s ``section(quick)``, loaded from this folder."""
+    spec = importlib.util.spec_from_file_location(f"_bench_{name}", Path(__file__).with_name(f"{name}.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.section(quick)
+
+
 def markdown(info) -> str:
-    lines = [f"Measured on {info['machine']}" + (" (--quick)" if info["quick"] else "") + ".", "",
+    lines = [f"Measured on {info['machine']}, {info['date']}" + (" (--quick)" if info["quick"] else "") + ".", "",
              "| task | machine | points | batch [us/pt] | Pinocchio loop [us/pt] | vs Pinocchio | naive numpy "
              "[us/pt] | vs naive numpy | closed form [us/pt] | batch / closed form |",
              "|---|---|---|---|---|---|---|---|---|---|"]
@@ -383,6 +401,8 @@ def markdown(info) -> str:
     lines += ["", "| scaling (vmc500) | " + " | ".join(f"{r['points']:,}" for r in info["scaling"]) + " |",
               "|---|" + "---|" * len(info["scaling"]),
               "| us per point | " + " | ".join(f"{r['us_per_point']:.3f}" for r in info["scaling"]) + " |"]
+    for name, text in info.get("sections", {}).items():
+        lines += ["", f"### {SECTIONS[name]}", "", text.strip()]
     return "\n".join(lines)
 
 
@@ -397,7 +417,8 @@ def main(argv=None):
     n_loop, n_naive = (300, 100) if q else (5_000, 1_000)
     info = {"machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
                        f"Python {platform.python_version()}, pin {pin.__version__}, "
-                       f"numba {__import__('numba').__version__}", "quick": q}
+                       f"numba {__import__('numba').__version__}", "quick": q,
+            "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
     steps = [
         ("volumetric", lambda: [r for name in ("vmc500", "cgm4000")
                                 for r in bench_volumetric(name, sizes, n_loop, n_naive)]),
@@ -414,6 +435,11 @@ def main(argv=None):
         t0 = time.perf_counter()
         info[key] = fn()
         print(f"# {key}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    info["sections"] = {}
+    for name in SECTIONS:
+        t0 = time.perf_counter()
+        info["sections"][name] = run_section(name, q)
+        print(f"# {name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     text = markdown(info)
     print(text)
     if args.markdown:

@@ -164,15 +164,28 @@ def markdown(rows: list[dict], info: dict) -> str:
     return "\n".join(out) + "\n"
 
 
+def machine_info() -> dict:
+    """Where the run took place (the load average says whether the machine was shared)."""
+    return {"machine": platform.machine(), "cores": available_cores(), "python": platform.python_version(),
+            "numba_threads": os.environ.get("NUMBA_NUM_THREADS", "default"),
+            "load_before": os.getloadavg()[0] if hasattr(os, "getloadavg") else None}
+
+
+def section(quick: bool = False) -> str:
+    """This benchmark's Markdown for ``benchmarks/run.py``."""
+    info = machine_info()
+    rows = bench_studies(quick)
+    info["load_after"] = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+    return markdown(rows, info)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes (CI)")
     parser.add_argument("--json", help="write the rows to this file")
     parser.add_argument("--markdown", help="write the Markdown tables to this file")
     args = parser.parse_args(argv)
-    info = {"machine": platform.machine(), "cores": available_cores(), "python": platform.python_version(),
-            "numba_threads": os.environ.get("NUMBA_NUM_THREADS", "default"),
-            "load_before": os.getloadavg()[0] if hasattr(os, "getloadavg") else None}
+    info = machine_info()
     rows = bench_studies(args.quick)
     info["load_after"] = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
     text = markdown(rows, info)
