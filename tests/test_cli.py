@@ -91,14 +91,35 @@ def test_compensate_writes_program_and_report(tmp_path, capsys):
 
 
 def test_compensate_json_and_errors(tmp_path, capsys):
-    src = tmp_path / "bad.nc"
-    src.write_text("G90 G0 X10 Y10 Z10\nG81 X20 Y20 Z5 R12\n")
-    assert main(["compensate", "vmc500", str(src), "-o", str(tmp_path / "o.nc")]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "bad.nc:2" in err and "--pass-through" in err
-    assert main(["compensate", "vmc500", str(src), "-o", str(tmp_path / "o.nc"), "--pass-through", "--json"]) == 0
+    text = "G90 G0 X10 Y10 Z10\nG81 X20 Y20 Z5 R12\nG80\nG1 X30\n"
+    src = tmp_path / "cycle.nc"
+    src.write_text(text)
+    out = tmp_path / "o.nc"
+    # the default keeps the canned cycle byte for byte, names its line and compensates the rest
+    assert main(["compensate", "vmc500", str(src), "-o", str(out), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
-    assert report["warnings"] and report["blocks_in"] == 2
+    assert report["blocks_in"] == 4 and report["passed_through"] == 1 and report["moves"] == 2
+    assert any(w.startswith("line 2: G81 (canned cycle) kept unchanged") for w in report["warnings"])
+    written = out.read_text().splitlines()
+    assert written[1:3] == text.splitlines()[1:3] and written[3] != "G1 X30"
+    # --strict refuses it: exit 2, one line naming the line and the option, nothing written
+    out.unlink()
+    assert main(["compensate", "vmc500", str(src), "-o", str(out), "--strict"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cycle.nc:2" in err and "--strict" in err and not out.exists()
+    # a G code the reader does not know may change how later blocks read: refused unless
+    # --pass-through keeps it (with a warning)
+    unknown = tmp_path / "unknown.nc"
+    unknown.write_text("G90 G0 X10 Y10 Z10\nG5.1 Q1\nG1 X30\n")
+    assert main(["compensate", "vmc500", str(unknown), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unknown.nc:2:1" in err and "--pass-through" in err and not out.exists()
+    assert main(["compensate", "vmc500", str(unknown), "-o", str(out), "--pass-through", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["passed_through"] == 1 and any("line 2: G5.1" in w and "misread" in w for w in report["warnings"])
+    with pytest.raises(SystemExit) as exit:  # argparse: the two contradict each other
+        main(["compensate", "vmc500", str(src), "-o", str(out), "--strict", "--pass-through"])
+    assert exit.value.code == 2 and "not allowed with" in capsys.readouterr().err
 
 
 def test_errormap_cli(tmp_path, capsys):

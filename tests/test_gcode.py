@@ -207,8 +207,9 @@ def test_incremental_sections_do_not_accumulate_rounding(machines):
     ("G90 G0 X450 Y200 Z10\nG3 X450 Y200 I0 J100\n", 2, "leaves the travel"),
 ])
 def test_malformed_programs_fail_with_the_line_number(machines, text, line, message):
+    """Blocks that cannot be read, and (with strict) blocks that cannot be compensated."""
     with pytest.raises(GcodeError, match=rf"prog\.nc:{line}:(\d+:)? .*{message}"):
-        compensate_program(machines["vmc500"], text, source="prog.nc")
+        compensate_program(machines["vmc500"], text, source="prog.nc", strict=True)
 
 
 START = "G90 G21 G17 G0 X100 Y100 Z100\n"
@@ -219,7 +220,7 @@ START = "G90 G21 G17 G0 X100 Y100 Z100\n"
     ("G2 X200 Y100 R50 I30 J0 F100", "2:14", "R50 and I30 J0 disagree: their centres are 20.0000 mm apart"),
     ("G1 X200 X300", "2:9", r"X appears twice in the block \(X200 and X300\)"),
     ("G0 G1 X200", "2:4", "G0 and G1 in one block: both are motion codes"),
-    ("G77 X200", "2", r"G77 \(a G code this reader does not know\) cannot be compensated"),
+    ("G77 X200", "2", r"G77 \(a G code this reader does not know\) cannot be compensated \(strict refuses it"),
     ("G77", "2", "G77 .*cannot be compensated"),
     ("G1 X1E300 Z100.0009E300", "2:4", "'X1E300': NC numbers have no exponent"),
     ("G1 X150 Z100.0009E300", "2:9", "'Z100.0009E300': NC numbers have no exponent"),
@@ -261,10 +262,12 @@ START = "G90 G21 G17 G0 X100 Y100 Z100\n"
     ("G+1 X150", "2:1", "G\\+1: a G word has no sign"),
     ("G-1 X150", "2", "G-1 .*does not know"),
     ("G1.5 X150", "2", "G1.5 .*does not know"),
-    ("G1000000000000000000000 X150", "2", "G1000000000000000000000 .*does not know"),
-    ("G16", "2", "G16 .*does not know"),
-    ("G68.2 X0 Y0 Z0 I0 J45 K0", "2", "G68.2 .*does not know"),
-    ("G43.4 H1", "2", "G43.4 .*does not know"),
+    ("G1000000000000000000000 X150", "2:1", "G1000000000000000000000 is not a G code"),
+    ("G 1234 X150", "2:1", "G1234 is not a G code"),
+    ("G16", "2", r"G16 \(polar coordinates\) cannot be compensated"),
+    ("G68.2 X0 Y0 Z0 I0 J45 K0", "2", r"G68.2 \(tilted working plane\) cannot be compensated"),
+    ("G12.1", "2", r"G12.1 \(polar interpolation\) cannot be compensated"),
+    ("G43.5 H1", "2", r"G43.5 \(tool orientation given as a vector\) cannot be compensated"),
     ("G1 G1 X150", "2:4", "G1 appears twice"),
     ("G90 G91 G1 X150", "2:5", "G90 and G91 in one block: both are distance codes"),
     ("G17 G18 G2 X200 Y100 I50 J0", "2:5", "G17 and G18 in one block: both are plane codes"),
@@ -310,9 +313,10 @@ START = "G90 G21 G17 G0 X100 Y100 Z100\n"
 ])
 def test_bad_blocks_are_refused_naming_line_and_column(machines, block, where, message):
     """Each used to be read as something else (or its error named no column): now one error
-    naming the line (and the column where a character or word is to blame)."""
+    naming the line (and the column where a character or word is to blame); blocks that can be
+    read but not compensated are refused with strict."""
     with pytest.raises(GcodeError, match=rf"^prog\.nc:{where}: .*{message}"):
-        compensate_program(machines["vmc500"], START + block + "\n", source="prog.nc")
+        compensate_program(machines["vmc500"], START + block + "\n", source="prog.nc", strict=True)
 
 
 def test_pass_through_keeps_unsupported_blocks_and_warns(machines):
@@ -359,18 +363,18 @@ def test_an_arc_piece_written_as_a_line_drops_its_centre_words(machines):
     from volerr_pin.gcode import Program, parse_block
 
     m = machines["vmc500"]
-    program = Program(m)
+    writer = Program(m).writer
     block = parse_block("N5 G2 X110 Y100 I5 J0 F200 (arc)", 5, "p")
     coords = [w for w in block.words if w.letter in "XY"]
     piece = Piece("line", np.array([0.1, 0.1, 0.05]), np.array([0.11, 0.1, 0.05]))
     st = {"absolute": True, "inch": False, "plane": 17, "out_motion": 2}
-    text = program._rewrite(block, piece, piece.start, st, 2, coords)
+    text = writer.rewrite(block, piece, piece.start, st, 2, coords)
     assert text == "N5 G1 X110.0000 Y100.0000 Z50.0000 F200 (arc)"
     assert st["out_motion"] == 1
     arc_piece = Piece("arc", np.array([0.11, 0.1, 0.05]), np.array([0.12, 0.1, 0.05]),
                       center=np.array([0.115, 0.1]), clockwise=True, turns=-math.pi)
     follow = parse_block("X120 Y100 I5 J0", 6, "p")
-    text = program._rewrite(follow, arc_piece, arc_piece.start, st, 2, [w for w in follow.words if w.letter in "XY"])
+    text = writer.rewrite(follow, arc_piece, arc_piece.start, st, 2, [w for w in follow.words if w.letter in "XY"])
     assert text.startswith("G2 X120.0000 Y100.0000") and "I5.0000 J0.0000" in text
 
 
@@ -389,7 +393,7 @@ def test_review_cases(machines):
     assert out.splitlines()[1] == "G4 X1.5" and abs(float(re.search(r"X([-\d.]+)", out.splitlines()[2]).group(1)) - 10) < 0.01
     for block in ("G10 L2 P1 X100 Y50 Z0", "G91 G28 Z0", "G53 G0 Z0"):
         with pytest.raises(GcodeError, match=":2: G"):
-            compensate_program(m, f"G90 G0 X10 Y10 Z10\n{block}\nG1 X200 F100\n")
+            compensate_program(m, f"G90 G0 X10 Y10 Z10\n{block}\nG1 X200 F100\n", strict=True)
     # passed through, G91 G28 leaves incremental mode on and the position unknown
     out, report = compensate_program(m, "G90 G0 X10 Y10 Z10\nG91 G28 Z0\nG90 G1 X200 Y20 Z30 F100\n",
                                      pass_through=True)
@@ -416,7 +420,7 @@ def test_review_cases(machines):
     assert round_trip(m, program, out)[0] <= 1e-6
     # block delete on a move, work offsets and tool length offsets
     with pytest.raises(GcodeError, match=":2: a move with block delete"):
-        compensate_program(m, "G90 G0 X10 Y10 Z10\n/G1 X20\n")
+        compensate_program(m, "G90 G0 X10 Y10 Z10\n/G1 X20\n", strict=True)
     _, report = compensate_program(m, "G90 G54 G43 H1 G0 X10 Y10 Z10\nG80\nG1 X20 F100\n")
     assert any("work offset G54" in w for w in report.warnings) and any("G43" in w for w in report.warnings)
     _, report = compensate_program(m, "G90 G0 X100 Y100 Z100\nG1 X400 Y300 F100\n", tol_um=0.05)
@@ -489,12 +493,20 @@ def test_non_motion_lines_of_every_kind_stay_byte_identical(machines):
         "line 11: M77 is not an M code this reader knows: kept unchanged, taken to move no axis"]
 
 
-def test_unknown_g_codes_pass_through_only_when_asked_and_never_as_moves(machines):
+def test_unknown_g_codes_are_refused_unless_pass_through_and_never_moves(machines):
     m = machines["vmc500"]
     program = START + "G77 X200 Y50\nG1 X150 Y120 Z90 F100\n"
-    with pytest.raises(GcodeError, match=r"prog\.nc:2: G77 .*does not know.*\(pass_through keeps it unchanged\)"):
+    with pytest.raises(GcodeError, match=r"prog\.nc:2: G77 .*does not know.*\(strict refuses it") as info:
+        compensate_program(m, program, source="prog.nc", strict=True)
+    assert info.value.parameters == ("strict",)
+    with pytest.raises(GcodeError, match=r"prog\.nc:2: G77"):
+        compensate_program(m, program, source="prog.nc", pass_through=False)  # the former spelling of strict
+    # by default too: what an unknown code changes cannot be told, so it is not passed over
+    with pytest.raises(GcodeError, match=r"^prog\.nc:2:1: G77 .*does not know.*may be misread") as info:
         compensate_program(m, program, source="prog.nc")
+    assert info.value.parameters == ("pass_through",)
     out, report = compensate_program(m, program, pass_through=True)
+    assert report.passed_through == 1
     assert out.splitlines()[1] == "G77 X200 Y50"
     assert "line 2: G77 (a G code this reader does not know) kept unchanged; what it changes is not followed, " \
            "so the blocks after it may be misread" in report.warnings
@@ -590,7 +602,7 @@ def test_an_arc_the_written_numbers_cannot_hold_is_written_as_chords(machines):
     from volerr_pin.gcode import Program, parse_block
 
     m = machines["vmc500"]
-    program = Program(m, tol_um=1.0)
+    program = Program(m, tol_um=1.0).writer
     st = {"absolute": True, "inch": False, "plane": 17, "out_motion": 2}
     start = np.array([0.1, 0.1, 0.05])
 
@@ -601,11 +613,11 @@ def test_an_arc_the_written_numbers_cannot_hold_is_written_as_chords(machines):
         return Piece("arc", start, end, center=centre, clockwise=sweep < 0, turns=sweep, residual=0.2e-6)
 
     normal = piece(0.05, -math.pi / 2)
-    assert program._writable([normal], st, {"ijk"}) == [normal]
+    assert program.writable([normal], st, {"ijk"}) == [normal]
     for p in (piece(0.3e-6, -math.pi / 2),  # I/J round to zero
               piece(5e-6, -0.004),  # 20 nm long: the written ends read as a full turn
               piece(200.0, -2e-4)):  # a centre 200 m away: too many digits
-        out = program._writable([p], st, {"ijk"})
+        out = program.writable([p], st, {"ijk"})
         assert out and all(q.kind == "line" for q in out)
         np.testing.assert_array_equal(out[0].start, p.start)
         np.testing.assert_array_equal(out[-1].end, p.end)
@@ -616,8 +628,8 @@ def test_an_arc_the_written_numbers_cannot_hold_is_written_as_chords(machines):
             assert q.residual <= 1e-6
     block = parse_block("N5 G2 X100.0000 Y100.0003 I-0.0003 J0 F200", 5, "p")
     tiny = piece(0.3e-6, -math.pi / 2)
-    line = program._writable([tiny], st, {"ijk"})[0]
-    text = program._rewrite(block, line, line.start, st, 2, [w for w in block.words if w.letter in "XY"])
+    line = program.writable([tiny], st, {"ijk"})[0]
+    text = program.rewrite(block, line, line.start, st, 2, [w for w in block.words if w.letter in "XY"])
     assert text.startswith("N5 G1 X") and "I" not in text and "J" not in text
 
 

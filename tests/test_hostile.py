@@ -298,6 +298,33 @@ def output_has_crlf(name: str):
     return check
 
 
+def kept_unchanged(name: str, first: int, last: int, source: str = "prog.nc"):
+    """Lines ``first``..``last`` (1-based) of the output are those of the program byte for byte,
+    and the warnings name every one of them (the moves under a mode that changes how
+    coordinates read are kept, never compensated as if untransformed)."""
+    def check(folder, out, err):
+        written = (folder / name).read_bytes().split(b"\n")
+        given = (folder / source).read_bytes().split(b"\n")
+        assert written[first - 1:last] == given[first - 1:last], \
+            f"wrong result: lines {first}-{last} of {name} were changed"
+        named = set()
+        for a, b in re.findall(r"^warning: lines? (\d+)(?:-(\d+))?:", out, re.MULTILINE):
+            named.update(range(int(a), int(b or a) + 1))
+        missing = sorted(set(range(first, last + 1)) - named)
+        assert not missing, f"wrong result: lines {missing} kept without a warning naming them"
+    return check
+
+
+def compensated_near(name: str, line: int, word: str, value: float):
+    """Line ``line`` of the output was compensated: ``word`` changed, by less than 0.05 mm."""
+    def check(folder, out, err):
+        text = (folder / name).read_text().splitlines()[line - 1]
+        found = re.search(rf"{word}(-?[0-9.]+)", text)
+        assert found and float(found.group(1)) != value and abs(float(found.group(1)) - value) < 0.05, \
+            f"wrong result: line {line} of {name} is {text!r}, not {word}{value:g} compensated"
+    return check
+
+
 def output_is_ascii(name: str):
     def check(folder, out, err):
         assert (folder / name).read_bytes().isascii(), f"wrong result: {name} is not plain ASCII"
@@ -553,18 +580,29 @@ CASES = [
          program("G18 G2 X200 Z100 I50 J7\n"), ("prog.nc:3", "J7"), NOTE, outputs=("out.nc",)),
     Case("nc-zero-radius-full-circle", "compensate vmc700 prog.nc -o out.nc",
          program("G1 X100 Y100\nG2 X100 Y100 I0 J0\n"), ("prog.nc:4",)),
+    # a mode that changes how later coordinates read: it and every block up to its end are kept
+    # byte for byte and named (never compensated as if untransformed); the move after the end is
+    # compensated
     Case("nc-tilted-plane-g68.2", "compensate vmc700 prog.nc -o out.nc",
-         program("G68.2 X0 Y0 Z0 I0 J45 K0\nG1 X200\n"), ("G68.2", "prog.nc:3")),
+         program("G68.2 X0 Y0 Z0 I0 J45 K0\nG1 X200\nG69\nG1 X150\n"), ("G68.2",), NOTE, outputs=("out.nc",),
+         result=kept_unchanged("out.nc", 3, 5)),
     Case("nc-tool-centre-point-g43.4", "compensate vmc700 prog.nc -o out.nc",
-         program("G43.4 H1\nG1 X200\n"), ("G43.4", "prog.nc:3")),
+         program("G43.4 H1\nG1 X200\n"), ("G43.4",), NOTE, outputs=("out.nc",),
+         result=compensated_near("out.nc", 4, "X", 200)),
     Case("nc-mirror-image-g51.1", "compensate vmc700 prog.nc -o out.nc",
-         program("G51.1 X150\nG1 X200\n"), ("G51.1", "prog.nc:3")),
+         program("G51.1 X150\nG1 X200\nG1 Y120\n"), ("G51.1",), NOTE, outputs=("out.nc",),
+         result=kept_unchanged("out.nc", 3, 5)),
     Case("nc-polar-coordinates-g16", "compensate vmc700 prog.nc -o out.nc", program("G16\nG1 X200 Y45\n"),
-         ("G16", "prog.nc:3")),
+         ("G16",), NOTE, outputs=("out.nc",), result=kept_unchanged("out.nc", 3, 4)),
     Case("nc-polar-interpolation-g12.1", "compensate vmc700 prog.nc -o out.nc", program("G12.1\nG1 X200\n"),
-         ("G12.1", "prog.nc:3")),
+         ("G12.1",), NOTE, outputs=("out.nc",), result=kept_unchanged("out.nc", 3, 4)),
+    Case("nc-local-coordinates-g52-until-cancelled", "compensate vmc700 prog.nc -o out.nc",
+         program("G52 X10 Y5\nG1 X200\nG52 X0\nG1 X150\nG52 Y0\nG1 X120\n"), ("G52",), NOTE,
+         outputs=("out.nc",), result=kept_unchanged("out.nc", 3, 7)),
     Case("nc-g-code-of-22-digits", "compensate vmc700 prog.nc -o out.nc",
-         program("G1000000000000000000000 X200\n"), ("prog.nc:3",)),
+         program("G1000000000000000000000 X200\n"), ("prog.nc:3:1",)),
+    Case("nc-unknown-g-code", "compensate vmc700 prog.nc -o out.nc", program("G5.1 Q1\nG1 X200\n"),
+         ("prog.nc:3:1",)),
     Case("nc-radius-word-on-a-line", "compensate vmc700 prog.nc -o out.nc", program("G1 X200 R5\n"),
          ("prog.nc:3", "R5"), NOTE, outputs=("out.nc",)),
     Case("nc-negative-feed", "compensate vmc700 prog.nc -o out.nc", program("G1 X200 F-100\n"),

@@ -1,17 +1,14 @@
-"""volerr compensate: a compensated NC program."""
+"""volerr compensate: a compensated NC program, read, compensated and written as a stream."""
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 from rich.console import Console
 
-from ..errors import InputError
-from ..safeio import read_text, require_memory, transaction
+from ..safeio import transaction
 from .common import add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of
-
-#: memory the compensation holds per byte of program (about 25 kB per block of about 25 bytes)
-BYTES_PER_PROGRAM_BYTE = 1000
 
 
 def add_parser(sub) -> None:
@@ -24,39 +21,51 @@ def add_parser(sub) -> None:
     p.add_argument("--tol-urad", type=float,
                    help="tool-axis tolerance on machines with rotary axes (default 10 per um of --tol-um)")
     p.add_argument("--report", help="write the report (JSON) here")
-    p.add_argument("--pass-through", action="store_true",
-                   help="keep blocks that cannot be compensated (canned cycles, macros) and warn")
+    kept = p.add_mutually_exclusive_group()
+    kept.add_argument("--strict", action="store_true",
+                      help="refuse blocks that cannot be compensated (canned cycles, macros, subprograms, polar or "
+                           "cylindrical interpolation ...) instead of keeping them unchanged and naming them")
+    kept.add_argument("--pass-through", action="store_true",
+                      help="also keep G codes the reader does not know (refused by default: they may change how "
+                           "the blocks after them read); blocks that cannot be compensated are kept and named "
+                           "anyway")
+    p.add_argument("--programming", choices=["axes", "tool-tip"], default="axes",
+                   help="what the coordinates are when the program starts: axis positions (default), or the tool "
+                        "tip in the workpiece frame with rotary axis positions (RTCP on); G43.4 / TRAORI and G49 / "
+                        "TRAFOOF in the program switch")
     p.add_argument("--method", choices=["newton", "recursive"], default="newton",
                    help="point compensation scheme (default newton)")
     p.add_argument("--png", help="also draw the error along each move before and after (PNG)")
     p.add_argument("--origin", nargs="+", metavar="AXIS=VALUE",
-                   help="axis positions of the program zero (the work offset, G54 ...; mm, deg)")
+                   help="program coordinates of the program zero (the work offset, G54 ...; mm, deg)")
     add_json_arg(p, "print the report as one JSON object")
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+def run(args: argparse.Namespace) -> int:
+    from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn
 
-    from ..gcode import Program
+    from ..gcode import Program, ProgramFile
 
     machine = machine_of(args)
     path = Path(args.program)
     check_run_outputs({"output": args.output, "report": args.report, "png": args.png}, [path], machine)
-    text = read_text(path, InputError, "program file")  # a regular UTF-8 file, line ends as written
-    require_memory(len(text) * BYTES_PER_PROGRAM_BYTE, f"compensating {path}")
+    source = ProgramFile(path)  # a regular file; read as UTF-8 line by line
     offset = axis_config(machine, args.origin, "--origin")
     origin = [offset.get(axis, 0.0) for axis in machine.axes] if offset else None
-    program = Program(machine, tol_um=args.tol_um, tol_urad=args.tol_urad, pass_through=args.pass_through,
-                      method=args.method, source=str(path), origin=origin)
+    program = Program(machine, tol_um=args.tol_um, tol_urad=args.tol_urad, strict=args.strict,
+                      pass_through=True if args.pass_through else None,
+                      method=args.method, source=str(path), origin=origin, programming=args.programming,
+                      detail=bool(args.png))
     console = Console(stderr=True, highlight=False)
-    with Progress(TextColumn("compensating"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
-                  console=console, transient=True, disable=args.json or not console.is_terminal) as bar:
-        task = bar.add_task("", total=text.count("\n") + 1)
-        result = program.compensate(text, progress=lambda n: bar.update(task, completed=n))
-    report = {"machine": machine.name, "input": str(path), "output": str(args.output), **program.report.to_dict()}
     with transaction() as tx:  # the program, its report and picture are all written, or none
-        tx.path(args.output).write_text(result, encoding="utf-8", newline="")
+        with open(tx.path(args.output), "w", encoding="utf-8", newline="") as out, \
+                Progress(TextColumn("compensating"), BarColumn(), DownloadColumn(), TimeRemainingColumn(),
+                         console=console, transient=True, disable=args.json or not console.is_terminal) as bar:
+            task = bar.add_task("", total=max(source.size, 1))
+            program.run(source.lines(), out.write, progress=lambda n: bar.update(task, completed=source.done))
+        report = {"machine": machine.name, "input": str(path), "output": str(args.output),
+                  **program.report.to_dict()}
         if args.png:
             from ..viz.plots import compensation_png
 
@@ -72,9 +81,12 @@ def run(args) -> int:
           f"{r.pieces} pieces ({r.arcs_kept} arcs kept as arcs, {r.arcs_as_lines} as lines)")
     print(f"largest error along the moves: {r.max_before_um:.2f} um before, {r.max_residual_um:.3f} um after "
           f"compensation (tolerance {r.tolerance_um:g} um)")
+    if r.passed_through:
+        print(f"{r.passed_through} line(s) kept unchanged: they cannot be compensated (named below)")
     for w in r.warnings:
         print(f"warning: {w}")
     for key in ("report", "png"):
         if getattr(args, key):
             print(f"wrote {getattr(args, key)}")
     return 0
+

@@ -2,30 +2,35 @@
 
 Understood: G0, G1, G2, G3 (I/J/K centres relative to the start, or R with a negative value
 for more than half a turn, or both if they agree; G17/G18/G19 planes; helical moves, P whole
-turns), G4, G17-G21, G40, G43/G44/G49 (with a warning), G54-G59 (one per program), G61/G64,
-G80, G90/G91, G93-G99, F, S, T, H, D, M words, comments ``( ... )`` and ``; ...``, sequence
-numbers ``N``, one program number ``O``, ``%`` lines, block delete ``/`` on blocks without
-moves or G codes, blank lines. Everything that is not a compensated coordinate is copied byte
-for byte: a compensated block keeps its text and only the numbers of its coordinate words
-change (missing coordinate words are appended, since compensation moves every axis); the
-extra pieces of a split move are inserted as new lines before it.
+turns), G4, G17-G21, G40, G43/G44/G49 (with a warning), G43.4 and TRAORI (tool-tip
+programming) and G49 / TRAFOOF (its end), G54-G59 (one per program), G61/G64, G80, G90/G91,
+G93-G99, F, S, T, H, D, M words, comments ``( ... )`` and ``; ...``, sequence numbers ``N``,
+one program number ``O``, ``%`` lines, block delete ``/`` on blocks without moves or G codes,
+blank lines. Everything that is not a compensated coordinate is copied byte for byte: a
+compensated block keeps its text and only the numbers of its coordinate words change (missing
+coordinate words are appended, since compensation moves every axis); the extra pieces of a
+split move are inserted as new lines after it.
 
-Nothing is skipped or guessed: a character that belongs to no word, a repeated word, two
-codes of one group, a word that means nothing in its block (I/J/K/R off an arc, an axis the
-machine does not have, an E word ...), a degenerate arc, or R and I/J/K that disagree stop
-the compensation with an error naming the line (and column). Canned cycles, macros,
-subprograms and G codes the reader does not know (G73-G89, G65, M98, M99, a second O word,
-``#`` variables, IF/WHILE/GOTO, G16, G68.2 ...) stop it too unless ``pass_through`` is set,
-in which case they are kept and listed as warnings; M codes it does not know are kept with a
-warning. A tool change (M6) and a kept block that names axes make the position unknown.
+Nothing is guessed: a character that belongs to no word, a repeated word, two codes of one
+group, a word that means nothing in its block (I/J/K/R off an arc, an axis the machine does
+not have, an E word ...), a degenerate arc, or R and I/J/K that disagree stop the
+compensation with an error naming the line (and column). Blocks that cannot be compensated
+(canned cycles, macros, subprograms, G codes the reader does not know, and every block of a
+polar or cylindrical interpolation, rotated, scaled or mirrored coordinates, up to the code
+that ends it) are kept unchanged and named in the report's warnings, or refused with
+``strict``. A tool change (M6) and a kept block that names axes make the position unknown.
 
 Modules: :mod:`.lexer` (words, blocks, lines, code tables), :mod:`.modal` (the modal state
-and the moves it gives, :func:`interpret`), :mod:`.rewrite` (compensating and writing back).
+and the moves it gives), :mod:`.arcs` (reading arcs), :mod:`.segments` (:func:`interpret`),
+:mod:`.source` (reading a file line by line), :mod:`.program` (compensating as a stream),
+:mod:`.rewrite` (writing pieces back), :mod:`.report`.
 """
 
 from .lexer import Block, GcodeError, Word, parse_block, split_lines
-from .modal import Segment, interpret
-from .rewrite import Program, Report, compensate_program
+from .program import Program, compensate_program
+from .report import Report
+from .segments import Segment, interpret
+from .source import ProgramFile
 
-__all__ = ["Block", "GcodeError", "Program", "Report", "Segment", "Word", "compensate_program", "interpret",
-           "parse_block", "split_lines"]
+__all__ = ["Block", "GcodeError", "Program", "ProgramFile", "Report", "Segment", "Word", "compensate_program",
+           "interpret", "parse_block", "split_lines"]

@@ -17,6 +17,9 @@ from ..errors import InputError
 
 NUMBER = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"  # ASCII digits only: no exponent, no inf/nan
 WORD = re.compile(rf"([A-Za-z])[ \t]*({NUMBER})")
+# a line of plain words only (no E, whose number may be an exponent); atomic and possessive, so
+# that a long line that does not match fails in linear time
+SIMPLE = re.compile(r"[ \t]*+(?:(?>[A-DF-Za-df-z][ \t]*+[-+]?+(?:[0-9]++(?:\.[0-9]*+)?+|\.[0-9]++))[ \t]*+)*+")
 COMMENT = re.compile(r"\([^)]*\)|;.*$")
 BLANKS = " \t"
 BLANK_RUN = re.compile(r"[ \t]+")
@@ -30,9 +33,32 @@ MACRO_G = {65, 66, 67}
 # G codes whose axis words are not a move the program interpolates (data, reference returns,
 # machine coordinates, probing) or that change the geometry in ways not modelled
 NOT_MOVES = {10: "data setting", 27: "reference check", 28: "reference return", 29: "return from reference",
-             30: "2nd reference return", 31: "probing skip", 53: "machine coordinates", 92: "coordinate shift",
-             52: "local coordinate system", 68: "coordinate rotation", 51: "scaling", 41: "cutter compensation",
+             30: "2nd reference return", 31: "probing skip", 53: "machine coordinates", 52: "local coordinate system",
+             92: "coordinate shift", 41: "cutter compensation",
              42: "cutter compensation", 90.1: "absolute arc centres", 91.1: "incremental arc centres"}
+# G codes after which axis words are not axis positions or tool tips (polar and cylindrical
+# interpolation, polar coordinates, rotated, scaled or mirrored coordinates, tool orientation
+# as a vector): every block up to the code that cancels the mode is kept unchanged
+REGIONS = {12.1: ("polar interpolation", (13.1,)), 112: ("polar interpolation", (113,)),
+           7.1: ("cylindrical interpolation", ()), 16: ("polar coordinates", (15,)),
+           68: ("coordinate rotation", (69,)), 68.1: ("tilted working plane", (69,)),
+           68.2: ("tilted working plane", (69,)), 51: ("scaling", (50,)), 51.1: ("mirror image", (50.1,)),
+           43.5: ("tool orientation given as a vector", (49, 43, 44, 43.4)),
+           92: ("coordinate shift", (92.1,))}
+# shifts of the program's zero that last until a block of the same code sets them back to zero
+# (G52 X0 Y0 Z0): every block while one axis is shifted is kept unchanged
+SHIFTS = {52: "local coordinate system"}
+# data settings that change a work offset (G10 L2 / L20): the program's zero is no longer the
+# origin given, and every block after is kept unchanged
+OFFSET_DATA = {2, 20}
+#: the longest G code: three digits and one decimal (G43.4, G112, G68.2)
+G_DIGITS = re.compile(r"G[ \t]*[-+]?(?:[0-9]{1,3}(?:\.[0-9]?)?|\.[0-9])", re.IGNORECASE)  # a sign: check_words
+CYLINDRICAL = 7.1  # cancelled by G7.1 with a zero rotary word (G7.1 C0)
+# statements of Siemens controls: tool-tip programming on and off, and the transformations that
+# start regions like those above (ended by TRAFOOF)
+KEYWORD = re.compile(r"[ \t]*(?:N[0-9]+[ \t]+)?(TRAORI|TRAFOOF|TRANSMIT|TRACYL)\b", re.IGNORECASE)
+TOOL_TIP_ON = (43.4,)  # G codes that select tool-tip programming (tool centre point control)
+TOOL_TIP_OFF = (43, 44, 49)  # ... and that end it (the same modal group)
 WORK_OFFSETS = {54, 55, 56, 57, 58, 59, 54.1, 59.1, 59.2, 59.3}
 # the modal group of every G code the reader knows; a code not listed here is refused (or
 # passed through with a warning), never read as a move
@@ -40,9 +66,13 @@ G_GROUPS = {
     **dict.fromkeys((0, 1, 2, 3), "motion"),
     **dict.fromkeys((4, 9, 10, 27, 28, 29, 30, 31, 52, 53, 65, 92), "non-modal"),
     **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
-    **dict.fromkeys((40, 41, 42), "cutter compensation"), **dict.fromkeys((43, 44, 49), "tool length offset"),
-    51: "scaling", **dict.fromkeys(WORK_OFFSETS, "work offset"), **dict.fromkeys((61, 64), "path control"),
-    **dict.fromkeys((66, 67), "modal macro"), **dict.fromkeys((68, 69), "coordinate rotation"),
+    **dict.fromkeys((40, 41, 42), "cutter compensation"),
+    **dict.fromkeys((43, 44, 43.4, 43.5, 49), "tool length offset"),
+    **dict.fromkeys((51, 50), "scaling"), **dict.fromkeys((51.1, 50.1), "mirror image"),
+    **dict.fromkeys((12.1, 13.1, 112, 113), "polar interpolation"), 7.1: "cylindrical interpolation",
+    **dict.fromkeys((15, 16), "polar coordinates"), **dict.fromkeys(WORK_OFFSETS, "work offset"),
+    **dict.fromkeys((61, 64), "path control"),
+    **dict.fromkeys((66, 67), "modal macro"), **dict.fromkeys((68, 68.1, 68.2, 69), "coordinate rotation"),
     **dict.fromkeys(CANNED | {80}, "canned cycle"), **dict.fromkeys((90, 91), "distance"),
     **dict.fromkeys((90.1, 91.1), "arc centre distance"), **dict.fromkeys((93, 94, 95), "feed"),
     **dict.fromkeys((96, 97), "spindle speed"), **dict.fromkeys((98, 99), "canned cycle return")}
@@ -63,7 +93,7 @@ class GcodeError(InputError):
     """A program cannot be read or compensated (the message names the line)."""
 
 
-@dataclass
+@dataclass(slots=True)
 class Word:
     """One address word of a block, e.g. ``X-12.5``.
 
@@ -109,6 +139,8 @@ class Block:
     delete : bool
         The block starts with a block delete ``/``: the controller skips it when the
         operator's switch is on.
+    statement : str
+        A statement the block is instead of words (``"TRAORI"``, ``"TRAFOOF"``), else empty.
     """
 
     number: int
@@ -116,6 +148,7 @@ class Block:
     words: list[Word]
     code: str
     delete: bool = False
+    statement: str = ""
 
 
 def show(text: str) -> str:
@@ -246,6 +279,11 @@ def parse_block(line: str, number: int, source: str, code: str | None = None) ->
     """
     if code is None:
         code = mask_comments(line, number, source)
+    if SIMPLE.fullmatch(code):  # plain words only: the loop below would find exactly these
+        words = [Word(m.group(1).upper(), float(m.group(2)), m.group(0), m.start(), m.end())
+                 for m in WORD.finditer(code)]
+        if all(math.isfinite(w.value) for w in words):
+            return Block(number, line, words, code, False)
     words: list[Word] = []
     delete = False
     i = 1 if number == 1 and code.startswith("\ufeff") else 0  # a byte order mark

@@ -1,28 +1,32 @@
-"""The modal interpreter: the controller's state between blocks, and the moves blocks command."""
+"""The modal interpreter: the controller's state between blocks, and the moves blocks command.
+
+Positions are program coordinates in SI (m, rad), with the program's origin added: axis
+positions in axis programming, the tool tip in the workpiece frame and the rotary axes in
+tool-tip programming (:mod:`volerr_pin.compensation.programming`). G43.4 and TRAORI select
+tool-tip programming, G43, G44, G49 and TRAFOOF end it; the position is carried over.
+"""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..compensate import Arc, arc_from_center
+from ..compensation.arcs import Arc
+from ..compensation.programming import Programming, programming_for
 from ..errors import InputError
 from ..machine import Machine
 from ..units import INCH, MM
-from .lexer import (CANNED, CENTRE, G_GROUPS, M_GROUPS, MACRO_G, NOT_MOVES, PLANES, TOOL_CHANGE_M, WORK_OFFSETS,
-                    Block, GcodeError, Word, check_words, macro_statement, mask_comments, parse_block, split_lines,
-                    uncommented, word_values)
+from .arcs import read_arc
+from .lexer import (CANNED, G_DIGITS, G_GROUPS, KEYWORD, M_GROUPS, MACRO_G, NOT_MOVES, TOOL_CHANGE_M, TOOL_TIP_OFF, TOOL_TIP_ON, WORK_OFFSETS, Block, GcodeError, Word,
+                    check_words, macro_statement, mask_comments, parse_block, uncommented, word_values)
+from .regions import follow, keyword_region, region_of
+from .report import Warnings
 
-#: an arc's end may lie this far off its start's circle [m] (about what controllers accept);
-#: an arc whose radius is not larger is degenerate: its end could lie anywhere around it
-ARC_SLACK = 2e-6
-#: the largest arc radius or centre offset read [m]: NC numbers hold nine digits (99999.9999 mm)
-MAX_ARC = 100.0
-#: the most whole turns (P) of one arc block
-MAX_TURNS = 1000
+__all__ = ["AXIS_LETTERS", "BlockMove", "Interpreter", "ModalState", "Problem", "check_axes"]
+
 AXIS_LETTERS = "XYZABCUVW"
 
 
@@ -33,8 +37,8 @@ class ModalState:
     Attributes
     ----------
     position : numpy.ndarray, shape (n_axes,)
-        Axis positions after the last move [m, rad]; axes the program has not yet
-        programmed hold the start position.
+        Program coordinates after the last move [m, rad] (the origin added); axes the
+        program has not yet programmed hold the start position.
     known : numpy.ndarray of bool, shape (n_axes,)
         Axes whose position the program has set (and no skipped block, tool change or
         new program has moved since).
@@ -56,6 +60,11 @@ class ModalState:
         The work offset in use (``"G54"``, ``"G54.1 P2"``) and the line that selected it.
     programs : int
         Program numbers (O words) read.
+    tool_tip : bool
+        Tool-tip programming (G43.4, TRAORI) rather than axis programming.
+    regions : list of tuple
+        The modes in force whose blocks are kept unchanged (:mod:`.regions`), oldest first;
+        empty outside them.
     """
 
     position: np.ndarray
@@ -68,6 +77,8 @@ class ModalState:
     lost: str = ""
     offset: tuple[str, int] | None = None
     programs: int = 0
+    tool_tip: bool = False
+    regions: list = field(default_factory=list)
 
     def apply_g(self, codes: Iterable[float]) -> None:
         """Apply the modal G codes of a block (motion, plane, distance and unit modes).
@@ -113,33 +124,43 @@ class Problem(str):
     Attributes
     ----------
     modes_unknown : bool
-        The block holds a code the reader does not know, which may set a mode that changes
-        how later blocks read.
+        The block may set a mode that changes how later blocks read, or move the machine
+        somewhere not followed.
+    unknown_code : bool
+        The block holds a G code the reader does not know: what it changes cannot be told,
+        so it is refused unless unknown codes are explicitly kept (``pass_through``).
+    column : int
+        1-based column of the word that makes the problem (0 if none).
     """
 
     modes_unknown = False
+    unknown_code = False
+    column = 0
 
 
-def _unknown(text: str) -> Problem:
+def _unknown(text: str, column: int) -> Problem:
     problem = Problem(text)
-    problem.modes_unknown = True
+    problem.modes_unknown = problem.unknown_code = True
+    problem.column = column
     return problem
 
 
 @dataclass
 class BlockMove:
-    """The move a block commands, in axis positions.
+    """The move a block commands, in program coordinates.
 
     Attributes
     ----------
     motion : int
         The motion mode it is made in: 0 rapid, 1 line, 2 clockwise arc, 3 counter-clockwise arc.
     start, target : numpy.ndarray, shape (n_axes,)
-        Axis positions before and after the move [m, rad].
+        Program coordinates before and after the move [m, rad].
     start_known : numpy.ndarray of bool, shape (n_axes,)
         Axes whose start position was known (programmed) before the block.
     coord_words : list of Word
         The block's coordinate (axis) words.
+    tool_tip : bool
+        Made in tool-tip programming.
     """
 
     motion: int
@@ -147,6 +168,7 @@ class BlockMove:
     target: np.ndarray
     start_known: np.ndarray
     coord_words: list[Word]
+    tool_tip: bool = False
 
 
 def check_axes(machine: Machine) -> None:
@@ -167,35 +189,6 @@ def check_axes(machine: Machine) -> None:
             raise GcodeError(f"{machine.name}: axis '{axis}' is not an NC address letter")
 
 
-def centre_from_radius(start: np.ndarray, end: np.ndarray, radius: float, clockwise: bool) -> np.ndarray | None:
-    """The centre of the arc of a given radius between two points of its plane.
-
-    Parameters
-    ----------
-    start, end : numpy.ndarray, shape (2,)
-        The ends in the arc plane [m].
-    radius : float
-        The radius [m]; negative for the arc of more than half a turn (the R word's sign).
-    clockwise : bool
-        G2 (True) or G3 (False).
-
-    Returns
-    -------
-    numpy.ndarray, shape (2,), or None
-        The centre [m]; None when no circle of that radius joins the ends (they are more
-        than a diameter apart, or the same point).
-    """
-    d = end - start
-    chord = math.hypot(*d)
-    a = abs(radius)
-    if chord < 1e-12 or chord > 2 * a * (1 + 1e-9):
-        return None
-    h = math.sqrt(max((a - chord / 2) * (a + chord / 2), 0.0))
-    normal = np.array([-d[1], d[0]]) / chord
-    side = (1 if clockwise else -1) * (-1 if radius < 0 else 1)
-    return start + d / 2 - side * h * normal
-
-
 class Interpreter:
     """Follows the modal state of a program through its blocks, for a machine whose axes are
     NC address letters (X, Y, Z, A, B, C, U, V, W).
@@ -210,24 +203,30 @@ class Interpreter:
         Axis positions [m, rad] before the program (default: mid-travel); an axis keeps it
         until the program moves it.
     origin : array_like, shape (n_axes,), optional
-        Axis positions [m, rad] of the program's zero (the work offset, G54 ...): absolute
-        program coordinates plus ``origin`` are the axis positions. Default zero.
+        Program coordinates [m, rad] of the program's zero (the work offset, G54 ...):
+        absolute program words plus ``origin`` are axis positions (axis programming) or the
+        tool tip in the workpiece frame and the rotary axes (tool-tip programming). Default
+        zero.
+    programming : str, default "axes"
+        The programming mode when the program starts: ``"axes"`` or ``"tool-tip"`` (tool
+        centre point control on already); G43.4 / TRAORI and G49 / TRAFOOF change it.
 
     Attributes
     ----------
     start_given : bool
         Whether ``start`` was given (rather than mid-travel).
-    warnings : list of str
-        What the blocks read so far hold that is kept but not understood (``"line N: ..."``).
+    notes : Warnings
+        What the blocks read so far hold that is kept but not understood.
 
     Raises
     ------
     GcodeError
         An axis name that is not an NC address letter, or a ``start`` or ``origin`` of the
-        wrong shape or not finite.
+        wrong shape or not finite, or a ``programming`` the machine cannot take.
     """
 
-    def __init__(self, machine: Machine, source: str = "<program>", start=None, origin=None):
+    def __init__(self, machine: Machine, source: str = "<program>", start=None, origin=None,
+                 programming: str = "axes"):
         check_axes(machine)
         self.machine = machine
         self.axes = list(machine.axes)
@@ -236,8 +235,53 @@ class Interpreter:
         self.start_given = start is not None
         self.start = machine.mid_travel if start is None else self._vector(start, "start")
         self.origin = np.zeros(len(self.axes)) if origin is None else self._vector(origin, "origin")
-        self.warnings: list[str] = []
+        self.notes = Warnings()
         self._noted: set = set()
+        self._modes: dict[str, Programming] = {}
+        if programming not in ("axes", "tool-tip"):
+            raise GcodeError(f"programming must be 'axes' or 'tool-tip', got {programming!r}",
+                             parameters=("programming",))
+        self.programming = programming
+        try:
+            self.mode(programming)
+        except InputError as err:
+            raise GcodeError(str(err), parameters=("programming",)) from None
+        travel = machine.travel
+        self._low = [float(v) for v in travel[:, 0]]
+        self._high = [float(v) for v in travel[:, 1]]
+        span = travel[:, 1] - travel[:, 0]
+        self._slack = [float(v) for v in 1e-9 * np.where(np.isfinite(span), np.maximum(span, 1.0), 1.0)]
+        self._scale = {(a, inch): (INCH if inch else MM) if lin else math.pi / 180
+                       for a, lin in zip(self.axes, self.linear) for inch in (False, True)}
+        self._index = {a: j for j, a in enumerate(self.axes)}
+
+    @property
+    def warnings(self) -> list[str]:
+        """The notes so far as lines of text (``"line N: ..."``), list of str."""
+        return self.notes.render()
+
+    def mode(self, name: str) -> Programming:
+        """The programming mode of a name, made on first use.
+
+        Parameters
+        ----------
+        name : str
+            ``"axes"`` or ``"tool-tip"``.
+
+        Returns
+        -------
+        Programming
+            The mode.
+
+        Raises
+        ------
+        InputError
+            The machine cannot be programmed so (naming ``programming``).
+        """
+        mode = self._modes.get(name)
+        if mode is None:
+            mode = self._modes[name] = programming_for(name, self.machine)
+        return mode
 
     def _vector(self, value, name: str) -> np.ndarray:
         try:
@@ -257,7 +301,7 @@ class Interpreter:
         number : int
             The line.
         text : str
-            What, for :attr:`warnings`.
+            What, for the report.
         key : hashable, optional
             Note it only the first time this key is given.
         """
@@ -265,7 +309,7 @@ class Interpreter:
             if key in self._noted:
                 return
             self._noted.add(key)
-        self.warnings.append(f"line {number}: {text}")
+        self.notes.add(number, text)
 
     def initial_state(self) -> ModalState:
         """The modal state at the start of a program.
@@ -274,9 +318,11 @@ class Interpreter:
         -------
         ModalState
             No motion mode, G17, G90, G21, no axis position known (taken at ``start``),
-            no canned cycle.
+            no canned cycle, the programming mode given.
         """
-        return ModalState(position=self.start.copy(), known=np.zeros(len(self.axes), dtype=bool))
+        tool_tip = self.programming == "tool-tip"
+        position = self.mode(self.programming).to_words(self.start[None, :])[0].copy()
+        return ModalState(position=position, known=np.zeros(len(self.axes), dtype=bool), tool_tip=tool_tip)
 
     # units --------------------------------------------------------------------------
     def to_si(self, axis: str, value: float, inch: bool) -> float:
@@ -296,10 +342,7 @@ class Interpreter:
         float
             The value in m or rad.
         """
-        j = self.axes.index(axis)
-        if self.linear[j]:
-            return value * (INCH if inch else MM)
-        return math.radians(value)
+        return value * self._scale[axis, inch]
 
     def from_si(self, axis: str, value: float, inch: bool) -> float:
         """The inverse of :meth:`to_si`: an SI value of one axis as programmed.
@@ -318,17 +361,35 @@ class Interpreter:
         float
             The value in mm or inch, or deg.
         """
-        j = self.axes.index(axis)
-        if self.linear[j]:
-            return value / (INCH if inch else MM)
-        return math.degrees(value)
-
-    def _position(self, axis: str, value: float, inch: bool) -> float:
-        """Axis position (SI) of an absolute program coordinate."""
-        return self.to_si(axis, value, inch) + self.origin[self.axes.index(axis)]
+        return value / self._scale[axis, inch]
 
     def _where(self, block: Block, word: Word | None = None) -> str:
         return f"{self.source}:{block.number}" + (f":{word.start + 1}" if word is not None else "")
+
+    # programming modes ----------------------------------------------------------------
+    def _switch(self, state: ModalState, tool_tip: bool, number: int, what: str) -> None:
+        """Change the programming mode; the position carries over (same axis positions)."""
+        if tool_tip == state.tool_tip:
+            return
+        old = self.mode("tool-tip" if state.tool_tip else "axes")
+        try:
+            new = self.mode("tool-tip" if tool_tip else "axes")
+        except InputError as err:
+            raise GcodeError(f"{self.source}:{number}: {what}: {err}") from None
+        state.position = new.to_words(old.to_axes(state.position[None, :]))[0].copy()
+        state.tool_tip = tool_tip
+        if tool_tip:
+            linear = ", ".join(a for a, lin in zip(self.axes, self.linear) if lin)
+            rotary = ", ".join(a for a, lin in zip(self.axes, self.linear) if not lin) or "none"
+            self.warn(number, f"{what}: tool-tip programming: {linear} are the tool tip in the workpiece frame, "
+                      f"the rotary axes ({rotary}) their positions", key="tool-tip")
+
+    def _tool_tip_codes(self, codes: list[float], state: ModalState, number: int) -> None:
+        for g in codes:
+            if g in TOOL_TIP_ON:
+                self._switch(state, True, number, f"G{g:g}")
+            elif g in TOOL_TIP_OFF:
+                self._switch(state, False, number, f"G{g:g}")
 
     # blocks -------------------------------------------------------------------------
     def classify(self, line: str, number: int, state: ModalState) -> tuple[Block | None, Problem | None]:
@@ -341,15 +402,18 @@ class Interpreter:
         number : int
             Its 1-based line number.
         state : ModalState
-            The modal state before the block (``canned`` and ``programs`` are updated).
+            The modal state before the block (``canned``, ``programs`` and ``region`` are
+            updated).
 
         Returns
         -------
         block : Block or None
-            The block (None for a macro statement, which is not read).
+            The block (None for a macro statement, which is not read, and for a line inside
+            a kept region).
         problem : Problem or None
             What the block holds that cannot be followed (canned cycles, macros,
-            subprograms, codes the reader does not know ...); None if it can be.
+            subprograms, codes the reader does not know, a block inside polar interpolation
+            ...); None if it can be.
 
         Raises
         ------
@@ -357,6 +421,16 @@ class Interpreter:
             A line that cannot be read (see :func:`~volerr_pin.gcode.lexer.parse_block`).
         """
         code = mask_comments(line, number, self.source)
+        if state.regions:
+            return None, self._in_region(code, number, state)
+        keyword = KEYWORD.match(code)
+        if keyword:
+            word = keyword.group(1).upper()
+            region = keyword_region(word, number)
+            if region is not None:
+                state.regions = [region]
+                return None, Problem(f"{word} (a transformation of the axes)")
+            return Block(number, line, [], code, statement=word), None
         macro = macro_statement(code)
         if macro:
             problem = Problem(macro[0])
@@ -364,6 +438,15 @@ class Interpreter:
             return None, problem
         block = parse_block(line, number, self.source, code)
         return block, self._problem(block, state)
+
+    def _in_region(self, code: str, number: int, state: ModalState) -> Problem:
+        what, first = state.regions[0][:2]
+        keyword = KEYWORD.match(code)
+        words = word_values(uncommented(code))
+        state.regions = follow(state.regions, words, keyword.group(1).upper() if keyword else "", number)
+        if not state.regions:
+            state.lose_position(f"line {number}")
+        return Problem(f"in the {what} of line {first}")
 
     def unsupported(self, line: str, state: ModalState) -> str | None:
         """Why a block cannot be followed (canned cycles, macros, subprograms, ...).
@@ -392,27 +475,37 @@ class Interpreter:
 
     def _problem(self, block: Block, state: ModalState) -> Problem | None:
         words = block.words
-        has_axes = any(w.letter in self.axes for w in words)
-        if block.delete and has_axes:
-            return Problem("a move with block delete (/), whose execution depends on the operator's switch,")
-        if block.delete and any(w.letter == "G" for w in words):
-            return Problem("G codes with block delete (/), whose effect depends on the operator's switch,")
+        if block.delete:
+            if any(w.letter in self.axes for w in words):
+                return Problem("a move with block delete (/), whose execution depends on the operator's switch,")
+            if any(w.letter == "G" for w in words):
+                return Problem("G codes with block delete (/), whose effect depends on the operator's switch,")
         for w in words:
-            if w.letter == "G" and w.value in CANNED:
-                state.canned = True
-                return Problem(f"{w.name} (canned cycle)")
-            if w.letter == "G" and w.value in MACRO_G:
-                return Problem(f"{w.name} (macro call)")
-            if w.letter == "G" and w.value in NOT_MOVES:
-                return Problem(f"{w.name} ({NOT_MOVES[w.value]})")
-            if w.letter == "G" and w.value not in G_GROUPS:
-                return _unknown(f"{w.name} (a G code this reader does not know)")
-            if w.letter == "M" and w.value in (98, 99):
+            letter = w.letter
+            if letter == "G":
+                g = w.value
+                if g in CANNED:
+                    state.canned = True
+                    return Problem(f"{w.name} (canned cycle)")
+                if not G_DIGITS.fullmatch(w.text):
+                    raise GcodeError(f"{self.source}:{block.number}:{w.start + 1}: {w.name} is not a G code (at "
+                                     "most three digits and one decimal, as G43.4)")
+                region = region_of(g, [(v.letter, v.value) for v in words], block.number)
+                if region is not None:
+                    state.regions = [region]
+                    return Problem(f"{w.name} ({region[0].rsplit(' (', 1)[0]})")
+                if g in MACRO_G:
+                    return Problem(f"{w.name} (macro call)")
+                if g in NOT_MOVES:  # G52 X0 (no shift), G10 of tool data ...
+                    return Problem(f"{w.name} ({NOT_MOVES[g]})")
+                if g not in G_GROUPS:
+                    return _unknown(f"{w.name} (a G code this reader does not know)", w.start + 1)
+            elif letter == "M" and w.value in (98, 99):
                 return Problem(f"{w.name} (subprogram call or return)")
-            if w.letter == "O" and state.programs:
-                return Problem(f"{w.name} (a second program number: the start of a subprogram)")
-        if any(w.letter == "O" for w in words):
-            state.programs += 1
+            elif letter == "O":
+                if state.programs:
+                    return Problem(f"{w.name} (a second program number: the start of a subprogram)")
+                state.programs += 1
         if state.canned:
             if any(w.letter == "G" and w.value in (0, 1, 2, 3, 80) for w in words):
                 state.canned = False
@@ -447,7 +540,9 @@ class Interpreter:
             if macro and macro[1]:  # a jump, loop or variable word: where the machine goes is not known
                 state.lose_position(f"line {number}")
         self._work_offset(words, number, state)
-        state.apply_g([v for letter, v in words if letter == "G"])
+        gs = [v for letter, v in words if letter == "G"]
+        state.apply_g(gs)
+        self._tool_tip_codes(gs, state, number)
         calls = {("M", TOOL_CHANGE_M), ("M", 98), ("M", 99)} | {("G", g) for g in MACRO_G}
         if any(letter in self.axes or letter in AXIS_LETTERS + "O" or (letter, v) in calls for letter, v in words):
             state.lose_position(f"line {number}")
@@ -464,7 +559,8 @@ class Interpreter:
             ``position`` to the move's target).
         check_travel : bool
             Reject targets outside the travel (the desired program must lie inside it; a
-            compensated one may leave it by micrometres).
+            compensated one may leave it by micrometres). In tool-tip programming the axis
+            positions are found later, for many moves at once, and checked there.
 
         Returns
         -------
@@ -480,11 +576,16 @@ class Interpreter:
             of work offset, axis words without a motion mode, an incremental move of an axis
             whose position is not known, or a target the machine cannot take.
         """
+        if block.statement:
+            self._switch(state, block.statement == "TRAORI", block.number, block.statement)
+            return None
         check_words(block, self.source)
         gs = [w.value for w in block.words if w.letter == "G"]
-        self._work_offset([(w.letter, w.value) for w in block.words], block.number, state)
-        state.apply_g(gs)
-        coord_words = [w for w in block.words if w.letter in self.axes]
+        if gs:
+            self._work_offset([(w.letter, w.value) for w in block.words], block.number, state)
+            state.apply_g(gs)
+            self._tool_tip_codes(gs, state, block.number)
+        coord_words = [w for w in block.words if w.letter in self._index]
         dwell = 4 in gs
         self.check_letters(block, state, coord_words)
         for w in block.words:
@@ -493,7 +594,7 @@ class Interpreter:
                           "move no axis", key=("M", w.value))
         move = None
         if coord_words and not dwell:
-            move = self._move(block, state, coord_words, check_travel)
+            move = self._move(block, state, coord_words, check_travel and not state.tool_tip)
         if any(w.letter == "M" and w.value == TOOL_CHANGE_M for w in block.words):
             state.lose_position(f"line {block.number}'s M{TOOL_CHANGE_M} tool change")
         return move
@@ -502,33 +603,57 @@ class Interpreter:
         if state.motion is None:
             raise GcodeError(f"{self._where(block)}: coordinates without a motion mode (G0/G1/G2/G3)")
         start_known = state.known.copy()
-        target = state.position.copy()
+        start = state.position
+        target = start.copy()
+        known = state.known
         for w in coord_words:
-            j = self.axes.index(w.letter)
+            j = self._index[w.letter]
             if state.absolute:
-                target[j] = self._position(w.letter, w.value, state.inch)
-            elif state.known[j]:
-                target[j] = state.position[j] + self.to_si(w.letter, w.value, state.inch)
+                value = w.value * self._scale[w.letter, state.inch] + self.origin[j]
+            elif known[j]:
+                value = start[j] + w.value * self._scale[w.letter, state.inch]
             else:
                 raise GcodeError(f"{self._where(block, w)}: an incremental move of {w.letter} before its "
                                  "position is known; program it absolutely (G90) first")
-            if not math.isfinite(target[j]):
+            if not math.isfinite(value):
                 raise GcodeError(f"{self._where(block, w)}: {w.name} takes axis {w.letter} beyond any number")
-            state.known[j] = True
-        outside = np.flatnonzero(self.machine.outside_travel(target[None, :])[0]) if check_travel else []
-        if len(outside):
-            named = {w.letter: w for w in coord_words}
-            j = next((j for j in outside if self.axes[j] in named), outside[0])  # a word to blame first
-            axis = self.axes[j]
-            lo, hi = (self.from_si(axis, t, False) for t in self.machine.travel[j])
-            unit = "mm" if self.linear[j] else "deg"
-            what = (f"{self._where(block, named[axis])}: {named[axis].name} takes axis {axis} to" if axis in named
-                    else f"{self._where(block)}: axis {axis} (not named, from the start position) is at")
-            raise GcodeError(f"{what} {self.from_si(axis, target[j], False):.10g} {unit}, outside the travel "
-                             f"[{lo:g}, {hi:g}] {unit}")
-        move = BlockMove(state.motion, state.position.copy(), target, start_known, coord_words)
+            target[j] = value
+            known[j] = True
+        if check_travel:
+            for j in range(len(target)):
+                if not (self._low[j] - self._slack[j] <= target[j] <= self._high[j] + self._slack[j]):
+                    self.travel_error(block, coord_words, target)
+        move = BlockMove(state.motion, start, target, start_known, coord_words, state.tool_tip)
         state.position = target
         return move
+
+    def travel_error(self, block: Block, coord_words: list[Word], q: np.ndarray) -> None:
+        """Raise the error for a move whose axis positions leave the travel.
+
+        Parameters
+        ----------
+        block : Block
+            The block.
+        coord_words : list of Word
+            Its coordinate words (one that names an axis outside is blamed first).
+        q : numpy.ndarray, shape (n_axes,)
+            The axis positions of its target [m, rad].
+
+        Raises
+        ------
+        GcodeError
+            Always: naming the line, the word (or the axis) and the travel.
+        """
+        outside = np.flatnonzero(self.machine.outside_travel(q[None, :])[0])
+        named = {w.letter: w for w in coord_words}
+        j = next((j for j in outside if self.axes[j] in named), outside[0] if len(outside) else 0)
+        axis = self.axes[j]
+        lo, hi = (self.from_si(axis, t, False) for t in self.machine.travel[j])
+        unit = "mm" if self.linear[j] else "deg"
+        what = (f"{self._where(block, named[axis])}: {named[axis].name} takes axis {axis} to" if axis in named
+                else f"{self._where(block)}: axis {axis} (not named, from the start position) is at")
+        raise GcodeError(f"{what} {self.from_si(axis, q[j], False):.10g} {unit}, outside the travel "
+                         f"[{lo:g}, {hi:g}] {unit}")
 
     def _work_offset(self, words: list[tuple[str, float]], number: int, state: ModalState) -> None:
         """One work offset per program (kept blocks included): it is compensated with one origin."""
@@ -577,10 +702,10 @@ class Interpreter:
                 raise GcodeError(f"{self._where(block, other[0])}: {other[0].name} in a dwell (G4): a dwell "
                                  "takes its time in P or X and moves no axis")
         arc_move = bool(coord_words) and not dwell and state.motion in (2, 3)
-        has_m = any(w.letter == "M" for w in block.words)
+        has_m = None
         for w in block.words:
             letter = w.letter
-            if letter in "GMNOFSTHD" or letter in self.axes or (dwell and letter in "XP"):
+            if letter in "GMNOFSTHD" or letter in self._index or (dwell and letter in "XP"):
                 continue
             where = f"{self._where(block, w)}: {w.name}"
             if letter in AXIS_LETTERS:
@@ -597,6 +722,8 @@ class Interpreter:
                 else:
                     why = f"{letter} outside an arc move: I, J, K and R belong to arcs (G2/G3)"
                 raise GcodeError(f"{where}: {why}")
+            if has_m is None:
+                has_m = any(v.letter == "M" for v in block.words)
             if letter == "P" and (arc_move or has_m or any(g.value == 54.1 for g in gs)):
                 continue
             if letter in "QL" and has_m:
@@ -610,11 +737,9 @@ class Interpreter:
         Parameters
         ----------
         block : Block
-            The block: I/J/K centre offsets from the start, or R (negative for more than half
-            a turn), in the program's units; both only if they give the same centre; P whole
-            turns (default 1).
+            The block (see :func:`~volerr_pin.gcode.arcs.read_arc`).
         start, target : numpy.ndarray, shape (n_axes,)
-            Axis positions at the ends [m, rad].
+            Program coordinates at the ends [m, rad].
         clockwise : bool
             G2 (True) or G3 (False).
         state : ModalState
@@ -623,169 +748,12 @@ class Interpreter:
         Returns
         -------
         Arc
-            The desired arc, in axis positions [m, rad].
+            The desired arc, in program coordinates [m, rad].
 
         Raises
         ------
         GcodeError
-            The plane's axes are not linear axes of the machine, the centre words are
-            missing, R cannot join the end points, R and I/J/K disagree, the radius is zero
-            or degenerate (not more than :data:`ARC_SLACK`) or too large (:data:`MAX_ARC`),
-            P is not a whole number of turns from 1 to :data:`MAX_TURNS`, or the start and
-            end radii differ.
+            See :func:`~volerr_pin.gcode.arcs.read_arc`.
         """
-        plane = PLANES[state.plane]
-        where = self._where(block)
-        if not all(a in self.axes and self.linear[self.axes.index(a)] for a in plane):
-            raise GcodeError(f"{where}: an arc needs linear axes {', '.join(plane)}")
-        i, j, k = (self.axes.index(a) for a in plane)
-        words = {w.letter: w for w in block.words}
-        scale = INCH if state.inch else MM
-        unit = "inch" if state.inch else "mm"
-        offs = [CENTRE[plane[0]], CENTRE[plane[1]]]
-        third = words.get(CENTRE[plane[2]])
-        if third is not None:
-            self.warn(block.number, f"{third.name} is not a centre word of a G{state.plane} arc (its centre "
-                      f"words are {offs[0]} and {offs[1]}): kept unchanged, not read")
-        s, e = start[[i, j]], target[[i, j]]
-        big = [w for w in block.words if w.letter in offs + ["R"] and abs(w.value) * scale > MAX_ARC]
-        if big:
-            raise GcodeError(f"{self._where(block, big[0])}: {big[0].name}: an arc radius or centre offset over "
-                             f"{MAX_ARC:g} m; NC numbers hold nine digits (program a line)")
-        centre = None
-        named = [words[o] for o in offs if o in words]
-        if named:
-            offset = np.array([words[o].value if o in words else 0.0 for o in offs]) * scale
-            centre = s + offset
-            r0 = math.hypot(*offset)
-            if r0 <= ARC_SLACK:
-                text = " ".join(w.name for w in named)
-                raise GcodeError(f"{where}: a degenerate arc ({text}): its radius {r0 / scale:.6g} {unit} is zero "
-                                 f"or not more than the {ARC_SLACK * 1e6:g} um its end may lie off its circle; "
-                                 "program a line")
-        if "R" in words:
-            rw = words["R"]
-            r = rw.value * scale
-            if abs(r) <= ARC_SLACK:
-                raise GcodeError(f"{self._where(block, rw)}: a degenerate arc ({rw.name}): a radius of zero or not "
-                                 f"more than the {ARC_SLACK * 1e6:g} um its end may lie off its circle; program a "
-                                 "line")
-            from_r = centre_from_radius(s, e, r, clockwise)
-            if from_r is None:
-                chord = math.hypot(*(e - s))
-                if chord < 1e-12:
-                    why = f"R cannot program a full circle (start and end are one point): use {offs[0]}/{offs[1]}"
-                else:
-                    why = f"the end points are {chord / scale:.4f} {unit} apart, more than its diameter"
-                raise GcodeError(f"{self._where(block, rw)}: {rw.name} cannot join these end points: {why}")
-            if centre is not None and math.hypot(*(from_r - centre)) > ARC_SLACK:
-                text = " ".join(w.name for w in named)
-                raise GcodeError(f"{self._where(block, rw)}: {rw.name} and {text} disagree: their centres are "
-                                 f"{math.hypot(*(from_r - centre)) / scale:.4f} {unit} apart; give one of them")
-            if centre is None:
-                centre = from_r
-        if centre is None:
-            raise GcodeError(f"{where}: an arc needs {offs[0]}/{offs[1]} or R")
-        turns = 1.0
-        if "P" in words:
-            turns = words["P"].value
-            if turns != int(turns) or not 1 <= turns <= MAX_TURNS:
-                raise GcodeError(f"{self._where(block, words['P'])}: {words['P'].name} on an arc must be a whole "
-                                 f"number of turns from 1 to {MAX_TURNS} (split a longer helix into blocks)")
-        try:
-            return arc_from_center(start, target, centre, (i, j, k), clockwise, full_turns=int(turns) - 1)
-        except InputError as err:
-            raise GcodeError(f"{where}: {err}") from None
-
-
-@dataclass
-class Segment:
-    """One interpolated move of a program.
-
-    Attributes
-    ----------
-    line : int
-        1-based line number of its block.
-    kind : str
-        "rapid" (only the end point is meaningful), "line" (straight in axis space) or "arc".
-    start, end : numpy.ndarray, shape (n_axes,)
-        Axis positions at the ends [m, rad].
-    arc : Arc or None
-        The arc, for ``kind == "arc"``.
-    """
-
-    line: int
-    kind: str
-    start: np.ndarray
-    end: np.ndarray
-    arc: Arc | None = None
-
-    def sample(self, n: int) -> np.ndarray:
-        """Points along the move, evenly spaced in its parameter.
-
-        Parameters
-        ----------
-        n : int
-            Number of points, ends included.
-
-        Returns
-        -------
-        numpy.ndarray, shape (n, n_axes)
-            Axis positions [m, rad].
-        """
-        k = np.linspace(0.0, 1.0, n)
-        if self.kind == "arc":
-            return self.arc.point(k)
-        return self.start + np.outer(k, self.end - self.start)
-
-
-def interpret(machine: Machine, text: str, source: str = "<program>", start=None, origin=None) -> list[Segment]:
-    """The moves of a program as the controller interpolates them.
-
-    Lines are straight in axis space, arcs turn about their centres. Moves before every
-    axis' position is known, and blocks that cannot be followed (canned cycles ...), are
-    taken as rapids or skipped.
-
-    Parameters
-    ----------
-    machine : Machine
-        The machine; its axes are NC address letters.
-    text : str
-        The program (mm, inch and deg as it selects).
-    source : str
-        Name of the program, for messages.
-    start : array_like, shape (n_axes,), optional
-        Axis positions [m, rad] before the program (default: mid-travel).
-    origin : array_like, shape (n_axes,), optional
-        Axis positions [m, rad] of the program's zero (default zero).
-
-    Returns
-    -------
-    list of Segment
-        One per move, in program order, in axis positions [m, rad]; targets may lie
-        outside the travel.
-
-    Raises
-    ------
-    GcodeError
-        A block that cannot be read, naming its line.
-    """
-    reader = Interpreter(machine, source=source, start=start, origin=origin)
-    state = reader.initial_state()
-    out = []
-    for number, (body, _) in enumerate(split_lines(text), start=1):
-        block, problem = reader.classify(body, number, state)
-        if problem:
-            reader.skip(body, state, block, number)
-            continue
-        move = reader.advance(block, state, check_travel=False)
-        if move is None:
-            continue
-        if not move.start_known.all() or move.motion == 0:
-            out.append(Segment(number, "rapid", move.start, move.target))
-        elif move.motion == 1:
-            out.append(Segment(number, "line", move.start, move.target))
-        else:
-            out.append(Segment(number, "arc", move.start, move.target,
-                               reader.arc(block, move.start, move.target, move.motion == 2, state)))
-    return out
+        return read_arc(block, self._where(block), self.axes, self.linear, start, target, clockwise, state.plane,
+                        state.inch, self.warn)

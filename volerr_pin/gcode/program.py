@@ -1,0 +1,519 @@
+"""Compensating a program as a stream: read, compensate and write it chunk by chunk.
+
+The lines are read one at a time; the modal state and the compensated position carry from
+chunk to chunk; a chunk's moves are compensated together (a few calls of the model for
+thousands of moves, :meth:`~volerr_pin.compensation.path.PathCompensator.compensate`) and its
+lines written before the next chunk is read, so memory stays bounded whatever the program's
+length. Every line that is not a compensated move is written byte for byte.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+
+import numpy as np
+
+from ..compensation.arcs import arc_extent
+from ..compensation.moves import ARC, LINE, POINT, MoveBatch
+from ..compensation.path import PathCompensator, Piece
+from ..machine import Machine
+from .lexer import WORK_OFFSETS, Block, GcodeError, split_lines
+from .modal import Interpreter, check_axes
+from .report import Report
+from .rewrite import Writer
+
+__all__ = ["MIN_TOL_UM", "Program", "compensate_program"]
+
+#: the finest tolerance taken [um]: the point compensation itself stops at 0.01 um, and the
+#: written numbers resolve 0.05 um
+MIN_TOL_UM = 0.01
+#: moves compensated together, at first and at most (the chunk grows while its pieces stay few)
+FIRST_CHUNK, MOST_CHUNK = 512, 8192
+#: pieces one chunk may hold; a chunk that splits its moves into more makes the next smaller
+PIECE_BUDGET = 100_000
+#: lines held before they are written, whether or not they hold moves
+MOST_LINES = 32_768
+
+
+class _Move:
+    """A desired move read from a block: ``kind`` POINT / LINE / ARC, the block's ``motion``,
+    its ``modes`` (the output state it is written in) and its programming mode."""
+
+    __slots__ = ("kind", "motion", "start", "target", "arc", "coord_words", "modes", "line", "mode")
+
+    def __init__(self, kind, motion, start, target, arc, coord_words, modes, line, mode):
+        self.kind, self.motion, self.start, self.target, self.arc = kind, motion, start, target, arc
+        self.coord_words, self.modes, self.line, self.mode = coord_words, modes, line, mode
+
+
+class Program:
+    """Compensates a program for a machine whose axes are NC letters (X, Y, Z, A, B, C).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine, in the state (time, temperatures ...) to compensate for.
+    tol_um : float
+        Position tolerance along every move [um].
+    pass_through : bool, optional
+        True also keeps G codes the reader does not know (named, with a warning that the
+        blocks after them may be misread), which are refused otherwise; False is the former
+        name of ``strict=True``.
+    start : array_like, shape (n_axes,), optional
+        Axis positions [m, rad] before the program (default: mid-travel).
+    method : str
+        Solver of the compensated commands (see :class:`~volerr_pin.compensate.PathCompensator`).
+    source : str
+        Name of the program, for messages.
+    tol_urad : float, optional
+        Tool-axis tolerance on machines with rotary axes [urad] (default 10 urad per um of
+        ``tol_um``).
+    origin : array_like, shape (n_axes,), optional
+        Program coordinates [m, rad] of the program's zero (the work offset, G54 ...): absolute
+        program words plus ``origin`` are axis positions (or, in tool-tip programming, the tool
+        tip in the workpiece frame and the rotary axes). Default zero.
+    strict : bool, optional
+        Stop with an error at the first block that cannot be compensated (canned cycles,
+        macros, subprograms, polar or cylindrical interpolation ...) instead of keeping it
+        unchanged and naming it in the warnings (the default).
+    programming : str, default "axes"
+        Programming mode when the program starts: ``"axes"`` (the words are axis positions)
+        or ``"tool-tip"`` (tool centre point control is on: X, Y, Z are the tool tip in the
+        workpiece frame). G43.4 / TRAORI and G49 / TRAFOOF in the program change it.
+    detail : bool, default False
+        Keep per-move results in :attr:`Report.detail` (for pictures; 16 bytes a move).
+
+    Attributes
+    ----------
+    reader : Interpreter
+        The modal interpreter.
+    comp : PathCompensator
+        The path compensation.
+    writer : Writer
+        Writes the pieces.
+    report : Report
+        What the compensation did (complete after :meth:`run`).
+
+    Raises
+    ------
+    GcodeError
+        An axis that is not an NC address letter, a tolerance that is not finite or finer
+        than :data:`MIN_TOL_UM`, a ``tol_urad`` that is not positive and finite, an invalid
+        ``start`` or ``origin``, both ``strict`` and ``pass_through`` given and in
+        disagreement, or a ``programming`` the machine cannot take.
+    """
+
+    def __init__(self, machine: Machine, tol_um: float = 1.0, pass_through: bool | None = None,
+                 start=None, method: str = "newton", source: str = "<program>", tol_urad: float | None = None,
+                 origin=None, *, strict: bool | None = None, programming: str = "axes", detail: bool = False):
+        check_axes(machine)  # the machine is reported before the tolerance
+        if not (math.isfinite(tol_um) and tol_um >= MIN_TOL_UM):
+            raise GcodeError(f"tol_um must be finite and at least {MIN_TOL_UM:g} um (what the point compensation "
+                             f"resolves), got {tol_um}", parameters=("tol_um",))
+        if tol_urad is not None and not (math.isfinite(tol_urad) and tol_urad > 0):
+            raise GcodeError(f"tol_urad must be positive and finite, got {tol_urad}", parameters=("tol_urad",))
+        if strict is not None and pass_through is not None and strict == pass_through:
+            raise GcodeError(f"strict={strict} and pass_through={pass_through} disagree; give strict only",
+                             parameters=("strict", "pass_through"))
+        self.strict = bool(strict) if strict is not None else (pass_through is False)
+        self.keep_unknown = bool(pass_through)
+        self.reader = Interpreter(machine, source=source, start=start, origin=origin, programming=programming)
+        # the written numbers are rounded (0.05 um per linear axis at most, and the rotary
+        # axes' 0.5e-5 deg times the tool's lever): the paths are compensated to the tolerance
+        # less that margin, so the program as written meets it
+        rounding = math.sqrt(0.05**2 * sum(self.reader.linear) + sum(lever**2 for lever in _levers(machine)))
+        margin = min(rounding, 0.5 * tol_um)
+        self.margin = margin * 1e-6
+        self.tol_urad = 10.0 * tol_um if tol_urad is None else tol_urad
+        inner_urad = None if tol_urad is None else tol_urad * (tol_um - margin) / tol_um
+        self.comp = PathCompensator(machine, tol_um=tol_um - margin, method=method, tol_urad=inner_urad)
+        self.report = Report(tolerance_um=tol_um)
+        self.writer = Writer(self.reader, tol_um * 1e-6, self.margin)
+        self.detail = detail
+        self._general = []
+        if rounding > 0.5 * tol_um:
+            self._general.append(
+                f"the tolerance {tol_um:g} um is finer than the written numbers resolve (they round by up "
+                f"to {rounding:.3f} um): the program as written may miss it by that much")
+        self._chunk = FIRST_CHUNK
+        self._last = None  # (axis positions, residual) of the last compensated move's end
+        self._eol = None
+        self._noted: set = set()
+
+    # the run --------------------------------------------------------------------
+    def compensate(self, text: str, progress: Callable[[int], None] | None = None) -> str:
+        """The compensated program (a whole text; see :meth:`run` for a stream).
+
+        Parameters
+        ----------
+        text : str
+            The program (mm, inch and deg as it selects); its line endings are kept.
+        progress : callable, optional
+            Called as ``progress(lines_done)`` as the lines are compensated.
+
+        Returns
+        -------
+        str
+            The compensated program; :attr:`report` describes it.
+
+        Raises
+        ------
+        GcodeError
+            A block that cannot be read or compensated, naming its line.
+        """
+        out: list[str] = []
+        self.run(split_lines(text), out.append, progress)
+        return "".join(out)
+
+    def run(self, lines: Iterable[tuple[str, str]], write: Callable[[str], object],
+            progress: Callable[[int], None] | None = None) -> Report:
+        """Compensate a program given line by line, writing the result as it goes.
+
+        Parameters
+        ----------
+        lines : iterable of (str, str)
+            Each line without its ending, and the ending (``"\\n"``, ``"\\r\\n"`` or ``""``).
+        write : callable
+            Called with the text of each written line (ending included), in order.
+        progress : callable, optional
+            Called as ``progress(lines_done)`` after each chunk.
+
+        Returns
+        -------
+        Report
+            :attr:`report`.
+
+        Raises
+        ------
+        GcodeError
+            A block that cannot be read or compensated, naming its line (lines before it may
+            have been written already).
+        """
+        reader = self.reader
+        state = reader.initial_state()
+        entries: list = []
+        moves = 0
+        mode = None
+        number = 0
+        for number, (body, newline) in enumerate(lines, start=1):
+            if self._eol is None and newline:
+                self._eol = newline
+            entry = self._read(body, newline, number, state)
+            if entry[0] == "move":
+                if mode is not None and entry[3].mode != mode:
+                    self._flush(entries, write)
+                    entries, moves = [], 0
+                mode = entry[3].mode
+                moves += 1
+            entries.append(entry)
+            if moves >= self._chunk or len(entries) >= MOST_LINES:
+                self._flush(entries, write)
+                entries, moves = [], 0
+                if progress is not None:
+                    progress(number)
+        self._flush(entries, write)
+        self.report.blocks_in = number
+        if progress is not None:
+            progress(number)
+        notes = reader.notes
+        self.report.warnings = self._general + notes.render()
+        return self.report
+
+    # reading --------------------------------------------------------------------
+    def _read(self, body: str, newline: str, number: int, state) -> tuple:
+        """One line as ("raw", text) (kept unchanged), ("plain", block, newline) (no move) or
+        ("move", block, newline, _Move)."""
+        reader = self.reader
+        block, problem = reader.classify(body, number, state)
+        if problem:
+            if self.strict:
+                raise GcodeError(f"{reader.source}:{number}: {problem} cannot be compensated (strict refuses it; "
+                                 "without strict it is kept unchanged and named in the report)",
+                                 parameters=("strict",))
+            if problem.unknown_code and not self.keep_unknown:
+                raise GcodeError(f"{reader.source}:{number}:{problem.column}: {problem}: what it changes cannot be "
+                                 "told, so the blocks after it may be misread (pass_through keeps it unchanged and "
+                                 "goes on)", parameters=("pass_through",))
+            reader.notes.add(number, f"{problem} kept unchanged" + (
+                "; what it changes is not followed, so the blocks after it may be misread" if problem.modes_unknown
+                else ""))
+            self.report.passed_through += 1
+            reader.skip(body, state, block, number)
+            return ("raw", body + newline)
+        if block.words:
+            self._note_offsets(block)
+        lost = state.lost
+        move = reader.advance(block, state)
+        if move is None:
+            return ("plain", block, newline)
+        kind = LINE if move.motion == 1 else (ARC if move.motion in (2, 3) else POINT)
+        if not move.start_known.all():
+            missing = ", ".join(a for a, k in zip(reader.axes, move.start_known) if not k)
+            why = f"axes {missing} not known since {lost}" if lost else f"axes {missing} not yet programmed"
+            if move.motion in (2, 3):
+                raise GcodeError(f"{reader.source}:{number}: an arc from an unknown position ({why}); move every "
+                                 "axis to a known point with G0 or G1 first")
+            rest = ""
+            if not state.known.all():
+                rest = (", taking the axes it does not name where they were last programmed" if lost else
+                        ", taking the unprogrammed axes at " +
+                        ("the start position given" if reader.start_given else "mid-travel"))
+            reader.notes.add(number, f"the position before this move is not known ({why}); it is compensated at "
+                             f"its end point only{rest}")
+            kind = POINT
+        arc = reader.arc(block, move.start, move.target, move.motion == 2, state) if kind == ARC else None
+        modes = {"absolute": state.absolute, "inch": state.inch, "plane": state.plane,
+                 "all_known": bool(state.known.all())}
+        mode = "tool-tip" if move.tool_tip else "axes"
+        return ("move", block, newline, _Move(kind, move.motion, move.start, move.target, arc, move.coord_words,
+                                               modes, number, mode))
+
+    def _note_offsets(self, block: Block) -> None:
+        """Warn (once) of work and tool offsets, which the model does not know."""
+        noted = self._noted
+        for w in block.words:
+            if (w.letter == "G" and w.value in WORK_OFFSETS and "offset" not in noted
+                    and not self.reader.origin.any()):
+                noted.add("offset")
+                self.reader.notes.add(block.number, f"work offset G{w.value:g}: program coordinates are taken as "
+                                      "axis positions (give the work offset as the program origin, in mm / deg)")
+            if ((w.letter == "G" and w.value in (43, 44, 43.4)) or w.letter in "HD") and "tool" not in noted:
+                noted.add("tool")
+                what = f"G{w.value:g} tool length offset" if w.letter == "G" else f"tool offset word {w.name}"
+                self.reader.notes.add(block.number, f"{what}: the errors are those of the model's tool point; a "
+                                      "different tool length changes the angular errors' lever arms")
+
+    # compensating and writing -------------------------------------------------------
+    def _flush(self, entries: list, write: Callable[[str], object]) -> None:
+        moves = [e[3] for e in entries if e[0] == "move"]
+        results = self._compensate(moves) if moves else None
+        st = {"out_motion": getattr(self, "_out_motion", None)}
+        eol = self._eol or "\n"
+        written = 0
+        k = 0
+        for entry in entries:
+            kind = entry[0]
+            if kind == "raw":
+                write(entry[1])
+                written += 1
+            elif kind == "plain":
+                block = entry[1]
+                for w in block.words:
+                    if w.letter == "G" and w.value in (0, 1, 2, 3):
+                        st["out_motion"] = int(w.value)
+                write(block.text + entry[2])
+                written += 1
+            else:
+                mv = entry[3]
+                st.update(mv.modes)
+                lines = self._write_move(entry[1], entry[2], eol, mv, results, k, st)
+                for line in lines:
+                    write(line)
+                written += len(lines)
+                k += 1
+        self._out_motion = st["out_motion"]
+        self.report.blocks_out += written
+
+    def _compensate(self, moves: list[_Move]):
+        """Compensate the moves of one chunk (one programming mode) in one batch."""
+        reader, comp = self.reader, self.comp
+        mode = reader.mode(moves[0].mode)
+        n = len(reader.axes)
+        batch = MoveBatch.empty(len(moves), n)
+        batch.kind[:] = [mv.kind for mv in moves]
+        batch.w0[:] = [mv.start for mv in moves]
+        batch.w1[:] = [mv.target for mv in moves]
+        for i, mv in enumerate(moves):
+            if mv.arc is not None:
+                a = mv.arc
+                batch.plane[i] = a.plane
+                batch.center[i] = a.center
+                batch.r0[i], batch.r1[i] = a.radius, (a.radius if a.end_radius is None else a.end_radius)
+                batch.a0[i], batch.sweep[i] = a.start_angle, a.sweep
+        self._check_travel(moves, batch, mode)
+        start, start_residual = None, 0.0
+        if self._last is not None and moves[0].kind != POINT:
+            start = mode.to_words(self._last[0][None, :])[0]
+            start_residual = self._last[1]
+        result = comp.compensate(batch, start=start, start_residual=start_residual, programming=mode)
+        self._last = (mode.to_axes(result.end[-1:])[0], float(result.end_residual[-1]))
+        self._commands_outside(moves, result, mode)
+        self.report.moves += len(moves)
+        self.report.max_before_um = max(self.report.max_before_um, float(result.before.max()) * 1e6)
+        if mode.name not in self.report.programming:
+            self.report.programming.append(mode.name)
+        # the next chunk: as many moves as keep its pieces within the budget
+        per_move = max(len(result.pieces) / len(moves), 1.0)
+        self._chunk = int(min(MOST_CHUNK, 2 * self._chunk, max(64, PIECE_BUDGET / per_move)))
+        return result, result.pieces.bounds(len(moves))
+
+    def _check_travel(self, moves: list[_Move], batch: MoveBatch, mode) -> None:
+        """Desired moves must stay within the travel: arcs between their ends, and in tool-tip
+        programming the axis positions the tool tips need."""
+        reader, machine = self.reader, self.reader.machine
+        travel = machine.travel
+        arcs = np.flatnonzero(batch.kind == ARC)
+        if mode.identity:
+            if len(arcs):
+                low, high = _arc_bounds(batch, arcs)
+                span = np.maximum(travel[:, 1] - travel[:, 0], 1.0)
+                over = np.maximum(travel[:, 0] - low, high - travel[:, 1])
+                bad = np.flatnonzero((over > 1e-9 * span).any(axis=1))
+                if len(bad):
+                    i = bad[0]
+                    raise GcodeError(f"{reader.source}:{moves[arcs[i]].line}: the arc leaves the travel "
+                                     f"({_amounts(reader, over[i], 1e-9 * span)})")
+            return
+        # tool-tip programming: the axis positions of every target, and along every arc
+        q = mode.to_axes(batch.w1)
+        outside = machine.outside_travel(q).any(axis=1)
+        if outside.any():
+            i = int(np.flatnonzero(outside)[0])
+            mv = moves[i]
+            reader.travel_error(_block_of(mv), mv.coord_words, q[i])
+        if len(arcs):
+            k = np.linspace(0.0, 1.0, 33)
+            rows = np.repeat(arcs, len(k))
+            qa = mode.to_axes(batch.desired(rows, np.tile(k, len(arcs))))
+            out = machine.outside_travel(qa).reshape(len(arcs), len(k), -1).any(axis=(1, 2))
+            if out.any():
+                i = int(np.flatnonzero(out)[0])
+                over = np.maximum(travel[:, 0] - qa.reshape(len(arcs), len(k), -1)[i].min(axis=0),
+                                  qa.reshape(len(arcs), len(k), -1)[i].max(axis=0) - travel[:, 1])
+                raise GcodeError(f"{reader.source}:{moves[arcs[i]].line}: the arc leaves the travel "
+                                 f"({_amounts(reader, over, np.zeros(len(over)))})")
+
+    def _commands_outside(self, moves: list[_Move], result, mode) -> None:
+        """Warn where compensated commands leave the travel (by micrometres, at a travel's end)."""
+        reader, machine = self.reader, self.reader.machine
+        ps = result.pieces
+        q = mode.to_axes(ps.cw1)
+        travel = machine.travel
+        over = np.maximum(travel[:, 0] - q, q - travel[:, 1])
+        bad = np.flatnonzero((over > 0).any(axis=1))
+        for i in bad:
+            for j in np.flatnonzero(over[i] > 0):
+                axis = reader.axes[j]
+                unit = "um" if reader.linear[j] else "urad"
+                reader.notes.add(moves[ps.move[i]].line, f"the compensated command leaves the travel of axis {axis} "
+                                 f"(by up to {{worst:.2f}} {unit}); check the machine's soft limits",
+                                 worst=float(over[i, j]) * 1e6)
+
+    def _write_move(self, block: Block, newline: str, eol: str, mv: _Move, results, k: int, st: dict) -> list[str]:
+        result, bounds = results
+        ps = result.pieces
+        rows = range(bounds[k], bounds[k + 1])
+        pieces = [Piece("arc" if ps.arc[i] else "line", ps.cw0[i], ps.cw1[i], ps.center[i] if ps.arc[i] else None,
+                        bool(ps.sweep[i] < 0), float(ps.sweep[i]), float(ps.residual[i]), float(ps.k0[i]),
+                        float(ps.k1[i]), bool(ps.limited[i])) for i in rows]
+        lines, written = self.writer.write_move(block, newline, eol, mv.motion, mv.coord_words, pieces, st)
+        report = self.report
+        report.pieces += len(written)
+        residual = max(p.residual for p in written)
+        report.max_residual_um = max(report.max_residual_um, residual * 1e6)
+        if mv.kind == ARC:
+            if all(p.kind == "arc" for p in written):
+                report.arcs_kept += 1
+            else:
+                report.arcs_as_lines += 1
+        if result.limited[k]:
+            what = (f"{report.tolerance_um:g} um / {self.tol_urad:g} urad" if self.comp.orientation
+                    else f"{report.tolerance_um:g} um")
+            self.reader.notes.add(mv.line, f"the residual stays at up to {{worst:.2f}} um (tolerance {what}); no "
+                                  "command reaches the desired pose there (singular pose of the rotary axes, or an "
+                                  "error the axes cannot undo)", worst=residual * 1e6)
+        if self.detail:
+            report.detail.extend([mv.line], [len(written)], [result.before[k] * 1e6], [residual * 1e6])
+        return lines
+
+
+def _levers(machine: Machine) -> list[float]:
+    """For each rotary axis, how far the rounding of its written angle (0.5e-5 deg) moves the
+    tool tip at most [um] (its largest lever over a few poses)."""
+    rotary = [j for j, kind in enumerate(machine.axis_kinds) if kind == "rotary"]
+    if not rotary:
+        return []
+    rng = np.random.default_rng(0)
+    travel = np.where(np.isfinite(machine.travel), machine.travel, np.array([-math.pi, math.pi]))
+    q = travel[:, 0] + rng.random((32, len(machine.axes))) * (travel[:, 1] - travel[:, 0])
+    J = machine.axis_jacobian(q, nominal=True, extrapolate=True)
+    return [float(np.linalg.norm(J[:, :3, j], axis=1).max()) * math.radians(0.5e-5) * 1e6 for j in rotary]
+
+
+def _arc_bounds(batch: MoveBatch, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest and highest coordinates of arcs: the exact extent in their plane, their ends
+    in the other coordinates (which move linearly)."""
+    w0, w1 = batch.w0[rows], batch.w1[rows]
+    low, high = np.minimum(w0, w1), np.maximum(w0, w1)
+    radius = np.maximum(batch.r0[rows], batch.r1[rows])
+    lo2, hi2 = arc_extent(batch.center[rows], radius, batch.a0[rows], batch.sweep[rows])
+    idx = np.arange(len(rows))
+    for c in range(2):
+        plane = batch.plane[rows, c]
+        low[idx, plane] = lo2[:, c]
+        high[idx, plane] = hi2[:, c]
+    return low, high
+
+
+def _amounts(reader: Interpreter, over: np.ndarray, slack: np.ndarray) -> str:
+    parts = []
+    for j, axis in enumerate(reader.axes):
+        if over[j] > slack[j]:
+            unit = "um" if reader.linear[j] else "urad"
+            parts.append(f"{axis} by {over[j] * 1e6:.2f} {unit}")
+    return ", ".join(parts)
+
+
+def _block_of(mv: _Move) -> Block:
+    return Block(mv.line, "", list(mv.coord_words), "")
+
+
+def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass_through: bool | None = None,
+                       method: str = "newton", source: str = "<program>", tol_urad: float | None = None,
+                       origin=None, strict: bool | None = None, programming: str = "axes",
+                       start=None) -> tuple[str, Report]:
+    """Compensate an NC program.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine; its axes are NC address letters.
+    text : str
+        The program (mm, inch and deg as it selects).
+    tol_um : float
+        Position tolerance along every move [um].
+    pass_through : bool, optional
+        True also keeps G codes the reader does not know; False is ``strict=True``.
+    method : str
+        Solver of the compensated commands.
+    source : str
+        Name of the program, for messages.
+    tol_urad : float, optional
+        Tool-axis tolerance on machines with rotary axes [urad] (default 10 urad per um of
+        ``tol_um``).
+    origin : array_like, shape (n_axes,), optional
+        Program coordinates [m, rad] of the program's zero (default zero).
+    strict : bool, optional
+        Refuse blocks that cannot be compensated instead of keeping them (default: keep and
+        name them).
+    programming : str, default "axes"
+        Programming mode when the program starts (``"axes"`` or ``"tool-tip"``).
+    start : array_like, shape (n_axes,), optional
+        Axis positions [m, rad] before the program (default: mid-travel).
+
+    Returns
+    -------
+    text : str
+        The compensated program.
+    report : Report
+        What the compensation did.
+
+    Raises
+    ------
+    GcodeError
+        Invalid arguments, or a block that cannot be read or compensated, naming its line.
+    """
+    program = Program(machine, tol_um=tol_um, pass_through=pass_through, method=method, source=source,
+                      tol_urad=tol_urad, origin=origin, strict=strict, programming=programming, start=start)
+    return program.compensate(text), program.report

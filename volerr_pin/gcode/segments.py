@@ -1,0 +1,115 @@
+"""The moves of a program as the controller interpolates them (for reading programs back)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..compensation.arcs import Arc
+from ..machine import Machine
+from .lexer import split_lines
+from .modal import Interpreter
+
+__all__ = ["Segment", "interpret"]
+
+
+@dataclass
+class Segment:
+    """One interpolated move of a program.
+
+    Attributes
+    ----------
+    line : int
+        1-based line number of its block.
+    kind : str
+        "rapid" (only the end point is meaningful), "line" (straight in program coordinates) or
+        "arc".
+    start, end : numpy.ndarray, shape (n_axes,)
+        Program coordinates at the ends [m, rad] (axis positions in axis programming).
+    arc : Arc or None
+        The arc, for ``kind == "arc"``.
+    programming : str
+        ``"axes"`` or ``"tool-tip"``: what the coordinates are.
+    """
+
+    line: int
+    kind: str
+    start: np.ndarray
+    end: np.ndarray
+    arc: Arc | None = None
+    programming: str = "axes"
+
+    def sample(self, n: int) -> np.ndarray:
+        """Points along the move, evenly spaced in its parameter.
+
+        Parameters
+        ----------
+        n : int
+            Number of points, ends included.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, n_axes)
+            Program coordinates [m, rad].
+        """
+        k = np.linspace(0.0, 1.0, n)
+        if self.kind == "arc":
+            return self.arc.point(k)
+        return self.start + np.outer(k, self.end - self.start)
+
+
+def interpret(machine: Machine, text: str, source: str = "<program>", start=None, origin=None,
+              programming: str = "axes") -> list[Segment]:
+    """The moves of a program as the controller interpolates them.
+
+    Lines are straight in program coordinates, arcs turn about their centres. Moves before
+    every axis' position is known, and blocks that cannot be followed (canned cycles ...), are
+    taken as rapids or skipped.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine; its axes are NC address letters.
+    text : str
+        The program (mm, inch and deg as it selects).
+    source : str
+        Name of the program, for messages.
+    start : array_like, shape (n_axes,), optional
+        Axis positions [m, rad] before the program (default: mid-travel).
+    origin : array_like, shape (n_axes,), optional
+        Program coordinates [m, rad] of the program's zero (default zero).
+    programming : str, default "axes"
+        Programming mode when the program starts.
+
+    Returns
+    -------
+    list of Segment
+        One per move, in program order, in program coordinates [m, rad]; targets may lie
+        outside the travel.
+
+    Raises
+    ------
+    GcodeError
+        A block that cannot be read, naming its line.
+    """
+    reader = Interpreter(machine, source=source, start=start, origin=origin, programming=programming)
+    state = reader.initial_state()
+    out = []
+    for number, (body, _) in enumerate(split_lines(text), start=1):
+        block, problem = reader.classify(body, number, state)
+        if problem:
+            reader.skip(body, state, block, number)
+            continue
+        move = reader.advance(block, state, check_travel=False)
+        if move is None:
+            continue
+        mode = "tool-tip" if move.tool_tip else "axes"
+        if not move.start_known.all() or move.motion == 0:
+            out.append(Segment(number, "rapid", move.start, move.target, programming=mode))
+        elif move.motion == 1:
+            out.append(Segment(number, "line", move.start, move.target, programming=mode))
+        else:
+            out.append(Segment(number, "arc", move.start, move.target,
+                               reader.arc(block, move.start, move.target, move.motion == 2, state), mode))
+    return out
