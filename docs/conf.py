@@ -1,0 +1,57 @@
+"""Sphinx configuration of the volerr_pin documentation site.
+
+Build it from the repository's root (``pip install -e ".[docs]"`` first)::
+
+    sphinx-build -W --keep-going -b html docs docs/_build/html
+
+The pages are the Markdown files of ``docs/`` (read by myst-parser, so they stay readable on
+a forge too); the API reference is generated from the numpydoc docstrings (autodoc +
+autosummary + numpydoc); the pictures of the guide are written during the build by the
+product's own PNG writers (``_ext/figures.py``).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE / "_ext"))
+
+project = "volerr_pin"
+author = "volerr_pin developers"
+copyright = "volerr_pin developers, BSD-3-Clause"
+
+extensions = [
+    "myst_parser",
+    "sphinx.ext.autodoc",
+    "numpydoc",
+    "docstrings",
+    "apipages",
+    "figures",
+]
+
+source_suffix = {".md": "markdown", ".rst": "restructuredtext"}  # the API pages are .rst
+root_doc = "index"
+exclude_patterns = ["_build", "_generated", "Thumbs.db", ".DS_Store"]
+
+# Markdown: GitHub-style anchors for the links between pages (``reports.md#volerr-gear---json``)
+myst_heading_anchors = 4
+myst_enable_extensions = ["colon_fence"]
+# reports.md shows abridged JSON (with "..."): it is not meant to lex as JSON, so a block
+# that does not is shown plain instead of failing the build
+suppress_warnings = ["misc.highlighting_failure"]
+# the pages quote transcripts in ```text blocks and commands in ```sh blocks
+highlight_language = "none"
+
+# API reference: one page per module (_ext/apipages.py), generated from the docstrings
+autodoc_default_options = {"members": True}
+autodoc_typehints = "none"          # the numpydoc sections carry types, shapes and units
+autodoc_member_order = "bysource"
+numpydoc_show_class_members = False  # autodoc documents the members in full
+numpydoc_class_members_toctree = False
+numpydoc_xref_param_type = False
+
+html_theme = "alabaster"
+html_title = "volerr_pin"
+html_static_path: list[str] = []
