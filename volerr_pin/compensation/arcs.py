@@ -20,6 +20,8 @@ from ..workspace import _integer
 
 #: memory of a quarter turn of a compensated arc: its points, samples and pieces [bytes]
 ARC_QUARTER_BYTES = 8 * COMPENSATION_BYTES
+#: arcs of fewer whole turns than this need no check of the free memory (under 100 MB)
+FEW_TURNS = 1000
 #: an arc's end may lie this far off its start's circle [m] (about what controllers accept)
 RADIUS_SLACK = 2e-6
 
@@ -116,8 +118,11 @@ def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plan
         and end radii differ by more than 2 um (about what controllers accept).
     """
     full_turns = _integer("full_turns", full_turns, 0)
-    # an arc is compensated in quarter turns, each a few compensated points and pieces
-    require_memory(4 * (full_turns + 1) * ARC_QUARTER_BYTES, f"an arc of {full_turns + 1:,} turns", ("full_turns",))
+    # an arc is compensated in quarter turns, each a few compensated points and pieces (asked only
+    # for many turns: reading the free memory costs more than a small arc's compensation)
+    if full_turns >= FEW_TURNS:
+        require_memory(4 * (full_turns + 1) * ARC_QUARTER_BYTES, f"an arc of {full_turns + 1:,} turns",
+                       ("full_turns",))
     start, end, center = (np.asarray(v, dtype=float) for v in (start, end, center))
     for name, value in (("start", start), ("end", end), ("center", center)):
         if not np.all(np.isfinite(value)):
