@@ -19,12 +19,14 @@ from . import (ballbar, compensate, demo, dh, diagnose, errormap, field, gear, i
                thermal_fit, urdf)
 from . import tolerance, uncertainty
 from . import export
+from . import plan
 from .common import in_cli_words
 
 #: one module per command, in the order ``volerr --help`` lists them
 COMMANDS = (demo, field, rank, iso230, identify, thermal_fit, diagnose, compensate, export, errormap, ballbar,
             gear, dh, info, urdf)
 COMMANDS += (uncertainty, tolerance)
+COMMANDS += (plan,)
 
 __all__ = ["build_parser", "main"]
 

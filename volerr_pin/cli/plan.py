@@ -1,0 +1,158 @@
+"""volerr plan: the measurement campaign to take, what it will determine, and the files to run it."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+from rich.markup import escape
+
+from ..errors import InputError
+from ..safeio import read_text, transaction
+from .common import add_json_arg, add_machine_args, check_run_outputs, dumps, machine_of, table_console
+
+
+def _triple(text: str) -> tuple[float, float, float]:
+    """argparse type: 'X,Y,Z' in mm."""
+    import argparse
+
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z in mm, got {text!r}") from None
+    if len(values) != 3 or not all(np.isfinite(values)):
+        raise argparse.ArgumentTypeError(f"expected three finite numbers X,Y,Z in mm, got {text!r}")
+    return values
+
+
+def add_parser(sub) -> None:
+    from ..plan import INSTRUMENTS
+
+    p = sub.add_parser("plan", help="plan a measurement campaign: poses, predicted uncertainties, NC program")
+    add_machine_args(p)
+    p.add_argument("--instrument", required=True, choices=sorted(INSTRUMENTS), help="the instrument")
+    p.add_argument("--budget", type=int, required=True, help="number of poses to measure")
+    p.add_argument("--out", help="the plan: the measurement file the instrument produces, deviations empty (CSV)")
+    p.add_argument("--template", help="the results template identify reads once filled (CSV with comments)")
+    p.add_argument("--nc", help="NC program visiting the poses with a dwell at each")
+    p.add_argument("--zone", nargs="+", metavar="AXIS=LO:HI", help="working zone (mm, deg; default the travel)")
+    p.add_argument("--targets", nargs="+", type=_triple, metavar="X,Y,Z",
+                   help="reflector offsets from the tool point in the tool frame (mm; tracker)")
+    p.add_argument("--tool-lengths", nargs="+", type=float, metavar="MM",
+                   help="tool lengths beyond the tool point (mm): one target on the tool axis each (tracker)")
+    p.add_argument("--station", type=_triple, metavar="X,Y,Z",
+                   help="tracker position in the workpiece frame (mm): poses out of its line of sight are left out")
+    p.add_argument("--acceptance-deg", type=float, default=30.0, help="reflector acceptance half-angle (deg)")
+    p.add_argument("--sigma-um", type=float, help="instrument noise per observed value (um; default the instrument's)")
+    p.add_argument("--terms", nargs="+", metavar="TERM", help="components to identify (default all)")
+    p.add_argument("--candidates", type=int, default=1024, help="candidate poses to choose from (default 1024)")
+    p.add_argument("--seed", type=int, default=0, help="seed of candidates and simulations")
+    p.add_argument("--compare", action="store_true",
+                   help="also assess a grid and random poses of the same count, predicted and simulated")
+    p.add_argument("--repeats", type=int, default=5, help="simulated campaigns per design with --compare")
+    p.add_argument("--feed-mm-min", type=float, default=2000.0, help="feed of the NC program (mm/min)")
+    p.add_argument("--dwell-s", type=float, default=3.0, help="dwell per measurement (s)")
+    p.add_argument("--after", metavar="DIAGNOSIS.json",
+                   help="propose --budget extra poses that separate what this diagnosis left open")
+    add_json_arg(p)
+    p.set_defaults(func=run)
+
+
+def _targets(args) -> np.ndarray | None:
+    rows = [list(t) for t in args.targets or []]
+    rows += [[0.0, 0.0, -float(length)] for length in args.tool_lengths or []]  # tool z points into the spindle
+    return np.array(rows) * 1e-3 if rows else None
+
+
+def run(args) -> int:
+    from ..export.zone import parse_zone
+    from ..plan import instrument, make_setup, plan
+    from ..plan.after import after_diagnosis
+    from ..plan.nc import check_axes, nc_program, time_estimate
+
+    machine = machine_of(args)
+    inputs = [args.after] if args.after else []
+    check_run_outputs({"out": args.out, "template": args.template, "nc": args.nc}, inputs, machine)
+    kind = instrument(args.instrument)
+    zone = parse_zone(machine, args.zone).ranges if args.zone else None
+    setup = make_setup(machine, kind, zone=zone, sigma_um=args.sigma_um, targets=_targets(args),
+                       station=None if args.station is None else np.array(args.station) * 1e-3,
+                       acceptance_deg=args.acceptance_deg)
+    time_estimate(machine, np.zeros((1, len(machine.axes))), args.feed_mm_min, args.dwell_s)  # checks, before work
+    if args.nc:
+        check_axes(machine)
+    if args.after:
+        text = read_text(args.after, what="diagnosis report")
+        try:
+            report = json.loads(text)
+        except json.JSONDecodeError as err:
+            raise InputError(f"{args.after}:{err.lineno}:{err.colno}: not JSON: {err.msg}") from None
+        result = after_diagnosis(machine, kind, setup, report, args.budget, candidates=args.candidates,
+                                 seed=args.seed, source=str(args.after))
+        units = result.units
+        out = {"machine": machine.name, "instrument": kind.name, "budget": args.budget, "after": result.to_dict()}
+        visits = kind.visits(machine, units) if units else np.zeros((0, len(machine.axes)))
+        out["poses"] = _poses(machine, visits)
+        out["predicted"] = {}
+        out["not_separable"] = out["after"]["not_separable"]
+    else:
+        result = plan(machine, kind, args.budget, setup, terms=args.terms, candidates=args.candidates,
+                      seed=args.seed, compare=args.compare, repeats=args.repeats)
+        units = result.units
+        out = result.to_dict()
+        visits = kind.visits(machine, units)
+    out["time"] = time_estimate(machine, visits, args.feed_mm_min, args.dwell_s) if len(visits) else None
+    if units and (args.nc or args.out or args.template):
+        title = f"volerr plan: {machine.name}, {kind.name}, {len(units)} {kind.unit}s"
+        program = nc_program(machine, visits, args.feed_mm_min, args.dwell_s, title) if args.nc else None
+        table = kind.table(machine, setup, units)
+        with transaction() as tx:
+            if args.out:
+                tx.path(args.out).write_text(table)
+            if args.template:
+                notes = (f"# results of the campaign planned by volerr plan ({machine.name}, {kind.name})\n"
+                         "# fill the empty deviation columns with the measured values (units in docs/measurements.md),"
+                         " then: volerr identify MACHINE THIS_FILE\n")
+                tx.path(args.template).write_text(notes + table)
+            if program is not None:
+                tx.path(args.nc).write_text(program)
+    out["files"] = {k: str(v) for k, v in (("out", args.out), ("template", args.template), ("nc", args.nc)) if v}
+    if args.json:
+        print(dumps(out))
+        return 0
+    _print(out)
+    return 0
+
+
+def _poses(machine, visits) -> list[dict]:
+    from ..units import axis_scales
+
+    scale = axis_scales(machine.axis_kinds)
+    return [dict(zip(machine.axes, (float(v) for v in row / scale))) for row in visits]
+
+
+def _print(out: dict) -> None:
+    console = table_console()
+    console.print(f"[bold]{out['machine']}[/bold]: {len(out['poses'])} {out['instrument']} poses planned")
+    pred = out.get("predicted") or {}
+    if pred.get("zone_rms_um") is not None:
+        console.print(f"predicted uncertainty of the volumetric error over the zone: RMS {pred['zone_rms_um']:.3g} um, "
+                      f"largest {pred['zone_max_um']:.3g} um ({pred['n_identifiable']} coefficients identified)")
+    if out.get("not_separable"):
+        console.print("no plan with this instrument separates:")
+        for g in out["not_separable"]:
+            console.print(escape(f"  {g['kind']}: {', '.join(g['parameters'])}"))
+    for label, c in (out.get("comparison") or {}).items():
+        if label == "plan":
+            continue
+        r = c["ratios"]
+        console.print(f"plan / {label}: predicted zone RMS ratio {r['predicted_zone_rms']}, simulated "
+                      f"{r['simulated_zone_rms']}; not identified by the {label}: {len(c['not_identified'])}")
+    if "after" in out:
+        a = out["after"]
+        console.print(f"after the diagnosis: {a['extra']} extra poses; separated in simulation: {a['separated']}")
+    if out.get("time"):
+        console.print(f"time: {out['time']['total_min']:.1f} min at {out['time']['feed_mm_min']:g} mm/min "
+                      f"with {out['time']['dwell_per_pose_s']:g} s dwells")
+    for what, path in out["files"].items():
+        console.print(f"wrote {path} ({what})")

@@ -1,0 +1,281 @@
+"""The design of a planned campaign: the weighted sensitivities identify will have, unit by
+unit, and the D-optimal choice of units.
+
+For every candidate unit, the instrument's own measurement objects give the observation
+rows (:mod:`volerr_pin.measurements.protocol`); their sensitivities are identify's
+(:func:`volerr_pin.identify.predict_observations`, first-order model as identify's
+identifiability analysis uses), divided by the rows' standard deviations. A nuisance term
+that acts on the rows of one unit only (a run's zero, a circle's set-up) is projected out of
+that unit's rows: the Schur complement, exactly what a joint fit leaves for the other
+columns. A nuisance term shared by several units (a tracker's placement) stays a column, so
+the information matrix ``M = D^T D`` of a selection is the one identify's fit has, and its
+inverse the covariance of the estimates at the stated noise.
+
+The choice of units maximises ``log det M`` over the columns the whole candidate pool can
+identify, columns scaled to unit mean square per unit (D-optimality is unchanged by the
+scaling; it keeps the regularisation ``eps I`` neutral): a greedy forward selection by the
+matrix determinant lemma, ``log det(M + X_u^T X_u) = log det M + log det(I + X_u M^-1 X_u^T)``,
+then Fedorov exchange passes (Fedorov 1972, *Theory of Optimal Experiments*; the
+"modified Fedorov" exchange of Cook and Nachtsheim 1980, *Technometrics* 22(3)) that swap a
+chosen unit for a candidate while ``det M`` grows. Written here rather than taken from a
+library: the design packages for Python (pyDOE3, dexpy) build designs for polynomial
+response-surface models over a box, not for blocks of rows of a given sensitivity matrix.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..identifiability import Analysis, analyse
+from ..identify import stack_blocks
+from ..identify.design import rows_of, typical_sizes
+from ..measurements.protocol import ObservationOptions
+from ..safeio import require_memory
+
+__all__ = ["UnitDesign", "d_optimal", "information", "unit_design"]
+
+
+@dataclass(frozen=True)
+class UnitDesign:
+    """The weighted design of candidate units.
+
+    Attributes
+    ----------
+    rows : ndarray, shape (R, g + F)
+        Weighted sensitivities [1 / SI unit of each column]: the ``g`` shared nuisance columns,
+        then the ``F`` free coefficients; unit-own nuisance terms projected out; rows grouped
+        by unit.
+    starts : ndarray of int, shape (n_units + 1,)
+        Unit ``u`` owns rows ``starts[u]:starts[u + 1]``.
+    names : list of str
+        Column names (nuisance names, then coefficient names).
+    n_global : int
+        Number ``g`` of shared nuisance columns.
+    free : ndarray of int, shape (F,)
+        Coefficient indices (into the machine's theta) of the other columns.
+    typical : ndarray, shape (g + F,)
+        Typical size of each column's coefficient (identify's zero test).
+    """
+
+    rows: np.ndarray
+    starts: np.ndarray
+    names: list
+    n_global: int
+    free: np.ndarray
+    typical: np.ndarray
+
+    @property
+    def n_units(self) -> int:
+        """Number of units (int)."""
+        return len(self.starts) - 1
+
+    def take(self, units: np.ndarray) -> np.ndarray:
+        """The rows of some units, stacked.
+
+        Parameters
+        ----------
+        units : ndarray of int
+            Unit indices.
+
+        Returns
+        -------
+        ndarray, shape (rows, g + F)
+            Their rows.
+        """
+        idx = np.concatenate([np.arange(self.starts[u], self.starts[u + 1]) for u in units] or [np.zeros(0, int)])
+        return self.rows[idx]
+
+    def analyse(self, units: np.ndarray | None = None, rtol: float = 1e-9) -> Analysis:
+        """Identifiability of the columns from some units (default all), as identify finds it.
+
+        Parameters
+        ----------
+        units : ndarray of int, optional
+            The units (default: every candidate).
+        rtol : float, default 1e-9
+            Relative tolerance of the tests (:func:`~volerr_pin.identifiability.analyse`).
+
+        Returns
+        -------
+        Analysis
+            Kept and dependent columns and the groups.
+        """
+        A = self.rows if units is None else self.take(units)
+        return analyse(A, self.names, protected=self.n_global, rtol=rtol, what="the planned measurements",
+                       typical=self.typical)
+
+
+def unit_design(machine, instrument, setup, units: list, free: np.ndarray) -> UnitDesign:
+    """The weighted design of ``units`` (see the module docstring).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    instrument : Instrument
+        The instrument (:class:`~volerr_pin.plan.protocol.Instrument`).
+    setup : Setup
+        Zone, noise, targets, station.
+    units : list
+        The instrument's units.
+    free : ndarray of int, shape (F,)
+        Coefficients to identify (indices into the machine's theta).
+
+    Returns
+    -------
+    UnitDesign
+        Rows grouped by unit.
+
+    Raises
+    ------
+    InputError
+        If there are no units, or the design would not fit in the free memory.
+    """
+    if not len(units):
+        raise InputError("no candidate measurements: the zone, the targets or the tracker's line of sight "
+                         "leave none", parameters=("zone",))
+    measurements, unit_of_point = instrument.measurements(machine, setup, units)
+    sigma_um = setup.sigma * 1e6
+    blocks = [m.observations(machine, ObservationOptions(sigma_um, sigma_um)) for m in measurements]
+    obs = stack_blocks(blocks, machine)
+    require_memory(8.0 * len(obs.y) * (obs.nuisance.shape[1] + len(free) + 6) * 3,
+                   f"the design of {len(units)} candidate {instrument.unit}s", ("candidates",))
+    S = machine.sensitivity(obs.q, parameters=free, first_order=True, **obs.covariates)
+    _, A = rows_of(obs.w, obs.point, np.zeros((obs.n_points, 6)), S)
+    A = A / obs.sigma[:, None]
+    N = obs.nuisance / obs.sigma[:, None]
+    row_unit = np.asarray(unit_of_point)[obs.point]
+    owners = [np.unique(row_unit[N[:, c] != 0]) for c in range(N.shape[1])]
+    local = np.array([len(o) <= 1 for o in owners], dtype=bool)
+    order = np.argsort(row_unit, kind="stable")
+    counts = np.bincount(row_unit, minlength=len(units))
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    D = np.hstack([N[:, ~local], A])[order]
+    N_local = N[:, local][order]
+    for u in range(len(units)):
+        s = slice(starts[u], starts[u + 1])
+        cols = np.flatnonzero(np.any(N_local[s] != 0, axis=0))
+        if cols.size:
+            Q, _ = np.linalg.qr(N_local[s][:, cols])
+            D[s] -= Q @ (Q.T @ D[s])
+    names = [n for n, keep in zip(obs.nuisance_names, ~local) if keep] + [machine.parameter_names[k] for k in free]
+    n_global = int(np.sum(~local))
+    return UnitDesign(D, starts, names, n_global, np.asarray(free, dtype=int),
+                      typical_sizes(machine, machine.theta, free, n_global))
+
+
+def information(design: UnitDesign, units: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """The information matrix ``D^T D`` of some units over some columns.
+
+    Parameters
+    ----------
+    design : UnitDesign
+        The candidates' design.
+    units : ndarray of int
+        The chosen units (repeats count twice).
+    columns : ndarray of int
+        Columns of the design.
+
+    Returns
+    -------
+    ndarray, shape (len(columns), len(columns))
+        ``D^T D`` [1 / (SI unit of column a x SI unit of column b)].
+    """
+    X = design.take(units)[:, columns]
+    return X.T @ X
+
+
+def _gains(X: np.ndarray, groups: list, Minv: np.ndarray, n_units: int) -> np.ndarray:
+    """log det(I + X_u Minv X_u^T) of every unit, units of equal row count at once."""
+    Y = X @ Minv
+    out = np.empty(n_units)
+    for units, rows in groups:
+        Xu, Yu = X[rows], Y[rows]                       # (n, r, p)
+        B = np.einsum("urp,usp->urs", Yu, Xu) + np.eye(rows.shape[1])
+        sign, logdet = np.linalg.slogdet(B)
+        out[units] = np.where(sign > 0, logdet, -np.inf)
+    return out
+
+
+def d_optimal(design: UnitDesign, columns: np.ndarray, budget: int, *, eps: float = 1e-6, passes: int = 4,
+              start: np.ndarray | None = None) -> np.ndarray:
+    """``budget`` distinct units maximising ``log det`` of the information over ``columns``
+    (greedy forward selection, then Fedorov exchange passes; see the module docstring).
+
+    Parameters
+    ----------
+    design : UnitDesign
+        The candidates' design.
+    columns : ndarray of int
+        The columns of the criterion (the identifiable ones).
+    budget : int
+        Number of units to choose (at most the number of candidates).
+    eps : float, default 1e-6
+        Regularisation of the information before it has full rank (columns scaled to unit
+        mean square per unit).
+    passes : int, default 4
+        Largest number of exchange passes (they stop when a pass improves nothing).
+    start : ndarray of int, optional
+        Units measured already: their information is counted, they are not chosen again.
+
+    Returns
+    -------
+    ndarray of int, shape (budget,)
+        The chosen units, in the order chosen.
+
+    Raises
+    ------
+    InputError
+        If ``budget`` exceeds the candidates left.
+    """
+    n = design.n_units
+    start = np.zeros(0, int) if start is None else np.asarray(start, dtype=int)
+    if budget > n - len(np.unique(start)):
+        raise InputError(f"budget {budget} exceeds the {n - len(np.unique(start))} candidate measurements "
+                         "available (widen the zone or ask for more candidates)", parameters=("budget", "candidates"))
+    X = design.rows[:, columns]
+    norms = np.linalg.norm(X, axis=0)
+    X = X / np.where(norms > 0, norms, 1.0) * np.sqrt(n)
+    sizes = np.diff(design.starts)
+    groups = []
+    for r in np.unique(sizes):
+        units = np.flatnonzero(sizes == r)
+        groups.append((units, design.starts[units][:, None] + np.arange(r)[None, :]))
+    p = X.shape[1]
+
+    def info(u):
+        Xu = X[design.starts[u]:design.starts[u + 1]]
+        return Xu.T @ Xu
+
+    base = eps * np.eye(p) + sum((info(u) for u in start), np.zeros((p, p)))
+    available = np.ones(n, dtype=bool)
+    available[start] = False
+    chosen: list[int] = []
+    M = base.copy()
+    for _ in range(budget):
+        g = _gains(X, groups, np.linalg.inv(M), n)
+        g[~available] = -np.inf
+        j = int(np.argmax(g))
+        chosen.append(j)
+        available[j] = False
+        M += info(j)
+    for _ in range(passes):
+        improved = False
+        for pos in range(budget):
+            i = chosen[pos]
+            M_without = M - info(i)
+            g = _gains(X, groups, np.linalg.inv(M_without), n)
+            own = g[i]
+            g[~available] = -np.inf
+            j = int(np.argmax(g))
+            if g[j] > own + 1e-9 * max(1.0, abs(own)):
+                chosen[pos] = j
+                available[i], available[j] = True, False
+                M = M_without + info(j)
+                improved = True
+        if not improved:
+            break
+    return np.array(chosen, dtype=int)
