@@ -27,6 +27,8 @@ Forms (value in the component's unit, SI inside):
   from ``32 e a / (G pi d^4)``.
 - ``periodic_pitch``: ``sum_h s_h sin(2 pi h (q - q0) / p) + c_h cos(2 pi h (q - q0) / p)``;
   coefficients ``s1, c1, s2, c2, ..., period``.
+  On a rotary axis ``q``, ``p`` and ``q0`` are angles (``period_deg = 360`` repeats once per
+  revolution).
 """
 
 from __future__ import annotations
@@ -488,7 +490,6 @@ class PeriodicPitch(Term):
     position_scale: float
     kind = "periodic_pitch"
     axis_only = True
-    linear_length_only = True
 
     @property
     def local_names(self):  # type: ignore[override]
@@ -535,14 +536,15 @@ class PeriodicPitch(Term):
 
     @classmethod
     def from_spec(cls, table, site):
-        period, punit, pscale, pkey = site.value(table, "period", "length", count=1)
+        position = site.position_quantity or "length"   # a rotary axis' period is an angle
+        period, punit, pscale, pkey = site.value(table, "period", position, count=1)
         if period[0] <= 0:
             raise SpecError(f"{site.where}.{pkey}: the period must be positive")
         sines, unit, factor, skey = site.value(table, "sine")
         _count(sines.size, site, skey, "harmonics")
         cosines, _, _, _ = site.value(table, "cosine", count=sines.size)
         coefs = np.r_[np.ravel(np.column_stack([sines, cosines])), period]
-        return cls(unit, factor, sines.size, _origin(table, site), punit, pscale), coefs
+        return cls(unit, factor, sines.size, _origin(table, site, position), punit, pscale), coefs
 
 
 def _count(count: int, site: TermSite, key: str, what: str) -> None:
@@ -566,9 +568,10 @@ def _temperatures(value, where: str, count: int | None = None) -> np.ndarray:
     return temps
 
 
-def _origin(table: dict, site: TermSite) -> float:
-    """The axis position ``q0`` an effect is measured from (``origin_<unit>``, default 0), m."""
-    origin, _, _, _ = site.value(table, "origin", "length", required=False, count=1)
+def _origin(table: dict, site: TermSite, quantity: str = "length") -> float:
+    """The axis position ``q0`` an effect is measured from (``origin_<unit>``, default 0), m
+    (``quantity`` "angle": rad)."""
+    origin, _, _, _ = site.value(table, "origin", quantity, required=False, count=1)
     return 0.0 if origin is None else float(origin[0])
 
 

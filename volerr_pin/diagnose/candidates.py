@@ -1,6 +1,6 @@
 """Candidates: everything a model could be missing, on every axis, direction and sensor the data
 allow - the catalogue effects (``thermal_drift``, ``thermal_expansion``, ``backlash``,
-``force_deflection``, ``periodic_pitch``), the geometric components the spec leaves out
+``force_deflection``, ``periodic_pitch``, ``periodic_rotary``), the geometric components the spec leaves out
 (``positioning``, ``straightness``, ``angular``, ``squareness``, ``location``) and the
 spec's own components one step richer (a polynomial 1, 2 or 4 degrees higher, a table with a
 node between every two).
@@ -18,8 +18,9 @@ from ..termkinds import GEOMETRIC
 from ..terms import Context, Covariates
 from .results import Candidate
 
-__all__ = ["LETTERS", "MAX_DEGREE", "MAX_NODES", "MIN_PERIODS", "PITCH_PERIOD_MM", "RAISE_BY", "adequacy_candidates",
-           "axis_directions", "build_candidates", "form_of", "geometric_name", "geometric_term", "raised_table"]
+__all__ = ["LETTERS", "MAX_DEGREE", "MAX_NODES", "MIN_PERIODS", "PITCH_PERIOD_MM", "RAISE_BY", "ROTARY_ORDERS",
+           "SPACING_TOLERANCE", "adequacy_candidates", "axis_directions", "build_candidates", "direction_of", "form_of",
+           "geometric_name", "geometric_term", "interpolation_period", "raised_table"]
 
 LETTERS = "XYZABC"
 PITCH_PERIOD_MM = (1.0, 50.0)   # ball-screw leads
@@ -27,12 +28,20 @@ MIN_PERIODS = 4                 # periods of a pitch error inside the measured t
 MAX_DEGREE = 12                 # a polynomial component is not raised beyond this degree
 MAX_NODES = 65                  # nor a table beyond this many nodes
 RAISE_BY = (1, 2, 4)            # degrees a polynomial may gain in one round
+ROTARY_ORDERS = (1, 2, 3, 4, 6, 8)   # periods per revolution a rotary axis' periodic error is tried with
+SPACING_TOLERANCE = 0.05        # a period within 5 % of a table's node spacing / k is its interpolation
 
 
 # ----------------------------------------------------------------------------- candidates
 def axis_directions(machine: Machine) -> dict[str, str]:
-    """The error direction letter of each axis' own motion (X for an x slide, C for a spindle
-    turning about z), read off the nominal axis Jacobian at mid travel.
+    """The error direction letter of each axis' own motion in the axis' own frame (X for an x
+    slide, B for a table turning about its own y), whatever the other axes' positions.
+
+    An axis' component errors act in its own frame, so its own motion is the component whose
+    effect at the tool moves as the axis does: the error joint ``E<d><axis>`` whose
+    translation (linear axes) or rotation (rotary axes) at the tool is parallel to the axis'
+    own column of the Jacobian. Both turn with the other axes, so the answer does not depend
+    on where they stand (a B table carried by an A cradle at -10 deg is still about B's own y).
 
     Parameters
     ----------
@@ -42,17 +51,45 @@ def axis_directions(machine: Machine) -> dict[str, str]:
     Returns
     -------
     dict of str to str
-        Axis -> letter, for the axes that move along (or about) one machine direction.
+        Axis -> letter, for the axes that move along (or about) one direction of their own frame.
     """
-    q = machine.mid_travel
-    J = machine.axis_jacobian(q[None, :], nominal=True)[0]
+    q = machine.mid_travel[None, :]
+    J = machine.axis_jacobian(q, nominal=True)[0]
+    E = machine.error_joint_sensitivity(q, first_order=True)[0]
+    joints = list(machine.error_joints)
     out = {}
     for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):
-        v = J[:3, j] if kind == "linear" else J[3:, j]
-        k = int(np.argmax(np.abs(v)))
-        if abs(v[k]) > 0.999 * np.linalg.norm(v):
-            out[axis] = ("XYZ" if kind == "linear" else "ABC")[k]
+        part = slice(0, 3) if kind == "linear" else slice(3, 6)
+        v = J[part, j]
+        norm_v = np.linalg.norm(v)
+        if norm_v == 0:
+            continue
+        for d in ("XYZ" if kind == "linear" else "ABC"):
+            name = component_name(d, axis)
+            if name not in joints:
+                continue
+            e = E[part, joints.index(name)]
+            norm_e = np.linalg.norm(e)
+            if norm_e > 0 and abs(float(e @ v)) > 0.999 * norm_e * norm_v:
+                out[axis] = d
+                break
     return out
+
+
+def direction_of(letter: str) -> str:
+    """The report's direction of a component letter: "x", "y" or "z" (rotations: about that axis).
+
+    Parameters
+    ----------
+    letter : str
+        "X", "Y", "Z", "A", "B" or "C".
+
+    Returns
+    -------
+    str
+        "x", "y" or "z".
+    """
+    return letter.lower() if letter in "XYZ" else "xyz"["ABC".index(letter)]
 
 
 def geometric_name(direction: str, owner: str, location: bool, own: str | None, linear: bool) -> str:
@@ -137,9 +174,16 @@ def build_candidates(machine: Machine, obs: Observations) -> list[Candidate]:
         lo, hi = machine.travel[j]
         if directions is not None and len(np.unique(directions[:, j])) == 2:
             unit = "um" if kind == "linear" else "arcsec"
-            out.append(Candidate("backlash", axis, letter.lower(), comp,
+            out.append(Candidate("backlash", axis, direction_of(letter), comp,
                                  {"kind": "backlash", f"reversal_{unit}": 0.0}, f"dir_{axis}"))
         if kind != "linear":
+            # an error that repeats n times per revolution, with one full period measured
+            span = float(np.ptp(obs.q[:, j])) if obs.n_points else 0.0
+            for n in ROTARY_ORDERS:
+                if span >= 2 * np.pi / n * (1 - 1e-9):
+                    out.append(Candidate("periodic_rotary", axis, direction_of(letter), comp,
+                                         {"kind": "periodic_pitch", "period_deg": 360.0 / n, "sine_arcsec": [0.0],
+                                          "cosine_arcsec": [0.0], "origin_deg": 0.0}, f"q_{axis}"))
             continue
         for s in sensors:
             ref = float(np.mean(cov["temperatures"][s]))
@@ -208,6 +252,40 @@ def geometric_term(machine: Machine, component: str):
         if tspec.term.kind in GEOMETRIC:
             return i, tspec
     return None, None
+
+
+def interpolation_period(machine: Machine, component: str, period: float) -> bool:
+    """Whether a period along an axis is that of the interpolation of the component's table:
+    between table nodes a smooth function leaves a residual that repeats at the node spacing
+    and its harmonics, which is the table's, not a ball screw's (refining the table is the
+    cure; its raise is a candidate of its own).
+
+    Parameters
+    ----------
+    machine : Machine
+        The model.
+    component : str
+        The component the periodic error would be added to.
+    period : float
+        The period [m or rad].
+
+    Returns
+    -------
+    bool
+        True when ``period`` is within :data:`SPACING_TOLERANCE` of the median node spacing of
+        the component's table, or (linear interpolation, whose kinks make harmonics) of the
+        spacing divided by 2, 3, ...
+    """
+    if component not in machine.components:
+        return False
+    _, tspec = geometric_term(machine, component)
+    if tspec is None or tspec.term.kind != "table" or period <= 0:
+        return False
+    spacing = float(np.median(np.diff(tspec.term.nodes)))
+    k = round(spacing / period)
+    if k > 1 and tspec.term.interpolation != "linear":
+        return False  # between the nodes of a spline the residual is the fundamental's, not a harmonic's
+    return k >= 1 and abs(spacing / period - k) <= SPACING_TOLERANCE * k
 
 
 def raised_table(machine: Machine, component: str, values: np.ndarray | None = None, by: int = 1):

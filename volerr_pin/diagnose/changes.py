@@ -13,11 +13,11 @@ from ..specio import add_terms, remove_components, replace_terms, term_tables
 from .candidates import geometric_term, raised_table
 from .results import SIGNIFICANCE, Change, Score
 
-__all__ = ["PREFIX", "apply_changes", "raise_components", "remove_effect", "size_of", "tested_names", "trim_raises"]
+__all__ = ["PREFIX", "apply_changes", "raise_components", "remove_effect", "size_of", "tested_names", "trim_raises", "with_lag"]
 
 #: coefficient-name prefix of each catalogue effect's term (geometric terms: "geom")
 PREFIX = {"thermal_drift": "drift", "thermal_expansion": "expansion", "backlash": "reversal",
-          "force_deflection": "load", "periodic_pitch": "pitch"}
+          "force_deflection": "load", "periodic_pitch": "pitch", "periodic_rotary": "rotary"}
 
 
 def _unique_prefix(machine: Machine, component: str, stem: str) -> str:
@@ -235,3 +235,36 @@ def size_of(res, names: list[str]) -> float:
         if np.isfinite(u) and u > 0:
             z = max(z, abs(float(machine.theta[k])) / float(u))
     return z
+
+
+def with_lag(machine: Machine, effects: list[Change], lag_s: float) -> Machine:
+    """The machine with the temperature-driven drift terms of ``effects`` reading their
+    sensors ``lag_s`` seconds late (the other terms unchanged).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    effects : list of Change
+        Accepted thermal drifts.
+    lag_s : float
+        The lag [s] (0: none).
+
+    Returns
+    -------
+    Machine
+        The machine with the lagged terms, their coefficients kept.
+    """
+    present = term_tables(machine)
+    tables = {}
+    for effect in effects:
+        comp = next(c for c in machine.spec.components if c.name == effect.component)
+        names = set(effect.names)
+        terms = tables.get(effect.component, present[effect.component])
+        for i, t in enumerate(comp.terms):
+            if names & set(t.names(effect.component)) and terms[i].get("driver") == "temperature":
+                terms[i] = {k: v for k, v in terms[i].items() if k != "lag_s"}
+                if lag_s:
+                    terms[i]["lag_s"] = float(lag_s)
+        tables[effect.component] = terms
+    return replace_terms(machine, tables) if tables else machine

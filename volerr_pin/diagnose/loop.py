@@ -24,12 +24,19 @@ from ..machine import Machine
 from ..safeio import require_memory
 from ..specio import add_terms
 from .candidates import build_candidates
-from .changes import apply_changes, remove_effect, size_of, tested_names, trim_raises
-from .report import noise_floor, raised_summary, residual_analysis, twins_of
-from .results import SIGNIFICANCE, Change, Diagnosis, Step
+from .changes import apply_changes, remove_effect, size_of, tested_names, trim_raises, with_lag
+from .report import (components_per_point, effect_amplitude, group_findings, noise_floor, raised_summary,
+                     residual_analysis, stated_noise, twins_of)
+from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, STATED_NOISE_FACTOR, Change, Diagnosis, Step,
+                      one_blas_thread, parallel_map, process_map)
 from .scoring import Columns, Projector, base_design, score
 
-__all__ = ["diagnose"]
+__all__ = ["LAGS_S", "TIME_CHECK_SHARE", "diagnose"]
+
+#: lags [s] tried for the temperature terms of a thermal drift
+LAGS_S = (300.0, 600.0, 1200.0, 1800.0, 3600.0)
+#: share of the run's time a thermal drift's check over time fits on (it predicts the rest)
+TIME_CHECK_SHARE = 0.6
 
 
 def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects: int = 5,
@@ -116,12 +123,13 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
                          parameters=("folds",))
     require_memory(_memory_needed(machine, obs, folds),
                    f"diagnosing {obs.n_points} points ({len(obs.y)} observations)")
-    loop = _Loop(machine, obs, split, fixed, alpha, max_effects, progress, keep_machines)
-    max_rounds = max_effects + 8 if max_rounds is None else max_rounds
-    for number in range(max_rounds + 1):
-        if not loop.round(number, may_accept=number < max_rounds):
-            break
-    diagnosis, final = loop.finish()
+    with one_blas_thread():  # the cores go to candidates and folds, not to BLAS on small matrices
+        loop = _Loop(machine, obs, split, fixed, alpha, max_effects, progress, keep_machines)
+        max_rounds = max_effects + 8 if max_rounds is None else max_rounds
+        for number in range(max_rounds + 1):
+            if not loop.round(number, may_accept=number < max_rounds):
+                break
+        diagnosis, final = loop.finish()
     if final is not None and final.ill_conditioned:
         warnings.warn(conditioning_note(final.analysis, len(obs.y)), stacklevel=2)
     diagnosis.seconds = _time.perf_counter() - start
@@ -193,19 +201,20 @@ class _Loop:
         probe = add_terms(self.current, missing_loc) if missing_loc else self.current
         E = probe.error_joint_sensitivity(obs.q, first_order=True, **obs.covariates)
         joints = list(probe.error_joints)
-        scores = []
-        for k, cand in enumerate(candidates):
-            s = score(base, proj, obs, E, joints, cand, self.cov_obj, self.axis_index_of, self.columns)
-            if s is None:
-                continue
-            scores.append(s)
+        def one(cand):
+            return score(base, proj, obs, E, joints, cand, self.cov_obj, self.axis_index_of, self.columns)
+
+        def progress(done):
             if self.progress:
-                self.progress(f"round {number + 1}: candidates", k + 1)
+                self.progress(f"round {number + 1}: candidates", done)
+
+        scores = [s for s in process_map(one, candidates, progress=progress) if s is not None]
         m = max(1, len(scores))
         ranked = sorted(scores, key=lambda s: -s.bic_gain)
-        for k, s in enumerate(ranked):  # cross-validate what could pass and what is shown
-            if s.cv_rms_um is None and (k < 10 or s.p_value < self.alpha / m):
-                s.cv_rms_um = proj.cv(s.columns)
+        # cross-validate what could pass and what is shown
+        shown = [s for k, s in enumerate(ranked) if s.cv_rms_um is None and (k < 10 or s.p_value < self.alpha / m)]
+        for s, cv in zip(shown, parallel_map(lambda s: proj.cv(s.columns), shown)):
+            s.cv_rms_um = cv
         passing = [s for s in ranked if s.extra > 0 and s.p_value < self.alpha / m
                    and s.cv_rms_um is not None and s.cv_rms_um < proj.cv_rms * (1 - 1e-3)]
         return ranked, passing
@@ -247,12 +256,38 @@ class _Loop:
             return records
         return []
 
-    def _final_fit(self) -> tuple[Identification | None, list[Change]]:
-        """Refit until every accepted effect is significant (dropping the weakest that is not)
-        and raised polynomials keep only significant coefficients: the final fit and the
-        dropped effects."""
+    def _refit(self, model: Machine):
+        """``model`` fitted like the loop's models (with ``fixed`` only the free names it keeps)."""
+        names = [n for n in self.free_names if n in set(model.parameter_names)]
+        fitted_model, _, _, res = self.fit(model, names)
+        return fitted_model, res, names
+
+    def holdout(self, model: Machine, fit) -> tuple[Projector, np.ndarray]:
+        """The projector of a fitted model (its ``cv_rms`` is the held-out RMS [um]) and its
+        residual (rows, SI)."""
+        fitted = fit.fitted if fit is not None else np.array([], dtype=int)
+        nuisance = (np.array(list(fit.nuisance.values())) if fit is not None
+                    else np.zeros(self.obs.nuisance.shape[1]))
+        b = base_design(model, self.obs, fitted, nuisance)
+        return Projector(b.A, b.r, self.obs, self.split), b.r * self.obs.sigma
+
+    def without(self, members: list[Change]):
+        """The present model without these effects, refitted: (machine, fit, free names)."""
+        model = self.current
+        for m in members:
+            model = remove_effect(model, m)
+        return self._refit(model)
+
+    def _final_fit(self, final) -> tuple[Identification | None, list[Change]]:
+        """Refit until every accepted effect is significant and raised polynomials keep only
+        significant coefficients: the final fit and the dropped effects.
+
+        Collinear terms are judged jointly: an effect whose own size is below
+        :data:`SIGNIFICANCE` standard uncertainties (its coefficient shares what it explains
+        with a collinear one) stays when removing it makes the held-out RMS worse by more
+        than :data:`PRACTICAL_GAIN` of it; else the weakest goes and the model is refitted."""
         dropped: list[Change] = []
-        final = self.last_fit
+        kept_jointly: set[str] = set()
         while True:
             if not self.fixed or self.free_names:
                 free = None if not self.fixed else [self.current.parameter_names.index(n) for n in self.free_names]
@@ -264,44 +299,174 @@ class _Loop:
                 self.free_names = [n for n in self.free_names if n in set(self.current.parameter_names)]
                 continue
             weak = [(size_of(final, e.names) if final is not None else 0.0, i) for i, e in enumerate(self.effects)]
-            weak = [(z, i) for z, i in weak if z < SIGNIFICANCE]
+            weak = [(z, i) for z, i in weak if z < SIGNIFICANCE and self.effects[i].label not in kept_jointly]
             if not weak:
                 return final, dropped
             _, i = min(weak)
-            gone = self.effects.pop(i)
+            gone = self.effects[i]
+            with_rms = self.holdout(self.current, final)[0].cv_rms
+            model, res, names = self.without([gone])
+            without_rms = self.holdout(model, res)[0].cv_rms
+            if without_rms > with_rms * (1 + PRACTICAL_GAIN):
+                kept_jointly.add(gone.label)
+                gone.details = dict(gone.details, kept_jointly=(
+                    f"below {SIGNIFICANCE:g} standard uncertainties alone (collinear with other terms), kept: "
+                    f"without it the held-out RMS rises from {with_rms:.3f} to {without_rms:.3f} um"))
+                continue
+            self.effects.pop(i)
             gone.note = (f"accepted in round {gone.step + 1}, dropped after the final fit: its size is "
-                         f"below {SIGNIFICANCE:g} standard uncertainties")
+                         f"below {SIGNIFICANCE:g} standard uncertainties and without it the held-out RMS is "
+                         f"{without_rms:.3f} um (with it {with_rms:.3f} um)")
             dropped.append(gone)
-            self.current = remove_effect(self.current, gone)
-            self.free_names = [n for n in self.free_names if n in set(self.current.parameter_names)]
+            self.current, self.free_names = model, names
+            if res is not None:
+                final = res
+
+    def _practical(self, final) -> list[Change]:
+        """Findings below practical significance, taken out of the model (which is refitted):
+        a held-out RMS gain below :data:`PRACTICAL_GAIN` of the held-out RMS before, or an
+        amplitude below :data:`PRACTICAL_AMPLITUDE` of the noise per component."""
+        proj, residual = self.holdout(self.current, final)
+        floor, _, _ = noise_floor(self.obs, residual, proj.rank)
+        noise_pc = floor / math.sqrt(components_per_point(self.obs))
+        below = []
+        for _, members in group_findings(self.effects):
+            model, res, _ = self.without(members)
+            before = self.holdout(model, res)[0].cv_rms
+            gain = before - proj.cv_rms
+            amplitude = effect_amplitude(self.current, self.obs, [n for m in members for n in m.names])
+            for m in members:
+                m.gain_um, m.amplitude_um = gain, amplitude
+            if gain < PRACTICAL_GAIN * before or amplitude < PRACTICAL_AMPLITUDE * noise_pc:
+                why = []
+                if gain < PRACTICAL_GAIN * before:
+                    why.append(f"held-out RMS gain {gain:.3f} um < {PRACTICAL_GAIN:.0%} of {before:.3f} um")
+                if amplitude < PRACTICAL_AMPLITUDE * noise_pc:
+                    why.append(f"amplitude {amplitude:.3f} um < {PRACTICAL_AMPLITUDE:g} x the noise of "
+                               f"{noise_pc:.3f} um per component")
+                for m in members:
+                    m.note = "possible, below practical significance: " + "; ".join(why)
+                    m.rms_before_um, m.rms_after_um = before, proj.cv_rms
+                below += members
+        if below:
+            self.effects = [e for e in self.effects if e not in below]
+            self.current, _, self.free_names = self.without(below)
+        return below
 
     def finish(self) -> tuple[Diagnosis, Identification | None]:
         """The final fit and the diagnosis (its ``seconds`` left at 0), with the final fit."""
         obs = self.obs
-        final, dropped = self._final_fit()
+        final, dropped = self._final_fit(self.last_fit)
+        possible = self._practical(final)
+        if possible:
+            final, more = self._final_fit(final)
+            dropped += more
+        thermal = {}
+        for finding, members in group_findings(self.effects):
+            if finding.name == "thermal_drift" and "t" in obs.covariates and np.ptp(obs.covariates["t"]) > 0:
+                final, thermal[members[0].label] = self._thermal(members, final)
         current = self.current
         raised = raised_summary(self.raised, self.base_machine, current)
         units = parameter_units(current)
-        for e in self.effects:
+        for e in self.effects + possible:
             params = {}
             for name in e.names:
+                if name not in current.parameter_names:
+                    continue
                 k = current.parameter_names.index(name)
                 factor, unit = units[name]
                 u = final.uncertainty[k] if final is not None else math.nan
                 params[name] = {"value": float(current.theta[k] / factor),
                                 "uncertainty": None if math.isnan(u) else float(u / factor), "unit": unit}
             e.parameters = params
-        fitted_final = final.fitted if final is not None else np.array([], dtype=int)
-        nuisance_final = (np.array(list(final.nuisance.values())) if final is not None
-                          else np.zeros(obs.nuisance.shape[1]))
-        last = base_design(current, obs, fitted_final, nuisance_final)
-        last_proj = Projector(last.A, last.r, obs, self.split)
-        rms_fit = residual_rms(obs, last.r * obs.sigma)
-        floor, source, bound = noise_floor(obs, last.r * obs.sigma, last_proj.rank)
+        last_proj, residual = self.holdout(current, final)
+        rms_fit = residual_rms(obs, residual)
+        floor, source, bound = noise_floor(obs, residual, last_proj.rank)
+        stated = stated_noise(obs)
+        unexplained = bound and floor > STATED_NOISE_FACTOR * stated
+        reaches = bool(last_proj.cv_rms <= 1.2 * floor) and not unexplained
+        if unexplained:
+            source += (f"; it is {floor / stated:.1f} times the noise the observations state ({stated:.3f} um), "
+                       "so the model still misses something")
         analysis = residual_analysis(current, obs, self.steps[0].residual)
-        return Diagnosis(current, self.base_machine, self.effects, self.steps, self.steps[0].rms_holdout_um,
-                         last_proj.cv_rms, rms_fit, floor, source, bool(last_proj.cv_rms <= 1.2 * floor), self.alpha,
-                         0.0, obs, analysis, raised, dropped, bound), final
+        findings = []
+        for finding, members in group_findings(self.effects):
+            if len(members) > 1:
+                finding.rms_before_um = last_proj.cv_rms + (members[0].gain_um or 0.0)
+                finding.rms_after_um = last_proj.cv_rms
+            if members[0].label in thermal:
+                finding.details = dict(finding.details, **thermal[members[0].label])
+            findings.append(finding)
+        return Diagnosis(current, self.base_machine, findings, self.steps, self.steps[0].rms_holdout_um,
+                         last_proj.cv_rms, rms_fit, floor, source, reaches, self.alpha,
+                         0.0, obs, analysis, raised, dropped, bound, possible, stated), final
+
+    def _thermal(self, members: list[Change], final) -> tuple:
+        """A thermal drift's sensors and why, its lag (the temperature terms' common lag that
+        gives the lowest held-out RMS, kept when it lowers it by at least 1 %), and its check
+        over time: the final model fitted on the first :data:`TIME_CHECK_SHARE` of the run
+        predicts the rest, with and without the drift. The final fit (lagged or not) and the
+        details."""
+        obs = self.obs
+        sensors = [m.driver[2:] for m in members if m.driver and m.driver.startswith("T_")]
+        steps = "; ".join(f"{m.driver} (round {m.step + 1}, held-out RMS {m.rms_before_um:.3f} -> "
+                          f"{m.rms_after_um:.3f} um)" for m in members
+                          if m.rms_before_um is not None and m.rms_after_um is not None)
+        details = {"sensors": sensors, "drivers": [m.driver for m in members],
+                   "selection": ("stepwise forward selection on the held-out RMS: each round every sensor and "
+                                 "time were candidates; a term entered when it passed the F-test and lowered "
+                                 "the k-fold held-out RMS, collinear terms kept when removing one made the "
+                                 "held-out RMS worse: " + steps)}
+        lag, tried = 0.0, {}
+        if sensors:
+            base_rms = self.holdout(self.current, final)[0].cv_rms
+            tried["0"] = base_rms
+            best = (base_rms, 0.0, None)
+            for lag_s in LAGS_S:
+                model = with_lag(self.current, members, lag_s)
+                fitted_model, res, names = self._refit(model)
+                rms = self.holdout(fitted_model, res)[0].cv_rms
+                tried[f"{lag_s:g}"] = rms
+                if rms < best[0]:
+                    best = (rms, lag_s, (fitted_model, res, names))
+            if best[2] is not None and best[0] < 0.99 * base_rms:
+                lag = best[1]
+                self.current, final, self.free_names = best[2]
+        details["lag_s"] = lag
+        details["lags_tried_holdout_rms_um"] = tried
+        details["time_check"] = self._time_check(members, final)
+        return final, details
+
+    def _time_check(self, members: list[Change], final) -> dict | None:
+        """Fit on the first part of the run, predict the rest (position RMS [um] of the
+        predicted points, with the drift and without it)."""
+        obs = self.obs
+        t = obs.covariates["t"]
+        cut = t.min() + TIME_CHECK_SHARE * np.ptp(t)
+        early, late = np.flatnonzero(t <= cut), np.flatnonzero(t > cut)
+        if len(early) < 2 or len(late) < 1:
+            return None
+        out = {"fit_share": TIME_CHECK_SHARE, "fit_until_h": float(cut / 3600.0), "fit_points": int(len(early)),
+               "predicted_points": int(len(late))}
+        k = "xyz".index(members[0].direction) if members[0].direction in ("x", "y", "z") else None
+        model_without = self.current
+        for m in members:
+            model_without = remove_effect(model_without, m)
+        for key, model in (("", self.current), ("_without", model_without)):
+            o_early, o_late = obs.subset(early), obs.subset(late)
+            names = [n for n in self.free_names if n in set(model.parameter_names)]
+            free = None if not self.fixed else [model.parameter_names.index(n) for n in names]
+            try:
+                res = _quiet_identify(model, o_early, free=free, initialise=False)
+            except InputError:
+                return None  # the first part alone does not determine the model
+            b = base_design(res.machine, o_late, res.fitted, np.array(list(res.nuisance.values())))
+            residual = b.r * o_late.sigma
+            out[f"rms_predicted{key}_um"] = residual_rms(o_late, residual)
+            if k is not None:
+                rows = (o_late.w[:, k] > 0.5) & ~o_late.angular
+                out[f"rms_predicted_{'xyz'[k]}{key}_um"] = float(np.sqrt(np.mean(residual[rows] ** 2)) * 1e6)
+        return out
 
 
 def _quiet_identify(machine: Machine, obs: Observations, **options) -> Identification:

@@ -268,3 +268,140 @@ def evidence(diagnosis: Diagnosis, step: int) -> Evidence | None:
     points = obs.point[rows]
     x, label = found if found is not None else (np.arange(obs.n_points, dtype=float), "point")
     return Evidence(x[points], label, before[rows] * UM_PER_M, after[rows] * UM_PER_M, "xyz"[j], record.label)
+
+
+def components_per_point(obs: Observations) -> float:
+    """Position components measured per point, on average (3 for dx, dy, dz).
+
+    Parameters
+    ----------
+    obs : Observations
+        The observations.
+
+    Returns
+    -------
+    float
+        Position rows per point with position rows (at least 1).
+    """
+    pos = ~obs.angular
+    return max(1.0, pos.sum() / max(1, len(np.unique(obs.point[pos]))))
+
+
+def stated_noise(obs: Observations) -> float:
+    """The noise the observations state, as the RMS of the norm of a point's position noise:
+    the median standard deviation of the position rows times the root of the components per
+    point [um].
+
+    Parameters
+    ----------
+    obs : Observations
+        The observations.
+
+    Returns
+    -------
+    float
+        The stated noise [um] (NaN without position rows).
+    """
+    pos = ~obs.angular
+    if not pos.any():
+        return math.nan
+    return float(np.median(obs.sigma[pos]) * math.sqrt(components_per_point(obs)) * UM_PER_M)
+
+
+def effect_amplitude(machine: Machine, obs: Observations, names: list[str]) -> float:
+    """Half the range of what the coefficients ``names`` add to the position observations,
+    in the direction where it is largest [um]: the amplitude of a periodic error, half a
+    backlash's reversal, half a drift's excursion over the run.
+
+    Parameters
+    ----------
+    machine : Machine
+        The fitted model.
+    obs : Observations
+        The observations.
+    names : list of str
+        The effect's coefficients (non-linear ones - periods, time constants - stay as they are).
+
+    Returns
+    -------
+    float
+        The amplitude [um]; 0 when there are no position rows.
+    """
+    from ..identify import predict_observations
+
+    nonlinear = set(machine.nonlinear_parameters)
+    theta0 = machine.theta.copy()
+    for name in names:
+        k = machine.parameter_names.index(name)
+        if k not in nonlinear:
+            theta0[k] = 0.0
+    none = np.array([], dtype=int)
+    full, _ = predict_observations(machine, obs, machine.theta, none)
+    zero, _ = predict_observations(machine, obs, theta0, none)
+    contribution = full - zero
+    best = 0.0
+    for k in range(3):
+        rows = (obs.w[:, k] > 0.5) & ~obs.angular
+        if rows.any():
+            best = max(best, 0.5 * float(np.ptp(contribution[rows])))
+    return best * UM_PER_M
+
+
+def group_findings(effects: list[Change]) -> list[tuple[Change, list[Change]]]:
+    """The physical findings among the accepted effects: thermal drifts in one direction
+    (through time and any temperature sensors, accepted round by round) are one finding, a
+    multi-sensor linear model; every other effect is a finding of its own.
+
+    Parameters
+    ----------
+    effects : list of Change
+        The accepted effects, in order.
+
+    Returns
+    -------
+    list of tuple of (Change, list of Change)
+        Each finding and the accepted effects it groups (itself for a single one), in the
+        order of their first round.
+    """
+    out: list[tuple[Change, list[Change]]] = []
+    thermal: dict[str, list[Change]] = {}
+    for e in effects:
+        if e.name == "thermal_drift" and e.kind == "effect":
+            if e.direction not in thermal:
+                thermal[e.direction] = []
+                out.append((None, thermal[e.direction]))  # placeholder, filled below
+            thermal[e.direction].append(e)
+        else:
+            out.append((e, [e]))
+    result = []
+    for finding, members in out:
+        if finding is None:
+            finding = members[0] if len(members) == 1 else _grouped(members)
+        result.append((finding, members))
+    return result
+
+
+def _grouped(members: list[Change]) -> Change:
+    """One thermal drift from several accepted drift terms."""
+    first = members[0]
+    sensors = [m.driver[2:] for m in members if m.driver and m.driver.startswith("T_")]
+    timed = any(m.driver == "t" for m in members)
+    what = f"sensors {{{', '.join(sensors)}}}" if sensors else ""
+    what += (" and time" if sensors else "time") if timed else ""
+    sites = sorted({m.component for m in members})
+    axes = {m.axis for m in members}
+    label = (f"thermal_drift in {first.direction} from {what} (a multi-sensor linear model; as "
+             f"{', '.join(sites)})")
+    params: dict = {}
+    for m in members:
+        params.update(m.parameters)
+    same = sorted({c for m in members for c in m.same_at_tool_as})
+    significance = [m.significance for m in members if m.significance is not None]
+    return Change("effect", label, "thermal_drift", first.component, axes.pop() if len(axes) == 1 else None,
+                  first.direction, first.driver, min(m.p_value for m in members),
+                  sum(m.bic_gain for m in members), same, first.step, [n for m in members for n in m.names],
+                  rms_before_um=first.rms_before_um, max_before_um=first.max_before_um,
+                  rms_after_um=members[-1].rms_after_um, max_after_um=members[-1].max_after_um,
+                  significance=max(significance) if significance else None, parameters=params,
+                  amplitude_um=first.amplitude_um, gain_um=first.gain_um,
+                  members=[m.label for m in members])

@@ -3,6 +3,12 @@ the result with its JSON report (docs/reports.md)."""
 
 from __future__ import annotations
 
+import math
+import multiprocessing
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -10,10 +16,134 @@ import numpy as np
 from ..identify import Observations
 from ..machine import Machine
 
-__all__ = ["SIGNIFICANCE", "Candidate", "Change", "Diagnosis", "Evidence", "Raise", "Score", "Step"]
+__all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR", "Candidate", "Change", "Diagnosis", "Evidence", "Raise", "Score", "Step", "WORKERS",
+           "one_blas_thread", "parallel_map", "process_map"]
+
+#: threads that score candidates and factor folds at once: the cores this process may use
+WORKERS = max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1))
+
+
+def parallel_map(fn, items, workers: int | None = None) -> list:
+    """``[fn(x) for x in items]`` on :data:`WORKERS` threads (in order). The work is NumPy and
+    LAPACK on matrices of a few hundred columns, which release the interpreter lock; run under
+    :func:`one_blas_thread` so that the threads, not BLAS, use the cores.
+
+    Parameters
+    ----------
+    fn : callable
+        The function of one item.
+    items : iterable
+        The items.
+    workers : int, optional
+        Threads (default :data:`WORKERS`).
+
+    Returns
+    -------
+    list
+        The results, in the order of ``items``.
+    """
+    items = list(items)
+    workers = WORKERS if workers is None else workers
+    if workers <= 1 or len(items) <= 1:
+        return [fn(x) for x in items]
+    with ThreadPoolExecutor(min(workers, len(items))) as pool:
+        return list(pool.map(fn, items))
+
+
+_JOB: list = []   # the function and items of the running process_map, inherited by forked workers
+
+
+def _run_chunk(k: int) -> list:
+    fn, items, step = _JOB[-1]
+    return [fn(x) for x in items[k::step]]
+
+
+def process_map(fn, items, workers: int | None = None, progress=None) -> list:
+    """``[fn(x) for x in items]`` on :data:`WORKERS` forked processes (in order), for Python-heavy
+    work the interpreter lock would serialise on threads. The workers are forked at the call,
+    so they see the caller's state as it is; only the results travel back (pickled). Where
+    forking is not safe - no ``fork`` start method, or other Python threads running (a fork
+    copies their locks) - the items run here, one after the other.
+
+    Parameters
+    ----------
+    fn : callable
+        The function of one item (its results must pickle).
+    items : iterable
+        The items.
+    workers : int, optional
+        Processes (default :data:`WORKERS`).
+    progress : callable(int), optional
+        Called with the number of items done.
+
+    Returns
+    -------
+    list
+        The results, in the order of ``items``.
+    """
+    items = list(items)
+    workers = WORKERS if workers is None else workers
+    forkable = "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+    if workers <= 1 or len(items) < 2 * workers or not forkable:
+        out = []
+        for x in items:
+            out.append(fn(x))
+            if progress:
+                progress(len(out))
+        return out
+    step = workers * 4   # chunks interleaved over the items: even loads, progress as they finish
+    _JOB.append((fn, items, step))
+    try:
+        with multiprocessing.get_context("fork").Pool(workers) as pool:
+            chunks = {}
+            done = 0
+            for k, res in pool.imap_unordered(_indexed, range(step)):
+                chunks[k] = res
+                done += len(res)
+                if progress:
+                    progress(done)
+    finally:
+        _JOB.pop()
+    out = [None] * len(items)
+    for k, res in chunks.items():
+        out[k::step] = res
+    return out
+
+
+def _indexed(k: int) -> tuple[int, list]:
+    return k, _run_chunk(k)
+
+
+@contextmanager
+def one_blas_thread():
+    """Limit BLAS and OpenMP to one thread inside the block (threadpoolctl), so that a
+    diagnosis's small matrices do not oversubscribe the cores: its parallelism is over
+    candidates and folds (:func:`parallel_map`). Without threadpoolctl the block runs as is.
+
+    Yields
+    ------
+    None
+    """
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - a declared dependency
+        yield
+        return
+    with threadpool_limits(limits=1):
+        yield
+
 
 #: |value| / standard uncertainty of an accepted effect's size
 SIGNIFICANCE = 3.0
+#: an effect found is of practical significance when its held-out RMS gain is at least this
+#: share of the held-out RMS before it ...
+PRACTICAL_GAIN = 0.02
+#: ... and its amplitude at the tool (half its range over the measured points, in the direction
+#: it moves most) is at least this share of the noise per component
+PRACTICAL_AMPLITUDE = 0.5
+#: a noise floor that is only an upper bound from the residual is said to be reached only when it
+#: is within this factor of the noise the instrument states (``sigma_um`` per component)
+STATED_NOISE_FACTOR = 2.0
 
 
 @dataclass
@@ -66,6 +196,10 @@ class Candidate:
         """
         if self.kind == "raise":
             return f"geometric component {self.component} under-modelled ({self.change[0]} -> {self.change[1]})"
+        if self.name == "periodic_rotary":
+            n = round(360.0 / self.table["period_deg"])
+            times = "once" if n == 1 else f"{n} times"
+            return f"periodic_rotary on {self.axis} about {self.direction}, {times} per revolution ({self.component})"
         where = f" on {self.axis}" if self.axis else ""
         d = f" in {self.direction}" if self.direction else ""
         by = f" driven by {self.driver}" if self.driver else ""
@@ -167,7 +301,17 @@ class Change:
     parameters : dict
         Effects: coefficient -> {"value", "uncertainty", "unit"} after the final fit.
     note : str
-        Dropped effects: why.
+        Dropped effects and those below practical significance: why.
+    amplitude_um : float or None
+        Half the range of its effect at the tool over the measured points, in the direction
+        it moves most [um].
+    gain_um : float or None
+        Held-out RMS before minus after it [um].
+    members : list of str
+        A finding grouped from several accepted terms (multi-sensor thermal drift): their labels.
+    details : dict
+        A grouped thermal drift: ``sensors``, ``drivers``, ``selection``, ``lag_s``,
+        ``lags_tried`` and ``time_check`` (docs/reports.md).
     """
 
     kind: str
@@ -192,6 +336,10 @@ class Change:
     significance: float | None = None
     parameters: dict = field(default_factory=dict)
     note: str = ""
+    amplitude_um: float | None = None
+    gain_um: float | None = None
+    members: list[str] = field(default_factory=list)
+    details: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The change in the report (docs/reports.md).
@@ -211,8 +359,14 @@ class Change:
         if self.significance is not None:
             out["significance"] = self.significance
         out.update(rms_after_um=self.rms_after_um, max_after_um=self.max_after_um)
+        if self.kind == "effect":
+            out.update(amplitude_um=self.amplitude_um, gain_um=self.gain_um)
         if self.kind == "effect" and not self.note:  # a dropped effect has no final values
             out["parameters"] = self.parameters
+        if self.members:
+            out["members"] = list(self.members)
+        if self.details:
+            out.update(self.details)
         if self.note:
             out["note"] = self.note
         return out
@@ -338,6 +492,12 @@ class Diagnosis:
         Effects accepted in a round whose size was no longer significant at the end.
     noise_floor_upper_bound : bool
         Whether the floor is only an upper bound.
+    possible : list of Change
+        Effects that passed the statistical tests but are below practical significance
+        (:data:`PRACTICAL_GAIN`, :data:`PRACTICAL_AMPLITUDE`); not in the final model.
+    noise_stated_um : float
+        The noise the observations state (``sigma_um`` per position component, as the RMS of
+        the 3D norm) [um].
     """
 
     machine: Machine
@@ -357,6 +517,21 @@ class Diagnosis:
     under_modelled: list[Raise] = field(default_factory=list)
     dropped: list[Change] = field(default_factory=list)
     noise_floor_upper_bound: bool = False
+    possible: list[Change] = field(default_factory=list)
+    noise_stated_um: float = math.nan
+
+    def off_spec(self) -> dict:
+        """The raised components grouped: one finding "geometry off the spec on n components".
+
+        Returns
+        -------
+        dict
+            ``count``, ``components`` (names) and ``label``.
+        """
+        comps = [u.component for u in self.under_modelled]
+        label = (f"geometry off the spec on {len(comps)} component{'s' if len(comps) != 1 else ''}"
+                 if comps else "geometry within the spec's function space")
+        return {"count": len(comps), "components": comps, "label": label}
 
     def to_dict(self) -> dict:
         """The JSON report (docs/reports.md).
@@ -377,7 +552,15 @@ class Diagnosis:
             "noise_floor_source": self.noise_floor_source,
             "noise_floor_upper_bound": self.noise_floor_upper_bound,
             "reaches_noise_floor": self.reaches_noise_floor,
+            "noise_stated_um": self.noise_stated_um,
             "effects": [e.to_dict() for e in self.effects],
+            "possible": [e.to_dict() for e in self.possible],
+            "practical_significance": {"gain_share": PRACTICAL_GAIN, "amplitude_noise_share": PRACTICAL_AMPLITUDE,
+                                       "rule": f"an effect is found when its held-out RMS gain is at least "
+                                               f"{PRACTICAL_GAIN:.0%} of the held-out RMS before it and its "
+                                               f"amplitude at least {PRACTICAL_AMPLITUDE:g} of the noise per "
+                                               "component; else it is possible, below practical significance"},
+            "off_spec": self.off_spec(),
             "under_modelled": [u.to_dict() for u in self.under_modelled],
             "dropped": [e.to_dict() for e in self.dropped],
             "steps": [{"step": s.number, "rms_holdout_um": s.rms_holdout_um,

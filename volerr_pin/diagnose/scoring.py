@@ -19,8 +19,8 @@ from ..machine import Machine
 from ..spec import build_term, parse_component_name
 from ..terms import Context, Covariates
 from ..units import UM_PER_M
-from .candidates import MIN_PERIODS, PITCH_PERIOD_MM
-from .results import Candidate, Score
+from .candidates import MIN_PERIODS, PITCH_PERIOD_MM, interpolation_period
+from .results import Candidate, Score, parallel_map
 
 __all__ = ["PERIODOGRAM_POINTS", "Base", "Columns", "Projector", "base_design", "periodogram_period", "score"]
 
@@ -145,19 +145,22 @@ class Columns:
         obs = self.obs
         key = (cand.component, repr(sorted(cand.table.items())),
                None if coefs is None else tuple(np.round(coefs, 15)))
-        if key not in self.cache:
+        entry = self.cache.get(key)
+        if entry is None:
             tspec, ctx = self.term(machine, cand)
             c = tspec.coefficients if coefs is None else coefs
-            self.cache[key] = (tspec, c, tspec.term.jacobian(c, ctx)[obs.point])
-        tspec, c, jac = self.cache[key]
+            entry = self.cache[key] = (tspec, c, tspec.term.jacobian(c, ctx)[obs.point])
+        tspec, c, jac = entry
         weight_key = (id(E), cand.component)
-        if weight_key not in self.weights:
+        weight = self.weights.get(weight_key)  # threads score candidates at once: read once
+        if weight is None:
             if len(self.weights) > 256:
-                self.weights.clear()
+                self.weights = {}
             col = E[:, :, joints.index(cand.component)]                 # (points, 6)
-            self.weights[weight_key] = (np.einsum("rk,rk->r", obs.w, col[obs.point]) / obs.sigma)[:, None]
+            weight = (np.einsum("rk,rk->r", obs.w, col[obs.point]) / obs.sigma)[:, None]
+            self.weights[weight_key] = weight
         jac = jac if columns is None else jac[:, columns]
-        return self.weights[weight_key] * jac, tspec, c
+        return weight * jac, tspec, c
 
 
 def _scaled(A: np.ndarray) -> np.ndarray:
@@ -216,7 +219,8 @@ class Projector:
         self.rank = self.Q.shape[1]
         self.folds = []
         pos = ~obs.angular
-        for test in folds:
+
+        def fold(test):
             V = np.isin(obs.point, test)
             T = ~V
             Q_T, s, Vt = _svd(A[T])
@@ -224,7 +228,9 @@ class Projector:
             M = A[V] @ (Vt.T / s) if s.size else np.zeros((int(V.sum()), 0))
             e_T = r[T] - Q_T @ (Q_T.T @ r[T])
             e_V = r[V] - M @ (Q_T.T @ r[T])
-            self.folds.append((T, V, Q_T, M, e_T, e_V, pos[V]))
+            return T, V, Q_T, M, e_T, e_V, pos[V]
+
+        self.folds = parallel_map(fold, folds)  # the folds' factorisations are independent
         self.cv_rms = self._cv(lambda f: np.zeros(f[5].shape))
         self.cv_max = self.last_max
 
@@ -380,12 +386,14 @@ def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints:
         if found is None:
             return None
         period, searched = found
+        if interpolation_period(base.machine, cand.component, period):
+            return None  # the table's interpolation, not a screw: its raise refines it
         cand.table = dict(cand.table, period_mm=period * 1e3)
     _, tspec, coefs = columns(base.machine, E, joints, cand)
     nonlinear = [tspec.term.local_names.index(k) for k in tspec.term.nonlinear]
     lin = [i for i in range(len(coefs)) if i not in nonlinear]
     full = np.array([np.nan])
-    if nonlinear and cand.name != "periodic_pitch":  # periods come from the periodogram
+    if nonlinear and cand.name not in ("periodic_pitch", "periodic_rotary"):  # periods: periodogram, revolution
         full = np.asarray(tspec.term.search_grid(tspec.term.local_names[nonlinear[0]], coefs, cov_obj))
     tried: dict = {}
 
