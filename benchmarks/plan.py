@@ -8,7 +8,7 @@ tracker (two reflectors: one at the tool point, one 100 mm off it along the tool
 and uniform random poses of the same N: the predicted standard uncertainty of the volumetric
 error over the zone (RMS over 512 Sobol' points), the geometric mean of the coefficients'
 predicted standard uncertainties, and the same two found by simulating the campaign
-(5 repeats, fixed seeds) and identifying from it with ``volerr_pin.identify``. A ratio
+(10 repeats, fixed seeds) and identifying from it with ``volerr_pin.identify``. A ratio
 below 1 means the plan is better; "not identified" means the reference design leaves
 coefficients that the plan identifies undetermined. Also a section of ``benchmarks/run.py``
 (``section(quick) -> str``).
@@ -36,7 +36,7 @@ def _row(name: str, kind: str, n: int, quick: bool) -> str:
     targets = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]]) if kind == "tracker" else None
     setup = make_setup(m, inst, targets=targets)
     t0 = time.perf_counter()
-    p = plan(m, inst, n, setup, compare=True, repeats=2 if quick else 5, candidates=512 if quick else 1024)
+    p = plan(m, inst, n, setup, compare=True, repeats=2 if quick else 10, candidates=512 if quick else 1024)
     seconds = time.perf_counter() - t0
     c = p.comparison
 

@@ -45,6 +45,9 @@ def add_parser(sub) -> None:
     p.add_argument("--acceptance-deg", type=float, default=30.0, help="reflector acceptance half-angle (deg)")
     p.add_argument("--sigma-um", type=float, help="instrument noise per observed value (um; default the instrument's)")
     p.add_argument("--terms", nargs="+", metavar="TERM", help="components to identify (default all)")
+    p.add_argument("--criterion", choices=["D", "I"], default="D",
+                   help="D-optimal (log det of the information, default) or I-optimal (mean predicted variance of "
+                        "the volumetric error over the zone)")
     p.add_argument("--candidates", type=int, default=1024, help="candidate poses to choose from (default 1024)")
     p.add_argument("--seed", type=int, default=0, help="seed of candidates and simulations")
     p.add_argument("--compare", action="store_true",
@@ -97,7 +100,7 @@ def run(args) -> int:
         out["not_separable"] = out["after"]["not_separable"]
     else:
         result = plan(machine, kind, args.budget, setup, terms=args.terms, candidates=args.candidates,
-                      seed=args.seed, compare=args.compare, repeats=args.repeats)
+                      seed=args.seed, compare=args.compare, repeats=args.repeats, criterion=args.criterion)
         units = result.units
         out = result.to_dict()
         visits = kind.visits(machine, units)

@@ -211,7 +211,7 @@ class Plan:
 
 
 def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=None, candidates: int = 1024,
-         seed: int = 0, compare: bool = False, repeats: int = 5, zone_points: int = 512) -> Plan:
+         seed: int = 0, compare: bool = False, repeats: int = 5, zone_points: int = 512, criterion: str = "D") -> Plan:
     """Plan ``budget`` units of measurement with ``instrument`` (see the module docstring).
 
     Parameters
@@ -236,6 +236,10 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
         Simulated campaigns per design when comparing.
     zone_points : int, default 512
         Points of the zone the volumetric error's uncertainty is summarised over.
+    criterion : str, default "D"
+        "D": D-optimal (log det of the information over the identifiable coefficients);
+        "I": I-optimal (the mean predicted variance of the volumetric error over the zone's
+        points).
 
     Returns
     -------
@@ -246,10 +250,12 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
     ------
     InputError
         If ``budget``, ``candidates``, ``repeats`` or ``zone_points`` is not a whole number
-        >= 1 (``seed`` >= 0), ``budget`` exceeds the candidates (or those left in sight), ``terms`` names an unknown
+        >= 1 (``seed`` >= 0), ``criterion`` is not "D" or "I", ``budget`` exceeds the candidates (or those left in sight), ``terms`` names an unknown
         component, or no candidate is left in the zone and in sight.
     """
     budget = integer("budget", budget, 1)
+    if criterion not in ("D", "I"):
+        raise InputError(f"criterion must be 'D' or 'I', got {criterion!r}", parameters=("criterion",))
     candidates = integer("candidates", candidates, 1)
     seed = integer("seed", seed, 0)
     repeats = integer("repeats", repeats, 1)
@@ -263,9 +269,14 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
     design = unit_design(machine, instrument, setup, pool, free)
     analysis = design.analyse()
     columns = np.array(analysis.kept, dtype=int)
-    chosen = d_optimal(design, columns, budget)
     zone_q = pose_candidates(setup.zone, machine.axis_kinds, zone_points, "sobol", seed + 1)
     S_zone = machine.sensitivity(zone_q, parameters=free, first_order=True)[:, :3, :]
+    weight = None
+    if criterion == "I":
+        weight = np.zeros((len(zone_q), 3, len(columns)))
+        theta = columns >= design.n_global
+        weight[:, :, theta] = S_zone[:, :, columns[theta] - design.n_global]
+    chosen = d_optimal(design, columns, budget, zone=weight)
     mine = predicted(design, chosen, columns, S_zone)
     units = [pool[u] for u in chosen]
     order = visiting_order(machine, instrument.visits(machine, units))

@@ -12,10 +12,12 @@ the information matrix ``M = D^T D`` of a selection is the one identify's fit ha
 inverse the covariance of the estimates at the stated noise.
 
 The choice of units maximises ``log det M`` over the columns the whole candidate pool can
-identify, columns scaled to unit mean square per unit (D-optimality is unchanged by the
+identify (D-optimal), or minimises ``trace(W M^-1)``, the mean predicted variance of the
+volumetric error over points of the zone (I-optimal, ``W`` the zone's sensitivities'
+second moment), columns scaled to unit mean square per unit (D-optimality is unchanged by the
 scaling; it keeps the regularisation ``eps I`` neutral): a greedy forward selection by the
 matrix determinant lemma, ``log det(M + X_u^T X_u) = log det M + log det(I + X_u M^-1 X_u^T)``,
-then Fedorov exchange passes (Fedorov 1972, *Theory of Optimal Experiments*; the
+(for I, the Sherman-Morrison-Woodbury drop of the trace), then Fedorov exchange passes (Fedorov 1972, *Theory of Optimal Experiments*; the
 "modified Fedorov" exchange of Cook and Nachtsheim 1980, *Technometrics* 22(3)) that swap a
 chosen unit for a candidate while ``det M`` grows. Written here rather than taken from a
 library: the design packages for Python (pyDOE3, dexpy) build designs for polynomial
@@ -188,22 +190,31 @@ def information(design: UnitDesign, units: np.ndarray, columns: np.ndarray) -> n
     return X.T @ X
 
 
-def _gains(X: np.ndarray, groups: list, Minv: np.ndarray, n_units: int) -> np.ndarray:
-    """log det(I + X_u Minv X_u^T) of every unit, units of equal row count at once."""
+def _gains(X: np.ndarray, groups: list, Minv: np.ndarray, n_units: int, W: np.ndarray | None) -> np.ndarray:
+    """The gain of adding each unit to a design of information ``M``, units of equal row count
+    at once: D, ``log det(I + X_u Minv X_u^T)``; I (``W`` given), the drop of
+    ``trace(W M^-1)``, ``trace((I + X_u Minv X_u^T)^-1 X_u Minv W Minv X_u^T)``."""
     Y = X @ Minv
+    Z = None if W is None else Y @ W
     out = np.empty(n_units)
     for units, rows in groups:
         Xu, Yu = X[rows], Y[rows]                       # (n, r, p)
         B = np.einsum("urp,usp->urs", Yu, Xu) + np.eye(rows.shape[1])
-        sign, logdet = np.linalg.slogdet(B)
-        out[units] = np.where(sign > 0, logdet, -np.inf)
+        if Z is None:
+            sign, logdet = np.linalg.slogdet(B)
+            out[units] = np.where(sign > 0, logdet, -np.inf)
+        else:
+            C = np.einsum("urp,usp->urs", Yu, Z[rows])
+            out[units] = np.trace(np.linalg.solve(B, C), axis1=1, axis2=2)
     return out
 
 
 def d_optimal(design: UnitDesign, columns: np.ndarray, budget: int, *, eps: float = 1e-6, passes: int = 4,
-              start: np.ndarray | None = None) -> np.ndarray:
+              start: np.ndarray | None = None, zone: np.ndarray | None = None) -> np.ndarray:
     """``budget`` distinct units maximising ``log det`` of the information over ``columns``
-    (greedy forward selection, then Fedorov exchange passes; see the module docstring).
+    (D-optimal), or with ``zone`` minimising the mean predicted variance of the volumetric
+    error over the zone, ``trace(W M^-1)`` (I-optimal); greedy forward selection, then
+    Fedorov exchange passes (see the module docstring).
 
     Parameters
     ----------
@@ -220,6 +231,9 @@ def d_optimal(design: UnitDesign, columns: np.ndarray, budget: int, *, eps: floa
         Largest number of exchange passes (they stop when a pass improves nothing).
     start : ndarray of int, optional
         Units measured already: their information is counted, they are not chosen again.
+    zone : ndarray, shape (Z, 3, len(columns)), optional
+        Sensitivities of dx, dy, dz at points of the zone to the columns (zero for nuisance
+        columns) [m per SI unit]: the criterion becomes I-optimal.
 
     Returns
     -------
@@ -238,7 +252,13 @@ def d_optimal(design: UnitDesign, columns: np.ndarray, budget: int, *, eps: floa
                          "available (widen the zone or ask for more candidates)", parameters=("budget", "candidates"))
     X = design.rows[:, columns]
     norms = np.linalg.norm(X, axis=0)
-    X = X / np.where(norms > 0, norms, 1.0) * np.sqrt(n)
+    scale = np.where(norms > 0, norms, 1.0) / np.sqrt(n)
+    X = X / scale
+    W = None
+    if zone is not None:   # the zone's weight in the scaled coefficients
+        Sz = np.asarray(zone, dtype=float).reshape(-1, len(columns)) / scale
+        W = Sz.T @ Sz / len(Sz)
+        W /= np.trace(W) / len(columns)
     sizes = np.diff(design.starts)
     groups = []
     for r in np.unique(sizes):
@@ -256,7 +276,7 @@ def d_optimal(design: UnitDesign, columns: np.ndarray, budget: int, *, eps: floa
     chosen: list[int] = []
     M = base.copy()
     for _ in range(budget):
-        g = _gains(X, groups, np.linalg.inv(M), n)
+        g = _gains(X, groups, np.linalg.inv(M), n, W)
         g[~available] = -np.inf
         j = int(np.argmax(g))
         chosen.append(j)
@@ -267,7 +287,7 @@ def d_optimal(design: UnitDesign, columns: np.ndarray, budget: int, *, eps: floa
         for pos in range(budget):
             i = chosen[pos]
             M_without = M - info(i)
-            g = _gains(X, groups, np.linalg.inv(M_without), n)
+            g = _gains(X, groups, np.linalg.inv(M_without), n, W)
             own = g[i]
             g[~available] = -np.inf
             j = int(np.argmax(g))
