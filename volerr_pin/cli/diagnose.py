@@ -70,7 +70,7 @@ def run(args) -> int:
     out = table_console()
     out.print(f"[bold]{escape(result.machine.name)}[/bold]: {result.observations.n_points} points; held-out "
               f"RMS {result.rms_before_um:.3f} um before, {result.rms_after_um:.3f} um after "
-              f"({len(result.effects)} effect(s) added, {len(result.under_modelled)} component(s) raised)")
+              f"({len(result.effects)} effect(s) found; {escape(result.off_spec()['label'])})")
     table = Table(box=box.SIMPLE, title="effects found, in order")
     for col in ("#", "effect", "axis", "direction", "driver", "modelled as", "held-out RMS before -> after [um]",
                 "p-value"):
@@ -82,11 +82,27 @@ def run(args) -> int:
                       f"{e.rms_before_um:.3f} -> {e.rms_after_um:.3f}", f"{e.p_value:.2g}")
     out.print(table)
     for e in result.effects:
+        out.print(escape(f"{e.label}:"))
         for name, p in e.parameters.items():
             u = "" if p["uncertainty"] is None else f" +- {p['uncertainty']:.3g}"
             out.print(escape(f"  {name} = {p['value']:.5g}{u} {p['unit']}"))
+        if e.details.get("sensors") is not None:
+            lags = ", ".join(f"{k} s: {v:.3f}" for k, v in e.details["lags_tried_holdout_rms_um"].items())
+            out.print(escape(f"  sensors {', '.join(e.details['sensors']) or '-'}; lag {e.details['lag_s']:g} s "
+                             f"(held-out RMS by lag: {lags} um)"))
+            out.print(escape(f"  chosen by {e.details['selection']}"))
+            check = e.details.get("time_check")
+            if check:
+                out.print(escape(f"  check over time: fitted on the first {check['fit_share']:.0%} of the run "
+                                 f"({check['fit_points']} points), predicts the other {check['predicted_points']} "
+                                 f"with RMS {check['rms_predicted_um']:.3f} um (without the drift "
+                                 f"{check['rms_predicted_without_um']:.3f} um)"))
+        if e.details.get("kept_jointly"):
+            out.print(escape(f"  {e.details['kept_jointly']}"))
+    for e in result.possible:
+        out.print(escape(f"possible, below practical significance: {e.label} ({e.note.split(': ', 1)[-1]})"))
     if result.under_modelled:
-        out.print("geometric components under-modelled by the spec (raised; not physical effects): "
+        out.print(escape(result.off_spec()["label"]) + " (raised; not physical effects): "
                   + escape(", ".join(f"{u.component} ({u.form_before} -> {u.form_after})" for u in result.under_modelled)))
     for e in result.dropped:
         out.print(escape(f"dropped: {e.label} ({e.note})"))

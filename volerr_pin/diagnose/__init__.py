@@ -51,9 +51,11 @@ Parts, each importing only those listed before it:
 from .candidates import axis_directions, build_candidates, geometric_term, raised_table
 from .changes import raise_components
 from .loop import diagnose
-from .report import driver_values, evidence, residual_analysis
-from .results import SIGNIFICANCE, Candidate, Change, Diagnosis, Evidence, Raise, Score, Step
+from .report import drift_series, driver_values, evidence, residual_analysis
+from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Candidate, Change, Diagnosis, DriftSeries,
+                      Evidence, Raise, Score, Step)
 
-__all__ = ["SIGNIFICANCE", "Candidate", "Change", "Diagnosis", "Evidence", "Raise", "Score", "Step", "axis_directions",
-           "build_candidates", "diagnose", "driver_values", "evidence", "geometric_term", "raise_components",
+__all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "Candidate", "Change", "Diagnosis", "DriftSeries",
+           "Evidence", "Raise", "Score", "Step", "axis_directions", "build_candidates", "diagnose", "drift_series",
+           "driver_values", "evidence", "geometric_term", "raise_components",
            "raised_table", "residual_analysis"]

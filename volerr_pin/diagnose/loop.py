@@ -399,7 +399,7 @@ class _Loop:
             findings.append(finding)
         return Diagnosis(current, self.base_machine, findings, self.steps, self.steps[0].rms_holdout_um,
                          last_proj.cv_rms, rms_fit, floor, source, reaches, self.alpha,
-                         0.0, obs, analysis, raised, dropped, bound, possible, stated), final
+                         0.0, obs, analysis, raised, dropped, bound, possible, stated, residual), final
 
     def _thermal(self, members: list[Change], final) -> tuple:
         """A thermal drift's sensors and why, its lag (the temperature terms' common lag that

@@ -15,9 +15,10 @@ from ..identify import Observations
 from ..machine import Machine
 from ..units import AXIS_UNIT, UM_PER_M, axis_scale
 from .candidates import form_of
-from .results import Change, Diagnosis, Evidence, Raise, Score
+from .results import Change, Diagnosis, DriftSeries, Evidence, Raise, Score
 
-__all__ = ["driver_values", "evidence", "noise_floor", "raised_summary", "residual_analysis", "twins_of"]
+__all__ = ["components_per_point", "drift_series", "driver_values", "effect_amplitude", "evidence",
+           "group_findings", "stated_noise", "noise_floor", "raised_summary", "residual_analysis", "twins_of"]
 
 
 def residual_analysis(machine: Machine, obs: Observations, r_si: np.ndarray) -> dict:
@@ -405,3 +406,61 @@ def _grouped(members: list[Change]) -> Change:
                   significance=max(significance) if significance else None, parameters=params,
                   amplitude_um=first.amplitude_um, gain_um=first.gain_um,
                   members=[m.label for m in members])
+
+
+def _contribution(machine: Machine, obs: Observations, names: list[str]) -> np.ndarray:
+    """What the linear coefficients ``names`` add to every observation row [m or rad]."""
+    from ..identify import predict_observations
+
+    nonlinear = set(machine.nonlinear_parameters)
+    theta0 = machine.theta.copy()
+    for name in names:
+        k = machine.parameter_names.index(name)
+        if k not in nonlinear:
+            theta0[k] = 0.0
+    none = np.array([], dtype=int)
+    return predict_observations(machine, obs, machine.theta, none)[0] - predict_observations(
+        machine, obs, theta0, none)[0]
+
+
+def drift_series(diagnosis: Diagnosis) -> list[DriftSeries]:
+    """Every thermal drift found, over the run: measured against the model, per driver.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        The diagnosis (with its final ``residual``).
+
+    Returns
+    -------
+    list of DriftSeries
+        One per thermal drift finding (none without time or a residual).
+    """
+    obs, machine = diagnosis.observations, diagnosis.machine
+    cov = obs.covariates
+    if diagnosis.residual is None or "t" not in cov:
+        return []
+    out = []
+    for e in diagnosis.effects:
+        if e.name != "thermal_drift" or e.direction not in ("x", "y", "z"):
+            continue
+        k = "xyz".index(e.direction)
+        rows = (obs.w[:, k] > 0.5) & ~obs.angular
+        points = obs.point[rows]
+        order = np.argsort(cov["t"][points], kind="stable")
+        rows_idx = np.flatnonzero(rows)[order]
+        points = points[order]
+        names = [n for n in e.names if n in machine.parameter_names]
+        model = _contribution(machine, obs, names)[rows_idx]
+        shares = {}
+        for name in names:
+            driver = name.split(".")[-1]
+            key = f"T_{driver[2:]}" if driver.startswith("k_") else "t"
+            shares[key] = shares.get(key, 0.0) + _contribution(machine, obs, [name])[rows_idx] * UM_PER_M
+        temps = {s: np.asarray(cov["temperatures"][s])[points] for s in e.details.get("sensors", [])
+                 if s in (cov.get("temperatures") or {})}
+        check = e.details.get("time_check") or {}
+        out.append(DriftSeries(e.label, e.direction, cov["t"][points] / 3600.0,
+                               (diagnosis.residual[rows_idx] + model) * UM_PER_M, model * UM_PER_M, shares, temps,
+                               check.get("fit_until_h")))
+    return out

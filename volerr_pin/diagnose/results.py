@@ -16,7 +16,7 @@ import numpy as np
 from ..identify import Observations
 from ..machine import Machine
 
-__all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR", "Candidate", "Change", "Diagnosis", "Evidence", "Raise", "Score", "Step", "WORKERS",
+__all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR", "Candidate", "Change", "Diagnosis", "Evidence", "DriftSeries", "Raise", "Score", "Step", "WORKERS",
            "one_blas_thread", "parallel_map", "process_map"]
 
 #: threads that score candidates and factor folds at once: the cores this process may use
@@ -498,6 +498,8 @@ class Diagnosis:
     noise_stated_um : float
         The noise the observations state (``sigma_um`` per position component, as the RMS of
         the 3D norm) [um].
+    residual : ndarray, shape (rows,) or None
+        The final model's residual of every observation row [m or rad].
     """
 
     machine: Machine
@@ -519,6 +521,7 @@ class Diagnosis:
     noise_floor_upper_bound: bool = False
     possible: list[Change] = field(default_factory=list)
     noise_stated_um: float = math.nan
+    residual: np.ndarray | None = field(default=None, repr=False)
 
     def off_spec(self) -> dict:
         """The raised components grouped: one finding "geometry off the spec on n components".
@@ -600,3 +603,38 @@ class Evidence:
     after_um: np.ndarray
     direction: str
     label: str
+
+
+@dataclass
+class DriftSeries:
+    """A thermal drift over the run, for pictures: what was measured in its direction against
+    what the final model says, and the sensors it reads.
+
+    Attributes
+    ----------
+    label : str
+        The finding in words.
+    direction : str
+        "x", "y" or "z".
+    t_h : ndarray, shape (rows,)
+        Time of each observation row in its direction [h], sorted.
+    measured_um : ndarray, shape (rows,)
+        The drift measured: the final residual plus the model's drift [um].
+    model_um : ndarray, shape (rows,)
+        The model's drift [um].
+    contributions_um : dict of str to ndarray (rows,)
+        Each driver's share of the model's drift (``T_<sensor>``, ``t``) [um].
+    temperatures : dict of str to ndarray (rows,)
+        The chosen sensors' temperatures [degC].
+    fit_until_h : float or None
+        The end of the part of the run the check over time fitted on [h].
+    """
+
+    label: str
+    direction: str
+    t_h: np.ndarray
+    measured_um: np.ndarray
+    model_um: np.ndarray
+    contributions_um: dict
+    temperatures: dict
+    fit_until_h: float | None = None

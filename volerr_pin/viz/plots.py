@@ -255,11 +255,13 @@ def thermal_fit_png(result: dict, data, path: str | Path) -> dict:
 def diagnosis_png(diagnosis, path: str | Path) -> dict:
     """One page: held-out RMS per step against the noise floor, and for each accepted effect
     the residual against its driver before and after."""
-    from ..diagnose import evidence
+    from ..diagnose import drift_series, evidence
 
     n_eff = min(len(diagnosis.effects), 4)
-    fig = plt.figure(figsize=(11.0, 3.2 + 2.9 * ((n_eff + 1) // 2)), dpi=110, constrained_layout=True)
-    grid = fig.add_gridspec(1 + (n_eff + 1) // 2, 2)
+    drifts = drift_series(diagnosis)[:2]
+    rows = 1 + (n_eff + 1) // 2 + len(drifts)
+    fig = plt.figure(figsize=(11.0, 3.2 + 2.9 * (rows - 1)), dpi=110, constrained_layout=True)
+    grid = fig.add_gridspec(rows, 2)
     ax = fig.add_subplot(grid[0, 0])
     rms = [s.rms_holdout_um for s in diagnosis.steps]
     def short(step):
@@ -288,9 +290,11 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
                            + (f" +- {p['uncertainty']:.2g}" if p["uncertainty"] is not None else "") + f" {p['unit']}"
                            for n, p in e.parameters.items())
         lines.append(f"- {e.label}: {e.rms_before_um:.3f} -> {e.rms_after_um:.3f} um; {params}")
+    for e in diagnosis.possible:
+        lines.append(f"- possible, below practical significance: {e.label}")
     if diagnosis.under_modelled:
-        lines.append("under-modelled geometry (not physical effects): " + ", ".join(
-            f"{u.component} {u.form_before} -> {u.form_after}" for u in diagnosis.under_modelled))
+        lines.append(diagnosis.off_spec()["label"] + " (raised; not physical effects): " + ", ".join(
+            u.component for u in diagnosis.under_modelled))
     import textwrap
 
     wrapped = [w for line in lines for w in textwrap.wrap(line, 64, subsequent_indent="    ")]
@@ -310,8 +314,40 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
         a.set_title(f"step {k + 1}: {ev.label}", fontsize=8)
         a.legend(fontsize=7)
         a.grid(alpha=0.3)
+    for k, series in enumerate(drifts):
+        _drift_panels(fig, grid[1 + (n_eff + 1) // 2 + k, 0], grid[1 + (n_eff + 1) // 2 + k, 1], series)
     save(fig, path)
     return {"path": str(path)}
+
+
+def _drift_panels(fig, left, right, series) -> None:
+    """A thermal drift over time: measured against the model (left; the check over time's
+    fitted part shaded), and each driver's share with the sensors' temperatures (right)."""
+    a = fig.add_subplot(left)
+    a.scatter(series.t_h, series.measured_um, s=5, color="#888888", alpha=0.6, label="measured drift")
+    a.plot(series.t_h, series.model_um, color="#c0392b", lw=1.2, label="model")
+    if series.fit_until_h is not None:
+        a.axvspan(series.t_h.min(), series.fit_until_h, color="#1f6fb2", alpha=0.08,
+                  label="fitted part of the check over time")
+    a.set_xlabel("time [h]", fontsize=8)
+    a.set_ylabel(f"drift d{series.direction} [um]", fontsize=8)
+    a.set_title(series.label, fontsize=8, wrap=True)
+    a.legend(fontsize=7)
+    a.grid(alpha=0.3)
+    b = fig.add_subplot(right)
+    for name, values in series.contributions_um.items():
+        b.plot(series.t_h, values, lw=1.0, label=f"share of {name} [um]")
+    b.set_xlabel("time [h]", fontsize=8)
+    b.set_ylabel("share of the model's drift [um]", fontsize=8)
+    b.set_title("which drivers matter", fontsize=8)
+    b.grid(alpha=0.3)
+    if series.temperatures:
+        c = b.twinx()
+        for name, values in series.temperatures.items():
+            c.plot(series.t_h, values, lw=0.6, ls=":", label=f"T_{name} [degC]")
+        c.set_ylabel("temperature [degC]", fontsize=8)
+        c.legend(fontsize=6, loc="lower right")
+    b.legend(fontsize=6, loc="upper left")
 
 
 def compensation_png(report, path: str | Path, title: str = "") -> dict:

@@ -446,7 +446,7 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, pa
     InputError
         If ``path`` cannot be written.
     """
-    from ..diagnose import evidence
+    from ..diagnose import drift_series, evidence
 
     check_outputs({"path": path})
     machine = diagnosis.machine
@@ -468,6 +468,7 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, pa
         rrb.Horizontal(
             rrb.Spatial3DView(origin="/", contents=["machine/**", "residuals/**"], name="residual field"),
             rrb.Vertical(rrb.Spatial2DView(origin="evidence", name="residual vs driver (um)"),
+                         rrb.TimeSeriesView(origin="thermal", name="thermal drift: measured and model (um)"),
                          rrb.TextLogView(origin="steps", name="steps")),
             column_shares=[3, 2]),
         rrb.TimePanel(state="expanded"))
@@ -498,6 +499,15 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, pa
                         f"{ev.label}: residual d{ev.direction} (red before, blue after, x10 um) vs "
                         f"{ev.x_label} (0-100 % of its range)"))
         rec.reset_time()
+        for k, series in enumerate(drift_series(diagnosis)):  # on the `time` timeline [s]
+            t = series.t_h * 3600.0
+            keep = np.r_[True, np.diff(t) > 0]  # one value per instant
+            log_time_series(rec, t[keep], {"measured_um": series.measured_um[keep],
+                                           "model_um": series.model_um[keep],
+                                           **{f"share_{n}_um": v[keep] for n, v in series.contributions_um.items()},
+                                           **{f"T_{n}_degC": v[keep] for n, v in series.temperatures.items()}},
+                            prefix=f"thermal/d{series.direction}")
+            rec.log(f"thermal/d{series.direction}/about", rr.TextDocument(series.label), static=True)
         rec.log("residuals/about", rr.TextDocument(
             f"Residual (measured minus model) at each step of the diagnosis, arrows x{scale:g}; "
             "the `step` timeline walks through the accepted effects.", media_type=rr.MediaType.MARKDOWN),
