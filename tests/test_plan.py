@@ -129,6 +129,14 @@ def test_not_separable_names_the_constant_translations_of_three_chains(vmc500):
     assert p.zone_um["zone_rms_um"] > 0 and p.zone_um["zone_max_um"] >= p.zone_um["zone_rms_um"]
 
 
+def test_a_budget_too_small_is_said(vmc500):
+    """11 nodes of EXX need 11 positions along X: 10 poses cannot determine them all."""
+    p = plan(vmc500, instrument("probe"), 10, terms=["EXX"], candidates=64)
+    assert p.zone_um["zone_rms_um"] is None
+    assert p.notes and "raise the budget" in p.notes[0]
+    assert not plan(vmc500, instrument("probe"), 12, terms=["EXX"], candidates=64).notes
+
+
 def test_plan_beats_grid_and_random_predicted_and_simulated(vmc500):
     p = plan(vmc500, instrument("probe"), 30, candidates=256, compare=True, repeats=3)
     c = p.comparison

@@ -157,5 +157,7 @@ def _print(out: dict) -> None:
     if out.get("time"):
         console.print(f"time: {out['time']['total_min']:.1f} min at {out['time']['feed_mm_min']:g} mm/min "
                       f"with {out['time']['dwell_per_pose_s']:g} s dwells")
+    for note in out.get("notes") or []:
+        console.print(escape(f"note: {note}"))
     for what, path in out["files"].items():
         console.print(f"wrote {path} ({what})")

@@ -171,6 +171,8 @@ class Plan:
         Number of candidate units the plan chose from.
     comparison : dict
         By design ("plan", "grid", "random"): predicted and simulated figures (see :meth:`to_dict`).
+    notes : list of str
+        What the plan cannot do with its budget (coefficients it leaves undetermined).
     """
 
     machine: object
@@ -183,6 +185,7 @@ class Plan:
     zone_um: dict
     candidates: int
     comparison: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """The JSON report (docs/reports.md, ``volerr plan``).
@@ -191,7 +194,7 @@ class Plan:
         -------
         dict
             ``machine``, ``instrument``, ``budget``, ``poses`` (axis positions in mm / deg),
-            ``predicted``, ``not_separable``, ``comparison``, ``candidates``, ``sigma_um``.
+            ``predicted``, ``not_separable``, ``comparison``, ``candidates``, ``sigma_um``, ``notes``.
         """
         units = parameter_units(self.machine)
         scale = axis_scales(self.machine.axis_kinds)
@@ -206,7 +209,7 @@ class Plan:
             "poses": [dict(zip(self.machine.axes, (float(v) for v in row / scale))) for row in visits],
             "predicted": {**self.zone_um, "n_identifiable": len(self.identifiable), "coefficients": coefficients},
             "not_separable": [g.to_dict() for g in self.not_separable],
-            "comparison": self.comparison,
+            "comparison": self.comparison, "notes": list(self.notes),
         }
 
 
@@ -284,8 +287,14 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
     theta_cols = columns[columns >= design.n_global]
     names = [design.names[c] for c in theta_cols]
     std = {n: float(s) for n, s in zip(names, mine["std"][columns >= design.n_global])}
+    notes = []
+    lost = [n for n in mine["lost"] if n in names]
+    if lost:
+        notes.append(f"{budget} {instrument.unit}s leave {len(lost)} of the {len(names)} coefficients the candidates "
+                     f"identify undetermined ({', '.join(lost[:5])}{', ...' if len(lost) > 5 else ''}): raise the "
+                     "budget")
     result = Plan(machine, instrument, setup, units, names, list(analysis.groups), std, zone_summary(mine["zone"]),
-                  len(pool))
+                  len(pool), notes=notes)
     if compare:
         result.comparison = _compare(machine, instrument, setup, design, columns, units, budget, free, zone_q,
                                      S_zone, repeats, seed)
