@@ -445,7 +445,7 @@ def test_origin_shifts_program_coordinates_to_axis_positions(machines):
 def test_modal_state_follows_the_blocks(machines):
     """The modal state between blocks: modes and position from the blocks read, canned
     cycles tracked, and a skipped block that names axes makes every position unknown."""
-    from volerr_pin.gcode import parse_block
+    from volerr_pin.gcode import kept, parse_block
     from volerr_pin.gcode.modal import Interpreter
 
     reader = Interpreter(machines["vmc500"])
@@ -456,11 +456,11 @@ def test_modal_state_follows_the_blocks(machines):
     np.testing.assert_allclose(move.start, [0.010, 0.020, 0.030])
     np.testing.assert_allclose(state.position, [0.010, 0.020, 0.030 + 0.0254])
     assert state.known.all() and move.start_known.all()
-    assert "canned cycle" in reader.unsupported("G81 X20 Y20 Z5 R2", state)
-    reader.skip("G81 X20 Y20 Z5 R2", state)
+    assert "canned cycle" in kept.unsupported(reader, "G81 X20 Y20 Z5 R2", state)
+    kept.skip(reader, "G81 X20 Y20 Z5 R2", state)
     assert state.canned and state.motion is None and not state.known.any()
-    assert "cycle is still active" in reader.unsupported("X30", state)
-    assert reader.unsupported("G80", state) is None and not state.canned
+    assert "cycle is still active" in kept.unsupported(reader, "X30", state)
+    assert kept.unsupported(reader, "G80", state) is None and not state.canned
 
 
 def test_accepted_spellings_read_as_their_plain_form(machines):
@@ -602,7 +602,8 @@ def test_an_arc_the_written_numbers_cannot_hold_is_written_as_chords(machines):
     from volerr_pin.gcode import Program, parse_block
 
     m = machines["vmc500"]
-    program = Program(m, tol_um=1.0).writer
+    writer = Program(m, tol_um=1.0).writer
+    program = writer.arcs
     st = {"absolute": True, "inch": False, "plane": 17, "out_motion": 2}
     start = np.array([0.1, 0.1, 0.05])
 
@@ -629,7 +630,7 @@ def test_an_arc_the_written_numbers_cannot_hold_is_written_as_chords(machines):
     block = parse_block("N5 G2 X100.0000 Y100.0003 I-0.0003 J0 F200", 5, "p")
     tiny = piece(0.3e-6, -math.pi / 2)
     line = program.writable([tiny], st, {"ijk"})[0]
-    text = program.rewrite(block, line, line.start, st, 2, [w for w in block.words if w.letter in "XY"])
+    text = writer.rewrite(block, line, line.start, st, 2, [w for w in block.words if w.letter in "XY"])
     assert text.startswith("N5 G1 X") and "I" not in text and "J" not in text
 
 

@@ -20,7 +20,7 @@ LAYOUT = ROOT / "docs" / "layout.md"
 MAX_MODULE_LINES = 800
 MAX_CLASS_LINES = 400
 #: sizes over the limits that another issue is bringing down (issue 25: the NC program rewrite)
-OVER_THE_LIMITS = {"gcode.modal.Interpreter", "gcode.rewrite.Writer"}
+OVER_THE_LIMITS: set[str] = set()
 
 
 def module_name(path: Path) -> str:

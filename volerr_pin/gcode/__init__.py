@@ -15,15 +15,18 @@ Nothing is guessed: a character that belongs to no word, a repeated word, two co
 group, a word that means nothing in its block (I/J/K/R off an arc, an axis the machine does
 not have, an E word ...), a degenerate arc, or R and I/J/K that disagree stop the
 compensation with an error naming the line (and column). Blocks that cannot be compensated
-(canned cycles, macros, subprograms, G codes the reader does not know, and every block of a
-polar or cylindrical interpolation, rotated, scaled or mirrored coordinates, up to the code
-that ends it) are kept unchanged and named in the report's warnings, or refused with
-``strict``. A tool change (M6) and a kept block that names axes make the position unknown.
+(canned cycles, macros, subprograms, and every block of a polar or cylindrical interpolation,
+rotated, scaled, mirrored or shifted coordinates, up to the code that ends it) are kept
+unchanged and named in the report's warnings, or refused with ``strict``; G codes the reader
+does not know are refused unless ``pass_through``. A tool change (M6) and a kept block that
+names axes make the position unknown.
 
 Modules: :mod:`.lexer` (words, blocks, lines, code tables), :mod:`.modal` (the modal state
 and the moves it gives), :mod:`.arcs` (reading arcs), :mod:`.segments` (:func:`interpret`),
 :mod:`.source` (reading a file line by line), :mod:`.program` (compensating as a stream),
-:mod:`.rewrite` (writing pieces back), :mod:`.report`.
+:mod:`.kept` (what cannot be compensated) and :mod:`.regions` (modes that change how later
+coordinates read), :mod:`.letters` (words against the modal state), :mod:`.rewrite` and
+:mod:`.arc_words` (writing pieces back), :mod:`.report`.
 """
 
 from .lexer import Block, GcodeError, Word, parse_block, split_lines

@@ -59,6 +59,8 @@ CYLINDRICAL = 7.1  # cancelled by G7.1 with a zero rotary word (G7.1 C0)
 KEYWORD = re.compile(r"[ \t]*(?:N[0-9]+[ \t]+)?(TRAORI|TRAFOOF|TRANSMIT|TRACYL)\b", re.IGNORECASE)
 TOOL_TIP_ON = (43.4,)  # G codes that select tool-tip programming (tool centre point control)
 TOOL_TIP_OFF = (43, 44, 49)  # ... and that end it (the same modal group)
+#: the address letters of axes
+AXIS_LETTERS = "XYZABCUVW"
 WORK_OFFSETS = {54, 55, 56, 57, 58, 59, 54.1, 59.1, 59.2, 59.3}
 # the modal group of every G code the reader knows; a code not listed here is refused (or
 # passed through with a warning), never read as a move

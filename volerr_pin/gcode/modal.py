@@ -20,14 +20,13 @@ from ..errors import InputError
 from ..machine import Machine
 from ..units import INCH, MM
 from .arcs import read_arc
-from .lexer import (CANNED, G_DIGITS, G_GROUPS, KEYWORD, M_GROUPS, MACRO_G, NOT_MOVES, TOOL_CHANGE_M, TOOL_TIP_OFF, TOOL_TIP_ON, WORK_OFFSETS, Block, GcodeError, Word,
-                    check_words, macro_statement, mask_comments, parse_block, uncommented, word_values)
-from .regions import follow, keyword_region, region_of
+from .letters import check_letters
+from .lexer import (AXIS_LETTERS, CANNED, M_GROUPS, TOOL_CHANGE_M, TOOL_TIP_OFF, TOOL_TIP_ON, WORK_OFFSETS, Block,
+                    GcodeError, Word, check_words)
 from .report import Warnings
 
-__all__ = ["AXIS_LETTERS", "BlockMove", "Interpreter", "ModalState", "Problem", "check_axes"]
+__all__ = ["AXIS_LETTERS", "BlockMove", "Interpreter", "ModalState", "check_axes"]
 
-AXIS_LETTERS = "XYZABCUVW"
 
 
 @dataclass
@@ -116,33 +115,6 @@ class ModalState:
         if self.known.any():  # what was never programmed is "not yet programmed", not lost
             self.lost = why
         self.known[:] = False
-
-
-class Problem(str):
-    """Why a block cannot be followed (a str for messages).
-
-    Attributes
-    ----------
-    modes_unknown : bool
-        The block may set a mode that changes how later blocks read, or move the machine
-        somewhere not followed.
-    unknown_code : bool
-        The block holds a G code the reader does not know: what it changes cannot be told,
-        so it is refused unless unknown codes are explicitly kept (``pass_through``).
-    column : int
-        1-based column of the word that makes the problem (0 if none).
-    """
-
-    modes_unknown = False
-    unknown_code = False
-    column = 0
-
-
-def _unknown(text: str, column: int) -> Problem:
-    problem = Problem(text)
-    problem.modes_unknown = problem.unknown_code = True
-    problem.column = column
-    return problem
 
 
 @dataclass
@@ -363,7 +335,21 @@ class Interpreter:
         """
         return value / self._scale[axis, inch]
 
-    def _where(self, block: Block, word: Word | None = None) -> str:
+    def where(self, block: Block, word: Word | None = None) -> str:
+        """``source:line`` or ``source:line:column`` of a block or one of its words, for messages.
+
+        Parameters
+        ----------
+        block : Block
+            The block.
+        word : Word, optional
+            One of its words.
+
+        Returns
+        -------
+        str
+            The place.
+        """
         return f"{self.source}:{block.number}" + (f":{word.start + 1}" if word is not None else "")
 
     # programming modes ----------------------------------------------------------------
@@ -384,168 +370,23 @@ class Interpreter:
             self.warn(number, f"{what}: tool-tip programming: {linear} are the tool tip in the workpiece frame, "
                       f"the rotary axes ({rotary}) their positions", key="tool-tip")
 
-    def _tool_tip_codes(self, codes: list[float], state: ModalState, number: int) -> None:
+    def tool_tip_codes(self, codes: list[float], state: ModalState, number: int) -> None:
+        """Switch the programming mode on G43.4 (tool tip) and G43 / G44 / G49 (axes).
+
+        Parameters
+        ----------
+        codes : list of float
+            The block's G codes.
+        state : ModalState
+            Updated in place (``tool_tip``, ``position``).
+        number : int
+            Its line number.
+        """
         for g in codes:
             if g in TOOL_TIP_ON:
                 self._switch(state, True, number, f"G{g:g}")
             elif g in TOOL_TIP_OFF:
                 self._switch(state, False, number, f"G{g:g}")
-
-    # blocks -------------------------------------------------------------------------
-    def classify(self, line: str, number: int, state: ModalState) -> tuple[Block | None, Problem | None]:
-        """Read a line, and say whether it can be followed.
-
-        Parameters
-        ----------
-        line : str
-            The line without its line ending.
-        number : int
-            Its 1-based line number.
-        state : ModalState
-            The modal state before the block (``canned``, ``programs`` and ``region`` are
-            updated).
-
-        Returns
-        -------
-        block : Block or None
-            The block (None for a macro statement, which is not read, and for a line inside
-            a kept region).
-        problem : Problem or None
-            What the block holds that cannot be followed (canned cycles, macros,
-            subprograms, codes the reader does not know, a block inside polar interpolation
-            ...); None if it can be.
-
-        Raises
-        ------
-        GcodeError
-            A line that cannot be read (see :func:`~volerr_pin.gcode.lexer.parse_block`).
-        """
-        code = mask_comments(line, number, self.source)
-        if state.regions:
-            return None, self._in_region(code, number, state)
-        keyword = KEYWORD.match(code)
-        if keyword:
-            word = keyword.group(1).upper()
-            region = keyword_region(word, number)
-            if region is not None:
-                state.regions = [region]
-                return None, Problem(f"{word} (a transformation of the axes)")
-            return Block(number, line, [], code, statement=word), None
-        macro = macro_statement(code)
-        if macro:
-            problem = Problem(macro[0])
-            problem.modes_unknown = macro[1]
-            return None, problem
-        block = parse_block(line, number, self.source, code)
-        return block, self._problem(block, state)
-
-    def _in_region(self, code: str, number: int, state: ModalState) -> Problem:
-        what, first = state.regions[0][:2]
-        keyword = KEYWORD.match(code)
-        words = word_values(uncommented(code))
-        state.regions = follow(state.regions, words, keyword.group(1).upper() if keyword else "", number)
-        if not state.regions:
-            state.lose_position(f"line {number}")
-        return Problem(f"in the {what} of line {first}")
-
-    def unsupported(self, line: str, state: ModalState) -> str | None:
-        """Why a block cannot be followed (canned cycles, macros, subprograms, ...).
-
-        Also tracks canned cycles in ``state``: a cycle starts one, and a motion word or G80
-        ends it; until then the axis words of a block are positions of the cycle.
-
-        Parameters
-        ----------
-        line : str
-            The line without its line ending.
-        state : ModalState
-            The modal state before the block (``canned`` is updated).
-
-        Returns
-        -------
-        str or None
-            What the block holds that cannot be followed, for a message; None if it can.
-
-        Raises
-        ------
-        GcodeError
-            A line that cannot be read.
-        """
-        return self.classify(line, 0, state)[1]
-
-    def _problem(self, block: Block, state: ModalState) -> Problem | None:
-        words = block.words
-        if block.delete:
-            if any(w.letter in self.axes for w in words):
-                return Problem("a move with block delete (/), whose execution depends on the operator's switch,")
-            if any(w.letter == "G" for w in words):
-                return Problem("G codes with block delete (/), whose effect depends on the operator's switch,")
-        for w in words:
-            letter = w.letter
-            if letter == "G":
-                g = w.value
-                if g in CANNED:
-                    state.canned = True
-                    return Problem(f"{w.name} (canned cycle)")
-                if not G_DIGITS.fullmatch(w.text):
-                    raise GcodeError(f"{self.source}:{block.number}:{w.start + 1}: {w.name} is not a G code (at "
-                                     "most three digits and one decimal, as G43.4)")
-                region = region_of(g, [(v.letter, v.value) for v in words], block.number)
-                if region is not None:
-                    state.regions = [region]
-                    return Problem(f"{w.name} ({region[0].rsplit(' (', 1)[0]})")
-                if g in MACRO_G:
-                    return Problem(f"{w.name} (macro call)")
-                if g in NOT_MOVES:  # G52 X0 (no shift), G10 of tool data ...
-                    return Problem(f"{w.name} ({NOT_MOVES[g]})")
-                if g not in G_GROUPS:
-                    return _unknown(f"{w.name} (a G code this reader does not know)", w.start + 1)
-            elif letter == "M" and w.value in (98, 99):
-                return Problem(f"{w.name} (subprogram call or return)")
-            elif letter == "O":
-                if state.programs:
-                    return Problem(f"{w.name} (a second program number: the start of a subprogram)")
-                state.programs += 1
-        if state.canned:
-            if any(w.letter == "G" and w.value in (0, 1, 2, 3, 80) for w in words):
-                state.canned = False
-            elif any(w.letter in self.axes or w.letter in AXIS_LETTERS + "IJKRQPL" for w in words):
-                return Problem("a canned-cycle position (the cycle is still active)")
-        return None
-
-    def skip(self, line: str, state: ModalState, block: Block | None = None, number: int = 0) -> None:
-        """Follow a block that is kept unchanged rather than interpreted.
-
-        It still sets its modal words (G91 G28 ... stays G91), and if it names axes (or
-        changes tools, calls or returns from a subprogram or macro, starts another program,
-        jumps or loops, or has a word whose value is a macro variable) it moves the machine
-        somewhere not followed: every axis position becomes unknown.
-
-        Parameters
-        ----------
-        line : str
-            The line without its line ending.
-        state : ModalState
-            Updated in place.
-        block : Block, optional
-            The line read already (None for a macro statement: its words are guessed).
-        number : int
-            Its line number, for messages.
-        """
-        if block is not None:
-            words = [(w.letter, w.value) for w in block.words]
-        else:
-            words = word_values(uncommented(line))
-            macro = macro_statement(mask_comments(line, number, self.source))
-            if macro and macro[1]:  # a jump, loop or variable word: where the machine goes is not known
-                state.lose_position(f"line {number}")
-        self._work_offset(words, number, state)
-        gs = [v for letter, v in words if letter == "G"]
-        state.apply_g(gs)
-        self._tool_tip_codes(gs, state, number)
-        calls = {("M", TOOL_CHANGE_M), ("M", 98), ("M", 99)} | {("G", g) for g in MACRO_G}
-        if any(letter in self.axes or letter in AXIS_LETTERS + "O" or (letter, v) in calls for letter, v in words):
-            state.lose_position(f"line {number}")
 
     def advance(self, block: Block, state: ModalState, check_travel: bool = True) -> BlockMove | None:
         """Update the modal state from a block and read the move it commands.
@@ -582,12 +423,12 @@ class Interpreter:
         check_words(block, self.source)
         gs = [w.value for w in block.words if w.letter == "G"]
         if gs:
-            self._work_offset([(w.letter, w.value) for w in block.words], block.number, state)
+            self.work_offset([(w.letter, w.value) for w in block.words], block.number, state)
             state.apply_g(gs)
-            self._tool_tip_codes(gs, state, block.number)
+            self.tool_tip_codes(gs, state, block.number)
         coord_words = [w for w in block.words if w.letter in self._index]
         dwell = 4 in gs
-        self.check_letters(block, state, coord_words)
+        check_letters(self, block, state, coord_words)
         for w in block.words:
             if w.letter == "M" and w.value not in M_GROUPS:
                 self.warn(block.number, f"{w.name} is not an M code this reader knows: kept unchanged, taken to "
@@ -601,7 +442,7 @@ class Interpreter:
 
     def _move(self, block: Block, state: ModalState, coord_words: list[Word], check_travel: bool) -> BlockMove:
         if state.motion is None:
-            raise GcodeError(f"{self._where(block)}: coordinates without a motion mode (G0/G1/G2/G3)")
+            raise GcodeError(f"{self.where(block)}: coordinates without a motion mode (G0/G1/G2/G3)")
         start_known = state.known.copy()
         start = state.position
         target = start.copy()
@@ -613,10 +454,10 @@ class Interpreter:
             elif known[j]:
                 value = start[j] + w.value * self._scale[w.letter, state.inch]
             else:
-                raise GcodeError(f"{self._where(block, w)}: an incremental move of {w.letter} before its "
+                raise GcodeError(f"{self.where(block, w)}: an incremental move of {w.letter} before its "
                                  "position is known; program it absolutely (G90) first")
             if not math.isfinite(value):
-                raise GcodeError(f"{self._where(block, w)}: {w.name} takes axis {w.letter} beyond any number")
+                raise GcodeError(f"{self.where(block, w)}: {w.name} takes axis {w.letter} beyond any number")
             target[j] = value
             known[j] = True
         if check_travel:
@@ -650,13 +491,29 @@ class Interpreter:
         axis = self.axes[j]
         lo, hi = (self.from_si(axis, t, False) for t in self.machine.travel[j])
         unit = "mm" if self.linear[j] else "deg"
-        what = (f"{self._where(block, named[axis])}: {named[axis].name} takes axis {axis} to" if axis in named
-                else f"{self._where(block)}: axis {axis} (not named, from the start position) is at")
+        what = (f"{self.where(block, named[axis])}: {named[axis].name} takes axis {axis} to" if axis in named
+                else f"{self.where(block)}: axis {axis} (not named, from the start position) is at")
         raise GcodeError(f"{what} {self.from_si(axis, q[j], False):.10g} {unit}, outside the travel "
                          f"[{lo:g}, {hi:g}] {unit}")
 
-    def _work_offset(self, words: list[tuple[str, float]], number: int, state: ModalState) -> None:
-        """One work offset per program (kept blocks included): it is compensated with one origin."""
+    def work_offset(self, words: list[tuple[str, float]], number: int, state: ModalState) -> None:
+        """Follow the work offsets a block selects: one per program (kept blocks included),
+        since a program is compensated with one origin.
+
+        Parameters
+        ----------
+        words : list of (str, float)
+            The block's words, (letter, value).
+        number : int
+            Its line number.
+        state : ModalState
+            Updated in place (``offset``).
+
+        Raises
+        ------
+        GcodeError
+            A second, different work offset.
+        """
         for letter, value in words:
             if letter != "G" or value not in WORK_OFFSETS:
                 continue
@@ -669,66 +526,6 @@ class Interpreter:
                                  f"(line {state.offset[1]}); a program is compensated with one origin: compensate "
                                  "the blocks of each work offset as a program of their own")
             state.offset = (name, number)
-
-    def check_letters(self, block: Block, state: ModalState, coord_words: list[Word]) -> None:
-        """Check that every word of a block means something in its modal state.
-
-        Axis words name axes of the machine; I, J, K and R belong to arc moves; P to a
-        dwell, an arc, G54.1 or an M code; Q and L to an M code; a dwell (G4) carries no
-        motion code and no axis word but X (its time).
-
-        Parameters
-        ----------
-        block : Block
-            The block.
-        state : ModalState
-            The modal state after the block's G codes.
-        coord_words : list of Word
-            The block's axis words.
-
-        Raises
-        ------
-        GcodeError
-            Naming line, column and word.
-        """
-        gs = [w for w in block.words if w.letter == "G"]
-        dwell = any(w.value == 4 for w in gs)
-        if dwell:
-            motion = [w for w in gs if w.value in (0, 1, 2, 3)]
-            if motion:
-                raise GcodeError(f"{self._where(block, motion[0])}: {motion[0].name} and G4 (dwell) in one block")
-            other = [w for w in coord_words if w.letter != "X"]
-            if other:
-                raise GcodeError(f"{self._where(block, other[0])}: {other[0].name} in a dwell (G4): a dwell "
-                                 "takes its time in P or X and moves no axis")
-        arc_move = bool(coord_words) and not dwell and state.motion in (2, 3)
-        has_m = None
-        for w in block.words:
-            letter = w.letter
-            if letter in "GMNOFSTHD" or letter in self._index or (dwell and letter in "XP"):
-                continue
-            where = f"{self._where(block, w)}: {w.name}"
-            if letter in AXIS_LETTERS:
-                raise GcodeError(f"{where}: {self.machine.name} has no axis {letter}")
-            if letter in "IJKR":
-                if arc_move:
-                    continue
-                if state.motion in (2, 3) and not coord_words:
-                    why = ("an arc without end point words: write its end point (a full circle ends where it "
-                           "starts)")
-                elif coord_words and state.motion in (0, 1):
-                    why = (f"{letter} on a straight move (G{state.motion}): I, J, K and R belong to arcs; corner "
-                           "rounding and chamfers are not understood")
-                else:
-                    why = f"{letter} outside an arc move: I, J, K and R belong to arcs (G2/G3)"
-                raise GcodeError(f"{where}: {why}")
-            if has_m is None:
-                has_m = any(v.letter == "M" for v in block.words)
-            if letter == "P" and (arc_move or has_m or any(g.value == 54.1 for g in gs)):
-                continue
-            if letter in "QL" and has_m:
-                continue
-            raise GcodeError(f"{where}: {letter} words mean nothing this reader knows here")
 
     def arc(self, block: Block, start: np.ndarray, target: np.ndarray, clockwise: bool,
             state: ModalState) -> Arc:
@@ -755,5 +552,5 @@ class Interpreter:
         GcodeError
             See :func:`~volerr_pin.gcode.arcs.read_arc`.
         """
-        return read_arc(block, self._where(block), self.axes, self.linear, start, target, clockwise, state.plane,
+        return read_arc(block, self.where(block), self.axes, self.linear, start, target, clockwise, state.plane,
                         state.inch, self.warn)

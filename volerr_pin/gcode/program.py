@@ -19,6 +19,7 @@ from ..compensation.moves import ARC, LINE, POINT, MoveBatch
 from ..compensation.path import PathCompensator, Piece
 from ..machine import Machine
 from .lexer import WORK_OFFSETS, Block, GcodeError, split_lines
+from . import kept
 from .modal import Interpreter, check_axes
 from .report import Report
 from .rewrite import Writer
@@ -225,7 +226,7 @@ class Program:
         """One line as ("raw", text) (kept unchanged), ("plain", block, newline) (no move) or
         ("move", block, newline, _Move)."""
         reader = self.reader
-        block, problem = reader.classify(body, number, state)
+        block, problem = kept.classify(reader, body, number, state)
         if problem:
             if self.strict:
                 raise GcodeError(f"{reader.source}:{number}: {problem} cannot be compensated (strict refuses it; "
@@ -239,7 +240,7 @@ class Program:
                 "; what it changes is not followed, so the blocks after it may be misread" if problem.modes_unknown
                 else ""))
             self.report.passed_through += 1
-            reader.skip(body, state, block, number)
+            kept.skip(reader, body, state, block, number)
             return ("raw", body + newline)
         if block.words:
             self._note_offsets(block)

@@ -15,12 +15,11 @@ started it, the code that started it (``"G68.2"``, ``"TRACYL"``) and the codes t
 
 from __future__ import annotations
 
+from .lexer import AXIS_LETTERS as AXES
 from .lexer import CYLINDRICAL, OFFSET_DATA, REGIONS, SHIFTS
 
 __all__ = ["follow", "region_of"]
 
-#: axis address letters
-AXES = "XYZABCUVW"
 
 
 def region_of(g: float, words: list[tuple[str, float]], number: int) -> tuple | None:

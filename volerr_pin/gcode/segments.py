@@ -9,6 +9,7 @@ import numpy as np
 from ..compensation.arcs import Arc
 from ..machine import Machine
 from .lexer import split_lines
+from . import kept
 from .modal import Interpreter
 
 __all__ = ["Segment", "interpret"]
@@ -97,9 +98,9 @@ def interpret(machine: Machine, text: str, source: str = "<program>", start=None
     state = reader.initial_state()
     out = []
     for number, (body, _) in enumerate(split_lines(text), start=1):
-        block, problem = reader.classify(body, number, state)
+        block, problem = kept.classify(reader, body, number, state)
         if problem:
-            reader.skip(body, state, block, number)
+            kept.skip(reader, body, state, block, number)
             continue
         move = reader.advance(block, state, check_travel=False)
         if move is None:

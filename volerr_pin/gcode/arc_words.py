@@ -1,0 +1,272 @@
+"""Arc pieces as written: their centre words, and the arc a controller reads back from them.
+
+The numbers of an arc block are rounded like every other; a small arc's centre words can
+round to zero, or to a centre whose circle misses the written end points, or turn a short arc
+into nearly a full circle. Every arc piece is read back from its written numbers, as a
+controller reads it, and one whose path leaves the piece's by more than the tolerance allows
+is written as straight pieces (chords) instead.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..compensation.arcs import arc_from_center
+from ..compensation.path import Piece
+from ..errors import InputError
+from ..units import INCH, MM
+from .arcs import ARC_SLACK, centre_from_radius
+from .lexer import CENTRE, PLANES, Block
+
+__all__ = ["ArcWords"]
+
+#: digits a written number may have (controllers read nine: 99999.9999 mm)
+MAX_DIGITS = 9
+
+
+class ArcWords:
+    """Writes the centre words of arc pieces and checks the arcs they give back.
+
+    ``st`` in the methods is the output state, as for :class:`~volerr_pin.gcode.rewrite.Writer`.
+
+    Parameters
+    ----------
+    writer : Writer
+        The writer whose numbers (decimals, rounding, origin) and tolerance are used.
+
+    Attributes
+    ----------
+    writer : Writer
+        As given.
+    """
+
+    def __init__(self, writer):
+        self.writer = writer
+
+    def centre_words(self, piece, prev, st: dict, forms: set) -> list[str]:
+        """The centre words of an arc piece as written (``I..``, ``J..``, ``R..``).
+
+        Parameters
+        ----------
+        piece : Piece
+            The arc piece.
+        prev : array_like, shape (n_axes,)
+            Its start [m, rad].
+        st : dict
+            Output state.
+        forms : set of str
+            ``"ijk"`` and/or ``"r"``.
+
+        Returns
+        -------
+        list of str
+            The words.
+        """
+        plane = PLANES[st["plane"]]
+        return [f"{letter}{self.writer.fmt(plane[0], value, st['inch'])}"
+                for letter, value in self.centre_values(piece, prev, st, forms).items()]
+
+    @staticmethod
+    def forms(block: Block, st: dict) -> set:
+        """The centre forms an arc block is written in: "ijk" (centre offsets), "r" (radius).
+
+        Parameters
+        ----------
+        block : Block
+            The block.
+        st : dict
+            Output state (its plane).
+
+        Returns
+        -------
+        set of str
+            The forms.
+        """
+        plane = PLANES[st["plane"]]
+        letters = {w.letter for w in block.words}
+        forms = {"r"} if "R" in letters else set()
+        if letters & {CENTRE[plane[0]], CENTRE[plane[1]]}:
+            forms.add("ijk")
+        return forms
+
+    def centre_values(self, piece, prev, st: dict, forms: set) -> dict[str, float]:
+        """The centre words of an arc piece, rounded as written: offsets from the written
+        start, and a radius that puts the centre where it is.
+
+        Parameters
+        ----------
+        piece : Piece
+            The arc piece.
+        prev : array_like, shape (n_axes,)
+            Its start [m, rad].
+        st : dict
+            Output state.
+        forms : set of str
+            ``"ijk"`` and/or ``"r"``.
+
+        Returns
+        -------
+        dict of str to float
+            ``I``/``J``/``K`` and/or ``R`` in program units.
+        """
+        reader, inch = self.writer.reader, st["inch"]
+        plane = PLANES[st["plane"]]
+        i, j = reader.axes.index(plane[0]), reader.axes.index(plane[1])
+        d = self.writer.digits(plane[0], inch)
+        s = self.writer.written(prev, inch)
+        out = {}
+        if "ijk" in forms:
+            for axis, c, p in ((plane[0], piece.center[0], s[i]), (plane[1], piece.center[1], s[j])):
+                out[CENTRE[axis]] = round(reader.from_si(axis, float(c - p), inch), d)
+        if "r" in forms:
+            e = self.writer.written(piece.end, inch)
+            r = 0.5 * (math.hypot(s[i] - piece.center[0], s[j] - piece.center[1]) +
+                       math.hypot(e[i] - piece.center[0], e[j] - piece.center[1]))
+            out["R"] = round(reader.from_si(plane[0], float(-r if abs(piece.turns) > math.pi else r), inch), d)
+        return out
+
+    @staticmethod
+    def piece_points(piece, plane: tuple[int, int], u: np.ndarray) -> np.ndarray:
+        """Points of an arc piece's commanded path at fractions ``u``.
+
+        Parameters
+        ----------
+        piece : Piece
+            The arc piece.
+        plane : tuple of int
+            Indices of the plane coordinates.
+        u : numpy.ndarray, shape (M,)
+            Fractions of the piece.
+
+        Returns
+        -------
+        numpy.ndarray, shape (M, n_axes)
+            Program coordinates [m, rad].
+        """
+        i, j = plane
+        c = piece.center
+        a0 = math.atan2(piece.start[j] - c[1], piece.start[i] - c[0])
+        r = math.hypot(piece.start[i] - c[0], piece.start[j] - c[1])
+        out = piece.start + np.outer(u, piece.end - piece.start)
+        out[:, i] = c[0] + r * np.cos(a0 + u * piece.turns)
+        out[:, j] = c[1] + r * np.sin(a0 + u * piece.turns)
+        return out
+
+    def arc_error(self, piece, prev, st: dict, forms: set) -> float:
+        """How far the arc a controller reads from a piece's written numbers leaves the
+        piece's path [m] (inf if the numbers define no arc, or have too many digits).
+
+        Parameters
+        ----------
+        piece : Piece
+            The arc piece.
+        prev : array_like, shape (n_axes,)
+            Its start [m, rad].
+        st : dict
+            Output state.
+        forms : set of str
+            ``"ijk"`` and/or ``"r"``.
+
+        Returns
+        -------
+        float
+            [m].
+        """
+        reader, inch = self.writer.reader, st["inch"]
+        plane = PLANES[st["plane"]]
+        i, j, k = (reader.axes.index(a) for a in plane)
+        vals = self.centre_values(piece, prev, st, forms)
+        if any(abs(v) >= 10.0 ** (MAX_DIGITS - self.writer.digits(plane[0], inch)) for v in vals.values()):
+            return math.inf
+        scale = INCH if inch else MM
+        s, e = self.writer.written(prev, inch), self.writer.written(piece.end, inch)
+        centre = None
+        if "ijk" in forms:
+            offset = np.array([vals[CENTRE[plane[0]]], vals[CENTRE[plane[1]]]]) * scale
+            if math.hypot(*offset) <= ARC_SLACK:
+                return math.inf
+            centre = s[[i, j]] + offset
+        if "r" in forms:
+            r = vals["R"] * scale
+            from_r = None if abs(r) <= ARC_SLACK else centre_from_radius(s[[i, j]], e[[i, j]], r, piece.clockwise)
+            if from_r is None or (centre is not None and math.hypot(*(from_r - centre)) > ARC_SLACK):
+                return math.inf
+            centre = from_r if centre is None else centre
+        try:
+            arc = arc_from_center(s, e, centre, (i, j, k), piece.clockwise)
+        except InputError:
+            return math.inf
+        if abs(arc.sweep - piece.turns) > math.pi / 2:
+            return math.inf  # read as (nearly) the rest of the circle
+        u = np.linspace(0.0, 1.0, 17)
+        linear = np.array(reader.linear)
+        gap = arc.point(u)[:, linear] - self.piece_points(piece, (i, j), u)[:, linear]
+        return float(np.linalg.norm(gap, axis=1).max())
+
+    def writable(self, pieces: list, st: dict, forms: set) -> list:
+        """The pieces of a move with every arc the written numbers cannot hold within the
+        tolerance replaced by straight pieces (chords) along it.
+
+        Rounding moves a well-formed written arc by a few half-units of the last digit (its
+        centre, radius and ends each by up to 0.07 um in mm): that much is always accepted,
+        so that only arcs the numbers define badly become chords.
+
+        Parameters
+        ----------
+        pieces : list of Piece
+            The pieces of one move.
+        st : dict
+            Output state.
+        forms : set of str
+            The centre forms of the original block.
+
+        Returns
+        -------
+        list of Piece
+            The pieces as they can be written.
+        """
+        plane = PLANES[st["plane"]]
+        rounding = 8 * 0.5 * 10.0 ** -self.writer.digits(plane[0], st["inch"]) * (INCH if st["inch"] else MM)
+        out = []
+        prev = pieces[0].start
+        for n, piece in enumerate(pieces):
+            # the original block keeps its centre form; inserted blocks use I/J/K
+            piece_forms = (forms or {"ijk"}) if n == 0 else {"ijk"}
+            if piece.kind == "arc" and self.arc_error(piece, prev, st, piece_forms) > max(self.writer.tol - piece.residual,
+                                                                                         rounding):
+                out.extend(self.chords(piece, st))
+            else:
+                out.append(piece)
+            prev = piece.end
+        return out
+
+    def chords(self, piece, st: dict) -> list:
+        """An arc piece as straight pieces whose sagitta keeps the tolerance.
+
+        Parameters
+        ----------
+        piece : Piece
+            The arc piece.
+        st : dict
+            Output state (its plane).
+
+        Returns
+        -------
+        list of Piece
+            Straight pieces from the arc's start to its end, their ends on the arc.
+        """
+        plane = PLANES[st["plane"]]
+        i, j = self.writer.reader.axes.index(plane[0]), self.writer.reader.axes.index(plane[1])
+        r = math.hypot(piece.start[i] - piece.center[0], piece.start[j] - piece.center[1])
+        sweep = abs(piece.turns)
+        allowed = max(self.writer.tol - piece.residual - self.writer.margin, 0.25 * self.writer.margin)
+        n = 1 if r <= allowed else max(1, math.ceil(sweep / (2 * math.acos(1 - allowed / r))))
+        u = np.linspace(0.0, 1.0, n + 1)
+        points = self.piece_points(piece, (i, j), u)
+        points[0], points[-1] = piece.start, piece.end
+        sagitta = r * (1 - math.cos(sweep / (2 * n)))
+        ks = piece.k0 + u * (piece.k1 - piece.k0)
+        return [Piece("line", points[m], points[m + 1], residual=piece.residual + sagitta, k0=ks[m], k1=ks[m + 1],
+                      limited=piece.limited) for m in range(n)]

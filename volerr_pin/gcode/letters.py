@@ -1,0 +1,75 @@
+"""Checks that every word of a block means something in its modal state."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from .lexer import AXIS_LETTERS, Block, GcodeError, Word
+
+if TYPE_CHECKING:
+    from .modal import Interpreter, ModalState
+
+__all__ = ["check_letters"]
+
+
+def check_letters(reader: Interpreter, block: Block, state: ModalState, coord_words: list[Word]) -> None:
+    """Check that every word of a block means something in its modal state.
+
+    Axis words name axes of the machine; I, J, K and R belong to arc moves; P to a
+    dwell, an arc, G54.1 or an M code; Q and L to an M code; a dwell (G4) carries no
+    motion code and no axis word but X (its time).
+
+    Parameters
+    ----------
+    reader : Interpreter
+        The program's interpreter.
+    block : Block
+        The block.
+    state : ModalState
+        The modal state after the block's G codes.
+    coord_words : list of Word
+        The block's axis words.
+
+    Raises
+    ------
+    GcodeError
+        Naming line, column and word.
+    """
+    gs = [w for w in block.words if w.letter == "G"]
+    dwell = any(w.value == 4 for w in gs)
+    if dwell:
+        motion = [w for w in gs if w.value in (0, 1, 2, 3)]
+        if motion:
+            raise GcodeError(f"{reader.where(block, motion[0])}: {motion[0].name} and G4 (dwell) in one block")
+        other = [w for w in coord_words if w.letter != "X"]
+        if other:
+            raise GcodeError(f"{reader.where(block, other[0])}: {other[0].name} in a dwell (G4): a dwell "
+                             "takes its time in P or X and moves no axis")
+    arc_move = bool(coord_words) and not dwell and state.motion in (2, 3)
+    has_m = None
+    for w in block.words:
+        letter = w.letter
+        if letter in "GMNOFSTHD" or letter in reader.axes or (dwell and letter in "XP"):
+            continue
+        where = f"{reader.where(block, w)}: {w.name}"
+        if letter in AXIS_LETTERS:
+            raise GcodeError(f"{where}: {reader.machine.name} has no axis {letter}")
+        if letter in "IJKR":
+            if arc_move:
+                continue
+            if state.motion in (2, 3) and not coord_words:
+                why = ("an arc without end point words: write its end point (a full circle ends where it "
+                       "starts)")
+            elif coord_words and state.motion in (0, 1):
+                why = (f"{letter} on a straight move (G{state.motion}): I, J, K and R belong to arcs; corner "
+                       "rounding and chamfers are not understood")
+            else:
+                why = f"{letter} outside an arc move: I, J, K and R belong to arcs (G2/G3)"
+            raise GcodeError(f"{where}: {why}")
+        if has_m is None:
+            has_m = any(v.letter == "M" for v in block.words)
+        if letter == "P" and (arc_move or has_m or any(g.value == 54.1 for g in gs)):
+            continue
+        if letter in "QL" and has_m:
+            continue
+        raise GcodeError(f"{where}: {letter} words mean nothing this reader knows here")
