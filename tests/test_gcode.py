@@ -665,3 +665,22 @@ def test_a_kept_block_cannot_change_the_work_offset(machines):
 def test_a_block_delete_without_moves_or_modes_is_kept(machines):
     out, report = compensate_program(machines["vmc500"], START + "/M8\n/1 M9 (switch 1)\nG1 X150 F100\n")
     assert out.splitlines()[1:3] == ["/M8", "/1 M9 (switch 1)"] and report.moves == 2
+
+
+def test_inverse_time_feed_is_shared_among_the_pieces_of_a_split_move(machines):
+    """Under G93 every block's F is the reciprocal of its time [1/min]: a split move's pieces
+    each carry an F, and their times add up to the programmed one (a controller refuses a G93
+    block without F, and the first piece alone would otherwise take the whole time)."""
+    program = "G21 G90 G17\nG0 X10 Y10 Z10\nG93 G1 X490 Y390 Z390 F2\nX10 Y10 Z10 F0.5\nG94 G1 X400 F1000\n"
+    out, report = compensate_program(machines["vmc500"], program)
+    lines = out.splitlines()
+    g94 = next(i for i, line in enumerate(lines) if line.startswith("G94"))
+    g93 = lines[2:g94]
+    assert len(g93) > 2 and all(re.search(r"\bF[0-9.]+$", line) for line in g93)
+    feeds = [float(re.search(r"F([0-9.]+)$", line).group(1)) for line in g93]
+    second = next(i for i, line in enumerate(g93) if not line.startswith(("G93", "G1")))  # "X10 ..." kept its form
+    assert sum(1 / f for f in feeds[:second]) == pytest.approx(1 / 2, rel=1e-4)
+    assert sum(1 / f for f in feeds[second:]) == pytest.approx(1 / 0.5, rel=1e-4)
+    # under G94 the pieces after the first run at the modal feed: no F of their own
+    assert lines[g94].endswith("F1000") and not any("F" in line for line in lines[g94 + 1:])
+    assert report.pieces > report.moves

@@ -50,6 +50,8 @@ class ModalState:
         Absolute coordinates (G90) rather than incremental ones (G91).
     inch : bool
         Coordinates in inch (G20) rather than mm (G21).
+    inverse_time : bool
+        Inverse time feed (G93): each block's F is the reciprocal of its time [1/min].
     canned : bool
         A canned cycle is active: axis words are positions of the cycle, not moves.
     lost : str
@@ -72,6 +74,7 @@ class ModalState:
     plane: int = 17
     absolute: bool = True
     inch: bool = False
+    inverse_time: bool = False
     canned: bool = False
     lost: str = ""
     offset: tuple[str, int] | None = None
@@ -103,6 +106,8 @@ class ModalState:
                 self.inch = True
             elif g == 21:
                 self.inch = False
+            elif g in (93, 94, 95):
+                self.inverse_time = g == 93
 
     def lose_position(self, why: str) -> None:
         """Forget every axis position (a block moved the machine somewhere not followed).

@@ -265,7 +265,7 @@ class Program:
             kind = POINT
         arc = reader.arc(block, move.start, move.target, move.motion == 2, state) if kind == ARC else None
         modes = {"absolute": state.absolute, "inch": state.inch, "plane": state.plane,
-                 "all_known": bool(state.known.all())}
+                 "all_known": bool(state.known.all()), "inverse": state.inverse_time}
         mode = "tool-tip" if move.tool_tip else "axes"
         return ("move", block, newline, _Move(kind, move.motion, move.start, move.target, arc, move.coord_words,
                                                modes, number, mode))

@@ -179,16 +179,46 @@ class Writer:
             pieces = self.arcs.writable(pieces, st, forms)
         late = [w for w in block.words if w.letter == "M" and w.value in LATE_M] if len(pieces) > 1 else []
         eol = newline if newline else eol
+        feeds = self.inverse_feeds(block, pieces) if st.get("inverse") and len(pieces) > 1 else None
         prev = pieces[0].start
         first = self.rewrite(block, pieces[0], prev, st, motion, coord_words, drop=late,
-                             append_missing=st["all_known"])
+                             append_missing=st["all_known"], feed=feeds[0] if feeds else None)
         lines = [first + (eol if len(pieces) > 1 else newline)]
         prev = pieces[0].end
         for n, piece in enumerate(pieces[1:], start=2):
-            text = self.new_line(piece, prev, st, motion)
+            text = self.new_line(piece, prev, st, motion) + (f" F{feeds[n - 1]}" if feeds else "")
             lines.append(text + "".join(" " + w.text for w in late) + newline if n == len(pieces) else text + eol)
             prev = piece.end
         return lines, pieces
+
+    @staticmethod
+    def inverse_feeds(block: Block, pieces: list) -> list[str] | None:
+        """Under inverse time feed (G93) the F word of a block is the reciprocal of its time:
+        each piece of a split move gets the share of that time its part of the move takes
+        (the fraction ``k1 - k0`` of the move's parameter), so the move takes as long as
+        programmed.
+
+        Parameters
+        ----------
+        block : Block
+            The move's block.
+        pieces : list of Piece
+            Its pieces as written.
+
+        Returns
+        -------
+        list of str or None
+            The F number of each piece (written with up to 4 decimals), or None if the block
+            has no F word (a controller refuses such a G93 block; it is kept as it is).
+        """
+        feed = next((w.value for w in block.words if w.letter == "F"), None)
+        if feed is None:
+            return None
+        out = []
+        for piece in pieces:
+            share = max(piece.k1 - piece.k0, 1e-12)
+            out.append(f"{feed / share:.4f}".rstrip("0").rstrip("."))
+        return out
 
     @staticmethod
     def g_of(piece, motion: int) -> int:
@@ -238,7 +268,7 @@ class Writer:
         return " ".join(words)
 
     def rewrite(self, block: Block, piece, prev, st: dict, motion: int, coord_words: list[Word], drop=(),
-                append_missing: bool = True) -> str:
+                append_missing: bool = True, feed: str | None = None) -> str:
         """The original line with the numbers of its coordinate words replaced in place;
         axes it did not name are appended after its last coordinate word. For an arc the
         centre words are replaced likewise; an arc piece that had to become a line gets G1
@@ -264,6 +294,8 @@ class Writer:
         append_missing : bool
             Append the axes the block does not name (false while some axes' positions are
             still unknown: those axes are not commanded).
+        feed : str, optional
+            A new number for the block's F word (inverse time feed of a split move).
 
         Returns
         -------
@@ -285,6 +317,8 @@ class Writer:
 
         for w in drop:
             remove(w)
+        if feed is not None:
+            edits.extend((w.start, w.end, text[w.start] + feed) for w in block.words if w.letter == "F")
         anchor = max(w.end for w in coord_words)
         g_new = self.g_of(piece, motion)
         motion_words = [w for w in block.words if w.letter == "G" and w.value in (0, 1, 2, 3)]
