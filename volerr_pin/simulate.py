@@ -368,3 +368,41 @@ def write_tracker(data, machine: Machine, path) -> None:
         row += [f"{v * 1e3:.4f}" for v in data.offsets[i]] + [f"{v * 1e3:.6f}" for v in data.coordinates[i]]
         lines.append(",".join(row))
     write_text(path, "\n".join(lines) + "\n")
+
+
+def heldout_set(machine: Machine, hidden: dict | None = None, n: int = 400, noise_um: float = 0.3, seed: int = 0,
+                style: str = "spline", hours: float = 6.0) -> tuple[Machine, PointMeasurements]:
+    """A held-out test set for a diagnosis: geometry off ``machine``'s function space
+    (:func:`off_model_geometry`, seeded by ``seed``), the ``hidden`` effect terms added, and a
+    campaign of ``n`` points with every covariate column (:func:`campaign`: time, three
+    temperatures, three forces, every axis' approach direction).
+
+    Parameters
+    ----------
+    machine : Machine
+        The model that will be diagnosed (the truth starts from it).
+    hidden : dict, optional
+        Component -> term table (or list of tables), as :func:`~volerr_pin.specio.add_terms`
+        takes them; none by default.
+    n : int, default 400
+        Points.
+    noise_um : float, default 0.3
+        Noise per deviation component [um].
+    seed : int, default 0
+        Seed of the geometry and of the campaign (the campaign's is ``seed + 1000``).
+    style : str, default "spline"
+        Off-spec geometry style (see :func:`off_model_geometry`).
+    hours : float, default 6.0
+        Length of the campaign [h].
+
+    Returns
+    -------
+    tuple of (Machine, PointMeasurements)
+        The true machine and its measurements.
+    """
+    from .specio import add_terms
+
+    truth = off_model_geometry(machine, seed, style)
+    if hidden:
+        truth = add_terms(truth, hidden)
+    return truth, campaign(truth, n, noise_um, seed + 1000, hours)

@@ -87,7 +87,7 @@ def run(args) -> int:
             u = "" if p["uncertainty"] is None else f" +- {p['uncertainty']:.3g}"
             out.print(escape(f"  {name} = {p['value']:.5g}{u} {p['unit']}"))
         if e.details.get("sensors") is not None:
-            lags = ", ".join(f"{k} s: {v:.3f}" for k, v in e.details["lags_tried_holdout_rms_um"].items())
+            lags = ", ".join(f"{x['lag_s']:g} s: {x['rms_holdout_um']:.3f}" for x in e.details["lags_tried"])
             out.print(escape(f"  sensors {', '.join(e.details['sensors']) or '-'}; lag {e.details['lag_s']:g} s "
                              f"(held-out RMS by lag: {lags} um)"))
             out.print(escape(f"  chosen by {e.details['selection']}"))

@@ -22,6 +22,7 @@ from ..identify import (Identification, Observations, build_observations, check_
                         identify, parameter_units, pose_folds, residual_rms)
 from ..machine import Machine
 from ..safeio import require_memory
+from ..units import UM_PER_M
 from ..specio import add_terms
 from .candidates import build_candidates
 from .changes import apply_changes, remove_effect, size_of, tested_names, trim_raises, with_lag
@@ -420,20 +421,20 @@ class _Loop:
         lag, tried = 0.0, {}
         if sensors:
             base_rms = self.holdout(self.current, final)[0].cv_rms
-            tried["0"] = base_rms
+            tried[0.0] = base_rms
             best = (base_rms, 0.0, None)
             for lag_s in LAGS_S:
                 model = with_lag(self.current, members, lag_s)
                 fitted_model, res, names = self._refit(model)
                 rms = self.holdout(fitted_model, res)[0].cv_rms
-                tried[f"{lag_s:g}"] = rms
+                tried[lag_s] = rms
                 if rms < best[0]:
                     best = (rms, lag_s, (fitted_model, res, names))
             if best[2] is not None and best[0] < 0.99 * base_rms:
                 lag = best[1]
                 self.current, final, self.free_names = best[2]
         details["lag_s"] = lag
-        details["lags_tried_holdout_rms_um"] = tried
+        details["lags_tried"] = [{"lag_s": k, "rms_holdout_um": v} for k, v in tried.items()]
         details["time_check"] = self._time_check(members, final)
         return final, details
 
@@ -465,7 +466,7 @@ class _Loop:
             out[f"rms_predicted{key}_um"] = residual_rms(o_late, residual)
             if k is not None:
                 rows = (o_late.w[:, k] > 0.5) & ~o_late.angular
-                out[f"rms_predicted_{'xyz'[k]}{key}_um"] = float(np.sqrt(np.mean(residual[rows] ** 2)) * 1e6)
+                out[f"rms_predicted_along{key}_um"] = float(np.sqrt(np.mean(residual[rows] ** 2)) * UM_PER_M)
         return out
 
 
