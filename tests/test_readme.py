@@ -1,12 +1,16 @@
-"""The README as written: every command and Python block runs, every quoted output is real.
+"""The README and the guide as written: every command and Python block runs, every quoted
+output is real, every link resolves, every report field is documented, the site builds.
 
-Blocks run in README order in one scratch directory (later blocks read what earlier ones
-wrote, as a reader following along would), with ``examples/`` and ``benchmarks/`` of this
-checkout beside them:
+The pages checked (``PAGES``) are the README, the site's home page, every page of
+``docs/guide/`` and the benchmarks page. Each page's blocks run in page order in a scratch
+directory of the page's own (later blocks read what earlier ones wrote, as a reader following
+along would; a page never relies on another, so a reader who lands on it can follow it
+alone), with ``examples/`` and ``benchmarks/`` of this checkout beside them:
 
 - a ```sh block: each command (``&&`` chains split; the quick start's venv / pip / pytest
-  steps skipped, the suite is what runs this) must exit with status 0;
-- a ```python block: executed in one namespace shared by all Python blocks;
+  steps and the site build skipped: the suite is what runs this, and ``test_site_builds``
+  builds the site) must exit with status 0;
+- a ```python block: executed in one namespace shared by the page's Python blocks;
 - a ```text block that starts with ``$ COMMAND``: a transcript. The command runs, and every
   quoted line (spaces collapsed; ``...`` lines skipped) must appear in its output, in order.
   A transcript may shorten a line with a trailing ``...``: then the line must start so.
@@ -14,6 +18,7 @@ checkout beside them:
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 import subprocess
@@ -24,12 +29,28 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+DOCS = ROOT / "docs"
+GUIDE = sorted((DOCS / "guide").glob("*.md"))
+PAGES = [README, DOCS / "index.md", *GUIDE, DOCS / "benchmarks.md"]
 FENCE = re.compile(r"^```(\w*)\n(.*?)^```\s*$", re.M | re.S)
-SETUP = ("python -m venv", "pip ", ". .venv/bin/activate", "pytest")
+SETUP = ("python -m venv", "pip ", ". .venv/bin/activate", "pytest", "sphinx-build")
+SKIP_DIRS = {"_build", "_generated"}
 
 
-def blocks() -> list[tuple[int, str, str]]:
-    text = README.read_text()
+def _ext(name: str):
+    """A module of ``docs/_ext`` (the docs build's own code), loaded by path."""
+    spec = importlib.util.spec_from_file_location(f"_docs_ext_{name}", DOCS / "_ext" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _name(page: Path) -> str:
+    return page.relative_to(ROOT).as_posix()
+
+
+def blocks(page: Path = README) -> list[tuple[int, str, str]]:
+    text = page.read_text()
     return [(text.count("\n", 0, m.start()) + 1, m.group(1), m.group(2)) for m in FENCE.finditer(text)]
 
 
@@ -52,23 +73,36 @@ def _flat(line: str) -> str:
     return " ".join(line.split())
 
 
-def runnable() -> list:
+def _is_runnable(lang: str, body: str) -> bool:
+    return lang == "sh" or lang == "python" or (lang == "text" and body.startswith("$ "))
+
+
+def runnable(pages=None) -> list:
     params = []
-    for line, lang, body in blocks():
-        if lang == "sh" or lang == "python" or (lang == "text" and body.startswith("$ ")):
-            params.append(pytest.param(lang, body, line, id=f"README.md:{line}:{lang}"))
+    for page in pages or PAGES:
+        for line, lang, body in blocks(page):
+            if _is_runnable(lang, body):
+                params.append(pytest.param(_name(page), lang, body, line, id=f"{_name(page)}:{line}:{lang}"))
     return params
 
 
 @pytest.fixture(scope="module")
-def scratch(tmp_path_factory):
-    work = tmp_path_factory.mktemp("readme")
-    for name in ("examples", "benchmarks"):
-        (work / name).symlink_to(ROOT / name)
-    env = dict(os.environ)
-    env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
-    env["MPLBACKEND"] = "Agg"
-    return {"dir": work, "env": env, "namespace": {"__name__": "readme"}}
+def scratches(tmp_path_factory):
+    """One scratch directory and one Python namespace per page, made when first asked for."""
+    made = {}
+
+    def get(page: str) -> dict:
+        if page not in made:
+            work = tmp_path_factory.mktemp(Path(page).stem)
+            for name in ("examples", "benchmarks"):
+                (work / name).symlink_to(ROOT / name)
+            env = dict(os.environ)
+            env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
+            env["MPLBACKEND"] = "Agg"
+            made[page] = {"dir": work, "env": env, "namespace": {"__name__": Path(page).stem}}
+        return made[page]
+
+    return get
 
 
 def run(command: str, scratch: dict) -> str:
@@ -78,26 +112,47 @@ def run(command: str, scratch: dict) -> str:
     return done.stdout
 
 
-def test_readme_has_runnable_blocks():
-    kinds = [p.values[0] for p in runnable()]
-    assert kinds.count("sh") >= 8 and kinds.count("python") >= 2 and kinds.count("text") >= 3
+def test_pages_have_runnable_blocks():
+    """The README keeps its quick start and Python example; the pages together keep every
+    kind of block the README had before the guide was split out of it; every guide page
+    has a block that runs."""
+    readme = [p.values[1] for p in runnable([README])]
+    assert readme.count("sh") >= 2 and readme.count("python") >= 1
+    kinds = [p.values[1] for p in runnable()]
+    assert kinds.count("sh") >= 18 and kinds.count("python") >= 4 and kinds.count("text") >= 13  # the README's, before
+    assert len(GUIDE) >= 9
+    for page in GUIDE:
+        assert runnable([page]), f"{_name(page)} has no block that runs"
+
+
+def test_readme_is_short():
+    assert len(README.read_text().splitlines()) <= 160
 
 
 def test_commands_parsing():
     body = "python -m venv .venv && . .venv/bin/activate && pip install -e \".[test]\" && volerr demo\n" \
-           "# a comment\nvolerr rank vmc500 \\\n  --top 3\n"
+           "# a comment\nvolerr rank vmc500 \\\n  --top 3\n" \
+           "pip install -e \".[docs]\" && sphinx-build -W -b html docs docs/_build/html\n"
     assert commands(body) == ["volerr demo", "volerr rank vmc500 --top 3"]
 
 
+def test_blocks_of_a_page(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text("# t\n\n```sh\nvolerr demo\n```\n\n```text\nnot run\n```\n\n```text\n$ volerr info vmc500\nx\n```\n")
+    found = [(line, lang) for line, lang, body in blocks(page) if _is_runnable(lang, body)]
+    assert found == [(3, "sh"), (11, "text")]
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("lang, body, line", runnable())
-def test_readme_block(lang, body, line, scratch, monkeypatch):
+@pytest.mark.parametrize("page, lang, body, line", runnable())
+def test_page_block(page, lang, body, line, scratches, monkeypatch):
+    scratch = scratches(page)
     if lang == "sh":
         for command in commands(body):
             run(command, scratch)
     elif lang == "python":
         monkeypatch.chdir(scratch["dir"])
-        exec(compile("\n" * line + body, str(README), "exec"), scratch["namespace"])  # README's line numbers
+        exec(compile("\n" * line + body, str(ROOT / page), "exec"), scratch["namespace"])  # the page's line numbers
     else:
         first, *quoted = body.splitlines()
         actual = [_flat(x) for x in run(first[2:], scratch).splitlines()]
@@ -110,17 +165,69 @@ def test_readme_block(lang, body, line, scratch, monkeypatch):
             stem = want[:-3].rstrip() if prefix else want
             found = next((k for k in range(at, len(actual))
                           if (actual[k].startswith(stem) if prefix else actual[k] == stem)), None)
-            assert found is not None, f"README quotes a line the command does not print: {want!r}"
+            assert found is not None, f"{page} quotes a line the command does not print: {want!r}"
             at = found + 1
 
 
+def _doc_pages() -> list[Path]:
+    return [README, *sorted(p for p in DOCS.rglob("*.md") if not SKIP_DIRS & set(p.relative_to(DOCS).parts))]
+
+
 def test_links_in_the_docs_resolve():
-    """Every relative link of the README and docs/ names a file of the repository."""
-    for page in [README, *sorted((ROOT / "docs").glob("*.md"))]:
+    """Every relative link of the README and docs/ (guide included) names a file of the
+    repository, or a picture the docs build draws (``docs/_ext/figures.py``)."""
+    drawn = set(_ext("figures").FIGURES)
+    for page in _doc_pages():
         for target in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", page.read_text()):
             if "://" in target:
                 continue
-            assert (page.parent / target).exists(), f"{page.name}: link to missing {target}"
+            path = (page.parent / target).resolve()
+            if path.parent == (DOCS / "_generated").resolve():
+                assert path.name in drawn, f"{_name(page)}: picture {target} is not drawn by the docs build"
+            else:
+                assert path.exists(), f"{_name(page)}: link to missing {target}"
+
+
+def test_every_drawn_picture_is_a_valid_command():
+    """The docs build's pictures are drawn by commands the CLI accepts, each writing its PNG."""
+    from volerr_pin.cli import build_parser
+
+    parser = build_parser()
+    for name, argv in _ext("figures").FIGURES.items():
+        args = [a.format(png=f"/x/{name}", tmp="/x") for a in argv]
+        assert f"/x/{name}" in args
+        parser.parse_args(args)   # exits (SystemExit) on an option the command does not have
+
+
+def test_docstring_bars_are_escaped_outside_literals():
+    escape = _ext("docstrings").escape_bars
+    assert escape("largest |value| / uncertainty") == r"largest \|value\| / uncertainty"
+    assert escape("as ``|e|`` and |e|") == r"as ``|e|`` and \|e\|"
+    assert escape("| a line block") == "| a line block"
+    assert escape("+----+----+") == "+----+----+"
+
+
+def test_api_reference_has_every_module():
+    """Every module of the package gets a page (``__main__``, which runs the CLI, excepted)."""
+    names = _ext("apipages").modules()
+    on_disk = {".".join(p.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
+               for p in (ROOT / "volerr_pin").rglob("*.py")}
+    assert set(names) == {n for n in on_disk if not n.endswith("__main__")}
+
+
+@pytest.mark.slow
+def test_site_builds(tmp_path):
+    """The documentation site builds with warnings as errors (CI also runs this build)."""
+    pytest.importorskip("sphinx")
+    pytest.importorskip("myst_parser")
+    pytest.importorskip("numpydoc")
+    done = subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html",
+                           "-d", str(tmp_path / "doctrees"), str(DOCS), str(tmp_path / "html")],
+                          cwd=ROOT, capture_output=True, text=True, timeout=1800,
+                          env={**os.environ, "MPLBACKEND": "Agg"})
+    assert done.returncode == 0, done.stderr[-5000:]
+    for page in ["index.html", "guide/diagnose.html", "api/index.html"]:
+        assert (tmp_path / "html" / page).exists()
 
 
 def _keys(value, out: set) -> set:
