@@ -684,3 +684,35 @@ def test_inverse_time_feed_is_shared_among_the_pieces_of_a_split_move(machines):
     # under G94 the pieces after the first run at the modal feed: no F of their own
     assert lines[g94].endswith("F1000") and not any("F" in line for line in lines[g94 + 1:])
     assert report.pieces > report.moves
+
+
+@pytest.mark.parametrize("body, kept, compensated", [
+    # a shift lasts until every shifted axis is set back to zero
+    ("G52 X10 Y5\nG1 X200\nG52 X0\nG1 X150\nG52 Y0\nG1 X120\n", range(3, 8), [8]),
+    # modes nest: the rotation started inside the shift outlives the shift's end
+    ("G52 X10\nG1 X150\nG68 X0 Y0 R10\nG52 X0\nG1 X120\nG69\nG1 X130\n", range(3, 9), [9]),
+    ("G92 X0 Y0\nG1 X20\nG92.1\nG1 X120\n", range(3, 6), [6]),
+    ("G51 X0 Y0 P2\nG1 X20\nG50\nG1 X120\n", range(3, 6), [6]),
+    ("G16\nG1 X50 Y30\nG15\nG1 X120\n", range(3, 6), [6]),
+    # a work offset set by the program: the origin given no longer holds, to the end
+    ("G10 L2 P1 X5\nG1 X150\nG1 X120\n", range(3, 6), []),
+    # a shift of nothing starts nothing
+    ("G52 X0\nG1 X150\n", [3], [4]),
+])
+def test_modes_that_change_how_coordinates_read_keep_every_block_until_they_end(machines, body, kept, compensated):
+    program = "G21 G90 G17\nG0 X100 Y100 Z100\n" + body
+    out, report = compensate_program(machines["vmc500"], program)
+    given, written = program.splitlines(), out.splitlines()
+    assert len(written) == len(given)
+    for line in kept:
+        assert written[line - 1] == given[line - 1], f"line {line} changed"
+    named = set()
+    for w in report.warnings:
+        m = re.match(r"lines? (\d+)(?:-(\d+))?: .*kept unchanged", w)
+        if m:
+            named.update(range(int(m.group(1)), int(m.group(2) or m.group(1)) + 1))
+    assert named == set(kept) and report.passed_through == len(kept)
+    for line in compensated:
+        assert written[line - 1] != given[line - 1], f"line {line} not compensated"
+    with pytest.raises(GcodeError, match=r"^<program>:3: .*strict refuses it"):
+        compensate_program(machines["vmc500"], program, strict=True)
