@@ -24,6 +24,7 @@ from volerr_pin.gcode import interpret
 from volerr_pin.identify import identify
 from volerr_pin.measurements import read_any
 from volerr_pin.measurements.points import PointMeasurements
+from volerr_pin.measurements.protocol import ObservationOptions
 from volerr_pin.plan import INSTRUMENTS, instrument, make_setup, plan, register_instrument
 from volerr_pin.plan.after import after_diagnosis, components_to_settle
 from volerr_pin.plan.design import UnitDesign, d_optimal
@@ -97,15 +98,23 @@ def test_grid_counts_and_layouts():
 
 # ------------------------------------------------------------------ predictions are identify's
 
-@pytest.mark.parametrize("kind, targets", [("probe", None), ("tracker", [[0, 0, 0], [0.1, 0, -0.05]])])
-def test_predicted_uncertainty_is_identifys_covariance(vmc500, kind, targets):
-    """sigma (J^T W J)^-1 over the identified coefficients, nuisance terms included, is what
-    identify reports (its uncertainty divided by its residual scale) for the same poses."""
+def _rows(machine, inst, setup, units):
+    data, _ = inst.measurements(machine, setup, units)
+    return sum(len(m.observations(machine, ObservationOptions()).y) for m in data)
+
+
+@pytest.mark.parametrize("kind, targets, budget", [("probe", None, 25), ("tracker", [[0, 0, 0], [0.1, 0, -0.05]], 25),
+                                                   ("interferometer", None, 30)])
+def test_predicted_uncertainty_is_identifys_covariance(vmc500, kind, targets, budget):
+    """sigma (J^T W J)^-1 over the identified coefficients, nuisance terms included (a tracker's
+    placement shared by the campaign, a run's own zero projected out), is what identify
+    reports (its uncertainty divided by its residual scale) for the same units."""
     inst = instrument(kind)
     setup = make_setup(vmc500, inst, targets=targets)
-    p = plan(vmc500, inst, 25, setup, candidates=256)
-    data, _ = inst.measurements(vmc500, setup, p.units,
-                                np.random.default_rng(1).normal(0, setup.sigma, 3 * 25 * len(setup.targets)))
+    p = plan(vmc500, inst, budget, setup, candidates=256)
+    assert not p.notes
+    noise = np.random.default_rng(1).normal(0, setup.sigma, _rows(vmc500, inst, setup, p.units))
+    data, _ = inst.measurements(vmc500, setup, p.units, noise)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         fit = identify(vmc500, data, folds=0, sigma_um=setup.sigma * 1e6, initialise=False)
@@ -295,8 +304,11 @@ class DialX:
         dev[:, 0] = 0.0 if values is None else values
         return [PointMeasurements("dial", q, dev, {}, np.arange(len(q)))], np.arange(len(q))
 
-    def table(self, machine, setup, units):
-        return ""
+    def outputs(self, out, count):
+        return [Path(out)]
+
+    def files(self, machine, setup, units):
+        return [""]
 
     def visits(self, machine, units):
         return np.asarray(units)
@@ -376,3 +388,38 @@ def test_plan_example_runs(tmp_path, capsys):
     assert (tmp_path / "plan.nc").exists() and (tmp_path / "measured.csv").exists()
     assert result["after"]["separated"]
     assert result["plan"]["comparison"]["random"]["ratios"]["predicted_zone_rms"] < 1.0
+
+
+def test_interferometer_runs_are_files_identify_reads(tmp_path, vmc500, capsys):
+    """A plan of runs is one positioning-run file per run (both approach directions); filled
+    with the machine's error along the axis they are read back and identified."""
+    out = tmp_path / "runs.csv"
+    assert main(["plan", "vmc500", "--instrument", "interferometer", "--budget", "12", "--candidates", "64",
+                 "--out", str(out), "--nc", str(tmp_path / "runs.nc"), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    files = [Path(p) for p in report["files"]["out"]]
+    assert [p.name for p in files] == [f"runs_run{i:02d}.csv" for i in range(1, 13)]
+    assert len(report["poses"]) == 12 * 2 * 11   # 11 targets up and down per run
+    segments = interpret(vmc500, (tmp_path / "runs.nc").read_text())
+    assert len(segments) == len(report["poses"])
+    filled = []
+    for path in files:
+        lines = path.read_text().splitlines()
+        axis = lines[0].split(":")[1].strip()
+        at = dict(item.split("=") for item in lines[1].split(":", 1)[1].replace(" ", "").split(","))
+        j = vmc500.axes.index(axis)
+        rows = [ln.split(",") for ln in lines[3:]]
+        q = np.tile([float(at.get(a, 0.0)) for a in vmc500.axes], (len(rows), 1)) * 1e-3
+        q[:, j] = [float(r[0]) * 1e-3 for r in rows]
+        directions = np.ones((len(rows), 3))
+        directions[:, j] = [int(r[2]) for r in rows]
+        e = vmc500.volumetric_error(q, directions=directions)[:, j]   # the axes of vmc500 move along x, y, z
+        text = "\n".join(lines[:3] + [f"{r[0]},{r[1]},{r[2]},{v * 1e6:.6f}" for r, v in zip(rows, e)]) + "\n"
+        target = tmp_path / f"filled_{path.name}"
+        target.write_text(text)
+        filled.append(target)
+    data = [read_any(p, vmc500) for p in filled]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = identify(vmc500.with_theta(np.zeros(len(vmc500.theta))), data, folds=0, initialise=False)
+    assert fit.rms_fit_um < 0.01 and fit.n_points == 12 * 22

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 from rich.markup import escape
@@ -75,8 +76,20 @@ def run(args) -> int:
 
     machine = machine_of(args)
     inputs = [args.after] if args.after else []
-    check_run_outputs({"out": args.out, "template": args.template, "nc": args.nc}, inputs, machine)
     kind = instrument(args.instrument)
+    if args.budget < 1:
+        raise InputError(f"budget must be a whole number >= 1, got {args.budget}", parameters=("budget",))
+    planned = {name: kind.outputs(path, args.budget) if path else [] for name, path in
+               (("out", args.out), ("template", args.template))}
+    seen: dict = {}
+    for name, path in [("nc", args.nc), *((n, p) for n, paths in planned.items() for p in paths)]:
+        if path is None:
+            continue
+        check_run_outputs({name: path}, inputs, machine)   # one file at a time: an instrument may write several
+        key = os.path.realpath(path)
+        if key in seen:
+            raise InputError(f"{name}: {path} is also written for {seen[key]}", parameters=(name, seen[key]))
+        seen[key] = name
     zone = parse_zone(machine, args.zone).ranges if args.zone else None
     setup = make_setup(machine, kind, zone=zone, sigma_um=args.sigma_um, targets=_targets(args),
                        station=None if args.station is None else np.array(args.station) * 1e-3,
@@ -93,7 +106,8 @@ def run(args) -> int:
         result = after_diagnosis(machine, kind, setup, report, args.budget, candidates=args.candidates,
                                  seed=args.seed, source=str(args.after))
         units = result.units
-        out = {"machine": machine.name, "instrument": kind.name, "budget": args.budget, "after": result.to_dict()}
+        out = {"machine": machine.name, "instrument": kind.name, "budget": args.budget, "unit": kind.unit,
+               "after": result.to_dict()}
         visits = kind.visits(machine, units) if units else np.zeros((0, len(machine.axes)))
         out["poses"] = _poses(machine, visits)
         out["predicted"] = {}
@@ -108,18 +122,19 @@ def run(args) -> int:
     if units and (args.nc or args.out or args.template):
         title = f"volerr plan: {machine.name}, {kind.name}, {len(units)} {kind.unit}s"
         program = nc_program(machine, visits, args.feed_mm_min, args.dwell_s, title) if args.nc else None
-        table = kind.table(machine, setup, units)
+        texts = kind.files(machine, setup, units)
+        notes = (f"# results of the campaign planned by volerr plan for {machine.name} with a {kind.name}\n"
+                 "# fill the empty measured columns (units in docs/measurements.md) and give the file to volerr identify\n")
         with transaction() as tx:
-            if args.out:
-                tx.path(args.out).write_text(table)
-            if args.template:
-                notes = (f"# results of the campaign planned by volerr plan ({machine.name}, {kind.name})\n"
-                         "# fill the empty deviation columns with the measured values (units in docs/measurements.md),"
-                         " then: volerr identify MACHINE THIS_FILE\n")
-                tx.path(args.template).write_text(notes + table)
+            for path, text in zip(planned["out"], texts):
+                tx.path(path).write_text(text)
+            for path, text in zip(planned["template"], texts):
+                tx.path(path).write_text(notes + text)
             if program is not None:
                 tx.path(args.nc).write_text(program)
-    out["files"] = {k: str(v) for k, v in (("out", args.out), ("template", args.template), ("nc", args.nc)) if v}
+    out["files"] = {k: [str(p) for p in v] for k, v in planned.items() if v}
+    if args.nc:
+        out["files"]["nc"] = [str(args.nc)]
     if args.json:
         print(dumps(out))
         return 0
@@ -136,7 +151,9 @@ def _poses(machine, visits) -> list[dict]:
 
 def _print(out: dict) -> None:
     console = table_console()
-    console.print(f"[bold]{out['machine']}[/bold]: {len(out['poses'])} {out['instrument']} poses planned")
+    stops = f" ({len(out['poses'])} stops)" if len(out["poses"]) != out["budget"] else ""
+    console.print(f"[bold]{out['machine']}[/bold]: {out['budget']} {out['instrument']} {out.get('unit', 'pose')}s "
+                  f"planned{stops}")
     pred = out.get("predicted") or {}
     if pred.get("zone_rms_um") is not None:
         console.print(f"predicted uncertainty of the volumetric error over the zone: RMS {pred['zone_rms_um']:.3g} um, "
@@ -159,5 +176,5 @@ def _print(out: dict) -> None:
                       f"with {out['time']['dwell_per_pose_s']:g} s dwells")
     for note in out.get("notes") or []:
         console.print(escape(f"note: {note}"))
-    for what, path in out["files"].items():
-        console.print(f"wrote {path} ({what})")
+    for what, paths in out["files"].items():
+        console.print(f"wrote {', '.join(paths)} ({what})")

@@ -193,7 +193,8 @@ class Plan:
         Returns
         -------
         dict
-            ``machine``, ``instrument``, ``budget``, ``poses`` (axis positions in mm / deg),
+            ``machine``, ``instrument``, ``budget``, ``poses`` (axis positions in mm / deg of
+            every stop, in order),
             ``predicted``, ``not_separable``, ``comparison``, ``candidates``, ``sigma_um``, ``notes``.
         """
         units = parameter_units(self.machine)
@@ -282,7 +283,7 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
     chosen = d_optimal(design, columns, budget, zone=weight)
     mine = predicted(design, chosen, columns, S_zone)
     units = [pool[u] for u in chosen]
-    order = visiting_order(machine, instrument.visits(machine, units))
+    order = visiting_order(machine, np.array([instrument.visits(machine, [u])[0] for u in units]))  # by first stop
     units = [units[i] for i in order]
     theta_cols = columns[columns >= design.n_global]
     names = [design.names[c] for c in theta_cols]

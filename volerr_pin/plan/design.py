@@ -162,7 +162,11 @@ def unit_design(machine, instrument, setup, units: list, free: np.ndarray) -> Un
         cols = np.flatnonzero(np.any(N_local[s] != 0, axis=0))
         if cols.size:
             Q, _ = np.linalg.qr(N_local[s][:, cols])
+            raw = np.linalg.norm(D[s], axis=0)
             D[s] -= Q @ (Q.T @ D[s])
+            # what the nuisance absorbs whole is zero, not rounding noise that the
+            # identifiability tests (relative to the median effect) would take for an effect
+            D[s][:, np.linalg.norm(D[s], axis=0) <= 1e-10 * raw] = 0.0
     names = [n for n, keep in zip(obs.nuisance_names, ~local) if keep] + [machine.parameter_names[k] for k in free]
     n_global = int(np.sum(~local))
     return UnitDesign(D, starts, names, n_global, np.asarray(free, dtype=int),

@@ -6,6 +6,7 @@ file (``x,y,z[,a,b,c],dx,dy,dz``, positions in mm / deg, deviations in um: docs/
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -144,6 +145,42 @@ class Probe:
             The file's text.
         """
         return point_table(machine, np.asarray(units))
+
+    def outputs(self, out, count: int) -> list:
+        """One file: the plan's own.
+
+        Parameters
+        ----------
+        out : str or Path
+            The plan's file.
+        count : int
+            Number of poses (unused).
+
+        Returns
+        -------
+        list of Path
+            ``[out]``.
+        """
+        return [Path(out)]
+
+    def files(self, machine, setup: Setup, units: list) -> list:
+        """The one file of :meth:`table`.
+
+        Parameters
+        ----------
+        machine : Machine
+            The machine.
+        setup : Setup
+            Targets.
+        units : list of ndarray
+            Poses [m, rad].
+
+        Returns
+        -------
+        list of str
+            One text.
+        """
+        return [self.table(machine, setup, units)]
 
     def visits(self, machine, units: list) -> np.ndarray:
         """The poses themselves.

@@ -114,8 +114,25 @@ class Instrument(Protocol):
             The unit of every point of the stacked blocks.
         """
 
-    def table(self, machine, setup: Setup, units: list) -> str:
-        """The units as the measurement file the instrument produces, deviation cells empty.
+    def outputs(self, out, count: int) -> list:
+        """The files a plan of ``count`` units writes for the plan file ``out`` (one file, or
+        one per unit for instruments whose files hold one unit each).
+
+        Parameters
+        ----------
+        out : str or Path
+            The plan's file as given.
+        count : int
+            Number of units.
+
+        Returns
+        -------
+        list of Path
+            The files, in the order of :meth:`files`.
+        """
+
+    def files(self, machine, setup: Setup, units: list) -> list:
+        """The units as the measurement files the instrument produces, deviation cells empty.
 
         Parameters
         ----------
@@ -128,8 +145,8 @@ class Instrument(Protocol):
 
         Returns
         -------
-        str
-            The file's text (engineering units: mm, deg).
+        list of str
+            The files' texts (engineering units: mm, deg), in the order of :meth:`outputs`.
         """
 
     def visits(self, machine, units: list) -> np.ndarray:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ..errors import InputError
+from .interferometer import INTERFEROMETER
 from .probe import PROBE
 from .protocol import Instrument
 from .tracker import TRACKER
@@ -10,7 +11,7 @@ from .tracker import TRACKER
 __all__ = ["INSTRUMENTS", "instrument", "register_instrument"]
 
 #: instrument name -> instrument
-INSTRUMENTS: dict[str, Instrument] = {TRACKER.name: TRACKER, PROBE.name: PROBE}
+INSTRUMENTS: dict[str, Instrument] = {TRACKER.name: TRACKER, INTERFEROMETER.name: INTERFEROMETER, PROBE.name: PROBE}
 
 
 def register_instrument(kind: Instrument) -> None:
@@ -39,7 +40,7 @@ def instrument(name: str) -> Instrument:
     Parameters
     ----------
     name : str
-        Its name ("tracker", "probe").
+        Its name ("tracker", "interferometer", "probe").
 
     Returns
     -------

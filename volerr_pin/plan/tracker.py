@@ -18,6 +18,7 @@ Obstruction by the machine's own structure is not modelled.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -169,6 +170,42 @@ class Tracker:
         extra = {"target": [f"T{j + 1}" for j in range(k)] * len(q)}
         extra.update({c: [f"{v:.4f}" for v in offsets[:, i]] for i, c in enumerate(("ox", "oy", "oz"))})
         return point_table(machine, np.repeat(q, k, axis=0), extra, columns=("tx", "ty", "tz"))
+
+    def outputs(self, out, count: int) -> list:
+        """One file: the plan's own.
+
+        Parameters
+        ----------
+        out : str or Path
+            The plan's file.
+        count : int
+            Number of poses (unused).
+
+        Returns
+        -------
+        list of Path
+            ``[out]``.
+        """
+        return [Path(out)]
+
+    def files(self, machine, setup: Setup, units: list) -> list:
+        """The one file of :meth:`table`.
+
+        Parameters
+        ----------
+        machine : Machine
+            The machine.
+        setup : Setup
+            Targets.
+        units : list of ndarray
+            Poses [m, rad].
+
+        Returns
+        -------
+        list of str
+            One text.
+        """
+        return [self.table(machine, setup, units)]
 
     def visits(self, machine, units: list) -> np.ndarray:
         """The poses themselves.
