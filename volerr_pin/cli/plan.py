@@ -170,7 +170,8 @@ def _print(out: dict) -> None:
                       f"{r['simulated_zone_rms']}; not identified by the {label}: {len(c['not_identified'])}")
     if "after" in out:
         a = out["after"]
-        console.print(f"after the diagnosis: {a['extra']} extra poses; separated in simulation: {a['separated']}")
+        console.print(f"after the diagnosis: {a['extra']} extra {out['unit']}s; separated in simulation: "
+                      f"{a['separated']}")
     if out.get("time"):
         console.print(f"time: {out['time']['total_min']:.1f} min at {out['time']['feed_mm_min']:g} mm/min "
                       f"with {out['time']['dwell_per_pose_s']:g} s dwells")
