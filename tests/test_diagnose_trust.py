@@ -143,6 +143,9 @@ def test_a_floor_from_the_residual_far_above_the_stated_noise_is_not_reached(mac
 def test_the_same_answer_on_one_core_or_several(machines, monkeypatch):
     m = machines["vmc500"]
     truth, data = heldout_set(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}, 300, NOISE, 5)
+    import volerr_pin.diagnose.loop as loop
+
+    monkeypatch.setattr(loop, "PARALLEL_MIN_ROWS", 0)  # candidates on forked workers even for few rows
     runs = []
     for workers in (1, 2):
         monkeypatch.setattr(diagnose_results, "WORKERS", workers)

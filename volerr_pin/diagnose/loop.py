@@ -28,7 +28,7 @@ from .candidates import build_candidates
 from .changes import apply_changes, remove_effect, size_of, tested_names, trim_raises, with_lag
 from .report import (components_per_point, effect_amplitude, group_findings, noise_floor, raised_summary,
                      residual_analysis, stated_noise, twins_of)
-from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, STATED_NOISE_FACTOR, Change, Diagnosis, Step,
+from .results import (PARALLEL_MIN_ROWS, PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, STATED_NOISE_FACTOR, Change, Diagnosis, Step,
                       one_blas_thread, parallel_map, process_map)
 from .scoring import Columns, Projector, base_design, score
 
@@ -209,7 +209,8 @@ class _Loop:
             if self.progress:
                 self.progress(f"round {number + 1}: candidates", done)
 
-        scores = [s for s in process_map(one, candidates, progress=progress) if s is not None]
+        workers = None if len(obs.y) >= PARALLEL_MIN_ROWS else 1
+        scores = [s for s in process_map(one, candidates, workers, progress=progress) if s is not None]
         m = max(1, len(scores))
         ranked = sorted(scores, key=lambda s: -s.bic_gain)
         # cross-validate what could pass and what is shown

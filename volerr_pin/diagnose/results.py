@@ -16,9 +16,13 @@ import numpy as np
 from ..identify import Observations
 from ..machine import Machine
 
-__all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR", "Candidate", "Change", "Diagnosis", "Evidence", "DriftSeries", "Raise", "Score", "Step", "WORKERS",
+__all__ = ["PARALLEL_MIN_ROWS", "PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR",
+           "WORKERS", "Candidate", "Change", "Diagnosis", "DriftSeries", "Evidence", "Raise", "Score", "Step",
            "one_blas_thread", "parallel_map", "process_map"]
 
+#: observation rows from which a round's candidates are scored on :data:`WORKERS` processes (below,
+#: forking costs more than it saves: measured in benchmarks/diagnose.py)
+PARALLEL_MIN_ROWS = 6000
 #: threads that score candidates and factor folds at once: the cores this process may use
 WORKERS = max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1))
 
@@ -116,9 +120,10 @@ def _indexed(k: int) -> tuple[int, list]:
 
 @contextmanager
 def one_blas_thread():
-    """Limit BLAS and OpenMP to one thread inside the block (threadpoolctl), so that a
-    diagnosis's small matrices do not oversubscribe the cores: its parallelism is over
-    candidates and folds (:func:`parallel_map`). Without threadpoolctl the block runs as is.
+    """Limit BLAS and OpenMP (threadpoolctl) and numba to one thread inside the block, so that
+    a diagnosis's small matrices do not oversubscribe the cores: its parallelism is over
+    candidates and folds (:func:`process_map`, :func:`parallel_map`). Without threadpoolctl
+    BLAS keeps its threads.
 
     Yields
     ------
@@ -129,8 +134,15 @@ def one_blas_thread():
     except ImportError:  # pragma: no cover - a declared dependency
         yield
         return
-    with threadpool_limits(limits=1):
-        yield
+    import numba
+
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)  # the compiled kinematics' own pool
+    try:
+        with threadpool_limits(limits=1):
+            yield
+    finally:
+        numba.set_num_threads(threads)
 
 
 #: |value| / standard uncertainty of an accepted effect's size
