@@ -13,9 +13,8 @@ import math
 
 import numpy as np
 
-from ..compensation.arcs import arc_from_center
+from ..compensation.arcs import RADIUS_SLACK
 from ..compensation.path import Piece
-from ..errors import InputError
 from ..units import INCH, MM
 from .arcs import ARC_SLACK, centre_from_radius
 from .lexer import CENTRE, PLANES, Block
@@ -176,7 +175,7 @@ class ArcWords:
         """
         reader, inch = self.writer.reader, st["inch"]
         plane = PLANES[st["plane"]]
-        i, j, k = (reader.axes.index(a) for a in plane)
+        i, j = (reader.axes.index(a) for a in plane[:2])
         vals = self.centre_values(piece, prev, st, forms)
         if any(abs(v) >= 10.0 ** (MAX_DIGITS - self.writer.digits(plane[0], inch)) for v in vals.values()):
             return math.inf
@@ -194,15 +193,31 @@ class ArcWords:
             if from_r is None or (centre is not None and math.hypot(*(from_r - centre)) > ARC_SLACK):
                 return math.inf
             centre = from_r if centre is None else centre
-        try:
-            arc = arc_from_center(s, e, centre, (i, j, k), piece.clockwise)
-        except InputError:
+        # the arc a controller reads (as :func:`~volerr_pin.compensation.arcs.arc_from_center`
+        # builds it, in scalars: this runs for every arc piece written)
+        cx, cy = float(centre[0]), float(centre[1])
+        r0 = math.hypot(s[i] - cx, s[j] - cy)
+        r1 = math.hypot(e[i] - cx, e[j] - cy)
+        if not (math.isfinite(cx) and math.isfinite(cy)) or r0 == 0.0 or abs(r0 - r1) > RADIUS_SLACK:
             return math.inf
-        if abs(arc.sweep - piece.turns) > math.pi / 2:
+        a0 = math.atan2(s[j] - cy, s[i] - cx)
+        a1 = math.atan2(e[j] - cy, e[i] - cx)
+        turn = 2 * math.pi
+        if piece.clockwise:
+            down = (a0 - a1) % turn
+            sweep = -(turn if down <= 0.0 else down)
+        else:
+            up = (a1 - a0) % turn
+            sweep = turn if up <= 0.0 else up
+        if abs(sweep - piece.turns) > math.pi / 2:
             return math.inf  # read as (nearly) the rest of the circle
         u = np.linspace(0.0, 1.0, 17)
+        read = s + np.outer(u, e - s)
+        r = r0 + u * (r1 - r0)
+        read[:, i] = cx + r * np.cos(a0 + u * sweep)
+        read[:, j] = cy + r * np.sin(a0 + u * sweep)
         linear = np.array(reader.linear)
-        gap = arc.point(u)[:, linear] - self.piece_points(piece, (i, j), u)[:, linear]
+        gap = read[:, linear] - self.piece_points(piece, (i, j), u)[:, linear]
         return float(np.linalg.norm(gap, axis=1).max())
 
     def writable(self, pieces: list, st: dict, forms: set) -> list:
