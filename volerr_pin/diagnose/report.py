@@ -328,18 +328,7 @@ def effect_amplitude(machine: Machine, obs: Observations, names: list[str]) -> f
     float
         The amplitude [um]; 0 when there are no position rows.
     """
-    from ..identify import predict_observations
-
-    nonlinear = set(machine.nonlinear_parameters)
-    theta0 = machine.theta.copy()
-    for name in names:
-        k = machine.parameter_names.index(name)
-        if k not in nonlinear:
-            theta0[k] = 0.0
-    none = np.array([], dtype=int)
-    full, _ = predict_observations(machine, obs, machine.theta, none)
-    zero, _ = predict_observations(machine, obs, theta0, none)
-    contribution = full - zero
+    contribution = _contribution(machine, obs, names)
     best = 0.0
     for k in range(3):
         rows = (obs.w[:, k] > 0.5) & ~obs.angular
