@@ -7,7 +7,7 @@ Writes ``OUT_FOLDER/<machine>/<controller>-<kind>/`` (the files a controller loa
 and checked) and prints one markdown table per machine: controller, kind, files, and the
 simulated residual (max / RMS over points of the zone other than those fitted on), beside the
 uncompensated error, the naive tables (component errors sampled at the nodes) and exact
-point compensation. The README's tables come from this script.
+point compensation. The tables of docs/guide/compensate.md come from this script.
 """
 
 from __future__ import annotations

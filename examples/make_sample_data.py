@@ -1,7 +1,7 @@
 """Write the sample data files in ``examples/data/`` (all of the project's own making).
 
 Every file is simulated from a "true" machine that differs from the bundled spec the way a
-real one does, so that the commands in the README have something to find:
+real one does, so that the commands in the README and the guide have something to find:
 
 - the true vmc500's geometry is a random cubic per component (the spec has tables and
   quadratics), 1 um / 1 arcsec per coefficient, squareness and offsets as in the spec;
