@@ -258,6 +258,7 @@ REPORTS = [
     ["gear", "gear_roller", "--profile-points", "5", "--face-points", "3", "--json"],
     ["demo", "--grid", "3", "--out", "{tmp}/demo.rrd", "--json"],
     ["field", "cgm4000", "--grid", "3", "3", "3", "--sweep-steps", "2", "--out", "{tmp}/f.rrd", "--json"],
+    ["plan", "vmc500", "--instrument", "probe", "--budget", "8", "--candidates", "64", "--json"],
     pytest.param(["diagnose", "vmc500", "examples/data/vmc500_tracker.csv", "--json"], marks=pytest.mark.slow),
 ]
 
