@@ -142,35 +142,77 @@ def unit_design(machine, instrument, setup, units: list, free: np.ndarray) -> Un
     measurements, unit_of_point = instrument.measurements(machine, setup, units)
     sigma_um = setup.sigma * 1e6
     blocks = [m.observations(machine, ObservationOptions(sigma_um, sigma_um)) for m in measurements]
-    obs = stack_blocks(blocks, machine)
-    require_memory(8.0 * len(obs.y) * (obs.nuisance.shape[1] + len(free) + 6) * 3,
+    n_rows = sum(len(b.point) for b in blocks)
+    firsts = np.cumsum([0] + [len(b.q) for b in blocks])
+    n_shared = sum(len(b.nuisance_terms) for b, f in zip(blocks, firsts)
+                   if len(np.unique(_units_of(b, f, np.asarray(unit_of_point)))) > 1)
+    require_memory(8.0 * n_rows * (n_shared + len(free) + 6) * 3,
                    f"the design of {len(units)} candidate {instrument.unit}s", ("candidates",))
+    parts, first = [], 0
+    for chunk in _chunks(blocks):   # blocks share no nuisance column: a chunk's nuisance matrix stays small
+        parts.append(_chunk_design(machine, chunk, free, np.asarray(unit_of_point), first))
+        first += sum(len(b.q) for b in chunk)
+    n_global = sum(p[1].shape[1] for p in parts)
+    D = np.zeros((n_rows, n_global + len(free)))
+    row_unit = np.concatenate([p[2] for p in parts])
+    r = c = 0
+    for A, G, _, _ in parts:
+        D[r:r + len(A), c:c + G.shape[1]] = G
+        D[r:r + len(A), n_global:] = A
+        r, c = r + len(A), c + G.shape[1]
+    order = np.argsort(row_unit, kind="stable")
+    counts = np.bincount(row_unit, minlength=len(units))
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    names = [n for p in parts for n in p[3]] + [machine.parameter_names[k] for k in free]
+    return UnitDesign(D[order], starts, names, n_global, np.asarray(free, dtype=int),
+                      typical_sizes(machine, machine.theta, free, n_global))
+
+
+def _units_of(block, first: int, unit_of_point: np.ndarray) -> np.ndarray:
+    """The unit of every row of a block whose points start at ``first`` in the stacked points."""
+    return unit_of_point[np.asarray(block.point, dtype=int) + first]
+
+
+def _chunks(blocks: list, rows: int = 20000) -> list[list]:
+    """Consecutive blocks in groups of about ``rows`` rows (one block at least)."""
+    out, current, size = [], [], 0
+    for b in blocks:
+        if current and size + len(b.point) > rows:
+            out.append(current)
+            current, size = [], 0
+        current.append(b)
+        size += len(b.point)
+    return out + ([current] if current else [])
+
+
+def _chunk_design(machine, blocks: list, free: np.ndarray, unit_of_point: np.ndarray, first: int):
+    """Weighted sensitivities of some blocks, each unit's own nuisance terms projected out.
+
+    Returns ``(A, G, row_unit, names)``: the coefficients' rows (rows, F), the shared nuisance
+    columns (rows, g), the unit of each row and the shared columns' names."""
+    obs = stack_blocks(blocks, machine)
     S = machine.sensitivity(obs.q, parameters=free, first_order=True, **obs.covariates)
     _, A = rows_of(obs.w, obs.point, np.zeros((obs.n_points, 6)), S)
     A = A / obs.sigma[:, None]
     N = obs.nuisance / obs.sigma[:, None]
-    row_unit = np.asarray(unit_of_point)[obs.point]
+    row_unit = unit_of_point[obs.point + first]
     owners = [np.unique(row_unit[N[:, c] != 0]) for c in range(N.shape[1])]
     local = np.array([len(o) <= 1 for o in owners], dtype=bool)
-    order = np.argsort(row_unit, kind="stable")
-    counts = np.bincount(row_unit, minlength=len(units))
-    starts = np.concatenate([[0], np.cumsum(counts)])
-    D = np.hstack([N[:, ~local], A])[order]
-    N_local = N[:, local][order]
-    for u in range(len(units)):
-        s = slice(starts[u], starts[u + 1])
+    D = np.hstack([N[:, ~local], A])
+    N_local = N[:, local]
+    for u in np.unique(row_unit):
+        s = np.flatnonzero(row_unit == u)
         cols = np.flatnonzero(np.any(N_local[s] != 0, axis=0))
         if cols.size:
             Q, _ = np.linalg.qr(N_local[s][:, cols])
             raw = np.linalg.norm(D[s], axis=0)
-            D[s] -= Q @ (Q.T @ D[s])
+            Ds = D[s] - Q @ (Q.T @ D[s])
             # what the nuisance absorbs whole is zero, not rounding noise that the
             # identifiability tests (relative to the median effect) would take for an effect
-            D[s][:, np.linalg.norm(D[s], axis=0) <= 1e-10 * raw] = 0.0
-    names = [n for n, keep in zip(obs.nuisance_names, ~local) if keep] + [machine.parameter_names[k] for k in free]
-    n_global = int(np.sum(~local))
-    return UnitDesign(D, starts, names, n_global, np.asarray(free, dtype=int),
-                      typical_sizes(machine, machine.theta, free, n_global))
+            Ds[:, np.linalg.norm(Ds, axis=0) <= 1e-10 * raw] = 0.0
+            D[s] = Ds
+    g = int(np.sum(~local))
+    return D[:, g:], D[:, :g], row_unit, [n for n, keep in zip(obs.nuisance_names, ~local) if keep]
 
 
 def information(design: UnitDesign, units: np.ndarray, columns: np.ndarray) -> np.ndarray:
