@@ -28,7 +28,7 @@ from volerr_pin.measurements.protocol import ObservationOptions
 from volerr_pin.plan import INSTRUMENTS, instrument, make_setup, plan, register_instrument
 from volerr_pin.plan.after import after_diagnosis, components_to_settle
 from volerr_pin.plan.design import UnitDesign, d_optimal
-from volerr_pin.plan.nc import nc_program, time_estimate
+from volerr_pin.plan.nc import StopsProgram, nc_program, time_estimate
 from volerr_pin.plan.poses import grid_counts, pose_candidates
 from volerr_pin.plan.tracker import in_sight
 
@@ -288,7 +288,7 @@ def test_after_diagnosis_refuses_components_the_model_lacks(vmc500):
 # ------------------------------------------------------------------ a new instrument is one new module
 
 @dataclass(frozen=True)
-class DialX:
+class DialX(StopsProgram):
     """A dial indicator along x at the tool point: one reading (dx) per pose."""
 
     name: str = "dial-x-test"

@@ -32,7 +32,8 @@ def add_parser(sub) -> None:
     p = sub.add_parser("plan", help="plan a measurement campaign: poses, predicted uncertainties, NC program")
     add_machine_args(p)
     p.add_argument("--instrument", required=True, choices=sorted(INSTRUMENTS), help="the instrument")
-    p.add_argument("--budget", type=int, required=True, help="number of poses to measure")
+    p.add_argument("--budget", type=int, required=True,
+                   help="number of units to measure: poses (tracker, probe), runs (interferometer), circles (ballbar)")
     p.add_argument("--out", help="the plan: the measurement file the instrument produces, deviations empty (CSV)")
     p.add_argument("--template", help="the results template identify reads once filled (CSV with comments)")
     p.add_argument("--nc", help="NC program visiting the poses with a dwell at each")
@@ -54,8 +55,9 @@ def add_parser(sub) -> None:
     p.add_argument("--compare", action="store_true",
                    help="also assess a grid and random poses of the same count, predicted and simulated")
     p.add_argument("--repeats", type=int, default=5, help="simulated campaigns per design with --compare")
-    p.add_argument("--feed-mm-min", type=float, default=2000.0, help="feed of the NC program (mm/min)")
-    p.add_argument("--dwell-s", type=float, default=3.0, help="dwell per measurement (s)")
+    p.add_argument("--feed-mm-min", type=float, default=2000.0, help="feed of the NC program (mm/min); a ballbar's circles run at it")
+    p.add_argument("--dwell-s", type=float, default=3.0,
+                   help="dwell per measurement (s): at each pose or run target, before each ballbar circle")
     p.add_argument("--after", metavar="DIAGNOSIS.json",
                    help="propose --budget extra poses that separate what this diagnosis left open")
     add_json_arg(p)
@@ -72,7 +74,7 @@ def run(args) -> int:
     from ..export.zone import parse_zone
     from ..plan import instrument, make_setup, plan
     from ..plan.after import after_diagnosis
-    from ..plan.nc import check_axes, nc_program, time_estimate
+    from ..plan.nc import check_axes, time_estimate
 
     machine = machine_of(args)
     inputs = [args.after] if args.after else []
@@ -117,11 +119,10 @@ def run(args) -> int:
                       seed=args.seed, compare=args.compare, repeats=args.repeats, criterion=args.criterion)
         units = result.units
         out = result.to_dict()
-        visits = kind.visits(machine, units)
-    out["time"] = time_estimate(machine, visits, args.feed_mm_min, args.dwell_s) if len(visits) else None
+    out["time"] = kind.duration(machine, units, args.feed_mm_min, args.dwell_s) if units else None
     if units and (args.nc or args.out or args.template):
         title = f"volerr plan: {machine.name}, {kind.name}, {len(units)} {kind.unit}s"
-        program = nc_program(machine, visits, args.feed_mm_min, args.dwell_s, title) if args.nc else None
+        program = kind.program(machine, units, args.feed_mm_min, args.dwell_s, title) if args.nc else None
         texts = kind.files(machine, setup, units)
         notes = (f"# results of the campaign planned by volerr plan for {machine.name} with a {kind.name}\n"
                  "# fill the empty measured columns (units in docs/measurements.md) and give the file to volerr identify\n")

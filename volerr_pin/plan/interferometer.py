@@ -25,6 +25,7 @@ from ..errors import InputError
 from ..measurements.runs import Runs
 from ..units import axis_scales
 from .poses import pose_candidates
+from .nc import StopsProgram
 from .protocol import Setup
 
 __all__ = ["INTERFEROMETER", "Interferometer", "Run"]
@@ -63,7 +64,7 @@ class Run:
 
 
 @dataclass(frozen=True)
-class Interferometer:
+class Interferometer(StopsProgram):
     """The laser-interferometer instrument (see the module docstring).
 
     Attributes

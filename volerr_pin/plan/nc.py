@@ -23,7 +23,7 @@ from ..checks import positive
 from ..errors import InputError
 from ..units import axis_scales
 
-__all__ = ["check_axes", "nc_program", "time_estimate"]
+__all__ = ["StopsProgram", "check_axes", "nc_program", "time_estimate"]
 
 #: NC address letters of machine axes
 AXIS_LETTER = re.compile(r"^[XYZABCUVW]$")
@@ -130,3 +130,53 @@ def nc_program(machine, q: np.ndarray, feed_mm_min: float, dwell_s: float, title
         lines.append(f"G4 P{dwell_s:g}")
     lines += ["M30", "%"]
     return "\n".join(lines) + "\n"
+
+
+class StopsProgram:
+    """The NC program and time of an instrument that measures while the machine stands still:
+    :func:`nc_program` and :func:`time_estimate` over its :meth:`visits` (a mixin for the
+    instruments' classes)."""
+
+    def program(self, machine, units: list, feed_mm_min: float, dwell_s: float, title: str = "") -> str:
+        """The program that visits every stop of the units with a dwell at each.
+
+        Parameters
+        ----------
+        machine : Machine
+            The machine.
+        units : list
+            The units, in the order measured.
+        feed_mm_min : float
+            Feed [mm/min].
+        dwell_s : float
+            Dwell per stop [s].
+        title : str, optional
+            A comment line at the top.
+
+        Returns
+        -------
+        str
+            The program (:func:`nc_program`).
+        """
+        return nc_program(machine, self.visits(machine, units), feed_mm_min, dwell_s, title)
+
+    def duration(self, machine, units: list, feed_mm_min: float, dwell_s: float) -> dict:
+        """Time to visit every stop of the units (:func:`time_estimate`).
+
+        Parameters
+        ----------
+        machine : Machine
+            The machine.
+        units : list
+            The units, in order.
+        feed_mm_min : float
+            Feed [mm/min].
+        dwell_s : float
+            Dwell per stop [s].
+
+        Returns
+        -------
+        dict
+            As :func:`time_estimate`.
+        """
+        return time_estimate(machine, self.visits(machine, units), feed_mm_min, dwell_s)

@@ -14,6 +14,7 @@ from ..errors import InputError
 from ..measurements.points import PointMeasurements
 from ..units import axis_scales
 from .poses import pose_candidates
+from .nc import StopsProgram
 from .protocol import Setup
 
 __all__ = ["PROBE", "Probe", "point_table"]
@@ -50,7 +51,7 @@ def point_table(machine, q: np.ndarray, extra: dict | None = None, columns=("dx"
 
 
 @dataclass(frozen=True)
-class Probe:
+class Probe(StopsProgram):
     """The probe instrument (see the module docstring).
 
     Attributes

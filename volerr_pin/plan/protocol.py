@@ -1,7 +1,7 @@
 """What an instrument is to the planner: one protocol, one module per kind.
 
 An :class:`Instrument` proposes candidate *units* of measurement (a pose of the machine for
-a tracker or a probe) over a working zone, turns any selection of them into the measurement
+a tracker or a probe, a positioning run for an interferometer, a circle for a ballbar) over a working zone, turns any selection of them into the measurement
 objects :func:`volerr_pin.identify.identify` reads (so that the planned design is exactly
 the design identify will have, nuisance terms included), writes a selection as the
 measurement file the instrument produces (deviation columns empty) and says which axis
@@ -57,7 +57,7 @@ class Instrument(Protocol):
     Attributes
     ----------
     name : str
-        Its name on the command line ("tracker", "probe").
+        Its name on the command line ("tracker", "probe", "interferometer", "ballbar").
     unit : str
         What one unit of measurement is, in words ("pose").
     default_sigma_um : float
@@ -164,3 +164,48 @@ class Instrument(Protocol):
         ndarray, shape (n, n_axes)
             NC positions [m, rad].
         """
+
+    def program(self, machine, units: list, feed_mm_min: float, dwell_s: float, title: str = "") -> str:
+        """The NC program that runs the units in order, with a dwell for each measurement
+        (:class:`~volerr_pin.plan.nc.StopsProgram` for instruments that measure at stops).
+
+        Parameters
+        ----------
+        machine : Machine
+            The machine.
+        units : list
+            The units, in the order measured.
+        feed_mm_min : float
+            Feed [mm/min].
+        dwell_s : float
+            Dwell per measurement [s].
+        title : str, optional
+            A comment line at the top.
+
+        Returns
+        -------
+        str
+            The program (mm, deg, absolute).
+        """
+
+    def duration(self, machine, units: list, feed_mm_min: float, dwell_s: float) -> dict:
+        """The time the program of :meth:`program` takes.
+
+        Parameters
+        ----------
+        machine : Machine
+            The machine.
+        units : list
+            The units, in order.
+        feed_mm_min : float
+            Feed [mm/min].
+        dwell_s : float
+            Dwell per measurement [s].
+
+        Returns
+        -------
+        dict
+            ``moves_s``, ``dwell_s``, ``total_s``, ``total_min``, ``feed_mm_min``,
+            ``dwell_per_pose_s``, ``path_mm``, ``model`` (see :func:`~volerr_pin.plan.nc.time_estimate`).
+        """
+

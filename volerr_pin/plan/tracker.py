@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..measurements.tracker import TrackerMeasurements
+from .nc import StopsProgram
 from .poses import pose_candidates
 from .probe import point_table
 from .protocol import Setup
@@ -68,7 +69,7 @@ def in_sight(machine, setup: Setup, q: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class Tracker:
+class Tracker(StopsProgram):
     """The laser-tracker instrument (see the module docstring).
 
     Attributes
