@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ..errors import InputError
+from .ballbar import BALLBAR
 from .interferometer import INTERFEROMETER
 from .probe import PROBE
 from .protocol import Instrument
@@ -11,7 +12,8 @@ from .tracker import TRACKER
 __all__ = ["INSTRUMENTS", "instrument", "register_instrument"]
 
 #: instrument name -> instrument
-INSTRUMENTS: dict[str, Instrument] = {TRACKER.name: TRACKER, INTERFEROMETER.name: INTERFEROMETER, PROBE.name: PROBE}
+INSTRUMENTS: dict[str, Instrument] = {TRACKER.name: TRACKER, INTERFEROMETER.name: INTERFEROMETER, PROBE.name: PROBE,
+                                      BALLBAR.name: BALLBAR}
 
 
 def register_instrument(kind: Instrument) -> None:
@@ -40,7 +42,7 @@ def instrument(name: str) -> Instrument:
     Parameters
     ----------
     name : str
-        Its name ("tracker", "interferometer", "probe").
+        Its name ("tracker", "interferometer", "probe", "ballbar").
 
     Returns
     -------
