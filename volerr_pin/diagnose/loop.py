@@ -228,11 +228,14 @@ class _Loop:
         for best in passing[:3]:
             batch = [best]
             if best.candidate.kind == "raise":
-                # the other under-modelled components that pass on their own come along
+                # the other under-modelled components that pass on their own come along, except
+                # those a physical effect passing this round would sit on: it gets its round first
+                # (a raised EBB would swallow B's once-per-revolution error before it is tried)
                 taken = {best.candidate.component}
+                held = {s.candidate.component for s in passing if s.candidate.kind == "effect"}
                 for s in passing:
                     c = s.candidate
-                    if c.kind == "raise" and c.component not in taken and s.bic_gain > 0:
+                    if c.kind == "raise" and c.component not in taken | held and s.bic_gain > 0:
                         batch.append(s)
                         taken.add(c.component)
             for attempt in range(2):
