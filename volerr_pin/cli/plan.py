@@ -55,7 +55,8 @@ def add_parser(sub) -> None:
     p.add_argument("--compare", action="store_true",
                    help="also assess a grid and random poses of the same count, predicted and simulated")
     p.add_argument("--repeats", type=int, default=5, help="simulated campaigns per design with --compare")
-    p.add_argument("--feed-mm-min", type=float, default=2000.0, help="feed of the NC program (mm/min); a ballbar's circles run at it")
+    p.add_argument("--feed-mm-min", type=float, default=2000.0,
+                   help="feed of the NC program (mm/min); a ballbar's circles run at it")
     p.add_argument("--dwell-s", type=float, default=3.0,
                    help="dwell per measurement (s): at each pose or run target, before each ballbar circle")
     p.add_argument("--after", metavar="DIAGNOSIS.json",

@@ -84,8 +84,9 @@ class Ballbar:
     unit : str
         "circle".
     default_sigma_um : float
-        0.7 um per radial sample: a stated accuracy of +-1.25 um (a common ballbar's
-        specification) read as the bounds of a uniform distribution, 1.25 / sqrt(3).
+        0.7 um per radial sample, as a default of the order of a micrometre that ballbar
+        makers state as accuracy (+-1.25 um read as the bounds of a uniform distribution:
+        1.25 / sqrt(3)); the instrument's own figure belongs in ``Setup.sigma``.
     radii : tuple of float
         Ballbar lengths to choose from [m].
     samples : int

@@ -1,12 +1,13 @@
 """What an instrument is to the planner: one protocol, one module per kind.
 
 An :class:`Instrument` proposes candidate *units* of measurement (a pose of the machine for
-a tracker or a probe, a positioning run for an interferometer, a circle for a ballbar) over a working zone, turns any selection of them into the measurement
-objects :func:`volerr_pin.identify.identify` reads (so that the planned design is exactly
-the design identify will have, nuisance terms included), writes a selection as the
-measurement file the instrument produces (deviation columns empty) and says which axis
-positions the machine visits. Generic code (:mod:`~volerr_pin.plan.design`,
-:mod:`~volerr_pin.plan.campaign`) never asks which instrument it holds.
+a tracker or a probe, a positioning run for an interferometer, a circle for a ballbar) over
+a working zone, turns any selection of them into the measurement objects
+:func:`volerr_pin.identify.identify` reads (so that the planned design is exactly the design
+identify will have, nuisance terms included), writes a selection as the measurement file the
+instrument produces (deviation columns empty) and says which axis positions the machine
+visits. Generic code (:mod:`~volerr_pin.plan.design`, :mod:`~volerr_pin.plan.campaign`)
+never asks which instrument it holds.
 """
 
 from __future__ import annotations
