@@ -1,16 +1,18 @@
 """Planned campaigns against a grid and random poses of the same count, measured in one run.
 
-    python benchmarks/plan.py [--quick] [--markdown FILE]
+    python benchmarks/plan.py [--quick] [--markdown FILE] [--instruments tracker probe ballbar]
 
 For vmc500, vmc700, cgm4000 and ur5, ``volerr_pin.plan.plan`` chooses N poses for a laser
 tracker (two reflectors: one at the tool point, one 100 mm off it along the tool's x axis,
-5 um per coordinate) and for a probe at the tool point (1 um), and compares them with a grid
-and uniform random poses of the same N: the predicted standard uncertainty of the volumetric
-error over the zone (RMS over 512 Sobol' points), the geometric mean of the coefficients'
-predicted standard uncertainties, and the same two found by simulating the campaign
-(10 repeats, fixed seeds) and identifying from it with ``volerr_pin.identify``. A ratio
-below 1 means the plan is better; "not identified" means the reference design leaves
-coefficients that the plan identifies undetermined. Also a section of ``benchmarks/run.py``
+5 um per coordinate) and for a probe at the tool point (1 um), and, on the machines with
+linear X, Y, Z axes, M circles for a ballbar (radii 50 to 300 mm, both directions, 72
+samples per direction, 0.7 um), and compares them with a grid and uniform random units of
+the same count: the predicted standard uncertainty of the volumetric error over the zone
+(RMS over 512 Sobol' points), the geometric mean of the coefficients' predicted standard
+uncertainties, and the same two found by simulating the campaign (10 repeats, fixed seeds)
+and identifying from it with ``volerr_pin.identify``. A ratio below 1 means the plan is
+better; "not identified" means the reference design leaves coefficients that the plan
+identifies undetermined. Also a section of ``benchmarks/run.py``
 (``section(quick) -> str``).
 """
 
@@ -28,6 +30,11 @@ from volerr_pin.plan import instrument, make_setup, plan
 #: machine -> budget N per instrument (about twice the poses that the identifiable
 #: coefficients need)
 CASES = {"vmc500": 40, "vmc700": 50, "cgm4000": 80, "ur5": 40}
+#: machine -> circles M for the ballbar (a circle gives 144 samples; its set-up takes 3 of them)
+BALLBAR_CASES = {"vmc500": 8, "vmc700": 10, "cgm4000": 12}
+#: instrument -> machine -> count, in the table's order (the ballbar needs linear X, Y, Z axes)
+BUDGETS = {"tracker": CASES, "probe": CASES, "ballbar": BALLBAR_CASES}
+KINDS = tuple(BUDGETS)
 
 
 def _row(name: str, kind: str, n: int, quick: bool) -> str:
@@ -56,13 +63,15 @@ def _row(name: str, kind: str, n: int, quick: bool) -> str:
             f"{c['plan']['simulated_zone_rms_um']:.3g} | {g} | {gs} | {r} | {rs} | {seconds:.0f} |")
 
 
-def section(quick: bool = False) -> str:
+def section(quick: bool = False, kinds=KINDS) -> str:
     """The comparison as a Markdown table.
 
     Parameters
     ----------
     quick : bool, default False
         Fewer candidates and simulated repeats.
+    kinds : sequence of str, default all
+        The instruments of the table ("tracker", "probe", "ballbar").
 
     Returns
     -------
@@ -74,9 +83,10 @@ def section(quick: bool = False) -> str:
              "predicted / simulated; share: coefficients with a lower predicted uncertainty in the plan.", "",
              "| machine | instrument | N | identifiable | plan zone (um) | vs grid | share | vs random | share | s |",
              "|---|---|---|---|---|---|---|---|---|---|"]
-    for name, n in CASES.items():
-        for kind in ("tracker", "probe"):
-            lines.append(_row(name, kind, n, quick))
+    for name in CASES:
+        for kind in kinds:
+            if name in BUDGETS[kind]:
+                lines.append(_row(name, kind, BUDGETS[kind][name], quick))
             print(lines[-1], file=sys.stderr, flush=True)   # progress
     return "\n".join(lines) + "\n"
 
@@ -85,8 +95,9 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--markdown", help="write the table here as well")
+    parser.add_argument("--instruments", nargs="+", choices=KINDS, default=list(KINDS), help="rows to run")
     args = parser.parse_args()
-    text = section(args.quick)
+    text = section(args.quick, args.instruments)
     print(text)
     if args.markdown:
         from volerr_pin.safeio import write_text
