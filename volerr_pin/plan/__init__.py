@@ -6,10 +6,13 @@ Parts, each importing only those listed after it:
   could not tell apart;
 - :mod:`~volerr_pin.plan.campaign`: :func:`plan` (choose, predict, compare);
 - :mod:`~volerr_pin.plan.assess`: predicted and simulated uncertainties;
-- :mod:`~volerr_pin.plan.nc`: the NC program that visits the poses, and its time;
+- :mod:`~volerr_pin.plan.nc`: the NC program that visits the poses, and its time
+  (:class:`~volerr_pin.plan.nc.StopsProgram`, for instruments that measure at stops);
 - :mod:`~volerr_pin.plan.design`: the weighted design of candidate units, D-optimal choice;
 - :mod:`~volerr_pin.plan.registry`: the instruments by name;
-- :mod:`~volerr_pin.plan.tracker`, :mod:`~volerr_pin.plan.probe`: one module per instrument;
+- :mod:`~volerr_pin.plan.tracker`, :mod:`~volerr_pin.plan.probe`,
+  :mod:`~volerr_pin.plan.interferometer`, :mod:`~volerr_pin.plan.ballbar`: one module per
+  instrument;
 - :mod:`~volerr_pin.plan.poses`: candidate poses (Sobol', grid, random);
 - :mod:`~volerr_pin.plan.protocol`: :class:`Instrument` and :class:`Setup`.
 """
