@@ -20,9 +20,6 @@ LAYOUT = ROOT / "docs" / "layout.md"
 MAX_MODULE_LINES = 800
 MAX_CLASS_LINES = 400
 #: sizes over the limits that another issue is bringing down (issue 25: the NC program rewrite)
-OVER_THE_LIMITS: set[str] = set()
-
-
 def module_name(path: Path) -> str:
     """``identify.fit`` for volerr_pin/identify/fit.py, ``identify`` for its __init__, ``__init__``
     for the package's own."""
@@ -183,12 +180,5 @@ def _sizes(path: Path) -> tuple[int, dict[str, int]]:
 def test_sizes_a_newcomer_can_hold_in_mind(name):
     lines, classes = _sizes(MODULES[name])
     assert lines <= MAX_MODULE_LINES, f"{name} has {lines} lines (limit {MAX_MODULE_LINES}): split it"
-    big = {c: n for c, n in classes.items() if n > MAX_CLASS_LINES and f"{name}.{c}" not in OVER_THE_LIMITS}
+    big = {c: n for c, n in classes.items() if n > MAX_CLASS_LINES}
     assert not big, f"{name}: classes over {MAX_CLASS_LINES} lines: {big}"
-
-
-@pytest.mark.xfail(reason="issue 25 brings these under the limits", strict=False)
-@pytest.mark.parametrize("qualified", sorted(OVER_THE_LIMITS))
-def test_classes_still_over_the_limits(qualified):
-    name, _, cls = qualified.rpartition(".")
-    assert _sizes(MODULES[name])[1].get(cls, 0) <= MAX_CLASS_LINES
