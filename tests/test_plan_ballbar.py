@@ -173,6 +173,7 @@ def test_nc_program_reads_back_to_the_planned_circles(vmc500, planned):
     of the planned radius in the planned plane, sweeping lead-in + 360 deg + lead-out in the
     run's sense, in the plan's order, after one dwell each."""
     inst = instrument("ballbar")
+    assert {c.plane for c in planned.units} == {(0, 1), (1, 2), (2, 0)}   # G17, G19 and G18 all read back
     text = inst.program(vmc500, planned.units, 1500.0, 2.5, "ballbar (test)")
     assert text.count("G4 P2.5") == 2 * len(planned.units)
     arcs = [s for s in interpret(vmc500, text) if s.kind == "arc"]
