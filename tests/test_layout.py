@@ -182,3 +182,13 @@ def test_sizes_a_newcomer_can_hold_in_mind(name):
     assert lines <= MAX_MODULE_LINES, f"{name} has {lines} lines (limit {MAX_MODULE_LINES}): split it"
     big = {c: n for c, n in classes.items() if n > MAX_CLASS_LINES}
     assert not big, f"{name}: classes over {MAX_CLASS_LINES} lines: {big}"
+
+
+def test_every_package_is_in_the_distribution():
+    """An editable install finds a package missing from pyproject's list; a wheel would not ship it."""
+    import tomllib
+
+    listed = set(tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    on_disk = {".".join(("volerr_pin",) + p.parent.relative_to(PACKAGE).parts).rstrip(".")
+               for p in PACKAGE.rglob("__init__.py") if "__pycache__" not in p.parts}
+    assert not on_disk - listed, f"add to [tool.setuptools] packages in pyproject.toml: {sorted(on_disk - listed)}"
