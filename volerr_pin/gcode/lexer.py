@@ -282,8 +282,11 @@ def parse_block(line: str, number: int, source: str, code: str | None = None) ->
     if code is None:
         code = mask_comments(line, number, source)
     if SIMPLE.fullmatch(code):  # plain words only: the loop below would find exactly these
-        words = [Word(m.group(1).upper(), float(m.group(2)), m.group(0), m.start(), m.end())
-                 for m in WORD.finditer(code)]
+        words = []
+        for m in WORD.finditer(code):
+            letter, number_text = m.groups()
+            start, end = m.span()
+            words.append(Word(letter.upper(), float(number_text), m.group(), start, end))
         if all(math.isfinite(w.value) for w in words):
             return Block(number, line, words, code, False)
     words: list[Word] = []

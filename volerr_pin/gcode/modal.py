@@ -452,12 +452,13 @@ class Interpreter:
         start = state.position
         target = start.copy()
         known = state.known
+        absolute, inch, index, scale = state.absolute, state.inch, self._index, self._scale
         for w in coord_words:
-            j = self._index[w.letter]
-            if state.absolute:
-                value = w.value * self._scale[w.letter, state.inch] + self.origin[j]
+            j = index[w.letter]
+            if absolute:
+                value = w.value * scale[w.letter, inch] + self.origin[j]
             elif known[j]:
-                value = start[j] + w.value * self._scale[w.letter, state.inch]
+                value = start[j] + w.value * scale[w.letter, inch]
             else:
                 raise GcodeError(f"{self.where(block, w)}: an incremental move of {w.letter} before its "
                                  "position is known; program it absolutely (G90) first")
@@ -466,8 +467,9 @@ class Interpreter:
             target[j] = value
             known[j] = True
         if check_travel:
-            for j in range(len(target)):
-                if not (self._low[j] - self._slack[j] <= target[j] <= self._high[j] + self._slack[j]):
+            low, high, slack = self._low, self._high, self._slack
+            for j, t in enumerate(target.tolist()):  # plain floats: the same comparisons, faster
+                if not (low[j] - slack[j] <= t <= high[j] + slack[j]):
                     self.travel_error(block, coord_words, target)
         move = BlockMove(state.motion, start, target, start_known, coord_words, state.tool_tip)
         state.position = target

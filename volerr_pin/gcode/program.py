@@ -249,14 +249,15 @@ class Program:
         if move is None:
             return ("plain", block, newline)
         kind = LINE if move.motion == 1 else (ARC if move.motion in (2, 3) else POINT)
-        if not move.start_known.all():
+        all_known = all(state.known.tolist())  # (as ndarray.all(), without its overhead on a few axes)
+        if not all(move.start_known.tolist()):
             missing = ", ".join(a for a, k in zip(reader.axes, move.start_known) if not k)
             why = f"axes {missing} not known since {lost}" if lost else f"axes {missing} not yet programmed"
             if move.motion in (2, 3):
                 raise GcodeError(f"{reader.source}:{number}: an arc from an unknown position ({why}); move every "
                                  "axis to a known point with G0 or G1 first")
             rest = ""
-            if not state.known.all():
+            if not all_known:
                 rest = (", taking the axes it does not name where they were last programmed" if lost else
                         ", taking the unprogrammed axes at " +
                         ("the start position given" if reader.start_given else "mid-travel"))
@@ -265,7 +266,7 @@ class Program:
             kind = POINT
         arc = reader.arc(block, move.start, move.target, move.motion == 2, state) if kind == ARC else None
         modes = {"absolute": state.absolute, "inch": state.inch, "plane": state.plane,
-                 "all_known": bool(state.known.all()), "inverse": state.inverse_time}
+                 "all_known": all_known, "inverse": state.inverse_time}
         mode = "tool-tip" if move.tool_tip else "axes"
         return ("move", block, newline, _Move(kind, move.motion, move.start, move.target, arc, move.coord_words,
                                                modes, number, mode))
@@ -347,7 +348,11 @@ class Program:
         # the next chunk: as many moves as keep its pieces within the budget
         per_move = max(len(result.pieces) / len(moves), 1.0)
         self._chunk = int(min(MOST_CHUNK, 2 * self._chunk, max(64, PIECE_BUDGET / per_move)))
-        return result, result.pieces.bounds(len(moves))
+        ps = result.pieces
+        # the per-piece numbers as plain Python values, converted once for the whole chunk
+        columns = (ps.arc.tolist(), ps.sweep.tolist(), ps.residual.tolist(), ps.k0.tolist(), ps.k1.tolist(),
+                   ps.limited.tolist())
+        return result, ps.bounds(len(moves)), columns
 
     def _check_travel(self, moves: list[_Move], batch: MoveBatch, mode) -> None:
         """Desired moves must stay within the travel: arcs between their ends, and in tool-tip
@@ -402,12 +407,11 @@ class Program:
                                  worst=float(over[i, j]) * 1e6)
 
     def _write_move(self, block: Block, newline: str, eol: str, mv: _Move, results, k: int, st: dict) -> list[str]:
-        result, bounds = results
+        result, bounds, (arc, sweep, residual, k0, k1, limited) = results
         ps = result.pieces
         rows = range(bounds[k], bounds[k + 1])
-        pieces = [Piece("arc" if ps.arc[i] else "line", ps.cw0[i], ps.cw1[i], ps.center[i] if ps.arc[i] else None,
-                        bool(ps.sweep[i] < 0), float(ps.sweep[i]), float(ps.residual[i]), float(ps.k0[i]),
-                        float(ps.k1[i]), bool(ps.limited[i])) for i in rows]
+        pieces = [Piece("arc" if arc[i] else "line", ps.cw0[i], ps.cw1[i], ps.center[i] if arc[i] else None,
+                        sweep[i] < 0, sweep[i], residual[i], k0[i], k1[i], bool(limited[i])) for i in rows]
         lines, written = self.writer.write_move(block, newline, eol, mv.motion, mv.coord_words, pieces, st)
         report = self.report
         report.pieces += len(written)

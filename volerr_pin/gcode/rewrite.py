@@ -53,6 +53,10 @@ class Writer:
                         for a, lin in zip(reader.axes, reader.linear) for inch in (False, True)}
         self._zero = {d: "-0." + "0" * d for d in (4, 5, 6)}
         self._origin = [float(v) for v in reader.origin]
+        # per output unit (inch or not): each axis' letter, decimals, scale [m or rad per unit],
+        # origin [m, rad] and the text of a negative zero
+        self._spec = {inch: [(a, self._digits[a, inch], reader._scale[a, inch], o, self._zero[self._digits[a, inch]])
+                             for a, o in zip(reader.axes, self._origin)] for inch in (False, True)}
         self.arcs = ArcWords(self)
 
     # numbers --------------------------------------------------------------------
@@ -110,14 +114,21 @@ class Writer:
         dict of str to str
             The number of each axis as written.
         """
-        reader, inch = self.reader, st["inch"]
+        # the arithmetic of fmt(axis, round(from_si(axis, end - origin), digits)), per axis in
+        # one loop over plain floats (this runs for every piece written)
         out = {}
-        for j, axis in enumerate(reader.axes):
-            d = self._digits[axis, inch]
-            value = round(reader.from_si(axis, float(end[j]) - self._origin[j], inch), d)
-            if not st["absolute"]:
-                value -= round(reader.from_si(axis, float(prev[j]) - self._origin[j], inch), d)
-            out[axis] = self.fmt(axis, value, inch)
+        spec = self._spec[st["inch"]]
+        end = end.tolist() if isinstance(end, np.ndarray) else [float(v) for v in end]
+        if st["absolute"]:
+            for (axis, d, scale, origin, zero), e in zip(spec, end):
+                text = f"{round((e - origin) / scale, d):.{d}f}"
+                out[axis] = text[1:] if text == zero else text
+            return out
+        prev = prev.tolist() if isinstance(prev, np.ndarray) else [float(v) for v in prev]
+        for (axis, d, scale, origin, zero), e, p in zip(spec, end, prev):
+            value = round((e - origin) / scale, d) - round((p - origin) / scale, d)
+            text = f"{value:.{d}f}"
+            out[axis] = text[1:] if text == zero else text
         return out
 
     def written(self, q, inch: bool) -> np.ndarray:
