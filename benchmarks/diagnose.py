@@ -123,6 +123,13 @@ def markdown(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def section(quick: bool = False) -> str:
+    """This benchmark's Markdown for ``benchmarks/run.py``: 400 points quiet with ``quick`` (CI keeps the
+    script alive), 400 and 4,000 points quiet and beside a busy process, best of two, otherwise."""
+    rows = bench((400,), 1, ("quiet",)) if quick else bench((400, 4000), 2, ("quiet", "busy"))
+    return markdown(rows)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[400, 4000])
