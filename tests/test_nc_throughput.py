@@ -86,3 +86,97 @@ def test_quick_word_reading_matches_the_full_scan(monkeypatch):
             full = parse_block(line, 5, "p")
         assert [(w.letter, w.value, w.text, w.start, w.end) for w in quick.words] == \
                [(w.letter, w.value, w.text, w.start, w.end) for w in full.words]
+
+
+def _random_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
+    """A program mixing plain axis-word lines with everything the fast path must leave to the
+    full reader: N, G, F, M and comment words, G91 sections, inch, lower case, blanks inside
+    words, repeated modes, a tool change (positions lost), arcs."""
+    lines = ["G21 G90 G17 G94", "G0 " + " ".join(f"{a}{v:.3f}" for a, v in zip(axes, travel_mm.mean(axis=1))),
+             "G1 F1500"]
+    p = travel_mm.mean(axis=1)
+    incremental = inch = False
+    for i in range(n):
+        step = rng.normal(0.0, 2.0, len(axes))
+        q = np.clip(p + step, travel_mm[:, 0] + 5, travel_mm[:, 1] - 5)
+        pick = rng.random(len(axes)) < 0.7
+        pick[rng.integers(len(axes))] = True
+        q = np.where(pick, q, p)  # the axes not named stay
+        scale = 1 / 25.4 if inch else 1.0
+        vals = (q - p if incremental else q) * np.where([a in "XYZ" for a in axes], scale, 1.0)
+        words = [f"{a}{v:.4f}" for a, v, k in zip(axes, vals, pick) if k]
+        r = rng.random()
+        if r < 0.55:
+            line = " ".join(words)
+        elif r < 0.60:
+            line = "".join(words)  # no blanks
+        elif r < 0.65:
+            line = "\t ".join(w.lower() for w in words)
+        elif r < 0.70:
+            line = f"N{10 * i} " + " ".join(words)
+        elif r < 0.75:
+            line = " ".join(words) + " (a comment)"
+        elif r < 0.80:
+            line = "G1 " + " ".join(words) + f" F{rng.integers(100, 3000)}"
+        elif r < 0.83:
+            line = "G0 " + " ".join(words)
+        elif r < 0.86:
+            line = " ".join(w[0] + " " + w[1:] for w in words)  # blank between letter and number
+        elif r < 0.88:
+            incremental = not incremental
+            line = ("G91 " if incremental else "G90 ") + " ".join(words)
+            vals = (q - p if incremental else q) * np.where([a in "XYZ" for a in axes], scale, 1.0)
+            line = ("G91 " if incremental else "G90 ") + " ".join(
+                f"{a}{v:.4f}" for a, v, k in zip(axes, vals, pick) if k)
+        elif r < 0.90 and not incremental:
+            inch = not inch
+            line = "G20" if inch else "G21"
+            q = p
+        elif r < 0.92:
+            line = "M8"
+            q = p
+        elif r < 0.93 and not incremental:
+            line = "T2 M6"  # positions lost until every axis is programmed again
+            q = p
+            lines.append(line)
+            line = "G0 " + " ".join(f"{a}{v * (scale if a in 'XYZ' else 1.0):.4f}" for a, v in zip(axes, p))
+        elif r < 0.95 and "X" in axes and not incremental and not inch:
+            # a quarter circle in XY, then G1 again
+            rad = 3.0
+            cx, cy = p[0] + rad, p[1]
+            q = p.copy()
+            q[0], q[1] = cx, cy + rad
+            line = f"G3 X{q[0]:.4f} Y{q[1]:.4f} I{rad:.4f} J0"
+            lines.append(line)
+            line = "G1"
+        else:
+            line = " ".join(words) + " ; end comment"
+        lines.append(line)
+        p = q
+    lines.append("M30")
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("name,seed", [("vmc500", 1), ("vmc500", 2), ("cgm4000", 3)])
+def test_fast_path_writes_what_the_full_reader_writes(machines, name, seed):
+    """Programs drawn at random (fixed seeds) compensate to the same text and the same report
+    with the fast path for plain axis-word lines as with every line through the full reader."""
+    from volerr_pin.gcode.program import Program
+
+    machine = machines[name]
+    axes = "".join(machine.axes)
+    rotary = np.array([k == "rotary" for k in machine.axis_kinds])[:, None]
+    travel = np.where(np.isfinite(machine.travel), machine.travel, 0.5)
+    travel_mm = np.where(rotary, np.clip(np.degrees(travel), -40, 40), travel * 1e3)
+    text = _random_program(np.random.default_rng(seed), axes, travel_mm, 300)
+    outs = []
+    for fast in (True, False):
+        program = Program(machine, tol_um=1.0)
+        if not fast:
+            program._plain = None
+        out = program.compensate(text)
+        outs.append((out, program.report.to_dict()))
+    assert outs[0][0] == outs[1][0]
+    assert repr(outs[0][1]) == repr(outs[1][1])
+    plain = sum(bool(Program(machine)._plain.fullmatch(line)) for line in text.splitlines())
+    assert plain > 100  # the fast path took a good share of the lines

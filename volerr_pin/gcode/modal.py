@@ -445,6 +445,33 @@ class Interpreter:
             state.lose_position(f"line {block.number}'s M{TOOL_CHANGE_M} tool change")
         return move
 
+    def move_of(self, block: Block, state: ModalState, coord_words: list[Word], check_travel: bool) -> BlockMove:
+        """The move of a block whose words are all axis words, and whose checks are done.
+
+        Parameters
+        ----------
+        block : Block
+            The block (for messages).
+        state : ModalState
+            The modal state; updated in place (``known``, and ``position`` to the target).
+        coord_words : list of Word
+            Its axis words, each axis once.
+        check_travel : bool
+            Reject targets outside the travel.
+
+        Returns
+        -------
+        BlockMove
+            The move.
+
+        Raises
+        ------
+        GcodeError
+            No motion mode, an incremental move of an axis whose position is not known, a
+            target beyond any number or outside the travel.
+        """
+        return self._move(block, state, coord_words, check_travel)
+
     def _move(self, block: Block, state: ModalState, coord_words: list[Word], check_travel: bool) -> BlockMove:
         if state.motion is None:
             raise GcodeError(f"{self.where(block)}: coordinates without a motion mode (G0/G1/G2/G3)")

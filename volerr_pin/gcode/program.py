@@ -10,6 +10,7 @@ length. Every line that is not a compensated move is written byte for byte.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Iterable
 
 import numpy as np
@@ -18,7 +19,7 @@ from ..compensation.arcs import arc_extent
 from ..compensation.moves import ARC, LINE, POINT, MoveBatch
 from ..compensation.path import PathCompensator, Piece
 from ..machine import Machine
-from .lexer import WORK_OFFSETS, Block, GcodeError, split_lines
+from .lexer import NUMBER, WORD, WORK_OFFSETS, Block, GcodeError, Word, split_lines
 from . import kept
 from .modal import Interpreter, check_axes
 from .report import Report
@@ -131,6 +132,7 @@ class Program:
         self.comp = PathCompensator(machine, tol_um=tol_um - margin, method=method, tol_urad=inner_urad)
         self.report = Report(tolerance_um=tol_um)
         self.writer = Writer(self.reader, tol_um * 1e-6, self.margin)
+        self._plain = _plain_line(self.reader.axes)
         self.detail = detail
         self._general = []
         if rounding > 0.5 * tol_um:
@@ -226,6 +228,22 @@ class Program:
         """One line as ("raw", text) (kept unchanged), ("plain", block, newline) (no move) or
         ("move", block, newline, _Move)."""
         reader = self.reader
+        if self._plain is not None and self._plain.fullmatch(body) and not state.regions and not state.canned:
+            # a line of upper-case axis words only, with plain numbers: kept.classify would
+            # read it through the lexer's quick path (the same words) and find no problem,
+            # _note_offsets nothing to note; Interpreter.advance would find no G, M or other
+            # word to check or apply and go straight to the move. Anything else (a repeated
+            # axis, a number too large) takes the full path, which names it.
+            words = []
+            for m in WORD.finditer(body):
+                letter, text = m.groups()
+                start, end = m.span()
+                words.append(Word(letter, float(text), m.group(), start, end))
+            if len({w.letter for w in words}) == len(words) and all(math.isfinite(w.value) for w in words):
+                block = Block(number, body, words, body, False)
+                lost = state.lost
+                return self._entry(block, newline, number, state, lost,
+                                   reader.move_of(block, state, words, not state.tool_tip))
         block, problem = kept.classify(reader, body, number, state)
         if problem:
             if self.strict:
@@ -245,7 +263,11 @@ class Program:
         if block.words:
             self._note_offsets(block)
         lost = state.lost
-        move = reader.advance(block, state)
+        return self._entry(block, newline, number, state, lost, reader.advance(block, state))
+
+    def _entry(self, block: Block, newline: str, number: int, state, lost: str, move) -> tuple:
+        """The entry of a block that was read and followed (``move`` as advance gives it)."""
+        reader = self.reader
         if move is None:
             return ("plain", block, newline)
         kind = LINE if move.motion == 1 else (ARC if move.motion in (2, 3) else POINT)
@@ -431,6 +453,15 @@ class Program:
         if self.detail:
             report.detail.extend([mv.line], [len(written)], [result.before[k] * 1e6], [residual * 1e6])
         return lines
+
+
+def _plain_line(axes) -> re.Pattern | None:
+    """The lines :meth:`Program._read` takes on its fast path: upper-case axis words with
+    plain numbers, separated by blanks or nothing (a subset of what the lexer's quick path
+    reads); None if an axis letter could begin an exponent (E)."""
+    if "E" in axes:
+        return None
+    return re.compile(rf"[ \t]*+(?:[{''.join(axes)}][ \t]*+{NUMBER}[ \t]*+)++")
 
 
 def _levers(machine: Machine) -> list[float]:
