@@ -87,9 +87,12 @@ def run(args) -> int:
             u = "" if p["uncertainty"] is None else f" +- {p['uncertainty']:.3g}"
             out.print(escape(f"  {name} = {p['value']:.5g}{u} {p['unit']}"))
         if e.details.get("sensors") is not None:
-            lags = ", ".join(f"{x['lag_s']:g} s: {x['rms_holdout_um']:.3f}" for x in e.details["lags_tried"])
-            out.print(escape(f"  sensors {', '.join(e.details['sensors']) or '-'}; lag {e.details['lag_s']:g} s "
-                             f"(held-out RMS by lag: {lags} um)"))
+            if e.details["sensors"]:
+                lags = ", ".join(f"{x['lag_s']:g} s: {x['rms_holdout_um']:.3f}" for x in e.details["lags_tried"])
+                tried = f" (held-out RMS by lag: {lags} um)" if lags else " (no lag tried)"
+                out.print(escape(f"  sensors {', '.join(e.details['sensors'])}; lag {e.details['lag_s']:g} s{tried}"))
+            else:
+                out.print(escape("  driven by time alone (no temperature sensor chosen)"))
             out.print(escape(f"  chosen by {e.details['selection']}"))
             check = e.details.get("time_check")
             if check:
