@@ -25,7 +25,7 @@ from .lexer import (AXIS_LETTERS, CANNED, M_GROUPS, TOOL_CHANGE_M, TOOL_TIP_OFF,
                     GcodeError, Word, check_words)
 from .report import Warnings
 
-__all__ = ["AXIS_LETTERS", "BlockMove", "Interpreter", "ModalState", "check_axes"]
+__all__ = ["AXIS_LETTERS", "BlockMove", "Interpreter", "ModalState", "check_axes", "move_of"]
 
 
 
@@ -445,33 +445,6 @@ class Interpreter:
             state.lose_position(f"line {block.number}'s M{TOOL_CHANGE_M} tool change")
         return move
 
-    def move_of(self, block: Block, state: ModalState, coord_words: list[Word], check_travel: bool) -> BlockMove:
-        """The move of a block whose words are all axis words, and whose checks are done.
-
-        Parameters
-        ----------
-        block : Block
-            The block (for messages).
-        state : ModalState
-            The modal state; updated in place (``known``, and ``position`` to the target).
-        coord_words : list of Word
-            Its axis words, each axis once.
-        check_travel : bool
-            Reject targets outside the travel.
-
-        Returns
-        -------
-        BlockMove
-            The move.
-
-        Raises
-        ------
-        GcodeError
-            No motion mode, an incremental move of an axis whose position is not known, a
-            target beyond any number or outside the travel.
-        """
-        return self._move(block, state, coord_words, check_travel)
-
     def _move(self, block: Block, state: ModalState, coord_words: list[Word], check_travel: bool) -> BlockMove:
         if state.motion is None:
             raise GcodeError(f"{self.where(block)}: coordinates without a motion mode (G0/G1/G2/G3)")
@@ -588,3 +561,35 @@ class Interpreter:
         """
         return read_arc(block, self.where(block), self.axes, self.linear, start, target, clockwise, state.plane,
                         state.inch, self.warn)
+
+
+def move_of(reader: Interpreter, block: Block, state: ModalState, coord_words: list[Word],
+            check_travel: bool) -> BlockMove:
+    """The move of a block whose words are all axis words (each once), without the checks
+    :meth:`Interpreter.advance` makes of other words (a fast path for plain lines).
+
+    Parameters
+    ----------
+    reader : Interpreter
+        The program's interpreter.
+    block : Block
+        The block (for messages).
+    state : ModalState
+        The modal state; updated in place (``known``, and ``position`` to the target).
+    coord_words : list of Word
+        Its axis words, each axis once.
+    check_travel : bool
+        Reject targets outside the travel.
+
+    Returns
+    -------
+    BlockMove
+        The move.
+
+    Raises
+    ------
+    GcodeError
+        No motion mode, an incremental move of an axis whose position is not known, a
+        target beyond any number or outside the travel.
+    """
+    return reader._move(block, state, coord_words, check_travel)

@@ -21,7 +21,7 @@ from ..compensation.path import PathCompensator, Piece
 from ..machine import Machine
 from .lexer import NUMBER, WORD, WORK_OFFSETS, Block, GcodeError, Word, split_lines
 from . import kept
-from .modal import Interpreter, check_axes
+from .modal import Interpreter, check_axes, move_of
 from .report import Report
 from .rewrite import Writer
 
@@ -228,22 +228,11 @@ class Program:
         """One line as ("raw", text) (kept unchanged), ("plain", block, newline) (no move) or
         ("move", block, newline, _Move)."""
         reader = self.reader
-        if self._plain is not None and self._plain.fullmatch(body) and not state.regions and not state.canned:
-            # a line of upper-case axis words only, with plain numbers: kept.classify would
-            # read it through the lexer's quick path (the same words) and find no problem,
-            # _note_offsets nothing to note; Interpreter.advance would find no G, M or other
-            # word to check or apply and go straight to the move. Anything else (a repeated
-            # axis, a number too large) takes the full path, which names it.
-            words = []
-            for m in WORD.finditer(body):
-                letter, text = m.groups()
-                start, end = m.span()
-                words.append(Word(letter, float(text), m.group(), start, end))
-            if len({w.letter for w in words}) == len(words) and all(math.isfinite(w.value) for w in words):
-                block = Block(number, body, words, body, False)
-                lost = state.lost
-                return self._entry(block, newline, number, state, lost,
-                                   reader.move_of(block, state, words, not state.tool_tip))
+        words = _plain_words(self._plain, body) if not state.regions and not state.canned else None
+        if words is not None:  # the fast path (see _plain_words)
+            block = Block(number, body, words, body, False)
+            return self._entry(block, newline, number, state, state.lost,
+                               move_of(reader, block, state, words, not state.tool_tip))
         block, problem = kept.classify(reader, body, number, state)
         if problem:
             if self.strict:
@@ -462,6 +451,27 @@ def _plain_line(axes) -> re.Pattern | None:
     if "E" in axes:
         return None
     return re.compile(rf"[ \t]*+(?:[{''.join(axes)}][ \t]*+{NUMBER}[ \t]*+)++")
+
+
+def _plain_words(plain: re.Pattern | None, body: str) -> list[Word] | None:
+    """The words of a line of upper-case axis words only, with plain numbers (``plain``, from
+    :func:`_plain_line`), each axis once; None for any other line.
+
+    For such a line (outside canned cycles and kept regions) kept.classify would read the
+    same words through the lexer's quick path and find no problem, _note_offsets nothing to
+    note, and Interpreter.advance no G, M or other word to check or apply: it goes straight
+    to the move. Anything else (a repeated axis, a number too large) takes the full path,
+    which names it."""
+    if plain is None or not plain.fullmatch(body):
+        return None
+    words = []
+    for m in WORD.finditer(body):
+        letter, text = m.groups()
+        start, end = m.span()
+        words.append(Word(letter, float(text), m.group(), start, end))
+    if len({w.letter for w in words}) == len(words) and all(math.isfinite(w.value) for w in words):
+        return words
+    return None
 
 
 def _levers(machine: Machine) -> list[float]:
