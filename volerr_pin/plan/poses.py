@@ -11,13 +11,18 @@ over the turn without repeating its two ends (one pose).
 from __future__ import annotations
 
 import math
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.stats import qmc
 
 from ..errors import InputError
 
-__all__ = ["grid_counts", "pose_candidates"]
+if TYPE_CHECKING:
+    from .protocol import Setup
+
+__all__ = ["OneFileOfPoses", "grid_counts", "pose_candidates"]
 
 
 def grid_counts(extent: np.ndarray, count: int) -> np.ndarray:
@@ -110,3 +115,61 @@ def _serpentine(levels: list[np.ndarray]) -> np.ndarray:
             rows.append(np.column_stack([block, np.full(len(block), v)]))
         nodes = np.vstack(rows)
     return nodes
+
+
+class OneFileOfPoses:
+    """The files and visits of an instrument that measures at poses and writes one file, its
+    :meth:`table` (the probe, the tracker)."""
+
+    def outputs(self, out, count: int) -> list:
+        """One file: the plan's own.
+
+        Parameters
+        ----------
+        out : str or Path
+            The plan's file.
+        count : int
+            Number of poses (unused).
+
+        Returns
+        -------
+        list of Path
+            ``[out]``.
+        """
+        return [Path(out)]
+
+    def files(self, machine, setup: Setup, units: list) -> list:
+        """The one file of :meth:`table`.
+
+        Parameters
+        ----------
+        machine : Machine
+            The machine.
+        setup : Setup
+            Targets.
+        units : list of ndarray
+            Poses [m, rad].
+
+        Returns
+        -------
+        list of str
+            One text.
+        """
+        return [self.table(machine, setup, units)]
+
+    def visits(self, machine, units: list) -> np.ndarray:
+        """The poses themselves.
+
+        Parameters
+        ----------
+        machine : Machine
+            The machine.
+        units : list of ndarray
+            Poses [m, rad].
+
+        Returns
+        -------
+        ndarray, shape (n, n_axes)
+            NC positions [m, rad].
+        """
+        return np.asarray(units, dtype=float).reshape(len(units), len(machine.axes))

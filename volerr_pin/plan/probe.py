@@ -6,14 +6,13 @@ file (``x,y,z[,a,b,c],dx,dy,dz``, positions in mm / deg, deviations in um: docs/
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
 from ..measurements.points import PointMeasurements
 from ..units import axis_scales
-from .poses import pose_candidates
+from .poses import OneFileOfPoses, pose_candidates
 from .nc import StopsProgram
 from .protocol import Setup
 
@@ -51,7 +50,7 @@ def point_table(machine, q: np.ndarray, extra: dict | None = None, columns=("dx"
 
 
 @dataclass(frozen=True)
-class Probe(StopsProgram):
+class Probe(StopsProgram, OneFileOfPoses):
     """The probe instrument (see the module docstring).
 
     Attributes
@@ -146,59 +145,6 @@ class Probe(StopsProgram):
             The file's text.
         """
         return point_table(machine, np.asarray(units))
-
-    def outputs(self, out, count: int) -> list:
-        """One file: the plan's own.
-
-        Parameters
-        ----------
-        out : str or Path
-            The plan's file.
-        count : int
-            Number of poses (unused).
-
-        Returns
-        -------
-        list of Path
-            ``[out]``.
-        """
-        return [Path(out)]
-
-    def files(self, machine, setup: Setup, units: list) -> list:
-        """The one file of :meth:`table`.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        setup : Setup
-            Targets.
-        units : list of ndarray
-            Poses [m, rad].
-
-        Returns
-        -------
-        list of str
-            One text.
-        """
-        return [self.table(machine, setup, units)]
-
-    def visits(self, machine, units: list) -> np.ndarray:
-        """The poses themselves.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        units : list of ndarray
-            Poses [m, rad].
-
-        Returns
-        -------
-        ndarray, shape (n, n_axes)
-            NC positions [m, rad].
-        """
-        return np.asarray(units, dtype=float).reshape(len(units), len(machine.axes))
 
 
 #: the probe

@@ -18,13 +18,12 @@ Obstruction by the machine's own structure is not modelled.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from ..measurements.tracker import TrackerMeasurements
 from .nc import StopsProgram
-from .poses import pose_candidates
+from .poses import OneFileOfPoses, pose_candidates
 from .probe import point_table
 from .protocol import Setup
 
@@ -69,7 +68,7 @@ def in_sight(machine, setup: Setup, q: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class Tracker(StopsProgram):
+class Tracker(StopsProgram, OneFileOfPoses):
     """The laser-tracker instrument (see the module docstring).
 
     Attributes
@@ -171,59 +170,6 @@ class Tracker(StopsProgram):
         extra = {"target": [f"T{j + 1}" for j in range(k)] * len(q)}
         extra.update({c: [f"{v:.4f}" for v in offsets[:, i]] for i, c in enumerate(("ox", "oy", "oz"))})
         return point_table(machine, np.repeat(q, k, axis=0), extra, columns=("tx", "ty", "tz"))
-
-    def outputs(self, out, count: int) -> list:
-        """One file: the plan's own.
-
-        Parameters
-        ----------
-        out : str or Path
-            The plan's file.
-        count : int
-            Number of poses (unused).
-
-        Returns
-        -------
-        list of Path
-            ``[out]``.
-        """
-        return [Path(out)]
-
-    def files(self, machine, setup: Setup, units: list) -> list:
-        """The one file of :meth:`table`.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        setup : Setup
-            Targets.
-        units : list of ndarray
-            Poses [m, rad].
-
-        Returns
-        -------
-        list of str
-            One text.
-        """
-        return [self.table(machine, setup, units)]
-
-    def visits(self, machine, units: list) -> np.ndarray:
-        """The poses themselves.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        units : list of ndarray
-            Poses [m, rad].
-
-        Returns
-        -------
-        ndarray, shape (n, n_axes)
-            NC positions [m, rad].
-        """
-        return np.asarray(units, dtype=float).reshape(len(units), len(machine.axes))
 
 
 #: the laser tracker
