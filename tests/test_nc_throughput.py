@@ -180,3 +180,164 @@ def test_fast_path_writes_what_the_full_reader_writes(machines, name, seed):
     assert repr(outs[0][1]) == repr(outs[1][1])
     plain = sum(bool(Program(machine)._plain.fullmatch(line)) for line in text.splitlines())
     assert plain > 100  # the fast path took a good share of the lines
+
+
+def _runs_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
+    """Long runs of plain lines (beyond a chunk) between other lines: G0 and G1 runs, moves
+    short and across the workspace (split into pieces), inch sections, values around zero,
+    a line under an arc's motion mode written back as G1, CR LF endings and a last line
+    without an ending."""
+    lines = ["G21 G90 G17 G94", "G0 " + " ".join(f"{a}{v:.3f}" for a, v in zip(axes, travel_mm.mean(axis=1))),
+             "G1 F1500"]
+    p = travel_mm.mean(axis=1)
+    inch = False
+    low, high = travel_mm[:, 0] + 1, travel_mm[:, 1] - 1
+    while len(lines) < n:
+        r = rng.random()
+        if r < 0.1:
+            lines.append(["G0", "G1", "G20" if not inch else "G21", "M8", "N5 G1"][rng.integers(5)])
+            inch = inch != (lines[-1] in ("G20", "G21"))
+            continue
+        if r < 0.12 and "X" in axes and not inch:
+            # a quarter circle: the output's motion is G2 after it, so the next plain line needs G1
+            rad = 2.0
+            q = p.copy()
+            q[0], q[1] = p[0] + rad, p[1] + rad
+            if (q[:2] < high[:2]).all():
+                lines += [f"G2 X{q[0]:.4f} Y{q[1]:.4f} I{rad:.4f} J0", "G1"]
+                p = q
+            continue
+        count = int(rng.integers(50, 3000))
+        far = rng.random() < 0.3
+        for _ in range(count):
+            if far and rng.random() < 0.2:
+                q = low + rng.random(len(axes)) * (high - low)
+            else:
+                q = np.clip(p + rng.normal(0.0, 0.5, len(axes)), low, high)
+            pick = rng.random(len(axes)) < 0.8
+            pick[rng.integers(len(axes))] = True
+            q = np.where(pick, q, p)
+            scale = np.where([a in "XYZ" for a in axes], 1 / 25.4 if inch else 1.0, 1.0)
+            words = [f"{a}{v * s:.4f}" for a, v, s, k in zip(axes, q, scale, pick) if k]
+            lines.append((" " if rng.random() < 0.9 else "").join(words))
+            p = q
+    ends = ["\r\n" if rng.random() < 0.05 else "\n" for _ in lines]
+    return "".join(line + end for line, end in zip(lines, ends)) + "X" + f"{p[0] * (1 / 25.4 if inch else 1):.4f}"
+
+
+@pytest.mark.parametrize("name,seed,programming", [("vmc500", 4, "axes"), ("cgm4000", 5, "axes"),
+                                                   ("cgm4000", 6, "tool-tip")])
+def test_runs_of_plain_lines_write_what_the_full_reader_writes(machines, name, seed, programming):
+    """Runs of plain lines longer than a chunk, read and written as arrays, give the same text,
+    report and per-move detail as every line through the full reader."""
+    from volerr_pin.gcode import chunks
+    from volerr_pin.gcode.program import Program
+
+    machine = machines[name]
+    axes = "".join(machine.axes)
+    rotary = np.array([k == "rotary" for k in machine.axis_kinds])[:, None]
+    travel = np.where(np.isfinite(machine.travel), machine.travel, 0.5)
+    travel_mm = np.where(rotary, np.clip(np.degrees(travel), -20, 20), travel * 1e3)
+    if programming == "tool-tip":  # tool tips near mid-travel, where the axes can reach them
+        mid = travel_mm.mean(axis=1, keepdims=True)
+        travel_mm = mid + 0.2 * (travel_mm - mid)
+    text = _runs_program(np.random.default_rng(seed), axes, travel_mm, 12_000)
+    outs, runs = [], []
+    for fast in (True, False):
+        program = Program(machine, tol_um=1.0, detail=True, programming=programming,
+                          origin=np.zeros(len(axes)) if fast else None)
+        if not fast:
+            program._plain = None
+        if fast:
+            close = program._close
+            program._close = lambda run, state: runs.append(run.count) or close(run, state)
+        out = program.compensate(text)
+        d = program.report.detail
+        outs.append((out, repr(program.report.to_dict()), (d._line, d._pieces, d._before, d._after)))
+    assert outs[0][0] == outs[1][0]
+    assert outs[0][1] == outs[1][1]
+    assert outs[0][2] == outs[1][2]
+    assert max(runs) > chunks.FIRST_CHUNK  # runs longer than a chunk were taken
+    assert sum(runs) > 0.8 * text.count("\n")
+    assert program.report.pieces > program.report.moves  # some moves were split
+
+
+@pytest.mark.parametrize("name", ["vmc500", "cgm4000"])
+def test_run_templates_write_what_the_writer_writes(machines, name):
+    """The templates of a run write each line as Writer.rewrite writes it, with values around
+    zero of both signs and at halves of the last decimal, mm and inch, an origin, and the
+    motion word a run's first line gets when the output's modal motion differs; a split move's
+    further pieces as Writer.new_line writes them."""
+    from volerr_pin.compensation.path import Piece
+    from volerr_pin.gcode.runs import PlainRun, PlainRuns, plain_line, plain_words
+
+    machine = machines[name]
+    rng = np.random.default_rng(11)
+    axes = machine.axes
+    n = len(axes)
+    reader = Interpreter(machine, origin=rng.normal(0.0, 0.01, n))
+    writer = Writer(reader, 1e-6, 1e-7)
+    runs, plain = PlainRuns(reader, writer), plain_line(axes)
+    for inch in (False, True):
+        for motion, out_motion in ((1, 1), (1, 0), (0, None)):
+            run = PlainRun(7)
+            run.motion = motion
+            for _ in range(200):
+                pick = [a for a in axes if rng.random() < 0.6] or [axes[0]]
+                order = rng.permutation(len(pick))
+                body = (" " * int(rng.integers(0, 2))) + (" " if rng.random() < 0.8 else "\t").join(
+                    f"{pick[i]}{['', ' '][rng.integers(2)]}{rng.normal(0, 100):.3f}" for i in order)
+                shape = runs.shape(body)
+                assert shape is not None, body
+                run.bodies.append(body)
+                run.newlines.append(["\n", "\r\n", ""][rng.integers(3)])
+                run.shapes.append(shape)
+            counts = rng.integers(1, 4, run.count)
+            ends = rng.uniform(-0.5, 0.5, (int(counts.sum()), n))
+            ends[::7] = rng.normal(0.0, 1e-8, ends[::7].shape)  # around zero: "-0.0000" must not appear
+            ends[3::7] = np.round(ends[3::7], 7) + 0.5e-7  # halves at the fourth mm decimal
+            ends += reader.origin
+            got = runs.write(run, ends, counts, inch, out_motion, "\r\n")
+            want = []
+            st = {"absolute": True, "inch": inch, "out_motion": out_motion}
+            rows = iter(ends)
+            for body, newline, count in zip(run.bodies, run.newlines, counts):
+                words = plain_words(plain, body)
+                block = parse_block(body, 1, "p")
+                end = next(rows)
+                inner = newline or "\r\n"  # a line's own ending, else the program's
+                first = writer.rewrite(block, Piece("line", end, end), end, st, motion, words)
+                want.append(first + (newline if count == 1 else inner))
+                for m in range(count - 1):
+                    end2 = next(rows)
+                    want.append(writer.new_line(Piece("line", end, end2), end, st, motion)
+                                + (newline if m == count - 2 else inner))
+            assert got == want
+            assert any(" G" in line or line.startswith("G") for line in want[:1]) == (out_motion != motion)
+
+
+@pytest.mark.parametrize("bad", ["X900.0 Y100", "Y1" + "0" * 400, "X10 X20", "X1.2.3", "x10"])
+def test_a_bad_line_inside_a_run_is_named_as_the_full_reader_names_it(machines, bad):
+    """A line beyond the travel or any number, a repeated axis or a malformed number in the
+    middle of a long run of plain lines: the same error, naming the same line, with and
+    without the run path."""
+    from volerr_pin.gcode.lexer import GcodeError
+    from volerr_pin.gcode.program import Program
+
+    machine = machines["vmc500"]
+    body = [f"X{100 + 0.01 * i:.3f} Y{100 + 0.02 * (i % 50):.3f}" for i in range(3000)]
+    body[1700] = bad
+    text = "G90 G21\nG0 X100 Y100 Z100\nG1 F1000\n" + "\n".join(body) + "\nM30\n"
+    messages = []
+    for fast in (True, False):
+        program = Program(machine, tol_um=1.0)
+        if not fast:
+            program._plain = None
+        try:
+            program.compensate(text)
+            messages.append(None)
+        except GcodeError as err:
+            messages.append(str(err))
+    assert messages[0] == messages[1]
+    if bad != "x10":  # a lower-case letter is read (by the full reader)
+        assert messages[0] is not None and ":1704" in messages[0], messages[0]

@@ -10,46 +10,31 @@ length. Every line that is not a compensated move is written byte for byte.
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Callable, Iterable
 
 import numpy as np
 
-from ..compensation.arcs import arc_extent
-from ..compensation.moves import ARC, LINE, POINT, MoveBatch
-from ..compensation.path import PathCompensator, Piece
+from ..compensation.moves import ARC, LINE, POINT
+from ..compensation.path import PathCompensator
 from ..machine import Machine
-from .lexer import NUMBER, WORD, WORK_OFFSETS, Block, GcodeError, Word, split_lines
+from .lexer import WORK_OFFSETS, Block, GcodeError, split_lines
 from . import kept
 from .modal import Interpreter, check_axes, move_of
 from .report import Report
 from .rewrite import Writer
+from .chunks import FIRST_CHUNK, ChunkWriting, _Move
+from .runs import PlainRun, PlainRuns, plain_line, plain_words
 
 __all__ = ["MIN_TOL_UM", "Program", "compensate_program"]
 
 #: the finest tolerance taken [um]: the point compensation itself stops at 0.01 um, and the
 #: written numbers resolve 0.05 um
 MIN_TOL_UM = 0.01
-#: moves compensated together, at first and at most (the chunk grows while its pieces stay few)
-FIRST_CHUNK, MOST_CHUNK = 512, 8192
-#: pieces one chunk may hold; a chunk that splits its moves into more makes the next smaller
-PIECE_BUDGET = 100_000
 #: lines held before they are written, whether or not they hold moves
 MOST_LINES = 32_768
 
 
-class _Move:
-    """A desired move read from a block: ``kind`` POINT / LINE / ARC, the block's ``motion``,
-    its ``modes`` (the output state it is written in) and its programming mode."""
-
-    __slots__ = ("kind", "motion", "start", "target", "arc", "coord_words", "modes", "line", "mode")
-
-    def __init__(self, kind, motion, start, target, arc, coord_words, modes, line, mode):
-        self.kind, self.motion, self.start, self.target, self.arc = kind, motion, start, target, arc
-        self.coord_words, self.modes, self.line, self.mode = coord_words, modes, line, mode
-
-
-class Program:
+class Program(ChunkWriting):
     """Compensates a program for a machine whose axes are NC letters (X, Y, Z, A, B, C).
 
     Parameters
@@ -132,7 +117,9 @@ class Program:
         self.comp = PathCompensator(machine, tol_um=tol_um - margin, method=method, tol_urad=inner_urad)
         self.report = Report(tolerance_um=tol_um)
         self.writer = Writer(self.reader, tol_um * 1e-6, self.margin)
-        self._plain = _plain_line(self.reader.axes)
+        self._plain = plain_line(self.reader.axes)
+        self._runs = PlainRuns(self.reader, self.writer) if self._plain is not None else None
+        self._groups: list = []
         self.detail = detail
         self._general = []
         if rounding > 0.5 * tol_um:
@@ -199,9 +186,38 @@ class Program:
         moves = 0
         mode = None
         number = 0
+        runs = self._runs if self._plain is not None else None
+        fast = runs is not None and runs.takes(state)
+        run = None  # the open run of plain lines
         for number, (body, newline) in enumerate(lines, start=1):
             if self._eol is None and newline:
                 self._eol = newline
+            if fast:
+                shape = runs.shape(body)
+                if shape is not None:
+                    if run is None:
+                        run_mode = "tool-tip" if state.tool_tip else "axes"
+                        if mode is not None and run_mode != mode:
+                            self._flush(entries, write)
+                            entries, moves = [], 0
+                        mode = run_mode
+                        run = PlainRun(number)
+                    run.bodies.append(body)
+                    run.newlines.append(newline)
+                    run.shapes.append(shape)
+                    run.numbers += runs.numbers(body)
+                    moves += 1
+                    if moves >= self._chunk or len(entries) + run.count >= MOST_LINES:
+                        entries += self._close(run, state)
+                        run = None
+                        self._flush(entries, write)
+                        entries, moves = [], 0
+                        if progress is not None:
+                            progress(number)
+                    continue
+            if run is not None:
+                entries += self._close(run, state)
+                run = None
             entry = self._read(body, newline, number, state)
             if entry[0] == "move":
                 if mode is not None and entry[3].mode != mode:
@@ -210,11 +226,15 @@ class Program:
                 mode = entry[3].mode
                 moves += 1
             entries.append(entry)
+            if runs is not None:
+                fast = runs.takes(state)
             if moves >= self._chunk or len(entries) >= MOST_LINES:
                 self._flush(entries, write)
                 entries, moves = [], 0
                 if progress is not None:
                     progress(number)
+        if run is not None:
+            entries += self._close(run, state)
         self._flush(entries, write)
         self.report.blocks_in = number
         if progress is not None:
@@ -223,13 +243,25 @@ class Program:
         self.report.warnings = self._general + notes.render()
         return self.report
 
+    def _close(self, run: PlainRun, state) -> list:
+        """The entries of a run of plain lines: the run itself, or, if it cannot be taken as
+        a whole, its lines read one by one (which names what is wrong)."""
+        if self._runs.close(run, state):
+            run.kind = LINE if run.motion == 1 else POINT
+            run.modes = {"absolute": True, "inch": state.inch, "plane": state.plane, "all_known": True,
+                         "inverse": state.inverse_time}
+            run.mode = "tool-tip" if state.tool_tip else "axes"
+            return [("run", run)]
+        return [self._read(body, newline, run.first + i, state)
+                for i, (body, newline) in enumerate(zip(run.bodies, run.newlines))]
+
     # reading --------------------------------------------------------------------
     def _read(self, body: str, newline: str, number: int, state) -> tuple:
         """One line as ("raw", text) (kept unchanged), ("plain", block, newline) (no move) or
         ("move", block, newline, _Move)."""
         reader = self.reader
-        words = _plain_words(self._plain, body) if not state.regions and not state.canned else None
-        if words is not None:  # the fast path (see _plain_words)
+        words = plain_words(self._plain, body) if not state.regions and not state.canned else None
+        if words is not None:  # the fast path (see runs.plain_words)
             block = Block(number, body, words, body, False)
             return self._entry(block, newline, number, state, state.lost,
                                move_of(reader, block, state, words, not state.tool_tip))
@@ -298,181 +330,6 @@ class Program:
                                       "different tool length changes the angular errors' lever arms")
 
     # compensating and writing -------------------------------------------------------
-    def _flush(self, entries: list, write: Callable[[str], object]) -> None:
-        moves = [e[3] for e in entries if e[0] == "move"]
-        results = self._compensate(moves) if moves else None
-        st = {"out_motion": getattr(self, "_out_motion", None)}
-        eol = self._eol or "\n"
-        written = 0
-        k = 0
-        for entry in entries:
-            kind = entry[0]
-            if kind == "raw":
-                write(entry[1])
-                written += 1
-            elif kind == "plain":
-                block = entry[1]
-                for w in block.words:
-                    if w.letter == "G" and w.value in (0, 1, 2, 3):
-                        st["out_motion"] = int(w.value)
-                write(block.text + entry[2])
-                written += 1
-            else:
-                mv = entry[3]
-                st.update(mv.modes)
-                lines = self._write_move(entry[1], entry[2], eol, mv, results, k, st)
-                for line in lines:
-                    write(line)
-                written += len(lines)
-                k += 1
-        self._out_motion = st["out_motion"]
-        self.report.blocks_out += written
-
-    def _compensate(self, moves: list[_Move]):
-        """Compensate the moves of one chunk (one programming mode) in one batch."""
-        reader, comp = self.reader, self.comp
-        mode = reader.mode(moves[0].mode)
-        n = len(reader.axes)
-        batch = MoveBatch.empty(len(moves), n)
-        batch.kind[:] = [mv.kind for mv in moves]
-        batch.w0[:] = [mv.start for mv in moves]
-        batch.w1[:] = [mv.target for mv in moves]
-        for i, mv in enumerate(moves):
-            if mv.arc is not None:
-                a = mv.arc
-                batch.plane[i] = a.plane
-                batch.center[i] = a.center
-                batch.r0[i], batch.r1[i] = a.radius, (a.radius if a.end_radius is None else a.end_radius)
-                batch.a0[i], batch.sweep[i] = a.start_angle, a.sweep
-        self._check_travel(moves, batch, mode)
-        start, start_residual = None, 0.0
-        if self._last is not None and moves[0].kind != POINT:
-            start = mode.to_words(self._last[0][None, :])[0]
-            start_residual = self._last[1]
-        result = comp.compensate(batch, start=start, start_residual=start_residual, programming=mode)
-        self._last = (mode.to_axes(result.end[-1:])[0], float(result.end_residual[-1]))
-        self._commands_outside(moves, result, mode)
-        self.report.moves += len(moves)
-        self.report.max_before_um = max(self.report.max_before_um, float(result.before.max()) * 1e6)
-        if mode.name not in self.report.programming:
-            self.report.programming.append(mode.name)
-        # the next chunk: as many moves as keep its pieces within the budget
-        per_move = max(len(result.pieces) / len(moves), 1.0)
-        self._chunk = int(min(MOST_CHUNK, 2 * self._chunk, max(64, PIECE_BUDGET / per_move)))
-        ps = result.pieces
-        # the per-piece numbers as plain Python values, converted once for the whole chunk
-        columns = (ps.arc.tolist(), ps.sweep.tolist(), ps.residual.tolist(), ps.k0.tolist(), ps.k1.tolist(),
-                   ps.limited.tolist())
-        return result, ps.bounds(len(moves)), columns
-
-    def _check_travel(self, moves: list[_Move], batch: MoveBatch, mode) -> None:
-        """Desired moves must stay within the travel: arcs between their ends, and in tool-tip
-        programming the axis positions the tool tips need."""
-        reader, machine = self.reader, self.reader.machine
-        travel = machine.travel
-        arcs = np.flatnonzero(batch.kind == ARC)
-        if mode.identity:
-            if len(arcs):
-                low, high = _arc_bounds(batch, arcs)
-                span = np.maximum(travel[:, 1] - travel[:, 0], 1.0)
-                over = np.maximum(travel[:, 0] - low, high - travel[:, 1])
-                bad = np.flatnonzero((over > 1e-9 * span).any(axis=1))
-                if len(bad):
-                    i = bad[0]
-                    raise GcodeError(f"{reader.source}:{moves[arcs[i]].line}: the arc leaves the travel "
-                                     f"({_amounts(reader, over[i], 1e-9 * span)})")
-            return
-        # tool-tip programming: the axis positions of every target, and along every arc
-        q = mode.to_axes(batch.w1)
-        outside = machine.outside_travel(q).any(axis=1)
-        if outside.any():
-            i = int(np.flatnonzero(outside)[0])
-            mv = moves[i]
-            reader.travel_error(_block_of(mv), mv.coord_words, q[i])
-        if len(arcs):
-            k = np.linspace(0.0, 1.0, 33)
-            rows = np.repeat(arcs, len(k))
-            qa = mode.to_axes(batch.desired(rows, np.tile(k, len(arcs))))
-            out = machine.outside_travel(qa).reshape(len(arcs), len(k), -1).any(axis=(1, 2))
-            if out.any():
-                i = int(np.flatnonzero(out)[0])
-                over = np.maximum(travel[:, 0] - qa.reshape(len(arcs), len(k), -1)[i].min(axis=0),
-                                  qa.reshape(len(arcs), len(k), -1)[i].max(axis=0) - travel[:, 1])
-                raise GcodeError(f"{reader.source}:{moves[arcs[i]].line}: the arc leaves the travel "
-                                 f"({_amounts(reader, over, np.zeros(len(over)))})")
-
-    def _commands_outside(self, moves: list[_Move], result, mode) -> None:
-        """Warn where compensated commands leave the travel (by micrometres, at a travel's end)."""
-        reader, machine = self.reader, self.reader.machine
-        ps = result.pieces
-        q = mode.to_axes(ps.cw1)
-        travel = machine.travel
-        over = np.maximum(travel[:, 0] - q, q - travel[:, 1])
-        bad = np.flatnonzero((over > 0).any(axis=1))
-        for i in bad:
-            for j in np.flatnonzero(over[i] > 0):
-                axis = reader.axes[j]
-                unit = "um" if reader.linear[j] else "urad"
-                reader.notes.add(moves[ps.move[i]].line, f"the compensated command leaves the travel of axis {axis} "
-                                 f"(by up to {{worst:.2f}} {unit}); check the machine's soft limits",
-                                 worst=float(over[i, j]) * 1e6)
-
-    def _write_move(self, block: Block, newline: str, eol: str, mv: _Move, results, k: int, st: dict) -> list[str]:
-        result, bounds, (arc, sweep, residual, k0, k1, limited) = results
-        ps = result.pieces
-        rows = range(bounds[k], bounds[k + 1])
-        pieces = [Piece("arc" if arc[i] else "line", ps.cw0[i], ps.cw1[i], ps.center[i] if arc[i] else None,
-                        sweep[i] < 0, sweep[i], residual[i], k0[i], k1[i], bool(limited[i])) for i in rows]
-        lines, written = self.writer.write_move(block, newline, eol, mv.motion, mv.coord_words, pieces, st)
-        report = self.report
-        report.pieces += len(written)
-        residual = max(p.residual for p in written)
-        report.max_residual_um = max(report.max_residual_um, residual * 1e6)
-        if mv.kind == ARC:
-            if all(p.kind == "arc" for p in written):
-                report.arcs_kept += 1
-            else:
-                report.arcs_as_lines += 1
-        if result.limited[k]:
-            what = (f"{report.tolerance_um:g} um / {self.tol_urad:g} urad" if self.comp.orientation
-                    else f"{report.tolerance_um:g} um")
-            self.reader.notes.add(mv.line, f"the residual stays at up to {{worst:.2f}} um (tolerance {what}); no "
-                                  "command reaches the desired pose there (singular pose of the rotary axes, or an "
-                                  "error the axes cannot undo)", worst=residual * 1e6)
-        if self.detail:
-            report.detail.extend([mv.line], [len(written)], [result.before[k] * 1e6], [residual * 1e6])
-        return lines
-
-
-def _plain_line(axes) -> re.Pattern | None:
-    """The lines :meth:`Program._read` takes on its fast path: upper-case axis words with
-    plain numbers, separated by blanks or nothing (a subset of what the lexer's quick path
-    reads); None if an axis letter could begin an exponent (E)."""
-    if "E" in axes:
-        return None
-    return re.compile(rf"[ \t]*+(?:[{''.join(axes)}][ \t]*+{NUMBER}[ \t]*+)++")
-
-
-def _plain_words(plain: re.Pattern | None, body: str) -> list[Word] | None:
-    """The words of a line of upper-case axis words only, with plain numbers (``plain``, from
-    :func:`_plain_line`), each axis once; None for any other line.
-
-    For such a line (outside canned cycles and kept regions) kept.classify would read the
-    same words through the lexer's quick path and find no problem, _note_offsets nothing to
-    note, and Interpreter.advance no G, M or other word to check or apply: it goes straight
-    to the move. Anything else (a repeated axis, a number too large) takes the full path,
-    which names it."""
-    if plain is None or not plain.fullmatch(body):
-        return None
-    words = []
-    for m in WORD.finditer(body):
-        letter, text = m.groups()
-        start, end = m.span()
-        words.append(Word(letter, float(text), m.group(), start, end))
-    if len({w.letter for w in words}) == len(words) and all(math.isfinite(w.value) for w in words):
-        return words
-    return None
-
 
 def _levers(machine: Machine) -> list[float]:
     """For each rotary axis, how far the rounding of its written angle (0.5e-5 deg) moves the
@@ -485,34 +342,6 @@ def _levers(machine: Machine) -> list[float]:
     q = travel[:, 0] + rng.random((32, len(machine.axes))) * (travel[:, 1] - travel[:, 0])
     J = machine.axis_jacobian(q, nominal=True, extrapolate=True)
     return [float(np.linalg.norm(J[:, :3, j], axis=1).max()) * math.radians(0.5e-5) * 1e6 for j in rotary]
-
-
-def _arc_bounds(batch: MoveBatch, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Lowest and highest coordinates of arcs: the exact extent in their plane, their ends
-    in the other coordinates (which move linearly)."""
-    w0, w1 = batch.w0[rows], batch.w1[rows]
-    low, high = np.minimum(w0, w1), np.maximum(w0, w1)
-    radius = np.maximum(batch.r0[rows], batch.r1[rows])
-    lo2, hi2 = arc_extent(batch.center[rows], radius, batch.a0[rows], batch.sweep[rows])
-    idx = np.arange(len(rows))
-    for c in range(2):
-        plane = batch.plane[rows, c]
-        low[idx, plane] = lo2[:, c]
-        high[idx, plane] = hi2[:, c]
-    return low, high
-
-
-def _amounts(reader: Interpreter, over: np.ndarray, slack: np.ndarray) -> str:
-    parts = []
-    for j, axis in enumerate(reader.axes):
-        if over[j] > slack[j]:
-            unit = "um" if reader.linear[j] else "urad"
-            parts.append(f"{axis} by {over[j] * 1e6:.2f} {unit}")
-    return ", ".join(parts)
-
-
-def _block_of(mv: _Move) -> Block:
-    return Block(mv.line, "", list(mv.coord_words), "")
 
 
 def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass_through: bool | None = None,
