@@ -124,16 +124,24 @@ def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plan
         require_memory(4 * (full_turns + 1) * ARC_QUARTER_BYTES, f"an arc of {full_turns + 1:,} turns",
                        ("full_turns",))
     start, end, center = (np.asarray(v, dtype=float) for v in (start, end, center))
-    for name, value in (("start", start), ("end", end), ("center", center)):
-        if not np.all(np.isfinite(value)):
+    # plain floats: this runs for every arc block read
+    s, e, c = start.tolist(), end.tolist(), center.tolist()
+    for name, value in (("start", s), ("end", e), ("center", c)):
+        if not all(map(math.isfinite, value)):
             raise InputError(f"{name} of the arc is not finite: {value}", parameters=(name,))
     i, j, _ = plane
-    a0 = math.atan2(start[j] - center[1], start[i] - center[0])
-    a1 = math.atan2(end[j] - center[1], end[i] - center[0])
-    sweep = float(sweeps(np.array([a0]), np.array([a1]), np.array([not clockwise]))[0])
+    a0 = math.atan2(s[j] - c[1], s[i] - c[0])
+    a1 = math.atan2(e[j] - c[1], e[i] - c[0])
+    turn = 2 * math.pi  # the sweep as sweeps() gives it, for one arc
+    if clockwise:
+        down = (a0 - a1) % turn
+        sweep = -(turn if down <= 0.0 else down)
+    else:
+        up = (a1 - a0) % turn
+        sweep = turn if up <= 0.0 else up
     sweep += (-1 if clockwise else 1) * 2 * math.pi * full_turns
-    r0 = math.hypot(start[i] - center[0], start[j] - center[1])
-    r1 = math.hypot(end[i] - center[0], end[j] - center[1])
+    r0 = math.hypot(s[i] - c[0], s[j] - c[1])
+    r1 = math.hypot(e[i] - c[0], e[j] - c[1])
     if r0 == 0.0:
         raise InputError("the arc starts at its centre: a radius of zero")
     if abs(r0 - r1) > RADIUS_SLACK:

@@ -23,6 +23,8 @@ __all__ = ["ArcWords"]
 
 #: digits a written number may have (controllers read nine: 99999.9999 mm)
 MAX_DIGITS = 9
+#: fractions of an arc piece at which the arc read back is compared with it
+_FRACTIONS = [k / 16 for k in range(17)]
 
 
 class ArcWords:
@@ -90,7 +92,7 @@ class ArcWords:
             forms.add("ijk")
         return forms
 
-    def centre_values(self, piece, prev, st: dict, forms: set) -> dict[str, float]:
+    def centre_values(self, piece, prev, st: dict, forms: set, written=None) -> dict[str, float]:
         """The centre words of an arc piece, rounded as written: offsets from the written
         start, and a radius that puts the centre where it is.
 
@@ -104,6 +106,9 @@ class ArcWords:
             Output state.
         forms : set of str
             ``"ijk"`` and/or ``"r"``.
+        written : tuple of ndarray, optional
+            The start and end as their written numbers give them back
+            (:meth:`~volerr_pin.gcode.rewrite.Writer.written`), if the caller has them.
 
         Returns
         -------
@@ -114,13 +119,13 @@ class ArcWords:
         plane = PLANES[st["plane"]]
         i, j = reader.axes.index(plane[0]), reader.axes.index(plane[1])
         d = self.writer.digits(plane[0], inch)
-        s = self.writer.written(prev, inch)
+        s = self.writer.written(prev, inch) if written is None else written[0]
         out = {}
         if "ijk" in forms:
             for axis, c, p in ((plane[0], piece.center[0], s[i]), (plane[1], piece.center[1], s[j])):
                 out[CENTRE[axis]] = round(reader.from_si(axis, float(c - p), inch), d)
         if "r" in forms:
-            e = self.writer.written(piece.end, inch)
+            e = self.writer.written(piece.end, inch) if written is None else written[1]
             r = 0.5 * (math.hypot(s[i] - piece.center[0], s[j] - piece.center[1]) +
                        math.hypot(e[i] - piece.center[0], e[j] - piece.center[1]))
             out["R"] = round(reader.from_si(plane[0], float(-r if abs(piece.turns) > math.pi else r), inch), d)
@@ -153,7 +158,7 @@ class ArcWords:
         out[:, j] = c[1] + r * np.sin(a0 + u * piece.turns)
         return out
 
-    def arc_error(self, piece, prev, st: dict, forms: set) -> float:
+    def arc_error(self, piece, prev, st: dict, forms: set, written=None) -> float:
         """How far the arc a controller reads from a piece's written numbers leaves the
         piece's path [m] (inf if the numbers define no arc, or have too many digits).
 
@@ -167,20 +172,26 @@ class ArcWords:
             Output state.
         forms : set of str
             ``"ijk"`` and/or ``"r"``.
+        written : tuple of ndarray, optional
+            The start and end as their written numbers give them back, if the caller has
+            them.
 
         Returns
         -------
         float
-            [m].
+            The largest distance over 17 points at equal fractions of both arcs (linear
+            axes) [m].
         """
         reader, inch = self.writer.reader, st["inch"]
         plane = PLANES[st["plane"]]
         i, j = (reader.axes.index(a) for a in plane[:2])
-        vals = self.centre_values(piece, prev, st, forms)
+        if written is None:
+            written = self.writer.written(prev, inch), self.writer.written(piece.end, inch)
+        s, e = written
+        vals = self.centre_values(piece, prev, st, forms, written)
         if any(abs(v) >= 10.0 ** (MAX_DIGITS - self.writer.digits(plane[0], inch)) for v in vals.values()):
             return math.inf
         scale = INCH if inch else MM
-        s, e = self.writer.written(prev, inch), self.writer.written(piece.end, inch)
         centre = None
         if "ijk" in forms:
             offset = np.array([vals[CENTRE[plane[0]]], vals[CENTRE[plane[1]]]]) * scale
@@ -194,7 +205,8 @@ class ArcWords:
                 return math.inf
             centre = from_r if centre is None else centre
         # the arc a controller reads (as :func:`~volerr_pin.compensation.arcs.arc_from_center`
-        # builds it, in scalars: this runs for every arc piece written)
+        # builds it), in scalars: this runs for every arc piece written
+        s, e = s.tolist(), e.tolist()
         cx, cy = float(centre[0]), float(centre[1])
         r0 = math.hypot(s[i] - cx, s[j] - cy)
         r1 = math.hypot(e[i] - cx, e[j] - cy)
@@ -211,14 +223,28 @@ class ArcWords:
             sweep = turn if up <= 0.0 else up
         if abs(sweep - piece.turns) > math.pi / 2:
             return math.inf  # read as (nearly) the rest of the circle
-        u = np.linspace(0.0, 1.0, 17)
-        read = s + np.outer(u, e - s)
-        r = r0 + u * (r1 - r0)
-        read[:, i] = cx + r * np.cos(a0 + u * sweep)
-        read[:, j] = cy + r * np.sin(a0 + u * sweep)
-        linear = np.array(reader.linear)
-        gap = read[:, linear] - self.piece_points(piece, (i, j), u)[:, linear]
-        return float(np.linalg.norm(gap, axis=1).max())
+        # against the piece's own arc (piece_points), point by point
+        p0, p1 = piece.start.tolist(), piece.end.tolist()
+        pcx, pcy = float(piece.center[0]), float(piece.center[1])
+        pa0 = math.atan2(p0[j] - pcy, p0[i] - pcx)
+        pr = math.hypot(p0[i] - pcx, p0[j] - pcy)
+        turns = float(piece.turns)
+        # the other linear axes move linearly on both: their gap is linear in the fraction
+        others = [(s[k] - p0[k], (e[k] - s[k]) - (p1[k] - p0[k]))
+                  for k, lin in enumerate(reader.linear) if lin and k not in (i, j)]
+        cos, sin = math.cos, math.sin
+        worst = 0.0
+        for u in _FRACTIONS:
+            angle, radius, own = a0 + u * sweep, r0 + u * (r1 - r0), pa0 + u * turns
+            dx = cx + radius * cos(angle) - (pcx + pr * cos(own))
+            dy = cy + radius * sin(angle) - (pcy + pr * sin(own))
+            gap = dx * dx + dy * dy
+            for offset, slope in others:
+                d = offset + u * slope
+                gap += d * d
+            if gap > worst:
+                worst = gap
+        return math.sqrt(worst)
 
     def writable(self, pieces: list, st: dict, forms: set) -> list:
         """The pieces of a move with every arc the written numbers cannot hold within the
@@ -246,15 +272,23 @@ class ArcWords:
         rounding = 8 * 0.5 * 10.0 ** -self.writer.digits(plane[0], st["inch"]) * (INCH if st["inch"] else MM)
         out = []
         prev = pieces[0].start
+        written = self.writer.written
+        start = None  # prev as written, when known
         for n, piece in enumerate(pieces):
             # the original block keeps its centre form; inserted blocks use I/J/K
             piece_forms = (forms or {"ijk"}) if n == 0 else {"ijk"}
-            if piece.kind == "arc" and self.arc_error(piece, prev, st, piece_forms) > max(self.writer.tol - piece.residual,
-                                                                                         rounding):
-                out.extend(self.chords(piece, st))
+            end = None
+            if piece.kind == "arc":
+                start = written(prev, st["inch"]) if start is None else start
+                end = written(piece.end, st["inch"])
+                if self.arc_error(piece, prev, st, piece_forms, (start, end)) > max(self.writer.tol - piece.residual,
+                                                                                     rounding):
+                    out.extend(self.chords(piece, st))
+                else:
+                    out.append(piece)
             else:
                 out.append(piece)
-            prev = piece.end
+            prev, start = piece.end, end
         return out
 
     def chords(self, piece, st: dict) -> list:

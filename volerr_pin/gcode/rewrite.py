@@ -146,12 +146,11 @@ class Writer:
         numpy.ndarray, shape (n_axes,)
             The coordinates the written numbers mean.
         """
-        reader = self.reader
-        out = [float(v) for v in q]  # Python floats: round() of a numpy scalar is ten times slower
-        for j, axis in enumerate(reader.axes):
-            v = round(reader.from_si(axis, out[j] - self._origin[j], inch), self._digits[axis, inch])
-            out[j] = reader.to_si(axis, v, inch) + self._origin[j]
-        return np.array(out)
+        # to_si(round(from_si(q - origin), digits)) + origin per axis, on plain floats (round()
+        # of a numpy scalar is ten times slower)
+        q = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
+        return np.array([round((v - origin) / scale, d) * scale + origin
+                         for (_, d, scale, origin, _), v in zip(self._spec[inch], q)])
 
     # moves ------------------------------------------------------------------------
     def write_move(self, block: Block, newline: str, eol: str, motion: int, coord_words: list[Word],
