@@ -93,15 +93,9 @@ def test_an_effect_near_the_noise_is_named_correctly_or_not_at_all(machines, see
     check_practical(result)
 
 
-#: cases diagnose still gets wrong, kept visible (strict: a fix makes them fail until removed here)
-KNOWN_MISSES = {("rotary_backlash", 1): "a 4-per-revolution error of A is invented beside the hidden backlash of B"}
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize(("kind", "seed"), [
-    pytest.param(kind, seed, marks=[pytest.mark.xfail(reason=KNOWN_MISSES[kind, seed], strict=True)]
-                 if (kind, seed) in KNOWN_MISSES else [])
-    for kind in CGM for seed in range(2)])
+@pytest.mark.parametrize("seed", range(2))
+@pytest.mark.parametrize("kind", list(CGM))
 def test_five_axis_held_out_sets(machines, kind, seed):
     m = machines["cgm4000"]
     hidden, expected = CGM[kind]

@@ -177,10 +177,14 @@ def build_candidates(machine: Machine, obs: Observations) -> list[Candidate]:
             out.append(Candidate("backlash", axis, direction_of(letter), comp,
                                  {"kind": "backlash", f"reversal_{unit}": 0.0}, f"dir_{axis}"))
         if kind != "linear":
-            # an error that repeats n times per revolution, with one full period measured
+            # an error that repeats n times per revolution: over a full turn it closes on itself,
+            # which no smooth function of the angle does; over part of a turn a period or two is
+            # just another smooth shape, as the axis' off-spec geometry (its raise) is, so there it
+            # needs MIN_PERIODS periods in the measured span, as a pitch error does
             span = float(np.ptp(obs.q[:, j])) if obs.n_points else 0.0
+            periods = 1 if span >= 2 * np.pi * (1 - 1e-9) else MIN_PERIODS
             for n in ROTARY_ORDERS:
-                if span >= 2 * np.pi / n * (1 - 1e-9):
+                if span >= periods * 2 * np.pi / n * (1 - 1e-9):
                     out.append(Candidate("periodic_rotary", axis, direction_of(letter), comp,
                                          {"kind": "periodic_pitch", "period_deg": 360.0 / n, "sine_arcsec": [0.0],
                                           "cosine_arcsec": [0.0], "origin_deg": 0.0}, f"q_{axis}"))
