@@ -155,6 +155,7 @@ class _Loop:
         self.effects: list[Change] = []
         self.raised: list[Change] = []
         self.previous: list[Change] = []
+        self._last_holdout = None
 
     def fit(self, model: Machine, names: list[str], initialise: bool = False):
         """The model fitted (all coefficients; with ``fixed`` only ``names``): (machine,
@@ -202,15 +203,29 @@ class _Loop:
         probe = add_terms(self.current, missing_loc) if missing_loc else self.current
         E = probe.error_joint_sensitivity(obs.q, first_order=True, **obs.covariates)
         joints = list(probe.error_joints)
+        cache = self.columns.cache
+        known = set(cache)
+
         def one(cand):
-            return score(base, proj, obs, E, joints, cand, self.cov_obj, self.axis_index_of, self.columns)
+            # the term Jacobians computed for this candidate travel back with its score, so that a
+            # forked worker's work is kept for the rounds after (they only depend on the points)
+            mark = len(cache)
+            s = score(base, proj, obs, E, joints, cand, self.cov_obj, self.axis_index_of, self.columns)
+            added = [k for k, _ in zip(reversed(cache), range(len(cache) - mark))]
+            new = [(k, cache[k]) for k in reversed(added) if k not in known]
+            return s, new
 
         def progress(done):
             if self.progress:
                 self.progress(f"round {number + 1}: candidates", done)
 
         workers = None if len(obs.y) >= PARALLEL_MIN_ROWS else 1
-        scores = [s for s in process_map(one, candidates, workers, progress=progress) if s is not None]
+        scores = []
+        for s, new in process_map(one, candidates, workers, progress=progress):
+            for k, v in new:
+                cache.setdefault(k, v)
+            if s is not None:
+                scores.append(s)
         m = max(1, len(scores))
         ranked = sorted(scores, key=lambda s: -s.bic_gain)
         # cross-validate what could pass and what is shown
@@ -269,12 +284,27 @@ class _Loop:
 
     def holdout(self, model: Machine, fit) -> tuple[Projector, np.ndarray]:
         """The projector of a fitted model (its ``cv_rms`` is the held-out RMS [um]) and its
-        residual (rows, SI)."""
+        residual (rows, SI); the last one is kept (the final model's is asked for again)."""
+        last = self._last_holdout
+        if last is not None and last[0] is model and last[1] is fit:
+            return last[2]
         fitted = fit.fitted if fit is not None else np.array([], dtype=int)
         nuisance = (np.array(list(fit.nuisance.values())) if fit is not None
                     else np.zeros(self.obs.nuisance.shape[1]))
         b = base_design(model, self.obs, fitted, nuisance)
-        return Projector(b.A, b.r, self.obs, self.split), b.r * self.obs.sigma
+        out = Projector(b.A, b.r, self.obs, self.split), b.r * self.obs.sigma
+        self._last_holdout = (model, fit, out)
+        return out
+
+    def holdout_without(self, members: list[Change]) -> float:
+        """The held-out RMS [um] of the present model without these effects, refitted."""
+        model, res, _ = self.without(members)
+        return self.holdout(model, res)[0].cv_rms
+
+    def in_parallel(self, tasks: list) -> list:
+        """``[task() for task in tasks]``, independent refits, on :data:`WORKERS` forked processes
+        (their results - numbers and arrays - travel back; a fitted machine does not pickle)."""
+        return process_map(_call, tasks)
 
     def without(self, members: list[Change]):
         """The present model without these effects, refitted: (machine, fit, free names)."""
@@ -309,15 +339,16 @@ class _Loop:
                 return final, dropped
             _, i = min(weak)
             gone = self.effects[i]
-            with_rms = self.holdout(self.current, final)[0].cv_rms
-            model, res, names = self.without([gone])
-            without_rms = self.holdout(model, res)[0].cv_rms
+            current = self.current
+            with_rms, without_rms = self.in_parallel([lambda: self.holdout(current, final)[0].cv_rms,
+                                                      lambda: self.holdout_without([gone])])
             if without_rms > with_rms * (1 + PRACTICAL_GAIN):
                 kept_jointly.add(gone.label)
                 gone.details = dict(gone.details, kept_jointly=(
                     f"below {SIGNIFICANCE:g} standard uncertainties alone (collinear with other terms), kept: "
                     f"without it the held-out RMS rises from {with_rms:.3f} to {without_rms:.3f} um"))
                 continue
+            model, res, names = self.without([gone])
             self.effects.pop(i)
             gone.note = (f"accepted in round {gone.step + 1}, dropped after the final fit: its size is "
                          f"below {SIGNIFICANCE:g} standard uncertainties and without it the held-out RMS is "
@@ -331,14 +362,19 @@ class _Loop:
         """Findings below practical significance, taken out of the model (which is refitted):
         a held-out RMS gain below :data:`PRACTICAL_GAIN` of the held-out RMS before, or an
         amplitude below :data:`PRACTICAL_AMPLITUDE` of the noise per component."""
-        proj, residual = self.holdout(self.current, final)
-        floor, _, _ = noise_floor(self.obs, residual, proj.rank)
+        groups = [members for _, members in group_findings(self.effects)]
+        current = self.current
+
+        def present():
+            proj, residual = self.holdout(current, final)
+            return proj.cv_rms, noise_floor(self.obs, residual, proj.rank)[0]
+
+        (cv_rms, floor), *befores = self.in_parallel(
+            [present] + [lambda members=members: self.holdout_without(members) for members in groups])
         noise_pc = floor / math.sqrt(components_per_point(self.obs))
         below = []
-        for _, members in group_findings(self.effects):
-            model, res, _ = self.without(members)
-            before = self.holdout(model, res)[0].cv_rms
-            gain = before - proj.cv_rms
+        for members, before in zip(groups, befores):
+            gain = before - cv_rms
             amplitude = effect_amplitude(self.current, self.obs, [n for m in members for n in m.names])
             for m in members:
                 m.gain_um, m.amplitude_um = gain, amplitude
@@ -351,7 +387,7 @@ class _Loop:
                                f"{noise_pc:.3f} um per component")
                 for m in members:
                     m.note = "possible, below practical significance: " + "; ".join(why)
-                    m.rms_before_um, m.rms_after_um = before, proj.cv_rms
+                    m.rms_before_um, m.rms_after_um = before, cv_rms
                 below += members
         if below:
             self.effects = [e for e in self.effects if e not in below]
@@ -424,19 +460,21 @@ class _Loop:
                                  "held-out RMS worse: " + steps)}
         lag, tried = 0.0, {}
         if sensors:
-            base_rms = self.holdout(self.current, final)[0].cv_rms
-            tried[0.0] = base_rms
-            best = (base_rms, 0.0, None)
-            for lag_s in LAGS_S:
-                model = with_lag(self.current, members, lag_s)
-                fitted_model, res, names = self._refit(model)
-                rms = self.holdout(fitted_model, res)[0].cv_rms
-                tried[lag_s] = rms
-                if rms < best[0]:
-                    best = (rms, lag_s, (fitted_model, res, names))
-            if best[2] is not None and best[0] < 0.99 * base_rms:
-                lag = best[1]
-                self.current, final, self.free_names = best[2]
+            current = self.current
+
+            def lagged(lag_s):
+                if not lag_s:
+                    return self.holdout(current, final)[0].cv_rms
+                fitted_model, res, _ = self._refit(with_lag(current, members, lag_s))
+                return self.holdout(fitted_model, res)[0].cv_rms
+
+            lags = (0.0, *LAGS_S)
+            tried = dict(zip(lags, self.in_parallel([lambda lag_s=lag_s: lagged(lag_s) for lag_s in lags])))
+            base_rms = tried[0.0]
+            best_rms, best_lag = min((rms, lag_s) for lag_s, rms in tried.items() if lag_s)
+            if best_rms < min(base_rms, 0.99 * base_rms):
+                lag = best_lag
+                self.current, final, self.free_names = self._refit(with_lag(current, members, lag))
         details["lag_s"] = lag
         details["lags_tried"] = [{"lag_s": k, "rms_holdout_um": v} for k, v in tried.items()]
         details["time_check"] = self._time_check(members, final)
@@ -457,8 +495,9 @@ class _Loop:
         model_without = self.current
         for m in members:
             model_without = remove_effect(model_without, m)
-        for key, model in (("", self.current), ("_without", model_without)):
-            o_early, o_late = obs.subset(early), obs.subset(late)
+        o_early, o_late = obs.subset(early), obs.subset(late)
+
+        def predicted(key, model):
             names = [n for n in self.free_names if n in set(model.parameter_names)]
             free = None if not self.fixed else [model.parameter_names.index(n) for n in names]
             try:
@@ -467,11 +506,24 @@ class _Loop:
                 return None  # the first part alone does not determine the model
             b = base_design(res.machine, o_late, res.fitted, np.array(list(res.nuisance.values())))
             residual = b.r * o_late.sigma
-            out[f"rms_predicted{key}_um"] = residual_rms(o_late, residual)
+            part = {f"rms_predicted{key}_um": residual_rms(o_late, residual)}
             if k is not None:
                 rows = (o_late.w[:, k] > 0.5) & ~o_late.angular
-                out[f"rms_predicted_along{key}_um"] = float(np.sqrt(np.mean(residual[rows] ** 2)) * UM_PER_M)
+                part[f"rms_predicted_along{key}_um"] = float(np.sqrt(np.mean(residual[rows] ** 2)) * UM_PER_M)
+            return part
+
+        parts = self.in_parallel([lambda key=key, model=model: predicted(key, model)
+                                  for key, model in (("", self.current), ("_without", model_without))])
+        if any(part is None for part in parts):
+            return None
+        for part in parts:
+            out.update(part)
         return out
+
+
+def _call(task):
+    """The result of a task (for :func:`process_map`)."""
+    return task()
 
 
 def _quiet_identify(machine: Machine, obs: Observations, **options) -> Identification:

@@ -98,19 +98,22 @@ def noise_floor(obs: Observations, r_si: np.ndarray, n_params: int) -> tuple[flo
     pos = ~obs.angular
     cov = obs.covariates
     extra = [np.asarray(cov[k]) for k in ("directions", "forces") if cov.get(k) is not None]
-    groups: dict = {}
-    for row in np.flatnonzero(pos):
-        i = obs.point[row]
-        key = (tuple(np.round(obs.q[i], 12)), tuple(np.round(obs.w[row], 9)),
-               *(tuple(np.round(np.atleast_1d(x[i]), 9)) for x in extra))
-        groups.setdefault(key, []).append(row)
-    comps = max(1.0, pos.sum() / max(1, len(np.unique(obs.point[pos]))))
+    rows = np.flatnonzero(pos)
+    points = obs.point[rows]
+    # one key per row: positions, direction, approach directions and forces, rounded (+ 0.0 makes
+    # -0.0 the same key as 0.0)
+    key = np.hstack([np.round(obs.q[points], 12), np.round(obs.w[rows], 9),
+                     *(np.round(x.reshape(len(x), -1)[points], 9) for x in extra)]) + 0.0
+    comps = max(1.0, pos.sum() / max(1, len(np.unique(points))))
     ss, dof = 0.0, 0
-    for rows in groups.values():
-        if len(rows) > 1:
-            r = r_si[rows]
-            ss += float(((r - r.mean()) ** 2).sum())
-            dof += len(rows) - 1
+    if rows.size:
+        _, group = np.unique(key, axis=0, return_inverse=True)
+        group = group.ravel()
+        count = np.bincount(group)
+        r = r_si[rows]
+        mean = np.bincount(group, weights=r) / count
+        ss = float(((r - mean[group]) ** 2).sum())
+        dof = int((count - 1).sum())
     if dof >= 5:
         return (float(np.sqrt(ss / dof * comps) * UM_PER_M), f"repeated points ({dof} degrees of freedom)", False)
     dof = int(pos.sum()) - n_params

@@ -88,17 +88,18 @@ def process_map(fn, items, workers: int | None = None, progress=None) -> list:
     items = list(items)
     workers = WORKERS if workers is None else workers
     forkable = "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
-    if workers <= 1 or len(items) < 2 * workers or not forkable:
+    if workers <= 1 or len(items) < 2 or not forkable:
         out = []
         for x in items:
             out.append(fn(x))
             if progress:
                 progress(len(out))
         return out
-    step = workers * 4   # chunks interleaved over the items: even loads, progress as they finish
+    workers = min(workers, len(items))
+    step = min(len(items), workers * 4)   # chunks interleaved over the items: even loads, progress as they finish
     _JOB.append((fn, items, step))
     try:
-        with multiprocessing.get_context("fork").Pool(workers) as pool:
+        with multiprocessing.get_context("fork").Pool(workers, initializer=_serial_kernels) as pool:
             chunks = {}
             done = 0
             for k, res in pool.imap_unordered(_indexed, range(step)):
@@ -112,6 +113,16 @@ def process_map(fn, items, workers: int | None = None, progress=None) -> list:
     for k, res in chunks.items():
         out[k::step] = res
     return out
+
+
+def _serial_kernels() -> None:
+    """In a forked worker: the compiled kinematics on the calling thread only. The parent's
+    thread pool (GNU OpenMP under numba) does not survive a fork - a worker that starts a
+    parallel kernel is terminated - and the worker is one of the cores already. The serial and
+    the parallel kernel compute each point alike."""
+    from .. import kinematics
+
+    kinematics.PARALLEL_MIN = math.inf
 
 
 def _indexed(k: int) -> tuple[int, list]:

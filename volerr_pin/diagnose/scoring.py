@@ -215,12 +215,11 @@ class Projector:
         self.obs = obs
         self.r = r
         A = _scaled(A)
-        self.Q = _svd(A)[0]
-        self.rank = self.Q.shape[1]
-        self.folds = []
         pos = ~obs.angular
 
         def fold(test):
+            if test is None:  # all rows: the basis candidates are fitted on
+                return _svd(A)[0]
             V = np.isin(obs.point, test)
             T = ~V
             Q_T, s, Vt = _svd(A[T])
@@ -230,7 +229,9 @@ class Projector:
             e_V = r[V] - M @ (Q_T.T @ r[T])
             return T, V, Q_T, M, e_T, e_V, pos[V]
 
-        self.folds = parallel_map(fold, folds)  # the folds' factorisations are independent
+        # the factorisations of all rows and of every training set are independent: on threads at once
+        self.Q, *self.folds = parallel_map(fold, [None, *folds])
+        self.rank = self.Q.shape[1]
         self.cv_rms = self._cv(lambda f: np.zeros(f[5].shape))
         self.cv_max = self.last_max
 
