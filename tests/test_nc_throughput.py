@@ -184,7 +184,8 @@ def test_fast_path_writes_what_the_full_reader_writes(machines, name, seed):
 
 def _runs_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
     """Long runs of plain lines (beyond a chunk) between other lines: G0 and G1 runs, moves
-    short and across the workspace (split into pieces), inch sections, values around zero,
+    short and across the workspace (split into pieces), runs with sequence numbers (N) on
+    every line, inch sections, values around zero,
     a line under an arc's motion mode written back as G1, CR LF endings and a last line
     without an ending."""
     lines = ["G21 G90 G17 G94", "G0 " + " ".join(f"{a}{v:.3f}" for a, v in zip(axes, travel_mm.mean(axis=1))),
@@ -209,6 +210,7 @@ def _runs_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
             continue
         count = int(rng.integers(50, 3000))
         far = rng.random() < 0.3
+        numbered = rng.random() < 0.3  # a sequence number on every line of the run
         for _ in range(count):
             if far and rng.random() < 0.2:
                 q = low + rng.random(len(axes)) * (high - low)
@@ -219,7 +221,10 @@ def _runs_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
             q = np.where(pick, q, p)
             scale = np.where([a in "XYZ" for a in axes], 1 / 25.4 if inch else 1.0, 1.0)
             words = [f"{a}{v * s:.4f}" for a, v, s, k in zip(axes, q, scale, pick) if k]
-            lines.append((" " if rng.random() < 0.9 else "").join(words))
+            line = (" " if rng.random() < 0.9 else "").join(words)
+            if numbered:
+                line = f"N{len(lines) * 10:0{int(rng.integers(1, 6))}d}" + ["", " ", "  "][rng.integers(3)] + line
+            lines.append(line)
             p = q
     ends = ["\r\n" if rng.random() < 0.05 else "\n" for _ in lines]
     return "".join(line + end for line, end in zip(lines, ends)) + "X" + f"{p[0] * (1 / 25.4 if inch else 1):.4f}"
@@ -264,8 +269,8 @@ def test_runs_of_plain_lines_write_what_the_full_reader_writes(machines, name, s
 
 @pytest.mark.parametrize("name", ["vmc500", "cgm4000"])
 def test_run_templates_write_what_the_writer_writes(machines, name):
-    """The templates of a run write each line as Writer.rewrite writes it, with values around
-    zero of both signs and at halves of the last decimal, mm and inch, an origin, and the
+    """The templates of a run write each line as Writer.rewrite writes it, with and without a
+    sequence number, with values around zero of both signs and at halves of the last decimal, mm and inch, an origin, and the
     motion word a run's first line gets when the output's modal motion differs; a split move's
     further pieces as Writer.new_line writes them."""
     from volerr_pin.compensation.path import Piece
@@ -287,11 +292,11 @@ def test_run_templates_write_what_the_writer_writes(machines, name):
                 order = rng.permutation(len(pick))
                 body = (" " * int(rng.integers(0, 2))) + (" " if rng.random() < 0.8 else "\t").join(
                     f"{pick[i]}{['', ' '][rng.integers(2)]}{rng.normal(0, 100):.3f}" for i in order)
+                if rng.random() < 0.3:
+                    body = f"N{rng.integers(0, 10 ** 6)}" + [" ", "", "\t"][rng.integers(3)] + body.lstrip()
                 shape = runs.shape(body)
                 assert shape is not None, body
-                run.bodies.append(body)
-                run.newlines.append(["\n", "\r\n", ""][rng.integers(3)])
-                run.shapes.append(shape)
+                assert runs.add(run, body, ["\n", "\r\n", ""][rng.integers(3)], shape)
             counts = rng.integers(1, 4, run.count)
             ends = rng.uniform(-0.5, 0.5, (int(counts.sum()), n))
             ends[::7] = rng.normal(0.0, 1e-8, ends[::7].shape)  # around zero: "-0.0000" must not appear
@@ -302,8 +307,10 @@ def test_run_templates_write_what_the_writer_writes(machines, name):
             st = {"absolute": True, "inch": inch, "out_motion": out_motion}
             rows = iter(ends)
             for body, newline, count in zip(run.bodies, run.newlines, counts):
-                words = plain_words(plain, body)
                 block = parse_block(body, 1, "p")
+                words = [w for w in block.words if w.letter != "N"]
+                if not body.startswith("N"):
+                    assert words == plain_words(plain, body)
                 end = next(rows)
                 inner = newline or "\r\n"  # a line's own ending, else the program's
                 first = writer.rewrite(block, Piece("line", end, end), end, st, motion, words)
@@ -313,13 +320,14 @@ def test_run_templates_write_what_the_writer_writes(machines, name):
                     want.append(writer.new_line(Piece("line", end, end2), end, st, motion)
                                 + (newline if m == count - 2 else inner))
             assert got == want
-            assert any(" G" in line or line.startswith("G") for line in want[:1]) == (out_motion != motion)
+            assert ("G" in want[0]) == (out_motion != motion)  # (no other word holds a G)
 
 
-@pytest.mark.parametrize("bad", ["X900.0 Y100", "Y1" + "0" * 400, "X10 X20", "X1.2.3", "x10"])
+@pytest.mark.parametrize("bad", ["X900.0 Y100", "Y1" + "0" * 400, "X10 X20", "X1.2.3", "x10", "N-3 X101",
+                                 "N10.5 X101", "X101 N10", "N5 N6 X101"])
 def test_a_bad_line_inside_a_run_is_named_as_the_full_reader_names_it(machines, bad):
-    """A line beyond the travel or any number, a repeated axis or a malformed number in the
-    middle of a long run of plain lines: the same error, naming the same line, with and
+    """A line beyond the travel or any number, a repeated axis, a malformed number or sequence
+    number in the middle of a long run of plain lines: the same error, naming the same line, with and
     without the run path."""
     from volerr_pin.gcode.lexer import GcodeError
     from volerr_pin.gcode.program import Program
@@ -341,3 +349,41 @@ def test_a_bad_line_inside_a_run_is_named_as_the_full_reader_names_it(machines, 
     assert messages[0] == messages[1]
     if bad != "x10":  # a lower-case letter is read (by the full reader)
         assert messages[0] is not None and ":1704" in messages[0], messages[0]
+
+
+@pytest.mark.parametrize("name", ["vmc500", "cgm4000"])
+def test_arc_read_back_errors_of_a_chunk_match_each_piece(machines, name):
+    """ArcWords.errors (a chunk's arc pieces at once) gives what ArcWords.arc_error gives piece
+    by piece: random arcs in the three planes, mm and inch, with an origin, clockwise and not,
+    from 0.2 um to 50 mm of radius (the smallest round to no centre, or to one whose circle
+    misses the written ends), including arcs read back as the rest of the circle."""
+    from volerr_pin.compensation.path import Piece
+
+    machine = machines[name]
+    rng = np.random.default_rng(12)
+    n = len(machine.axes)
+    reader = Interpreter(machine, origin=rng.normal(0.0, 0.01, n))
+    writer = Writer(reader, 1e-6, 1e-7)
+    count = 3000
+    plane = rng.choice([17, 18, 19], count)
+    inch = rng.random(count) < 0.3
+    radius = np.exp(rng.uniform(np.log(2e-7), np.log(0.05), count))
+    a0 = rng.uniform(-np.pi, np.pi, count)
+    turns = rng.uniform(0.05, 1.5, count) * np.where(rng.random(count) < 0.5, -1, 1)
+    turns[:200] = np.sign(turns[:200]) * (2 * np.pi - rng.uniform(1e-9, 1e-5, 200))  # nearly full circles
+    start = rng.uniform(-0.3, 0.3, (count, n))
+    end = start + rng.normal(0.0, 1e-3, (count, n))
+    centre = np.zeros((count, 2))
+    for m in range(count):
+        i, j = (machine.axes.index(a) for a in {17: "XY", 18: "ZX", 19: "YZ"}[plane[m]])
+        centre[m] = start[m, [i, j]] - radius[m] * np.array([np.cos(a0[m]), np.sin(a0[m])])
+        end[m, i] = centre[m, 0] + radius[m] * np.cos(a0[m] + turns[m])
+        end[m, j] = centre[m, 1] + radius[m] * np.sin(a0[m] + turns[m])
+    got = writer.arcs.errors(start, end, centre, turns, plane, inch)
+    want = np.array([writer.arcs.arc_error(Piece("arc", start[m], end[m], centre[m], turns[m] < 0, turns[m]),
+                                           start[m], {"plane": plane[m], "inch": inch[m]}, {"ijk"})
+                     for m in range(count)])
+    finite = np.isfinite(want)
+    assert 0.5 < finite.mean() < 0.99  # both outcomes occur
+    assert (np.isfinite(got) == finite).all()
+    assert np.allclose(got[finite], want[finite], rtol=1e-9, atol=1e-13)

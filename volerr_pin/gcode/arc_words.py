@@ -246,7 +246,96 @@ class ArcWords:
                 worst = gap
         return math.sqrt(worst)
 
-    def writable(self, pieces: list, st: dict, forms: set) -> list:
+    def errors(self, start: np.ndarray, end: np.ndarray, center: np.ndarray, turns: np.ndarray,
+               plane: np.ndarray, inch: np.ndarray) -> np.ndarray:
+        """:meth:`arc_error` of many arc pieces at once, written with centre offsets (I/J/K)
+        after the piece before them (the start as written is the piece's start rounded).
+
+        The arithmetic is :meth:`arc_error`'s on arrays; the numbers are rounded to their
+        decimals as NumPy rounds (which may differ from the written digits by a unit of the
+        last place of a double at an exact half), so the two agree to a few 1e-16 m.
+
+        Parameters
+        ----------
+        start, end : ndarray, shape (P, n_axes)
+            Program coordinates of the pieces' ends [m, rad].
+        center : ndarray, shape (P, 2)
+            Their centres in their plane [m].
+        turns : ndarray, shape (P,)
+            Their signed sweeps [rad] (< 0 clockwise).
+        plane : ndarray of int, shape (P,)
+            Their planes (17, 18, 19).
+        inch : ndarray of bool, shape (P,)
+            Whether they are written in inch.
+
+        Returns
+        -------
+        ndarray, shape (P,)
+            [m]; inf where the numbers define no arc, have too many digits, or define the
+            rest of the circle.
+        """
+        writer, reader = self.writer, self.writer.reader
+        count = len(turns)
+        if count == 0:
+            return np.zeros(0)
+        axes = reader.axes
+        ij = np.array([[axes.index(PLANES[code][0]), axes.index(PLANES[code][1])] for code in (17, 18, 19)])
+        plane_ij = ij[np.asarray(plane) - 17]
+        rows = np.arange(count)
+        i, j = plane_ij[:, 0], plane_ij[:, 1]
+        inch = np.asarray(inch, dtype=bool)
+        origin = np.array([float(v) for v in reader.origin])
+        scale = np.where(inch[:, None], [[reader._scale[a, True] for a in axes]],
+                         [[reader._scale[a, False] for a in axes]])
+        digits = np.where(inch[:, None], [[writer.digits(a, True) for a in axes]],
+                          [[writer.digits(a, False) for a in axes]])
+        power = 10.0 ** digits
+
+        def written(q):
+            return np.rint((q - origin) / scale * power) / power * scale + origin
+
+        s, e = written(start), written(end)
+        d = digits[rows, i]
+        unit = scale[rows, i]
+        offset = np.stack([np.rint((center[:, 0] - s[rows, i]) / unit * 10.0 ** d) / 10.0 ** d,
+                           np.rint((center[:, 1] - s[rows, j]) / unit * 10.0 ** d) / 10.0 ** d], axis=1)
+        bad = (np.abs(offset) >= 10.0 ** (MAX_DIGITS - d)[:, None]).any(axis=1)
+        offset = offset * unit[:, None]
+        bad |= np.hypot(offset[:, 0], offset[:, 1]) <= ARC_SLACK
+        cx, cy = s[rows, i] + offset[:, 0], s[rows, j] + offset[:, 1]
+        r0 = np.hypot(s[rows, i] - cx, s[rows, j] - cy)
+        r1 = np.hypot(e[rows, i] - cx, e[rows, j] - cy)
+        bad |= ~(np.isfinite(cx) & np.isfinite(cy)) | (r0 == 0.0) | (np.abs(r0 - r1) > RADIUS_SLACK)
+        a0 = np.arctan2(s[rows, j] - cy, s[rows, i] - cx)
+        a1 = np.arctan2(e[rows, j] - cy, e[rows, i] - cx)
+        turn = 2 * math.pi
+        up, down = np.mod(a1 - a0, turn), np.mod(a0 - a1, turn)
+        sweep = np.where(turns < 0, -np.where(down <= 0.0, turn, down), np.where(up <= 0.0, turn, up))
+        bad |= np.abs(sweep - turns) > math.pi / 2
+        # against the piece's own arc, at the same fractions
+        pcx, pcy = center[:, 0], center[:, 1]
+        pa0 = np.arctan2(start[rows, j] - pcy, start[rows, i] - pcx)
+        pr = np.hypot(start[rows, i] - pcx, start[rows, j] - pcy)
+        u = np.array(_FRACTIONS)
+        angle = a0[:, None] + u * sweep[:, None]
+        radius = r0[:, None] + u * (r1 - r0)[:, None]
+        own = pa0[:, None] + u * turns[:, None]
+        dx = cx[:, None] + radius * np.cos(angle) - (pcx[:, None] + pr[:, None] * np.cos(own))
+        dy = cy[:, None] + radius * np.sin(angle) - (pcy[:, None] + pr[:, None] * np.sin(own))
+        gap = dx * dx + dy * dy
+        linear = np.array(reader.linear)
+        for k in np.flatnonzero(linear):
+            other = (i != k) & (j != k)
+            if other.any():
+                slope = (e[:, k] - s[:, k]) - (end[:, k] - start[:, k])
+                dk = (s[:, k] - start[:, k])[:, None] + u * slope[:, None]
+                gap += np.where(other[:, None], dk * dk, 0.0)
+        with np.errstate(invalid="ignore"):
+            out = np.sqrt(gap.max(axis=1))
+        out[bad | ~np.isfinite(out)] = math.inf
+        return out
+
+    def writable(self, pieces: list, st: dict, forms: set, errors=None) -> list:
         """The pieces of a move with every arc the written numbers cannot hold within the
         tolerance replaced by straight pieces (chords) along it.
 
@@ -262,6 +351,9 @@ class ArcWords:
             Output state.
         forms : set of str
             The centre forms of the original block.
+        errors : sequence of float, optional
+            Per piece, :meth:`errors` as computed for the whole chunk (used for pieces written
+            with centre offsets).
 
         Returns
         -------
@@ -279,10 +371,13 @@ class ArcWords:
             piece_forms = (forms or {"ijk"}) if n == 0 else {"ijk"}
             end = None
             if piece.kind == "arc":
-                start = written(prev, st["inch"]) if start is None else start
-                end = written(piece.end, st["inch"])
-                if self.arc_error(piece, prev, st, piece_forms, (start, end)) > max(self.writer.tol - piece.residual,
-                                                                                     rounding):
+                if errors is not None and piece_forms == {"ijk"}:
+                    error = errors[n]
+                else:
+                    start = written(prev, st["inch"]) if start is None else start
+                    end = written(piece.end, st["inch"])
+                    error = self.arc_error(piece, prev, st, piece_forms, (start, end))
+                if error > max(self.writer.tol - piece.residual, rounding):
                     out.extend(self.chords(piece, st))
                 else:
                     out.append(piece)

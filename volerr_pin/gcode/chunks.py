@@ -16,9 +16,9 @@ import numpy as np
 from ..compensation.arcs import arc_extent
 from ..compensation.moves import ARC, POINT, MoveBatch
 from ..compensation.path import Piece
-from .lexer import Block, GcodeError
+from .lexer import Block, GcodeError, parse_block
 from .modal import Interpreter
-from .runs import PlainRun, plain_words
+from .runs import PlainRun
 
 __all__ = ["FIRST_CHUNK", "MOST_CHUNK", "PIECE_BUDGET", "ChunkWriting"]
 
@@ -88,6 +88,7 @@ class ChunkWriting:
         batch = MoveBatch.empty(total, n)
         line = np.empty(total, dtype=np.int64)
         singles: list[int] = []
+        ones: list = []
         k = 0
         for g in groups:
             if g.count == 1 and isinstance(g, _Move):
@@ -132,7 +133,24 @@ class ChunkWriting:
         # the per-piece numbers as plain Python values, converted once for the whole chunk
         columns = (ps.arc.tolist(), ps.sweep.tolist(), ps.residual.tolist(), ps.k0.tolist(), ps.k1.tolist(),
                    ps.limited.tolist())
-        return result, ps.bounds(total), columns
+        return result, ps.bounds(total), columns, self._arc_errors(ps, total, singles, ones)
+
+    def _arc_errors(self, ps, total: int, singles: list[int], ones: list) -> list | None:
+        """How far each arc piece of the chunk, written with centre offsets, is read back off
+        its path (:meth:`~.arc_words.ArcWords.errors`; NaN for straight pieces), or None if
+        there are no arc pieces."""
+        rows = np.flatnonzero(ps.arc)
+        if not len(rows):
+            return None
+        plane = np.full(total, 17)
+        inch = np.zeros(total, dtype=bool)
+        plane[singles] = [mv.modes["plane"] for mv in ones]  # (runs of plain lines hold no arcs)
+        inch[singles] = [mv.modes["inch"] for mv in ones]
+        moves = ps.move[rows]
+        errors = np.full(len(ps.arc), np.nan)
+        errors[rows] = self.writer.arcs.errors(ps.cw0[rows], ps.cw1[rows], ps.center[rows], ps.sweep[rows],
+                                               plane[moves], inch[moves])
+        return errors.tolist()
 
     def move_at(self, i: int) -> _Move:
         """The ``i``-th move of the chunk being compensated (for messages).
@@ -156,15 +174,15 @@ class ChunkWriting:
     def _run_move(self, run: PlainRun, i: int) -> tuple[_Move, Block]:
         """Line ``i`` of a run as the line-by-line reader gives it: its move and block."""
         body, number = run.bodies[i], run.first + i
-        words = plain_words(self._plain, body)
-        block = Block(number, body, words, body, False)
+        block = parse_block(body, number, self.reader.source)
+        words = [w for w in block.words if w.letter != "N"]
         return _Move(run.kind, run.motion, run.starts[i], run.targets[i], None, words, run.modes, number,
                      run.mode), block
 
     def _write_run(self, run: PlainRun, results, k: int, st: dict, eol: str, write) -> int:
         """Write the lines of a run from its templates (see :meth:`~.runs.PlainRuns.write`);
         returns the lines written."""
-        result, bounds, columns = results
+        result, bounds, columns, _ = results
         ps, report = result.pieces, self.report
         b = bounds[k:k + run.count + 1]
         first, last = int(b[0]), int(b[-1])
@@ -208,12 +226,13 @@ class ChunkWriting:
                               "axes cannot undo)", worst=residual * 1e6)
 
     def _write_move(self, block: Block, newline: str, eol: str, mv: _Move, results, k: int, st: dict) -> list[str]:
-        result, bounds, (arc, sweep, residual, k0, k1, limited) = results
+        result, bounds, (arc, sweep, residual, k0, k1, limited), errors = results
         ps = result.pieces
         rows = range(bounds[k], bounds[k + 1])
         pieces = [Piece("arc" if arc[i] else "line", ps.cw0[i], ps.cw1[i], ps.center[i] if arc[i] else None,
                         sweep[i] < 0, sweep[i], residual[i], k0[i], k1[i], bool(limited[i])) for i in rows]
-        lines, written = self.writer.write_move(block, newline, eol, mv.motion, mv.coord_words, pieces, st)
+        lines, written = self.writer.write_move(block, newline, eol, mv.motion, mv.coord_words, pieces, st,
+                                                errors=None if errors is None else errors[bounds[k]:bounds[k + 1]])
         report = self.report
         report.pieces += len(written)
         residual = max(p.residual for p in written)

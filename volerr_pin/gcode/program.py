@@ -202,10 +202,9 @@ class Program(ChunkWriting):
                             entries, moves = [], 0
                         mode = run_mode
                         run = PlainRun(number)
-                    run.bodies.append(body)
-                    run.newlines.append(newline)
-                    run.shapes.append(shape)
-                    run.numbers += runs.numbers(body)
+                    if not runs.add(run, body, newline, shape):
+                        shape = None
+                if shape is not None:
                     moves += 1
                     if moves >= self._chunk or len(entries) + run.count >= MOST_LINES:
                         entries += self._close(run, state)
@@ -246,6 +245,8 @@ class Program(ChunkWriting):
     def _close(self, run: PlainRun, state) -> list:
         """The entries of a run of plain lines: the run itself, or, if it cannot be taken as
         a whole, its lines read one by one (which names what is wrong)."""
+        if not run.count:
+            return []
         if self._runs.close(run, state):
             run.kind = LINE if run.motion == 1 else POINT
             run.modes = {"absolute": True, "inch": state.inch, "plane": state.plane, "all_known": True,

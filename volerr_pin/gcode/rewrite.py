@@ -154,7 +154,7 @@ class Writer:
 
     # moves ------------------------------------------------------------------------
     def write_move(self, block: Block, newline: str, eol: str, motion: int, coord_words: list[Word],
-                   pieces: list, st: dict) -> tuple[list[str], list]:
+                   pieces: list, st: dict, errors=None) -> tuple[list[str], list]:
         """The lines of a compensated move: the original block carries the first piece (so its
         F, S, T, M and modal words act where they did); the further pieces follow as new
         blocks with explicit G words, and M codes that act at the end of the move (M0, M1, M2,
@@ -176,6 +176,9 @@ class Writer:
             The compensated pieces (program coordinates).
         st : dict
             Output state (updated).
+        errors : sequence of float, optional
+            Per piece, how far an arc piece written with centre offsets is read back off its
+            path (:meth:`~volerr_pin.gcode.arc_words.ArcWords.errors`), if known.
 
         Returns
         -------
@@ -186,7 +189,7 @@ class Writer:
         """
         forms = self.arcs.forms(block, st) if motion in (2, 3) else set()
         if forms or any(p.kind == "arc" for p in pieces):
-            pieces = self.arcs.writable(pieces, st, forms)
+            pieces = self.arcs.writable(pieces, st, forms, errors)
         late = [w for w in block.words if w.letter == "M" and w.value in LATE_M] if len(pieces) > 1 else []
         eol = newline if newline else eol
         feeds = self.inverse_feeds(block, pieces) if st.get("inverse") and len(pieces) > 1 else None

@@ -28,13 +28,14 @@ MOST_SHAPES = 4096
 
 
 class _Shape:
-    """One shape of plain line: the axes its words name (in the order written) and the
-    templates of the compensated line (mm and inch)."""
+    """One shape of plain line: the axes its words name (in the order written), whether it
+    begins with a sequence number (N), where its first axis word begins, and the templates
+    of the compensated line (mm and inch; the sequence number is the field ``n``)."""
 
-    __slots__ = ("axes", "lead", "templates")
+    __slots__ = ("axes", "numbered", "lead", "templates")
 
-    def __init__(self, axes: tuple[int, ...], lead: int, templates: dict):
-        self.axes, self.lead, self.templates = axes, lead, templates
+    def __init__(self, axes: tuple[int, ...], numbered: bool, lead: int, templates: dict):
+        self.axes, self.numbered, self.lead, self.templates = axes, numbered, lead, templates
 
 
 class PlainRun:
@@ -49,7 +50,9 @@ class PlainRun:
     shapes : list of _Shape
         Each line's shape.
     numbers : list of str
-        The numbers of every line, in order.
+        The axis words' numbers of every line, in order.
+    labels : dict of int to str
+        The sequence numbers (N) of the lines that have one, by line of the run.
     starts, targets : ndarray, shape (N, n_axes)
         Once closed: program coordinates before and after each line's move [m, rad].
     kind : int
@@ -60,8 +63,8 @@ class PlainRun:
         Programming mode, ``"axes"`` or ``"tool-tip"``.
     """
 
-    __slots__ = ("first", "bodies", "newlines", "shapes", "numbers", "starts", "targets", "kind", "motion", "modes",
-                 "mode")
+    __slots__ = ("first", "bodies", "newlines", "shapes", "numbers", "labels", "starts", "targets", "kind", "motion",
+                 "modes", "mode")
 
     def __init__(self, first: int):
         self.first = first
@@ -69,6 +72,7 @@ class PlainRun:
         self.newlines: list[str] = []
         self.shapes: list[_Shape] = []
         self.numbers: list[str] = []
+        self.labels: dict[int, str] = {}
 
     @property
     def count(self) -> int:
@@ -85,22 +89,17 @@ class PlainRuns:
         The program's interpreter (axes, scales, origin, travel).
     writer : Writer
         The program's writer (decimals of each axis).
-
-    Attributes
-    ----------
-    numbers : callable
-        ``numbers(body)``: the numbers of a plain line as written (list of str).
     """
 
     def __init__(self, reader: Interpreter, writer):
         self.reader = reader
         self.axes = reader.axes
         self._number = re.compile(NUMBER)
-        self.numbers = self._number.findall
         letters = "".join(reader.axes)
-        # a plain line with its numbers replaced by "#": axis words separated by blanks or nothing
-        self._skeleton = re.compile(rf"[ \t]*(?:[{letters}][ \t]*#[ \t]*)+")
-        self._word = re.compile(rf"([{letters}])[ \t]*#")
+        # a plain line with its numbers replaced by "#": a sequence number, then axis words
+        # separated by blanks or nothing
+        self._skeleton = re.compile(rf"[ \t]*(?:N[ \t]*#[ \t]*)?(?:[{letters}][ \t]*#[ \t]*)+")
+        self._word = re.compile(rf"([N{letters}])[ \t]*#")
         self._shapes: dict[str, _Shape | None] = {}
         n = len(reader.axes)
         self._origin = np.array([float(v) for v in reader.origin])
@@ -155,6 +154,8 @@ class PlainRuns:
         if not self._skeleton.fullmatch(skeleton):
             return None
         words = list(self._word.finditer(skeleton))
+        numbered = words[0].group(1) == "N"
+        label = words.pop(0) if numbered else None
         letters = [m.group(1) for m in words]
         if len(set(letters)) != len(letters):
             return None  # a repeated axis: the full reader names it
@@ -164,8 +165,11 @@ class PlainRuns:
         for inch in (False, True):
             digits = self._digits[inch]
             parts, at = [], 0
+            if label is not None:  # the sequence number as written
+                parts.append(skeleton[:label.end()].replace("#", "{n}"))
+                at = label.end()
             for m, j in zip(words, axes):
-                parts.append(skeleton[at:m.start()].replace("{", "{{").replace("}", "}}"))
+                parts.append(skeleton[at:m.start()])
                 parts.append(f"{self.axes[j]}{{{j}:.{digits[j]}f}}")
                 at = m.end()
             # axes the line does not name follow its last word, in the machine's order
@@ -173,7 +177,37 @@ class PlainRuns:
             parts.extend(f" {self.axes[j]}{{{j}:.{digits[j]}f}}" for j in missing)
             parts.append(skeleton[at:])
             templates[inch] = "".join(parts)
-        return _Shape(axes, words[0].start(), templates)
+        return _Shape(axes, numbered, words[0].start(), templates)
+
+    def add(self, run: PlainRun, body: str, newline: str, shape: _Shape) -> bool:
+        """Add a plain line to a run.
+
+        Parameters
+        ----------
+        run : PlainRun
+            The open run.
+        body, newline : str
+            The line without its ending, and the ending.
+        shape : _Shape
+            Its shape (:meth:`shape`).
+
+        Returns
+        -------
+        bool
+            False (and nothing added) if the line's sequence number is not a whole number
+            without sign (the full reader names it).
+        """
+        numbers = self._number.findall(body)
+        if shape.numbered:
+            label = numbers.pop(0)
+            if not label.isdigit():
+                return False
+            run.labels[run.count] = label
+        run.bodies.append(body)
+        run.newlines.append(newline)
+        run.shapes.append(shape)
+        run.numbers += numbers
+        return True
 
     def close(self, run: PlainRun, state: ModalState) -> bool:
         """Follow a run's moves from the state before it: targets, travel, and the state after.
@@ -256,27 +290,29 @@ class PlainRuns:
             for j, d in enumerate(digits):
                 if row[j] <= 0 and f"{row[j]:.{d}f}" == zeros[d]:
                     row[j] = 0.0
-        shapes, newlines = run.shapes, run.newlines
-        if len(table) == run.count:  # every move one piece
+        shapes, newlines, labels = run.shapes, run.newlines, run.labels
+        if len(table) == run.count and not labels:  # every move one piece, no sequence numbers
             out = [shape.templates[inch].format(*row) + newline
                    for shape, row, newline in zip(shapes, table, newlines)]
         else:
             new = self._new_line(inch, run.motion)
             out = []
             rows = iter(table)
-            for shape, count, newline in zip(shapes, counts.tolist(), newlines):
+            for i, (shape, count, newline) in enumerate(zip(shapes, counts.tolist(), newlines)):
+                template = shape.templates[inch]
+                first = template.format(*next(rows), n=labels[i]) if shape.numbered else template.format(*next(rows))
                 if count == 1:
-                    out.append(shape.templates[inch].format(*next(rows)) + newline)
+                    out.append(first + newline)
                     continue
                 inner = newline or eol
-                out.append(shape.templates[inch].format(*next(rows)) + inner)
+                out.append(first + inner)
                 for _ in range(count - 2):
                     out.append(new.format(*next(rows)) + inner)
                 out.append(new.format(*next(rows)) + newline)
         if out and out_motion != run.motion:
             # the run's first line relied on the modal motion: it gets it written when the
             # output's differs (after it, the output's is the run's)
-            lead = shapes[0].lead
+            lead = shapes[0].lead + (len(labels[0]) - 1 if shapes[0].numbered else 0)
             out[0] = out[0][:lead] + f"G{run.motion} " + out[0][lead:]
         return out
 
