@@ -173,7 +173,7 @@ def test_fast_path_writes_what_the_full_reader_writes(machines, name, seed):
     for fast in (True, False):
         program = Program(machine, tol_um=1.0)
         if not fast:
-            program._plain = None
+            program._plain = program._arc = None
         out = program.compensate(text)
         outs.append((out, program.report.to_dict()))
     assert outs[0][0] == outs[1][0]
@@ -185,9 +185,9 @@ def test_fast_path_writes_what_the_full_reader_writes(machines, name, seed):
 def _runs_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
     """Long runs of plain lines (beyond a chunk) between other lines: G0 and G1 runs, moves
     short and across the workspace (split into pieces), runs with sequence numbers (N) on
-    every line, inch sections, values around zero,
-    a line under an arc's motion mode written back as G1, CR LF endings and a last line
-    without an ending."""
+    every line, inch sections, values around zero, runs of arc lines (the first with its G
+    word, the others modal, some with a centre word of another plane), CR LF endings and a
+    last line without an ending."""
     lines = ["G21 G90 G17 G94", "G0 " + " ".join(f"{a}{v:.3f}" for a, v in zip(axes, travel_mm.mean(axis=1))),
              "G1 F1500"]
     p = travel_mm.mean(axis=1)
@@ -199,14 +199,22 @@ def _runs_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
             lines.append(["G0", "G1", "G20" if not inch else "G21", "M8", "N5 G1"][rng.integers(5)])
             inch = inch != (lines[-1] in ("G20", "G21"))
             continue
-        if r < 0.12 and "X" in axes and not inch:
-            # a quarter circle: the output's motion is G2 after it, so the next plain line needs G1
-            rad = 2.0
-            q = p.copy()
-            q[0], q[1] = p[0] + rad, p[1] + rad
-            if (q[:2] < high[:2]).all():
-                lines += [f"G2 X{q[0]:.4f} Y{q[1]:.4f} I{rad:.4f} J0", "G1"]
+        if r < 0.16 and "X" in axes and not inch:
+            # quarter circles, the first with its G word (G2, G02, G3 or G03), the next ones
+            # modal; some with the plane's third centre word (kept, with a note); then G1
+            code = ["G2", "G02", "G3", "G03"][rng.integers(4)]
+            clockwise = code in ("G2", "G02")
+            for k in range(int(rng.integers(1, 40))):
+                rad = float(rng.uniform(0.5, 3.0))
+                q = p.copy()
+                q[0], q[1] = p[0] + rad, p[1] + rad
+                if not (q[:2] < high[:2]).all():
+                    break
+                centre = f"I{rad:.4f} J0" if clockwise else f"I0 J{rad:.4f}"
+                third = f" K{rng.normal():.3f}" if rng.random() < 0.05 else ""
+                lines.append((f"{code} " if k == 0 else "") + f"X{q[0]:.4f} Y{q[1]:.4f} {centre}{third}")
                 p = q
+            lines.append("G1")
             continue
         count = int(rng.integers(50, 3000))
         far = rng.random() < 0.3
@@ -252,7 +260,7 @@ def test_runs_of_plain_lines_write_what_the_full_reader_writes(machines, name, s
         program = Program(machine, tol_um=1.0, detail=True, programming=programming,
                           origin=np.zeros(len(axes)) if fast else None)
         if not fast:
-            program._plain = None
+            program._plain = program._arc = None
         if fast:
             close = program._close
             program._close = lambda run, state: runs.append(run.count) or close(run, state)
@@ -324,10 +332,12 @@ def test_run_templates_write_what_the_writer_writes(machines, name):
 
 
 @pytest.mark.parametrize("bad", ["X900.0 Y100", "Y1" + "0" * 400, "X10 X20", "X1.2.3", "x10", "N-3 X101",
-                                 "N10.5 X101", "X101 N10", "N5 N6 X101"])
+                                 "N10.5 X101", "X101 N10", "N5 N6 X101", "G2 X101 Y100 I0.5", "X101 I1 J0",
+                                 "G3 X117 Y101 I0 J0", "G2 X117 Y101 I1 I2", "G2 X900 Y101 I1 J0"])
 def test_a_bad_line_inside_a_run_is_named_as_the_full_reader_names_it(machines, bad):
     """A line beyond the travel or any number, a repeated axis, a malformed number or sequence
-    number in the middle of a long run of plain lines: the same error, naming the same line, with and
+    number, an arc that its words cannot define or a centre word on a straight move, in the
+    middle of a long run of plain lines: the same error, naming the same line, with and
     without the run path."""
     from volerr_pin.gcode.lexer import GcodeError
     from volerr_pin.gcode.program import Program
@@ -340,7 +350,7 @@ def test_a_bad_line_inside_a_run_is_named_as_the_full_reader_names_it(machines, 
     for fast in (True, False):
         program = Program(machine, tol_um=1.0)
         if not fast:
-            program._plain = None
+            program._plain = program._arc = None
         try:
             program.compensate(text)
             messages.append(None)

@@ -23,7 +23,7 @@ from .modal import Interpreter, check_axes, move_of
 from .report import Report
 from .rewrite import Writer
 from .chunks import FIRST_CHUNK, ChunkWriting, _Move
-from .runs import PlainRun, PlainRuns, plain_line, plain_words
+from .runs import PlainRun, PlainRuns, arc_line, arc_words, plain_line, plain_words
 
 __all__ = ["MIN_TOL_UM", "Program", "compensate_program"]
 
@@ -118,6 +118,7 @@ class Program(ChunkWriting):
         self.report = Report(tolerance_um=tol_um)
         self.writer = Writer(self.reader, tol_um * 1e-6, self.margin)
         self._plain = plain_line(self.reader.axes)
+        self._arc = arc_line(self.reader.axes)
         self._runs = PlainRuns(self.reader, self.writer) if self._plain is not None else None
         self._groups: list = []
         self.detail = detail
@@ -261,11 +262,21 @@ class Program(ChunkWriting):
         """One line as ("raw", text) (kept unchanged), ("plain", block, newline) (no move) or
         ("move", block, newline, _Move)."""
         reader = self.reader
-        words = plain_words(self._plain, body) if not state.regions and not state.canned else None
-        if words is not None:  # the fast path (see runs.plain_words)
-            block = Block(number, body, words, body, False)
-            return self._entry(block, newline, number, state, state.lost,
-                               move_of(reader, block, state, words, not state.tool_tip))
+        if not state.regions and not state.canned:
+            words = plain_words(self._plain, body)
+            if words is not None:  # the fast path (see runs.plain_words)
+                block = Block(number, body, words, body, False)
+                return self._entry(block, newline, number, state, state.lost,
+                                   move_of(reader, block, state, words, not state.tool_tip))
+            words = arc_words(self._arc, body, reader.axes)
+            if words is not None and (words[0].value if words[0].letter == "G" else state.motion) in (2, 3):
+                # the fast path for arcs (see runs.arc_words)
+                if words[0].letter == "G":
+                    state.motion = int(words[0].value)
+                block = Block(number, body, words, body, False)
+                coord_words = [w for w in words if w.letter in reader.axes]
+                return self._entry(block, newline, number, state, state.lost,
+                                   move_of(reader, block, state, coord_words, not state.tool_tip))
         block, problem = kept.classify(reader, body, number, state)
         if problem:
             if self.strict:

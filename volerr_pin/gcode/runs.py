@@ -21,7 +21,7 @@ import numpy as np
 from .lexer import NUMBER, WORD, Word
 from .modal import Interpreter, ModalState
 
-__all__ = ["PlainRun", "PlainRuns", "plain_line", "plain_words"]
+__all__ = ["PlainRun", "PlainRuns", "arc_line", "arc_words", "plain_line", "plain_words"]
 
 #: distinct shapes of line remembered (a program has a handful; past this the memory is reset)
 MOST_SHAPES = 4096
@@ -348,5 +348,36 @@ def plain_words(plain: re.Pattern | None, body: str) -> list[Word] | None:
         start, end = m.span()
         words.append(Word(letter, float(text), m.group(), start, end))
     if len({w.letter for w in words}) == len(words) and all(math.isfinite(w.value) for w in words):
+        return words
+    return None
+
+
+def arc_line(axes) -> re.Pattern | None:
+    """The arc lines :meth:`Program._read` takes on a fast path: an optional G2 / G3 (G02,
+    G03) first, then upper-case axis and centre (I, J, K) words with plain numbers; None if an
+    axis letter could begin an exponent (E)."""
+    if "E" in axes:
+        return None
+    return re.compile(rf"[ \t]*+(?:G0?[23][ \t]*+)?(?:[{''.join(axes)}IJK][ \t]*+{NUMBER}[ \t]*+)++")
+
+
+def arc_words(pattern: re.Pattern | None, body: str, axes) -> list[Word] | None:
+    """The words of an arc line (``pattern``, from :func:`arc_line`): each letter once, at
+    least one axis word and one centre word; None for any other line.
+
+    For such a line in an arc motion mode (outside canned cycles and kept regions)
+    kept.classify finds no problem, _note_offsets nothing to note, and Interpreter.advance
+    nothing to check but what the move and the arc reader check themselves: its only modal
+    effect is the motion mode of its G word. Anything else takes the full path."""
+    if pattern is None or not pattern.fullmatch(body):
+        return None
+    words = []
+    for m in WORD.finditer(body):
+        letter, text = m.groups()
+        start, end = m.span()
+        words.append(Word(letter, float(text), m.group(), start, end))
+    letters = {w.letter for w in words}
+    if (len(letters) == len(words) and letters & set(axes) and letters & {"I", "J", "K"}
+            and all(math.isfinite(w.value) for w in words)):
         return words
     return None
