@@ -472,7 +472,7 @@ class _Loop:
             tried = dict(zip(lags, self.in_parallel([lambda lag_s=lag_s: lagged(lag_s) for lag_s in lags])))
             base_rms = tried[0.0]
             best_rms, best_lag = min((rms, lag_s) for lag_s, rms in tried.items() if lag_s)
-            if best_rms < min(base_rms, 0.99 * base_rms):
+            if best_rms < 0.99 * base_rms:
                 lag = best_lag
                 self.current, final, self.free_names = self._refit(with_lag(current, members, lag))
         details["lag_s"] = lag
