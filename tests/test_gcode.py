@@ -203,6 +203,7 @@ def test_incremental_sections_do_not_accumulate_rounding(machines):
     ("G90 G0 X10 Y10 Z10\n#1 = 5\n", 2, "macro"),
     ("G90 G0 X10 Y10 Z10\nM98 P100\n", 2, "subprogram"),
     ("G90 G0 X10 Y10 Z10\nWHILE [1 LT 2] DO1\n", 2, "macro"),
+    ("G90 G0 X10 Y10 Z10\n#5221 = -50.\n", 2, "system variable #5221"),
     ("G2 X10 Y10 I5 J5\n", 1, "arc from an unknown position"),
     ("G90 G0 X450 Y200 Z10\nG3 X450 Y200 I0 J100\n", 2, "leaves the travel"),
 ])
@@ -716,3 +717,19 @@ def test_modes_that_change_how_coordinates_read_keep_every_block_until_they_end(
         assert written[line - 1] != given[line - 1], f"line {line} not compensated"
     with pytest.raises(GcodeError, match=r"^<program>:3: .*strict refuses it"):
         compensate_program(machines["vmc500"], program, strict=True)
+
+
+@pytest.mark.parametrize("line, system", [("#5221=-50.", True), ("# 2001 = 1.5 (tool length)", True),
+                                          ("#100=3", False), ("#999 = #5221", False), ("#1 = #5001 + 2", False)])
+def test_a_write_to_a_system_variable_is_named_and_loses_the_position(machines, line, system):
+    """Writing #1000 and above (work and tool offsets on Fanuc-style controls) may change what
+    the coordinates after it mean: it is named as such, and the next move is compensated at
+    its end point only; reading a system variable or writing a common one is a plain macro
+    variable line."""
+    text, report = compensate_program(machines["vmc500"], f"G90 G0 X100 Y100 Z100\n{line}\nG1 X101 F100\n")
+    assert text.splitlines()[1] == line
+    named = [w for w in report.warnings if w.startswith("line 2:")]
+    assert len(named) == 1
+    assert ("system variable" in named[0]) == system
+    assert ("may be misread" in named[0]) == system
+    assert any(w.startswith("line 3: the position before this move is not known") for w in report.warnings) == system

@@ -25,6 +25,11 @@ BLANKS = " \t"
 BLANK_RUN = re.compile(r"[ \t]+")
 DELIMITER = re.compile(r"[();]")
 VARIABLE_WORD = re.compile(r"[A-Z][ \t]*[#\[]")  # X#1, X[#1+2], G#3
+#: an assignment to a numbered variable (#5221 = ...)
+ASSIGNMENT = re.compile(r"#[ \t]*([0-9]+)[ \t]*=")
+#: the first system variable on Fanuc-style controls (#1000 and above: work and tool offsets, modes,
+#: positions); writing one may change what later coordinates mean
+SYSTEM_VARIABLES = 1000
 PERCENT = re.compile(r"%(_[A-Za-z0-9_.]*)?")  # tape start/end, with a Siemens-style name
 MACRO = re.compile(r"\b(IF|WHILE|GOTO|DO\d*|END\d*|SUB|ENDSUB|CALL|RETURN|ELSE|ELSEIF|ENDIF|ENDWHILE|REPEAT|"
                    r"ENDREPEAT|BREAK|CONTINUE|THEN)\b")
@@ -464,9 +469,10 @@ def macro_statement(code: str) -> tuple[str, bool] | None:
     -------
     (str, bool) or None
         What it is (``"a macro statement (IF)"``, ``"a macro variable (#)"`` ...), and whether
-        it may move the machine or change which blocks run (a jump, a loop, a call, a word
-        whose value is a variable or an expression) rather than only set a variable; None for
-        a plain block.
+        it may move the machine, change which blocks run or what later coordinates mean (a
+        jump, a loop, a call, a word whose value is a variable or an expression, a write to a
+        system variable, #1000 and above) rather than only set a variable; None for a plain
+        block.
     """
     upper = code.upper()
     keyword = MACRO.search(upper)
@@ -475,6 +481,10 @@ def macro_statement(code: str) -> tuple[str, bool] | None:
     word = VARIABLE_WORD.search(upper)
     if word:
         return f"a word whose value is a macro variable or expression ({word.group(0).replace(' ', '')}...)", True
+    for assignment in ASSIGNMENT.finditer(code):
+        if int(assignment.group(1)) >= SYSTEM_VARIABLES:
+            return (f"a write to system variable #{int(assignment.group(1))} (work or tool offsets, modes or "
+                    "positions on Fanuc-style controls)"), True
     if "#" in code:
         return "a macro variable (#)", False
     return None
