@@ -105,7 +105,7 @@ def bench(sizes=(400, 4000), repeat: int = 1, loads=("quiet", "busy")) -> list[d
 def markdown(rows: list[dict]) -> str:
     """The rows as markdown tables."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    lines = [f"Measured on {platform.machine()} with {cores} cores, Python {platform.python_version()}, "
+    lines = [f"Measured on {platform.machine()} ({_cpu_model()}) with {cores} cores, Python {platform.python_version()}, "
              f"load average before the run {os.getloadavg()[0]:.2f}." if hasattr(os, "getloadavg") else "", "",
              "| load | points | mode | wall [s] | CPU [s] | effects |", "|---|---|---|---|---|---|"]
     for r in rows:
@@ -121,6 +121,18 @@ def markdown(rows: list[dict]) -> str:
             lines.append(f"| {r['load']} | {r['points']} | {r['cpu_default_over_one']:.2f} | "
                          f"{r['wall_default_over_one']:.2f} | {grow} |")
     return "\n".join(lines) + "\n"
+
+
+def _cpu_model() -> str:
+    """The processor's model name, where the system says it."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "processor unknown"
 
 
 def section(quick: bool = False) -> str:
