@@ -342,11 +342,7 @@ def plain_words(plain: re.Pattern | None, body: str) -> list[Word] | None:
     which names it."""
     if plain is None or not plain.fullmatch(body):
         return None
-    words = []
-    for m in WORD.finditer(body):
-        letter, text = m.groups()
-        start, end = m.span()
-        words.append(Word(letter, float(text), m.group(), start, end))
+    words = _words(body)
     if len({w.letter for w in words}) == len(words) and all(math.isfinite(w.value) for w in words):
         return words
     return None
@@ -371,13 +367,19 @@ def arc_words(pattern: re.Pattern | None, body: str, axes) -> list[Word] | None:
     effect is the motion mode of its G word. Anything else takes the full path."""
     if pattern is None or not pattern.fullmatch(body):
         return None
-    words = []
-    for m in WORD.finditer(body):
-        letter, text = m.groups()
-        start, end = m.span()
-        words.append(Word(letter, float(text), m.group(), start, end))
+    words = _words(body)
     letters = {w.letter for w in words}
     if (len(letters) == len(words) and letters & set(axes) and letters & {"I", "J", "K"}
             and all(math.isfinite(w.value) for w in words)):
         return words
     return None
+
+
+def _words(body: str) -> list[Word]:
+    """The words of a line the fast paths took (letters upper case, numbers plain)."""
+    words = []
+    for m in WORD.finditer(body):
+        letter, text = m.groups()
+        start, end = m.span()
+        words.append(Word(letter, float(text), m.group(), start, end))
+    return words
