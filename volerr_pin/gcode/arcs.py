@@ -104,7 +104,6 @@ def read_arc(block: Block, where: str, axes: list[str], linear: list[bool], star
     if third is not None:
         warn(block.number, f"{third.name} is not a centre word of a G{plane_code} arc (its centre words are "
              f"{offs[0]} and {offs[1]}): kept unchanged, not read")
-    s, e = start[[i, j]], target[[i, j]]
     big = [w for w in block.words if w.letter in offs + ["R"] and abs(w.value) * scale > MAX_ARC]
     if big:
         raise GcodeError(f"{where}:{big[0].start + 1}: {big[0].name}: an arc radius or centre offset over "
@@ -112,8 +111,9 @@ def read_arc(block: Block, where: str, axes: list[str], linear: list[bool], star
     centre = None
     named = [words[o] for o in offs if o in words]
     if named:
-        offset = np.array([words[o].value if o in words else 0.0 for o in offs]) * scale
-        centre = s + offset
+        # (on plain floats: the arithmetic of the arrays s + offset, one arc block at a time)
+        offset = [(words[o].value if o in words else 0.0) * scale for o in offs]
+        centre = np.array([float(start[i]) + offset[0], float(start[j]) + offset[1]])
         r0 = math.hypot(*offset)
         if r0 <= ARC_SLACK:
             text = " ".join(w.name for w in named)
@@ -121,6 +121,7 @@ def read_arc(block: Block, where: str, axes: list[str], linear: list[bool], star
                              f"or not more than the {ARC_SLACK * 1e6:g} um its end may lie off its circle; "
                              "program a line")
     if "R" in words:
+        s, e = start[[i, j]], target[[i, j]]
         rw = words["R"]
         r = rw.value * scale
         if abs(r) <= ARC_SLACK:

@@ -120,8 +120,10 @@ class Writer:
         spec = self._spec[st["inch"]]
         end = end.tolist() if isinstance(end, np.ndarray) else [float(v) for v in end]
         if st["absolute"]:
+            # (formatting to d decimals rounds as round(value, d) does: both give the decimal
+            # nearest the double, so the rounding is left to the format)
             for (axis, d, scale, origin, zero), e in zip(spec, end):
-                text = f"{round((e - origin) / scale, d):.{d}f}"
+                text = f"{(e - origin) / scale:.{d}f}"
                 out[axis] = text[1:] if text == zero else text
             return out
         prev = prev.tolist() if isinstance(prev, np.ndarray) else [float(v) for v in prev]
