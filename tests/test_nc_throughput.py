@@ -185,7 +185,7 @@ def test_fast_path_writes_what_the_full_reader_writes(machines, name, seed):
 def _runs_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
     """Long runs of plain lines (beyond a chunk) between other lines: G0 and G1 runs, moves
     short and across the workspace (split into pieces), runs with sequence numbers (N) on
-    every line, inch sections, values around zero, runs of arc lines (the first with its G
+    every line and feed words (F) on some, inverse time feed sections, inch sections, values around zero, runs of arc lines (the first with its G
     word, the others modal, some with a centre word of another plane), CR LF endings and a
     last line without an ending."""
     lines = ["G21 G90 G17 G94", "G0 " + " ".join(f"{a}{v:.3f}" for a, v in zip(axes, travel_mm.mean(axis=1))),
@@ -196,7 +196,7 @@ def _runs_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
     while len(lines) < n:
         r = rng.random()
         if r < 0.1:
-            lines.append(["G0", "G1", "G20" if not inch else "G21", "M8", "N5 G1"][rng.integers(5)])
+            lines.append(["G0", "G1", "G20" if not inch else "G21", "M8", "N5 G1", "G93", "G94"][rng.integers(7)])
             inch = inch != (lines[-1] in ("G20", "G21"))
             continue
         if r < 0.16 and "X" in axes and not inch:
@@ -219,6 +219,7 @@ def _runs_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
         count = int(rng.integers(50, 3000))
         far = rng.random() < 0.3
         numbered = rng.random() < 0.3  # a sequence number on every line of the run
+        feeds = rng.random() < 0.3  # feed words on half the lines of the run
         for _ in range(count):
             if far and rng.random() < 0.2:
                 q = low + rng.random(len(axes)) * (high - low)
@@ -230,6 +231,10 @@ def _runs_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
             scale = np.where([a in "XYZ" for a in axes], 1 / 25.4 if inch else 1.0, 1.0)
             words = [f"{a}{v * s:.4f}" for a, v, s, k in zip(axes, q, scale, pick) if k]
             line = (" " if rng.random() < 0.9 else "").join(words)
+            if feeds and rng.random() < 0.5:  # a feed word, somewhere among the axis words
+                at = int(rng.integers(0, len(words) + 1))
+                line = " ".join(words[:at] + [f"F{rng.integers(1, 5000)}" + ["", ".", ".5"][rng.integers(3)]]
+                                + words[at:])
             if numbered:
                 line = f"N{len(lines) * 10:0{int(rng.integers(1, 6))}d}" + ["", " ", "  "][rng.integers(3)] + line
             lines.append(line)
@@ -301,6 +306,8 @@ def test_run_templates_write_what_the_writer_writes(machines, name):
                 body = (" " * int(rng.integers(0, 2))) + (" " if rng.random() < 0.8 else "\t").join(
                     f"{pick[i]}{['', ' '][rng.integers(2)]}{rng.normal(0, 100):.3f}" for i in order)
                 if rng.random() < 0.3:
+                    body = body + [" ", ""][rng.integers(2)] + f"F{rng.integers(1, 9000)}"
+                if rng.random() < 0.3:
                     body = f"N{rng.integers(0, 10 ** 6)}" + [" ", "", "\t"][rng.integers(3)] + body.lstrip()
                 shape = runs.shape(body)
                 assert shape is not None, body
@@ -316,8 +323,8 @@ def test_run_templates_write_what_the_writer_writes(machines, name):
             rows = iter(ends)
             for body, newline, count in zip(run.bodies, run.newlines, counts):
                 block = parse_block(body, 1, "p")
-                words = [w for w in block.words if w.letter != "N"]
-                if not body.startswith("N"):
+                words = [w for w in block.words if w.letter not in "NF"]
+                if not body.startswith("N") and "F" not in body:
                     assert words == plain_words(plain, body)
                 end = next(rows)
                 inner = newline or "\r\n"  # a line's own ending, else the program's
@@ -332,6 +339,7 @@ def test_run_templates_write_what_the_writer_writes(machines, name):
 
 
 @pytest.mark.parametrize("bad", ["X900.0 Y100", "Y1" + "0" * 400, "X10 X20", "X1.2.3", "x10", "N-3 X101",
+                                 "X101 F-5", "X101 F+5", "X101 F100 F200", "F100",
                                  "N10.5 X101", "X101 N10", "N5 N6 X101", "G2 X101 Y100 I0.5", "X101 I1 J0",
                                  "G3 X117 Y101 I0 J0", "G2 X117 Y101 I1 I2", "G2 X900 Y101 I1 J0"])
 def test_a_bad_line_inside_a_run_is_named_as_the_full_reader_names_it(machines, bad):
@@ -357,7 +365,7 @@ def test_a_bad_line_inside_a_run_is_named_as_the_full_reader_names_it(machines, 
         except GcodeError as err:
             messages.append(str(err))
     assert messages[0] == messages[1]
-    if bad != "x10":  # a lower-case letter is read (by the full reader)
+    if bad not in ("x10", "F100"):  # a lower-case letter is read (by the full reader); F alone moves nothing
         assert messages[0] is not None and ":1704" in messages[0], messages[0]
 
 
@@ -397,3 +405,28 @@ def test_arc_read_back_errors_of_a_chunk_match_each_piece(machines, name):
     assert 0.5 < finite.mean() < 0.99  # both outcomes occur
     assert (np.isfinite(got) == finite).all()
     assert np.allclose(got[finite], want[finite], rtol=1e-9, atol=1e-13)
+
+
+def test_feed_words_in_runs_under_inverse_time_are_shared_out_as_the_writer_does(machines):
+    """Under G93 a split move's F words are its pieces' shares of its time; lines with F in a
+    run of long moves (split into pieces) give what the full reader gives, and so do the same
+    lines under G94, where F stays on the first piece."""
+    from volerr_pin.gcode.program import Program
+
+    machine = machines["vmc500"]
+    rng = np.random.default_rng(93)
+    points = np.array([5.0, 5.0, 5.0]) + rng.random((600, 3)) * np.array([490.0, 390.0, 390.0])
+    body = [f"X{x:.3f} Y{y:.3f} Z{z:.3f}" + (f" F{rng.integers(2, 60)}" if i % 3 else "")
+            for i, (x, y, z) in enumerate(points)]
+    for mode in ("G93", "G94"):
+        text = f"G90 G21 {mode}\nG0 X250 Y200 Z200\nG1 X251 F10\n" + "\n".join(body) + "\n"
+        outs = []
+        for fast in (True, False):
+            program = Program(machine, tol_um=1.0)
+            if not fast:
+                program._plain = program._arc = None
+            outs.append((program.compensate(text), repr(program.report.to_dict())))
+        assert outs[0] == outs[1]
+        assert outs[0][0].count("\n") > 1.5 * len(body)  # the moves were split
+        feeds = [line for line in outs[0][0].splitlines() if "F" in line]
+        assert (len(feeds) > len(body)) == (mode == "G93")  # every piece has its F under G93 only

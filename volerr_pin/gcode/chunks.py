@@ -175,7 +175,7 @@ class ChunkWriting:
         """Line ``i`` of a run as the line-by-line reader gives it: its move and block."""
         body, number = run.bodies[i], run.first + i
         block = parse_block(body, number, self.reader.source)
-        words = [w for w in block.words if w.letter != "N"]
+        words = [w for w in block.words if w.letter in self.reader.axes]
         return _Move(run.kind, run.motion, run.starts[i], run.targets[i], None, words, run.modes, number,
                      run.mode), block
 

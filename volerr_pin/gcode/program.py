@@ -203,7 +203,7 @@ class Program(ChunkWriting):
                             entries, moves = [], 0
                         mode = run_mode
                         run = PlainRun(number)
-                    if not runs.add(run, body, newline, shape):
+                    if not runs.add(run, body, newline, shape, state.inverse_time):
                         shape = None
                 if shape is not None:
                     moves += 1

@@ -28,14 +28,17 @@ MOST_SHAPES = 4096
 
 
 class _Shape:
-    """One shape of plain line: the axes its words name (in the order written), whether it
-    begins with a sequence number (N), where its first axis word begins, and the templates
-    of the compensated line (mm and inch; the sequence number is the field ``n``)."""
+    """One shape of plain line: the axes its words name (in the order written), where its
+    sequence number (N) and feed (F) words are among its numbers (``kept``: field name by
+    position, None if it has neither), and the templates of the compensated line (mm and inch;
+    the kept words are the fields ``n`` and ``f``, written as they were) with the part before
+    the first axis word (``head``)."""
 
-    __slots__ = ("axes", "numbered", "lead", "templates")
+    __slots__ = ("axes", "kept", "feed", "templates", "head")
 
-    def __init__(self, axes: tuple[int, ...], numbered: bool, lead: int, templates: dict):
-        self.axes, self.numbered, self.lead, self.templates = axes, numbered, lead, templates
+    def __init__(self, axes: tuple[int, ...], kept: dict | None, templates: dict, head: str):
+        self.axes, self.kept, self.templates, self.head = axes, kept, templates, head
+        self.feed = kept is not None and "f" in kept.values()
 
 
 class PlainRun:
@@ -51,8 +54,9 @@ class PlainRun:
         Each line's shape.
     numbers : list of str
         The axis words' numbers of every line, in order.
-    labels : dict of int to str
-        The sequence numbers (N) of the lines that have one, by line of the run.
+    labels : dict of int to dict
+        The sequence numbers and feeds of the lines that have them (``{"n": "120", "f":
+        "1500"}``, as written), by line of the run.
     starts, targets : ndarray, shape (N, n_axes)
         Once closed: program coordinates before and after each line's move [m, rad].
     kind : int
@@ -72,7 +76,7 @@ class PlainRun:
         self.newlines: list[str] = []
         self.shapes: list[_Shape] = []
         self.numbers: list[str] = []
-        self.labels: dict[int, str] = {}
+        self.labels: dict[int, dict] = {}
 
     @property
     def count(self) -> int:
@@ -96,10 +100,10 @@ class PlainRuns:
         self.axes = reader.axes
         self._number = re.compile(NUMBER)
         letters = "".join(reader.axes)
-        # a plain line with its numbers replaced by "#": a sequence number, then axis words
-        # separated by blanks or nothing
-        self._skeleton = re.compile(rf"[ \t]*(?:N[ \t]*#[ \t]*)?(?:[{letters}][ \t]*#[ \t]*)+")
-        self._word = re.compile(rf"([N{letters}])[ \t]*#")
+        # a plain line with its numbers replaced by "#": a sequence number, then axis words and a
+        # feed word separated by blanks or nothing
+        self._skeleton = re.compile(rf"[ \t]*(?:N[ \t]*#[ \t]*)?(?:[F{letters}][ \t]*#[ \t]*)+")
+        self._word = re.compile(rf"([NF{letters}])[ \t]*#")
         self._shapes: dict[str, _Shape | None] = {}
         n = len(reader.axes)
         self._origin = np.array([float(v) for v in reader.origin])
@@ -154,32 +158,35 @@ class PlainRuns:
         if not self._skeleton.fullmatch(skeleton):
             return None
         words = list(self._word.finditer(skeleton))
-        numbered = words[0].group(1) == "N"
-        label = words.pop(0) if numbered else None
         letters = [m.group(1) for m in words]
-        if len(set(letters)) != len(letters):
-            return None  # a repeated axis: the full reader names it
+        if len(set(letters)) != len(letters) or not set(letters) - {"N", "F"}:
+            return None  # a repeated word, or no axis: the full reader takes it
         index = {a: j for j, a in enumerate(self.axes)}
-        axes = tuple(index[a] for a in letters)
-        templates = {}
+        axes = tuple(index[a] for a in letters if a in index)
+        kept = {k: a.lower() for k, a in enumerate(letters) if a in "NF"} or None
+        last = max(k for k, a in enumerate(letters) if a in index)
+        templates, head = {}, None
         for inch in (False, True):
             digits = self._digits[inch]
             parts, at = [], 0
-            if label is not None:  # the sequence number as written
-                parts.append(skeleton[:label.end()].replace("#", "{n}"))
-                at = label.end()
-            for m, j in zip(words, axes):
+            for k, (m, letter) in enumerate(zip(words, letters)):
                 parts.append(skeleton[at:m.start()])
-                parts.append(f"{self.axes[j]}{{{j}:.{digits[j]}f}}")
+                if letter in index:
+                    if head is None:
+                        head = "".join(parts)
+                    j = index[letter]
+                    parts.append(f"{letter}{{{j}:.{digits[j]}f}}")
+                else:  # a sequence number or feed, as written
+                    parts.append(skeleton[m.start():m.end()].replace("#", "{" + letter.lower() + "}"))
                 at = m.end()
-            # axes the line does not name follow its last word, in the machine's order
-            missing = [j for j in range(self._n) if j not in axes]
-            parts.extend(f" {self.axes[j]}{{{j}:.{digits[j]}f}}" for j in missing)
+                if k == last:
+                    # axes the line does not name follow its last axis word, in the machine's order
+                    parts.extend(f" {self.axes[j]}{{{j}:.{digits[j]}f}}" for j in range(self._n) if j not in axes)
             parts.append(skeleton[at:])
             templates[inch] = "".join(parts)
-        return _Shape(axes, numbered, words[0].start(), templates)
+        return _Shape(axes, kept, templates, head)
 
-    def add(self, run: PlainRun, body: str, newline: str, shape: _Shape) -> bool:
+    def add(self, run: PlainRun, body: str, newline: str, shape: _Shape, inverse_time: bool = False) -> bool:
         """Add a plain line to a run.
 
         Parameters
@@ -190,19 +197,29 @@ class PlainRuns:
             The line without its ending, and the ending.
         shape : _Shape
             Its shape (:meth:`shape`).
+        inverse_time : bool
+            Inverse time feed (G93) is on: a feed word then changes with the pieces of a
+            split move, so a line with one is left to the line-by-line writer.
 
         Returns
         -------
         bool
             False (and nothing added) if the line's sequence number is not a whole number
-            without sign (the full reader names it).
+            without sign, its feed has a sign or no value, or it has a feed under inverse
+            time (the full reader takes it).
         """
         numbers = self._number.findall(body)
-        if shape.numbered:
-            label = numbers.pop(0)
-            if not label.isdigit():
+        if shape.kept is not None:
+            if shape.feed and inverse_time:
                 return False
-            run.labels[run.count] = label
+            words = {}
+            for k, name in shape.kept.items():
+                text = numbers[k]
+                if (name == "n" and not text.isdigit()) or text[0] in "+-" or not math.isfinite(float(text)):
+                    return False
+                words[name] = text
+            run.labels[run.count] = words
+            numbers = [v for k, v in enumerate(numbers) if k not in shape.kept]
         run.bodies.append(body)
         run.newlines.append(newline)
         run.shapes.append(shape)
@@ -300,7 +317,8 @@ class PlainRuns:
             rows = iter(table)
             for i, (shape, count, newline) in enumerate(zip(shapes, counts.tolist(), newlines)):
                 template = shape.templates[inch]
-                first = template.format(*next(rows), n=labels[i]) if shape.numbered else template.format(*next(rows))
+                first = (template.format(*next(rows), **labels[i]) if shape.kept is not None
+                         else template.format(*next(rows)))
                 if count == 1:
                     out.append(first + newline)
                     continue
@@ -312,7 +330,7 @@ class PlainRuns:
         if out and out_motion != run.motion:
             # the run's first line relied on the modal motion: it gets it written when the
             # output's differs (after it, the output's is the run's)
-            lead = shapes[0].lead + (len(labels[0]) - 1 if shapes[0].numbered else 0)
+            lead = len(shapes[0].head.format(**labels.get(0, {})))
             out[0] = out[0][:lead] + f"G{run.motion} " + out[0][lead:]
         return out
 
