@@ -132,13 +132,7 @@ def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plan
     i, j, _ = plane
     a0 = math.atan2(s[j] - c[1], s[i] - c[0])
     a1 = math.atan2(e[j] - c[1], e[i] - c[0])
-    turn = 2 * math.pi  # the sweep as sweeps() gives it, for one arc
-    if clockwise:
-        down = (a0 - a1) % turn
-        sweep = -(turn if down <= 0.0 else down)
-    else:
-        up = (a1 - a0) % turn
-        sweep = turn if up <= 0.0 else up
+    sweep = sweep_of(a0, a1, clockwise)
     sweep += (-1 if clockwise else 1) * 2 * math.pi * full_turns
     r0 = math.hypot(s[i] - c[0], s[j] - c[1])
     r1 = math.hypot(e[i] - c[0], e[j] - c[1])
@@ -170,6 +164,30 @@ def sweeps(a0: np.ndarray, a1: np.ndarray, ccw: np.ndarray) -> np.ndarray:
     up = np.mod(a1 - a0, turn)  # [0, 2 pi)
     down = np.mod(a0 - a1, turn)
     return np.where(ccw, np.where(up <= 0.0, turn, up), -np.where(down <= 0.0, turn, down))
+
+
+def sweep_of(a0: float, a1: float, clockwise: bool) -> float:
+    """:func:`sweeps` for one arc, on plain floats (it runs for every arc block read and every
+    arc piece written).
+
+    Parameters
+    ----------
+    a0, a1 : float
+        Start and end angles [rad].
+    clockwise : bool
+        Clockwise (G2) rather than counter-clockwise (G3).
+
+    Returns
+    -------
+    float
+        The swept angle [rad] (< 0 clockwise; equal angles give a full turn).
+    """
+    turn = 2 * math.pi
+    if clockwise:
+        down = (a0 - a1) % turn
+        return -(turn if down <= 0.0 else down)
+    up = (a1 - a0) % turn
+    return turn if up <= 0.0 else up
 
 
 def circles_through(p1: np.ndarray, p2: np.ndarray, p3: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

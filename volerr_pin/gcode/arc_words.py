@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..compensation.arcs import RADIUS_SLACK
+from ..compensation.arcs import RADIUS_SLACK, sweep_of, sweeps
 from ..compensation.path import Piece
 from ..units import INCH, MM
 from .arcs import ARC_SLACK, centre_from_radius
@@ -214,13 +214,7 @@ class ArcWords:
             return math.inf
         a0 = math.atan2(s[j] - cy, s[i] - cx)
         a1 = math.atan2(e[j] - cy, e[i] - cx)
-        turn = 2 * math.pi
-        if piece.clockwise:
-            down = (a0 - a1) % turn
-            sweep = -(turn if down <= 0.0 else down)
-        else:
-            up = (a1 - a0) % turn
-            sweep = turn if up <= 0.0 else up
+        sweep = sweep_of(a0, a1, piece.clockwise)
         if abs(sweep - piece.turns) > math.pi / 2:
             return math.inf  # read as (nearly) the rest of the circle
         # against the piece's own arc (piece_points), point by point
@@ -308,9 +302,7 @@ class ArcWords:
         bad |= ~(np.isfinite(cx) & np.isfinite(cy)) | (r0 == 0.0) | (np.abs(r0 - r1) > RADIUS_SLACK)
         a0 = np.arctan2(s[rows, j] - cy, s[rows, i] - cx)
         a1 = np.arctan2(e[rows, j] - cy, e[rows, i] - cx)
-        turn = 2 * math.pi
-        up, down = np.mod(a1 - a0, turn), np.mod(a0 - a1, turn)
-        sweep = np.where(turns < 0, -np.where(down <= 0.0, turn, down), np.where(up <= 0.0, turn, up))
+        sweep = sweeps(a0, a1, turns >= 0)
         bad |= np.abs(sweep - turns) > math.pi / 2
         # against the piece's own arc, at the same fractions
         pcx, pcy = center[:, 0], center[:, 1]

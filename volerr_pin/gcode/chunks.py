@@ -91,8 +91,9 @@ class ChunkWriting:
         ones: list = []
         k = 0
         for g in groups:
-            if g.count == 1 and isinstance(g, _Move):
+            if isinstance(g, _Move):
                 singles.append(k)
+                ones.append(g)
             else:
                 rows = slice(k, k + g.count)
                 batch.kind[rows] = g.kind
@@ -101,7 +102,6 @@ class ChunkWriting:
                 line[rows] = np.arange(g.first, g.first + g.count)
             k += g.count
         if singles:
-            ones = [g for g in groups if isinstance(g, _Move)]
             batch.kind[singles] = [mv.kind for mv in ones]
             batch.w0[singles] = [mv.start for mv in ones]
             batch.w1[singles] = [mv.target for mv in ones]

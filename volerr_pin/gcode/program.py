@@ -197,12 +197,12 @@ class Program(ChunkWriting):
                 shape = runs.shape(body)
                 if shape is not None:
                     if run is None:
-                        run_mode = "tool-tip" if state.tool_tip else "axes"
-                        if mode is not None and run_mode != mode:
+                        run = PlainRun(number)
+                        run.mode = "tool-tip" if state.tool_tip else "axes"
+                        if mode is not None and run.mode != mode:
                             self._flush(entries, write)
                             entries, moves = [], 0
-                        mode = run_mode
-                        run = PlainRun(number)
+                        mode = run.mode
                     if not runs.add(run, body, newline, shape, state.inverse_time):
                         shape = None
                 if shape is not None:
@@ -252,7 +252,6 @@ class Program(ChunkWriting):
             run.kind = LINE if run.motion == 1 else POINT
             run.modes = {"absolute": True, "inch": state.inch, "plane": state.plane, "all_known": True,
                          "inverse": state.inverse_time}
-            run.mode = "tool-tip" if state.tool_tip else "axes"
             return [("run", run)]
         return [self._read(body, newline, run.first + i, state)
                 for i, (body, newline) in enumerate(zip(run.bodies, run.newlines))]
@@ -272,7 +271,7 @@ class Program(ChunkWriting):
             if words is not None and (words[0].value if words[0].letter == "G" else state.motion) in (2, 3):
                 # the fast path for arcs (see runs.arc_words)
                 if words[0].letter == "G":
-                    state.motion = int(words[0].value)
+                    state.apply_g([words[0].value])
                 block = Block(number, body, words, body, False)
                 coord_words = [w for w in words if w.letter in reader.axes]
                 return self._entry(block, newline, number, state, state.lost,
