@@ -5,7 +5,9 @@ answer on one core or two."""
 from __future__ import annotations
 
 import json
+import os
 import re
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +18,7 @@ from volerr_pin.cli import main
 from volerr_pin.diagnose import axis_directions, build_candidates, diagnose, drift_series
 from volerr_pin.diagnose import results as diagnose_results
 from volerr_pin.diagnose.candidates import interpolation_period
+from volerr_pin.errors import InputError
 from volerr_pin.identify import build_observations
 from volerr_pin.simulate import campaign, heldout_set, write_points
 from volerr_pin.specio import add_terms, replace_terms
@@ -185,6 +188,49 @@ def test_process_map_keeps_the_order_and_falls_back_here():
     done = []
     assert diagnose_results.process_map(str, [1, 2], workers=1, progress=done.append) == ["1", "2"]
     assert done == [1, 2]
+    done = []
+    assert diagnose_results.process_map(str, items, workers=3, progress=done.append) == [str(x) for x in items]
+    assert done == sorted(done) and done[-1] == len(items)
+
+
+def _fails_on(bad):
+    def fn(x):
+        if x == bad:
+            raise InputError(f"item {x} is bad")
+        return os.getpid()
+    return fn
+
+
+@pytest.mark.parametrize("bad", [0, 1, 5])   # this process's share (0) or a child's (1, 5 of workers=2)
+def test_process_map_raises_what_a_worker_raised_and_leaves_no_process(bad):
+    children = set(_child_pids())
+    with pytest.raises(InputError, match=f"item {bad} is bad"):
+        diagnose_results.process_map(_fails_on(bad), range(8), workers=2)
+    assert set(_child_pids()) == children   # every forked worker reaped, none left running
+
+
+def test_process_map_shares_the_items_between_this_process_and_a_child():
+    pids = diagnose_results.process_map(_fails_on(None), range(8), workers=2)
+    assert pids[0::2] == [os.getpid()] * 4
+    assert len(set(pids[1::2])) == 1 and pids[1] != os.getpid()
+
+
+def test_process_map_names_a_worker_that_died():
+    def fn(x):
+        if x == 1:
+            os.kill(os.getpid(), signal.SIGKILL)
+        return x
+    with pytest.raises(RuntimeError, match="ended without a result"):
+        diagnose_results.process_map(fn, range(4), workers=2)
+
+
+def _child_pids() -> list[int]:
+    """This process's children (Linux), zombies included."""
+    path = f"/proc/{os.getpid()}/task/{os.getpid()}/children"
+    if not os.path.exists(path):
+        pytest.skip("no /proc children list here")
+    with open(path) as f:
+        return [int(p) for p in f.read().split()]
 
 
 def test_cli_reports_the_thermal_finding_and_documents_every_field(machines, tmp_path, capsys):
@@ -240,3 +286,12 @@ def test_noise_floor_from_repeats_is_the_pooled_scatter_of_each_pair(machines):
         dof += 1
     assert not bound and source == f"repeated points ({dof} degrees of freedom)" and dof == 49 * 3
     assert floor == pytest.approx(np.sqrt(ss / dof * 3) * 1e6, rel=1e-12)
+
+
+def test_a_forked_worker_runs_large_kernels_after_the_parent_started_its_thread_pool(machines):
+    # numba's thread pool does not survive a fork: a worker must run the kernels on its own thread
+    m = machines["vmc500"]
+    q = np.random.default_rng(3).uniform(m.travel[:, 0], m.travel[:, 1], (4096, 3))
+    here = m.volumetric_error(q)  # above kinematics.PARALLEL_MIN points: the parallel kernel, its pool started
+    parts = diagnose_results.process_map(lambda k: m.volumetric_error(q[k::2]), [0, 1], workers=2)
+    assert np.array_equal(parts[0], here[0::2]) and np.array_equal(parts[1], here[1::2])

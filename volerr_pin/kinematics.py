@@ -45,6 +45,19 @@ def _kernel(fn):
     return run
 
 
+def run_on_this_thread() -> None:
+    """From now on every kernel runs on the calling thread, whatever the number of points: for a
+    forked process, where numba's thread pool (GNU OpenMP) does not survive the fork and a
+    parallel kernel would terminate the process. Both forms compute each point alike.
+
+    Returns
+    -------
+    None
+    """
+    global PARALLEL_MIN
+    PARALLEL_MIN = float("inf")
+
+
 @dataclass(frozen=True)
 class Chain:
     """A serial chain ``T = prod_k (C_k * Motion_k(sign_k * v[col_k])) * C_end``.

@@ -4,9 +4,12 @@ the result with its JSON report (docs/reports.md)."""
 from __future__ import annotations
 
 import math
-import multiprocessing
+import mmap
 import os
+import pickle
+import signal
 import threading
+import traceback
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
@@ -22,7 +25,7 @@ __all__ = ["PARALLEL_MIN_ROWS", "PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIF
 
 #: observation rows from which a round's candidates are scored on :data:`WORKERS` processes (below,
 #: forking costs more than it saves: measured in benchmarks/diagnose.py)
-PARALLEL_MIN_ROWS = 6000
+PARALLEL_MIN_ROWS = 1000
 #: threads that score candidates and factor folds at once: the cores this process may use
 WORKERS = max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1))
 
@@ -54,20 +57,13 @@ def parallel_map(fn, items, workers: int | None = None) -> list:
         return list(pool.map(fn, items))
 
 
-_JOB: list = []   # the function and items of the running process_map, inherited by forked workers
-
-
-def _run_chunk(k: int) -> list:
-    fn, items, step = _JOB[-1]
-    return [fn(x) for x in items[k::step]]
-
-
 def process_map(fn, items, workers: int | None = None, progress=None) -> list:
-    """``[fn(x) for x in items]`` on :data:`WORKERS` forked processes (in order), for Python-heavy
-    work the interpreter lock would serialise on threads. The workers are forked at the call,
-    so they see the caller's state as it is; only the results travel back (pickled). Where
-    forking is not safe - no ``fork`` start method, or other Python threads running (a fork
-    copies their locks) - the items run here, one after the other.
+    """``[fn(x) for x in items]`` on :data:`WORKERS` processes (in order), for Python-heavy work
+    the interpreter lock would serialise on threads. This process is one of them: it forks
+    ``workers - 1`` children at the call, which see its state as it is, and works through its
+    own share (every ``workers``-th item) while they work through theirs; only their results
+    travel back (pickled, through a pipe). Where forking is not safe - no ``fork``, or other
+    Python threads running (a fork copies their locks) - the items run here, one after the other.
 
     Parameters
     ----------
@@ -76,57 +72,104 @@ def process_map(fn, items, workers: int | None = None, progress=None) -> list:
     items : iterable
         The items.
     workers : int, optional
-        Processes (default :data:`WORKERS`).
+        Processes, this one included (default :data:`WORKERS`).
     progress : callable(int), optional
-        Called with the number of items done.
+        Called with the number of items done (all processes'), in this process.
 
     Returns
     -------
     list
         The results, in the order of ``items``.
+
+    Raises
+    ------
+    Exception
+        What ``fn`` raised, in this process or a child (re-raised here); RuntimeError when a
+        child ended without a result (killed).
     """
     items = list(items)
-    workers = WORKERS if workers is None else workers
-    forkable = "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
-    if workers <= 1 or len(items) < 2 or not forkable:
+    workers = min(WORKERS if workers is None else workers, len(items))
+    forkable = hasattr(os, "fork") and threading.active_count() == 1
+    if workers <= 1 or not forkable:
         out = []
         for x in items:
             out.append(fn(x))
             if progress:
                 progress(len(out))
         return out
-    workers = min(workers, len(items))
-    step = min(len(items), workers * 4)   # chunks interleaved over the items: even loads, progress as they finish
-    _JOB.append((fn, items, step))
+    counts = np.frombuffer(mmap.mmap(-1, 8 * workers), dtype=np.int64)  # items done per child, shared
+    children = []
     try:
-        with multiprocessing.get_context("fork").Pool(workers, initializer=_serial_kernels) as pool:
-            chunks = {}
-            done = 0
-            for k, res in pool.imap_unordered(_indexed, range(step)):
-                chunks[k] = res
-                done += len(res)
-                if progress:
-                    progress(done)
+        for w in range(1, workers):
+            read, write = os.pipe()
+            pid = os.fork()
+            if pid == 0:  # pragma: no cover - runs in the child, which never returns
+                os.close(read)
+                _child(fn, items[w::workers], counts, w, write)
+            os.close(write)
+            children.append((pid, read))
+        out = [None] * len(items)
+        for k in range(0, len(items), workers):
+            out[k] = fn(items[k])
+            if progress:
+                progress(k // workers + 1 + int(counts.sum()))
+        for w, (pid, read) in enumerate(children, start=1):
+            with os.fdopen(read, "rb") as pipe:
+                payload = pipe.read()
+            children[w - 1] = (pid, None)
+            os.waitpid(pid, 0)
+            if not payload:
+                raise RuntimeError(f"a worker of the diagnosis (process {pid}) ended without a result")
+            ok, value = pickle.loads(payload)
+            if not ok:
+                raise value
+            out[w::workers] = value
+        if progress:
+            progress(len(items))
+        return out
     finally:
-        _JOB.pop()
-    out = [None] * len(items)
-    for k, res in chunks.items():
-        out[k::step] = res
-    return out
+        for pid, read in children:
+            if read is not None:  # not joined: this process failed first
+                os.kill(pid, signal.SIGKILL)
+                os.close(read)
+                os.waitpid(pid, 0)
+
+
+def _child(fn, items: list, counts: np.ndarray, w: int, write: int) -> None:
+    """A forked worker of :func:`process_map`: its share, the result pickled to ``write``, and
+    the end of the process (``os._exit``: nothing of the parent's - buffers, exit handlers - runs)."""
+    status = 1
+    try:
+        _serial_kernels()
+        try:
+            out = []
+            for x in items:
+                out.append(fn(x))
+                counts[w] += 1
+            payload = pickle.dumps((True, out), protocol=pickle.HIGHEST_PROTOCOL)
+        except BaseException as exc:  # noqa: BLE001 - every failure travels back to be raised there
+            try:
+                payload = pickle.dumps((False, exc), protocol=pickle.HIGHEST_PROTOCOL)
+                pickle.loads(payload)   # an exception whose arguments do not rebuild it fails here, not there
+            except Exception:  # noqa: BLE001 - an exception that does not travel: its text
+                payload = pickle.dumps((False, RuntimeError("".join(traceback.format_exception(exc)))))
+        with os.fdopen(write, "wb") as pipe:
+            pipe.write(payload)
+        status = 0
+    finally:
+        os._exit(status)
 
 
 def _serial_kernels() -> None:
-    """In a forked worker: the compiled kinematics on the calling thread only. The parent's
-    thread pool (GNU OpenMP under numba) does not survive a fork - a worker that starts a
-    parallel kernel is terminated - and the worker is one of the cores already. The serial and
-    the parallel kernel compute each point alike."""
+    """In a forked worker: the compiled kinematics on the calling thread only, and no threads
+    of the diagnosis. The parent's thread pool (GNU OpenMP under numba) does not survive a
+    fork - a worker that starts a parallel kernel is terminated - and the worker is one of the
+    cores already. The serial and the parallel kernel compute each point alike."""
     from .. import kinematics
 
-    kinematics.PARALLEL_MIN = math.inf
-
-
-def _indexed(k: int) -> tuple[int, list]:
-    return k, _run_chunk(k)
+    global WORKERS
+    kinematics.run_on_this_thread()
+    WORKERS = 1
 
 
 @contextmanager
