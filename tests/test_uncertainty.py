@@ -21,8 +21,10 @@ from volerr_pin.studies.engine import DaskEngine, InProcess, PortableMachine, ch
 from volerr_pin.studies.evaluator import Evaluator
 from volerr_pin.studies.montecarlo import (NormalSource, grid_points, make_points, point_quantiles,
                                            run_monte_carlo)
-from volerr_pin.studies.uncertainty import (K95, compare_scalar, numerical_tolerance, study_uncertainty,
-                                            z_family)
+from volerr_pin.cli.common import in_cli_words
+from volerr_pin.errors import InputError
+from volerr_pin.studies.uncertainty import (K95, compare_scalar, compensated_points, numerical_tolerance,
+                                            study_uncertainty, table_compensation, z_family)
 from volerr_pin.workspace import grid
 
 ARM = "examples/data/two_link_arm.urdf"
@@ -278,6 +280,54 @@ def test_the_residual_of_a_compensation_is_the_error_at_its_commands(machines):
     assert report["compensation_method"] == "point" and not report["compensation"]["max_error_um"]["agree"]
 
 
+def test_a_controller_s_tables_leave_the_residual_the_export_simulates(machines):
+    from volerr_pin.export import Points
+    from volerr_pin.export.simulate import residuals
+
+    m = machines["vmc500"]
+    cov = covariance_from_campaign(m, 1e-6, points=60)
+    q = grid(m, 3)
+    study = study_uncertainty(cov, q, samples=200, seed=1, interval_samples=100, compensation="linuxcnc")
+    assert study.to_dict()["compensation_method"] == "linuxcnc"
+    # independently: the export's own simulation of the controller applying what it read back,
+    # through the machine's actual tool poses rather than the study's error + nominal poses
+    command = table_compensation(cov.machine, "linuxcnc")
+    at = Points(q, np.ones_like(q), np.zeros(len(q)))
+    np.testing.assert_allclose(study.compensated.estimate[:, :3], residuals(cov.machine, command.export.compensation, at),
+                               rtol=0, atol=1e-12)
+    # per-axis tables take out part of the error (not squareness and the other cross-axis errors),
+    # never all of it as exact point compensation does
+    worst = study.compensated.estimate[:, 3].max()
+    assert 0.02e-6 < worst < 0.8 * study.map.estimate[:, 3].max()
+    np.testing.assert_allclose(study.compensated.linear_u_position, study.map.linear_u_position, rtol=0.05)
+
+
+def test_tables_applied_by_direction_need_the_approach_directions(machines):
+    from volerr_pin.export import Points
+    from volerr_pin.export.simulate import residuals
+    from volerr_pin.specio import add_terms
+
+    m = add_terms(machines["vmc500"], {"EXX": {"kind": "backlash", "prefix": "b", "reversal_um": 6.0}})
+    with pytest.raises(InputError, match="direction each axis moved.*in Machine.with_state .directions=") as err:
+        table_compensation(m, "linuxcnc")
+    assert "in --state (directions=" in in_cli_words(err.value)
+    q = grid(m, 3)
+    for d in ([1, 1, 1], [-1, 1, -1]):
+        moved = m.with_state(directions=d)
+        command = table_compensation(moved, "linuxcnc")
+        at = Points(q, np.broadcast_to(np.array(d, float), q.shape), np.zeros(len(q)))
+        cpoints = compensated_points(moved, q, command)
+        np.testing.assert_allclose(cpoints.reference[:, :3], residuals(moved, command.export.compensation, at), rtol=0,
+                                   atol=1e-12)
+        # the half reversal (3 um, its sign by the direction) is taken out: the residual in x is that
+        # of the machine without the backlash, to a fraction of it (inside the travel: at its ends an
+        # axis arrives from one side only, so the fit has no points for the other column's end node)
+        plain = machines["vmc500"].with_state(directions=d)
+        without = compensated_points(plain, q, table_compensation(plain, "linuxcnc")).reference[:, 0]
+        inside = (q[:, 0] > m.travel[0, 0]) & (q[:, 0] < m.travel[0, 1])
+        assert inside.sum() == 9 and np.abs(cpoints.reference[inside, 0] - without[inside]).max() < 0.1e-6
+
+
 # ------------------------------------------------------------------ bad input, command line
 
 
@@ -287,7 +337,7 @@ def test_the_residual_of_a_compensation_is_the_error_at_its_commands(machines):
     ({"samples": 2.5}, "samples must be"),
     ({"samples": 10, "interval_samples": 20}, "interval_samples must be a whole number from 2 to samples"),
     ({"seed": -1}, "seed must be a non-negative"),
-    ({"compensation": "table"}, "compensation must be 'point' or a callable"),
+    ({"compensation": "table"}, "compensation must be 'point', a controller .* or a callable, got 'table'"),
 ])
 def test_bad_study_arguments_are_refused_naming_the_parameter(machines, kwargs, match):
     m = machines["vmc500"]
@@ -344,6 +394,18 @@ def test_volerr_uncertainty_json_csv_and_recording(tmp_path, capsys, monkeypatch
                 if name.endswith("u_um") and "linear" not in name:
                     found.append(np.concatenate(batch.column(name).to_pylist()))
     assert found and found[0].shape == (27,) and found[0].max() > 0.1
+
+
+def test_volerr_uncertainty_with_a_controller_s_tables(capsys):
+    args = ["uncertainty", "vmc500", "--instrument-sigma", "1", "--campaign-points", "60", "--samples", "100",
+            "--grid", "3", "--compensation", "heidenhain", "--workers", "0"]
+    code, text, err = _cli(args + ["--json"], capsys)
+    assert code == 0, err
+    report = json.loads(text)
+    assert report["compensation_method"] == "heidenhain"
+    assert 0 < report["compensation"]["max_error_um"]["value"] < report["map"]["max_error_um"]["value"]
+    code, text, err = _cli(args, capsys)
+    assert code == 0 and "residual after heidenhain compensation over 27 points" in text, err
 
 
 @pytest.mark.slow

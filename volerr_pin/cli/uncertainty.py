@@ -14,6 +14,7 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
+from ..export.registry import CONTROLLERS
 from ..safeio import transaction
 from ..units import UM
 from .common import (add_json_arg, add_machine_args, add_state_arg, check_run_outputs, dumps, machine_of, positive,
@@ -143,8 +144,10 @@ def add_parser(sub) -> None:
     add_study_args(p, samples=2000, grid=7)
     p.add_argument("--interval-samples", type=count,
                    help="draws behind the per-point 95 %% intervals (default min(samples, 1000))")
-    p.add_argument("--compensation", choices=["none", "point"], default="none",
-                   help="also the residual after this compensation, computed on the estimate (default none)")
+    p.add_argument("--compensation", choices=["none", "point", *CONTROLLERS], default="none",
+                   help="also the residual after this compensation, computed on the estimate: exact point "
+                        "compensation, or a controller's tables as volerr export writes them and the controller "
+                        "applies them (default none)")
     p.add_argument("--out", metavar="FIELD.csv", help="write every point's numbers (positions mm/deg, errors um)")
     p.add_argument("--rrd", metavar="FILE.rrd", help="write a Rerun recording of the uncertainty field")
     add_json_arg(p)

@@ -40,8 +40,9 @@ are compared the same way (standard errors ``u / sqrt(n)`` and ``u / sqrt(2 (n -
 from the estimate; the machine the commands are sent to is the uncertain one, so the
 residual at a desired position ``q`` is ``e(q_c, theta) + p_nom(q_c) - p_nom(q)``: zero at the
 estimate for an exact point compensation, with the uncertainty of the error at ``q_c``.
-:func:`point_compensation` is ``compensate.compensate_points`` on the estimate; any other
-(a controller's tables) is a callable with the same signature.
+:func:`point_compensation` is ``compensate.compensate_points`` on the estimate;
+:func:`table_compensation` is a controller's tables, exported from the estimate and applied as
+the controller applies them; any other is a callable with the same signature.
 """
 
 from __future__ import annotations
@@ -65,7 +66,8 @@ from .montecarlo import (QUANTILE_TASK_BYTES, MonteCarlo, NormalSource, Points, 
 
 __all__ = ["FieldUncertainty", "Linear", "Scalar", "UncertaintyStudy", "check_arguments", "compensated_points",
            "compare_scalar",
-           "linear_propagation", "numerical_tolerance", "point_compensation", "study_uncertainty", "z_family"]
+           "linear_propagation", "numerical_tolerance", "point_compensation", "study_uncertainty", "table_compensation",
+           "z_family"]
 
 #: coverage probability of the intervals and the normal coverage factor of the linear ones
 COVERAGE = 0.95
@@ -460,6 +462,64 @@ def point_compensation(machine: Machine, **options) -> Callable[[np.ndarray], np
     return command
 
 
+def table_compensation(machine: Machine, controller: str, **options) -> Callable[[np.ndarray], np.ndarray]:
+    """A controller's compensation tables exported from ``machine`` (the estimate), as the
+    command map the controller makes of them.
+
+    The tables are laid out, fitted, rounded to the format, written and read back by the
+    controller's rules (:func:`volerr_pin.export.export_tables`); the map adds the corrections
+    the controller reads from them to the desired positions, with the tool at the machine's
+    tool point and the approach directions of the machine's state. So the residual of the
+    study holds what the tables cannot represent (their interpolation, their rounding) beside
+    the uncertainty of the machine.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine at the estimate (its state included).
+    controller : str
+        ``linuxcnc``, ``isg``, ``siemens-840d``, ``heidenhain`` or ``fanuc``.
+    **options
+        Passed to :func:`volerr_pin.export.export_tables` (``zone``, ``kind``, ``nodes``,
+        ``points``, ``seed``).
+
+    Returns
+    -------
+    callable
+        ``command(q_desired) -> q_commanded``, both (N, n_axes) [m, rad]; its ``__name__`` is
+        the controller's and its ``export`` the :class:`~volerr_pin.export.ExportResult`.
+
+    Raises
+    ------
+    InputError
+        For an unknown controller, or a machine with direction-dependent terms (backlash) whose
+        state gives no approach directions: a controller applies those tables by the direction
+        each axis moved, and the model without directions holds the axes midway.
+    SpecError
+        For a machine the controller cannot compensate this way.
+    """
+    from ..export import controller_format, export_tables
+
+    fmt = controller_format(controller)
+    directions = machine.state.get("directions")
+    if directions is None and "directions" in machine.covariates_used:
+        raise InputError(f"compensation: {fmt.name} applies its tables by the direction each axis moved, and "
+                         "the model has direction-dependent terms: give the direction each axis approaches from "
+                         "in Machine.with_state (directions=+1 or -1 per axis)", parameters=("Machine.with_state",))
+    result = export_tables(machine, fmt, **options)
+    table = result.compensation
+    approach = np.ones(len(machine.axes)) if directions is None else np.asarray(directions, dtype=float)
+
+    def command(q_desired: np.ndarray) -> np.ndarray:
+        q_desired = np.asarray(q_desired, dtype=float)
+        d = np.broadcast_to(approach, q_desired.shape)
+        return q_desired + table.correction(q_desired, d, np.zeros(len(q_desired)))
+
+    command.__name__ = fmt.name
+    command.export = result
+    return command
+
+
 def compensated_points(machine: Machine, q_desired: np.ndarray, command: Callable[[np.ndarray], np.ndarray]
                        ) -> Points:
     """The points at which a compensation's residual is evaluated.
@@ -604,9 +664,12 @@ def study_uncertainty(covariance: Covariance, q: np.ndarray, *, samples: int = 2
         Seed of the draws (chunk ``k`` draws from ``SeedSequence(seed, spawn_key=(k,))``).
     interval_samples : int, optional
         Draws behind the per-point intervals (default ``min(samples, 1000)``).
-    compensation : callable, "point" or None
+    compensation : callable, str or None
         None: the map only. "point": exact point compensation on the estimate
-        (:func:`point_compensation`). A callable ``q_desired -> q_commanded``: any other.
+        (:func:`point_compensation`). A controller's name (``linuxcnc``, ``isg``,
+        ``siemens-840d``, ``heidenhain``, ``fanuc``): its tables exported from the estimate, as
+        the controller applies them (:func:`table_compensation`, default layout over the whole
+        travel). A callable ``q_desired -> q_commanded``: any other.
     engine : Engine, optional
         Where the Monte Carlo runs (default in this process).
     progress : callable(stage, done, total), optional
@@ -621,7 +684,8 @@ def study_uncertainty(covariance: Covariance, q: np.ndarray, *, samples: int = 2
     ------
     InputError
         If ``samples`` or ``interval_samples`` is not a whole number >= 2 (``interval_samples``
-        at most ``samples``), ``seed`` is negative, or ``q`` is invalid.
+        at most ``samples``), ``seed`` is negative, ``q`` is invalid, or ``compensation`` is a
+        name other than those above (and as :func:`table_compensation` raises).
     """
     machine = covariance.machine
     samples, seed, interval_samples = check_arguments(samples, seed, interval_samples)
@@ -636,8 +700,12 @@ def study_uncertainty(covariance: Covariance, q: np.ndarray, *, samples: int = 2
         if compensation == "point":
             compensation = point_compensation(machine)
         elif isinstance(compensation, str):
-            raise InputError(f"compensation must be 'point' or a callable, got {compensation!r}",
-                             parameters=("compensation",))
+            from ..export import CONTROLLERS
+
+            if compensation not in CONTROLLERS:
+                raise InputError(f"compensation must be 'point', a controller ({', '.join(CONTROLLERS)}) or a "
+                                 f"callable, got {compensation!r}", parameters=("compensation",))
+            compensation = table_compensation(machine, compensation)
         cpoints = compensated_points(machine, q, compensation)
         residual = _field(machine, covariance, cpoints, q, source, samples, int(interval_samples), engine, progress,
                           "compensation")
