@@ -40,7 +40,7 @@ from ..measurements.ballbar import BallbarRun
 from ..units import axis_scales
 from .nc import check_axes
 from .poses import pose_candidates
-from .protocol import Setup
+from .protocol import Setup, numbered_files
 
 __all__ = ["BALLBAR", "PLANES", "Ballbar", "Circle"]
 
@@ -265,9 +265,7 @@ class Ballbar:
         list of Path
             One file per circle.
         """
-        out = Path(out)
-        width = max(2, len(str(count)))
-        return [out.with_name(f"{out.stem}_circle{i + 1:0{width}d}{out.suffix}") for i in range(count)]
+        return numbered_files(out, count, "circle")
 
     def files(self, machine, setup: Setup, units: list) -> list[str]:
         """One ballbar file per circle, deviations empty.

@@ -26,7 +26,7 @@ from ..measurements.runs import Runs
 from ..units import axis_scales
 from .poses import pose_candidates
 from .nc import StopsProgram
-from .protocol import Setup
+from .protocol import Setup, numbered_files
 
 __all__ = ["INTERFEROMETER", "Interferometer", "Run"]
 
@@ -181,9 +181,7 @@ class Interferometer(StopsProgram):
         list of Path
             One file per run.
         """
-        out = Path(out)
-        width = max(2, len(str(count)))
-        return [out.with_name(f"{out.stem}_run{i + 1:0{width}d}{out.suffix}") for i in range(count)]
+        return numbered_files(out, count, "run")
 
     def files(self, machine, setup: Setup, units: list) -> list[str]:
         """One positioning-run file per run, deviations empty.

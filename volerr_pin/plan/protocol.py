@@ -13,11 +13,12 @@ never asks which instrument it holds.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["LAYOUTS", "Instrument", "Setup"]
+__all__ = ["LAYOUTS", "Instrument", "Setup", "numbered_files"]
 
 #: how candidate units are laid out over the zone: scrambled Sobol' points (the pool a plan
 #: chooses from), a regular grid, or uniform random draws
@@ -210,3 +211,26 @@ class Instrument(Protocol):
             ``dwell_per_pose_s``, ``path_mm``, ``model`` (see :func:`~volerr_pin.plan.nc.time_estimate`).
         """
 
+
+def numbered_files(out, count: int, word: str) -> list[Path]:
+    """The files of an instrument whose files hold one unit each: ``STEM_<word>01.csv`` ...
+    beside the plan's file, numbered from 1 with at least two digits (as many as ``count``
+    needs).
+
+    Parameters
+    ----------
+    out : str or Path
+        The plan's file as given.
+    count : int
+        Number of units.
+    word : str
+        What a unit is called in the names ("circle", "run").
+
+    Returns
+    -------
+    list of Path
+        One file per unit, in order.
+    """
+    out = Path(out)
+    width = max(2, len(str(count)))
+    return [out.with_name(f"{out.stem}_{word}{i + 1:0{width}d}{out.suffix}") for i in range(count)]
