@@ -423,3 +423,12 @@ def test_interferometer_runs_are_files_identify_reads(tmp_path, vmc500, capsys):
         warnings.simplefilter("ignore")
         fit = identify(vmc500.with_theta(np.zeros(len(vmc500.theta))), data, folds=0, initialise=False)
     assert fit.rms_fit_um < 0.01 and fit.n_points == 12 * 22
+
+
+def test_files_of_one_unit_each_are_numbered_to_the_width_of_the_count(tmp_path):
+    from volerr_pin.plan.protocol import numbered_files
+
+    assert [p.name for p in numbered_files(tmp_path / "bb.csv", 3, "circle")] == [
+        "bb_circle01.csv", "bb_circle02.csv", "bb_circle03.csv"]
+    many = numbered_files(tmp_path / "runs.csv", 120, "run")
+    assert many[0] == tmp_path / "runs_run001.csv" and many[-1].name == "runs_run120.csv"
