@@ -25,6 +25,16 @@ from .results import Candidate, Score, parallel_map
 __all__ = ["PERIODOGRAM_POINTS", "Base", "Columns", "Projector", "base_design", "periodogram_period", "score"]
 
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
+#: a per-revolution error of an axis measured over more than one turn is checked for repeating
+#: from one turn to the next when each turn holds at least this many points ...
+REPEAT_MIN_POINTS = 20
+#: ... and it does not repeat when its coefficients fitted on each turn apart differ by more than
+#: this share of the common amplitude (true errors of the held-out sets, once the other axes'
+#: geometry is in: 0.01 to 0.16; a smooth shape of B over its two turns: 0.70 to 3.0) ...
+REPEAT_RATIO = 0.5
+#: ... and by more than this many standard uncertainties of the difference (a chi with as many
+#: degrees of freedom as coefficients; true errors: 0.1 to 1.3, smooth shapes: 2.6 to 7.7)
+REPEAT_SIGMAS = 2.0
 
 
 @dataclass
@@ -271,6 +281,34 @@ class Projector:
             return 0, float(self.r @ self.r), np.zeros(C.shape[1])
         return extra, rss, gamma / norms
 
+    def covariance(self, C: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, int]:
+        """Least squares of the candidate's columns jointly with the base, with the
+        covariance of its coefficients.
+
+        Parameters
+        ----------
+        C : ndarray, shape (rows, k)
+            The candidate's weighted columns.
+
+        Returns
+        -------
+        tuple of (ndarray, ndarray, float, int)
+            Its coefficients (k,) in C's units, their covariance (k, k) for a unit variance of
+            the weighted residual (multiply by the residual variance), the residual sum of
+            squares after and the rank it adds (the covariance is that of the minimum-norm
+            solution when the rank is below k).
+        """
+        norms = np.linalg.norm(C, axis=0)
+        norms[norms == 0] = 1.0
+        Cs = C / norms
+        G = Cs - self.Q @ (self.Q.T @ Cs)
+        w, V = np.linalg.eigh(G.T @ G)
+        keep = w > 1e-12
+        gamma = V[:, keep] @ ((V[:, keep].T @ (G.T @ self.r)) / w[keep])
+        res = self.r - G @ gamma
+        cov = (V[:, keep] / w[keep]) @ V[:, keep].T
+        return gamma / norms, cov / np.outer(norms, norms), float(res @ res), int(keep.sum())
+
     def cv(self, C: np.ndarray) -> float:
         """k-fold cross-validated RMS with the candidate.
 
@@ -296,6 +334,66 @@ class Projector:
             return (Cs[V] - M @ B) @ gamma
 
         return self._cv(correction)
+
+
+def repeat_check(proj: Projector, obs: Observations, C: np.ndarray, angle: np.ndarray) -> dict | None:
+    """Whether an error periodic in a rotary axis' angle repeats from one turn to the next.
+
+    A true per-revolution error has the same value at an angle and one turn later; a smooth
+    function over more than one turn does not, though it has content at the same period. The
+    candidate's columns are fitted again split by turn (separate coefficients for the points
+    in the first turn of the measured span, ``angle < min + 2 pi``, and for the rest) jointly
+    with the base, and the per-turn coefficients are compared: the error does not repeat when
+    their difference is both larger than :data:`REPEAT_RATIO` times the common amplitude and
+    larger than :data:`REPEAT_SIGMAS` standard uncertainties of the difference (a chi with
+    as many degrees of freedom as coefficients; the variance from the split fit's residual,
+    which holds what the model still misses).
+
+    Parameters
+    ----------
+    proj : Projector
+        The round's projector.
+    obs : Observations
+        The observations.
+    C : ndarray, shape (rows, k)
+        The candidate's weighted columns (the sine and cosine of a periodic error).
+    angle : ndarray, shape (N,)
+        The axis' angle at every point [rad].
+
+    Returns
+    -------
+    dict or None
+        None when the span is one turn or less, or a turn holds fewer than
+        :data:`REPEAT_MIN_POINTS` points (nothing to compare); else ``repeats`` (bool),
+        ``amplitude`` (the common fit's amplitude, the norm of its coefficients, SI),
+        ``turns`` (the per-turn coefficients, (2, k), SI), ``difference`` (the norm of their
+        difference, SI), ``ratio`` (difference / amplitude) and ``sigmas`` (the difference in
+        standard uncertainties).
+    """
+    lo = float(angle.min())
+    if np.ptp(angle) <= 2 * np.pi * (1 + 1e-9):
+        return None
+    first = angle < lo + 2 * np.pi
+    if min(first.sum(), (~first).sum()) < REPEAT_MIN_POINTS:
+        return None
+    k = C.shape[1]
+    rows = first[obs.point][:, None]
+    common = proj.fit(C)[2]
+    gamma, cov, rss, extra = proj.covariance(np.hstack([C * rows, C * ~rows]))
+    dof = len(proj.r) - proj.rank - extra
+    if extra < 2 * k or dof <= 0:
+        return None  # the turns cannot be told apart with this base
+    variance = rss / dof
+    diff = gamma[:k] - gamma[k:]
+    cov_diff = variance * (cov[:k, :k] + cov[k:, k:] - cov[:k, k:] - cov[k:, :k])
+    chi2 = float(diff @ np.linalg.solve(cov_diff, diff))
+    amplitude = float(np.linalg.norm(common))
+    difference = float(np.linalg.norm(diff))
+    ratio = difference / amplitude if amplitude > 0 else math.inf
+    sigmas = math.sqrt(max(chi2, 0.0))
+    return {"repeats": not (ratio > REPEAT_RATIO and sigmas > REPEAT_SIGMAS), "amplitude": amplitude,
+            "turns": np.stack([gamma[:k], gamma[k:]]), "difference": difference, "ratio": ratio,
+            "sigmas": sigmas}
 
 
 def periodogram_period(machine: Machine, obs: Observations, r: np.ndarray, axis_index: int, letter: str
