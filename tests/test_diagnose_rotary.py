@@ -97,10 +97,11 @@ def test_no_check_over_one_turn_or_with_too_few_points_on_a_turn():
     rng, b, base, C, obs, folds = _setup(0, turns=1.0)
     y = C @ [5 * ARCSEC, 0.0] + rng.normal(0, NOISE, N)
     assert _check(y, base, C, obs, folds, b)[1] is None
-    rng, b, base, C, obs, folds = _setup(0)
-    b = np.where(b > 0, b, b / 2 - np.pi)     # the first turn holds points only in its last half
-    b[: REPEAT_MIN_POINTS - 1] = -2 * np.pi + 0.1 * np.arange(REPEAT_MIN_POINTS - 1)
-    b[REPEAT_MIN_POINTS - 1:] = np.abs(b[REPEAT_MIN_POINTS - 1:])
-    C = np.column_stack([np.sin(b), np.cos(b)]) * LEVER
-    y = C @ [5 * ARCSEC, 0.0] + rng.normal(0, NOISE, N)
-    assert _check(y, base, C, obs, folds, b)[1] is None
+    for first in (REPEAT_MIN_POINTS - 1, REPEAT_MIN_POINTS):
+        # ``first`` points on the first turn (-360..0 deg), the rest on the second
+        b = np.r_[np.linspace(-2 * np.pi, -0.1, first), np.linspace(0.0, 2 * np.pi, N - first)]
+        base = np.polynomial.legendre.legvander(b / (2 * np.pi), 3) * LEVER
+        C = np.column_stack([np.sin(b), np.cos(b)]) * LEVER
+        y = C @ [5 * ARCSEC, 0.0] + rng.normal(0, NOISE, N)
+        check = _check(y, base, C, obs, folds, b)[1]
+        assert (check is None) == (first < REPEAT_MIN_POINTS)
