@@ -247,13 +247,3 @@ def test_a_negative_top_is_refused_not_taken_as_all_but_the_last(machines):
     assert len(r.to_dict(top=2)["ranking"]) == 2 and len(r.to_dict(top=0)["ranking"]) == len(r.rows)
     with pytest.raises(vp.InputError, match="top must be >= 0, got -1"):
         r.to_dict(top=-1)
-
-
-def test_rank_reads_a_study_tolerance_file_with_distributions_and_costs(tmp_path, machines):
-    m = machines["vmc500"]
-    path = tmp_path / "tol.toml"
-    path.write_text('distribution = "normal"\nEXX_um = { value = 10, cost = 3 }\nEBX_arcsec = 5\n'
-                    "default_um = 1\ndefault_arcsec = 1\n")
-    tol = read_tolerances(path, m)
-    assert tol["EXX"] == pytest.approx(10e-6) and tol["EBX"] == pytest.approx(5 * np.pi / 648000)
-    assert tol["EYY"] == pytest.approx(1e-6) and list(tol) == list(m.components)

@@ -16,12 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, SpecError
 from .identifiability import IdentifiabilityGroup, analyse
 from .machine import Machine
-from .spec import parse_component_name
+from .spec import parse_component_name, read_toml
 from .safeio import require_memory
-from .units import ARCSEC, ARCSEC_PER_RAD, UM, UM_PER_M
+from .units import ARCSEC, ARCSEC_PER_RAD, UM, UM_PER_M, scale, split_key
 from .checks import integer, positive
 from .workspace import sample
 
@@ -93,9 +93,7 @@ def read_tolerances(path: str | Path, machine: Machine) -> dict[str, float]:
     """Read ``term -> expected magnitude`` from a TOML file.
 
     Keys carry their unit (``EXX_um = 5``, ``EC0Y_arcsec = 3``), with optional
-    ``default_um`` / ``default_arcsec`` for the rest. The file is a tolerance file of the
-    studies (:func:`volerr_pin.studies.tolerances.read_tolerance_file`, read by it); their
-    distributions and costs, where it gives them, do not change the magnitudes.
+    ``default_um`` / ``default_arcsec`` for the rest.
 
     Parameters
     ----------
@@ -113,12 +111,41 @@ def read_tolerances(path: str | Path, machine: Machine) -> dict[str, float]:
     ------
     SpecError
         Naming the file and the term when one is unknown, has no or the wrong unit, is not a
-        non-negative number, or is missing (and as the tolerance file reader raises).
+        non-negative number, or is missing.
     """
-    from .studies.tolerances import read_tolerance_file
-
-    tolerances = read_tolerance_file(path, machine)
-    return dict(zip(tolerances.components, (float(v) for v in tolerances.values)))
+    path = Path(path)
+    data = read_toml(path)
+    defaults: dict[str, float] = {}
+    values: dict[str, float] = {}
+    for key, value in data.items():
+        stem, unit = split_key(key)
+        where = f"{path}: {key}"
+        if unit is None:
+            raise SpecError(f"{where}: give the unit in the key, e.g. {key}_um or {key}_arcsec")
+        if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+            raise SpecError(f"{where}: expected a non-negative number, got {value!r}")
+        if stem == "default":
+            quantity = "length" if unit in ("m", "mm", "um", "nm") else "angle"
+            defaults[quantity] = value * scale(unit, quantity, where)
+            continue
+        if stem not in machine.components:
+            raise SpecError(f"{where}: '{stem}' is not an error term of {machine.name} "
+                            f"(terms: {', '.join(machine.components)})")
+        direction = parse_component_name(stem)[0]
+        quantity = "length" if direction in "XYZ" else "angle"
+        values[stem] = value * scale(unit, quantity, where)
+    missing = []
+    for name in machine.components:
+        if name not in values:
+            quantity = "length" if parse_component_name(name)[0] in "XYZ" else "angle"
+            if quantity in defaults:
+                values[name] = defaults[quantity]
+            else:
+                missing.append(name)
+    if missing:
+        raise SpecError(f"{path}: no tolerance for {', '.join(missing)} (give them, or "
+                        "default_um / default_arcsec)")
+    return values
 
 
 def rank(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048, seed: int = 0,
