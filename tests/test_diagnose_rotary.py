@@ -105,3 +105,20 @@ def test_no_check_over_one_turn_or_with_too_few_points_on_a_turn():
         y = C @ [5 * ARCSEC, 0.0] + rng.normal(0, NOISE, N)
         check = _check(y, base, C, obs, folds, b)[1]
         assert (check is None) == (first < REPEAT_MIN_POINTS)
+
+
+def test_the_reason_names_the_axis_and_the_per_turn_coefficients():
+    from volerr_pin.diagnose.results import Candidate
+    from volerr_pin.diagnose.scoring import not_repeating
+
+    cand = Candidate("periodic_rotary", "B", "y", "EBB", {"kind": "periodic_pitch", "period_deg": 360.0})
+    rng, b, base, C, obs, folds = _setup(0)
+    grow = (C @ [3 * ARCSEC, 0.0]) * (1 + b / (2 * np.pi)) + rng.normal(0, NOISE, N)
+    proj, check = _check(grow, base, C, obs, folds, b)
+    note = not_repeating(proj, obs, C / NOISE, b, cand, 3)
+    first, second = check["turns"][:, 0] / ARCSEC
+    assert note.startswith("not accepted in round 4: it does not repeat from one turn of B to the next")
+    assert f"turn 1: {first:.2f}/" in note and f"turn 2: {second:.2f}/" in note and "EBB" in note
+    true = C @ [5 * ARCSEC, 2 * ARCSEC] + rng.normal(0, NOISE, N)
+    proj, _ = _check(true, base, C, obs, folds, b)
+    assert not_repeating(proj, obs, C / NOISE, b, cand, 3) is None

@@ -22,7 +22,7 @@ from ..identify import (Identification, Observations, build_observations, check_
                         identify, parameter_units, pose_folds, residual_rms)
 from ..machine import Machine
 from ..safeio import require_memory
-from ..units import ARCSEC, UM_PER_M
+from ..units import UM_PER_M
 from ..specio import add_terms
 from .candidates import build_candidates
 from .changes import apply_changes, remove_effect, size_of, tested_names, trim_raises, with_lag
@@ -30,7 +30,7 @@ from .report import (components_per_point, effect_amplitude, group_findings, noi
                      residual_analysis, stated_noise, twins_of)
 from .results import (PARALLEL_MIN_ROWS, PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, STATED_NOISE_FACTOR, Change, Diagnosis, Step,
                       one_blas_thread, parallel_map, process_map)
-from .scoring import Columns, Projector, base_design, repeat_check, score
+from .scoring import Columns, Projector, base_design, not_repeating, score
 
 __all__ = ["LAGS_S", "TIME_CHECK_SHARE", "diagnose"]
 
@@ -236,27 +236,6 @@ class _Loop:
                    and s.cv_rms_um is not None and s.cv_rms_um < proj.cv_rms * (1 - 1e-3)]
         return ranked, passing
 
-    def _repeats(self, number: int, s, proj: Projector) -> bool:
-        """Whether a candidate may be accepted as far as repeating goes: an error periodic in a
-        rotary axis' angle, on an axis measured over more than one turn, must have the same
-        coefficients on each turn (:func:`~volerr_pin.diagnose.scoring.repeat_check`). One that
-        does not is a smooth shape over the turns (the axis' own geometry, which its raise
-        models); it waits, and says why in its score's ``note``."""
-        c = s.candidate
-        if c.name != "periodic_rotary" or s.columns is None:
-            return True
-        check = repeat_check(proj, self.obs, s.columns, self.obs.q[:, self.axis_index_of[c.axis]])
-        if check is None or check["repeats"]:
-            return True
-        turns = ", ".join(f"turn {k + 1}: " + "/".join(f"{v / ARCSEC:.2f}" for v in t)
-                          for k, t in enumerate(check["turns"]))
-        s.note = (f"not accepted in round {number + 1}: it does not repeat from one turn of {c.axis} to the next "
-                  f"(sine/cosine fitted on each turn apart, {turns} arcsec, differ by "
-                  f"{check['difference'] / ARCSEC:.2f} arcsec: {check['ratio']:.2f} of the common amplitude of "
-                  f"{check['amplitude'] / ARCSEC:.2f} arcsec and {check['sigmas']:.1f} standard uncertainties), "
-                  f"so it is a smooth shape of {c.component} over the turns, which raising it models")
-        return False
-
     def _accept(self, number: int, passing: list, proj: Projector) -> list[Change]:
         """The first of the best three passing candidates whose size stays significant in the
         joint refit (a winning raise with the other raises that pass on their own); the model
@@ -266,10 +245,7 @@ class _Loop:
         and the raises of its component wait while anything else can be accepted: early on,
         other axes' unmodelled geometry clouds the repeat of a true error, and a raise over two
         turns would swallow it; once the rest of the model is in, the question is asked again."""
-        failing = {s.label for s in passing if not self._repeats(number, s, proj)}
-        waiting = {s.candidate.component for s in passing if s.label in failing}
-        allowed = [s for s in passing if s.label not in failing]
-        first = [s for s in allowed if not (s.candidate.kind == "raise" and s.candidate.component in waiting)]
+        first, allowed = _repeat_order(number, passing, proj, self.obs, self.axis_index_of)
         records = self._accept_first(number, first, passing, proj)
         if not records and len(first) < len(allowed):
             records = self._accept_first(number, allowed, passing, proj)
@@ -557,6 +533,25 @@ class _Loop:
         for part in parts:
             out.update(part)
         return out
+
+
+def _repeat_order(number: int, passing: list, proj: Projector, obs: Observations,
+                  axis_index_of: dict[str, int]) -> tuple[list, list]:
+    """The passing candidates a round may accept first, and those it may accept when none of
+    the first is: without the per-revolution errors that do not repeat from one turn to the
+    next (:func:`~volerr_pin.diagnose.scoring.not_repeating`, whose reason becomes the
+    score's ``note``), the first also without the raises of their components."""
+    failing = set()
+    for s in passing:
+        c = s.candidate
+        if c.name == "periodic_rotary" and s.columns is not None:
+            note = not_repeating(proj, obs, s.columns, obs.q[:, axis_index_of[c.axis]], c, number)
+            if note:
+                s.note = note
+                failing.add(s.label)
+    waiting = {s.candidate.component for s in passing if s.label in failing}
+    allowed = [s for s in passing if s.label not in failing]
+    return [s for s in allowed if not (s.candidate.kind == "raise" and s.candidate.component in waiting)], allowed
 
 
 def _call(task):

@@ -18,11 +18,12 @@ from ..identify import Observations, point_squares, predict_observations
 from ..machine import Machine
 from ..spec import build_term, parse_component_name
 from ..terms import Context, Covariates
-from ..units import UM_PER_M
+from ..units import ARCSEC, UM_PER_M
 from .candidates import MIN_PERIODS, PITCH_PERIOD_MM, interpolation_period
 from .results import Candidate, Score, parallel_map
 
-__all__ = ["PERIODOGRAM_POINTS", "Base", "Columns", "Projector", "base_design", "periodogram_period", "score"]
+__all__ = ["PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "Base", "Columns", "Projector",
+           "base_design", "not_repeating", "periodogram_period", "repeat_check", "score"]
 
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
 #: a per-revolution error of an axis measured over more than one turn is checked for repeating
@@ -394,6 +395,44 @@ def repeat_check(proj: Projector, obs: Observations, C: np.ndarray, angle: np.nd
     return {"repeats": not (ratio > REPEAT_RATIO and sigmas > REPEAT_SIGMAS), "amplitude": amplitude,
             "turns": np.stack([gamma[:k], gamma[k:]]), "difference": difference, "ratio": ratio,
             "sigmas": sigmas}
+
+
+def not_repeating(proj: Projector, obs: Observations, C: np.ndarray, angle: np.ndarray, cand: Candidate,
+                  number: int) -> str | None:
+    """Why an error periodic in a rotary axis' angle is not a per-revolution error, when it
+    does not repeat from one turn to the next (:func:`repeat_check`).
+
+    Parameters
+    ----------
+    proj : Projector
+        The round's projector.
+    obs : Observations
+        The observations.
+    C : ndarray, shape (rows, k)
+        The candidate's weighted columns.
+    angle : ndarray, shape (N,)
+        The axis' angle at every point [rad].
+    cand : Candidate
+        The candidate (a ``periodic_rotary`` one).
+    number : int
+        The round (from 0).
+
+    Returns
+    -------
+    str or None
+        The reason, with the per-turn coefficients [arcsec]; None when it repeats or the data
+        cannot tell (one turn or less, too few points on a turn).
+    """
+    check = repeat_check(proj, obs, C, angle)
+    if check is None or check["repeats"]:
+        return None
+    turns = ", ".join(f"turn {k + 1}: " + "/".join(f"{v / ARCSEC:.2f}" for v in t)
+                      for k, t in enumerate(check["turns"]))
+    return (f"not accepted in round {number + 1}: it does not repeat from one turn of {cand.axis} to the next "
+            f"(sine/cosine fitted on each turn apart, {turns} arcsec, differ by "
+            f"{check['difference'] / ARCSEC:.2f} arcsec: {check['ratio']:.2f} of the common amplitude of "
+            f"{check['amplitude'] / ARCSEC:.2f} arcsec and {check['sigmas']:.1f} standard uncertainties), "
+            f"so it is a smooth shape of {cand.component} over the turns, which raising it models")
 
 
 def periodogram_period(machine: Machine, obs: Observations, r: np.ndarray, axis_index: int, letter: str
