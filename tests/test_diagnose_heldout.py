@@ -124,6 +124,9 @@ def test_five_axis_third_seed(machines, kind):
     result = diagnose(m, [data], sigma_um=NOISE)
     assert named(result) == sorted(expected), [e.label for e in result.effects]
     check_practical(result)
+    # the report says why B's once-per-revolution candidate was not taken
+    notes = [c["note"] for step in result.to_dict()["steps"] for c in step["candidates"] if "note" in c]
+    assert any("does not repeat from one turn of B to the next" in n for n in notes), notes
 
 
 def _real_data() -> Path:

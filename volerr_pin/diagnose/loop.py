@@ -316,8 +316,9 @@ class _Loop:
         return self.holdout(model, res)[0].cv_rms
 
     def in_parallel(self, tasks: list) -> list:
-        """``[task() for task in tasks]``, independent refits, on :data:`WORKERS` forked processes
-        (their results - numbers and arrays - travel back; a fitted machine does not pickle)."""
+        """``[task() for task in tasks]``, independent refits, on :data:`WORKERS` processes: this
+        one and forked children (their results - numbers and arrays - travel back; a fitted
+        machine does not pickle)."""
         return process_map(_call, tasks)
 
     def without(self, members: list[Change]):

@@ -298,6 +298,10 @@ class Score:
         Its fitted coefficients (SI).
     columns : ndarray, shape (rows, extra), or None
         Its weighted design columns.
+    note : str
+        Why a candidate that passed the round's tests was not accepted (a per-revolution error
+        that does not repeat from one turn to the next, with its per-turn coefficients); empty
+        otherwise.
     """
 
     label: str
@@ -310,6 +314,7 @@ class Score:
     term: object = field(default=None, repr=False)
     coefficients: np.ndarray | None = field(default=None, repr=False)
     columns: np.ndarray | None = field(default=None, repr=False)
+    note: str = ""
 
     def summary(self) -> "Score":
         """The score without its term and design columns (what a :class:`Step` keeps: the
@@ -328,10 +333,14 @@ class Score:
         Returns
         -------
         dict
-            ``label``, ``extra``, ``p_value``, ``bic_gain``, ``cv_rms_um``, ``rss_drop``.
+            ``label``, ``extra``, ``p_value``, ``bic_gain``, ``cv_rms_um``, ``rss_drop``, and
+            ``note`` when set.
         """
-        return {"label": self.label, "extra": self.extra, "p_value": self.p_value, "bic_gain": self.bic_gain,
-                "cv_rms_um": self.cv_rms_um, "rss_drop": self.rss_drop}
+        out = {"label": self.label, "extra": self.extra, "p_value": self.p_value, "bic_gain": self.bic_gain,
+               "cv_rms_um": self.cv_rms_um, "rss_drop": self.rss_drop}
+        if self.note:
+            out["note"] = self.note
+        return out
 
 
 @dataclass
@@ -634,7 +643,8 @@ class Diagnosis:
             "dropped": [e.to_dict() for e in self.dropped],
             "steps": [{"step": s.number, "rms_holdout_um": s.rms_holdout_um,
                        "accepted": [a.label for a in s.accepted_all] or None,
-                       "candidates": [c.to_dict() for c in s.candidates[:10]]} for s in self.steps],
+                       "candidates": [c.to_dict() for k, c in enumerate(s.candidates) if k < 10 or c.note]}
+                      for s in self.steps],
             "test": f"F-test at alpha = {self.alpha:g} / number of candidates (Bonferroni; periods "
                     "searched in a periodogram also / number of periods), a lower k-fold "
                     f"cross-validated RMS, and |value| >= {SIGNIFICANCE:g} standard uncertainties "
