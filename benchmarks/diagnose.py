@@ -72,7 +72,7 @@ def _run(path: Path, mode: str) -> dict:
 
 def bench(sizes=(400, 4000), repeat: int = 1, loads=("quiet", "busy")) -> list[dict]:
     """One row per (load, size, mode) and one row of ratios per (load, size); best of ``repeat``."""
-    rows = []
+    rows = [{"mode": "machine", "load_before": os.getloadavg()[0] if hasattr(os, "getloadavg") else None}]
     with tempfile.TemporaryDirectory() as tmp:
         paths = {n: _write_set(n, Path(tmp)) for n in sizes}
         _run(paths[sizes[0]], "default")   # compile and cache the kernels
@@ -105,11 +105,12 @@ def bench(sizes=(400, 4000), repeat: int = 1, loads=("quiet", "busy")) -> list[d
 def markdown(rows: list[dict]) -> str:
     """The rows as markdown tables."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    lines = [f"Measured on {platform.machine()} ({_cpu_model()}) with {cores} cores, Python {platform.python_version()}, "
-             f"load average before the run {os.getloadavg()[0]:.2f}." if hasattr(os, "getloadavg") else "", "",
+    load = next((r["load_before"] for r in rows if r["mode"] == "machine"), None)
+    lines = [f"Measured on {platform.machine()} ({_cpu_model()}) with {cores} cores, Python {platform.python_version()}"
+             + (f", load average before the run {load:.2f}." if load is not None else "."), "",
              "| load | points | mode | wall [s] | CPU [s] | effects |", "|---|---|---|---|---|---|"]
     for r in rows:
-        if r["mode"] != "ratios":
+        if r["mode"] not in ("ratios", "machine"):
             lines.append(f"| {r['load']} | {r['points']} | {r['mode']} | {r['wall_s']:.2f} | {r['cpu_s']:.2f} | "
                          f"{', '.join(r['effects']) or '-'} |")
     lines += ["", "| load | points | CPU default / one (target <= 1.2) | wall default / one (target <= 0.6) | "
