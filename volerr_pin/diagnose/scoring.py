@@ -203,6 +203,13 @@ def _small_lstsq(G: np.ndarray, r: np.ndarray, tol: float = 1e-6):
     return int(keep.sum()), gamma, float(res @ res)
 
 
+def _unit_columns(C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """C's columns scaled to unit norm, and their norms (1 for a zero column)."""
+    norms = np.linalg.norm(C, axis=0)
+    norms[norms == 0] = 1.0
+    return C / norms, norms
+
+
 class Projector:
     """Least squares of a candidate jointly with the base design, by projection.
 
@@ -273,9 +280,7 @@ class Projector:
             The rank it adds, the residual sum of squares after, and its coefficients in C's
             units.
         """
-        norms = np.linalg.norm(C, axis=0)
-        norms[norms == 0] = 1.0
-        Cs = C / norms
+        Cs, norms = _unit_columns(C)
         G = Cs - self.Q @ (self.Q.T @ Cs)
         extra, gamma, rss = _small_lstsq(G, self.r)
         if extra == 0:
@@ -299,9 +304,7 @@ class Projector:
             squares after and the rank it adds (the covariance is that of the minimum-norm
             solution when the rank is below k).
         """
-        norms = np.linalg.norm(C, axis=0)
-        norms[norms == 0] = 1.0
-        Cs = C / norms
+        Cs, norms = _unit_columns(C)
         G = Cs - self.Q @ (self.Q.T @ Cs)
         w, V = np.linalg.eigh(G.T @ G)
         keep = w > 1e-12
@@ -323,9 +326,7 @@ class Projector:
         float
             RMS over held-out points of the position residual norm [um].
         """
-        norms = np.linalg.norm(C, axis=0)
-        norms[norms == 0] = 1.0
-        Cs = C / norms
+        Cs, norms = _unit_columns(C)
 
         def correction(f):
             T, V, Q_T, M, e_T, e_V, pos_V = f
