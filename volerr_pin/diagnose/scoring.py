@@ -192,15 +192,20 @@ def _svd(A: np.ndarray, rtol: float = 1e-10):
     return U[:, keep], s[keep], Vt[keep]
 
 
-def _small_lstsq(G: np.ndarray, r: np.ndarray, tol: float = 1e-6):
+def _small_lstsq(G: np.ndarray, r: np.ndarray, tol: float = 1e-6, covariance: bool = False):
     """Least squares with few columns through the eigen-decomposition of G^T G: (rank with
-    singular values above ``tol`` (G's columns have unit norm), coefficients, rss)."""
+    singular values above ``tol`` (G's columns have unit norm), coefficients, rss), and with
+    ``covariance`` the coefficients' covariance for a unit variance of ``r`` last (that of the
+    minimum-norm solution when the rank is below G's columns)."""
     w, V = np.linalg.eigh(G.T @ G)
     keep = w > tol**2
     b = V.T @ (G.T @ r)
     gamma = V[:, keep] @ (b[keep] / w[keep])
     res = r - G @ gamma
-    return int(keep.sum()), gamma, float(res @ res)
+    out = int(keep.sum()), gamma, float(res @ res)
+    if covariance:
+        out += ((V[:, keep] / w[keep]) @ V[:, keep].T,)
+    return out
 
 
 def _unit_columns(C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -266,6 +271,12 @@ class Projector:
         self.last_max = peak * UM_PER_M
         return float(np.sqrt(sq / count) * UM_PER_M) if count else math.nan
 
+    def _against_base(self, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """C's columns scaled to unit norm less their projection on the base design, and the
+        norms they were scaled by."""
+        Cs, norms = _unit_columns(C)
+        return Cs - self.Q @ (self.Q.T @ Cs), norms
+
     def fit(self, C: np.ndarray) -> tuple[int, float, np.ndarray]:
         """Least squares of the candidate's columns jointly with the base.
 
@@ -280,8 +291,7 @@ class Projector:
             The rank it adds, the residual sum of squares after, and its coefficients in C's
             units.
         """
-        Cs, norms = _unit_columns(C)
-        G = Cs - self.Q @ (self.Q.T @ Cs)
+        G, norms = self._against_base(C)
         extra, gamma, rss = _small_lstsq(G, self.r)
         if extra == 0:
             return 0, float(self.r @ self.r), np.zeros(C.shape[1])
@@ -304,14 +314,9 @@ class Projector:
             squares after and the rank it adds (the covariance is that of the minimum-norm
             solution when the rank is below k).
         """
-        Cs, norms = _unit_columns(C)
-        G = Cs - self.Q @ (self.Q.T @ Cs)
-        w, V = np.linalg.eigh(G.T @ G)
-        keep = w > 1e-12
-        gamma = V[:, keep] @ ((V[:, keep].T @ (G.T @ self.r)) / w[keep])
-        res = self.r - G @ gamma
-        cov = (V[:, keep] / w[keep]) @ V[:, keep].T
-        return gamma / norms, cov / np.outer(norms, norms), float(res @ res), int(keep.sum())
+        G, norms = self._against_base(C)
+        extra, gamma, rss, cov = _small_lstsq(G, self.r, covariance=True)
+        return gamma / norms, cov / np.outer(norms, norms), rss, extra
 
     def cv(self, C: np.ndarray) -> float:
         """k-fold cross-validated RMS with the candidate.
