@@ -428,3 +428,35 @@ def test_cli_says_an_ill_conditioned_fit_in_one_note_and_the_report(tmp_path, ca
     notes = [line for line in captured.err.splitlines() if "ill-conditioned" in line]
     assert len(notes) == 1 and notes[0].startswith("volerr: note: the fit is ill-conditioned: its column-scaled design")
     assert json.loads(captured.out)["ill_conditioned"] is True
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.3e-6])
+def test_the_solver_returns_the_factor_at_its_coefficients_reducing_each_design_once(machines, monkeypatch, noise):
+    """The triangular factor and residual a fit returns (its uncertainties and residual RMS)
+    are those of the returned coefficients, and no design is reduced twice at the same
+    coefficients (a fit that stops without a step reuses the last one)."""
+    import volerr_pin.identify.solver as solver
+    from volerr_pin.identify import build_observations
+    from volerr_pin.identify.design import reduce_design
+
+    m = machines["vmc500"]
+    truth, probe = identifiable_truth(m, 300, seed=7)
+    obs = build_observations(m, [tool_points(m, truth, 300, noise, seed=7)], sigma_um=0.3)
+    seen = []
+
+    def counted(machine, obs_, theta, columns, nuisance, first_order=False):
+        seen.append(np.concatenate([theta, nuisance]))
+        return reduce_design(machine, obs_, theta, columns, nuisance, first_order)
+
+    monkeypatch.setattr(solver, "reduce_design", counted)
+    start = m.theta.copy()
+    for run in range(2):  # from the prior (it stops after a step), then from its own solution
+        seen.clear()
+        theta, nuisance, R, r, iterations, status = solver.solve(m, obs, start, probe.fitted, None, "prior", 50, 1e-8)
+        assert status == "converged"
+        assert len(seen) == len({v.tobytes() for v in seen})       # never twice at one point
+        r_again, R_again = reduce_design(m, obs, theta, probe.fitted, nuisance)
+        np.testing.assert_array_equal(r, r_again)
+        np.testing.assert_array_equal(R, R_again[:, :-1])
+        start = theta
+    assert iterations == 1                                         # no step from the solution

@@ -75,8 +75,9 @@ def solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndar
     it = 0
     status = "iteration limit"
     flat = 0
+    reduced = None  # the residual and factor at the present theta, once computed
     for it in range(1, max_iter + 1):
-        r, R = reduce_design(machine, obs, theta, free[use], nuisance)
+        r, R = reduced = reduce_design(machine, obs, theta, free[use], nuisance)
         z = R[:, -1]
         scale, Rs = column_scale(R[:, :-1], typical=typical_sizes(machine, theta, free[use], n_nu))
         step_scaled = np.linalg.lstsq(Rs, z, rcond=rcond)[0]
@@ -111,7 +112,7 @@ def solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndar
             # gain is at the rounding level, otherwise stuck
             status = "converged" if gain <= 1e-6 * rss else "stalled"
             break
-        theta, nuisance = trial_theta, trial_nu
+        theta, nuisance, reduced = trial_theta, trial_nu, None
         if step:
             step(it)
         flat = flat + 1 if rss - float(trial_r @ trial_r) <= max(1e-10 * rss, 1e-3) else 0
@@ -125,7 +126,8 @@ def solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndar
         if accepted == 0.0 and np.abs(delta * scale).max(initial=0.0) < tol:
             status = "converged"
             break
-    r, R = reduce_design(machine, obs, theta, free[use], nuisance)
+    # the loop ends at the theta of its last design (no step taken) or after a step
+    r, R = reduced if reduced is not None else reduce_design(machine, obs, theta, free[use], nuisance)
     return theta, nuisance, R[:, :-1], r, it, status
 
 
