@@ -156,7 +156,7 @@ def test_real_spindle_sensors_are_one_thermal_finding(machines):
         rows = list(csv.reader(f))
     header = [h.strip() for h in rows[0]]
     table = np.array([[float(x) for x in r] for r in rows[1:] if r and all(x.strip() for x in r)])[::10]
-    elongation, sensors = header[0], header[1:]
+    sensors = header[1:]                                    # the first column is the elongation
     m = machines["vmc500"]
     truth = off_model_geometry(m, 11, "spline")
     n = table.shape[0]

@@ -13,7 +13,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import volerr_pin as vp
 from volerr_pin.cli import main
 from volerr_pin.diagnose import axis_directions, build_candidates, diagnose, drift_series
 from volerr_pin.diagnose import results as diagnose_results
@@ -21,7 +20,7 @@ from volerr_pin.diagnose.candidates import interpolation_period
 from volerr_pin.errors import InputError
 from volerr_pin.identify import build_observations
 from volerr_pin.simulate import campaign, heldout_set, write_points
-from volerr_pin.specio import add_terms, replace_terms
+from volerr_pin.specio import add_terms
 
 ROOT = Path(__file__).resolve().parents[1]
 NOISE = 0.3

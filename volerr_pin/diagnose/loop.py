@@ -463,7 +463,6 @@ class _Loop:
         over time: the final model fitted on the first :data:`TIME_CHECK_SHARE` of the run
         predicts the rest, with and without the drift. The final fit (lagged or not) and the
         details."""
-        obs = self.obs
         sensors = [m.driver[2:] for m in members if m.driver and m.driver.startswith("T_")]
         steps = "; ".join(f"{m.driver} (round {m.step + 1}, held-out RMS {m.rms_before_um:.3f} -> "
                           f"{m.rms_after_um:.3f} um)" for m in members
