@@ -47,6 +47,24 @@ def named(result):
     return sorted((e.name, e.axis, e.direction) for e in result.effects)
 
 
+#: what a per-revolution finding's label must say (a period fitted freely once let a "3 times per
+#: revolution" candidate settle at 302 deg on a hidden once-per-revolution error)
+ORDER = {"once_per_revolution": "once per revolution", "four_per_revolution": "4 times per revolution"}
+
+
+def check_order(kind, result):
+    for e in result.effects:
+        if e.name == "periodic_rotary":
+            assert ORDER[kind] in e.label, e.label
+
+
+def check_final_model(result):
+    """The final fit (trims, dropped and below-practical effects) keeps the model the rounds
+    built: its held-out RMS, the headline, is within 10 % of the last round's."""
+    assert result.rms_after_um <= 1.1 * result.steps[-1].rms_holdout_um, (
+        result.rms_after_um, [round(s.rms_holdout_um, 3) for s in result.steps])
+
+
 def check_practical(result):
     """Every finding is above the stated practical thresholds; what is below them is listed apart."""
     noise_pc = result.noise_floor_um / np.sqrt(3)
@@ -103,6 +121,8 @@ def test_five_axis_held_out_sets(machines, kind, seed):
     result = diagnose(m, [data], sigma_um=NOISE)
     assert named(result) == sorted(expected), [e.label for e in result.effects]
     check_practical(result)
+    check_final_model(result)
+    check_order(kind, result)
     # the floor is claimed only when the residual is near the stated noise
     assert not result.reaches_noise_floor or result.rms_after_um < 1.2 * 2 * result.noise_stated_um
 
@@ -124,9 +144,27 @@ def test_five_axis_third_seed(machines, kind):
     result = diagnose(m, [data], sigma_um=NOISE)
     assert named(result) == sorted(expected), [e.label for e in result.effects]
     check_practical(result)
+    check_final_model(result)
+    check_order(kind, result)
     # the report says why B's once-per-revolution candidate was not taken
     notes = [c["note"] for step in result.to_dict()["steps"] for c in step["candidates"] if "note" in c]
     assert any("does not repeat from one turn of B to the next" in n for n in notes), notes
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "the period of a per-revolution error is fitted with the rest: here it settles at 285 +- 8 deg with a "
+    "third of the hidden amplitude (docs/diagnose.md, five-axis machines)"))
+def test_a_found_per_revolution_error_has_the_revolutions_period(machines):
+    """Seed 1's hidden once-per-revolution error of B is named, and its period must be the
+    revolution's, 360 deg, within three standard uncertainties."""
+    m = machines["cgm4000"]
+    hidden, _ = CGM["once_per_revolution"]
+    _, data = heldout_set(m, hidden, 400, NOISE, 601)
+    result = diagnose(m, [data], sigma_um=NOISE)
+    (found,) = [e for e in result.effects if e.name == "periodic_rotary"]
+    (period,) = [v for k, v in found.parameters.items() if k.endswith(".period")]
+    assert abs(period["value"] - 360.0) <= 3 * period["uncertainty"], period
 
 
 def _real_data() -> Path:

@@ -335,16 +335,19 @@ class _Loop:
         Collinear terms are judged jointly: an effect whose own size is below
         :data:`SIGNIFICANCE` standard uncertainties (its coefficient shares what it explains
         with a collinear one) stays when removing it makes the held-out RMS worse by more
-        than :data:`PRACTICAL_GAIN` of it; else the weakest goes and the model is refitted."""
+        than :data:`PRACTICAL_GAIN` of it; else the weakest goes and the model is refitted. So
+        are the raises' trailing coefficients (:func:`_judged_trim`)."""
         dropped: list[Change] = []
         kept_jointly: set[str] = set()
+        trim = True
         while True:
             if not self.fixed or self.free_names:
                 free = None if not self.fixed else [self.current.parameter_names.index(n) for n in self.free_names]
                 final = _quiet_identify(self.current, self.obs, free=free, initialise=False)
                 self.current = final.machine
-            trimmed = trim_raises(self.current, final, self.base_machine, {r.component for r in self.raised})
-            if trimmed is not None:
+            trimmed = _judged_trim(self, final) if trim else None
+            trim = trimmed is not None
+            if trim:
                 self.current = trimmed
                 self.free_names = [n for n in self.free_names if n in set(self.current.parameter_names)]
                 continue
@@ -552,6 +555,21 @@ def _repeat_order(number: int, passing: list, proj: Projector, obs: Observations
     waiting = {s.candidate.component for s in passing if s.label in failing}
     allowed = [s for s in passing if s.label not in failing]
     return [s for s in allowed if not (s.candidate.kind == "raise" and s.candidate.component in waiting)], allowed
+
+
+def _judged_trim(loop: _Loop, final) -> Machine | None:
+    """The model with the raises' trailing coefficients that the final fit does not find
+    significant trimmed (:func:`~volerr_pin.diagnose.changes.trim_raises`), unless that makes
+    the held-out RMS worse by more than :data:`PRACTICAL_GAIN`: collinear terms share what they
+    explain, and each may look insignificant alone (a raised EBB beside B's once-per-revolution
+    error). None when there is nothing to trim or the trim is refused."""
+    trimmed = trim_raises(loop.current, final, loop.base_machine, {r.component for r in loop.raised})
+    if trimmed is None:
+        return None
+    current, (model, res, _) = loop.current, loop._refit(trimmed)
+    before, after = loop.in_parallel([lambda: loop.holdout(current, final)[0].cv_rms,
+                                      lambda: loop.holdout(model, res)[0].cv_rms])
+    return trimmed if after <= before * (1 + PRACTICAL_GAIN) else None
 
 
 def _call(task):
