@@ -197,6 +197,30 @@ def test_the_same_answer_on_one_core_or_several(machines, monkeypatch):
     assert runs[0] == runs[1]
 
 
+def test_no_model_is_fitted_twice_with_the_same_free_coefficients(machines, monkeypatch):
+    """Off-spec geometry with nothing hidden, 200 points: the final fit trims raises; the
+    trimmed model, fitted to judge the trim, is not fitted again when the trim is kept."""
+    m = machines["vmc500"]
+    _, data = heldout_set(m, None, 200, NOISE, 5)
+    import volerr_pin.diagnose.loop as loop
+
+    fits, original = [], loop._quiet_identify
+
+    def recorded(machine, obs, **options):
+        free = options.get("free")
+        fits.append((machine.theta.tobytes(), tuple(machine.parameter_names), id(obs),
+                     None if free is None else tuple(free), options.get("initialise")))
+        return original(machine, obs, **options)
+
+    monkeypatch.setattr(loop, "_quiet_identify", recorded)
+    trims = []
+    judged = loop._judged_trim
+    monkeypatch.setattr(loop, "_judged_trim", lambda *a: trims.append(judged(*a)) or trims[-1])
+    diagnose(m, [data])
+    assert any(t is not None for t in trims)  # a trim was kept (the case this is about)
+    assert len(fits) == len(set(fits))
+
+
 def test_process_map_keeps_the_order_and_falls_back_here():
     items = list(range(37))
     assert diagnose_results.process_map(lambda x: x * x, items, workers=2) == [x * x for x in items]

@@ -336,20 +336,21 @@ class _Loop:
         :data:`SIGNIFICANCE` standard uncertainties (its coefficient shares what it explains
         with a collinear one) stays when removing it makes the held-out RMS worse by more
         than :data:`PRACTICAL_GAIN` of it; else the weakest goes and the model is refitted. So
-        are the raises' trailing coefficients (:func:`_judged_trim`)."""
+        are the raises' trailing coefficients (:func:`_judged_trim`); once a trim is refused,
+        no further trim is tried in this final fit (even after a weak effect goes)."""
         dropped: list[Change] = []
         kept_jointly: set[str] = set()
-        trim = True
+        trim, fitted = True, False
         while True:
-            if not self.fixed or self.free_names:
+            if not fitted and (not self.fixed or self.free_names):
                 free = None if not self.fixed else [self.current.parameter_names.index(n) for n in self.free_names]
                 final = _quiet_identify(self.current, self.obs, free=free, initialise=False)
                 self.current = final.machine
             trimmed = _judged_trim(self, final) if trim else None
-            trim = trimmed is not None
-            if trim:
-                self.current = trimmed
-                self.free_names = [n for n in self.free_names if n in set(self.current.parameter_names)]
+            trim = fitted = trimmed is not None
+            if trim:  # the trimmed model comes fitted as this loop would fit it: not fitted again
+                self.current, res, self.free_names = trimmed
+                final = res if res is not None else final
                 continue
             weak = [(size_of(final, e.names) if final is not None else 0.0, i) for i, e in enumerate(self.effects)]
             weak = [(z, i) for z, i in weak if z < SIGNIFICANCE and self.effects[i].label not in kept_jointly]
@@ -557,19 +558,21 @@ def _repeat_order(number: int, passing: list, proj: Projector, obs: Observations
     return [s for s in allowed if not (s.candidate.kind == "raise" and s.candidate.component in waiting)], allowed
 
 
-def _judged_trim(loop: _Loop, final) -> Machine | None:
+def _judged_trim(loop: _Loop, final) -> tuple | None:
     """The model with the raises' trailing coefficients that the final fit does not find
-    significant trimmed (:func:`~volerr_pin.diagnose.changes.trim_raises`), unless that makes
-    the held-out RMS worse by more than :data:`PRACTICAL_GAIN`: collinear terms share what they
-    explain, and each may look insignificant alone (a raised EBB beside B's once-per-revolution
-    error). None when there is nothing to trim or the trim is refused."""
+    significant trimmed (:func:`~volerr_pin.diagnose.changes.trim_raises`) and refitted
+    (:meth:`_Loop._refit`: machine, fit, free names), unless that makes the held-out RMS worse
+    by more than :data:`PRACTICAL_GAIN`: collinear terms share what they explain, and each may
+    look insignificant alone (a raised EBB beside B's once-per-revolution error). None when
+    there is nothing to trim or the trim is refused."""
     trimmed = trim_raises(loop.current, final, loop.base_machine, {r.component for r in loop.raised})
     if trimmed is None:
         return None
-    current, (model, res, _) = loop.current, loop._refit(trimmed)
+    current, refit = loop.current, loop._refit(trimmed)
+    model, res, _ = refit
     before, after = loop.in_parallel([lambda: loop.holdout(current, final)[0].cv_rms,
                                       lambda: loop.holdout(model, res)[0].cv_rms])
-    return trimmed if after <= before * (1 + PRACTICAL_GAIN) else None
+    return refit if after <= before * (1 + PRACTICAL_GAIN) else None
 
 
 def _call(task):
