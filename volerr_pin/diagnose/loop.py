@@ -149,6 +149,8 @@ class _Loop:
         self.axis_index_of = {a: j for j, a in enumerate(machine.axes)}
         self.columns = Columns(obs, self.cov_obj)
         self.free_names: list[str] = []        # with ``fixed``: the coefficients that may move
+        self.periods: dict[str, float] = {}     # accepted per-revolution errors: period name -> 2 pi / n
+        self.held: set[str] = set()             # coefficients no fit moves (from the final fit on: the periods)
         self.current, self.fitted, self.nuisance, self.last_fit = self.fit(machine, self.free_names, initialise=True)
         self.base_machine = self.current
         self.steps: list[Step] = []
@@ -162,8 +164,7 @@ class _Loop:
         fitted indices, nuisance values, identification or None)."""
         if self.fixed and not names:
             return model, np.array([], dtype=int), np.zeros(self.obs.nuisance.shape[1]), None
-        free = None if not self.fixed else [model.parameter_names.index(n) for n in names]
-        res = _quiet_identify(model, self.obs, free=free, initialise=initialise)
+        res = _quiet_identify(model, self.obs, free=_free(self, model, names), initialise=initialise)
         return res.machine, res.fitted, np.array(list(res.nuisance.values())), res
 
     def round(self, number: int, may_accept: bool) -> bool:
@@ -281,8 +282,11 @@ class _Loop:
                 batch = keep or [best]
             if len(keep) != len(batch) or not keep:
                 continue
-            for record, z in zip(records, sizes):
+            for record, z, s in zip(records, sizes, batch):
                 record.rms_before_um, record.max_before_um, record.step = proj.cv_rms, proj.cv_max, number
+                if record.name == "periodic_rotary":
+                    self.periods.update({n: math.radians(s.candidate.table["period_deg"])
+                                         for n in record.names if n.endswith(".period")})
                 if np.isfinite(z):
                     record.significance = z
             self.free_names = names
@@ -343,8 +347,8 @@ class _Loop:
         trim, fitted = True, False
         while True:
             if not fitted and (not self.fixed or self.free_names):
-                free = None if not self.fixed else [self.current.parameter_names.index(n) for n in self.free_names]
-                final = _quiet_identify(self.current, self.obs, free=free, initialise=False)
+                final = _quiet_identify(self.current, self.obs, free=_free(self, self.current, self.free_names),
+                                        initialise=False)
                 self.current = final.machine
             trimmed = _judged_trim(self, final) if trim else None
             trim = fitted = trimmed is not None
@@ -352,7 +356,8 @@ class _Loop:
                 self.current, res, self.free_names = trimmed
                 final = res if res is not None else final
                 continue
-            weak = [(size_of(final, e.names) if final is not None else 0.0, i) for i, e in enumerate(self.effects)]
+            weak = [(size_of(final, [n for n in e.names if n not in self.held]) if final is not None else 0.0, i)
+                    for i, e in enumerate(self.effects)]
             weak = [(z, i) for z, i in weak if z < SIGNIFICANCE and self.effects[i].label not in kept_jointly]
             if not weak:
                 return final, dropped
@@ -416,6 +421,7 @@ class _Loop:
     def finish(self) -> tuple[Diagnosis, Identification | None]:
         """The final fit and the diagnosis (its ``seconds`` left at 0), with the final fit."""
         obs = self.obs
+        _hold_periods(self)
         final, dropped = self._final_fit(self.last_fit)
         possible = self._practical(final)
         if possible:
@@ -495,48 +501,8 @@ class _Loop:
                 self.current, final, self.free_names = self._refit(with_lag(current, members, lag))
         details["lag_s"] = lag
         details["lags_tried"] = [{"lag_s": k, "rms_holdout_um": v} for k, v in tried.items()]
-        details["time_check"] = self._time_check(members, final)
+        details["time_check"] = _time_check(self, members, final)
         return final, details
-
-    def _time_check(self, members: list[Change], final) -> dict | None:
-        """Fit on the first part of the run, predict the rest (position RMS [um] of the
-        predicted points, with the drift and without it)."""
-        obs = self.obs
-        t = obs.covariates["t"]
-        cut = t.min() + TIME_CHECK_SHARE * np.ptp(t)
-        early, late = np.flatnonzero(t <= cut), np.flatnonzero(t > cut)
-        if len(early) < 2 or len(late) < 1:
-            return None
-        out = {"fit_share": TIME_CHECK_SHARE, "fit_until_h": float(cut / 3600.0), "fit_points": int(len(early)),
-               "predicted_points": int(len(late))}
-        k = "xyz".index(members[0].direction) if members[0].direction in ("x", "y", "z") else None
-        model_without = self.current
-        for m in members:
-            model_without = remove_effect(model_without, m)
-        o_early, o_late = obs.subset(early), obs.subset(late)
-
-        def predicted(key, model):
-            names = [n for n in self.free_names if n in set(model.parameter_names)]
-            free = None if not self.fixed else [model.parameter_names.index(n) for n in names]
-            try:
-                res = _quiet_identify(model, o_early, free=free, initialise=False)
-            except InputError:
-                return None  # the first part alone does not determine the model
-            b = base_design(res.machine, o_late, res.fitted, np.array(list(res.nuisance.values())))
-            residual = b.r * o_late.sigma
-            part = {f"rms_predicted{key}_um": residual_rms(o_late, residual)}
-            if k is not None:
-                rows = (o_late.w[:, k] > 0.5) & ~o_late.angular
-                part[f"rms_predicted_along{key}_um"] = float(np.sqrt(np.mean(residual[rows] ** 2)) * UM_PER_M)
-            return part
-
-        parts = self.in_parallel([lambda key=key, model=model: predicted(key, model)
-                                  for key, model in (("", self.current), ("_without", model_without))])
-        if any(part is None for part in parts):
-            return None
-        for part in parts:
-            out.update(part)
-        return out
 
 
 def _repeat_order(number: int, passing: list, proj: Projector, obs: Observations,
@@ -596,3 +562,70 @@ def _memory_needed(machine: Machine, obs: Observations, folds: int) -> float:
     columns = sum(max(1, sum(len(v) for v in c.table.values() if isinstance(v, list))) for c in candidates)
     base = obs.nuisance.shape[1] + len(machine.parameter_names)
     return 8.0 * len(obs.y) * (6 * columns + (folds + 4) * base)
+
+
+def _time_check(loop: _Loop, members: list[Change], final) -> dict | None:
+    """Fit on the first part of the run, predict the rest (position RMS [um] of the
+    predicted points, with the drift and without it)."""
+    obs = loop.obs
+    t = obs.covariates["t"]
+    cut = t.min() + TIME_CHECK_SHARE * np.ptp(t)
+    early, late = np.flatnonzero(t <= cut), np.flatnonzero(t > cut)
+    if len(early) < 2 or len(late) < 1:
+        return None
+    out = {"fit_share": TIME_CHECK_SHARE, "fit_until_h": float(cut / 3600.0), "fit_points": int(len(early)),
+           "predicted_points": int(len(late))}
+    k = "xyz".index(members[0].direction) if members[0].direction in ("x", "y", "z") else None
+    model_without = loop.current
+    for m in members:
+        model_without = remove_effect(model_without, m)
+    o_early, o_late = obs.subset(early), obs.subset(late)
+
+    def predicted(key, model):
+        names = [n for n in loop.free_names if n in set(model.parameter_names)]
+        try:
+            res = _quiet_identify(model, o_early, free=_free(loop, model, names), initialise=False)
+        except InputError:
+            return None  # the first part alone does not determine the model
+        b = base_design(res.machine, o_late, res.fitted, np.array(list(res.nuisance.values())))
+        residual = b.r * o_late.sigma
+        part = {f"rms_predicted{key}_um": residual_rms(o_late, residual)}
+        if k is not None:
+            rows = (o_late.w[:, k] > 0.5) & ~o_late.angular
+            part[f"rms_predicted_along{key}_um"] = float(np.sqrt(np.mean(residual[rows] ** 2)) * UM_PER_M)
+        return part
+
+    parts = loop.in_parallel([lambda key=key, model=model: predicted(key, model)
+                              for key, model in (("", loop.current), ("_without", model_without))])
+    if any(part is None for part in parts):
+        return None
+    for part in parts:
+        out.update(part)
+    return out
+
+
+def _free(loop: _Loop, model: Machine, names: list[str]) -> list[int] | None:
+    """The coefficients of ``model`` a fit of the loop moves: all (None) or, with ``fixed``,
+    ``names``; never a held one (:func:`_hold_periods`)."""
+    free = None if not loop.fixed else [model.parameter_names.index(n) for n in names]
+    if not loop.held:
+        return free
+    return [k for k in (range(len(model.parameter_names)) if free is None else free)
+            if model.parameter_names[k] not in loop.held]
+
+
+def _hold_periods(loop: _Loop) -> None:
+    """From the final fit on, an accepted per-revolution error repeats exactly n times per
+    revolution: its period goes back to 360/n deg and no fit moves it. In the rounds it is free,
+    and an error the data do not pin to a period is not accepted (its size is not determined);
+    off the spec's geometry it can wander there (285 deg for once per revolution), which is not
+    the error the label names."""
+    names = loop.current.parameter_names
+    held = {n: v for n, v in loop.periods.items() if n in names}
+    if not held:
+        return
+    theta = loop.current.theta.copy()
+    for n, v in held.items():
+        theta[names.index(n)] = v
+    loop.current = loop.current.with_theta(theta)
+    loop.held = set(held)
