@@ -111,6 +111,18 @@ def test_a_per_revolution_error_is_found_at_the_revolution_period(machines):
         assert abs(p["value"] - value) < 3 * p["uncertainty"], (suffix, p)
 
 
+def test_the_command_line_says_a_per_revolution_period_is_held(machines, tmp_path, capsys):
+    m = machines["cgm4000"]
+    truth = add_terms(m, {"EBB": {"kind": "periodic_pitch", "prefix": "h", "period_deg": 90.0,
+                                  "sine_arcsec": [4.0], "cosine_arcsec": [0.0]}})
+    path = tmp_path / "b.csv"
+    write_points(campaign(truth, 300, NOISE, 3), m, path)
+    assert main(["diagnose", "cgm4000", str(path), "--sigma-um", str(NOISE)]) == 0
+    out = capsys.readouterr().out
+    assert "4 times per revolution" in out
+    assert re.search(r"EBB\.rotary\.period = 90 deg \(held: the revolution's\)", out), out
+
+
 def test_a_period_at_a_tables_node_spacing_is_its_interpolation(machines):
     """EYY of vmc500 is a linear table over 100 mm steps: 100 mm and its harmonics (50, 33.3)
     are the interpolation's; EXX is a cubic table over 50 mm steps: only 50 mm is."""

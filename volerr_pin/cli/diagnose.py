@@ -85,7 +85,8 @@ def run(args) -> int:
         out.print(escape(f"{e.label}:"))
         for name, p in e.parameters.items():
             u = "" if p["uncertainty"] is None else f" +- {p['uncertainty']:.3g}"
-            out.print(escape(f"  {name} = {p['value']:.5g}{u} {p['unit']}"))
+            held = " (held: the revolution's)" if e.name == "periodic_rotary" and name.endswith(".period") else ""
+            out.print(escape(f"  {name} = {p['value']:.5g}{u} {p['unit']}{held}"))
         if e.details.get("sensors") is not None:
             if e.details["sensors"]:
                 lags = ", ".join(f"{x['lag_s']:g} s: {x['rms_holdout_um']:.3f}" for x in e.details["lags_tried"])
