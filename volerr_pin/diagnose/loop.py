@@ -347,9 +347,7 @@ class _Loop:
         trim, fitted = True, False
         while True:
             if not fitted and (not self.fixed or self.free_names):
-                final = _quiet_identify(self.current, self.obs, free=_free(self, self.current, self.free_names),
-                                        initialise=False)
-                self.current = final.machine
+                self.current, _, _, final = self.fit(self.current, self.free_names)
             trimmed = _judged_trim(self, final) if trim else None
             trim = fitted = trimmed is not None
             if trim:  # the trimmed model comes fitted as this loop would fit it: not fitted again
