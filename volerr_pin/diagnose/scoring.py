@@ -22,10 +22,14 @@ from ..units import ARCSEC, UM_PER_M
 from .candidates import MIN_PERIODS, PITCH_PERIOD_MM, interpolation_period
 from .results import Candidate, Score, parallel_map
 
-__all__ = ["PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "Base", "Columns", "Projector",
-           "base_design", "not_repeating", "periodogram_period", "repeat_check", "score"]
+__all__ = ["FOLD_SEEN", "PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "Base", "Columns",
+           "Projector", "base_design", "not_repeating", "periodogram_period", "repeat_check", "score"]
 
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
+#: a cross-validation fold's training rows hold at least this share of every direction of the
+#: base (of its unit norm squared over all rows), or the fold is factored on its own: then its
+#: fit from the basis of all rows would amplify rounding by more than the inverse of this share
+FOLD_SEEN = 1e-6
 #: a per-revolution error of an axis measured over more than one turn is checked for repeating
 #: from one turn to the next when each turn holds at least this many points ...
 REPEAT_MIN_POINTS = 20
@@ -239,30 +243,38 @@ class Projector:
         self.r = r
         A = _scaled(A)
         pos = ~obs.angular
+        self.Q = U = _svd(A)[0]   # the basis candidates are fitted on (all rows)
+        self.rank = U.shape[1]
 
         def fold(test):
-            if test is None:  # all rows: the basis candidates are fitted on
-                return _svd(A)[0]
+            # a training fit predicts the validation rows as X_V W X_T^T r[T], and its own rows
+            # as X_T W X_T^T r[T]: from the rows of the basis of all rows (X = U, W = (U_T^T
+            # U_T)^-1, which needs no factorisation of the training set), or - when the training
+            # rows barely see a direction - from the training set's own truncated SVD (X_T = its
+            # basis, X_V = A[V] pinv(A[T]) X_T, W = I), which leaves such a direction out
             V = np.isin(obs.point, test)
             T = ~V
-            Q_T, s, Vt = _svd(A[T])
-            # a training fit predicts the validation rows as A[V] pinv(A[T]) r[T] = M Q_T^T r[T]
-            M = A[V] @ (Vt.T / s) if s.size else np.zeros((int(V.sum()), 0))
-            e_T = r[T] - Q_T @ (Q_T.T @ r[T])
-            e_V = r[V] - M @ (Q_T.T @ r[T])
-            return T, V, Q_T, M, e_T, e_V, pos[V]
+            X_T, X_V = U[T], U[V]
+            w, Z = np.linalg.eigh(X_T.T @ X_T)
+            if w.size and w[0] >= FOLD_SEEN:
+                W = (Z / w) @ Z.T
+            else:
+                X_T, s, Vt = _svd(A[T])
+                X_V = A[V] @ (Vt.T / s) if s.size else np.zeros((int(V.sum()), 0))
+                W = None
+            coef = X_T.T @ r[T]
+            coef = coef if W is None else W @ coef
+            return T, V, X_T, X_V, W, r[T] - X_T @ coef, r[V] - X_V @ coef, pos[V]
 
-        # the factorisations of all rows and of every training set are independent: on threads at once
-        self.Q, *self.folds = parallel_map(fold, [None, *folds])
-        self.rank = self.Q.shape[1]
-        self.cv_rms = self._cv(lambda f: np.zeros(f[5].shape))
+        self.folds = parallel_map(fold, folds)
+        self.cv_rms = self._cv(lambda f: np.zeros(f[6].shape))
         self.cv_max = self.last_max
 
     def _cv(self, correction) -> float:
         sq, count, peak = 0.0, 0, 0.0
         obs = self.obs
         for f in self.folds:
-            T, V, Q_T, M, e_T, e_V, pos_V = f
+            T, V, X_T, X_V, W, e_T, e_V, pos_V = f
             res = (e_V - correction(f)) * obs.sigma[V]
             per_point = point_squares(obs.point[V][pos_V], res[pos_V])
             sq += per_point.sum()
@@ -334,11 +346,12 @@ class Projector:
         Cs, norms = _unit_columns(C)
 
         def correction(f):
-            T, V, Q_T, M, e_T, e_V, pos_V = f
-            B = Q_T.T @ Cs[T]
-            G_T = Cs[T] - Q_T @ B
+            T, V, X_T, X_V, W, e_T, e_V, pos_V = f
+            B = X_T.T @ Cs[T]
+            B = B if W is None else W @ B
+            G_T = Cs[T] - X_T @ B   # the candidate less its training fit by the base
             _, gamma, _ = _small_lstsq(G_T, e_T)
-            return (Cs[V] - M @ B) @ gamma
+            return (Cs[V] - X_V @ B) @ gamma
 
         return self._cv(correction)
 
