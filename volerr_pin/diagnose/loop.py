@@ -554,8 +554,8 @@ def _quiet_identify(machine: Machine, obs: Observations, **options) -> Identific
 
 def _memory_needed(machine: Machine, obs: Observations, folds: int) -> float:
     """Peak memory of a diagnosis [bytes], as measured: the weighted columns of every
-    candidate (non-linear ones at several grid values) and the base design with its bases on
-    every training set, per observation row."""
+    candidate (non-linear ones at several grid values) and the base design with its basis and
+    that basis's rows in every training and held-out set, per observation row."""
     candidates = build_candidates(machine, obs)
     columns = sum(max(1, sum(len(v) for v in c.table.values() if isinstance(v, list))) for c in candidates)
     base = obs.nuisance.shape[1] + len(machine.parameter_names)

@@ -26,7 +26,7 @@ __all__ = ["PARALLEL_MIN_ROWS", "PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIF
 #: observation rows from which a round's candidates are scored on :data:`WORKERS` processes (below,
 #: forking costs more than it saves: measured in benchmarks/diagnose.py)
 PARALLEL_MIN_ROWS = 1000
-#: threads that score candidates and factor folds at once: the cores this process may use
+#: threads that score candidates and set up folds at once: the cores this process may use
 WORKERS = max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1))
 
 

@@ -1,6 +1,6 @@
 """Fitting and scoring a candidate: jointly with the base model, linearised at the base fit,
-by projection on orthonormal bases of the base design that are computed once per round (on
-all rows and on every cross-validation training set); non-linear coefficients by grid search,
+by projection on an orthonormal basis of the base design computed once per round on all rows
+(each cross-validation training fit comes from its rows); non-linear coefficients by grid search,
 a pitch's period from a periodogram. A candidate's score is its F-test p-value, its BIC gain
 and, for those that could pass, its k-fold cross-validated RMS.
 """
@@ -22,10 +22,12 @@ from ..units import ARCSEC, UM_PER_M
 from .candidates import MIN_PERIODS, PITCH_PERIOD_MM, interpolation_period
 from .results import Candidate, Score, parallel_map
 
-__all__ = ["FOLD_SEEN", "PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "Base", "Columns",
-           "Projector", "base_design", "not_repeating", "periodogram_period", "repeat_check", "score"]
+__all__ = ["FOLD_SEEN", "PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "SVD_RTOL", "Base",
+           "Columns", "Projector", "base_design", "not_repeating", "periodogram_period", "repeat_check", "score"]
 
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
+#: singular values of a column-scaled design below this share of the largest are rounding: cut
+SVD_RTOL = 1e-10
 #: a cross-validation fold's training rows hold at least this share of every direction of the
 #: base (of its unit norm squared over all rows), or the fold is factored on its own: then its
 #: fit from the basis of all rows would amplify rounding by more than the inverse of this share
@@ -187,7 +189,7 @@ def _scaled(A: np.ndarray) -> np.ndarray:
     return A[:, ok] / norms[ok]
 
 
-def _svd(A: np.ndarray, rtol: float = 1e-10):
+def _svd(A: np.ndarray, rtol: float = SVD_RTOL):
     """(U, s, Vt) of A truncated to the singular values above ``rtol`` of the largest."""
     if A.shape[1] == 0:
         return np.zeros((A.shape[0], 0)), np.zeros(0), np.zeros((0, 0))
@@ -223,8 +225,8 @@ class Projector:
     """Least squares of a candidate jointly with the base design, by projection.
 
     The base design ``A`` (weighted rows x base coefficients) and residual ``r`` are fixed for
-    a round; orthonormal bases of the design on all rows and on every cross-validation
-    training set are computed once, so a candidate costs a few small products.
+    a round; an orthonormal basis of the design on all rows, and from its rows every
+    cross-validation training fit, are computed once, so a candidate costs a few small products.
 
     Parameters
     ----------
@@ -243,7 +245,8 @@ class Projector:
         self.r = r
         A = _scaled(A)
         pos = ~obs.angular
-        self.Q = U = _svd(A)[0]   # the basis candidates are fitted on (all rows)
+        self.Q, s_all, _ = _svd(A)   # the basis candidates are fitted on (all rows)
+        U = self.Q
         self.rank = U.shape[1]
 
         def fold(test):
@@ -251,12 +254,15 @@ class Projector:
             # as X_T W X_T^T r[T]: from the rows of the basis of all rows (X = U, W = (U_T^T
             # U_T)^-1, which needs no factorisation of the training set), or - when the training
             # rows barely see a direction - from the training set's own truncated SVD (X_T = its
-            # basis, X_V = A[V] pinv(A[T]) X_T, W = I), which leaves such a direction out
+            # basis, X_V = A[V] pinv(A[T]) X_T, W = I), as every fold was fitted before. The
+            # first is taken only where the second would keep every direction of U: A[T]'s
+            # singular values are at least sqrt(w_min) s_min and at most s_max, so none falls
+            # below the SVD's cut (SVD_RTOL of the largest)
             V = np.isin(obs.point, test)
             T = ~V
             X_T, X_V = U[T], U[V]
             w, Z = np.linalg.eigh(X_T.T @ X_T)
-            if w.size and w[0] >= FOLD_SEEN:
+            if w.size and w[0] >= FOLD_SEEN and math.sqrt(w[0]) * s_all[-1] >= SVD_RTOL * s_all[0]:
                 W = (Z / w) @ Z.T
             else:
                 X_T, s, Vt = _svd(A[T])
