@@ -51,7 +51,7 @@ def _brute_cv(A: np.ndarray, r: np.ndarray, obs, folds) -> float:
 
 def _own_svd(proj: Projector) -> list[bool]:
     """Which folds were factored on their own (the others come from the all-rows basis)."""
-    return [f[4] is None for f in proj.folds]
+    return [f.own_basis for f in proj.folds]
 
 
 @pytest.mark.parametrize("seed", range(4))

@@ -221,6 +221,46 @@ def _unit_columns(C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return C / norms, norms
 
 
+@dataclass
+class _Fold:
+    """One cross-validation fold of a round's projector.
+
+    Attributes
+    ----------
+    T, V : ndarray of bool, shape (rows,)
+        Its training and validation rows.
+    X_T, X_V : ndarray, shape (rows in T or V, rank)
+        The basis its training fit is in, on the training and the validation rows.
+    W : ndarray, shape (rank, rank), or None
+        ``(X_T^T X_T)^-1`` when ``X_T`` is rows of the all-rows basis; None when the fold is
+        factored on its own (``X_T`` orthonormal).
+    pos_V : ndarray of bool
+        Which validation rows are position rows.
+    e_T, e_V : ndarray
+        The base residual less the training fit, on the training and the validation rows.
+    """
+
+    T: np.ndarray
+    V: np.ndarray
+    X_T: np.ndarray
+    X_V: np.ndarray
+    W: np.ndarray | None
+    pos_V: np.ndarray
+    e_T: np.ndarray | None = None
+    e_V: np.ndarray | None = None
+
+    @property
+    def own_basis(self) -> bool:
+        """Whether the fold is factored on its own rather than fitted from the all-rows basis."""
+        return self.W is None
+
+    def coordinates(self, Y: np.ndarray) -> np.ndarray:
+        """The training fit of ``Y``'s training rows (one column or several) in ``X_T``'s
+        coordinates: ``W X_T^T Y``."""
+        B = self.X_T.T @ Y
+        return B if self.W is None else self.W @ B
+
+
 class Projector:
     """Least squares of a candidate jointly with the base design, by projection.
 
@@ -268,20 +308,21 @@ class Projector:
                 X_T, s, Vt = _svd(A[T])
                 X_V = A[V] @ (Vt.T / s) if s.size else np.zeros((int(V.sum()), 0))
                 W = None
-            coef = X_T.T @ r[T]
-            coef = coef if W is None else W @ coef
-            return T, V, X_T, X_V, W, r[T] - X_T @ coef, r[V] - X_V @ coef, pos[V]
+            f = _Fold(T, V, X_T, X_V, W, pos[V])
+            coef = f.coordinates(r[T])
+            f.e_T, f.e_V = r[T] - X_T @ coef, r[V] - X_V @ coef
+            return f
 
         self.folds = parallel_map(fold, folds)
-        self.cv_rms = self._cv(lambda f: np.zeros(f[6].shape))
+        self.cv_rms = self._cv(lambda f: np.zeros(f.e_V.shape))
         self.cv_max = self.last_max
 
     def _cv(self, correction) -> float:
         sq, count, peak = 0.0, 0, 0.0
         obs = self.obs
         for f in self.folds:
-            T, V, X_T, X_V, W, e_T, e_V, pos_V = f
-            res = (e_V - correction(f)) * obs.sigma[V]
+            V, pos_V = f.V, f.pos_V
+            res = (f.e_V - correction(f)) * obs.sigma[V]
             per_point = point_squares(obs.point[V][pos_V], res[pos_V])
             sq += per_point.sum()
             count += per_point.size
@@ -352,12 +393,10 @@ class Projector:
         Cs, norms = _unit_columns(C)
 
         def correction(f):
-            T, V, X_T, X_V, W, e_T, e_V, pos_V = f
-            B = X_T.T @ Cs[T]
-            B = B if W is None else W @ B
-            G_T = Cs[T] - X_T @ B   # the candidate less its training fit by the base
-            _, gamma, _ = _small_lstsq(G_T, e_T)
-            return (Cs[V] - X_V @ B) @ gamma
+            B = f.coordinates(Cs[f.T])
+            G_T = Cs[f.T] - f.X_T @ B   # the candidate less its training fit by the base
+            _, gamma, _ = _small_lstsq(G_T, f.e_T)
+            return (Cs[f.V] - f.X_V @ B) @ gamma
 
         return self._cv(correction)
 
