@@ -192,3 +192,18 @@ def test_every_package_is_in_the_distribution():
     on_disk = {".".join(("volerr_pin",) + p.parent.relative_to(PACKAGE).parts).rstrip(".")
                for p in PACKAGE.rglob("__init__.py") if "__pycache__" not in p.parts}
     assert not on_disk - listed, f"add to [tool.setuptools] packages in pyproject.toml: {sorted(on_disk - listed)}"
+
+
+def test_every_bundled_machine_is_in_the_distribution():
+    """The machines' folders hold data only; unlisted, the build warns and a future setuptools may
+    leave them out of the wheel (the package data's glob is what ships their files)."""
+    import tomllib
+
+    root = PACKAGE.parent
+    setup = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]
+    machines = root / setup["package-dir"]["volerr_pin.machines"]
+    folders = {f"volerr_pin.machines.{p.name}" for p in machines.iterdir() 
+               if p.is_dir() and p.name.isidentifier() and not p.name.startswith("_")}
+    assert folders, f"no machine folders found in {machines}"
+    missing = folders - set(setup["packages"])
+    assert not missing, f"add to [tool.setuptools] packages in pyproject.toml: {sorted(missing)}"
