@@ -202,7 +202,7 @@ def test_every_bundled_machine_is_in_the_distribution():
     root = PACKAGE.parent
     setup = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]
     machines = root / setup["package-dir"]["volerr_pin.machines"]
-    folders = {f"volerr_pin.machines.{p.name}" for p in machines.iterdir() 
+    folders = {f"volerr_pin.machines.{p.name}" for p in machines.iterdir()
                if p.is_dir() and p.name.isidentifier() and not p.name.startswith("_")}
     assert folders, f"no machine folders found in {machines}"
     missing = folders - set(setup["packages"])
