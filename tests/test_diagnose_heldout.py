@@ -186,6 +186,35 @@ def test_five_axis_third_seed(machines, kind):
     assert any("does not repeat from one turn of B to the next" in n for n in notes), notes
 
 
+@pytest.mark.slow
+def test_five_axis_per_revolution_periods_stay_in_their_window(machines):
+    """Seed 610, a hidden once-per-revolution error of B: B's off-spec geometry took the free
+    period of the accepted error to 5.9 deg (its amplitude gone), a second once-per-revolution
+    term of B was accepted beside it, its period went to 1e8 deg (a slope, with an amplitude of
+    3,000 rad), and the next change's spec refused that value: the diagnosis stopped with an
+    error. Now every round's model holds at most one per-revolution term of an order per
+    component, within its window, and the result names the error or nothing."""
+    from volerr_pin.diagnose.candidates import ROTARY_ORDERS
+    from volerr_pin.diagnose.loop import PERIOD_WINDOW
+    from volerr_pin.specio import replace_terms, term_tables
+
+    m = machines["cgm4000"]
+    hidden, expected = CGM["once_per_revolution"]
+    _, data = heldout_set(m, hidden, 400, NOISE, 610)
+    result = diagnose(m, [data], sigma_um=NOISE, keep_machines=True)
+    assert named(result) in ([], sorted(expected)), [e.label for e in result.effects]
+    check_practical(result)
+    for step in result.steps:
+        model = step.machine
+        orders = []
+        for name, value in zip(model.parameter_names, model.theta):
+            if ".rotary" in name and name.endswith(".period"):
+                (n,) = [n for n in ROTARY_ORDERS if 2 * np.pi / n / PERIOD_WINDOW <= value <= 2 * np.pi / n * PERIOD_WINDOW][:1]
+                orders.append((name.split(".")[0], n))
+        assert len(orders) == len(set(orders)), orders
+    replace_terms(result.machine, term_tables(result.machine))   # the final model's spec holds its values
+
+
 def _real_data() -> Path:
     """Real data are read in place (never copied): ``$VOLERR_REAL_DATA`` or ``shared/real-data``
     beside the repository."""

@@ -10,7 +10,12 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
 
+import volerr_pin.diagnose.loop as diagnose_loop
+from volerr_pin.diagnose.loop import PERIOD_WINDOW
 from volerr_pin.diagnose.scoring import REPEAT_MIN_POINTS, REPEAT_RATIO, REPEAT_SIGMAS, Projector, repeat_check
+from volerr_pin.identify import build_observations, pose_folds
+from volerr_pin.simulate import heldout_set
+from volerr_pin.specio import add_terms
 
 N = 400
 NOISE = 0.3e-6                 # [m], the held-out sets' noise
@@ -122,3 +127,61 @@ def test_the_reason_names_the_axis_and_the_per_turn_coefficients():
     true = C @ [5 * ARCSEC, 2 * ARCSEC] + rng.normal(0, NOISE, N)
     proj, _ = _check(true, base, C, obs, folds, b)
     assert not_repeating(proj, obs, C / NOISE, b, cand, 3) is None
+
+
+ONCE = {"kind": "periodic_pitch", "period_deg": 360.0, "sine_arcsec": [0.0], "cosine_arcsec": [0.0], "origin_deg": 0.0}
+
+
+@pytest.fixture(scope="module")
+def once_per_revolution_loop(machines):
+    """A diagnosis loop on cgm4000 (120 points, a hidden once-per-revolution error of B) and its
+    model with that error's term added at the error's size, as a round's refit starts it."""
+    m = machines["cgm4000"]
+    _, data = heldout_set(m, {"EBB": dict(ONCE, prefix="h", sine_arcsec=[5.0], cosine_arcsec=[2.0])}, 120, 0.3, 601)
+    obs = build_observations(m, [data], sigma_um=0.3)
+    loop = diagnose_loop._Loop(m, obs, pose_folds(obs, 5, 0), False, 0.05, 5, None, False)
+    return loop, add_terms(loop.current, {"EBB": dict(ONCE, prefix="rotary", sine_arcsec=[5.0], cosine_arcsec=[2.0])})
+
+
+@pytest.mark.parametrize("factor", [1 / (1.01 * PERIOD_WINDOW), 1.01 * PERIOD_WINDOW, 1e6])
+def test_an_accepted_period_a_fit_takes_out_of_its_window_is_fitted_again_held(once_per_revolution_loop, monkeypatch,
+                                                                                 factor):
+    """Off the spec's geometry a per-revolution error's free period was seen to wander to 5.9 deg
+    and to 1e8 deg (a slope, with cancelling amplitudes of thousands of radians), and the next
+    change's spec then refused it (a crash). A fit that takes an accepted period out of its
+    window is done again with the period held at 360/n deg and nothing else held."""
+    import dataclasses
+
+    loop, model = once_per_revolution_loop
+    name = "EBB.rotary.period"
+    k = model.parameter_names.index(name)
+    monkeypatch.setattr(loop, "periods", {name: 2 * np.pi})
+    calls, original = [], diagnose_loop._quiet_identify
+
+    def straying(machine, obs, **options):
+        calls.append((machine.theta[k], options.get("free")))
+        res = original(machine, obs, **options)
+        if len(calls) == 1:   # the free fit: its period wanders off
+            theta = res.machine.theta.copy()
+            theta[k] = 2 * np.pi * factor
+            res = dataclasses.replace(res, machine=res.machine.with_theta(theta))
+        return res
+
+    monkeypatch.setattr(diagnose_loop, "_quiet_identify", straying)
+    fitted, _, _, res = loop.fit(model, [])
+    assert len(calls) == 2 and calls[0][1] is None
+    start, free = calls[1]
+    assert start == 2 * np.pi and sorted(free) == [j for j in range(len(model.parameter_names)) if j != k]
+    assert fitted.theta[k] == 2 * np.pi and res.machine is fitted
+
+
+def test_a_period_within_its_window_is_fitted_once(once_per_revolution_loop, monkeypatch):
+    loop, model = once_per_revolution_loop
+    name = "EBB.rotary.period"
+    monkeypatch.setattr(loop, "periods", {name: 2 * np.pi})
+    calls, original = [], diagnose_loop._quiet_identify
+    monkeypatch.setattr(diagnose_loop, "_quiet_identify",
+                        lambda machine, obs, **options: calls.append(options.get("free")) or original(machine, obs, **options))
+    fitted, *_ = loop.fit(model, [])
+    period = fitted.theta[model.parameter_names.index(name)]
+    assert calls == [None] and 2 * np.pi / PERIOD_WINDOW < period < 2 * np.pi * PERIOD_WINDOW and period != 2 * np.pi

@@ -32,12 +32,19 @@ from .results import (PARALLEL_MIN_ROWS, PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SI
                       one_blas_thread, parallel_map, process_map)
 from .scoring import Columns, Projector, base_design, not_repeating, score
 
-__all__ = ["LAGS_S", "TIME_CHECK_SHARE", "diagnose"]
+__all__ = ["LAGS_S", "PERIOD_WINDOW", "TIME_CHECK_SHARE", "diagnose"]
 
 #: lags [s] tried for the temperature terms of a thermal drift
 LAGS_S = (300.0, 600.0, 1200.0, 1800.0, 3600.0)
 #: share of the run's time a thermal drift's check over time fits on (it predicts the rest)
 TIME_CHECK_SHARE = 0.6
+#: in the rounds a per-revolution error's period (free there) stays within this factor of 360/n
+#: deg; a fit that takes an accepted one further is done again with it held at 360/n deg, and a
+#: candidate whose own period goes further is not accepted (it no longer repeats about n times a
+#: turn: off the spec's geometry periods were seen to wander to 5.9 deg with no amplitude left,
+#: and to 1e8 deg, a slope the axis' polynomial already has, with cancelling amplitudes of
+#: thousands of radians; the right ones settled within 0.79 to 1.0 of 360/n)
+PERIOD_WINDOW = 1.5
 
 
 def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects: int = 5,
@@ -165,6 +172,16 @@ class _Loop:
         if self.fixed and not names:
             return model, np.array([], dtype=int), np.zeros(self.obs.nuisance.shape[1]), None
         res = _quiet_identify(model, self.obs, free=_free(self, model, names), initialise=initialise)
+        strayed = {n: p for n, p in self.periods.items() if n in res.machine.parameter_names
+                   and n not in self.held and not _within_window(res.machine, n, p)}
+        if strayed:
+            # an accepted per-revolution error the fit took out of its window: fitted again
+            # with its period held at 360/n deg (for this fit; the next starts from there)
+            theta = model.theta.copy()
+            for n, p in strayed.items():
+                theta[model.parameter_names.index(n)] = p
+            res = _quiet_identify(model.with_theta(theta), self.obs, free=_free(self, model, names, set(strayed)),
+                                  initialise=initialise)
         return res.machine, res.fitted, np.array(list(res.nuisance.values())), res
 
     def round(self, number: int, may_accept: bool) -> bool:
@@ -195,7 +212,11 @@ class _Loop:
         """Every candidate's score, best first, and those that pass the F-test and lower the
         cross-validated RMS."""
         obs = self.obs
-        candidates = build_candidates(self.current, obs)
+        # a component's per-revolution error of an order already accepted is not offered again
+        # (a second term beside the first would only share it)
+        accepted_orders = {(n.split(".")[0], round(2 * math.pi / p)) for n, p in self.periods.items()}
+        candidates = [c for c in build_candidates(self.current, obs) if not (
+            c.name == "periodic_rotary" and (c.component, round(360.0 / c.table["period_deg"])) in accepted_orders)]
         if len(self.effects) >= self.max_effects:
             candidates = [c for c in candidates if c.kind == "raise"]
         missing_loc = {c.component: {"kind": "constant", "prefix": "probe",
@@ -274,6 +295,10 @@ class _Loop:
                 new_fit, new_fitted, new_nuisance, res = self.fit(new, names)
                 tested = [tested_names(new_fit, r) for r in records]
                 sizes = [size_of(res, t) if res is not None and t else math.inf for t in tested]
+                for k, (r, s) in enumerate(zip(records, batch)):
+                    note = _strayed_note(new_fit, r, s) if r.name == "periodic_rotary" else None
+                    if note:   # a per-revolution error whose period leaves its window is not that error
+                        sizes[k], s.note = 0.0, note
                 keep = [s for s, z in zip(batch, sizes) if z >= SIGNIFICANCE]
                 if len(keep) == len(batch) or (not keep and len(batch) == 1):
                     break
@@ -602,14 +627,34 @@ def _time_check(loop: _Loop, members: list[Change], final) -> dict | None:
     return out
 
 
-def _free(loop: _Loop, model: Machine, names: list[str]) -> list[int] | None:
+def _free(loop: _Loop, model: Machine, names: list[str], also_held: set[str] = frozenset()) -> list[int] | None:
     """The coefficients of ``model`` a fit of the loop moves: all (None) or, with ``fixed``,
-    ``names``; never a held one (:func:`_hold_periods`)."""
+    ``names``; never a held one (:func:`_hold_periods`, and ``also_held``)."""
     free = None if not loop.fixed else [model.parameter_names.index(n) for n in names]
-    if not loop.held:
+    held = loop.held | set(also_held)
+    if not held:
         return free
     return [k for k in (range(len(model.parameter_names)) if free is None else free)
-            if model.parameter_names[k] not in loop.held]
+            if model.parameter_names[k] not in held]
+
+
+def _within_window(model: Machine, name: str, period: float) -> bool:
+    """Whether ``model``'s period ``name`` lies within :data:`PERIOD_WINDOW` of ``period`` (rad)."""
+    value = float(model.theta[model.parameter_names.index(name)])
+    return period / PERIOD_WINDOW <= value <= period * PERIOD_WINDOW
+
+
+def _strayed_note(model: Machine, record: Change, scored) -> str | None:
+    """Why a per-revolution error is not accepted when the joint refit took its period out of
+    its window (None when it did not)."""
+    period_deg = scored.candidate.table["period_deg"]
+    for name in record.names:
+        if name.endswith(".period") and not _within_window(model, name, math.radians(period_deg)):
+            value = math.degrees(float(model.theta[model.parameter_names.index(name)]))
+            return (f"not accepted: in the joint refit its period went to {value:.4g} deg, outside "
+                    f"{1 / PERIOD_WINDOW:.3g} to {PERIOD_WINDOW:g} times {period_deg:g} deg: it no longer "
+                    "repeats as this error does")
+    return None
 
 
 def _hold_periods(loop: _Loop) -> None:
