@@ -348,3 +348,28 @@ def test_a_forked_worker_runs_large_kernels_after_the_parent_started_its_thread_
     here = m.volumetric_error(q)  # above kinematics.PARALLEL_MIN points: the parallel kernel, its pool started
     parts = diagnose_results.process_map(lambda k: m.volumetric_error(q[k::2]), [0, 1], workers=2)
     assert np.array_equal(parts[0], here[0::2]) and np.array_equal(parts[1], here[1::2])
+
+
+def test_a_refit_whose_values_a_spec_cannot_hold_is_not_accepted(machines, monkeypatch):
+    """A joint refit can take a coefficient where no spec holds it (a once-per-revolution
+    error's period went to 1e8 deg on a five-axis set); building the next change on it failed
+    with an error that ended the diagnosis. Such a refit is not accepted and the candidate's
+    note says why; here every refit with a backlash is made to fail the check."""
+    import volerr_pin.diagnose.loop as loop
+    from volerr_pin.errors import SpecError
+
+    m = machines["vmc500"]
+    _, data = heldout_set(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}, 200, NOISE, 300)
+    assert [e.name for e in diagnose(m, [data]).effects] == ["backlash"]   # the case
+
+    def check(machine):
+        if any(".reversal." in n for n in machine.parameter_names):
+            raise SpecError("errors.EYY.terms[1].reversal_um: 1e7 um is implausible")
+
+    monkeypatch.setattr(loop, "check_values", check)
+    result = diagnose(m, [data])
+    assert "backlash" not in [e.name for e in result.effects]
+    notes = [c.get("note", "") for step in result.to_dict()["steps"] for c in step["candidates"]
+             if "backlash" in c["label"]]
+    assert any(n.startswith("not accepted: the joint refit's values are beyond what a spec holds (errors.EYY")
+               for n in notes), notes

@@ -70,9 +70,7 @@ def replace_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Mac
         If a component name or term table is invalid (named in the message as the spec's
         source with "(replaced terms)").
     """
-    raw = {name: (t if isinstance(t, dict) else {"terms": list(t)}) for name, t in tables.items()}
-    new = {c.name: c for c in parse_components(raw, f"{machine.spec.source} (replaced terms)",
-                                          _owners(machine))}
+    new = {c.name: c for c in _parsed(machine, tables)}
     components = [new.pop(c.name, c) for c in machine.spec.components] + list(new.values())
     # keep the current values of untouched components
     old_values = dict(zip(machine.parameter_names, machine.theta))
@@ -82,8 +80,32 @@ def replace_terms(machine: Machine, tables: dict[str, dict | list[dict]]) -> Mac
          for n, v in zip(fresh.parameter_names, fresh.theta)]))
 
 
-__all__ = ["add_terms", "legendre_terms", "remove_components", "replace_terms", "spec_document",
+__all__ = ["add_terms", "check_values", "legendre_terms", "remove_components", "replace_terms", "spec_document",
            "term_tables", "with_axis_errors", "write_spec"]
+
+
+def _parsed(machine: Machine, tables: dict[str, dict | list[dict]]) -> list:
+    """The components of ``tables`` (spec TOML form) as the machine's spec parses them."""
+    raw = {name: (t if isinstance(t, dict) else {"terms": list(t)}) for name, t in tables.items()}
+    return list(parse_components(raw, f"{machine.spec.source} (replaced terms)", _owners(machine)))
+
+
+def check_values(machine: Machine) -> None:
+    """Check that the machine's present coefficient values are ones its spec can hold (within
+    the plausibility limits a spec file is read with), so that a machine built from them - a
+    changed model, a written spec - can be.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+
+    Raises
+    ------
+    SpecError
+        Naming the first component, term and value that a spec would refuse.
+    """
+    _parsed(machine, term_tables(machine))
 
 
 def with_axis_errors(machine: Machine, axes: dict[str, dict]) -> Machine:

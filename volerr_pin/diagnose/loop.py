@@ -17,13 +17,13 @@ import warnings
 import numpy as np
 
 from ..checks import fraction, integer, positive
-from ..errors import InputError
+from ..errors import InputError, SpecError
 from ..identify import (Identification, Observations, build_observations, check_observations, conditioning_note,
                         identify, parameter_units, pose_folds, residual_rms)
 from ..machine import Machine
 from ..safeio import require_memory
 from ..units import UM_PER_M
-from ..specio import add_terms
+from ..specio import add_terms, check_values
 from .candidates import build_candidates
 from .changes import apply_changes, remove_effect, size_of, tested_names, trim_raises, with_lag
 from .report import (components_per_point, effect_amplitude, group_findings, noise_floor, raised_summary,
@@ -293,6 +293,12 @@ class _Loop:
                 new, records = apply_changes(self.current, batch)
                 names = self.free_names + [n for r in records for n in r.names if n not in self.free_names]
                 new_fit, new_fitted, new_nuisance, res = self.fit(new, names)
+                unheld = _unheld_values(new_fit)
+                if unheld:   # the next change could not be built on it, nor the result written
+                    for s in batch:
+                        s.note = unheld
+                    keep = []
+                    break
                 tested = [tested_names(new_fit, r) for r in records]
                 sizes = [size_of(res, t) if res is not None and t else math.inf for t in tested]
                 for k, (r, s) in enumerate(zip(records, batch)):
@@ -642,6 +648,15 @@ def _within_window(model: Machine, name: str, period: float) -> bool:
     """Whether ``model``'s period ``name`` lies within :data:`PERIOD_WINDOW` of ``period`` (rad)."""
     value = float(model.theta[model.parameter_names.index(name)])
     return period / PERIOD_WINDOW <= value <= period * PERIOD_WINDOW
+
+
+def _unheld_values(model: Machine) -> str | None:
+    """Why a refit is not accepted when a spec could not hold its values (None when it can)."""
+    try:
+        check_values(model)
+    except SpecError as exc:
+        return f"not accepted: the joint refit's values are beyond what a spec holds ({exc})"
+    return None
 
 
 def _strayed_note(model: Machine, record: Change, scored) -> str | None:
