@@ -43,7 +43,7 @@ def test_check_values_refuses_what_a_spec_file_would(machines):
                               ("EBB.rotary.s1", -3060.9, "sine_arcsec.*is implausible")]:
         theta = m.theta.copy()
         theta[m.parameter_names.index(name)] = value
-        with pytest.raises(SpecError, match=f"errors.EBB.terms\\[\\d\\].{what}"):
+        with pytest.raises(SpecError, match=f"\\(present values\\): errors.EBB.terms\\[\\d\\].{what}"):
             check_values(m.with_theta(theta))
     theta = m.theta.copy()
     theta[m.parameter_names.index("EBB.rotary.period")] = np.radians(1e6)   # far, but a spec holds it

@@ -84,10 +84,11 @@ __all__ = ["add_terms", "check_values", "legendre_terms", "remove_components", "
            "term_tables", "with_axis_errors", "write_spec"]
 
 
-def _parsed(machine: Machine, tables: dict[str, dict | list[dict]]) -> list:
-    """The components of ``tables`` (spec TOML form) as the machine's spec parses them."""
+def _parsed(machine: Machine, tables: dict[str, dict | list[dict]], what: str = "replaced terms") -> list:
+    """The components of ``tables`` (spec TOML form) as the machine's spec parses them; an error
+    names the spec's source and ``what`` the tables are."""
     raw = {name: (t if isinstance(t, dict) else {"terms": list(t)}) for name, t in tables.items()}
-    return list(parse_components(raw, f"{machine.spec.source} (replaced terms)", _owners(machine)))
+    return list(parse_components(raw, f"{machine.spec.source} ({what})", _owners(machine)))
 
 
 def check_values(machine: Machine) -> None:
@@ -103,9 +104,10 @@ def check_values(machine: Machine) -> None:
     Raises
     ------
     SpecError
-        Naming the first component, term and value that a spec would refuse.
+        Naming the spec's source ("present values") and the first component, term and value
+        that a spec would refuse.
     """
-    _parsed(machine, term_tables(machine))
+    _parsed(machine, term_tables(machine), "present values")
 
 
 def with_axis_errors(machine: Machine, axes: dict[str, dict]) -> Machine:
