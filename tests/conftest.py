@@ -2,12 +2,22 @@
 
 from __future__ import annotations
 
+import os
+import stat
+
 import numpy as np
 import pytest
 
 import volerr_pin as vp
 
 ALL_MACHINES = ["vmc500", "vmc700", "lathe_2axis", "cgm4000", "gear_roller", "ur5"]
+
+
+def needs_device(path: str):
+    """Skip a case built on the system's character device ``path`` (``/dev/zero``, ``/dev/full``)
+    where it is not one: some sandboxes make these plain files, and the case would test nothing."""
+    is_device = os.path.exists(path) and stat.S_ISCHR(os.stat(path).st_mode)
+    return pytest.mark.skipif(not is_device, reason=f"{path} is not a character device here")
 
 
 @pytest.fixture(scope="session")

@@ -57,7 +57,7 @@ def test_same_file_sees_links(tmp_path):
 @pytest.mark.parametrize("target, message", [
     ("folder", "is a folder"),
     ("missing/x.png", "folder .*missing does not exist"),
-    ("/dev/null", "exists and is not a regular file"),
+    ("pipe", "exists and is not a regular file"),
     ("input.csv", "is an input of this run"),
     ("link.csv", r"is an input of this run \(.*input.csv\)"),
     ("", "empty file name"),
@@ -66,6 +66,7 @@ def test_check_outputs_refuses(tmp_path, target, message):
     (tmp_path / "folder").mkdir()
     (tmp_path / "input.csv").write_text("1\n")
     os.symlink(tmp_path / "input.csv", tmp_path / "link.csv")
+    os.mkfifo(tmp_path / "pipe")  # not a device of the system: one that some sandboxes make a plain file
     path = target if target.startswith("/") or not target else str(tmp_path / target)
     with pytest.raises(vp.InputError, match=message) as info:
         safeio.check_outputs({"png": path}, [tmp_path / "input.csv"])
@@ -110,6 +111,27 @@ def test_transaction_writes_all_or_nothing(tmp_path):
     assert a.read_text() == "new a" and b.read_text() == "new b"
     assert (a.stat().st_mode & 0o777) == 0o640  # a replaced file keeps its permissions
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.png"]
+
+
+@pytest.mark.parametrize("name", ["plot", ".plot", "plot.", "my.plot.png", "table.csv", "a.tar.gz"])
+def test_a_temporary_file_has_exactly_its_targets_suffix(tmp_path, name):
+    # writers choose a format by suffix: a target without one must not get ".part" (matplotlib refused it)
+    with safeio.transaction() as tx:
+        tmp = tx.path(tmp_path / name)
+        assert tmp.parent == tmp_path and tmp.name.startswith(".") and tmp != tmp_path / name
+        assert tmp.suffix == (tmp_path / name).suffix
+        tmp.write_text("x")
+    assert (tmp_path / name).read_text() == "x" and [p.name for p in tmp_path.iterdir()] == [name]
+
+
+@pytest.mark.parametrize("argv", [
+    ["iso230-2", str(DATA / "vmc500_x_positioning.csv"), "--plot", "picture"],
+    ["thermal-fit", str(DATA / "vmc500_spindle_thermal.csv"), "--target", "dz_um", "--plot", "picture"],
+])
+def test_a_picture_named_without_a_suffix_is_a_png(work, capsys, argv):
+    assert main(argv) == 0, capsys.readouterr().err
+    assert (work / "picture").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(p.name for p in work.iterdir()) == ["P.nc", "picture"]
 
 
 def test_backups_are_numbered_and_never_overwritten(tmp_path):
@@ -191,7 +213,7 @@ def test_write_spec_refuses_the_machines_own_files(tmp_path):
     (["ballbar", str(DATA / "vmc500_ballbar_xy.csv"), "--plot", "folder"], "--plot"),
     (["rank", "vmc500", "--png", "missing/x.png"], "--png"),
     (["gear", "gear_roller", "--rrd", "existing.out", "--png", "missing/x.png"], "--png"),
-    (["thermal-fit", str(DATA / "vmc500_spindle_thermal.csv"), "--target", "dz_um", "--plot", "/dev/null"], "--plot"),
+    (["thermal-fit", str(DATA / "vmc500_spindle_thermal.csv"), "--target", "dz_um", "--plot", "pipe"], "--plot: pipe exists and is not"),
     (["demo", "--out", "folder"], "--out"),
     (["errormap", "vmc500", "--table", "folder"], "--table"),
     (["errormap", "vmc500", "--axis-tables", "existing.out/sub"], "--axis-tables: existing.out is not a folder"),
@@ -199,6 +221,7 @@ def test_write_spec_refuses_the_machines_own_files(tmp_path):
 def test_bad_output_is_refused_before_any_work(work, capsys, argv, culprit):
     (work / "folder").mkdir()
     (work / "existing.out").write_text("keep me")
+    os.mkfifo(work / "pipe")
     before = snapshot(work)
     refused(capsys, argv, culprit)
     assert snapshot(work) == before

@@ -52,6 +52,8 @@ from volerr_pin.cli import main
 from volerr_pin.compensate import compensate_points
 from volerr_pin.machine import machines_dir
 
+from conftest import needs_device
+
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples" / "data"
 #: the folder that holds the package under test: subprocesses import the same copy
@@ -110,7 +112,11 @@ def eyx_terms(extra: str) -> Callable[[str], str]:
 
 
 def symlink(target: str):
-    return lambda path, folder: path.symlink_to(target)
+    def make(path, folder):
+        path.symlink_to(target)
+
+    make.device = target if target.startswith("/dev/") else None
+    return make
 
 
 def hardlink(target: str):
@@ -797,7 +803,15 @@ CASES = [
 ]
 
 
-@pytest.mark.parametrize("case", [c.param() for c in CASES])
+def _marks(case: Case) -> list:
+    """Skip marks for the system devices a case's argv or files name."""
+    text = case.argv + " " + " ".join(str(v) for v in case.files.values() if isinstance(v, str))
+    devices = {d for d in ("/dev/zero", "/dev/full", "/dev/null") if d in text}
+    devices |= {getattr(v, "device", None) for v in case.files.values()} - {None}
+    return [needs_device(d) for d in sorted(devices)]
+
+
+@pytest.mark.parametrize("case", [c.param(*_marks(c)) for c in CASES])
 def test_hostile_cli(case, tmp_path, capfd, monkeypatch):
     folder = tmp_path / "case"
     folder.mkdir()
@@ -862,7 +876,7 @@ SLOW_CASES = [
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", [c.param() for c in SLOW_CASES])
+@pytest.mark.parametrize("case", [c.param(*_marks(c)) for c in SLOW_CASES])
 def test_hostile_subprocess(case, tmp_path):
     folder = tmp_path / "case"
     folder.mkdir()

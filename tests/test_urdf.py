@@ -10,7 +10,7 @@ import yourdfpy
 import volerr_pin as vp
 from volerr_pin.urdf import load_urdf, parse_urdf
 
-from conftest import ALL_MACHINES, random_q
+from conftest import ALL_MACHINES, needs_device, random_q
 
 GOOD = """<?xml version="1.0"?>
 <robot name="slide">
@@ -192,7 +192,7 @@ def test_oversize_urdf_is_refused_before_reading(tmp_path):
         load_urdf(path)
 
 
-@pytest.mark.parametrize("kind", ["fifo", "folder", "device"])
+@pytest.mark.parametrize("kind", ["fifo", "folder", pytest.param("device", marks=needs_device("/dev/zero"))])
 def test_a_urdf_that_is_not_a_regular_file_is_refused(tmp_path, kind):
     import os
 

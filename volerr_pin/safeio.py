@@ -201,7 +201,11 @@ class Transaction:
             The temporary file to write.
         """
         target = Path(target)
-        fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".part{target.suffix}", dir=target.parent)
+        if target.suffix:
+            prefix, suffix = f".{target.name}.", f".part{target.suffix}"
+        else:  # no dot after the leading one, or the temporary file would have a suffix its target has not
+            prefix, suffix = f".{target.name.replace('.', '_')}-", "-part"
+        fd, name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
         os.close(fd)
         self._pending.append((Path(name), target, backup))
         return Path(name)
