@@ -113,7 +113,11 @@ def test_transaction_writes_all_or_nothing(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.png"]
 
 
-@pytest.mark.parametrize("name", ["plot", ".plot", "plot.", "my.plot.png", "table.csv", "a.tar.gz"])
+LONG = "p" * 251 + ".png"        # 255 bytes: as long as a name may be
+WIDE = "\u00e9" * 125 + ".png"    # 254 bytes in UTF-8, 129 characters
+
+
+@pytest.mark.parametrize("name", ["plot", ".plot", "plot.", "my.plot.png", "table.csv", "a.tar.gz", LONG, WIDE])
 def test_a_temporary_file_has_exactly_its_targets_suffix(tmp_path, name):
     # writers choose a format by suffix: a target without one must not get ".part" (matplotlib refused it)
     with safeio.transaction() as tx:
@@ -126,12 +130,40 @@ def test_a_temporary_file_has_exactly_its_targets_suffix(tmp_path, name):
 
 @pytest.mark.parametrize("argv", [
     ["iso230-2", str(DATA / "vmc500_x_positioning.csv"), "--plot", "picture"],
+    ["iso230-2", str(DATA / "vmc500_x_positioning.csv"), "--plot", "p" * 255],
     ["thermal-fit", str(DATA / "vmc500_spindle_thermal.csv"), "--target", "dz_um", "--plot", "picture"],
 ])
 def test_a_picture_named_without_a_suffix_is_a_png(work, capsys, argv):
+    # the longest name a file may have too: its temporary file beside it was longer (refused after the work)
     assert main(argv) == 0, capsys.readouterr().err
-    assert (work / "picture").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert sorted(p.name for p in work.iterdir()) == ["P.nc", "picture"]
+    assert (work / argv[-1]).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(p.name for p in work.iterdir()) == ["P.nc", argv[-1]]
+
+
+def test_a_name_the_file_system_cannot_take_is_refused_naming_the_parameter(tmp_path):
+    with pytest.raises(vp.InputError, match=r"^plot: p{24}\.\.\.: a file name of 256 bytes; this file system takes "
+                                            r"at most 255$") as info:
+        safeio.check_outputs({"plot": tmp_path / ("p" + LONG)})
+    assert info.value.parameters == ("plot",)
+    with pytest.raises(vp.InputError, match="^plot: .*/x.png: File name too long$"):  # a folder's name
+        safeio.check_outputs({"plot": tmp_path / ("p" + LONG) / "x.png"})
+    assert safeio.check_outputs({"plot": tmp_path / LONG}) == {"plot": tmp_path / LONG}
+    for folder in (tmp_path / ("p" + LONG), tmp_path / ("p" + LONG) / "sub", tmp_path / "new" / ("p" + LONG)):
+        with pytest.raises(vp.InputError, match=r"^tables: .*(: File name too long|p{24}\.\.\.: a folder name of 256 bytes; this file system "
+                                                  r"takes at most 255)$") as info:
+            safeio.check_output_folder("tables", folder)
+        assert info.value.parameters == ("tables",)
+    assert safeio.check_output_folder("tables", tmp_path / "new" / LONG) == tmp_path / "new" / LONG
+
+
+def test_a_backup_of_a_long_name_fits_the_file_system(tmp_path):
+    spec = tmp_path / ("s" * 250 + ".toml")
+    spec.write_text("first")
+    safeio.write_text(spec, "second", backup=True)
+    safeio.write_text(spec, "third", backup=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["s" * 246 + ".bak.toml", "s" * 245 + ".bak2.toml",
+                                                                 spec.name])
+    assert (tmp_path / ("s" * 246 + ".bak.toml")).read_text() == "first" and spec.read_text() == "third"
 
 
 def test_backups_are_numbered_and_never_overwritten(tmp_path):

@@ -60,6 +60,26 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
         return False
 
 
+#: the longest file name (bytes) assumed where the file system does not say
+NAME_MAX = 255
+
+
+def name_max(folder: str | os.PathLike) -> int:
+    """The longest file name (bytes) the file system of ``folder`` takes (:data:`NAME_MAX`
+    where it does not say or the folder does not exist)."""
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (OSError, ValueError):
+        return NAME_MAX
+
+
+def _fitted(head: str, room: int) -> str:
+    """``head`` cut (by whole characters) to at most ``room`` bytes of the file system's encoding."""
+    while head and len(os.fsencode(head)) > room:
+        head = head[:-1]
+    return head
+
+
 def check_outputs(outputs: Mapping[str, str | os.PathLike | None],
                   inputs: Iterable[str | os.PathLike | None] = ()) -> dict[str, Path]:
     """Check the files a run will write, before it does any work.
@@ -93,27 +113,40 @@ def check_outputs(outputs: Mapping[str, str | os.PathLike | None],
         if not text.strip():
             raise InputError(f"{name}: empty file name", parameters=(name,))
         path = Path(text)
-        for source in inputs:
-            if same_file(path, source):
-                also = "" if os.fspath(path) == os.fspath(source) else f" ({source})"
-                raise InputError(f"{name}: {path} is an input of this run{also}; write the result elsewhere",
-                                 parameters=(name,))
-        for other, taken in checked.items():
-            if same_file(path, taken):
-                raise InputError(f"{name}: {path} is also given as {other}", parameters=(name, other))
-        if path.is_dir():
-            raise InputError(f"{name}: {path} is a folder; give a file name", parameters=(name,))
-        if path.exists() and not stat.S_ISREG(path.stat().st_mode):
-            raise InputError(f"{name}: {path} exists and is not a regular file", parameters=(name,))
-        folder = path.parent
-        if not folder.is_dir():
-            raise InputError(f"{name}: {path}: folder {folder} does not exist", parameters=(name,))
-        if not os.access(folder, os.W_OK | os.X_OK):
-            raise InputError(f"{name}: {path}: folder {folder} is not writable", parameters=(name,))
-        if path.exists() and not os.access(path, os.W_OK):
-            raise InputError(f"{name}: {path} exists and is read-only", parameters=(name,))
+        try:
+            _check_output(name, path, inputs, checked)
+        except OSError as exc:  # a name the file system cannot take (too long, a loop of links)
+            raise InputError(f"{name}: {path}: {exc.strerror or exc}", parameters=(name,)) from None
         checked[name] = path
     return checked
+
+
+def _check_output(name: str, path: Path, inputs: list[Path], checked: dict[str, Path]) -> None:
+    """One output of :func:`check_outputs` (raises InputError, or OSError from the file system)."""
+    limit = name_max(path.parent if path.parent.is_dir() else ".")
+    size = len(os.fsencode(path.name))
+    if size > limit:
+        raise InputError(f"{name}: {path.name[:24]}...: a file name of {size} bytes; this file system takes "
+                         f"at most {limit}", parameters=(name,))
+    for source in inputs:
+        if same_file(path, source):
+            also = "" if os.fspath(path) == os.fspath(source) else f" ({source})"
+            raise InputError(f"{name}: {path} is an input of this run{also}; write the result elsewhere",
+                             parameters=(name,))
+    for other, taken in checked.items():
+        if same_file(path, taken):
+            raise InputError(f"{name}: {path} is also given as {other}", parameters=(name, other))
+    if path.is_dir():
+        raise InputError(f"{name}: {path} is a folder; give a file name", parameters=(name,))
+    if path.exists() and not stat.S_ISREG(path.stat().st_mode):
+        raise InputError(f"{name}: {path} exists and is not a regular file", parameters=(name,))
+    folder = path.parent
+    if not folder.is_dir():
+        raise InputError(f"{name}: {path}: folder {folder} does not exist", parameters=(name,))
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InputError(f"{name}: {path}: folder {folder} is not writable", parameters=(name,))
+    if path.exists() and not os.access(path, os.W_OK):
+        raise InputError(f"{name}: {path} exists and is read-only", parameters=(name,))
 
 
 def check_output_folder(name: str, folder: str | os.PathLike | None) -> Path | None:
@@ -143,13 +176,20 @@ def check_output_folder(name: str, folder: str | os.PathLike | None) -> Path | N
     path = Path(folder)
     if not os.fspath(folder).strip():
         raise InputError(f"{name}: empty folder name", parameters=(name,))
-    existing = path
-    while not existing.exists() and existing != existing.parent:
-        existing = existing.parent
-    if not existing.is_dir():
-        raise InputError(f"{name}: {existing} is not a folder", parameters=(name,))
-    if not os.access(existing, os.W_OK | os.X_OK):
-        raise InputError(f"{name}: {existing} is not writable", parameters=(name,))
+    try:
+        existing = path
+        while not existing.exists() and existing != existing.parent:
+            existing = existing.parent
+        if not existing.is_dir():
+            raise InputError(f"{name}: {existing} is not a folder", parameters=(name,))
+        if not os.access(existing, os.W_OK | os.X_OK):
+            raise InputError(f"{name}: {existing} is not writable", parameters=(name,))
+        for part in path.relative_to(existing).parts if existing != path else ():  # the folders to make
+            if len(os.fsencode(part)) > name_max(existing):
+                raise InputError(f"{name}: {part[:24]}...: a folder name of {len(os.fsencode(part))} bytes; this "
+                                 f"file system takes at most {name_max(existing)}", parameters=(name,))
+    except OSError as exc:  # a name the file system cannot take (too long, a loop of links)
+        raise InputError(f"{name}: {path}: {exc.strerror or exc}", parameters=(name,)) from None
     return path
 
 
@@ -202,10 +242,12 @@ class Transaction:
         """
         target = Path(target)
         if target.suffix:
-            prefix, suffix = f".{target.name}.", f".part{target.suffix}"
+            head, sep, suffix = target.name, ".", f".part{target.suffix}"
         else:  # no dot after the leading one, or the temporary file would have a suffix its target has not
-            prefix, suffix = f".{target.name.replace('.', '_')}-", "-part"
-        fd, name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
+            head, sep, suffix = target.name.replace(".", "_"), "-", "-part"
+        # within the name limit: the leading dot, the separator and mkstemp's 8 random characters
+        head = _fitted(head, name_max(target.parent) - len(os.fsencode(suffix)) - 10)
+        fd, name = tempfile.mkstemp(prefix=f".{head}{sep}", suffix=suffix, dir=target.parent)
         os.close(fd)
         self._pending.append((Path(name), target, backup))
         return Path(name)
@@ -349,8 +391,10 @@ def keep_backup(target: str | os.PathLike) -> Path | None:
     target = Path(target)
     if not target.exists():
         return None
+    limit = name_max(target.parent)
     for k in range(1, 10_000):
-        backup = target.with_name(f"{target.stem}.bak{'' if k == 1 else k}{target.suffix}")
+        mark = f".bak{'' if k == 1 else k}{target.suffix}"
+        backup = target.with_name(_fitted(target.stem, limit - len(os.fsencode(mark))) + mark)
         try:
             os.link(target, backup)  # atomic, and the target stays in place until it is replaced
             return backup
