@@ -8,6 +8,7 @@ import json
 import os
 import re
 import signal
+import time
 from pathlib import Path
 
 import numpy as np
@@ -194,6 +195,9 @@ def test_a_floor_from_the_residual_far_above_the_stated_noise_is_not_reached(mac
 
 
 def test_the_same_answer_on_one_core_or_several(machines, monkeypatch):
+    monkeypatch.setattr(diagnose_results, "others_running", lambda: 0)  # two workers, whatever else runs
+    monkeypatch.setattr(diagnose_results, "_load_reading", None)
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
     m = machines["vmc500"]
     truth, data = heldout_set(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}, 300, NOISE, 5)
     import volerr_pin.diagnose.loop as loop
@@ -244,6 +248,63 @@ def test_process_map_keeps_the_order_and_falls_back_here():
     done = []
     assert diagnose_results.process_map(str, items, workers=3, progress=done.append) == [str(x) for x in items]
     assert done == sorted(done) and done[-1] == len(items)
+
+
+@pytest.mark.parametrize("text, others", [
+    (b"0.52 0.58 0.59 1/197 86512\n", 0), (b"1.98 1.50 0.90 3/201 86601\n", 2), (b"0.0 0.0 0.0 0/5 1\n", 0),
+    (b"0.52 0.58 0.59\n", None), (b"0.52 0.58 0.59 x/197 86512\n", None), (None, None),
+])
+def test_others_running_reads_the_runnable_tasks_less_this_one(tmp_path, text, others):
+    path = tmp_path / "loadavg"
+    if text is not None:
+        path.write_bytes(text)
+    assert diagnose_results.others_running(str(path)) == others
+
+
+def test_a_process_computing_beside_is_counted():
+    import subprocess
+    import sys
+
+    if not os.path.exists("/proc/loadavg"):
+        pytest.skip("no /proc/loadavg here")
+    spinner = subprocess.Popen([sys.executable, "-c", "print('up', flush=True)\nwhile True: pass"],
+                               stdout=subprocess.PIPE)
+    try:
+        assert spinner.stdout.readline() == b"up\n"
+        assert diagnose_results.others_running() >= 1   # runnable all the time: running or waiting for a core
+    finally:
+        spinner.kill()
+        spinner.wait()
+
+
+@pytest.mark.parametrize("cores, others, workers, expected", [
+    (2, 0, 2, 2), (2, 1, 2, 1), (2, 5, 2, 1), (8, 3, 4, 4), (8, 6, 4, 2), (2, None, 2, 2), (2, 0, 1, 1),
+])
+def test_free_workers_leave_the_cores_other_processes_keep_busy(monkeypatch, cores, others, workers, expected):
+    readings = []
+    monkeypatch.setattr(diagnose_results, "others_running", lambda: readings.append(1) or others)
+    monkeypatch.setattr(diagnose_results, "_load_reading", None)
+    monkeypatch.setattr(diagnose_results, "WORKERS", workers)
+    monkeypatch.setattr(os, "cpu_count", lambda: cores)
+    assert diagnose_results.free_workers() == expected
+    assert diagnose_results.free_workers() == expected and len(readings) == 1   # one reading serves a while
+    monkeypatch.setattr(diagnose_results, "LOAD_READING_S", 0.0)
+    diagnose_results.free_workers()
+    assert len(readings) == 2
+
+
+@pytest.mark.parametrize("others, forks", [(0, True), (1, False)])
+def test_by_default_a_busy_machine_gets_no_worker(monkeypatch, others, forks):
+    monkeypatch.setattr(diagnose_results, "others_running", lambda: others)
+    monkeypatch.setattr(diagnose_results, "_load_reading", None)
+    monkeypatch.setattr(diagnose_results, "WORKERS", 2)
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    pids = diagnose_results.process_map(_fails_on(None), range(6))
+    assert (len(set(pids)) == 2) == forks
+    import threading
+
+    threads = diagnose_results.parallel_map(lambda x: (time.sleep(0.02), threading.get_ident())[1], range(6))
+    assert (len(set(threads)) > 1) == forks
 
 
 def _fails_on(bad):

@@ -9,6 +9,7 @@ import os
 import pickle
 import signal
 import threading
+import time
 import traceback
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
@@ -21,13 +22,66 @@ from ..machine import Machine
 
 __all__ = ["PARALLEL_MIN_ROWS", "PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR",
            "WORKERS", "Candidate", "Change", "Diagnosis", "DriftSeries", "Evidence", "Raise", "Score", "Step",
-           "one_blas_thread", "parallel_map", "process_map"]
+           "free_workers", "one_blas_thread", "others_running", "parallel_map", "process_map"]
 
 #: observation rows from which a round's candidates are scored on :data:`WORKERS` processes (below,
 #: forking costs more than it saves: measured in benchmarks/diagnose.py)
 PARALLEL_MIN_ROWS = 1000
 #: threads that score candidates and set up folds at once: the cores this process may use
 WORKERS = max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1))
+#: seconds a reading of the machine's load (:func:`free_workers`) serves before it is read again
+LOAD_READING_S = 0.5
+_load_reading: tuple[float, int | None] | None = None
+
+
+def others_running(loadavg: str = "/proc/loadavg") -> int | None:
+    """Tasks of other processes running or waiting for a core now: the machine's runnable
+    tasks (the fourth field of ``/proc/loadavg``), this thread not counted, the fewest of
+    three readings half a millisecond apart (a process passing through is not counted, one
+    that computes is).
+
+    Parameters
+    ----------
+    loadavg : str, optional
+        The file to read.
+
+    Returns
+    -------
+    int or None
+        The count; None where the system does not say.
+    """
+    counts = []
+    for k in range(3):
+        if k:
+            time.sleep(0.0005)
+        try:
+            with open(loadavg, "rb") as fh:
+                counts.append(int(fh.read().split()[3].split(b"/")[0]))
+        except (OSError, ValueError, IndexError):
+            return None
+    return max(0, min(counts) - 1)
+
+
+def free_workers() -> int:
+    """:data:`WORKERS`, less what other processes computing now leave this one: on a machine
+    whose other cores are busy, forked workers and threads would only take turns with them
+    and with each other (beside one process spinning on one of 2 cores, two workers took 1.14
+    to 1.17 times as long as one, benchmarks/diagnose.py). Read at most every
+    :data:`LOAD_READING_S`; where the load cannot be read, :data:`WORKERS`.
+
+    Returns
+    -------
+    int
+        Workers, at least 1.
+    """
+    global _load_reading
+    now = time.monotonic()
+    if _load_reading is None or now - _load_reading[0] > LOAD_READING_S:
+        _load_reading = (now, others_running())
+    others = _load_reading[1]
+    if others is None:
+        return WORKERS
+    return max(1, min(WORKERS, (os.cpu_count() or 1) - others))
 
 
 def parallel_map(fn, items, workers: int | None = None) -> list:
@@ -42,7 +96,8 @@ def parallel_map(fn, items, workers: int | None = None) -> list:
     items : iterable
         The items.
     workers : int, optional
-        Threads (default :data:`WORKERS`).
+        Threads (default :func:`free_workers`: :data:`WORKERS` less the cores other processes
+        keep busy).
 
     Returns
     -------
@@ -50,8 +105,10 @@ def parallel_map(fn, items, workers: int | None = None) -> list:
         The results, in the order of ``items``.
     """
     items = list(items)
-    workers = WORKERS if workers is None else workers
-    if workers <= 1 or len(items) <= 1:
+    if len(items) <= 1:
+        return [fn(x) for x in items]
+    workers = free_workers() if workers is None else workers
+    if workers <= 1:
         return [fn(x) for x in items]
     with ThreadPoolExecutor(min(workers, len(items))) as pool:
         return list(pool.map(fn, items))
@@ -72,7 +129,8 @@ def process_map(fn, items, workers: int | None = None, progress=None) -> list:
     items : iterable
         The items.
     workers : int, optional
-        Processes, this one included (default :data:`WORKERS`).
+        Processes, this one included (default :func:`free_workers`: :data:`WORKERS` less the
+        cores other processes keep busy).
     progress : callable(int), optional
         Called with the number of items done (all processes'), in this process.
 
@@ -88,7 +146,9 @@ def process_map(fn, items, workers: int | None = None, progress=None) -> list:
         child ended without a result (killed).
     """
     items = list(items)
-    workers = min(WORKERS if workers is None else workers, len(items))
+    if workers is None:
+        workers = free_workers() if len(items) > 1 else 1
+    workers = min(workers, len(items))
     forkable = hasattr(os, "fork") and threading.active_count() == 1
     if workers <= 1 or not forkable:
         out = []
