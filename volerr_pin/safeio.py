@@ -4,7 +4,8 @@ Every file the product writes goes through this module:
 
 * :func:`check_outputs` is called before any work. It refuses an output that is an input
   (the same file by path, link or hard link), that is a folder or a device, whose folder does
-  not exist or cannot be written, or that another output of the same run also names.
+  not exist or cannot be written, whose name the file system cannot take, or that another
+  output of the same run also names.
 * :func:`replacing` (and :func:`write_text`) writes to a temporary file in the target's own
   folder, flushes it to disk and renames it over the target only when the writing succeeded.
   A run that fails leaves every existing file as it was and no temporary file behind.
@@ -226,7 +227,8 @@ class Transaction:
         self.backups: list[Path] = []
 
     def path(self, target: str | os.PathLike, *, backup: bool = False) -> Path:
-        """A temporary file beside ``target`` (empty, same suffix) that replaces it on commit.
+        """A temporary file beside ``target`` (empty, hidden, with exactly its suffix - none
+        where it has none - and a name the file system takes) that replaces it on commit.
 
         Parameters
         ----------
