@@ -74,6 +74,15 @@ def name_max(folder: str | os.PathLike) -> int:
         return NAME_MAX
 
 
+def _check_name(name: str, part: str, folder: str | os.PathLike, what: str) -> None:
+    """Refuse, naming the parameter ``name``, a ``what`` ("file", "folder") name ``part`` longer
+    than the file system of ``folder`` takes."""
+    size, limit = len(os.fsencode(part)), name_max(folder)
+    if size > limit:
+        raise InputError(f"{name}: {part[:24]}...: a {what} name of {size} bytes; this file system takes at most "
+                         f"{limit}", parameters=(name,))
+
+
 def _fitted(head: str, room: int) -> str:
     """``head`` cut (by whole characters) to at most ``room`` bytes of the file system's encoding."""
     while head and len(os.fsencode(head)) > room:
@@ -124,11 +133,7 @@ def check_outputs(outputs: Mapping[str, str | os.PathLike | None],
 
 def _check_output(name: str, path: Path, inputs: list[Path], checked: dict[str, Path]) -> None:
     """One output of :func:`check_outputs` (raises InputError, or OSError from the file system)."""
-    limit = name_max(path.parent if path.parent.is_dir() else ".")
-    size = len(os.fsencode(path.name))
-    if size > limit:
-        raise InputError(f"{name}: {path.name[:24]}...: a file name of {size} bytes; this file system takes "
-                         f"at most {limit}", parameters=(name,))
+    _check_name(name, path.name, path.parent, "file")
     for source in inputs:
         if same_file(path, source):
             also = "" if os.fspath(path) == os.fspath(source) else f" ({source})"
@@ -186,9 +191,7 @@ def check_output_folder(name: str, folder: str | os.PathLike | None) -> Path | N
         if not os.access(existing, os.W_OK | os.X_OK):
             raise InputError(f"{name}: {existing} is not writable", parameters=(name,))
         for part in path.relative_to(existing).parts if existing != path else ():  # the folders to make
-            if len(os.fsencode(part)) > name_max(existing):
-                raise InputError(f"{name}: {part[:24]}...: a folder name of {len(os.fsencode(part))} bytes; this "
-                                 f"file system takes at most {name_max(existing)}", parameters=(name,))
+            _check_name(name, part, existing, "folder")
     except OSError as exc:  # a name the file system cannot take (too long, a loop of links)
         raise InputError(f"{name}: {path}: {exc.strerror or exc}", parameters=(name,)) from None
     return path
