@@ -434,3 +434,26 @@ def test_a_refit_whose_values_a_spec_cannot_hold_is_not_accepted(machines, monke
              if "backlash" in c["label"]]
     assert any(n.startswith("not accepted: the joint refit's values are beyond what a spec holds (errors.EYY")
                for n in notes), notes
+
+
+def test_a_candidate_too_small_in_its_joint_refit_says_so(machines, monkeypatch):
+    """A candidate can pass the F-test and the cross-validation and still be below
+    SIGNIFICANCE standard uncertainties in its joint refit (a once-per-revolution error of B,
+    its period free, came out at 0.02 on a five-axis set); it is not accepted, and its note
+    says so with its size. Here every backlash is made to come out at 1.5."""
+    import volerr_pin.diagnose.loop as loop
+
+    m = machines["vmc500"]
+    data = campaign(add_terms(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}), 200, NOISE, 3)
+    result = diagnose(m, [data], max_rounds=1)
+    assert [e.name for e in result.effects] == ["backlash"]   # the case: named in round 1
+    assert not any("joint refit its size" in c.note for step in result.steps for c in step.candidates)
+    size_of = loop.size_of
+    monkeypatch.setattr(loop, "size_of", lambda res, names: 1.5 if any(".reversal." in n for n in names)
+                        else size_of(res, names))
+    result = diagnose(m, [data], max_rounds=1)
+    assert "backlash" not in [e.name for e in result.effects]
+    (first,) = [c for c in result.steps[0].candidates if c.candidate.name == "backlash" and c.candidate.axis == "Y"]
+    assert first.note == "not accepted in round 1: in the joint refit its size is 1.5 standard uncertainties, below 3"
+    assert all(not c.note or "joint refit its size is 1.5" not in c.note for c in result.steps[0].candidates
+               if c.candidate.name != "backlash")

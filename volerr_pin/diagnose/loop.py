@@ -278,6 +278,7 @@ class _Loop:
         refit, accepted (raises come along from ``passing``); [] when none does."""
         for best in candidates[:3]:
             batch = [best]
+            weak = {}   # id -> (score, size): below SIGNIFICANCE in a joint refit of this try, first seen
             if best.candidate.kind == "raise":
                 # the other under-modelled components that pass on their own come along, except
                 # those a physical effect passing this round would sit on: it gets its round first
@@ -306,12 +307,19 @@ class _Loop:
                     if note:   # a per-revolution error whose period leaves its window is not that error
                         sizes[k], s.note = 0.0, note
                 keep = [s for s, z in zip(batch, sizes) if z >= SIGNIFICANCE]
+                weak.update({id(s): (s, z) for s, z in zip(batch, sizes)
+                             if z < SIGNIFICANCE and not s.note and id(s) not in weak})
                 if len(keep) == len(batch) or (not keep and len(batch) == 1):
                     break
                 # the ones significant in the joint refit; if none is (raises that explain the
                 # same residual share it, and each looks insignificant), the best one alone
                 batch = keep or [best]
-            if len(keep) != len(batch) or not keep:
+            accepted = bool(keep) and len(keep) == len(batch)
+            for s, z in weak.values():   # the note says why a candidate that passed was not taken
+                if not (accepted and any(s is b for b in batch)):
+                    s.note = (f"not accepted in round {number + 1}: in the joint refit its size is {z:.2g} "
+                              f"standard uncertainties, below {SIGNIFICANCE:g}")
+            if not accepted:
                 continue
             for record, z, s in zip(records, sizes, batch):
                 record.rms_before_um, record.max_before_um, record.step = proj.cv_rms, proj.cv_max, number
