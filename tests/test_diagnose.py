@@ -332,7 +332,8 @@ def test_cli_diagnose_refuses_bad_options_in_one_line(machines, tmp_path, capsys
                           (["--max-effects", "-1"], "--max-effects must be >= 0, got -1"),
                           (["--sigma-um", "nan"], "--sigma-um must be positive and finite, got nan"),
                           (["--sigma-urad", "0"], "--sigma-urad must be positive and finite, got 0.0"),
-                          (["--seed", "-1"], "--seed must be >= 0, got -1")):
+                          (["--seed", "-1"], "--seed must be >= 0, got -1"),
+                          (["--max-rounds", "-1"], "--max-rounds must be >= 0, got -1")):
         assert main(["diagnose", "vmc500", str(path), *argv]) == 2
         err = capsys.readouterr().err
         assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err

@@ -457,3 +457,30 @@ def test_a_candidate_too_small_in_its_joint_refit_says_so(machines, monkeypatch)
     assert first.note == "not accepted in round 1: in the joint refit its size is 1.5 standard uncertainties, below 3"
     assert all(not c.note or "joint refit its size is 1.5" not in c.note for c in result.steps[0].candidates
                if c.candidate.name != "backlash")
+
+
+def test_the_report_says_when_the_round_limit_ended_the_rounds(machines, tmp_path, capsys):
+    """A five-axis set (seed 613) spent its 13 rounds raising off-spec components; in the last
+    one, which may not accept, its hidden error still passed, and the report said nothing of it.
+    Now it says why the rounds ended, and what still passed at the limit."""
+    m = machines["vmc500"]
+    data = campaign(add_terms(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}), 200, NOISE, 3)
+    cut = diagnose(m, [data], max_rounds=0)
+    assert cut.effects == [] and cut.stopped["reason"] == "round_limit"
+    assert cut.stopped["rounds"] == 1 and cut.stopped["max_rounds"] == 0
+    assert cut.stopped["still_passing"][0].startswith("backlash on Y in y")
+    assert cut.stopped["still_passing"] == [s.label for s in cut.steps[0].candidates if s.label in
+                                           cut.stopped["still_passing"]]   # best first, as ranked
+    done = diagnose(m, [data])
+    assert [e.name for e in done.effects] == ["backlash"]
+    assert done.stopped == {"reason": "nothing_passes", "rounds": len(done.steps), "max_rounds": 13,
+                            "still_passing": [], "label": f"stopped after {len(done.steps)} rounds: no further "
+                                                          "change passes"}
+    path = tmp_path / "points.csv"
+    write_points(data, m, path)
+    assert main(["diagnose", "vmc500", str(path), "--max-rounds", "0"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "stopped at the round limit (0 rounds that may accept a change) with" in text
+    assert "the best: backlash on Y in y" in text and "a larger --max-rounds lets the diagnosis go on" in text
+    assert main(["diagnose", "vmc500", str(path), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["stopped"]["reason"] == "nothing_passes"

@@ -17,6 +17,9 @@ def add_parser(sub) -> None:
     p.add_argument("data", nargs="+", help="point measurements (CSV) with any covariate columns")
     p.add_argument("--fixed", action="store_true", help="keep the spec's geometric values (do not refit them)")
     p.add_argument("--max-effects", type=int, default=5, help="stop after this many effects (default 5)")
+    p.add_argument("--max-rounds", type=int, default=None,
+                   help="rounds that may accept a change, at most (default max-effects + 8); the report "
+                        "says when candidates still passed at the limit")
     p.add_argument("--alpha", type=float, default=0.01,
                    help="family-wise significance per round (Bonferroni over candidates; default 0.01)")
     p.add_argument("--folds", type=int, default=5,
@@ -43,7 +46,7 @@ def run(args) -> int:
     with FitProgress(not args.json) as progress:
         result = diagnose(machine, data, fixed=args.fixed, max_effects=args.max_effects,
                           alpha=args.alpha, folds=args.folds, seed=args.seed, sigma_um=args.sigma_um,
-                          sigma_urad=args.sigma_urad, progress=progress)
+                          sigma_urad=args.sigma_urad, max_rounds=args.max_rounds, progress=progress)
     report = result.to_dict()
     report["notes"] = [f"{d.source}: columns not used: {', '.join(d.unused)}" for d in data if d.unused]
     with transaction() as tx:  # the spec, recording and picture are all written, or none
@@ -110,6 +113,8 @@ def run(args) -> int:
                   + escape(", ".join(f"{u.component} ({u.form_before} -> {u.form_after})" for u in result.under_modelled)))
     for e in result.dropped:
         out.print(escape(f"dropped: {e.label} ({e.note})"))
+    if result.stopped.get("reason") == "round_limit":
+        out.print(escape(result.stopped["label"].replace("max_rounds", "--max-rounds")))
     verdict = "reaches" if result.reaches_noise_floor else "does not reach"
     floor = "noise floor at most" if result.noise_floor_upper_bound else "noise floor"
     out.print(f"{floor} {result.noise_floor_um:.3f} um ({escape(result.noise_floor_source)}); the final model "

@@ -138,6 +138,7 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
             if not loop.round(number, may_accept=number < max_rounds):
                 break
         diagnosis, final = loop.finish()
+    diagnosis.stopped = _stopped(loop, max_rounds)
     if final is not None and final.ill_conditioned:
         warnings.warn(conditioning_note(final.analysis, len(obs.y)), stacklevel=2)
     diagnosis.seconds = _time.perf_counter() - start
@@ -165,6 +166,7 @@ class _Loop:
         self.raised: list[Change] = []
         self.previous: list[Change] = []
         self._last_holdout = None
+        self.left_passing: list = []            # what still passed when the round limit ended the rounds
 
     def fit(self, model: Machine, names: list[str], initialise: bool = False):
         """The model fitted (all coefficients; with ``fixed`` only ``names``): (machine,
@@ -198,6 +200,7 @@ class _Loop:
             record.rms_after_um, record.max_after_um = proj.cv_rms, proj.cv_max
         ranked, passing = self._scores(number, base, proj)
         accepted = self._accept(number, passing, proj) if may_accept else []
+        self.left_passing = [] if may_accept else passing
         self.steps.append(Step(number, proj.cv_rms, [s.summary() for s in ranked], base.r * obs.sigma,
                                self.current if self.keep_machines else None, accepted))
         if not accepted:
@@ -540,6 +543,20 @@ class _Loop:
         details["lags_tried"] = [{"lag_s": k, "rms_holdout_um": v} for k, v in tried.items()]
         details["time_check"] = _time_check(self, members, final)
         return final, details
+
+
+def _stopped(loop: _Loop, max_rounds: int) -> dict:
+    """Why the rounds ended (:attr:`~volerr_pin.diagnose.results.Diagnosis.stopped`)."""
+    rounds = len(loop.steps)
+    if loop.left_passing:
+        labels = [s.label for s in loop.left_passing]
+        return {"reason": "round_limit", "rounds": rounds, "max_rounds": max_rounds, "still_passing": labels,
+                "label": (f"stopped at the round limit ({max_rounds} rounds that may accept a change) with "
+                          f"{len(labels)} candidate{'s' if len(labels) != 1 else ''} still passing the F-test and "
+                          f"the cross-validation, the best: {labels[0]}; a larger max_rounds "
+                          "lets the diagnosis go on")}
+    return {"reason": "nothing_passes", "rounds": rounds, "max_rounds": max_rounds, "still_passing": [],
+            "label": f"stopped after {rounds} round{'s' if rounds != 1 else ''}: no further change passes"}
 
 
 def _repeat_order(number: int, passing: list, proj: Projector, obs: Observations,

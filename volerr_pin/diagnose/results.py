@@ -635,6 +635,11 @@ class Diagnosis:
         the 3D norm) [um].
     residual : ndarray, shape (rows,) or None
         The final model's residual of every observation row [m or rad].
+    stopped : dict
+        Why the rounds ended: ``reason`` ("nothing_passes", or "round_limit" when the last
+        round allowed had candidates still passing the F-test and the cross-validation),
+        ``rounds`` (run), ``max_rounds``, ``still_passing`` (their labels, best first) and
+        ``label`` (in words).
     """
 
     machine: Machine
@@ -657,6 +662,7 @@ class Diagnosis:
     possible: list[Change] = field(default_factory=list)
     noise_stated_um: float = math.nan
     residual: np.ndarray | None = field(default=None, repr=False)
+    stopped: dict = field(default_factory=dict)
 
     def off_spec(self) -> dict:
         """The raised components grouped: one finding "geometry off the spec on n components".
@@ -701,6 +707,7 @@ class Diagnosis:
             "off_spec": self.off_spec(),
             "under_modelled": [u.to_dict() for u in self.under_modelled],
             "dropped": [e.to_dict() for e in self.dropped],
+            "stopped": dict(self.stopped),
             "steps": [{"step": s.number, "rms_holdout_um": s.rms_holdout_um,
                        "accepted": [a.label for a in s.accepted_all] or None,
                        "candidates": [c.to_dict() for k, c in enumerate(s.candidates) if k < 10 or c.note]}
