@@ -140,7 +140,9 @@ def test_robot_axes_example_on_real_data():
     assert [round(r["distance"] * 1e3) for r in rel.values()][:3] == [311, 1076, 224]
     # the arm rebuilt from those axes, its joints' constant errors identified from all poses
     ident = result["identification"]
-    assert ident["solver"] == "converged" and ident["rank"] == 21
+    # 20 determined: J4's x translation is J2's z translation up to small parts of others (the
+    # wrist's axes meet within a millimetre); it was counted among them, and the fit warned
+    assert ident["solver"] == "converged" and ident["rank"] == 20
     assert result["model_rms_um"] == pytest.approx(418.4, abs=0.5)
     assert ident["rms_fit_um"] == pytest.approx(343.2, abs=0.5) and ident["rms_holdout_um"] < 520
     # and diagnose says what the rest is: joint angle errors that change with the angle

@@ -93,7 +93,10 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
     A column is ``zero`` when its norm is below ``rtol`` times the median column norm; two
     columns are ``collinear`` when the cosine of their angle is within ``rtol`` of +-1; a
     column is a ``combination`` when its component orthogonal to the kept columns is below
-    ``sqrt(rtol)`` of its norm. Factors: ``A_dependent = sum factor_k A_k`` over the listed
+    ``sqrt(rtol)`` of its norm, or when the kept set, each column independent of those before
+    it, is singular to rounding as a whole (its smallest singular value below ``min(rtol,
+    eps * max(rows, n))`` of the largest: near-dependencies chained over several columns);
+    then the last column taking part in the combination goes. Factors: ``A_dependent = sum factor_k A_k`` over the listed
     kept columns (in the columns' own units), so the combination
     ``A_dependent - sum factor_k A_k`` has no effect.
 
@@ -227,6 +230,30 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
                 (1.0,) + tuple(float(-factors[k]) for k in big),
                 f"the effect of {names[j]} on {what} equals a combination of the others listed: the "
                 "weighted sum with these factors has no effect"))
+    # the test above looks at one column at a time: near-dependencies chained over several
+    # columns (a robot's wrist, its axes meeting within a millimetre) can leave the kept set
+    # singular to rounding although each column kept more than sqrt(rtol) of itself; the kept
+    # set's own singular vectors then name the combination, and its last column (protected
+    # ones last of all) among those that take a real part in it goes (at rounding level, or
+    # below rtol of the largest when rtol asks for less: 1e-30 turns the analysis off)
+    floor = min(rtol, np.finfo(float).eps * max(A.shape))
+    while len(kept) > 1:
+        _, s, vt = np.linalg.svd(U[:, kept], full_matrices=False)
+        if s[-1] > s[0] * floor:
+            break
+        weight = np.abs(vt[-1])
+        j = kept[max((k for k in range(len(kept)) if weight[k] >= 0.1 * weight.max()),
+                     key=lambda k: (kept[k] >= protected, kept[k]))]
+        kept.remove(j)
+        dependent.add(j)
+        coef = np.linalg.lstsq(U[:, kept], U[:, j], rcond=None)[0]
+        big = np.flatnonzero(np.abs(coef) > 1e-4 * np.abs(coef).max())
+        factors = coef * norms[j] / norms[kept]
+        groups.append(IdentifiabilityGroup(
+            "combination", (names[j],) + tuple(names[kept[k]] for k in big),
+            (1.0,) + tuple(float(-factors[k]) for k in big),
+            f"the effect of {names[j]} on {what} equals a combination of the others listed: the "
+            "weighted sum with these factors has no effect"))
     if kept:
         sv = np.linalg.svd(U[:, kept], compute_uv=False)
         condition = float(sv[0] / sv[-1])
