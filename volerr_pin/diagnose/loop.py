@@ -45,6 +45,8 @@ TIME_CHECK_SHARE = 0.6
 #: and to 1e8 deg, a slope the axis' polynomial already has, with cancelling amplitudes of
 #: thousands of radians; the right ones settled within 0.79 to 1.0 of 360/n)
 PERIOD_WINDOW = 1.5
+#: what the note of a candidate too small in its joint refit says (before its size)
+WEAK = "in the joint refit its size is"
 
 
 def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects: int = 5,
@@ -311,7 +313,7 @@ class _Loop:
                         sizes[k], s.note = 0.0, note
                 keep = [s for s, z in zip(batch, sizes) if z >= SIGNIFICANCE]
                 weak.update({id(s): (s, z) for s, z in zip(batch, sizes)
-                             if z < SIGNIFICANCE and not s.note and id(s) not in weak})
+                             if z < SIGNIFICANCE and (not s.note or WEAK in s.note) and id(s) not in weak})
                 if len(keep) == len(batch) or (not keep and len(batch) == 1):
                     break
                 # the ones significant in the joint refit; if none is (raises that explain the
@@ -320,10 +322,13 @@ class _Loop:
             accepted = bool(keep) and len(keep) == len(batch)
             for s, z in weak.values():   # the note says why a candidate that passed was not taken
                 if not (accepted and any(s is b for b in batch)):
-                    s.note = (f"not accepted in round {number + 1}: in the joint refit its size is {z:.2g} "
-                              f"standard uncertainties, below {SIGNIFICANCE:g}")
+                    s.note = (f"not accepted in round {number + 1}: {WEAK} {z:.2g} standard uncertainties, "
+                              f"below {SIGNIFICANCE:g}")
             if not accepted:
                 continue
+            for s in batch:   # a candidate too small beside an earlier best may be taken with a later one
+                if WEAK in s.note:
+                    s.note = ""
             for record, z, s in zip(records, sizes, batch):
                 record.rms_before_um, record.max_before_um, record.step = proj.cv_rms, proj.cv_max, number
                 if record.name == "periodic_rotary":
