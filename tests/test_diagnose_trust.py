@@ -460,9 +460,10 @@ def test_a_candidate_too_small_in_its_joint_refit_says_so(machines, monkeypatch)
 
 
 def test_the_report_says_when_the_round_limit_ended_the_rounds(machines, tmp_path, capsys):
-    """A five-axis set (seed 613) spent its 13 rounds raising off-spec components; in the last
-    one, which may not accept, its hidden error still passed, and the report said nothing of it.
-    Now it says why the rounds ended, and what still passed at the limit."""
+    """A five-axis set (seed 613) spent its 13 rounds raising off-spec components; in the round
+    after them, which only scores, its hidden error still passed, and the report said nothing of
+    it. Now it says why the rounds ended, and what still passed at the limit; here a backlash
+    cut off after no round, then found, and data with nothing to find cut off alike."""
     m = machines["vmc500"]
     data = campaign(add_terms(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}), 200, NOISE, 3)
     cut = diagnose(m, [data], max_rounds=0)
@@ -476,6 +477,8 @@ def test_the_report_says_when_the_round_limit_ended_the_rounds(machines, tmp_pat
     assert done.stopped == {"reason": "nothing_passes", "rounds": len(done.steps), "max_rounds": 13,
                             "still_passing": [], "label": f"stopped after {len(done.steps)} rounds: no further "
                                                           "change passes"}
+    quiet = diagnose(m, [campaign(m, 200, NOISE, 3)], max_rounds=0)   # nothing to find: nothing passes
+    assert quiet.stopped["reason"] == "nothing_passes" and quiet.stopped["rounds"] == 1
     path = tmp_path / "points.csv"
     write_points(data, m, path)
     assert main(["diagnose", "vmc500", str(path), "--max-rounds", "0"]) == 0

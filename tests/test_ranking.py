@@ -235,6 +235,7 @@ def test_the_identifiability_analysis_refuses_what_it_cannot_analyse():
             ((A, ["a", "b"]), {}, "names: 2 names for 3 columns", "names"),
             ((A, ["a", "b", "c"]), {"protected": 4}, "protected must be a whole number from 0 to 3", "protected"),
             ((A, ["a", "b", "c"]), {"rtol": 1.5}, "rtol must be between 0 and 1", "rtol"),
+            ((A, ["a", "b", "c"]), {"rows": 0}, "rows must be a whole number >= 1, got 0", "rows"),
             ((A, ["a", "b", "c"]), {"typical": [1.0, 0.0, 1.0]}, "typical must be one positive finite size",
              "typical")):
         with pytest.raises(vp.InputError, match=match) as err:
@@ -242,7 +243,7 @@ def test_the_identifiability_analysis_refuses_what_it_cannot_analyse():
         assert err.value.parameters == (parameter,)
 
 
-@pytest.mark.parametrize("n,d,protected", [(6, 1e-3, 0), (8, 1e-3, 1), (5, 1e-4, 0)])
+@pytest.mark.parametrize("n,d,protected", [(6, 1e-3, 0), (8, 1e-3, 1), (5, 1e-4, 0), (8, 1e-3, 2)])
 def test_columns_each_independent_but_singular_together_are_thinned(n, d, protected):
     """Each column keeps far more than sqrt(rtol) of itself against those before it (d over
     its norm), yet chained together they are singular to rounding: on the real robot's wrist
@@ -266,7 +267,10 @@ def test_columns_each_independent_but_singular_together_are_thinned(n, d, protec
     (group,) = analysis.groups
     assert group.kind == "combination" and group.factors[0] == 1.0
     columns = [names.index(p) for p in group.parameters]
-    assert columns[0] >= protected and columns[0] not in analysis.kept and set(columns[1:]) <= set(analysis.kept)
+    # the last column of those that carry the combination goes (here columns 0 and 1; the
+    # protected ones come first, so one goes only when the combination holds nothing else)
+    assert columns[0] == 1 and columns[0] not in analysis.kept
+    assert set(columns[1:]) <= set(analysis.kept)
     size = np.linalg.norm(A[:, columns[0]])
     # the relation as listed (factors below 1e-4 of the largest left out) ...
     assert np.linalg.norm(A[:, columns] @ np.array(group.factors)) < 1e-3 * size

@@ -87,7 +87,8 @@ class Analysis:
 
 
 def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
-            what: str = "the measured quantities", typical: np.ndarray | None = None) -> Analysis:
+            what: str = "the measured quantities", typical: np.ndarray | None = None,
+            rows: int | None = None) -> Analysis:
     """Identifiability of the columns of ``A`` (rows: weighted observations).
 
     A column is ``zero`` when its norm is below ``rtol`` times the median column norm; two
@@ -96,7 +97,8 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
     ``sqrt(rtol)`` of its norm, or when the kept set, each column independent of those before
     it, is singular to rounding as a whole (its smallest singular value below ``min(rtol,
     eps * max(rows, n))`` of the largest: near-dependencies chained over several columns);
-    then the last column taking part in the combination goes. Factors: ``A_dependent = sum factor_k A_k`` over the listed
+    then the last column with at least a tenth of the largest weight in that combination (the
+    singular vector) goes. Factors: ``A_dependent = sum factor_k A_k`` over the listed
     kept columns (in the columns' own units), so the combination
     ``A_dependent - sum factor_k A_k`` has no effect.
 
@@ -119,6 +121,9 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
         What the rows measure, for the reasons.
     typical : array_like, shape (n,), optional
         Typical size of each coefficient, in its unit.
+    rows : int, optional
+        Rows of the full design when ``A`` is its triangular factor (for the rounding level of
+        the singular-value test); default ``A``'s rows.
 
     Returns
     -------
@@ -150,6 +155,8 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
                          parameters=("protected",))
     if not 0.0 < rtol < 1.0:
         raise InputError(f"rtol must be between 0 and 1, got {rtol!r}", parameters=("rtol",))
+    if rows is not None and not (isinstance(rows, (int, np.integer)) and rows >= 1):
+        raise InputError(f"rows must be a whole number >= 1, got {rows!r}", parameters=("rows",))
     if typical is not None:
         typical = np.asarray(typical, dtype=float)
         if typical.shape != (n,) or not np.all(np.isfinite(typical) & (typical > 0)):
@@ -204,7 +211,7 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
     candidates = sorted((j for j in order if j not in dependent), key=lambda j: _rank_key(j, protected))
     basis = np.zeros((A.shape[0], len(candidates)))   # orthonormal columns of the kept set
     kept: list[int] = []
-    combinations: list[tuple[int, int]] = []   # (dependent column, number kept before it)
+    combinations: list[int] = []   # dependent columns, each on the kept ones before it
     for j in candidates:
         v = U[:, j].copy()
         B = basis[:, :len(kept)]
@@ -215,50 +222,43 @@ def analyse(A: np.ndarray, names, *, protected: int = 0, rtol: float = 1e-9,
             basis[:, len(kept)] = v / residual
             kept.append(j)
             continue
-        combinations.append((j, len(kept)))
+        combinations.append(j)
         dependent.add(j)
-    # the factors of every combination, from one least-squares solve over the kept columns
-    # (each column kept after a dependent one is independent of it: its factor comes out ~0)
-    if combinations:
-        coefs = np.linalg.lstsq(U[:, kept], U[:, [j for j, _ in combinations]], rcond=None)[0]
-        for (j, before), coef in zip(combinations, coefs.T):
-            coef = coef[:before]
-            big = np.flatnonzero(np.abs(coef) > 1e-4 * np.abs(coef).max())
-            factors = coef * norms[j] / norms[kept[:before]]
-            groups.append(IdentifiabilityGroup(
-                "combination", (names[j],) + tuple(names[kept[k]] for k in big),
-                (1.0,) + tuple(float(-factors[k]) for k in big),
-                f"the effect of {names[j]} on {what} equals a combination of the others listed: the "
-                "weighted sum with these factors has no effect"))
     # the test above looks at one column at a time: near-dependencies chained over several
     # columns (a robot's wrist, its axes meeting within a millimetre) can leave the kept set
     # singular to rounding although each column kept more than sqrt(rtol) of itself; the kept
-    # set's own singular vectors then name the combination, and its last column (protected
-    # ones last of all) among those that take a real part in it goes (at rounding level, or
-    # below rtol of the largest when rtol asks for less: 1e-30 turns the analysis off)
-    floor = min(rtol, np.finfo(float).eps * max(A.shape))
-    while len(kept) > 1:
-        _, s, vt = np.linalg.svd(U[:, kept], full_matrices=False)
-        if s[-1] > s[0] * floor:
+    # set's own singular vectors then name the combination, and its last column (the protected
+    # ones come first) among those with at least a tenth of the largest weight in it goes (at
+    # rounding level of the full design, or below rtol of the largest singular value when rtol
+    # asks for less: 1e-30 turns the analysis off)
+    floor = min(rtol, np.finfo(float).eps * max(rows or A.shape[0], A.shape[1]))
+    thinned: list[int] = []        # dependent columns, each on all the kept ones
+    sv = np.zeros(0)
+    while kept:
+        _, sv, vt = np.linalg.svd(U[:, kept], full_matrices=False)
+        if len(kept) == 1 or sv[-1] > sv[0] * floor:
             break
         weight = np.abs(vt[-1])
-        j = kept[max((k for k in range(len(kept)) if weight[k] >= 0.1 * weight.max()),
-                     key=lambda k: (kept[k] >= protected, kept[k]))]
+        j = max(c for c, w in zip(kept, weight) if w >= 0.1 * weight.max())
         kept.remove(j)
+        thinned.append(j)
         dependent.add(j)
-        coef = np.linalg.lstsq(U[:, kept], U[:, j], rcond=None)[0]
-        big = np.flatnonzero(np.abs(coef) > 1e-4 * np.abs(coef).max())
-        factors = coef * norms[j] / norms[kept]
-        groups.append(IdentifiabilityGroup(
-            "combination", (names[j],) + tuple(names[kept[k]] for k in big),
-            (1.0,) + tuple(float(-factors[k]) for k in big),
-            f"the effect of {names[j]} on {what} equals a combination of the others listed: the "
-            "weighted sum with these factors has no effect"))
-    if kept:
-        sv = np.linalg.svd(U[:, kept], compute_uv=False)
-        condition = float(sv[0] / sv[-1])
-    else:
-        sv, condition = np.zeros(0), math.inf
+    # the factors of every combination, from one least-squares solve over the kept columns
+    # (each column kept after a dependent one is independent of it: its factor comes out ~0)
+    if combinations or thinned:
+        coefs = np.linalg.lstsq(U[:, kept], U[:, combinations + thinned], rcond=None)[0]
+        for j, coef in zip(combinations + thinned, coefs.T):
+            over = [k for k, c in enumerate(kept)
+                    if j in thinned or _rank_key(c, protected) < _rank_key(j, protected)]
+            coef = coef[over]
+            big = np.flatnonzero(np.abs(coef) > 1e-4 * np.abs(coef).max())
+            factors = coef * norms[j] / norms[[kept[k] for k in over]]
+            groups.append(IdentifiabilityGroup(
+                "combination", (names[j],) + tuple(names[kept[over[k]]] for k in big),
+                (1.0,) + tuple(float(-factors[k]) for k in big),
+                f"the effect of {names[j]} on {what} equals a combination of the others listed: the "
+                "weighted sum with these factors has no effect"))
+    condition = float(sv[0] / sv[-1]) if kept else math.inf
     return Analysis(tuple(kept), tuple(sorted(dependent)), tuple(groups), len(kept), condition, sv)
 
 

@@ -87,8 +87,9 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     keep_machines : bool, default False
         Keep the machine of every round in :attr:`Step.machine`.
     max_rounds : int, optional
-        Rounds of the loop at most (default ``max_effects`` + 8: room for raising
-        under-modelled components).
+        Rounds that may accept a change, at most (default ``max_effects`` + 8: room for raising
+        under-modelled components); one more scores what would still pass
+        (:attr:`~volerr_pin.diagnose.results.Diagnosis.stopped`).
 
     Returns
     -------
@@ -168,7 +169,7 @@ class _Loop:
         self.raised: list[Change] = []
         self.previous: list[Change] = []
         self._last_holdout = None
-        self.left_passing: list = []            # what still passed when the round limit ended the rounds
+        self.left_passing: list[str] = []       # what still passed when the round limit ended the rounds
 
     def fit(self, model: Machine, names: list[str], initialise: bool = False):
         """The model fitted (all coefficients; with ``fixed`` only ``names``): (machine,
@@ -202,7 +203,7 @@ class _Loop:
             record.rms_after_um, record.max_after_um = proj.cv_rms, proj.cv_max
         ranked, passing = self._scores(number, base, proj)
         accepted = self._accept(number, passing, proj) if may_accept else []
-        self.left_passing = [] if may_accept else passing
+        self.left_passing = [] if may_accept else [s.label for s in passing]
         self.steps.append(Step(number, proj.cv_rms, [s.summary() for s in ranked], base.r * obs.sigma,
                                self.current if self.keep_machines else None, accepted))
         if not accepted:
@@ -283,7 +284,7 @@ class _Loop:
         refit, accepted (raises come along from ``passing``); [] when none does."""
         for best in candidates[:3]:
             batch = [best]
-            weak = {}   # id -> (score, size): below SIGNIFICANCE in a joint refit of this try, first seen
+            weak = {}   # id -> (score, size): below SIGNIFICANCE in the last joint refit it took part in
             if best.candidate.kind == "raise":
                 # the other under-modelled components that pass on their own come along, except
                 # those a physical effect passing this round would sit on: it gets its round first
@@ -295,7 +296,8 @@ class _Loop:
                     if c.kind == "raise" and c.component not in taken | held and s.bic_gain > 0:
                         batch.append(s)
                         taken.add(c.component)
-            for attempt in range(2):
+            accepted = False
+            while True:   # each retry refits a smaller batch: it ends
                 new, records = apply_changes(self.current, batch)
                 names = self.free_names + [n for r in records for n in r.names if n not in self.free_names]
                 new_fit, new_fitted, new_nuisance, res = self.fit(new, names)
@@ -303,7 +305,6 @@ class _Loop:
                 if unheld:   # the next change could not be built on it, nor the result written
                     for s in batch:
                         s.note = unheld
-                    keep = []
                     break
                 tested = [tested_names(new_fit, r) for r in records]
                 sizes = [size_of(res, t) if res is not None and t else math.inf for t in tested]
@@ -312,18 +313,22 @@ class _Loop:
                     if note:   # a per-revolution error whose period leaves its window is not that error
                         sizes[k], s.note = 0.0, note
                 keep = [s for s, z in zip(batch, sizes) if z >= SIGNIFICANCE]
+                # the size of the refit that decides (the last one a candidate took part in)
                 weak.update({id(s): (s, z) for s, z in zip(batch, sizes)
-                             if z < SIGNIFICANCE and (not s.note or WEAK in s.note) and id(s) not in weak})
-                if len(keep) == len(batch) or (not keep and len(batch) == 1):
+                             if z < SIGNIFICANCE and (not s.note or WEAK in s.note)})
+                if len(keep) == len(batch):
+                    accepted = True
                     break
-                # the ones significant in the joint refit; if none is (raises that explain the
-                # same residual share it, and each looks insignificant), the best one alone
+                if len(batch) == 1:
+                    break
+                # the ones significant in the joint refit, refitted without the others (until all
+                # are); if none is (raises that explain the same residual share it, and each
+                # looks insignificant), the best one alone
                 batch = keep or [best]
-            accepted = bool(keep) and len(keep) == len(batch)
             for s, z in weak.values():   # the note says why a candidate that passed was not taken
                 if not (accepted and any(s is b for b in batch)):
-                    s.note = (f"not accepted in round {number + 1}: {WEAK} {z:.2g} standard uncertainties, "
-                              f"below {SIGNIFICANCE:g}")
+                    s.note = f"not accepted in round {number + 1}: {WEAK} {_below(z)} standard uncertainties, " \
+                             f"below {SIGNIFICANCE:g}"
             if not accepted:
                 continue
             for s in batch:   # a candidate too small beside an earlier best may be taken with a later one
@@ -550,11 +555,18 @@ class _Loop:
         return final, details
 
 
+def _below(z: float) -> str:
+    """A size below :data:`SIGNIFICANCE` in two digits, or more where two would round it up to
+    the threshold."""
+    text = f"{z:.2g}"
+    return text if float(text) < SIGNIFICANCE else f"{math.floor(z * 1e6) / 1e6:.7g}"
+
+
 def _stopped(loop: _Loop, max_rounds: int) -> dict:
     """Why the rounds ended (:attr:`~volerr_pin.diagnose.results.Diagnosis.stopped`)."""
     rounds = len(loop.steps)
     if loop.left_passing:
-        labels = [s.label for s in loop.left_passing]
+        labels = loop.left_passing
         return {"reason": "round_limit", "rounds": rounds, "max_rounds": max_rounds, "still_passing": labels,
                 "label": (f"stopped at the round limit ({max_rounds} rounds that may accept a change) with "
                           f"{len(labels)} candidate{'s' if len(labels) != 1 else ''} still passing the F-test and "

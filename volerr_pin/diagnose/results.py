@@ -359,9 +359,10 @@ class Score:
     columns : ndarray, shape (rows, extra), or None
         Its weighted design columns.
     note : str
-        Why a candidate that passed the round's tests was not accepted (a per-revolution error
-        that does not repeat from one turn to the next, with its per-turn coefficients); empty
-        otherwise.
+        Why a candidate that passed the round's tests was not accepted: a per-revolution error
+        that does not repeat from one turn to the next (with its per-turn coefficients) or whose
+        period left its window in the joint refit; a joint refit whose values no spec could
+        hold; or a size in the joint refit below :data:`SIGNIFICANCE`. Empty otherwise.
     """
 
     label: str

@@ -129,7 +129,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     _, R0 = reduce_design(machine, obs, theta0, free, np.zeros(n_nu), first_order=True)
     names = obs.nuisance_names + [machine.parameter_names[k] for k in free]
     analysis = analyse(R0[:, :-1], names, protected=n_nu, rtol=rtol, what="these measurements",
-                       typical=typical_sizes(machine, theta0, free, n_nu))
+                       typical=typical_sizes(machine, theta0, free, n_nu), rows=len(obs.y))
     kept_theta = np.array([c - n_nu for c in analysis.kept if c >= n_nu], dtype=int)
     held = np.array(sorted(set(range(len(free))) - set(kept_theta.tolist())), dtype=int)
     columns = kept_theta if convention == "prior" else None

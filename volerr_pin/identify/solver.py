@@ -169,7 +169,7 @@ def initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray,
     n_nu = obs.nuisance.shape[1]
     _, R = reduce_design(machine, obs, theta, linear, np.zeros(n_nu), first_order=True)
     kept = analyse(R[:, :-1], [""] * (R.shape[1] - 1), protected=n_nu, rtol=rtol,
-                   typical=typical_sizes(machine, theta, linear, n_nu)).kept
+                   typical=typical_sizes(machine, theta, linear, n_nu), rows=len(obs.y)).kept
     lin_cols = np.array([c - n_nu for c in kept if c >= n_nu], dtype=int)
     for step, k in enumerate(nonlinear):
         # the columns of the other terms hardly depend on this coefficient: computed once per chunk
