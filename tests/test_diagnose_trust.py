@@ -487,3 +487,36 @@ def test_the_report_says_when_the_round_limit_ended_the_rounds(machines, tmp_pat
     assert "the best: backlash on Y in y" in text and "a larger --max-rounds lets the diagnosis go on" in text
     assert main(["diagnose", "vmc500", str(path), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["stopped"]["reason"] == "nothing_passes"
+
+
+def test_a_batch_of_raises_is_refitted_until_every_member_is_significant(machines, monkeypatch):
+    """Raises that pass on their own come along with the best one, and those too small in the
+    joint refit are dropped and the rest refitted. When that second refit dropped another, the
+    model of the second refit (with it) used to be accepted. Here the second raise of the batch
+    is made too small always, the third whenever the second is not in the model."""
+    import volerr_pin.diagnose.loop as loop
+
+    m = machines["vmc500"]
+    _, data = heldout_set(m, {}, 200, NOISE, 300)
+    batch = diagnose(m, [data], max_rounds=1).steps[0].accepted_all
+    assert len(batch) >= 3 and all(a.kind == "under_modelled" for a in batch)   # the case
+    second, third = batch[1], batch[2]
+    size_of = loop.size_of
+
+    def sized(res, names):
+        parts = {n.split(".")[0] for n in names}
+        if second.component in parts or (third.component in parts
+                                          and second.names[-1] not in res.machine.parameter_names):
+            return 1.5
+        return size_of(res, names)
+
+    monkeypatch.setattr(loop, "size_of", sized)
+    step = diagnose(m, [data], max_rounds=1).steps[0]
+    taken = [a.component for a in step.accepted_all]
+    assert second.component not in taken and third.component not in taken
+    assert set(taken) <= {a.component for a in batch} and all(a.step == 0 for a in step.accepted_all)
+    notes = {c.label: c.note for c in step.candidates}
+    for left in (second, third):
+        assert notes[left.label] == ("not accepted in round 1: in the joint refit its size is 1.5 standard "
+                                     "uncertainties, below 3")
+    assert not any(notes[label] for label in (a.label for a in step.accepted_all))
