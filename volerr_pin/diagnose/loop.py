@@ -325,15 +325,9 @@ class _Loop:
                 # are); if none is (raises that explain the same residual share it, and each
                 # looks insignificant), the best one alone
                 batch = keep or [best]
-            for s, z in weak.values():   # the note says why a candidate that passed was not taken
-                if not (accepted and any(s is b for b in batch)):
-                    s.note = f"not accepted in round {number + 1}: {WEAK} {_below(z)} standard uncertainties, " \
-                             f"below {SIGNIFICANCE:g}"
+            _note_weak(weak, batch if accepted else [], number)
             if not accepted:
                 continue
-            for s in batch:   # a candidate too small beside an earlier best may be taken with a later one
-                if WEAK in s.note:
-                    s.note = ""
             for record, z, s in zip(records, sizes, batch):
                 record.rms_before_um, record.max_before_um, record.step = proj.cv_rms, proj.cv_max, number
                 if record.name == "periodic_rotary":
@@ -553,6 +547,19 @@ class _Loop:
         details["lags_tried"] = [{"lag_s": k, "rms_holdout_um": v} for k, v in tried.items()]
         details["time_check"] = _time_check(self, members, final)
         return final, details
+
+
+def _note_weak(weak: dict, taken: list, number: int) -> None:
+    """Why a candidate that passed its round's tests was not taken: its size in the last joint
+    refit it took part in (``weak``: id -> (score, size)); the notes of the ``taken`` ones go (a
+    candidate too small beside an earlier best may be taken with a later one)."""
+    for s, z in weak.values():
+        if not any(s is t for t in taken):
+            s.note = f"not accepted in round {number + 1}: {WEAK} {_below(z)} standard uncertainties, " \
+                     f"below {SIGNIFICANCE:g}"
+    for s in taken:
+        if WEAK in s.note:
+            s.note = ""
 
 
 def _below(z: float) -> str:
