@@ -637,10 +637,10 @@ class Diagnosis:
     residual : ndarray, shape (rows,) or None
         The final model's residual of every observation row [m or rad].
     stopped : dict
-        Why the rounds ended: ``reason`` ("nothing_passes", or "round_limit" when the last
-        round allowed had candidates still passing the F-test and the cross-validation),
-        ``rounds`` (run), ``max_rounds``, ``still_passing`` (their labels, best first) and
-        ``label`` (in words).
+        Why the rounds ended: ``reason`` ("nothing_passes", or "round_limit" when the round
+        after the last one allowed to accept, which only scores, had candidates still passing
+        the F-test and the cross-validation), ``rounds`` (run), ``max_rounds``,
+        ``still_passing`` (their labels, best first) and ``label`` (in words).
     """
 
     machine: Machine
