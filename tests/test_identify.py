@@ -460,3 +460,31 @@ def test_the_solver_returns_the_factor_at_its_coefficients_reducing_each_design_
         np.testing.assert_array_equal(R, R_again[:, :-1])
         start = theta
     assert iterations == 1                                         # no step from the solution
+
+
+def test_the_stacked_factor_is_that_of_the_whole_weighted_design():
+    """Blocks factored one after another on top of the factor so far give the factor of the
+    whole design divided row by row by sigma (R^T R = J^T J; |R| as numpy's QR gives it, to
+    rounding), whatever the sizes: more rows than columns, fewer, none."""
+    from volerr_pin.identify.design import stacked_factor
+
+    rng = np.random.default_rng(5)
+    n = 7
+    R = np.zeros((0, n))
+    blocks = []
+    for rows in (3, 40, 0, 500):
+        parts = [rng.normal(size=(rows, 2)) * 1e3, rng.normal(size=(rows, 4)) * 1e-4, rng.normal(size=rows)]
+        sigma = rng.uniform(0.5, 2.0, rows) * 1e-6
+        blocks.append(np.column_stack(parts) / sigma[:, None])
+        R = stacked_factor(R, parts, sigma)
+        J = np.vstack(blocks)
+        assert R.shape == (min(len(J), n), n)
+        assert np.allclose(np.tril(R, -1), 0.0)
+        assert R.T @ R == pytest.approx(J.T @ J, rel=1e-12, abs=1e-12 * np.abs(J.T @ J).max())
+        if len(J):
+            assert np.abs(R) == pytest.approx(np.abs(np.linalg.qr(J, mode="r")), rel=1e-9, abs=1e-9 * np.abs(R).max())
+    with pytest.raises(ValueError, match="6 columns, the factor 7"):
+        stacked_factor(R, [np.ones((2, 6))], np.ones(2))
+    seen = []
+    stacked_factor(R, [np.ones((2, 6)), np.array([1.0, np.inf])], np.ones(2), seen.append)
+    assert len(seen) == 1 and not np.isfinite(seen[0]).all() and seen[0].shape == (2, 7)

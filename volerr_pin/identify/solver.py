@@ -13,7 +13,7 @@ import numpy as np
 from ..identifiability import Analysis, analyse
 from ..machine import Machine
 from .design import (column_scale, default_rcond, point_chunks, reduce_design, refuse_non_finite, rows_of,
-                     typical_sizes, weighted_residual)
+                     stacked_factor, typical_sizes, weighted_residual)
 from .observations import Observations, take_covariates
 
 __all__ = ["CONDITION_LIMIT", "conditioning_note", "ill_conditioned", "initialise_nonlinear", "solve",
@@ -188,11 +188,9 @@ def initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray,
                 trial[k] = value
                 error = machine.volumetric_error(q, trial, **cov)
                 pred, A_own = rows_of(w, local, error, machine.sensitivity(q, trial, parameters=own, **cov))
-                r = (obs.y[rows] - pred) / sigma[:, 0]
-                block = np.hstack([obs.nuisance[rows] / sigma, A_other / sigma, A_own / sigma, r[:, None]])
-                if not np.all(np.isfinite(block)):
-                    refuse_non_finite(obs, {"residuals or sensitivities": block})
-                factors[g] = np.linalg.qr(np.vstack([factors[g], block]), mode="r")
+                factors[g] = stacked_factor(factors[g], [obs.nuisance[rows], A_other, A_own, obs.y[rows] - pred],
+                                            sigma[:, 0], lambda block: refuse_non_finite(
+                                                obs, {"residuals or sensitivities": block}))
         best, best_rss = theta.copy(), math.inf
         for value, R in zip(grid, factors):
             J, z = R[:, :-1], R[:, -1]
