@@ -115,3 +115,84 @@ def test_a_weak_direction_a_training_set_would_cut_is_cut():
     assert proj.cv_rms == pytest.approx(_brute_cv(A, r, obs, folds), rel=1e-8)
     C = rng.normal(size=(len(r), 2))
     assert proj.cv(C) == pytest.approx(_brute_cv(np.hstack([A, C]), r, obs, folds), rel=1e-8)
+
+
+def _brute_fit(A: np.ndarray, C: np.ndarray, r: np.ndarray):
+    """The joint least squares of [A | C] from scratch (unit columns, lstsq with the projector's
+    cut on the rank): the residual sum of squares and C's coefficients."""
+    J = np.hstack([A, C])
+    norms = np.linalg.norm(J, axis=0)
+    coef = np.linalg.lstsq(J / norms, r, rcond=1e-9)[0] / norms
+    res = r - J @ coef
+    return float(res @ res), coef[A.shape[1]:]
+
+
+def _paths(monkeypatch) -> list:
+    """Record, for every least squares of a candidate, whether the small products gave it."""
+    from volerr_pin.diagnose import scoring
+
+    seen, gram = [], scoring._gram_lstsq
+
+    def spy(*args, **kwargs):
+        out = gram(*args, **kwargs)
+        seen.append(out is not None)
+        return out
+
+    monkeypatch.setattr(scoring, "_gram_lstsq", spy)
+    return seen
+
+
+@pytest.mark.parametrize("case", ["apart", "half_in_span", "nearly_in_span", "explains_all"])
+def test_a_candidates_joint_fit_is_that_of_lstsq_whichever_way_it_is_computed(case, monkeypatch):
+    """The joint fit of a candidate with the base comes from small products (the candidate's
+    Gram matrix less that of its projection on the base) where they are precise, and from the
+    rows elsewhere; both must agree with lstsq on [A | C]: a candidate apart from the base and
+    one with a column in the base's span (products), one with a column 1e-5 from the span and
+    one that explains the residual to 1e-7 of it (rows)."""
+    rng, obs, A, r, folds = _data(3)
+    C = rng.normal(size=(len(r), 2)) * np.array([1e-2, 1e3])
+    if case == "half_in_span":
+        C[:, 1] = A[:, :3] @ rng.normal(size=3)
+    elif case == "nearly_in_span":
+        C[:, 1] = A[:, :3] @ rng.normal(size=3)
+        C[:, 1] += 1e-5 * np.linalg.norm(C[:, 1]) / np.sqrt(len(r)) * rng.normal(size=len(r))
+    elif case == "explains_all":
+        # a base residual (orthogonal to the base, as a fitted one is) that the candidate explains
+        r = C @ np.array([30.0, -2e-3]) + 1e-6 * rng.normal(size=len(r))
+        r = r - A @ np.linalg.lstsq(A, r, rcond=None)[0]
+    proj = Projector(A, r, obs, folds)
+    seen = _paths(monkeypatch)
+    extra, rss, coef = proj.fit(C)
+    assert seen == [case in ("apart", "half_in_span")]
+    base_rss = _brute_fit(A, np.zeros((len(r), 0)), r)[0]
+    joint_rss, joint_coef = _brute_fit(A, C, r)
+    # what the candidate explains beyond the base (the projector's rss keeps what the base would)
+    rr = float(r @ r)
+    assert rr - rss == pytest.approx(base_rss - joint_rss, rel=1e-8, abs=1e-12 * rr)
+    if case == "explains_all":
+        assert joint_rss < 1e-6 * rr
+        assert rss == pytest.approx(joint_rss, rel=1e-6)
+    assert extra == (1 if case == "half_in_span" else 2)
+    if case == "half_in_span":   # a direction in the span: the coefficients are the minimum-norm ones
+        return
+    assert coef == pytest.approx(joint_coef, rel=1e-6)
+    gamma, cov, rss2, extra2 = proj.covariance(C)
+    assert extra2 == extra and rss2 == pytest.approx(rss, rel=1e-12) and gamma == pytest.approx(coef, rel=1e-12)
+    # the candidate's covariance (unit variance) is its block of the joint inverse Gram matrix
+    J = np.hstack([A, C])
+    norms = np.linalg.norm(J, axis=0)
+    full = np.linalg.inv((J / norms).T @ (J / norms)) / np.outer(norms, norms)
+    assert cov == pytest.approx(full[-2:, -2:], rel=1e-6)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_held_out_rms_of_a_candidate_partly_in_the_base_span(seed, monkeypatch):
+    """A candidate with a column in the base's span (a raised polynomial holds the degrees the
+    base has): each training fit comes from the small products, which put that direction at zero
+    as lstsq's cut does."""
+    rng, obs, A, r, folds = _data(seed)
+    proj = Projector(A, r, obs, folds)
+    C = np.column_stack([A[:, :4] @ rng.normal(size=4), rng.normal(size=len(r)), rng.normal(size=len(r)) ** 2])
+    seen = _paths(monkeypatch)
+    assert proj.cv(C) == pytest.approx(_brute_cv(np.hstack([A, C]), r, obs, folds), rel=1e-9)
+    assert seen == [True] * len(folds)

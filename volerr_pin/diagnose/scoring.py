@@ -22,7 +22,7 @@ from ..units import ARCSEC, UM_PER_M
 from .candidates import MIN_PERIODS, PITCH_PERIOD_MM, interpolation_period
 from .results import Candidate, Score, parallel_map
 
-__all__ = ["FOLD_SEEN", "PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "SVD_RTOL", "Base",
+__all__ = ["FOLD_SEEN", "GRAM_FOLD_SEEN", "GRAM_MIN", "GRAM_ZERO", "PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "SVD_RTOL", "Base",
            "Columns", "Projector", "base_design", "not_repeating", "periodogram_period", "repeat_check", "score"]
 
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
@@ -32,6 +32,20 @@ SVD_RTOL = 1e-10
 #: base (of its unit norm squared over all rows), or the fold is factored on its own: then its
 #: fit from the basis of all rows would amplify rounding by more than the inverse of this share
 FOLD_SEEN = 1e-6
+#: a candidate's least squares against the base come from small products (Gram matrices of its
+#: unit columns, less those of their projection on the base) where every direction it adds
+#: keeps at least this share of its unit norm squared, and its fit leaves at least this share
+#: of the residual: there the products' rounding (about 1e-15) stays below 1e-7 of what they
+#: give. Elsewhere - a direction nearly in the base's span, or a fit that explains almost all
+#: the residual - they are formed from the rows, as every candidate's were before ...
+GRAM_MIN = 1e-8
+#: ... except for directions the products put below this (in the base's span to rounding: the
+#: fit from the rows cuts below 1e-12, and the products' rounding is far below the gap)
+GRAM_ZERO = 1e-13
+#: ... and a cross-validation fold's training fit comes from those products when its training
+#: rows hold at least this share of every direction of the base (the products' rounding grows
+#: with the inverse of that share)
+GRAM_FOLD_SEEN = 1e-2
 #: a per-revolution error of an axis measured over more than one turn is checked for repeating
 #: from one turn to the next when each turn holds at least this many points ...
 REPEAT_MIN_POINTS = 20
@@ -214,6 +228,30 @@ def _small_lstsq(G: np.ndarray, r: np.ndarray, tol: float = 1e-6, covariance: bo
     return out
 
 
+def _gram_lstsq(GtG: np.ndarray, Gtr: np.ndarray, rr: float | None = None, covariance: bool = False):
+    """:func:`_small_lstsq` from ``G^T G``, ``G^T r`` and ``r^T r`` (the rss is ``r^T r`` less
+    what the fit explains), without G. Each eigenvalue of ``G^T G`` must be either at least
+    :data:`GRAM_MIN` (a direction the candidate adds) or below :data:`GRAM_ZERO` (one in the
+    base's span, which :func:`_small_lstsq` cuts too), and (with ``rr``) the fit must leave at
+    least :data:`GRAM_MIN` of ``r^T r``; else None: the products cannot tell."""
+    w, V = np.linalg.eigh(GtG)
+    if np.any((w >= GRAM_ZERO) & (w < GRAM_MIN)):
+        return None
+    keep = w >= GRAM_MIN
+    w, V = w[keep], V[:, keep]
+    b = V.T @ Gtr
+    gamma = V @ (b / w)
+    if rr is None:
+        return gamma
+    rss = rr - float(b @ (b / w))
+    if rss < GRAM_MIN * rr:
+        return None
+    out = w.size, gamma, rss
+    if covariance:
+        out += ((V / w) @ V.T,)
+    return out
+
+
 def _unit_columns(C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """C's columns scaled to unit norm, and their norms (1 for a zero column)."""
     norms = np.linalg.norm(C, axis=0)
@@ -238,6 +276,14 @@ class _Fold:
         Which validation rows are position rows.
     e_T, e_V : ndarray
         The base residual less the training fit, on the training and the validation rows.
+    coef : ndarray
+        The training fit of the base residual, in ``X_T``'s coordinates.
+    gram : bool
+        Whether a candidate's training fit comes from products over all rows less those over
+        the validation rows (:data:`GRAM_FOLD_SEEN`; only for a fold fitted from the all-rows
+        basis).
+    Xe : ndarray
+        ``X_T^T e_T`` (zero but for rounding), for those products.
     """
 
     T: np.ndarray
@@ -248,6 +294,9 @@ class _Fold:
     pos_V: np.ndarray
     e_T: np.ndarray | None = None
     e_V: np.ndarray | None = None
+    coef: np.ndarray | None = None
+    gram: bool = False
+    Xe: np.ndarray | None = None
 
     @property
     def own_basis(self) -> bool:
@@ -302,18 +351,22 @@ class Projector:
             T = ~V
             X_T, X_V = U[T], U[V]
             w, Z = np.linalg.eigh(X_T.T @ X_T)
+            gram = False
             if w.size and w[0] >= FOLD_SEEN and math.sqrt(w[0]) * s_all[-1] >= SVD_RTOL * s_all[0]:
                 W = (Z / w) @ Z.T
+                gram = bool(w[0] >= GRAM_FOLD_SEEN)
             else:
                 X_T, s, Vt = _svd(A[T])
                 X_V = A[V] @ (Vt.T / s) if s.size else np.zeros((int(V.sum()), 0))
                 W = None
-            f = _Fold(T, V, X_T, X_V, W, pos[V])
-            coef = f.coordinates(r[T])
-            f.e_T, f.e_V = r[T] - X_T @ coef, r[V] - X_V @ coef
+            f = _Fold(T, V, X_T, X_V, W, pos[V], gram=gram)
+            f.coef = f.coordinates(r[T])
+            f.e_T, f.e_V = r[T] - X_T @ f.coef, r[V] - X_V @ f.coef
+            f.Xe = X_T.T @ f.e_T
             return f
 
         self.folds = parallel_map(fold, folds)
+        self.Qr, self.rr = self.Q.T @ r, float(r @ r)
         self.cv_rms = self._cv(lambda f: np.zeros(f.e_V.shape))
         self.cv_max = self.last_max
 
@@ -330,11 +383,16 @@ class Projector:
         self.last_max = peak * UM_PER_M
         return float(np.sqrt(sq / count) * UM_PER_M) if count else math.nan
 
-    def _against_base(self, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """C's columns scaled to unit norm less their projection on the base design, and the
-        norms they were scaled by."""
+    def _against_base(self, C: np.ndarray, covariance: bool = False):
+        """Least squares of C's columns, scaled to unit norm, less their projection on the base
+        design (:func:`_small_lstsq`'s result) and the norms they were scaled by: from small
+        products where they give it (:func:`_gram_lstsq`), else from the rows."""
         Cs, norms = _unit_columns(C)
-        return Cs - self.Q @ (self.Q.T @ Cs), norms
+        B = self.Q.T @ Cs
+        out = _gram_lstsq(Cs.T @ Cs - B.T @ B, Cs.T @ self.r - B.T @ self.Qr, self.rr, covariance)
+        if out is None:
+            out = _small_lstsq(Cs - self.Q @ B, self.r, covariance=covariance)
+        return out, norms
 
     def fit(self, C: np.ndarray) -> tuple[int, float, np.ndarray]:
         """Least squares of the candidate's columns jointly with the base.
@@ -350,8 +408,7 @@ class Projector:
             The rank it adds, the residual sum of squares after, and its coefficients in C's
             units.
         """
-        G, norms = self._against_base(C)
-        extra, gamma, rss = _small_lstsq(G, self.r)
+        (extra, gamma, rss), norms = self._against_base(C)
         if extra == 0:
             return 0, float(self.r @ self.r), np.zeros(C.shape[1])
         return extra, rss, gamma / norms
@@ -373,8 +430,7 @@ class Projector:
             squares after and the rank it adds (the covariance is that of the minimum-norm
             solution when the rank is below k).
         """
-        G, norms = self._against_base(C)
-        extra, gamma, rss, cov = _small_lstsq(G, self.r, covariance=True)
+        (extra, gamma, rss, cov), norms = self._against_base(C, covariance=True)
         return gamma / norms, cov / np.outer(norms, norms), rss, extra
 
     def cv(self, C: np.ndarray) -> float:
@@ -391,12 +447,23 @@ class Projector:
             RMS over held-out points of the position residual norm [um].
         """
         Cs, norms = _unit_columns(C)
+        P, CC, Cr = self.Q.T @ Cs, Cs.T @ Cs, Cs.T @ self.r
 
         def correction(f):
+            Cs_V = Cs[f.V]
+            if f.gram:
+                # the training rows' products are all rows' less the validation rows' (X_T, X_V
+                # are rows of Q): no pass over the training rows
+                P_T = P - f.X_V.T @ Cs_V
+                B = f.W @ P_T
+                gamma = _gram_lstsq(CC - Cs_V.T @ Cs_V - P_T.T @ B,
+                                    Cr - Cs_V.T @ self.r[f.V] - P_T.T @ f.coef - B.T @ f.Xe)
+                if gamma is not None:
+                    return Cs_V @ gamma - f.X_V @ (B @ gamma)
             B = f.coordinates(Cs[f.T])
             G_T = Cs[f.T] - f.X_T @ B   # the candidate less its training fit by the base
             _, gamma, _ = _small_lstsq(G_T, f.e_T)
-            return (Cs[f.V] - f.X_V @ B) @ gamma
+            return (Cs_V - f.X_V @ B) @ gamma
 
         return self._cv(correction)
 
