@@ -32,6 +32,20 @@ def test_sensitivity_equals_central_differences(machines, name):
                                    err_msg=m.parameter_names[j])
 
 
+@pytest.mark.parametrize("name", ["vmc500", "cgm4000"])
+def test_a_chosen_set_of_coefficients_in_any_order_gives_their_columns(machines, name):
+    """Coefficients chosen out of order, repeated, or one: the same numbers as those columns of
+    the full sensitivity, to the last bit, over more points than one block of the batch."""
+    m = machines[name]
+    q = random_q(m, m.assembly.block + 37, seed=51)
+    full = m.sensitivity(q, m.theta * 20)
+    P = len(m.theta)
+    for cols in ([P - 1, 3, 0, P // 2], [5, 5], [P - 2], list(range(P))[::-1]):
+        assert np.array_equal(m.sensitivity(q, m.theta * 20, parameters=cols), full[:, :, cols])
+    assert m.sensitivity(q[:3], parameters=[]).shape == (3, 6, 0)
+    assert m.sensitivity(q[0], parameters=[1, 0]).shape == (6, 2)
+
+
 @pytest.mark.parametrize("name", ["vmc500", "cgm4000", "ur5", "gear_roller"])
 def test_joint_jacobian_equals_pinocchio_frame_jacobians(machines, name):
     """GUIDE section 6: J = R_w^T (Jt_lin - Jw_lin + [p_t - p_w] Jw_ang); angular R_w^T (Jt - Jw)."""

@@ -106,13 +106,14 @@ def sensitivity(machine: "Machine", q, theta=None, *, parameters=None, first_ord
     asm = machine.assembly
     q, theta, cov = machine.check_inputs(q, theta, extrapolate=extrapolate, **covariates)
     out = np.empty((q.shape[0], 6, len(cols)))
+    param_column = np.ascontiguousarray(asm.param_column[cols])
     for start in range(0, q.shape[0], asm.block):
         rows = slice(start, start + asm.block)
         qb, cb = q[rows], cov.take(rows)
         values = axis_values(asm, qb) if first_order else joint_values(asm, qb, theta, cb)
         # d v / d theta is one joint column per coefficient, scaled by the term's basis
-        K.error_sensitivity(asm.chain, values, np.ascontiguousarray(parameter_jacobian(asm, qb, theta, cb)[:, cols]),
-                            np.ascontiguousarray(asm.param_column[cols]), out=out[rows])
+        K.error_sensitivity(asm.chain, values, parameter_jacobian(asm, qb, theta, cb), param_column, out=out[rows],
+                            columns=cols)
     return out[0] if single else out
 
 
