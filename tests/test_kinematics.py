@@ -154,3 +154,27 @@ def test_values_numpy_would_bend_are_refused(machines, call, message):
         call(machines["vmc500"])
     assert len(info.value.parameters) == 1
     assert info.value.parameters[0] in str(info.value).split()[0]
+
+
+def test_the_kernels_inverse_left_jacobian_is_pinocchios():
+    """The inverse left Jacobian of SO(3) the sensitivity kernel computes at each point (and the
+    array form) against Pinocchio's Jlog3 of exp(phi) (d log(R exp(w)) / dw is the right one; the
+    left one is its transpose at phi) from 1e-2 to 3 rad, and below, where Pinocchio goes through
+    the rotation matrix and loses digits, against the series I - K/2 + (1/12 + t^2/720 +
+    t^4/30240) K^2, on both sides of the kernel's own switch to a series (1e-4)."""
+    from volerr_pin.kinematics import _left_jacobian_inverse, log3_left_jacobian_inverse
+
+    rng = np.random.default_rng(3)
+    for size in (0.0, 1e-9, 3e-5, 9.9e-5, 1.01e-4, 1e-3, 1e-2, 0.3, 3.0):
+        phi = rng.normal(size=3)
+        phi *= size / np.linalg.norm(phi)
+        K = np.array([[0.0, -phi[2], phi[1]], [phi[2], 0.0, -phi[0]], [-phi[1], phi[0], 0.0]])
+        if size >= 1e-2:
+            expected = pin.Jlog3(pin.exp3(phi)).T
+        else:
+            expected = np.eye(3) - K / 2 + (1 / 12 + size**2 / 720 + size**4 / 30240) * (K @ K)
+        kernel = np.array(_left_jacobian_inverse(*phi)).reshape(3, 3)
+        assert kernel == pytest.approx(expected, abs=1e-13)
+        assert log3_left_jacobian_inverse(phi[None])[0] == pytest.approx(expected, abs=1e-13)
+        if size:
+            assert kernel == pytest.approx(pin.Jlog3(pin.exp3(phi)).T, abs=1e-9)

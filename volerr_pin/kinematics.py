@@ -431,7 +431,8 @@ def _jacobian_point(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, 
     """Derivative of the tool pose (in the workpiece frame) w.r.t. every joint value, for point i.
 
     J[0:3, c]: d p_tool / d v_c; J[3:6, c]: angular velocity of the tool frame per unit of
-    v_c, both in workpiece axes. ``nominal`` evaluates at zero error values.
+    v_c, both in workpiece axes. ``nominal`` evaluates at zero error values. Returns the tool
+    frame's rotation there (9-tuple, row-major).
     """
     for r in range(6):
         for c in range(J.shape[1]):
@@ -468,6 +469,7 @@ def _jacobian_point(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, 
             J[0, c] += w1 * p[2] - w2 * p[1]
             J[1, c] += w2 * p[0] - w0 * p[2]
             J[2, c] += w0 * p[1] - w1 * p[0]
+    return R
 
 
 @_kernel
@@ -478,21 +480,49 @@ def _jacobian(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, en
                         nominal, out_J[i])
 
 
+@numba.njit(cache=True, fastmath=FAST)
+def _left_jacobian_inverse(x, y, z):
+    """Jl^-1 at the rotation vector (x, y, z), row-major 9-tuple: I - K/2 + c K^2 with K its
+    skew matrix (K^2 = phi phi^T - |phi|^2 I), as :func:`log3_left_jacobian_inverse`."""
+    t2 = x * x + y * y + z * z
+    t = np.sqrt(t2)
+    if t < 1e-4:
+        c = 1.0 / 12.0 + t2 / 720.0
+    else:
+        c = 1.0 / t2 - (1.0 + np.cos(t)) / (2.0 * t * np.sin(t))
+    return (1.0 + c * (x * x - t2), 0.5 * z + c * x * y, -0.5 * y + c * x * z,
+            -0.5 * z + c * x * y, 1.0 + c * (y * y - t2), 0.5 * x + c * y * z,
+            0.5 * y + c * x * z, -0.5 * x + c * y * z, 1.0 + c * (z * z - t2))
+
+
 @_kernel
-def _sensitivity(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, Jl,
-                 basis, bcol, pcol, out):
+def _sensitivity(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, basis, bcol, pcol,
+                 out):
     """out[i, r, p] = (Jl-corrected J)[r, pcol[p]] * basis[i, bcol[p]]: the chain rule to the
-    coefficients, with the rotation rows through the inverse left Jacobian Jl[i]."""
+    coefficients, with the rotation rows through the inverse left Jacobian at the point's
+    rotation error (the actual tool rotation against the nominal one, both from this pass)."""
     nv = values.shape[0]
     for i in numba.prange(values.shape[1]):
         J = np.empty((6, nv))
-        _jacobian_point(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p,
-                        False, J)
+        Ra = _jacobian_point(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p,
+                             False, J)
+        Rn, _ = _pose(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, False)
+        D = (Ra[0] * Rn[0] + Ra[1] * Rn[1] + Ra[2] * Rn[2],
+             Ra[0] * Rn[3] + Ra[1] * Rn[4] + Ra[2] * Rn[5],
+             Ra[0] * Rn[6] + Ra[1] * Rn[7] + Ra[2] * Rn[8],
+             Ra[3] * Rn[0] + Ra[4] * Rn[1] + Ra[5] * Rn[2],
+             Ra[3] * Rn[3] + Ra[4] * Rn[4] + Ra[5] * Rn[5],
+             Ra[3] * Rn[6] + Ra[4] * Rn[7] + Ra[5] * Rn[8],
+             Ra[6] * Rn[0] + Ra[7] * Rn[1] + Ra[8] * Rn[2],
+             Ra[6] * Rn[3] + Ra[7] * Rn[4] + Ra[8] * Rn[5],
+             Ra[6] * Rn[6] + Ra[7] * Rn[7] + Ra[8] * Rn[8])
+        rx, ry, rz = _rotation_vector(D)
+        L = _left_jacobian_inverse(rx, ry, rz)
         for c in range(nv):
             a, b, d = J[3, c], J[4, c], J[5, c]
-            J[3, c] = Jl[i, 0, 0] * a + Jl[i, 0, 1] * b + Jl[i, 0, 2] * d
-            J[4, c] = Jl[i, 1, 0] * a + Jl[i, 1, 1] * b + Jl[i, 1, 2] * d
-            J[5, c] = Jl[i, 2, 0] * a + Jl[i, 2, 1] * b + Jl[i, 2, 2] * d
+            J[3, c] = L[0] * a + L[1] * b + L[2] * d
+            J[4, c] = L[3] * a + L[4] * b + L[5] * d
+            J[5, c] = L[6] * a + L[7] * b + L[8] * d
         for r in range(6):
             for p in range(pcol.shape[0]):
                 out[i, r, p] = J[r, pcol[p]] * basis[i, bcol[p]]
@@ -528,14 +558,12 @@ def error_sensitivity(chain: Chain, values: np.ndarray, basis: np.ndarray, pcol:
         dx, dy, dz [m] and rx, ry, rz [rad] per SI unit of each coefficient (``out`` if given).
     """
     values = np.ascontiguousarray(values, dtype=float)
-    phi = pose_error(chain, values, None)[:, 3:]
-    Jl = np.ascontiguousarray(log3_left_jacobian_inverse(phi))
     if out is None:
         out = np.empty((values.shape[1], 6, len(pcol)))
     columns = np.arange(basis.shape[1]) if columns is None else columns
     if len(columns) != len(pcol) or (len(columns) and not 0 <= columns.min() <= columns.max() < basis.shape[1]):
         raise ValueError(f"{len(columns)} basis columns (of {basis.shape[1]}) for {len(pcol)} coefficients")
-    _sensitivity(values, *_args(chain), Jl, np.ascontiguousarray(basis), np.ascontiguousarray(columns, dtype=np.int64),
+    _sensitivity(values, *_args(chain), np.ascontiguousarray(basis), np.ascontiguousarray(columns, dtype=np.int64),
                  pcol, out)
     return out
 
