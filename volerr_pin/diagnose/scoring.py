@@ -22,8 +22,9 @@ from ..units import ARCSEC, UM_PER_M
 from .candidates import MIN_PERIODS, PITCH_PERIOD_MM, interpolation_period
 from .results import Candidate, Score, parallel_map
 
-__all__ = ["FOLD_SEEN", "GRAM_FOLD_SEEN", "GRAM_MIN", "GRAM_ZERO", "PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "SVD_RTOL", "Base",
-           "Columns", "Projector", "base_design", "not_repeating", "periodogram_period", "repeat_check", "score"]
+__all__ = ["FOLD_SEEN", "GRAM_FOLD_SEEN", "GRAM_MIN", "GRAM_ZERO", "PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS",
+           "REPEAT_RATIO", "REPEAT_SIGMAS", "SVD_RTOL", "Base", "Columns", "Projector", "base_design", "not_repeating",
+           "periodogram_period", "repeat_check", "score"]
 
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
 #: singular values of a column-scaled design below this share of the largest are rounding: cut
@@ -413,7 +414,7 @@ class Projector:
         """
         (extra, gamma, rss), norms = self._against_base(C)
         if extra == 0:
-            return 0, float(self.r @ self.r), np.zeros(C.shape[1])
+            return 0, self.rr, np.zeros(C.shape[1])
         return extra, rss, gamma / norms
 
     def covariance(self, C: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, int]:
