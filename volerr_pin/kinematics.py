@@ -308,6 +308,21 @@ def _pose(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end
 
 
 @numba.njit(cache=True, fastmath=FAST)
+def _times_transpose(Ra, Rn):
+    """Ra Rn^T of two rotations (row-major 9-tuples): the error rotation of an actual pose
+    against the nominal one."""
+    return (Ra[0] * Rn[0] + Ra[1] * Rn[1] + Ra[2] * Rn[2],
+            Ra[0] * Rn[3] + Ra[1] * Rn[4] + Ra[2] * Rn[5],
+            Ra[0] * Rn[6] + Ra[1] * Rn[7] + Ra[2] * Rn[8],
+            Ra[3] * Rn[0] + Ra[4] * Rn[1] + Ra[5] * Rn[2],
+            Ra[3] * Rn[3] + Ra[4] * Rn[4] + Ra[5] * Rn[5],
+            Ra[3] * Rn[6] + Ra[4] * Rn[7] + Ra[5] * Rn[8],
+            Ra[6] * Rn[0] + Ra[7] * Rn[1] + Ra[8] * Rn[2],
+            Ra[6] * Rn[3] + Ra[7] * Rn[4] + Ra[8] * Rn[5],
+            Ra[6] * Rn[6] + Ra[7] * Rn[7] + Ra[8] * Rn[8])
+
+
+@numba.njit(cache=True, fastmath=FAST)
 def _rotation_vector(D):
     """log of a rotation matrix (9-tuple), accurate for tiny angles, valid up to pi."""
     wx = 0.5 * (D[7] - D[5])
@@ -356,16 +371,7 @@ def _exact_error(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R,
                 Rn, pn = _compose_motion(Rn, pn, kind[k], axis, k, v)
         Ra, pa = _compose_constant(Ra, pa, end_R, end_p, 0)
         Rn, pn = _compose_constant(Rn, pn, end_R, end_p, 0)
-        D = (Ra[0] * Rn[0] + Ra[1] * Rn[1] + Ra[2] * Rn[2],
-             Ra[0] * Rn[3] + Ra[1] * Rn[4] + Ra[2] * Rn[5],
-             Ra[0] * Rn[6] + Ra[1] * Rn[7] + Ra[2] * Rn[8],
-             Ra[3] * Rn[0] + Ra[4] * Rn[1] + Ra[5] * Rn[2],
-             Ra[3] * Rn[3] + Ra[4] * Rn[4] + Ra[5] * Rn[5],
-             Ra[3] * Rn[6] + Ra[4] * Rn[7] + Ra[5] * Rn[8],
-             Ra[6] * Rn[0] + Ra[7] * Rn[1] + Ra[8] * Rn[2],
-             Ra[6] * Rn[3] + Ra[7] * Rn[4] + Ra[8] * Rn[5],
-             Ra[6] * Rn[6] + Ra[7] * Rn[7] + Ra[8] * Rn[8])
-        rx, ry, rz = _rotation_vector(D)
+        rx, ry, rz = _rotation_vector(_times_transpose(Ra, Rn))
         out[i, 0] = pa[0] - pn[0]
         out[i, 1] = pa[1] - pn[1]
         out[i, 2] = pa[2] - pn[2]
@@ -507,16 +513,7 @@ def _sensitivity(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R,
         Ra = _jacobian_point(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p,
                              False, J)
         Rn, _ = _pose(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, False)
-        D = (Ra[0] * Rn[0] + Ra[1] * Rn[1] + Ra[2] * Rn[2],
-             Ra[0] * Rn[3] + Ra[1] * Rn[4] + Ra[2] * Rn[5],
-             Ra[0] * Rn[6] + Ra[1] * Rn[7] + Ra[2] * Rn[8],
-             Ra[3] * Rn[0] + Ra[4] * Rn[1] + Ra[5] * Rn[2],
-             Ra[3] * Rn[3] + Ra[4] * Rn[4] + Ra[5] * Rn[5],
-             Ra[3] * Rn[6] + Ra[4] * Rn[7] + Ra[5] * Rn[8],
-             Ra[6] * Rn[0] + Ra[7] * Rn[1] + Ra[8] * Rn[2],
-             Ra[6] * Rn[3] + Ra[7] * Rn[4] + Ra[8] * Rn[5],
-             Ra[6] * Rn[6] + Ra[7] * Rn[7] + Ra[8] * Rn[8])
-        rx, ry, rz = _rotation_vector(D)
+        rx, ry, rz = _rotation_vector(_times_transpose(Ra, Rn))
         L = _left_jacobian_inverse(rx, ry, rz)
         for c in range(nv):
             a, b, d = J[3, c], J[4, c], J[5, c]
