@@ -366,10 +366,10 @@ class _Loop:
         return self.holdout(model, res)[0].cv_rms
 
     def in_parallel(self, tasks: list) -> list:
-        """``[task() for task in tasks]``, independent refits, on :data:`WORKERS` processes: this
-        one and forked children (their results - numbers and arrays - travel back; a fitted
-        machine does not pickle)."""
-        return process_map(_call, tasks)
+        """``[task() for task in tasks]``, independent refits, on :data:`WORKERS` processes from
+        :data:`PARALLEL_MIN_ROWS` observation rows: this one and forked children (their results
+        - numbers and arrays - travel back; a fitted machine does not pickle)."""
+        return process_map(_call, tasks, None if len(self.obs.y) >= PARALLEL_MIN_ROWS else 1)
 
     def without(self, members: list[Change]):
         """The present model without these effects, refitted: (machine, fit, free names)."""

@@ -24,9 +24,12 @@ __all__ = ["PARALLEL_MIN_ROWS", "PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIF
            "WORKERS", "Candidate", "Change", "Diagnosis", "DriftSeries", "Evidence", "Raise", "Score", "Step",
            "free_workers", "one_blas_thread", "others_running", "parallel_map", "process_map"]
 
-#: observation rows from which a round's candidates are scored on :data:`WORKERS` processes (below,
-#: forking costs more than it saves: measured in benchmarks/diagnose.py)
-PARALLEL_MIN_ROWS = 1000
+#: observation rows from which a round's candidates are scored, and the refits after the loop
+#: run, on :data:`WORKERS` processes. Below, forking costs more than it saves: since a
+#: candidate's fit is a few small products, at 12,000 rows (vmc500, 4,000 points) two processes
+#: took as long as one and 1.2 to 1.4 times its CPU; at 60,000 rows 0.90 of the wall time for
+#: 1.15 times the CPU (benchmarks/diagnose.py)
+PARALLEL_MIN_ROWS = 50_000
 #: threads that score candidates and set up folds at once: the cores this process may use
 WORKERS = max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1))
 #: seconds a reading of the machine's load (:func:`free_workers`) serves before it is read again
