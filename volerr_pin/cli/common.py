@@ -9,6 +9,7 @@ import math
 import os
 import re
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -77,8 +78,12 @@ def note_unused(path: str, unused) -> None:
 class FitProgress:
     """A progress bar on stderr for fits that take more than a moment (terminals only).
 
-    ``with FitProgress(enabled) as progress`` gives ``progress(stage, step)`` or None.
+    ``with FitProgress(enabled) as progress`` gives ``progress(stage, step)`` or None. The bar is
+    drawn by the updates, at most every :attr:`REFRESH_S`, not by a thread of its own: a
+    diagnosis forks its second process only where no other thread runs (:mod:`volerr_pin.lockstep`).
     """
+
+    REFRESH_S = 0.1
 
     def __init__(self, enabled: bool):
         self.console = Console(stderr=True, highlight=False)
@@ -89,15 +94,21 @@ class FitProgress:
             return None
         from rich.progress import Progress
 
-        self.bar = Progress(console=self.console, transient=True)
+        self.bar = Progress(console=self.console, transient=True, auto_refresh=False)
         self.bar.__enter__()
         self.tasks = {}
+        self.drawn = -math.inf
         return self.update
 
     def update(self, stage: str, step: int) -> None:
         if stage not in self.tasks:
             self.tasks[stage] = self.bar.add_task(stage, total=None)
+            self.drawn = -math.inf
         self.bar.update(self.tasks[stage], completed=step)
+        now = time.monotonic()
+        if now - self.drawn >= self.REFRESH_S:
+            self.bar.refresh()
+            self.drawn = now
 
     def __exit__(self, *exc):
         if self.enabled:

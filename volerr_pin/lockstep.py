@@ -1,0 +1,249 @@
+"""Two processes that run one computation in step, each doing its share of the parts that split.
+
+A diagnosis is a long serial chain of fits (each round's model is the last round's refitted),
+and most of its time is spent in parts that split into independent halves: the design of a fit
+over the points, a round's candidates, independent refits. Threads cannot share that work
+(the interpreter lock serialises the Python between the numerical kernels), and a worker
+forked for each part pays for the pages it copies. So the whole computation is forked once,
+at its start, while the process is still small: both processes then run the same code on the
+same data, and at each part that splits each computes its share and the two exchange results
+(:meth:`Group.map`, :meth:`Group.share`). Everything else is computed in both, identically, so
+both hold the same state at every step and take the same decisions; the second process never
+returns (it ends when the computation does) and only the first one's result is used.
+
+The computation must be deterministic apart from the shares (no clocks, no reading of the
+machine's load that a decision depends on), and its shared values must pickle. Every exchange
+is tagged, and two processes that reach different exchanges raise rather than mix results.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import signal
+import socket
+import struct
+import sys
+import threading
+import traceback
+from contextlib import contextmanager
+
+__all__ = ["Group", "OutOfStep", "active", "together"]
+
+_group: Group | None = None
+
+
+class OutOfStep(RuntimeError):
+    """The processes of a group reached different exchanges, or one of them ended early."""
+
+
+class _Failed:
+    """What a share raised, travelling to the other process to be raised there too."""
+
+    def __init__(self, exc: BaseException):
+        try:
+            pickle.loads(pickle.dumps(exc, protocol=pickle.HIGHEST_PROTOCOL))
+            self.exc = exc
+        except Exception:  # noqa: BLE001 - an exception that does not travel: its text
+            self.exc = RuntimeError("".join(traceback.format_exception(exc)))
+
+
+class Group:
+    """This process's place in a group of processes running one computation in step.
+
+    Attributes
+    ----------
+    rank : int
+        This process's number, 0 for the one that called :func:`together` (whose result counts).
+    size : int
+        The processes of the group.
+    """
+
+    def __init__(self, rank: int, size: int, sock: socket.socket):
+        self.rank, self.size, self._sock = rank, size, sock
+        self._count = 0
+
+    def share(self, mine, tag: str = ""):
+        """Every process's value, in the order of their ranks: each sends its own and receives the
+        other's (a barrier: both wait for each other here).
+
+        Parameters
+        ----------
+        mine : object
+            This process's value (it must pickle).
+        tag : str, optional
+            What is exchanged; both processes must pass the same tag at the same exchange.
+
+        Returns
+        -------
+        list
+            The values, by rank.
+
+        Raises
+        ------
+        OutOfStep
+            If the other process reached another exchange, or ended.
+        """
+        self._count += 1
+        label = (self._count, tag)
+        payload = pickle.dumps((label, mine), protocol=pickle.HIGHEST_PROTOCOL)
+        if self.rank == 0:   # one sends first and the other receives first: no two full buffers
+            self._send(payload)
+            theirs = self._receive()
+        else:
+            theirs = self._receive()
+            self._send(payload)
+        other_label, value = pickle.loads(theirs)
+        if other_label != label:
+            raise OutOfStep(f"the processes of the computation left step: exchange {label} here, "
+                            f"{other_label} in the other process")
+        return [mine, value] if self.rank == 0 else [value, mine]
+
+    def map(self, fn, items, tag: str = "", ranks=None) -> list:
+        """``[fn(x) for x in items]``, each process computing every ``size``-th item from its rank
+        (or the items ``ranks`` gives it), and both getting every result (in order). What ``fn``
+        raised in either process is raised in both. Inside ``fn`` the group is not active (:func:`active` is None): an item is
+        computed whole by the process it falls to.
+
+        Parameters
+        ----------
+        fn : callable
+            The function of one item (its results must pickle).
+        items : iterable
+            The items, the same in both processes.
+        tag : str, optional
+            What is computed (see :meth:`share`).
+        ranks : sequence of int, optional
+            The process that computes each item (the same in both processes).
+
+        Returns
+        -------
+        list
+            The results, in the order of ``items``.
+        """
+        global _group
+        items = list(items)
+        ranks = [k % self.size for k in range(len(items))] if ranks is None else list(ranks)
+        if len(ranks) != len(items) or not set(ranks) <= set(range(self.size)):
+            raise ValueError(f"ranks must give each of the {len(items)} items a process from 0 to {self.size - 1}")
+        _group = None   # what an item computes runs here alone: the other process is at other items
+        try:
+            mine = [fn(x) for x, rank in zip(items, ranks) if rank == self.rank]
+        except Exception as exc:  # noqa: BLE001 - raised in both processes below
+            mine = _Failed(exc)
+        finally:
+            _group = self
+        parts = self.share(mine, tag or getattr(fn, "__qualname__", "map"))
+        for part in parts:
+            if isinstance(part, _Failed):
+                raise part.exc
+        parts = [iter(part) for part in parts]
+        return [next(parts[rank]) for rank in ranks]
+
+    def _send(self, payload: bytes) -> None:
+        try:
+            self._sock.sendall(struct.pack("!Q", len(payload)) + payload)
+        except OSError as exc:
+            raise OutOfStep("the other process of the computation ended early") from exc
+
+    def _receive(self) -> bytes:
+        (n,) = struct.unpack("!Q", self._exactly(8))
+        return self._exactly(n)
+
+    def _exactly(self, n: int) -> bytes:
+        buf = bytearray(n)
+        view, got = memoryview(buf), 0
+        while got < n:
+            try:
+                k = self._sock.recv_into(view[got:], n - got)
+            except OSError:   # reset: the other process ended with data unread
+                k = 0
+            if k == 0:
+                raise OutOfStep("the other process of the computation ended early (it may have been "
+                                "killed, for example when the machine ran out of memory)")
+            got += k
+        return bytes(buf)
+
+
+def active() -> Group | None:
+    """The group this process runs in, or None.
+
+    Returns
+    -------
+    Group or None
+    """
+    return _group
+
+
+@contextmanager
+def together(size: int):
+    """Run the block in ``size`` processes in step (``size`` 1 or 2; 1, or where forking is not
+    safe - no ``fork``, other threads running, a group already - the block runs here alone and
+    the group is None).
+
+    The second process is forked on entry; it runs the block too, with the same state, and ends
+    at its end (``os._exit``: nothing of this process's - buffers, exit handlers - runs twice),
+    whatever the block did. It writes nothing: its standard output and error go nowhere and its
+    warnings are ignored. This process kills it if it leaves the block first (an error here).
+
+    Parameters
+    ----------
+    size : int
+        Processes.
+
+    Yields
+    ------
+    Group or None
+        This process's place in the group (rank 0), or None when the block runs alone.
+    """
+    global _group
+    forkable = hasattr(os, "fork") and threading.active_count() == 1 and _group is None
+    if size < 2 or not forkable:
+        yield None
+        return
+    if size != 2:
+        raise ValueError(f"a group runs in 1 or 2 processes, not {size}")
+    mine, theirs = socket.socketpair()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    pid = os.fork()
+    if pid == 0:  # pragma: no cover - the second process, which never returns
+        mine.close()
+        status = 1
+        try:
+            _quiet()
+            _group = Group(1, 2, theirs)
+            yield _group
+            status = 0
+        finally:
+            os._exit(status)
+    theirs.close()
+    _group = Group(0, 2, mine)
+    try:
+        yield _group
+    finally:
+        _group = None
+        mine.close()
+        try:
+            os.kill(pid, signal.SIGKILL)   # ended already when the block ran to its end
+        except ProcessLookupError:  # pragma: no cover - reaped by someone else
+            pass
+        try:
+            os.waitpid(pid, 0)
+        except ChildProcessError:  # pragma: no cover - reaped by someone else
+            pass
+
+
+def _quiet() -> None:
+    """In the second process: nothing printed, no warnings, the compiled kernels on this thread
+    (the parent's thread pool does not survive a fork)."""
+    import warnings
+
+    from . import kinematics
+
+    devnull = open(os.devnull, "w")  # noqa: SIM115 - for the rest of the process
+    os.dup2(devnull.fileno(), 1)
+    os.dup2(devnull.fileno(), 2)
+    sys.stdout = sys.stderr = devnull
+    warnings.simplefilter("ignore")
+    kinematics.run_on_this_thread()
