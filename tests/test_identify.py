@@ -488,3 +488,38 @@ def test_the_stacked_factor_is_that_of_the_whole_weighted_design():
     seen = []
     stacked_factor(R, [np.ones((2, 6)), np.array([1.0, np.inf])], np.ones(2), seen.append)
     assert len(seen) == 1 and not np.isfinite(seen[0]).all() and seen[0].shape == (2, 7)
+
+
+def test_the_design_reduced_in_two_halves_is_the_whole_designs(machines, monkeypatch):
+    """From SPLIT_POINTS points the design is reduced in two halves whose factors are factored
+    again: the same residual to the last bit and the same factor to rounding as one pass over
+    every chunk (R^T R = J^T J, the design built here row by row); with two processes in step
+    each reducing one half, the same factor and residual to the last bit, the weighted residual
+    too."""
+    from volerr_pin import lockstep
+    from volerr_pin.identify import build_observations
+    from volerr_pin.identify import design
+    from volerr_pin.identify.design import predict_observations, reduce_design, weighted_residual
+
+    m = machines["vmc500"]
+    truth, probe = identifiable_truth(m, 300, seed=7)
+    data = tool_points(m, truth, 300, 0.3e-6, seed=7)
+    obs = build_observations(m, [data], sigma_um=0.3)
+    theta, nuisance, columns = truth.theta, np.zeros(obs.nuisance.shape[1]), probe.fitted
+    r, R = reduce_design(m, obs, theta, columns, nuisance)
+    assert len(design.point_chunks(obs, len(columns))) == 2
+    pred, A = predict_observations(m, obs, theta, columns)
+    J = np.column_stack([obs.nuisance, A, obs.y - pred - obs.nuisance @ nuisance]) / obs.sigma[:, None]
+    assert R.T @ R == pytest.approx(J.T @ J, rel=1e-10, abs=1e-12 * np.abs(J.T @ J).max())
+    np.testing.assert_array_equal(r, J[:, -1])
+    monkeypatch.setattr(design, "SPLIT_POINTS", 10**9)   # one chunk, one pass
+    r_one, R_one = reduce_design(m, obs, theta, columns, nuisance)
+    np.testing.assert_array_equal(r, r_one)
+    assert np.abs(R) == pytest.approx(np.abs(R_one), rel=1e-9, abs=1e-9 * np.abs(R).max())
+    monkeypatch.undo()
+    residual = weighted_residual(m, obs, theta, nuisance)
+    with lockstep.together(2) as group:
+        r_step, R_step = reduce_design(m, obs, theta, columns, nuisance)
+        same = bool(np.array_equal(r_step, r) and np.array_equal(R_step, R)
+                    and np.array_equal(weighted_residual(m, obs, theta, nuisance), residual))
+        assert group.share(same, "same") == [True, True]

@@ -8,12 +8,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import lapack
 
+from .. import lockstep
 from ..errors import InputError
 from ..machine import Machine
 from ..units import UM_PER_M, URAD_PER_RAD
 from .observations import Observations, data_names, take_covariates
 
-__all__ = ["CHUNK_BYTES", "column_scale", "default_rcond", "point_chunks", "predict_observations", "reduce_design",
+__all__ = ["CHUNK_BYTES", "SPLIT_POINTS", "column_scale", "default_rcond", "point_chunks", "predict_observations", "reduce_design",
            "refuse_non_finite", "rows_of", "stacked_factor", "typical_sizes", "weighted_residual"]
 
 
@@ -130,13 +131,21 @@ def weighted_residual(machine: Machine, obs: Observations, theta: np.ndarray, nu
     ndarray, shape (rows,)
         The residuals in standard deviations.
     """
-    error = machine.volumetric_error(obs.q, theta, **obs.covariates)
+    group = lockstep.active()
+    if group is None or obs.n_points < SPLIT_POINTS:
+        error = machine.volumetric_error(obs.q, theta, **obs.covariates)
+    else:   # each of two processes in step computes half of the points (each point's error alike)
+        halves = np.array_split(np.arange(obs.n_points), 2)
+        error = np.concatenate(group.map(lambda points: machine.volumetric_error(
+            obs.q[points], theta, **take_covariates(obs.covariates, points)), halves, "residual"))
     pred = np.einsum("rk,rk->r", obs.w, error[obs.point])
     return (obs.y - pred - obs.nuisance @ nuisance) / obs.sigma
 
 
 #: the design is reduced over chunks of points whose sensitivities take about this much memory
 CHUNK_BYTES = 48 << 20
+#: from this many points the design is reduced in two halves (see :func:`point_chunks`)
+SPLIT_POINTS = 256
 
 
 def point_chunks(obs: Observations, n_columns: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -150,12 +159,18 @@ def point_chunks(obs: Observations, n_columns: int) -> list[tuple[np.ndarray, np
     n_columns : int
         Coefficients differentiated by.
 
+    From :data:`SPLIT_POINTS` points on the chunks are an even number of equal ones, so that the
+    design reduces in two halves of equal work (:func:`reduce_design`).
+
     Returns
     -------
     list of tuple of (ndarray, ndarray)
         Per chunk: its point indices (consecutive) and the indices of their observation rows.
     """
     size = max(64, CHUNK_BYTES // (6 * 8 * 4 * max(n_columns, 1)))
+    if obs.n_points >= SPLIT_POINTS:
+        count = max(2, -(-obs.n_points // size))
+        size = -(-obs.n_points // (count + count % 2))
     order = np.argsort(obs.point, kind="stable")
     bounds = np.searchsorted(obs.point[order], np.arange(0, obs.n_points + size, size).clip(max=obs.n_points))
     return [(np.arange(start, min(start + size, obs.n_points)), order[a:b])
@@ -238,20 +253,39 @@ def reduce_design(machine: Machine, obs: Observations, theta: np.ndarray, column
         Upper-triangular factor of ``[J | r]``.
     """
     width = obs.nuisance.shape[1] + len(columns) + 1
-    R = np.zeros((0, width))
+    chunks = point_chunks(obs, len(columns))
+    halves = [chunks[:len(chunks) // 2], chunks[len(chunks) // 2:]] if len(chunks) > 1 else [chunks]
+
+    def reduce(half):
+        # the factor of one half's rows, and its weighted residual
+        R = np.zeros((0, width))
+        r = []
+        for points, rows in half:
+            cov = take_covariates(obs.covariates, points)
+            q = obs.q[points]
+            error = machine.volumetric_error(q, theta, **cov)
+            S = machine.sensitivity(q, theta, parameters=columns, first_order=first_order, **cov)
+            pred, A = rows_of(obs.w[rows], obs.point[rows] - points[0], error, S)
+            sigma = obs.sigma[rows]
+            misfit = obs.y[rows] - pred - obs.nuisance[rows] @ nuisance
+            r.append(misfit / sigma)
+            R = stacked_factor(R, [obs.nuisance[rows], A, misfit], sigma, lambda block: refuse_non_finite(
+                obs, {"residuals or sensitivities": block}))
+        return R, r
+
+    group = lockstep.active()
+    reduced = group.map(reduce, halves, "design") if group is not None and len(halves) > 1 else map(reduce, halves)
     r = np.empty(len(obs.y))
-    for points, rows in point_chunks(obs, len(columns)):
-        cov = take_covariates(obs.covariates, points)
-        q = obs.q[points]
-        error = machine.volumetric_error(q, theta, **cov)
-        S = machine.sensitivity(q, theta, parameters=columns, first_order=first_order, **cov)
-        pred, A = rows_of(obs.w[rows], obs.point[rows] - points[0], error, S)
-        sigma = obs.sigma[rows]
-        misfit = obs.y[rows] - pred - obs.nuisance[rows] @ nuisance
-        r[rows] = misfit / sigma
-        R = stacked_factor(R, [obs.nuisance[rows], A, misfit], sigma, lambda block: refuse_non_finite(
-            obs, {"residuals or sensitivities": block}))
-    return r, R
+    factors = []
+    for half, (R, parts) in zip(halves, reduced):
+        factors.append(R)
+        for (_, rows), values in zip(half, parts):
+            r[rows] = values
+    if len(factors) == 1:
+        return r, factors[0]
+    # the two halves' factors stacked and factored again: that of all rows (the same whether one
+    # process computed both halves or each of two in step computed one)
+    return r, stacked_factor(factors[0], [factors[1]], np.ones(len(factors[1])))
 
 
 def default_rcond(rows: int, columns: int) -> float:
