@@ -16,6 +16,16 @@ POINTS = 90
 ROWS_PER_POINT = 4   # dx, dy, dz and one angle, as a point measured by a laser and a level
 
 
+@pytest.fixture(autouse=True, params=["whole", "halves"])
+def basis(request, monkeypatch):
+    """Every test with the round's basis from the SVD of the whole design and from its two halves
+    of rows (:func:`~volerr_pin.diagnose.scoring._halves_basis`, from 1,000 rows by default)."""
+    from volerr_pin.diagnose import scoring
+
+    monkeypatch.setattr(scoring, "HALVES_MIN_ROWS", 10**9 if request.param == "whole" else 0)
+    return request.param
+
+
 def _data(seed: int, columns: int = 9):
     rng = np.random.default_rng(seed)
     point = np.repeat(np.arange(POINTS), ROWS_PER_POINT)
@@ -196,3 +206,32 @@ def test_the_held_out_rms_of_a_candidate_partly_in_the_base_span(seed, monkeypat
     seen = _paths(monkeypatch)
     assert proj.cv(C) == pytest.approx(_brute_cv(np.hstack([A, C]), r, obs, folds), rel=1e-9)
     assert seen == [True] * len(folds)
+
+
+@pytest.mark.parametrize("case", ["random", "zero_in_a_half", "rank_deficient", "few_rows"])
+def test_the_basis_from_two_halves_is_that_of_the_whole_svd(case):
+    """The same span, singular values and cut as numpy's SVD of the whole design, orthonormal
+    columns; to the last bit the same whether one process computes both halves or each of two
+    processes in step computes one."""
+    from volerr_pin import lockstep
+    from volerr_pin.diagnose.scoring import _halves_basis, _svd
+
+    rng = np.random.default_rng(7)
+    rows = {"few_rows": 30}.get(case, 1201)
+    A = rng.normal(size=(rows, 20)) * np.logspace(-4, 4, 20)
+    if case == "zero_in_a_half":   # a ballbar run's centre: nothing in the other run's rows
+        A[: rows // 2, 3] = 0.0
+        A[rows // 2:, 5] = 0.0
+    if case == "rank_deficient":
+        A[:, 7] = A[:, 2] * 3.0 - A[:, 9]
+    U, s = _halves_basis(A)
+    U1, s1, _ = _svd(A)
+    assert U.shape == U1.shape and s.shape == s1.shape
+    assert np.allclose(s, s1, rtol=1e-12, atol=1e-13 * s1[0])
+    assert np.allclose(U.T @ U, np.eye(U.shape[1]), atol=1e-13)
+    assert np.allclose(U @ (U.T @ A), A, rtol=0, atol=1e-12 * np.abs(A).max())
+    assert np.allclose(U @ U.T, U1 @ U1.T, atol=1e-12)
+    with lockstep.together(2) as group:
+        shared = _halves_basis(A)
+        same = group.share(bool(np.array_equal(shared[0], U) and np.array_equal(shared[1], s)), "same")
+    assert same == [True, True]
