@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import os
 import re
-import signal
 import time
 from pathlib import Path
 
@@ -18,7 +17,6 @@ from volerr_pin.cli import main
 from volerr_pin.diagnose import axis_directions, build_candidates, diagnose, drift_series
 from volerr_pin.diagnose import results as diagnose_results
 from volerr_pin.diagnose.candidates import interpolation_period
-from volerr_pin.errors import InputError
 from volerr_pin.identify import build_observations
 from volerr_pin.simulate import campaign, heldout_set, write_points
 from volerr_pin.specio import add_terms
@@ -194,22 +192,39 @@ def test_a_floor_from_the_residual_far_above_the_stated_noise_is_not_reached(mac
     assert "misses something" in r.noise_floor_source
 
 
-def test_the_same_answer_on_one_core_or_several(machines, monkeypatch):
-    monkeypatch.setattr(diagnose_results, "others_running", lambda: 0)  # two workers, whatever else runs
+@pytest.mark.parametrize("machine, hidden, n", [
+    ("vmc500", {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}, 300),
+    ("cgm4000", {"EBB": {"kind": "periodic_pitch", "prefix": "h", "period_deg": 90.0, "sine_arcsec": [4.0],
+                         "cosine_arcsec": [0.0]}}, 300),
+])
+def test_the_same_answer_alone_or_in_step(machines, monkeypatch, machine, hidden, n):
+    """The whole report to the last bit, one process or two in step (the design, the basis, the
+    folds, the candidates, the residuals and the refits shared between them; on cgm4000 a
+    per-revolution error passes, whose columns travel for the repeat check)."""
+    import volerr_pin.diagnose.loop as loop
+    from volerr_pin import lockstep
+
+    monkeypatch.setattr(diagnose_results, "others_running", lambda: 0)  # two cores free, whatever else runs
     monkeypatch.setattr(diagnose_results, "_load_reading", None)
     monkeypatch.setattr(os, "cpu_count", lambda: 2)
-    m = machines["vmc500"]
-    truth, data = heldout_set(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}, 300, NOISE, 5)
-    import volerr_pin.diagnose.loop as loop
+    monkeypatch.setattr(loop, "STEP_MIN_ROWS", 0)
+    m = machines[machine]
+    truth, data = heldout_set(m, hidden, n, NOISE, 5)
+    groups, together = [], lockstep.together
 
-    monkeypatch.setattr(loop, "PARALLEL_MIN_ROWS", 0)  # candidates on forked workers even for few rows
+    def recorded(size):
+        groups.append(size)
+        return together(size)
+
+    monkeypatch.setattr(lockstep, "together", recorded)
     runs = []
     for workers in (1, 2):
         monkeypatch.setattr(diagnose_results, "WORKERS", workers)
-        report = diagnose(m, [data]).to_dict()
+        report = diagnose(m, [data], max_rounds=4).to_dict()
         report.pop("seconds")
         runs.append(report)
-    assert [e["name"] for e in runs[0]["effects"]] == ["backlash"]
+    assert groups == [1, 2]
+    assert runs[0]["effects"] or runs[0]["raised"]
     # the whole report: every round's candidates and scores, the effects, their numbers
     assert runs[0] == runs[1]
 
@@ -236,18 +251,6 @@ def test_no_model_is_fitted_twice_with_the_same_free_coefficients(machines, monk
     diagnose(m, [data])
     assert any(t is not None for t in trims)  # a trim was kept (the case this is about)
     assert len(fits) == len(set(fits))
-
-
-def test_process_map_keeps_the_order_and_falls_back_here():
-    items = list(range(37))
-    assert diagnose_results.process_map(lambda x: x * x, items, workers=2) == [x * x for x in items]
-    assert diagnose_results.parallel_map(lambda x: -x, items, workers=2) == [-x for x in items]
-    done = []
-    assert diagnose_results.process_map(str, [1, 2], workers=1, progress=done.append) == ["1", "2"]
-    assert done == [1, 2]
-    done = []
-    assert diagnose_results.process_map(str, items, workers=3, progress=done.append) == [str(x) for x in items]
-    assert done == sorted(done) and done[-1] == len(items)
 
 
 @pytest.mark.parametrize("text, others", [
@@ -293,58 +296,30 @@ def test_free_workers_leave_the_cores_other_processes_keep_busy(monkeypatch, cor
     assert len(readings) == 2
 
 
-@pytest.mark.parametrize("others, forks", [(0, True), (1, False)])
-def test_by_default_a_busy_machine_gets_no_worker(monkeypatch, others, forks):
+@pytest.mark.parametrize("env, expected", [
+    ({}, 2), ({"OMP_NUM_THREADS": "1"}, 1), ({"NUMBA_NUM_THREADS": "1"}, 1), ({"OMP_NUM_THREADS": "8"}, 2),
+    ({"OMP_NUM_THREADS": "x", "NUMBA_NUM_THREADS": ""}, 2), ({"OMP_NUM_THREADS": "0"}, 2),
+])
+def test_the_cores_honour_a_thread_limit_in_the_environment(monkeypatch, env, expected):
+    for name in ("OMP_NUM_THREADS", "NUMBA_NUM_THREADS"):
+        monkeypatch.delenv(name, raising=False)
+    for name, value in env.items():
+        monkeypatch.setenv(name, value)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    assert diagnose_results._cores() == expected
+
+
+@pytest.mark.parametrize("others, threads", [(0, True), (1, False)])
+def test_by_default_a_busy_machine_gets_no_second_thread(monkeypatch, others, threads):
+    import threading
+
     monkeypatch.setattr(diagnose_results, "others_running", lambda: others)
     monkeypatch.setattr(diagnose_results, "_load_reading", None)
     monkeypatch.setattr(diagnose_results, "WORKERS", 2)
     monkeypatch.setattr(os, "cpu_count", lambda: 2)
-    pids = diagnose_results.process_map(_fails_on(None), range(6))
-    assert (len(set(pids)) == 2) == forks
-    import threading
-
-    threads = diagnose_results.parallel_map(lambda x: (time.sleep(0.02), threading.get_ident())[1], range(6))
-    assert (len(set(threads)) > 1) == forks
-
-
-def _fails_on(bad):
-    def fn(x):
-        if x == bad:
-            raise InputError(f"item {x} is bad")
-        return os.getpid()
-    return fn
-
-
-@pytest.mark.parametrize("bad", [0, 1, 5])   # this process's share (0) or a child's (1, 5 of workers=2)
-def test_process_map_raises_what_a_worker_raised_and_leaves_no_process(bad):
-    children = set(_child_pids())
-    with pytest.raises(InputError, match=f"item {bad} is bad"):
-        diagnose_results.process_map(_fails_on(bad), range(8), workers=2)
-    assert set(_child_pids()) == children   # every forked worker reaped, none left running
-
-
-def test_process_map_shares_the_items_between_this_process_and_a_child():
-    pids = diagnose_results.process_map(_fails_on(None), range(8), workers=2)
-    assert pids[0::2] == [os.getpid()] * 4
-    assert len(set(pids[1::2])) == 1 and pids[1] != os.getpid()
-
-
-def test_process_map_names_a_worker_that_died():
-    def fn(x):
-        if x == 1:
-            os.kill(os.getpid(), signal.SIGKILL)
-        return x
-    with pytest.raises(RuntimeError, match="ended without a result"):
-        diagnose_results.process_map(fn, range(4), workers=2)
-
-
-def _child_pids() -> list[int]:
-    """This process's children (Linux), zombies included."""
-    path = f"/proc/{os.getpid()}/task/{os.getpid()}/children"
-    if not os.path.exists(path):
-        pytest.skip("no /proc children list here")
-    with open(path) as f:
-        return [int(p) for p in f.read().split()]
+    assert diagnose_results.parallel_map(lambda x: -x, range(37)) == [-x for x in range(37)]
+    ids = diagnose_results.parallel_map(lambda x: (time.sleep(0.02), threading.get_ident())[1], range(6))
+    assert (len(set(ids)) > 1) == threads
 
 
 def test_cli_reports_the_thermal_finding_and_documents_every_field(machines, tmp_path, capsys):
@@ -400,15 +375,6 @@ def test_noise_floor_from_repeats_is_the_pooled_scatter_of_each_pair(machines):
         dof += 1
     assert not bound and source == f"repeated points ({dof} degrees of freedom)" and dof == 49 * 3
     assert floor == pytest.approx(np.sqrt(ss / dof * 3) * 1e6, rel=1e-12)
-
-
-def test_a_forked_worker_runs_large_kernels_after_the_parent_started_its_thread_pool(machines):
-    # numba's thread pool does not survive a fork: a worker must run the kernels on its own thread
-    m = machines["vmc500"]
-    q = np.random.default_rng(3).uniform(m.travel[:, 0], m.travel[:, 1], (4096, 3))
-    here = m.volumetric_error(q)  # above kinematics.PARALLEL_MIN points: the parallel kernel, its pool started
-    parts = diagnose_results.process_map(lambda k: m.volumetric_error(q[k::2]), [0, 1], workers=2)
-    assert np.array_equal(parts[0], here[0::2]) and np.array_equal(parts[1], here[1::2])
 
 
 def test_a_refit_whose_values_a_spec_cannot_hold_is_not_accepted(machines, monkeypatch):
@@ -520,3 +486,16 @@ def test_a_batch_of_raises_is_refitted_until_every_member_is_significant(machine
         assert notes[left.label] == ("not accepted in round 1: in the joint refit its size is 1.5 standard "
                                      "uncertainties, below 3")
     assert not any(notes[label] for label in (a.label for a in step.accepted_all))
+
+
+@pytest.mark.parametrize("seconds, expected", [
+    ([5.0, 1.0, 1.0, 1.0, 1.0, 1.0], [0, 1, 1, 1, 1, 1]),   # the longest alone, the rest beside it
+    ([1.0, 2.0, 3.0, 4.0], [0, 1, 1, 0]),                   # 4 | 3, then 2 to the 3 and 1 to the 4
+    ([None, None, None], [0, 1, 0]),                        # nothing known: in turn
+    ([None, 3.0, 1.0], [1, 0, 1]),                          # not known: the mean of the known (2)
+    ([], []),
+])
+def test_candidates_are_shared_by_the_time_they_took(seconds, expected):
+    from volerr_pin.diagnose.loop import _balanced
+
+    assert _balanced(seconds, 2) == expected

@@ -11,25 +11,27 @@ joint refit (:mod:`~volerr_pin.diagnose.changes`).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 import time as _time
 import warnings
 
 import numpy as np
 
+from .. import lockstep
 from ..checks import fraction, integer, positive
 from ..errors import InputError, SpecError
 from ..identify import (Identification, Observations, build_observations, check_observations, conditioning_note,
                         identify, parameter_units, pose_folds, residual_rms)
 from ..machine import Machine
-from ..safeio import require_memory
+from ..safeio import MEMORY_SHARE, available_memory, require_memory
 from ..units import UM_PER_M
 from ..specio import add_terms, check_values
 from .candidates import build_candidates
 from .changes import apply_changes, remove_effect, size_of, tested_names, trim_raises, with_lag
 from .report import (components_per_point, effect_amplitude, group_findings, noise_floor, raised_summary,
                      residual_analysis, stated_noise, twins_of)
-from .results import (PARALLEL_MIN_ROWS, PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, STATED_NOISE_FACTOR, Change, Diagnosis, Step,
-                      one_blas_thread, parallel_map, process_map)
+from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, STATED_NOISE_FACTOR, STEP_MIN_ROWS, Change,
+                      Diagnosis, Step, free_workers, one_blas_thread, parallel_map)
 from .scoring import Columns, Projector, base_design, not_repeating, score
 
 __all__ = ["LAGS_S", "PERIOD_WINDOW", "TIME_CHECK_SHARE", "diagnose"]
@@ -132,10 +134,15 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
         raise InputError(f"{obs.n_points} points at {poses} distinct {'pose' if poses == 1 else 'poses'}: too few "
                          f"for folds = {folds} (k-fold cross-validation needs at least {2 * folds})",
                          parameters=("folds",))
-    require_memory(_memory_needed(machine, obs, folds),
-                   f"diagnosing {obs.n_points} points ({len(obs.y)} observations)")
-    with one_blas_thread():  # the cores go to candidates and folds, not to BLAS on small matrices
-        loop = _Loop(machine, obs, split, fixed, alpha, max_effects, progress, keep_machines)
+    needed = _memory_needed(machine, obs, folds)
+    require_memory(needed, f"diagnosing {obs.n_points} points ({len(obs.y)} observations)")
+    # two processes in step where two cores are free and the memory holds a second diagnosis
+    in_step = len(obs.y) >= STEP_MIN_ROWS and free_workers() >= 2 and 2 * needed <= MEMORY_SHARE * available_memory()
+    with one_blas_thread(), lockstep.together(2 if in_step else 1) as group:
+        # the cores go to the halves of the designs, the candidates and the refits, not to BLAS on
+        # small matrices; the second process of the group reports no progress
+        loop = _Loop(machine, obs, split, fixed, alpha, max_effects,
+                     progress if group is None or group.rank == 0 else None, keep_machines)
         max_rounds = max_effects + 8 if max_rounds is None else max_rounds
         for number in range(max_rounds + 1):
             if not loop.round(number, may_accept=number < max_rounds):
@@ -170,6 +177,7 @@ class _Loop:
         self.previous: list[Change] = []
         self._last_holdout = None
         self.left_passing: list[str] = []       # what still passed when the round limit ended the rounds
+        self.seconds: dict[tuple, float] = {}   # in step: what each candidate took to score last
 
     def fit(self, model: Machine, names: list[str], initialise: bool = False):
         """The model fitted (all coefficients; with ``fixed`` only ``names``): (machine,
@@ -231,37 +239,30 @@ class _Loop:
         probe = add_terms(self.current, missing_loc) if missing_loc else self.current
         E = probe.error_joint_sensitivity(obs.q, first_order=True, **obs.covariates)
         joints = list(probe.error_joints)
-        cache = self.columns.cache
-        known = set(cache)
-
-        def one(cand):
-            # the term Jacobians computed for this candidate travel back with its score, so that a
-            # forked worker's work is kept for the rounds after (they only depend on the points)
-            mark = len(cache)
-            s = score(base, proj, obs, E, joints, cand, self.cov_obj, self.axis_index_of, self.columns)
-            added = [k for k, _ in zip(reversed(cache), range(len(cache) - mark))]
-            new = [(k, cache[k]) for k in reversed(added) if k not in known]
-            return s, new
 
         def progress(done):
             if self.progress:
                 self.progress(f"round {number + 1}: candidates", done)
 
-        workers = None if len(obs.y) >= PARALLEL_MIN_ROWS else 1
-        scores = []
-        for s, new in process_map(one, candidates, workers, progress=progress):
-            for k, v in new:
-                cache.setdefault(k, v)
-            if s is not None:
-                scores.append(s)
+        group = lockstep.active()
+        scores, owner = _score_all(candidates, lambda c: score(base, proj, obs, E, joints, c, self.cov_obj,
+                                                                 self.axis_index_of, self.columns),
+                                   progress, self.seconds)
         m = max(1, len(scores))
         ranked = sorted(scores, key=lambda s: -s.bic_gain)
         # cross-validate what could pass and what is shown
         shown = [s for k, s in enumerate(ranked) if s.cv_rms_um is None and (k < 10 or s.p_value < self.alpha / m)]
-        for s, cv in zip(shown, parallel_map(lambda s: proj.cv(s.columns), shown)):
+        cv = (parallel_map(lambda s: proj.cv(s.columns), shown) if group is None else
+              group.map(lambda s: proj.cv(s.columns), shown, "cross-validation", [owner[id(s)] for s in shown]))
+        for s, cv in zip(shown, cv):
             s.cv_rms_um = cv
         passing = [s for s in ranked if s.extra > 0 and s.p_value < self.alpha / m
                    and s.cv_rms_um is not None and s.cv_rms_um < proj.cv_rms * (1 - 1e-3)]
+        if group is not None:   # the repeat check of a per-revolution error needs its columns in both
+            rotary = [s for s in passing if s.candidate.name == "periodic_rotary"]
+            for s, columns in zip(rotary, group.map(lambda s: s.columns, rotary, "passing columns",
+                                                    [owner[id(s)] for s in rotary])):
+                s.columns = columns
         return ranked, passing
 
     def _accept(self, number: int, passing: list, proj: Projector) -> list[Change]:
@@ -366,10 +367,13 @@ class _Loop:
         return self.holdout(model, res)[0].cv_rms
 
     def in_parallel(self, tasks: list) -> list:
-        """``[task() for task in tasks]``, independent refits, on :data:`WORKERS` processes from
-        :data:`PARALLEL_MIN_ROWS` observation rows: this one and forked children (their results
-        - numbers and arrays - travel back; a fitted machine does not pickle)."""
-        return process_map(_call, tasks, None if len(self.obs.y) >= PARALLEL_MIN_ROWS else 1)
+        """``[task() for task in tasks]``, independent refits, shared between the processes of a
+        diagnosis in step (their results - numbers and arrays - travel; a fitted machine does
+        not pickle)."""
+        group = lockstep.active()
+        if group is not None:
+            return group.map(_call, tasks, "refits")
+        return [task() for task in tasks]
 
     def without(self, members: list[Change]):
         """The present model without these effects, refitted: (machine, fit, free names)."""
@@ -619,8 +623,62 @@ def _judged_trim(loop: _Loop, final) -> tuple | None:
     return refit if after <= before * (1 + PRACTICAL_GAIN) else None
 
 
+def _score_all(candidates: list, one, progress, seconds: dict) -> tuple[list, dict]:
+    """The candidates' scores (``one(candidate)``; None left out), in order, and in step the
+    process that scored each (``id(score)`` -> rank).
+
+    In step the candidates are shared between the two processes by the time each took to score
+    in the round before (``seconds``, by candidate, updated here alike in both), and a score's
+    columns (rows x its columns) stay with the process that scored it: it cross-validates it,
+    and only the columns of the candidates that pass travel (:meth:`_Loop._scores`)."""
+    group = lockstep.active()
+    scores, owner = [], {}
+    if group is None:
+        for k, cand in enumerate(candidates):
+            s = one(cand)
+            progress(k + 1)
+            if s is not None:
+                scores.append(s)
+        return scores, owner
+    keys = [(c.label, c.name, c.component, c.driver, c.kind) for c in candidates]
+    ranks = _balanced([seconds.get(key) for key in keys], group.size)
+    kept = {}
+
+    def light(k):
+        start = _time.perf_counter()
+        s = one(candidates[k])
+        if s is not None and s.columns is not None:
+            kept[k], s = s.columns, replace(s, columns=None)
+        return s, _time.perf_counter() - start
+
+    progress(0)
+    for k, (s, took) in enumerate(group.map(light, range(len(candidates)), "candidates", ranks)):
+        seconds[keys[k]] = took   # both processes keep the same times: the next round's shares
+        if s is not None:
+            s.columns = kept.get(k)
+            owner[id(s)] = ranks[k]
+            scores.append(s)
+    progress(len(candidates))
+    return scores, owner
+
+
+def _balanced(seconds: list, size: int) -> list[int]:
+    """The process of each of the items whose times (None: not known, the mean of those known)
+    are ``seconds``: the longest first, each to the process with the least so far (on a tie the
+    lower rank), so that processes in step wait little for each other."""
+    known = [t for t in seconds if t is not None]
+    guess = sum(known) / len(known) if known else 1.0
+    times = [guess if t is None else t for t in seconds]
+    load, ranks = [0.0] * size, [0] * len(times)
+    for k in sorted(range(len(times)), key=lambda k: (-times[k], k)):
+        rank = min(range(size), key=lambda p: (load[p], p))
+        ranks[k] = rank
+        load[rank] += times[k]
+    return ranks
+
+
 def _call(task):
-    """The result of a task (for :func:`process_map`)."""
+    """The result of a task (for :meth:`Group.map <volerr_pin.lockstep.Group.map>`)."""
     return task()
 
 

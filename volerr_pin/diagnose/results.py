@@ -4,13 +4,8 @@ the result with its JSON report (docs/reports.md)."""
 from __future__ import annotations
 
 import math
-import mmap
 import os
-import pickle
-import signal
-import threading
 import time
-import traceback
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
@@ -20,18 +15,29 @@ import numpy as np
 from ..identify import Observations
 from ..machine import Machine
 
-__all__ = ["PARALLEL_MIN_ROWS", "PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR",
-           "WORKERS", "Candidate", "Change", "Diagnosis", "DriftSeries", "Evidence", "Raise", "Score", "Step",
-           "free_workers", "one_blas_thread", "others_running", "parallel_map", "process_map"]
+__all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR", "STEP_MIN_ROWS", "WORKERS",
+           "Candidate", "Change", "Diagnosis", "DriftSeries", "Evidence", "Raise", "Score", "Step", "free_workers",
+           "one_blas_thread", "others_running", "parallel_map"]
 
-#: observation rows from which a round's candidates are scored, and the refits after the loop
-#: run, on :data:`WORKERS` processes. Below, forking costs more than it saves: since a
-#: candidate's fit is a few small products, at 12,000 rows (vmc500, 4,000 points) two processes
-#: took as long as one and 1.2 to 1.4 times its CPU; at 60,000 rows 0.90 of the wall time for
-#: 1.15 times the CPU (benchmarks/diagnose.py)
-PARALLEL_MIN_ROWS = 50_000
-#: threads that score candidates and set up folds at once: the cores this process may use
-WORKERS = max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1))
+#: observation rows from which a diagnosis runs as two processes in step (:mod:`volerr_pin.lockstep`)
+#: when two cores are free: below, the work both processes repeat outweighs the halves (vmc500
+#: with every covariate column: at 400 points 0.94 of the wall time for 1.6 times the CPU of one
+#: process; at 1,000 points 0.80 for 1.37; at 4,000 points 0.70 for 1.26)
+STEP_MIN_ROWS = 3000
+def _cores() -> int:
+    """The cores this process may use, at most what ``OMP_NUM_THREADS`` or ``NUMBA_NUM_THREADS``
+    allow (a user or a batch system that sets one to 1 asks for one core)."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    for name in ("OMP_NUM_THREADS", "NUMBA_NUM_THREADS"):
+        value = os.environ.get(name, "").strip()
+        if value.isdigit() and int(value) > 0:
+            cores = min(cores, int(value))
+    return max(1, cores)
+
+
+#: the cores this process may use (:func:`_cores`, at most 4): the threads of
+#: :func:`parallel_map`, and whether a diagnosis may run as two processes in step (at least 2)
+WORKERS = min(4, _cores())
 #: seconds a reading of the machine's load (:func:`free_workers`) serves before it is read again
 LOAD_READING_S = 0.5
 _load_reading: tuple[float, int | None] | None = None
@@ -117,129 +123,11 @@ def parallel_map(fn, items, workers: int | None = None) -> list:
         return list(pool.map(fn, items))
 
 
-def process_map(fn, items, workers: int | None = None, progress=None) -> list:
-    """``[fn(x) for x in items]`` on :data:`WORKERS` processes (in order), for Python-heavy work
-    the interpreter lock would serialise on threads. This process is one of them: it forks
-    ``workers - 1`` children at the call, which see its state as it is, and works through its
-    own share (every ``workers``-th item) while they work through theirs; only their results
-    travel back (pickled, through a pipe). Where forking is not safe - no ``fork``, or other
-    Python threads running (a fork copies their locks) - the items run here, one after the other.
-
-    Parameters
-    ----------
-    fn : callable
-        The function of one item (its results must pickle).
-    items : iterable
-        The items.
-    workers : int, optional
-        Processes, this one included (default :func:`free_workers`: :data:`WORKERS` less the
-        cores other processes keep busy).
-    progress : callable(int), optional
-        Called with the number of items done (all processes'), in this process.
-
-    Returns
-    -------
-    list
-        The results, in the order of ``items``.
-
-    Raises
-    ------
-    Exception
-        What ``fn`` raised, in this process or a child (re-raised here); RuntimeError when a
-        child ended without a result (killed).
-    """
-    items = list(items)
-    if workers is None:
-        workers = free_workers() if len(items) > 1 else 1
-    workers = min(workers, len(items))
-    forkable = hasattr(os, "fork") and threading.active_count() == 1
-    if workers <= 1 or not forkable:
-        out = []
-        for x in items:
-            out.append(fn(x))
-            if progress:
-                progress(len(out))
-        return out
-    counts = np.frombuffer(mmap.mmap(-1, 8 * workers), dtype=np.int64)  # items done per child, shared
-    children = []
-    try:
-        for w in range(1, workers):
-            read, write = os.pipe()
-            pid = os.fork()
-            if pid == 0:  # pragma: no cover - runs in the child, which never returns
-                os.close(read)
-                _child(fn, items[w::workers], counts, w, write)
-            os.close(write)
-            children.append((pid, read))
-        out = [None] * len(items)
-        for k in range(0, len(items), workers):
-            out[k] = fn(items[k])
-            if progress:
-                progress(k // workers + 1 + int(counts.sum()))
-        for w, (pid, read) in enumerate(children, start=1):
-            with os.fdopen(read, "rb") as pipe:
-                payload = pipe.read()
-            children[w - 1] = (pid, None)
-            os.waitpid(pid, 0)
-            if not payload:
-                raise RuntimeError(f"a worker of the diagnosis (process {pid}) ended without a result")
-            ok, value = pickle.loads(payload)
-            if not ok:
-                raise value
-            out[w::workers] = value
-        if progress:
-            progress(len(items))
-        return out
-    finally:
-        for pid, read in children:
-            if read is not None:  # not joined: this process failed first
-                os.kill(pid, signal.SIGKILL)
-                os.close(read)
-                os.waitpid(pid, 0)
-
-
-def _child(fn, items: list, counts: np.ndarray, w: int, write: int) -> None:
-    """A forked worker of :func:`process_map`: its share, the result pickled to ``write``, and
-    the end of the process (``os._exit``: nothing of the parent's - buffers, exit handlers - runs)."""
-    status = 1
-    try:
-        _serial_kernels()
-        try:
-            out = []
-            for x in items:
-                out.append(fn(x))
-                counts[w] += 1
-            payload = pickle.dumps((True, out), protocol=pickle.HIGHEST_PROTOCOL)
-        except BaseException as exc:  # noqa: BLE001 - every failure travels back to be raised there
-            try:
-                payload = pickle.dumps((False, exc), protocol=pickle.HIGHEST_PROTOCOL)
-                pickle.loads(payload)   # an exception whose arguments do not rebuild it fails here, not there
-            except Exception:  # noqa: BLE001 - an exception that does not travel: its text
-                payload = pickle.dumps((False, RuntimeError("".join(traceback.format_exception(exc)))))
-        with os.fdopen(write, "wb") as pipe:
-            pipe.write(payload)
-        status = 0
-    finally:
-        os._exit(status)
-
-
-def _serial_kernels() -> None:
-    """In a forked worker: the compiled kinematics on the calling thread only, and no threads
-    of the diagnosis. The parent's thread pool (GNU OpenMP under numba) does not survive a
-    fork - a worker that starts a parallel kernel is terminated - and the worker is one of the
-    cores already. The serial and the parallel kernel compute each point alike."""
-    from .. import kinematics
-
-    global WORKERS
-    kinematics.run_on_this_thread()
-    WORKERS = 1
-
-
 @contextmanager
 def one_blas_thread():
     """Limit BLAS and OpenMP (threadpoolctl) and numba to one thread inside the block, so that
     a diagnosis's small matrices do not oversubscribe the cores: its parallelism is over
-    candidates and folds (:func:`process_map`, :func:`parallel_map`). Without threadpoolctl
+    the halves of its work (:mod:`volerr_pin.lockstep`, :func:`parallel_map`). Without threadpoolctl
     BLAS keeps its threads.
 
     Yields
