@@ -7,8 +7,9 @@ Every measurement runs in a fresh process on a held-out set of vmc500 with every
 column (t, three temperatures, three forces, three approach directions; off-spec geometry and a
 hidden backlash, :func:`volerr_pin.simulate.heldout_set`). "default" is the library as a user
 runs it; "one thread" limits BLAS, OpenMP and numba to one thread through the environment and
-scores candidates on one core. "busy" runs the same beside one process spinning on a core (as
-on CI or a shared workstation). Wall and CPU times (the process and its workers) are reported
+runs the diagnosis as one process (no second process in step). "busy" runs the same beside one
+process spinning on a core (as on CI or a shared workstation). Wall and CPU times (the process
+and its second process in step) are reported
 with the ratios the issue sets as targets: default CPU / one-thread CPU (at most 1.2), default
 wall / one-thread wall (at most 0.6 on 2 cores), and time(10x points) / time(points) (at most
 10). Nothing here is asserted; tests never check times.

@@ -192,22 +192,26 @@ def test_a_floor_from_the_residual_far_above_the_stated_noise_is_not_reached(mac
     assert "misses something" in r.noise_floor_source
 
 
-@pytest.mark.parametrize("machine, hidden, n", [
-    ("vmc500", {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}, 300),
+@pytest.mark.parametrize("machine, hidden, n, rounds", [
+    ("vmc500", {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}, 300, 4),
     ("cgm4000", {"EBB": {"kind": "periodic_pitch", "prefix": "h", "period_deg": 90.0, "sine_arcsec": [4.0],
-                         "cosine_arcsec": [0.0]}}, 300),
+                         "cosine_arcsec": [0.0]}}, 200, 2),
 ])
-def test_the_same_answer_alone_or_in_step(machines, monkeypatch, machine, hidden, n):
+def test_the_same_answer_alone_or_in_step(machines, monkeypatch, machine, hidden, n, rounds):
     """The whole report to the last bit, one process or two in step (the design, the basis, the
     folds, the candidates, the residuals and the refits shared between them; on cgm4000 a
     per-revolution error passes, whose columns travel for the repeat check)."""
     import volerr_pin.diagnose.loop as loop
     from volerr_pin import lockstep
+    from volerr_pin.diagnose import scoring
+    from volerr_pin.identify import design
 
     monkeypatch.setattr(diagnose_results, "others_running", lambda: 0)  # two cores free, whatever else runs
     monkeypatch.setattr(diagnose_results, "_load_reading", None)
     monkeypatch.setattr(os, "cpu_count", lambda: 2)
-    monkeypatch.setattr(loop, "STEP_MIN_ROWS", 0)
+    monkeypatch.setattr(loop, "STEP_MIN_ROWS", 0)   # in step, the designs and the basis in halves, at any size
+    monkeypatch.setattr(design, "SPLIT_POINTS", 0)
+    monkeypatch.setattr(scoring, "HALVES_MIN_ROWS", 0)
     m = machines[machine]
     truth, data = heldout_set(m, hidden, n, NOISE, 5)
     groups, together = [], lockstep.together
@@ -217,14 +221,20 @@ def test_the_same_answer_alone_or_in_step(machines, monkeypatch, machine, hidden
         return together(size)
 
     monkeypatch.setattr(lockstep, "together", recorded)
+    tags, share = [], lockstep.Group.map
+    monkeypatch.setattr(lockstep.Group, "map", lambda self, fn, items, tag="", ranks=None: (
+        tags.append(tag if list(items) else None), share(self, fn, items, tag, ranks))[1])
     runs = []
     for workers in (1, 2):
         monkeypatch.setattr(diagnose_results, "WORKERS", workers)
-        report = diagnose(m, [data], max_rounds=4).to_dict()
+        report = diagnose(m, [data], max_rounds=rounds).to_dict()
         report.pop("seconds")
         runs.append(report)
     assert groups == [1, 2]
-    assert runs[0]["effects"] or runs[0]["raised"]
+    assert {"design", "residual", "basis factors", "basis rows", "folds", "candidates", "cross-validation",
+            "refits"} <= set(tags)
+    assert ("passing columns" in tags) == (machine == "cgm4000")   # a per-revolution error's columns travelled
+    assert runs[0]["effects"] or runs[0]["under_modelled"]
     # the whole report: every round's candidates and scores, the effects, their numbers
     assert runs[0] == runs[1]
 

@@ -73,9 +73,9 @@ def others_running(loadavg: str = "/proc/loadavg") -> int | None:
 
 def free_workers() -> int:
     """:data:`WORKERS`, less what other processes computing now leave this one: on a machine
-    whose other cores are busy, forked workers and threads would only take turns with them
-    and with each other (beside one process spinning on one of 2 cores, two workers took 1.14
-    to 1.17 times as long as one, benchmarks/diagnose.py). Read at most every
+    whose other cores are busy, a second process in step or threads would only take turns with
+    them and with each other (beside one process spinning on one of 2 cores, two forked workers
+    took 1.14 to 1.17 times as long as one, benchmarks/diagnose.py). Read at most every
     :data:`LOAD_READING_S`; where the load cannot be read, :data:`WORKERS`.
 
     Returns
