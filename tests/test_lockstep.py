@@ -86,18 +86,48 @@ def test_processes_that_reach_different_exchanges_raise():
             group.share(None, "first" if group.rank == 0 else "second")
 
 
-def test_a_second_process_that_dies_is_named():
+def test_when_the_second_process_dies_the_first_goes_on_alone():
     before = set(_children())
+    first = os.getpid()
 
     def fn(x):
-        if x == 1:
+        if x == 1 and os.getpid() != first:   # killed, as for memory, in the middle of its share
             os.kill(os.getpid(), signal.SIGKILL)
-        return x
+        return x * 10, os.getpid()
 
-    with pytest.raises(lockstep.OutOfStep, match="ended early"):
-        with lockstep.together(2) as group:
-            group.map(fn, range(2), "dies")
+    with lockstep.together(2) as group:
+        out = group.map(fn, range(4), "dies")
+        assert [v for v, _ in out] == [0, 10, 20, 30] and {p for _, p in out} == {first}
+        assert group.alone and lockstep.active() is None
+        assert group.map(lambda x: (x, os.getpid()), range(3), "after") == [(0, first), (1, first), (2, first)]
+        with pytest.raises(InputError, match="still raised"):
+            group.map(lambda x: (_ for _ in ()).throw(InputError("still raised")), range(2), "raises")
     assert set(_children()) == before
+
+
+def test_a_failure_here_is_raised_when_the_second_process_died_meanwhile():
+    first = os.getpid()
+
+    def fn(x):
+        if os.getpid() != first:
+            os.kill(os.getpid(), signal.SIGKILL)
+        raise InputError("here")
+
+    with pytest.raises(InputError, match="here"):
+        with lockstep.together(2) as group:
+            group.map(fn, range(2), "both fail")
+
+
+def test_the_second_process_raises_when_the_first_has_ended():
+    import socket
+
+    here, there = socket.socketpair()
+    there.close()   # the first process is gone
+    second = lockstep.Group(1, 2, here)
+    with pytest.raises(lockstep.OutOfStep, match="ended early"):
+        second.map(abs, range(2), "alone")
+    assert not second.alone
+    here.close()
 
 
 def test_the_second_process_prints_nothing(capfd):

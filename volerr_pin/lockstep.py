@@ -37,6 +37,10 @@ class OutOfStep(RuntimeError):
     """The processes of a group reached different exchanges, or one of them ended early."""
 
 
+class _Ended(OutOfStep):
+    """The other process of a group ended."""
+
+
 class _Failed:
     """What a share raised, travelling to the other process to be raised there too."""
 
@@ -57,11 +61,14 @@ class Group:
         This process's number, 0 for the one that called :func:`together` (whose result counts).
     size : int
         The processes of the group.
+    alone : bool
+        Whether the second process has ended and the first goes on by itself (:meth:`map`).
     """
 
     def __init__(self, rank: int, size: int, sock: socket.socket):
         self.rank, self.size, self._sock = rank, size, sock
         self._count = 0
+        self.alone = False   # the second process ended: the first goes on by itself
 
     def share(self, mine, tag: str = ""):
         """Every process's value, in the order of their ranks: each sends its own and receives the
@@ -101,9 +108,13 @@ class Group:
 
     def map(self, fn, items, tag: str = "", ranks=None) -> list:
         """``[fn(x) for x in items]``, each process computing every ``size``-th item from its rank
-        (or the items ``ranks`` gives it), and both getting every result (in order). What ``fn``
-        raised in either process is raised in both. Inside ``fn`` the group is not active (:func:`active` is None): an item is
-        computed whole by the process it falls to.
+        (or the items ``ranks`` gives it), and both getting every result (in order).
+
+        What ``fn`` raised in either process is raised in both. Inside ``fn`` the group is not
+        active (:func:`active` is None): an item is computed whole by the process it falls to.
+        When the second process has ended (killed, for example when the machine ran out of
+        memory), the first computes its items too and goes on alone: from then on the group is
+        no longer active, and every later map of it runs here whole.
 
         Parameters
         ----------
@@ -120,20 +131,39 @@ class Group:
         -------
         list
             The results, in the order of ``items``.
+
+        Raises
+        ------
+        OutOfStep
+            If the processes reached different exchanges, or (in the second process) the first
+            one ended.
         """
         global _group
         items = list(items)
         ranks = [k % self.size for k in range(len(items))] if ranks is None else list(ranks)
         if len(ranks) != len(items) or not set(ranks) <= set(range(self.size)):
             raise ValueError(f"ranks must give each of the {len(items)} items a process from 0 to {self.size - 1}")
-        _group = None   # what an item computes runs here alone: the other process is at other items
+        if self.alone:
+            return [fn(x) for x in items]
+        active_before, _group = _group, None   # an item is computed here alone: the other process is at others
         try:
             mine = [fn(x) for x, rank in zip(items, ranks) if rank == self.rank]
         except Exception as exc:  # noqa: BLE001 - raised in both processes below
             mine = _Failed(exc)
         finally:
-            _group = self
-        parts = self.share(mine, tag or getattr(fn, "__qualname__", "map"))
+            _group = active_before
+        try:
+            parts = self.share(mine, tag or getattr(fn, "__qualname__", "map"))
+        except _Ended:
+            if self.rank != 0:
+                raise
+            self.alone = True   # the second process is gone: its items here, and alone from now
+            if _group is self:
+                _group = None
+            if isinstance(mine, _Failed):
+                raise mine.exc from None
+            theirs = [fn(x) for x, rank in zip(items, ranks) if rank != self.rank]
+            parts = [mine, theirs]
         for part in parts:
             if isinstance(part, _Failed):
                 raise part.exc
@@ -144,7 +174,7 @@ class Group:
         try:
             self._sock.sendall(struct.pack("!Q", len(payload)) + payload)
         except OSError as exc:
-            raise OutOfStep("the other process of the computation ended early") from exc
+            raise _Ended("the other process of the computation ended early") from exc
 
     def _receive(self) -> bytes:
         (n,) = struct.unpack("!Q", self._exactly(8))
@@ -159,8 +189,8 @@ class Group:
             except OSError:   # reset: the other process ended with data unread
                 k = 0
             if k == 0:
-                raise OutOfStep("the other process of the computation ended early (it may have been "
-                                "killed, for example when the machine ran out of memory)")
+                raise _Ended("the other process of the computation ended early (it may have been "
+                             "killed, for example when the machine ran out of memory)")
             got += k
         return bytes(buf)
 
@@ -178,8 +208,8 @@ def active() -> Group | None:
 @contextmanager
 def together(size: int):
     """Run the block in ``size`` processes in step (``size`` 1 or 2; 1, or where forking is not
-    safe - no ``fork``, other threads running, a group already - the block runs here alone and
-    the group is None).
+    safe or fails - no ``fork``, other threads running, a group already, no process or socket
+    left - the block runs here alone and the group is None).
 
     The second process is forked on entry; it runs the block too, with the same state, and ends
     at its end (``os._exit``: nothing of this process's - buffers, exit handlers - runs twice),
@@ -203,10 +233,20 @@ def together(size: int):
         return
     if size != 2:
         raise ValueError(f"a group runs in 1 or 2 processes, not {size}")
-    mine, theirs = socket.socketpair()
+    try:
+        mine, theirs = socket.socketpair()
+    except OSError:   # no sockets left: alone
+        yield None
+        return
     sys.stdout.flush()
     sys.stderr.flush()
-    pid = os.fork()
+    try:
+        pid = os.fork()
+    except OSError:   # no process left (a limit, the memory): alone
+        mine.close()
+        theirs.close()
+        yield None
+        return
     if pid == 0:  # pragma: no cover - the second process, which never returns
         mine.close()
         status = 1

@@ -24,9 +24,9 @@ from ..units import ARCSEC, UM_PER_M
 from .candidates import MIN_PERIODS, PITCH_PERIOD_MM, interpolation_period
 from .results import Candidate, Score, parallel_map
 
-__all__ = ["FOLD_SEEN", "GRAM_FOLD_SEEN", "GRAM_MIN", "GRAM_ZERO", "HALVES_MIN_ROWS", "PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS",
-           "REPEAT_RATIO", "REPEAT_SIGMAS", "SVD_RTOL", "Base", "Columns", "Projector", "base_design", "not_repeating",
-           "periodogram_period", "repeat_check", "score"]
+__all__ = ["FOLD_SEEN", "GRAM_FOLD_SEEN", "GRAM_MIN", "GRAM_ZERO", "HALVES_MIN_ROWS", "PERIODOGRAM_POINTS",
+           "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "SVD_RTOL", "Base", "Columns", "Projector", "base_design",
+           "not_repeating", "periodogram_period", "repeat_check", "score"]
 
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
 #: singular values of a column-scaled design below this share of the largest are rounding: cut

@@ -14,8 +14,8 @@ from ..machine import Machine
 from ..units import UM_PER_M, URAD_PER_RAD
 from .observations import Observations, data_names, take_covariates
 
-__all__ = ["CHUNK_BYTES", "SPLIT_POINTS", "column_scale", "default_rcond", "point_chunks", "predict_observations", "reduce_design",
-           "refuse_non_finite", "rows_of", "stacked_factor", "typical_sizes", "weighted_residual"]
+__all__ = ["CHUNK_BYTES", "SPLIT_POINTS", "column_scale", "default_rcond", "point_chunks", "predict_observations",
+           "reduce_design", "refuse_non_finite", "rows_of", "stacked_factor", "typical_sizes", "weighted_residual"]
 
 
 def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray, free: np.ndarray,
