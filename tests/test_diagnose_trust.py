@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import signal
 import time
 from pathlib import Path
 
@@ -236,6 +237,47 @@ def test_the_same_answer_alone_or_in_step(machines, monkeypatch, machine, hidden
     assert ("passing columns" in tags) == (machine == "cgm4000")   # a per-revolution error's columns travelled
     assert runs[0]["effects"] or runs[0]["under_modelled"]
     # the whole report: every round's candidates and scores, the effects, their numbers
+    assert runs[0] == runs[1]
+
+
+@pytest.mark.parametrize("machine, tag", [("vmc500", "design"), ("vmc500", "basis rows"),
+                                          ("vmc500", "candidates"), ("vmc500", "cross-validation"),
+                                          ("vmc500", "refits"), ("cgm4000", "passing columns")])
+def test_when_the_second_process_dies_the_diagnosis_ends_alone_with_the_same_answer(machines, monkeypatch,
+                                                                                    machine, tag):
+    """The second process killed (as for memory) at its first exchange of each kind of share: the
+    first computes what it had kept (a half's rows of the basis, a score's columns) and its share
+    again, and the report is the one of a diagnosis alone."""
+    import volerr_pin.diagnose.loop as loop
+    from volerr_pin import lockstep
+    from volerr_pin.diagnose import scoring
+    from volerr_pin.identify import design
+
+    monkeypatch.setattr(diagnose_results, "others_running", lambda: 0)
+    monkeypatch.setattr(diagnose_results, "_load_reading", None)
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(loop, "STEP_MIN_ROWS", 0)
+    monkeypatch.setattr(design, "SPLIT_POINTS", 0)
+    monkeypatch.setattr(scoring, "HALVES_MIN_ROWS", 0)
+    m = machines[machine]
+    hidden = ({"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}} if machine == "vmc500" else
+              {"EBB": {"kind": "periodic_pitch", "prefix": "h", "period_deg": 90.0, "sine_arcsec": [4.0],
+                       "cosine_arcsec": [0.0]}})
+    _, data = heldout_set(m, hidden, 300 if machine == "vmc500" else 200, NOISE, 5)
+    first, share = os.getpid(), lockstep.Group.share
+
+    def dies(self, mine, tag_=""):
+        if os.getpid() != first and tag_ == tag:
+            os.kill(os.getpid(), signal.SIGKILL)
+        return share(self, mine, tag_)
+
+    monkeypatch.setattr(lockstep.Group, "share", dies)
+    runs = []
+    for workers in (1, 2):
+        monkeypatch.setattr(diagnose_results, "WORKERS", workers)
+        report = diagnose(m, [data], max_rounds=2).to_dict()
+        report.pop("seconds")
+        runs.append(report)
     assert runs[0] == runs[1]
 
 
@@ -506,6 +548,6 @@ def test_a_batch_of_raises_is_refitted_until_every_member_is_significant(machine
     ([], []),
 ])
 def test_candidates_are_shared_by_the_time_they_took(seconds, expected):
-    from volerr_pin.diagnose.loop import _balanced
+    from volerr_pin.lockstep import balanced
 
-    assert _balanced(seconds, 2) == expected
+    assert balanced(seconds, 2) == expected

@@ -8,12 +8,19 @@ forked for each part pays for the pages it copies. So the whole computation is f
 at its start, while the process is still small: both processes then run the same code on the
 same data, and at each part that splits each computes its share and the two exchange results
 (:meth:`Group.map`, :meth:`Group.share`). Everything else is computed in both, identically, so
-both hold the same state at every step and take the same decisions; the second process never
-returns (it ends when the computation does) and only the first one's result is used.
+both hold the same state that decisions and exchanges rest on, and take the same decisions;
+what an item computed stays only where it was computed (caches, a score's columns), and no
+decision may read it. The second process never returns (it ends when the computation does) and
+only the first one's result is used.
 
 The computation must be deterministic apart from the shares (no clocks, no reading of the
-machine's load that a decision depends on), and its shared values must pickle. Every exchange
-is tagged, and two processes that reach different exchanges raise rather than mix results.
+machine's load or free memory that a decision depends on), and its shared values must pickle.
+Every exchange is numbered and tagged: two processes that reach exchanges of different numbers
+or tags raise (two exchanges with the same tag at the same count but different items are not
+told apart). Where the second process has ended, the first goes on alone (:meth:`Group.map`).
+The check before the fork sees Python threads only: the native threads of BLAS and numba's
+pool are the libraries' to handle (OpenBLAS resets its pool in a child; the second process runs
+the compiled kinematics on its own thread).
 """
 
 from __future__ import annotations
@@ -28,7 +35,7 @@ import threading
 import traceback
 from contextlib import contextmanager
 
-__all__ = ["Group", "OutOfStep", "active", "together"]
+__all__ = ["Group", "OutOfStep", "active", "balanced", "together"]
 
 _group: Group | None = None
 
@@ -214,7 +221,8 @@ def together(size: int):
     The second process is forked on entry; it runs the block too, with the same state, and ends
     at its end (``os._exit``: nothing of this process's - buffers, exit handlers - runs twice),
     whatever the block did. It writes nothing: its standard output and error go nowhere and its
-    warnings are ignored. This process kills it if it leaves the block first (an error here).
+    warnings are ignored. This process kills it when it leaves the block (the second process may
+    not have finished the block's last steps: its result is not needed), and reaps it.
 
     Parameters
     ----------
@@ -287,3 +295,18 @@ def _quiet() -> None:
     sys.stdout = sys.stderr = devnull
     warnings.simplefilter("ignore")
     kinematics.run_on_this_thread()
+
+
+def balanced(seconds: list, size: int) -> list[int]:
+    """The process of each of the items whose times (None: not known, the mean of those known)
+    are ``seconds``: the longest first, each to the process with the least so far (on a tie the
+    lower rank), so that processes in step wait little for each other."""
+    known = [t for t in seconds if t is not None]
+    guess = sum(known) / len(known) if known else 1.0
+    times = [guess if t is None else t for t in seconds]
+    load, ranks = [0.0] * size, [0] * len(times)
+    for k in sorted(range(len(times)), key=lambda k: (-times[k], k)):
+        rank = min(range(size), key=lambda p: (load[p], p))
+        ranks[k] = rank
+        load[rank] += times[k]
+    return ranks

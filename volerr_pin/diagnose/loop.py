@@ -11,7 +11,6 @@ joint refit (:mod:`~volerr_pin.diagnose.changes`).
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 import time as _time
 import warnings
 
@@ -32,7 +31,7 @@ from .report import (components_per_point, effect_amplitude, group_findings, noi
                      residual_analysis, stated_noise, twins_of)
 from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, STATED_NOISE_FACTOR, STEP_MIN_ROWS, Change,
                       Diagnosis, Step, free_workers, one_blas_thread, parallel_map)
-from .scoring import Columns, Projector, base_design, not_repeating, score
+from .scoring import Columns, Projector, base_design, not_repeating, score, score_all
 
 __all__ = ["LAGS_S", "PERIOD_WINDOW", "TIME_CHECK_SHARE", "diagnose"]
 
@@ -226,41 +225,37 @@ class _Loop:
         """Every candidate's score, best first, and those that pass the F-test and lower the
         cross-validated RMS."""
         obs = self.obs
-        # a component's per-revolution error of an order already accepted is not offered again
-        # (a second term beside the first would only share it)
-        accepted_orders = {(n.split(".")[0], round(2 * math.pi / p)) for n, p in self.periods.items()}
-        candidates = [c for c in build_candidates(self.current, obs) if not (
-            c.name == "periodic_rotary" and (c.component, round(360.0 / c.table["period_deg"])) in accepted_orders)]
-        if len(self.effects) >= self.max_effects:
-            candidates = [c for c in candidates if c.kind == "raise"]
-        missing_loc = {c.component: {"kind": "constant", "prefix": "probe",
-                                     f"value_{'um' if c.component[1] in 'XYZ' else 'arcsec'}": 0.0}
-                       for c in candidates if c.component not in self.current.error_joints}
-        probe = add_terms(self.current, missing_loc) if missing_loc else self.current
-        E = probe.error_joint_sensitivity(obs.q, first_order=True, **obs.covariates)
-        joints = list(probe.error_joints)
+        candidates, E, joints = _offered(self)
 
         def progress(done):
             if self.progress:
                 self.progress(f"round {number + 1}: candidates", done)
 
+        def one(cand):
+            return score(base, proj, obs, E, joints, cand, self.cov_obj, self.axis_index_of, self.columns)
+
+        def columns_of(s):
+            # in step a score's columns are kept by the process that scored it: where the other
+            # process of the group ended first, they are computed again here (the same numbers)
+            if s.columns is None:
+                s.columns = one(s.candidate).columns
+            return s.columns
+
         group = lockstep.active()
-        scores, owner = _score_all(candidates, lambda c: score(base, proj, obs, E, joints, c, self.cov_obj,
-                                                                 self.axis_index_of, self.columns),
-                                   progress, self.seconds)
+        scores, owner = score_all(candidates, one, progress, self.seconds)
         m = max(1, len(scores))
         ranked = sorted(scores, key=lambda s: -s.bic_gain)
         # cross-validate what could pass and what is shown
         shown = [s for k, s in enumerate(ranked) if s.cv_rms_um is None and (k < 10 or s.p_value < self.alpha / m)]
         cv = (parallel_map(lambda s: proj.cv(s.columns), shown) if group is None else
-              group.map(lambda s: proj.cv(s.columns), shown, "cross-validation", [owner[id(s)] for s in shown]))
+              group.map(lambda s: proj.cv(columns_of(s)), shown, "cross-validation", [owner[id(s)] for s in shown]))
         for s, cv in zip(shown, cv):
             s.cv_rms_um = cv
         passing = [s for s in ranked if s.extra > 0 and s.p_value < self.alpha / m
                    and s.cv_rms_um is not None and s.cv_rms_um < proj.cv_rms * (1 - 1e-3)]
         if group is not None:   # the repeat check of a per-revolution error needs its columns in both
             rotary = [s for s in passing if s.candidate.name == "periodic_rotary"]
-            for s, columns in zip(rotary, group.map(lambda s: s.columns, rotary, "passing columns",
+            for s, columns in zip(rotary, group.map(columns_of, rotary, "passing columns",
                                                     [owner[id(s)] for s in rotary])):
                 s.columns = columns
         return ranked, passing
@@ -371,9 +366,14 @@ class _Loop:
         diagnosis in step (their results - numbers and arrays - travel; a fitted machine does
         not pickle)."""
         group = lockstep.active()
-        if group is not None:
+        if group is None:
+            return [task() for task in tasks]
+        # the last held-out projector a task kept is that process's own: both keep the one before
+        kept = self._last_holdout
+        try:
             return group.map(_call, tasks, "refits")
-        return [task() for task in tasks]
+        finally:
+            self._last_holdout = kept
 
     def without(self, members: list[Change]):
         """The present model without these effects, refitted: (machine, fit, free names)."""
@@ -623,58 +623,22 @@ def _judged_trim(loop: _Loop, final) -> tuple | None:
     return refit if after <= before * (1 + PRACTICAL_GAIN) else None
 
 
-def _score_all(candidates: list, one, progress, seconds: dict) -> tuple[list, dict]:
-    """The candidates' scores (``one(candidate)``; None left out), in order, and in step the
-    process that scored each (``id(score)`` -> rank).
-
-    In step the candidates are shared between the two processes by the time each took to score
-    in the round before (``seconds``, by candidate, updated here alike in both), and a score's
-    columns (rows x its columns) stay with the process that scored it: it cross-validates it,
-    and only the columns of the candidates that pass travel (:meth:`_Loop._scores`)."""
-    group = lockstep.active()
-    scores, owner = [], {}
-    if group is None:
-        for k, cand in enumerate(candidates):
-            s = one(cand)
-            progress(k + 1)
-            if s is not None:
-                scores.append(s)
-        return scores, owner
-    keys = [(c.label, c.name, c.component, c.driver, c.kind) for c in candidates]
-    ranks = _balanced([seconds.get(key) for key in keys], group.size)
-    kept = {}
-
-    def light(k):
-        start = _time.perf_counter()
-        s = one(candidates[k])
-        if s is not None and s.columns is not None:
-            kept[k], s = s.columns, replace(s, columns=None)
-        return s, _time.perf_counter() - start
-
-    progress(0)
-    for k, (s, took) in enumerate(group.map(light, range(len(candidates)), "candidates", ranks)):
-        seconds[keys[k]] = took   # both processes keep the same times: the next round's shares
-        if s is not None:
-            s.columns = kept.get(k)
-            owner[id(s)] = ranks[k]
-            scores.append(s)
-    progress(len(candidates))
-    return scores, owner
-
-
-def _balanced(seconds: list, size: int) -> list[int]:
-    """The process of each of the items whose times (None: not known, the mean of those known)
-    are ``seconds``: the longest first, each to the process with the least so far (on a tie the
-    lower rank), so that processes in step wait little for each other."""
-    known = [t for t in seconds if t is not None]
-    guess = sum(known) / len(known) if known else 1.0
-    times = [guess if t is None else t for t in seconds]
-    load, ranks = [0.0] * size, [0] * len(times)
-    for k in sorted(range(len(times)), key=lambda k: (-times[k], k)):
-        rank = min(range(size), key=lambda p: (load[p], p))
-        ranks[k] = rank
-        load[rank] += times[k]
-    return ranks
+def _offered(loop: _Loop) -> tuple[list, np.ndarray, list[str]]:
+    """The round's candidates, and the error-joint sensitivity at the points (with the components
+    they would add, at zero) and its joints: a component's per-revolution error of an order
+    already accepted is not offered again (a second term beside the first would only share it),
+    and once ``max_effects`` effects are in only raises are."""
+    accepted_orders = {(n.split(".")[0], round(2 * math.pi / p)) for n, p in loop.periods.items()}
+    candidates = [c for c in build_candidates(loop.current, loop.obs) if not (
+        c.name == "periodic_rotary" and (c.component, round(360.0 / c.table["period_deg"])) in accepted_orders)]
+    if len(loop.effects) >= loop.max_effects:
+        candidates = [c for c in candidates if c.kind == "raise"]
+    missing_loc = {c.component: {"kind": "constant", "prefix": "probe",
+                                 f"value_{'um' if c.component[1] in 'XYZ' else 'arcsec'}": 0.0}
+                   for c in candidates if c.component not in loop.current.error_joints}
+    probe = add_terms(loop.current, missing_loc) if missing_loc else loop.current
+    E = probe.error_joint_sensitivity(loop.obs.q, first_order=True, **loop.obs.covariates)
+    return candidates, E, list(probe.error_joints)
 
 
 def _call(task):

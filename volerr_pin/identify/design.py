@@ -159,22 +159,24 @@ def point_chunks(obs: Observations, n_columns: int) -> list[tuple[np.ndarray, np
     n_columns : int
         Coefficients differentiated by.
 
-    From :data:`SPLIT_POINTS` points on the chunks are an even number of equal ones, so that the
-    design reduces in two halves of equal work (:func:`reduce_design`).
+    The chunks' sizes differ by one point at most; from :data:`SPLIT_POINTS` points on they are
+    an even number, so that the design reduces in two halves of equal work (:func:`reduce_design`).
 
     Returns
     -------
     list of tuple of (ndarray, ndarray)
         Per chunk: its point indices (consecutive) and the indices of their observation rows.
     """
+    n = obs.n_points
     size = max(64, CHUNK_BYTES // (6 * 8 * 4 * max(n_columns, 1)))
-    if obs.n_points >= SPLIT_POINTS:
-        count = max(2, -(-obs.n_points // size))
-        size = -(-obs.n_points // (count + count % 2))
+    count = -(-n // size)
+    if n >= SPLIT_POINTS:
+        count = max(2, count)
+        count += count % 2
+    starts = [k * n // count for k in range(count + 1)] if count else [0]
     order = np.argsort(obs.point, kind="stable")
-    bounds = np.searchsorted(obs.point[order], np.arange(0, obs.n_points + size, size).clip(max=obs.n_points))
-    return [(np.arange(start, min(start + size, obs.n_points)), order[a:b])
-            for start, a, b in zip(range(0, obs.n_points, size), bounds[:-1], bounds[1:])]
+    bounds = np.searchsorted(obs.point[order], starts)
+    return [(np.arange(starts[k], starts[k + 1]), order[bounds[k]:bounds[k + 1]]) for k in range(count)]
 
 
 def stacked_factor(R: np.ndarray, parts: list[np.ndarray], sigma: np.ndarray, non_finite=None) -> np.ndarray:
