@@ -18,6 +18,7 @@ wall / one-thread wall (at most 0.6 on 2 cores), and time(10x points) / time(poi
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
 import os
 import platform
@@ -107,7 +108,9 @@ def markdown(rows: list[dict]) -> str:
     """The rows as markdown tables."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     load = next((r["load_before"] for r in rows if r["mode"] == "machine"), None)
-    lines = [f"Measured on {platform.machine()} ({_cpu_model()}) with {cores} cores, Python {platform.python_version()}"
+    when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    lines = [f"Measured on {platform.machine()} ({_cpu_model()}) with {cores} cores, Python {platform.python_version()}, "
+             f"{when}"
              + (f", load average before the run {load:.2f}." if load is not None else "."), "",
              "| load | points | mode | wall [s] | CPU [s] | effects |", "|---|---|---|---|---|---|"]
     for r in rows:

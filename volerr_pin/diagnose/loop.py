@@ -30,8 +30,8 @@ from .changes import apply_changes, remove_effect, size_of, tested_names, trim_r
 from .report import (components_per_point, effect_amplitude, group_findings, noise_floor, raised_summary,
                      residual_analysis, stated_noise, twins_of)
 from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, STATED_NOISE_FACTOR, STEP_MIN_ROWS, Change,
-                      Diagnosis, Step, free_workers, one_blas_thread, parallel_map)
-from .scoring import Columns, Projector, base_design, not_repeating, score, score_all
+                      Diagnosis, Step, free_workers, one_blas_thread, parallel_map, score_all)
+from .scoring import Columns, Projector, base_design, not_repeating, score
 
 __all__ = ["LAGS_S", "PERIOD_WINDOW", "TIME_CHECK_SHARE", "diagnose"]
 

@@ -1,5 +1,6 @@
 """What a diagnosis finds, typed: candidates, their scores, the changes accepted, the rounds and
-the result with its JSON report (docs/reports.md)."""
+the result with its JSON report (docs/reports.md); and how its work uses the cores (threads,
+the candidates shared between two processes in step)."""
 
 from __future__ import annotations
 
@@ -12,17 +13,19 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .. import lockstep
 from ..identify import Observations
 from ..machine import Machine
 
 __all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR", "STEP_MIN_ROWS", "WORKERS",
            "Candidate", "Change", "Diagnosis", "DriftSeries", "Evidence", "Raise", "Score", "Step", "free_workers",
-           "one_blas_thread", "others_running", "parallel_map"]
+           "one_blas_thread", "others_running", "parallel_map", "score_all"]
 
 #: observation rows from which a diagnosis runs as two processes in step (:mod:`volerr_pin.lockstep`)
 #: when two cores are free: below, the work both processes repeat outweighs the halves (vmc500
-#: with every covariate column: at 400 points 0.94 of the wall time for 1.6 times the CPU of one
-#: process; at 1,000 points 0.80 for 1.37; at 4,000 points 0.70 for 1.26)
+#: with every covariate column, against one process, alternating in fresh processes: at 400
+#: points 0.93 of the wall time for 1.58 times the CPU; at 1,000 points 0.72 for 1.22; at 4,000
+#: points 0.73 for 1.30, benchmarks/diagnose.py)
 STEP_MIN_ROWS = 3000
 def _cores() -> int:
     """The cores this process may use, at most what ``OMP_NUM_THREADS`` or ``NUMBA_NUM_THREADS``
@@ -121,6 +124,63 @@ def parallel_map(fn, items, workers: int | None = None) -> list:
         return [fn(x) for x in items]
     with ThreadPoolExecutor(min(workers, len(items))) as pool:
         return list(pool.map(fn, items))
+
+
+def score_all(candidates: list, one, progress, seconds: dict) -> tuple[list, dict]:
+    """The candidates' scores (``one(candidate)``; None left out), in order, and in step the
+    process that scored each (``id(score)`` -> rank).
+
+    In step the candidates are shared between the two processes by the time each took to score
+    in the round before (``seconds``, by candidate, updated here alike in both), and a score's
+    columns (rows x its columns) stay with the process that scored it: it cross-validates it,
+    and only the columns of the per-revolution errors that pass travel (the round's scoring in
+    :mod:`volerr_pin.diagnose.loop`).
+
+    Parameters
+    ----------
+    candidates : list of Candidate
+        The round's candidates.
+    one : callable(Candidate) -> Score or None
+        A candidate's score.
+    progress : callable(int)
+        Called with the number of candidates scored.
+    seconds : dict
+        What each candidate took to score in the round before, by its key; updated.
+
+    Returns
+    -------
+    tuple of (list of Score, dict)
+        The scores, and ``id(score)`` -> the process that scored it (empty alone).
+    """
+    group = lockstep.active()
+    scores, owner = [], {}
+    if group is None:
+        for k, cand in enumerate(candidates):
+            s = one(cand)
+            progress(k + 1)
+            if s is not None:
+                scores.append(s)
+        return scores, owner
+    keys = [(c.label, c.name, c.component, c.driver, c.kind) for c in candidates]
+    ranks = lockstep.balanced([seconds.get(key) for key in keys], group.size)
+    kept = {}
+
+    def light(k):
+        start = time.perf_counter()
+        s = one(candidates[k])
+        if s is not None and s.columns is not None:
+            kept[k], s = s.columns, replace(s, columns=None)
+        return s, time.perf_counter() - start
+
+    progress(0)
+    for k, (s, took) in enumerate(group.map(light, range(len(candidates)), "candidates", ranks)):
+        seconds[keys[k]] = took   # both processes keep the same times: the next round's shares
+        if s is not None:
+            s.columns = kept.get(k)
+            owner[id(s)] = ranks[k]
+            scores.append(s)
+    progress(len(candidates))
+    return scores, owner
 
 
 @contextmanager

@@ -8,8 +8,7 @@ and, for those that could pass, its k-fold cross-validated RMS.
 from __future__ import annotations
 
 import math
-import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
@@ -27,7 +26,7 @@ from .results import Candidate, Score, parallel_map
 
 __all__ = ["FOLD_SEEN", "GRAM_FOLD_SEEN", "GRAM_MIN", "GRAM_ZERO", "HALVES_MIN_ROWS", "PERIODOGRAM_POINTS",
            "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "SVD_RTOL", "Base", "Columns", "Projector", "base_design",
-           "not_repeating", "periodogram_period", "repeat_check", "score", "score_all"]
+           "not_repeating", "periodogram_period", "repeat_check", "score"]
 
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
 #: singular values of a column-scaled design below this share of the largest are rounding: cut
@@ -750,43 +749,3 @@ def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints:
     values[lin] = gamma
     return Score(cand.label, int(extra), p_value, float(bic_gain), None, (rss0 - rss1) / rss0 if rss0 > 0 else 0.0,
                  cand, tspec, values, C)
-
-
-def score_all(candidates: list, one, progress, seconds: dict) -> tuple[list, dict]:
-    """The candidates' scores (``one(candidate)``; None left out), in order, and in step the
-    process that scored each (``id(score)`` -> rank).
-
-    In step the candidates are shared between the two processes by the time each took to score
-    in the round before (``seconds``, by candidate, updated here alike in both), and a score's
-    columns (rows x its columns) stay with the process that scored it: it cross-validates it,
-    and only the columns of the per-revolution errors that pass travel (the round's scoring in
-    :mod:`volerr_pin.diagnose.loop`)."""
-    group = lockstep.active()
-    scores, owner = [], {}
-    if group is None:
-        for k, cand in enumerate(candidates):
-            s = one(cand)
-            progress(k + 1)
-            if s is not None:
-                scores.append(s)
-        return scores, owner
-    keys = [(c.label, c.name, c.component, c.driver, c.kind) for c in candidates]
-    ranks = lockstep.balanced([seconds.get(key) for key in keys], group.size)
-    kept = {}
-
-    def light(k):
-        start = time.perf_counter()
-        s = one(candidates[k])
-        if s is not None and s.columns is not None:
-            kept[k], s = s.columns, replace(s, columns=None)
-        return s, time.perf_counter() - start
-
-    progress(0)
-    for k, (s, took) in enumerate(group.map(light, range(len(candidates)), "candidates", ranks)):
-        seconds[keys[k]] = took   # both processes keep the same times: the next round's shares
-        if s is not None:
-            s.columns = kept.get(k)
-            owner[id(s)] = ranks[k]
-            scores.append(s)
-    progress(len(candidates))
-    return scores, owner
