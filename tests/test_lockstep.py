@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 import threading
 
 import numpy as np
@@ -139,7 +140,7 @@ def test_the_second_process_prints_nothing(capfd):
     assert out.count("printed once") == 1 and out.count("written once") == 1
 
 
-def test_alone_where_a_fork_is_not_safe():
+def test_alone_where_a_fork_is_not_safe(monkeypatch):
     with lockstep.together(1) as group:
         assert group is None and lockstep.active() is None
     stop = threading.Event()
@@ -154,6 +155,10 @@ def test_alone_where_a_fork_is_not_safe():
     with lockstep.together(2) as group:
         with lockstep.together(2) as inner:   # no group within a group
             assert inner is None and lockstep.active() is group
+    monkeypatch.setattr(sys, "platform", "darwin")   # a forked child may not use Accelerate there
+    with lockstep.together(2) as group:
+        assert group is None
+    monkeypatch.undo()
     with pytest.raises(ValueError, match="1 or 2 processes"):
         with lockstep.together(3):
             pass

@@ -215,8 +215,9 @@ def active() -> Group | None:
 @contextmanager
 def together(size: int):
     """Run the block in ``size`` processes in step (``size`` 1 or 2; 1, or where forking is not
-    safe or fails - no ``fork``, other threads running, a group already, no process or socket
-    left - the block runs here alone and the group is None).
+    safe or fails - not Linux (a forked child may not use macOS's Accelerate BLAS; Windows has no
+    ``fork``), other threads running, a group already, no process or socket left - the block
+    runs here alone and the group is None).
 
     The second process is forked on entry; it runs the block too, with the same state, and ends
     at its end (``os._exit``: nothing of this process's - buffers, exit handlers - runs twice),
@@ -235,7 +236,8 @@ def together(size: int):
         This process's place in the group (rank 0), or None when the block runs alone.
     """
     global _group
-    forkable = hasattr(os, "fork") and threading.active_count() == 1 and _group is None
+    # Linux only: elsewhere a forked child may not use the system's BLAS (macOS's Accelerate)
+    forkable = sys.platform.startswith("linux") and threading.active_count() == 1 and _group is None
     if size < 2 or not forkable:
         yield None
         return
