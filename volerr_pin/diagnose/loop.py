@@ -364,9 +364,10 @@ class _Loop:
     def in_parallel(self, tasks: list) -> list:
         """``[task() for task in tasks]``, independent refits, shared between the processes of a
         diagnosis in step (their results - numbers and arrays - travel; a fitted machine does
-        not pickle)."""
+        not pickle). A single task runs in step, its own parts shared, rather than whole in one
+        process while the other waits."""
         group = lockstep.active()
-        if group is None:
+        if group is None or len(tasks) == 1:
             return [task() for task in tasks]
         # the last held-out projector a task kept is that process's own: both keep the one before
         kept = self._last_holdout
@@ -411,9 +412,9 @@ class _Loop:
                 return final, dropped
             _, i = min(weak)
             gone = self.effects[i]
-            current = self.current
-            with_rms, without_rms = self.in_parallel([lambda: self.holdout(current, final)[0].cv_rms,
-                                                      lambda: self.holdout_without([gone])])
+            # the present model's held-out RMS in step, both processes keeping it (asked for again)
+            with_rms = self.holdout(self.current, final)[0].cv_rms
+            without_rms = self.holdout_without([gone])
             if without_rms > with_rms * (1 + PRACTICAL_GAIN):
                 kept_jointly.add(gone.label)
                 gone.details = dict(gone.details, kept_jointly=(
@@ -435,14 +436,11 @@ class _Loop:
         a held-out RMS gain below :data:`PRACTICAL_GAIN` of the held-out RMS before, or an
         amplitude below :data:`PRACTICAL_AMPLITUDE` of the noise per component."""
         groups = [members for _, members in group_findings(self.effects)]
-        current = self.current
-
-        def present():
-            proj, residual = self.holdout(current, final)
-            return proj.cv_rms, noise_floor(self.obs, residual, proj.rank)[0]
-
-        (cv_rms, floor), *befores = self.in_parallel(
-            [present] + [lambda members=members: self.holdout_without(members) for members in groups])
+        # the present model's held-out RMS in step, both processes keeping it (the final model's
+        # is asked for again); the refits without each finding shared
+        proj, residual = self.holdout(self.current, final)
+        cv_rms, floor = proj.cv_rms, noise_floor(self.obs, residual, proj.rank)[0]
+        befores = self.in_parallel([lambda members=members: self.holdout_without(members) for members in groups])
         noise_pc = floor / math.sqrt(components_per_point(self.obs))
         below = []
         for members, before in zip(groups, befores):
@@ -616,10 +614,11 @@ def _judged_trim(loop: _Loop, final) -> tuple | None:
     trimmed = trim_raises(loop.current, final, loop.base_machine, {r.component for r in loop.raised})
     if trimmed is None:
         return None
-    current, refit = loop.current, loop._refit(trimmed)
+    before = loop.holdout(loop.current, final)[0].cv_rms
+    refit = loop._refit(trimmed)
     model, res, _ = refit
-    before, after = loop.in_parallel([lambda: loop.holdout(current, final)[0].cv_rms,
-                                      lambda: loop.holdout(model, res)[0].cv_rms])
+    # in step, both processes keeping the trimmed model's projector (the final one when the trim stays)
+    after = loop.holdout(model, res)[0].cv_rms
     return refit if after <= before * (1 + PRACTICAL_GAIN) else None
 
 

@@ -307,8 +307,11 @@ class _Fold:
     ----------
     T, V : ndarray of bool, shape (rows,)
         Its training and validation rows.
-    X_T, X_V : ndarray, shape (rows in T or V, rank)
-        The basis its training fit is in, on the training and the validation rows.
+    rows : ndarray, shape (rows in T, rank), or None
+        The basis its training fit is in, on the training rows (``X_T``); None for a fold
+        fitted from the all-rows basis ``U`` until ``X_T`` is first asked for.
+    X_V : ndarray, shape (rows in V, rank)
+        That basis on the validation rows.
     W : ndarray, shape (rank, rank), or None
         ``(X_T^T X_T)^-1`` when ``X_T`` is rows of the all-rows basis; None when the fold is
         factored on its own (``X_T`` orthonormal).
@@ -324,11 +327,13 @@ class _Fold:
         basis).
     Xe : ndarray
         ``X_T^T e_T`` (zero but for rounding), for those products.
+    U : ndarray, shape (rows, rank), or None
+        The all-rows basis, for a fold fitted from it.
     """
 
     T: np.ndarray
     V: np.ndarray
-    X_T: np.ndarray
+    rows: np.ndarray | None   # X_T, or None: the training rows of ``U``, taken when first asked for
     X_V: np.ndarray
     W: np.ndarray | None
     pos_V: np.ndarray
@@ -337,6 +342,18 @@ class _Fold:
     coef: np.ndarray | None = None
     gram: bool = False
     Xe: np.ndarray | None = None
+    U: np.ndarray | None = None
+
+    @property
+    def X_T(self) -> np.ndarray:
+        """The basis of the training fit on the training rows; a fold fitted from the all-rows
+        basis ``U`` takes its rows of it when first asked (a copy of rows x rank per fold that the
+        small products of most candidates never need)."""
+        if self.rows is None:
+            if self.U is None:
+                raise ValueError("a fold needs its training rows' basis or the all-rows basis U")
+            self.rows = self.U[self.T]
+        return self.rows
 
     @property
     def own_basis(self) -> bool:
@@ -388,30 +405,32 @@ class Projector:
             # basis, X_V = A[V] pinv(A[T]) X_T, W = I), as every fold was fitted before. The
             # first is taken only where the second would keep every direction of U: A[T]'s
             # singular values are at least sqrt(w_min) s_min and at most s_max, so none falls
-            # below the SVD's cut (SVD_RTOL of the largest). What is returned travels between the
-            # processes of a diagnosis in step: W and not U's rows
+            # below the SVD's cut (SVD_RTOL of the largest). The fold's fit of the base residual
+            # is made here too. What is returned travels between the processes of a diagnosis in
+            # step: W and the fit, not U's rows
             V = held[k]
             T = ~V
             X_T = rows_of_basis[k] = U[T]
             w, Z = np.linalg.eigh(X_T.T @ X_T)
             if w.size and w[0] >= FOLD_SEEN and math.sqrt(w[0]) * s_all[-1] >= SVD_RTOL * s_all[0]:
-                return (Z / w) @ Z.T, bool(w[0] >= GRAM_FOLD_SEEN), None, None
-            X_T, s, Vt = _svd(A[T])
-            X_V = A[V] @ (Vt.T / s) if s.size else np.zeros((int(V.sum()), 0))
-            return None, False, X_T, X_V
+                W, gram, X_V, own = (Z / w) @ Z.T, bool(w[0] >= GRAM_FOLD_SEEN), U[V], None
+            else:
+                del rows_of_basis[k]
+                X_T, s, Vt = _svd(A[T])
+                W, gram, X_V = None, False, A[V] @ (Vt.T / s) if s.size else np.zeros((int(V.sum()), 0))
+                own = X_T, X_V
+            coef = X_T.T @ r[T] if W is None else W @ (X_T.T @ r[T])
+            e_T = r[T] - X_T @ coef
+            return W, gram, own, coef, e_T, r[V] - X_V @ coef, X_T.T @ e_T
 
         def fold(k, solved):
-            W, gram, X_T, X_V = solved
+            W, gram, own, coef, e_T, e_V, Xe = solved
             V = held[k]
-            T = ~V
-            if W is not None:
+            if own is not None:
+                X_T, X_V = own
+            else:   # the training rows of U: those this process took in solving it, or when asked for
                 X_T, X_V = rows_of_basis.pop(k, None), U[V]
-                X_T = U[T] if X_T is None else X_T
-            f = _Fold(T, V, X_T, X_V, W, pos[V], gram=gram)
-            f.coef = f.coordinates(r[T])
-            f.e_T, f.e_V = r[T] - X_T @ f.coef, r[V] - X_V @ f.coef
-            f.Xe = X_T.T @ f.e_T
-            return f
+            return _Fold(~V, V, X_T, X_V, W, pos[V], e_T=e_T, e_V=e_V, coef=coef, gram=gram, Xe=Xe, U=U)
 
         group = lockstep.active()
         solved = (group.map(solve, range(len(folds)), "folds") if group is not None

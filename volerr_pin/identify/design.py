@@ -14,8 +14,9 @@ from ..machine import Machine
 from ..units import UM_PER_M, URAD_PER_RAD
 from .observations import Observations, data_names, take_covariates
 
-__all__ = ["CHUNK_BYTES", "SPLIT_POINTS", "column_scale", "default_rcond", "point_chunks", "predict_observations",
-           "reduce_design", "refuse_non_finite", "rows_of", "stacked_factor", "typical_sizes", "weighted_residual"]
+__all__ = ["CHUNK_BYTES", "SPLIT_POINTS", "by_halves", "column_scale", "default_rcond", "point_chunks",
+           "predict_observations", "reduce_design", "refuse_non_finite", "rows_of", "stacked_factor", "typical_sizes",
+           "weighted_residual"]
 
 
 def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray, free: np.ndarray,
@@ -42,9 +43,51 @@ def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray,
     A : ndarray, shape (rows, F)
         d pred / d theta[free] [m or rad per SI unit of the coefficient].
     """
-    error = machine.volumetric_error(obs.q, theta, **obs.covariates)
-    S = machine.sensitivity(obs.q, theta, parameters=free, first_order=first_order, **obs.covariates)
-    return rows_of(obs.w, obs.point, error, S)
+    def part(points: slice):
+        # the rows of these points, from their errors and sensitivities (each point's alike)
+        rows = (slice(None) if points == slice(0, obs.n_points)
+                else np.flatnonzero((obs.point >= points.start) & (obs.point < points.stop)))
+        cov = take_covariates(obs.covariates, points)
+        error = machine.volumetric_error(obs.q[points], theta, **cov)
+        S = machine.sensitivity(obs.q[points], theta, parameters=free, first_order=first_order, **cov)
+        return (rows, *rows_of(obs.w[rows], obs.point[rows] - points.start, error, S))
+
+    parts = by_halves(obs, part, "prediction")
+    if len(parts) == 1:
+        return parts[0][1:]
+    pred, A = np.empty(len(obs.point)), np.empty((len(obs.point), len(free)))
+    for rows, pred_half, A_half in parts:
+        pred[rows], A[rows] = pred_half, A_half
+    return pred, A
+
+
+def by_halves(obs: Observations, fn, tag: str) -> list:
+    """``fn`` of the two halves of the points (slices), from :data:`SPLIT_POINTS` points, else
+    of all of them: in a diagnosis run in step (:mod:`volerr_pin.lockstep`) each process computes
+    one half. Alone the same halves are computed one after the other, so that what is made of them
+    is the same to the last bit either way (a point's error computed among other points may differ
+    from it computed among all of them in the last bit: vectorised loops start elsewhere).
+
+    Parameters
+    ----------
+    obs : Observations
+        The observations.
+    fn : callable
+        The function of a slice of the points; its results must pickle.
+    tag : str
+        What is computed (for the exchange in step).
+
+    Returns
+    -------
+    list
+        ``fn``'s results, one or two.
+    """
+    n = obs.n_points
+    if n < SPLIT_POINTS:
+        return [fn(slice(0, n))]
+    halves = [slice(0, (n + 1) // 2), slice((n + 1) // 2, n)]
+    group = lockstep.active()
+    return group.map(fn, halves, tag) if group is not None else [fn(half) for half in halves]
 
 
 def rows_of(w: np.ndarray, point: np.ndarray, error: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -131,13 +174,8 @@ def weighted_residual(machine: Machine, obs: Observations, theta: np.ndarray, nu
     ndarray, shape (rows,)
         The residuals in standard deviations.
     """
-    group = lockstep.active()
-    if group is None or obs.n_points < SPLIT_POINTS:
-        error = machine.volumetric_error(obs.q, theta, **obs.covariates)
-    else:   # each of two processes in step computes half of the points (each point's error alike)
-        halves = np.array_split(np.arange(obs.n_points), 2)
-        error = np.concatenate(group.map(lambda points: machine.volumetric_error(
-            obs.q[points], theta, **take_covariates(obs.covariates, points)), halves, "residual"))
+    error = np.concatenate(by_halves(obs, lambda points: machine.volumetric_error(
+        obs.q[points], theta, **take_covariates(obs.covariates, points)), "residual"))
     pred = np.einsum("rk,rk->r", obs.w, error[obs.point])
     return (obs.y - pred - obs.nuisance @ nuisance) / obs.sigma
 
