@@ -238,8 +238,8 @@ def test_the_same_answer_alone_or_in_step(machines, monkeypatch, machine, hidden
         report.pop("seconds")
         runs.append(report)
     assert groups == [1, 2]
-    assert {"design", "residual", "prediction", "basis factors", "basis rows", "folds", "candidates",
-            "cross-validation"} <= set(tags)
+    assert {"design", "residual", "prediction", "joint sensitivity", "basis factors", "basis rows", "folds",
+            "candidates", "cross-validation"} <= set(tags)
     assert ("refits" in tags) == (machine == "vmc500")   # two findings: the refits without each shared
     assert ("passing columns" in tags) == (machine == "cgm4000")   # a per-revolution error's columns travelled
     assert runs[0]["effects"] or runs[0]["under_modelled"]

@@ -21,6 +21,8 @@ from ..checks import fraction, integer, positive
 from ..errors import InputError, SpecError
 from ..identify import (Identification, Observations, build_observations, check_observations, conditioning_note,
                         identify, parameter_units, pose_folds, residual_rms)
+from ..identify.design import by_halves
+from ..identify.observations import take_covariates
 from ..machine import Machine
 from ..safeio import MEMORY_SHARE, available_memory, require_memory
 from ..units import UM_PER_M
@@ -636,7 +638,10 @@ def _offered(loop: _Loop) -> tuple[list, np.ndarray, list[str]]:
                                  f"value_{'um' if c.component[1] in 'XYZ' else 'arcsec'}": 0.0}
                    for c in candidates if c.component not in loop.current.error_joints}
     probe = add_terms(loop.current, missing_loc) if missing_loc else loop.current
-    E = probe.error_joint_sensitivity(loop.obs.q, first_order=True, **loop.obs.covariates)
+    obs = loop.obs
+    # in step, each process computes half of the points
+    E = np.concatenate(by_halves(obs, lambda points: probe.error_joint_sensitivity(
+        obs.q[points], first_order=True, **take_covariates(obs.covariates, points)), "joint sensitivity"))
     return candidates, E, list(probe.error_joints)
 
 
