@@ -43,22 +43,9 @@ def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray,
     A : ndarray, shape (rows, F)
         d pred / d theta[free] [m or rad per SI unit of the coefficient].
     """
-    def part(points: slice):
-        # the rows of these points, from their errors and sensitivities (each point's alike)
-        rows = (slice(None) if points == slice(0, obs.n_points)
-                else np.flatnonzero((obs.point >= points.start) & (obs.point < points.stop)))
-        cov = take_covariates(obs.covariates, points)
-        error = machine.volumetric_error(obs.q[points], theta, **cov)
-        S = machine.sensitivity(obs.q[points], theta, parameters=free, first_order=first_order, **cov)
-        return (rows, *rows_of(obs.w[rows], obs.point[rows] - points.start, error, S))
-
-    parts = by_halves(obs, part, "prediction")
-    if len(parts) == 1:
-        return parts[0][1:]
-    pred, A = np.empty(len(obs.point)), np.empty((len(obs.point), len(free)))
-    for rows, pred_half, A_half in parts:
-        pred[rows], A[rows] = pred_half, A_half
-    return pred, A
+    error = machine.volumetric_error(obs.q, theta, **obs.covariates)
+    S = machine.sensitivity(obs.q, theta, parameters=free, first_order=first_order, **obs.covariates)
+    return rows_of(obs.w, obs.point, error, S)
 
 
 def by_halves(obs: Observations, fn, tag: str) -> list:
