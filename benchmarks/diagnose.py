@@ -107,10 +107,16 @@ def bench(sizes=(400, 4000), repeat: int = 1, loads=("quiet", "busy")) -> list[d
             try:
                 times = {}
                 for n in sizes:
-                    for mode in ("default", "one") + (("side by side",) if load == "quiet" else ()):
-                        runs = [_side_by_side(paths[n]) if mode == "side by side" else _run(paths[n], mode)
-                                for _ in range(repeat)]
-                        best = min(runs, key=lambda r: r["wall_s"])
+                    # the modes in turn, repeat times: the machine's speed drifts by a tenth or more
+                    # within minutes, and each ratio should compare runs of the same minutes
+                    modes = ("default", "one") + (("side by side",) if load == "quiet" else ())
+                    runs = {mode: [] for mode in modes}
+                    for _ in range(repeat):
+                        for mode in modes:
+                            runs[mode].append(_side_by_side(paths[n]) if mode == "side by side"
+                                              else _run(paths[n], mode))
+                    for mode in modes:
+                        best = min(runs[mode], key=lambda r: r["wall_s"])
                         times[n, mode] = best
                         rows.append({"load": load, "points": n, "mode": mode, "wall_s": best["wall_s"],
                                      "cpu_s": best["cpu_s"], "effects": best["effects"]})
