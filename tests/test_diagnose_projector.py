@@ -106,6 +106,25 @@ def test_a_direction_the_training_set_sees_faintly(faint, own):
     assert proj.cv(C) == pytest.approx(_brute_cv(np.hstack([A, C]), r, obs, folds), rel=1e-8)
 
 
+def test_a_fold_takes_its_training_rows_of_the_basis_when_asked():
+    """In a diagnosis run in step, a fold solved by the other process holds no training rows of
+    the basis until a candidate's fit needs them (one the small products cannot give: a fold whose
+    training set sees a direction faintly): the held-out RMS is the same to the last bit."""
+    rng, obs, A, r, folds = _data(7)
+    only = np.isin(obs.point, folds[2])
+    A[:, 3] = np.where(only, A[:, 3], 3e-3 * rng.normal(size=len(r)) * np.abs(A[:, 3]).max())
+    proj = Projector(A, r, obs, folds)
+    C = rng.normal(size=(len(r), 2))
+    kept = proj.cv(C)
+    assert not proj.folds[2].gram and not proj.folds[2].own_basis   # the rows path
+    for f in proj.folds:
+        assert f.U is proj.Q and np.array_equal(f.X_T, proj.Q[f.T])
+        f.rows = None
+    assert proj.cv(C) == kept
+    assert proj.folds[2].rows is not None   # taken for the rows path
+    assert proj.folds[0].rows is None       # not needed by the small products
+
+
 def test_a_weak_direction_a_training_set_would_cut_is_cut():
     """A design whose weakest direction (5e-10 of the largest singular value, above the cut on
     all rows) lies mostly on one fold's held-out points: that training set sees it at 1e-2 of
