@@ -68,30 +68,33 @@ def _write_set(n: int, folder: Path) -> Path:
     return path
 
 
-def _run(path: Path, mode: str) -> dict:
+def _start(path: Path, mode: str) -> subprocess.Popen:
+    """A diagnosis of ``path`` in a fresh process, with the default threading or on one thread."""
     env = dict(os.environ)
     for k in ONE_THREAD:
         env.pop(k, None)
     if mode == "one":
         env.update(ONE_THREAD)
-    out = subprocess.run([sys.executable, "-c", CHILD, str(path), mode], env=env, capture_output=True, text=True,
-                         check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return subprocess.Popen([sys.executable, "-c", CHILD, str(path), mode], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _result(proc: subprocess.Popen) -> dict:
+    """What a process of :func:`_start` measured."""
+    out, err = proc.communicate()
+    if proc.returncode != 0:
+        raise subprocess.CalledProcessError(proc.returncode, proc.args, out, err)
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def _run(path: Path, mode: str) -> dict:
+    return _result(_start(path, mode))
 
 
 def _side_by_side(path: Path) -> dict:
     """Two one-thread diagnoses of ``path`` at once, each in a fresh process: the mean of their wall
     and CPU times."""
-    env = dict(os.environ)
-    env.update(ONE_THREAD)
-    procs = [subprocess.Popen([sys.executable, "-c", CHILD, str(path), "one"], env=env, stdout=subprocess.PIPE,
-                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
-    runs = []
-    for proc in procs:
-        out, err = proc.communicate()
-        if proc.returncode != 0:
-            raise subprocess.CalledProcessError(proc.returncode, proc.args, out, err)
-        runs.append(json.loads(out.strip().splitlines()[-1]))
+    runs = [_result(proc) for proc in [_start(path, "one") for _ in range(2)]]
     return {"wall_s": sum(r["wall_s"] for r in runs) / 2, "cpu_s": sum(r["cpu_s"] for r in runs) / 2,
             "effects": runs[0]["effects"]}
 

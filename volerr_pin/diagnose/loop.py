@@ -22,7 +22,6 @@ from ..errors import InputError, SpecError
 from ..identify import (Identification, Observations, build_observations, check_observations, conditioning_note,
                         identify, parameter_units, pose_folds, residual_rms)
 from ..identify.design import by_halves
-from ..identify.observations import take_covariates
 from ..machine import Machine
 from ..safeio import MEMORY_SHARE, available_memory, require_memory
 from ..units import UM_PER_M
@@ -638,10 +637,9 @@ def _offered(loop: _Loop) -> tuple[list, np.ndarray, list[str]]:
                                  f"value_{'um' if c.component[1] in 'XYZ' else 'arcsec'}": 0.0}
                    for c in candidates if c.component not in loop.current.error_joints}
     probe = add_terms(loop.current, missing_loc) if missing_loc else loop.current
-    obs = loop.obs
     # in step, each process computes half of the points
-    E = np.concatenate(by_halves(obs, lambda points: probe.error_joint_sensitivity(
-        obs.q[points], first_order=True, **take_covariates(obs.covariates, points)), "joint sensitivity"))
+    E = by_halves(loop.obs, lambda q, **cov: probe.error_joint_sensitivity(q, first_order=True, **cov),
+                  "joint sensitivity")
     return candidates, E, list(probe.error_joints)
 
 

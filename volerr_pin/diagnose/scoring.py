@@ -350,8 +350,6 @@ class _Fold:
         basis ``U`` takes its rows of it when first asked (a copy of rows x rank per fold that the
         small products of most candidates never need)."""
         if self.rows is None:
-            if self.U is None:
-                raise ValueError("a fold needs its training rows' basis or the all-rows basis U")
             self.rows = self.U[self.T]
         return self.rows
 

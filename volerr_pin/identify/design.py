@@ -48,33 +48,37 @@ def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray,
     return rows_of(obs.w, obs.point, error, S)
 
 
-def by_halves(obs: Observations, fn, tag: str) -> list:
-    """``fn`` of the two halves of the points (slices), from :data:`SPLIT_POINTS` points, else
-    of all of them: in a diagnosis run in step (:mod:`volerr_pin.lockstep`) each process computes
-    one half. Alone the same halves are computed one after the other, so that what is made of them
-    is the same to the last bit either way (a point's error computed among other points may differ
-    from it computed among all of them in the last bit: vectorised loops start elsewhere).
+def by_halves(obs: Observations, fn, tag: str) -> np.ndarray:
+    """``fn(q, **covariates)`` of every point (one row per point), over the two halves of the
+    points from :data:`SPLIT_POINTS` points, else over all of them: in a diagnosis run in step
+    (:mod:`volerr_pin.lockstep`) each process computes one half. Alone the same halves are
+    computed one after the other, so that the result is the same to the last bit either way (a
+    point's error computed among other points may differ from it computed among all of them in
+    the last bit: vectorised loops start elsewhere).
 
     Parameters
     ----------
     obs : Observations
         The observations.
     fn : callable
-        The function of a slice of the points; its results must pickle.
+        The function of the positions and covariates of some points; its results must pickle.
     tag : str
         What is computed (for the exchange in step).
 
     Returns
     -------
-    list
-        ``fn``'s results, one or two.
+    ndarray
+        ``fn``'s results of the halves, concatenated.
     """
+    def part(points: slice):
+        return fn(obs.q[points], **take_covariates(obs.covariates, points))
+
     n = obs.n_points
     if n < SPLIT_POINTS:
-        return [fn(slice(0, n))]
+        return part(slice(0, n))
     halves = [slice(0, (n + 1) // 2), slice((n + 1) // 2, n)]
     group = lockstep.active()
-    return group.map(fn, halves, tag) if group is not None else [fn(half) for half in halves]
+    return np.concatenate(group.map(part, halves, tag) if group is not None else [part(half) for half in halves])
 
 
 def rows_of(w: np.ndarray, point: np.ndarray, error: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -161,8 +165,7 @@ def weighted_residual(machine: Machine, obs: Observations, theta: np.ndarray, nu
     ndarray, shape (rows,)
         The residuals in standard deviations.
     """
-    error = np.concatenate(by_halves(obs, lambda points: machine.volumetric_error(
-        obs.q[points], theta, **take_covariates(obs.covariates, points)), "residual"))
+    error = by_halves(obs, lambda q, **cov: machine.volumetric_error(q, theta, **cov), "residual")
     pred = np.einsum("rk,rk->r", obs.w, error[obs.point])
     return (obs.y - pred - obs.nuisance @ nuisance) / obs.sigma
 
