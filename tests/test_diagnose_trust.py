@@ -328,46 +328,6 @@ def test_others_running_reads_the_runnable_tasks_less_this_one(tmp_path, text, o
     assert diagnose_results.others_running(str(path)) == others
 
 
-@pytest.mark.parametrize("states, others", [("", 2), ("R", 2), ("RR", 1), ("RRR", 0), ("RSRR", 0), ("SS", 2)])
-def test_others_running_leaves_out_this_processs_own_threads(tmp_path, states, others):
-    # "3/201": three runnable tasks on the machine; this thread is one of them even when its own
-    # state cannot be read, and the process's other runnable threads (BLAS spinning after a
-    # product) are not another process's
-    path = tmp_path / "loadavg"
-    path.write_bytes(b"1.98 1.50 0.90 3/201 86601\n")
-    tasks = tmp_path / "task"
-    tasks.mkdir()
-    for k, state in enumerate(states):
-        (tasks / str(100 + k)).mkdir()
-        (tasks / str(100 + k) / "stat").write_bytes(f"{100 + k} (py) thread) {state} 1 2 3\n".encode())
-    (tasks / "999").mkdir()   # a thread that ended between the listing and the reading
-    assert diagnose_results.others_running(str(path), str(tasks)) == others
-
-
-def test_a_thread_of_this_process_computing_is_not_another_process():
-    import hashlib
-    import threading
-
-    if not os.path.exists("/proc/self/task"):
-        pytest.skip("no /proc/self/task here")
-    stop = threading.Event()
-    block = bytes(1 << 22)
-
-    def spin():   # hashing a large block releases the interpreter lock: runnable beside this thread
-        while not stop.is_set():
-            hashlib.sha256(block).digest()
-
-    thread = threading.Thread(target=spin)
-    thread.start()
-    try:
-        seen = max(diagnose_results._own_running("/proc/self/task") for _ in range(200))
-    finally:
-        stop.set()
-        thread.join()
-    assert seen >= 2   # this thread and the hashing one
-    assert diagnose_results._own_running("/nonexistent/task") == 0
-
-
 def test_a_process_computing_beside_is_counted():
     import subprocess
     import sys

@@ -46,24 +46,16 @@ LOAD_READING_S = 0.5
 _load_reading: tuple[float, int | None] | None = None
 
 
-def others_running(loadavg: str = "/proc/loadavg", tasks: str = "/proc/self/task") -> int | None:
+def others_running(loadavg: str = "/proc/loadavg") -> int | None:
     """Tasks of other processes running or waiting for a core now: the machine's runnable
-    tasks (the fourth field of ``/proc/loadavg``) less this process's own runnable threads, the
-    fewest of three readings half a millisecond apart (a process passing through is not
-    counted, one that computes is).
-
-    This process's own threads are not others: after a product of matrices, the BLAS library's
-    threads spin for a while (OpenBLAS's were still runnable 50 ms after a 400 x 400 product),
-    and counted as another process's they made a quiet machine look busy to a diagnosis, which
-    then ran alone.
+    tasks (the fourth field of ``/proc/loadavg``), this thread not counted, the fewest of
+    three readings half a millisecond apart (a process passing through is not counted, one
+    that computes is).
 
     Parameters
     ----------
     loadavg : str, optional
         The file to read.
-    tasks : str, optional
-        The folder of this process's threads (each ``<id>/stat``); where it cannot be read,
-        this thread alone is this process's.
 
     Returns
     -------
@@ -76,31 +68,10 @@ def others_running(loadavg: str = "/proc/loadavg", tasks: str = "/proc/self/task
             time.sleep(0.0005)
         try:
             with open(loadavg, "rb") as fh:
-                running = int(fh.read().split()[3].split(b"/")[0])
+                counts.append(int(fh.read().split()[3].split(b"/")[0]))
         except (OSError, ValueError, IndexError):
             return None
-        counts.append(running - max(1, _own_running(tasks)))
-    return max(0, min(counts))
-
-
-def _own_running(tasks: str) -> int:
-    """This process's threads that are running or waiting for a core (state ``R`` in each
-    thread's ``stat``); 0 where the folder cannot be read."""
-    count = 0
-    try:
-        names = os.listdir(tasks)
-    except OSError:
-        return 0
-    for name in names:
-        try:
-            with open(os.path.join(tasks, name, "stat"), "rb") as fh:
-                stat = fh.read()
-        except OSError:   # the thread ended
-            continue
-        # the state follows the command's name in parentheses, which may hold anything
-        end = stat.rfind(b")")
-        count += end >= 0 and stat[end + 2:end + 3] == b"R"
-    return count
+    return max(0, min(counts) - 1)
 
 
 def free_workers() -> int:
