@@ -17,7 +17,6 @@ import pytest
 from volerr_pin.cli import main
 from volerr_pin.diagnose import axis_directions, build_candidates, diagnose, drift_series
 from volerr_pin.diagnose import results as diagnose_results
-from volerr_pin.diagnose.candidates import interpolation_period
 from volerr_pin.identify import build_observations
 from volerr_pin.simulate import campaign, heldout_set, write_points
 from volerr_pin.specio import add_terms
@@ -121,17 +120,6 @@ def test_the_command_line_says_a_per_revolution_period_is_held(machines, tmp_pat
     out = capsys.readouterr().out
     assert "4 times per revolution" in out
     assert re.search(r"EBB\.rotary\.period = 90 deg \(held: the revolution's\)", out), out
-
-
-def test_a_period_at_a_tables_node_spacing_is_its_interpolation(machines):
-    """EYY of vmc500 is a linear table over 100 mm steps: 100 mm and its harmonics (50, 33.3)
-    are the interpolation's; EXX is a cubic table over 50 mm steps: only 50 mm is."""
-    m = machines["vmc500"]
-    assert interpolation_period(m, "EYY", 0.100) and interpolation_period(m, "EYY", 0.0502)
-    assert interpolation_period(m, "EYY", 0.1 / 3)
-    assert not interpolation_period(m, "EYY", 0.037)
-    assert interpolation_period(m, "EXX", 0.0505) and not interpolation_period(m, "EXX", 0.025)
-    assert not interpolation_period(m, "EZY", 0.05)  # a polynomial has no nodes
 
 
 def test_thermal_drift_from_two_sensors_is_one_finding(thermal_two_sensors):

@@ -19,8 +19,8 @@ from ..terms import Context, Covariates
 from .results import Candidate
 
 __all__ = ["LETTERS", "MAX_DEGREE", "MAX_NODES", "MIN_PERIODS", "PITCH_PERIOD_MM", "RAISE_BY", "ROTARY_ORDERS",
-           "SPACING_TOLERANCE", "adequacy_candidates", "axis_directions", "build_candidates", "direction_of", "form_of",
-           "geometric_name", "geometric_term", "interpolation_period", "raised_table"]
+           "adequacy_candidates", "axis_directions", "build_candidates", "direction_of", "form_of",
+           "geometric_name", "geometric_term", "raised_table", "smoother_table"]
 
 LETTERS = "XYZABC"
 PITCH_PERIOD_MM = (1.0, 50.0)   # ball-screw leads
@@ -29,7 +29,6 @@ MAX_DEGREE = 12                 # a polynomial component is not raised beyond th
 MAX_NODES = 65                  # nor a table beyond this many nodes
 RAISE_BY = (1, 2, 4)            # degrees a polynomial may gain in one round
 ROTARY_ORDERS = (1, 2, 3, 4, 6, 8)   # periods per revolution a rotary axis' periodic error is tried with
-SPACING_TOLERANCE = 0.05        # a period within 5 % of a table's node spacing / k is its interpolation
 
 
 # ----------------------------------------------------------------------------- candidates
@@ -258,38 +257,46 @@ def geometric_term(machine: Machine, component: str):
     return None, None
 
 
-def interpolation_period(machine: Machine, component: str, period: float) -> bool:
-    """Whether a period along an axis is that of the interpolation of the component's table:
-    between table nodes a smooth function leaves a residual that repeats at the node spacing
-    and its harmonics, which is the table's, not a ball screw's (refining the table is the
-    cure; its raise is a candidate of its own).
+def smoother_table(machine: Machine, component: str) -> tuple[dict, str] | None:
+    """The component's table one step richer between its nodes, zero-valued, for asking whether
+    a period along the axis is the table's interpolation.
+
+    Between its nodes a table leaves the residual of a smooth function that repeats at the node
+    spacing and its harmonics: the kinks of linear interpolation put it at every harmonic, a
+    cubic spline's is far smaller and at the spacing. A linear table's becomes a cubic spline
+    through the same nodes (with the linear table beside it, that space takes the smooth
+    function's bumps between the nodes at every harmonic); a spline's gains a node between
+    every two (its residual falls sixteen-fold). Neither takes a sinusoid whose period is below
+    twice the new node spacing: a ball screw's error survives both.
 
     Parameters
     ----------
     machine : Machine
         The model.
     component : str
-        The component the periodic error would be added to.
-    period : float
-        The period [m or rad].
+        The component a periodic error would be added to.
 
     Returns
     -------
-    bool
-        True when ``period`` is within :data:`SPACING_TOLERANCE` of the median node spacing of
-        the component's table, or (linear interpolation, whose kinks make harmonics) of the
-        spacing divided by 2, 3, ...
+    tuple of (dict, str) or None
+        The spec table and what it is, in words; None when the component has no table or (a
+        spline) its nodes are at :data:`MAX_NODES` already.
     """
     if component not in machine.components:
-        return False
+        return None
     _, tspec = geometric_term(machine, component)
-    if tspec is None or tspec.term.kind != "table" or period <= 0:
-        return False
-    spacing = float(np.median(np.diff(tspec.term.nodes)))
-    k = round(spacing / period)
-    if k > 1 and tspec.term.interpolation != "linear":
-        return False  # between the nodes of a spline the residual is the fundamental's, not a harmonic's
-    return k >= 1 and abs(spacing / period - k) <= SPACING_TOLERANCE * k
+    if tspec is None or tspec.term.kind != "table":
+        return None
+    if tspec.term.interpolation == "linear":
+        table = dict(tspec.term.to_spec(np.zeros(tspec.term.size)), interpolation="cubic")
+        how = "a cubic spline through its nodes"
+    else:
+        raised = raised_table(machine, component)
+        if raised is None:
+            return None
+        table, how = raised[1], "a node between every two"
+    table.pop("prefix", None)
+    return table, how
 
 
 def raised_table(machine: Machine, component: str, values: np.ndarray | None = None, by: int = 1):

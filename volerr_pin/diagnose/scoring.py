@@ -21,12 +21,12 @@ from ..machine import Machine
 from ..spec import build_term, parse_component_name
 from ..terms import Context, Covariates
 from ..units import ARCSEC, UM_PER_M
-from .candidates import MIN_PERIODS, PITCH_PERIOD_MM, interpolation_period
+from .candidates import MIN_PERIODS, PITCH_PERIOD_MM, smoother_table
 from .results import Candidate, Score, parallel_map
 
 __all__ = ["FOLD_SEEN", "GRAM_FOLD_SEEN", "GRAM_MIN", "GRAM_ZERO", "HALVES_MIN_ROWS", "PERIODOGRAM_POINTS",
-           "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "SVD_RTOL", "Base", "Columns", "Projector", "base_design",
-           "not_repeating", "periodogram_period", "repeat_check", "score"]
+           "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "SURVIVES", "SVD_RTOL", "Base", "Columns", "Projector",
+           "base_design", "not_repeating", "periodogram_period", "repeat_check", "score", "table_interpolation"]
 
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
 #: singular values of a column-scaled design below this share of the largest are rounding: cut
@@ -61,6 +61,11 @@ REPEAT_RATIO = 0.5
 #: ... and by more than this many standard uncertainties of the difference (a chi with as many
 #: degrees of freedom as coefficients; true errors: 0.1 to 1.3, smooth shapes: 2.6 to 7.7)
 REPEAT_SIGMAS = 2.0
+#: a periodic error of an axis is not its table's interpolation when, beside the table made
+#: richer between its nodes, its amplitude stays within this share of what it was and its
+#: inverse: the interpolation's residual falls at least four-fold, a screw's error stays (to its
+#: uncertainty), and a sinusoid that the richer table can take as well is no longer determined
+SURVIVES = 0.5
 
 
 @dataclass
@@ -187,16 +192,35 @@ class Columns:
             c = tspec.coefficients if coefs is None else coefs
             entry = self.cache[key] = (tspec, c, tspec.term.jacobian(c, ctx)[obs.point])
         tspec, c, jac = entry
-        weight_key = (id(E), cand.component)
-        weight = self.weights.get(weight_key)  # threads score candidates at once: read once
+        jac = jac if columns is None else jac[:, columns]
+        return self.gain(E, joints, cand.component)[:, None] * jac, tspec, c
+
+    def gain(self, E: np.ndarray, joints: list[str], component: str) -> np.ndarray:
+        """Each row's weighted first-order sensitivity to a component's error joint.
+
+        Parameters
+        ----------
+        E : ndarray, shape (N, 6, n_error_joints)
+            First-order sensitivity of the error to every error joint.
+        joints : list of str
+            The error joints, in the order of ``E``.
+        component : str
+            The component.
+
+        Returns
+        -------
+        ndarray, shape (rows,)
+            ``w . E[point, :, component] / sigma`` of every row.
+        """
+        key = (id(E), component)
+        weight = self.weights.get(key)  # threads score candidates at once: read once
         if weight is None:
             if len(self.weights) > 256:
                 self.weights = {}
-            col = E[:, :, joints.index(cand.component)]                 # (points, 6)
-            weight = (np.einsum("rk,rk->r", obs.w, col[obs.point]) / obs.sigma)[:, None]
-            self.weights[weight_key] = weight
-        jac = jac if columns is None else jac[:, columns]
-        return weight * jac, tspec, c
+            obs = self.obs
+            col = E[:, :, joints.index(component)]                 # (points, 6)
+            weight = self.weights[key] = np.einsum("rk,rk->r", obs.w, col[obs.point]) / obs.sigma
+        return weight
 
 
 def _scaled(A: np.ndarray) -> np.ndarray:
@@ -637,25 +661,36 @@ def not_repeating(proj: Projector, obs: Observations, C: np.ndarray, angle: np.n
             f"so it is a smooth shape of {cand.component} over the turns, which raising it models")
 
 
-def periodogram_period(machine: Machine, obs: Observations, r: np.ndarray, axis_index: int, letter: str
+def periodogram_period(obs: Observations, r: np.ndarray, gain: np.ndarray, axis_index: int
                        ) -> tuple[float, float] | None:
-    """Period of the strongest sinusoid in the residual along an axis' own direction, among
-    the plausible ones (:data:`PITCH_PERIOD_MM`, at least :data:`MIN_PERIODS` periods in the
-    measured span, at least two points per period on average), and the number of
-    independent periods searched (for the look-elsewhere correction).
+    """Period of the strongest sinusoid along an axis in the residual that an error of the
+    axis' own motion leaves, among the plausible ones (:data:`PITCH_PERIOD_MM`, at least
+    :data:`MIN_PERIODS` periods in the measured span, at least two points per period on
+    average), and the number of independent periods searched (for the look-elsewhere
+    correction).
+
+    A positioning error ``p(x)`` of the axis moves the tool along the axis' own direction at
+    the tool, which turns with every rotary axis between the axis and the workpiece; a row of
+    the observations sees it as ``gain * p(x)``, where ``gain`` is the row's weighted
+    sensitivity to the component (its direction in the row's measured direction). So each
+    point's rows give one least-squares value of ``p`` at the point, weighted by the sum of
+    the squared gains, and the weighted Lomb-Scargle periodogram (floating mean) of those
+    values picks the period. (A component named by the axis letter in the workpiece frame is
+    the pitch only while nothing turns the workpiece: over a turn of a table under it, it
+    holds the pitch times the cosine of the angle, which averages out.)
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
     obs : Observations
         The observations.
     r : ndarray, shape (rows,)
         The weighted residual.
+    gain : ndarray, shape (rows,)
+        Each row's weighted sensitivity to the component whose period is sought (its first-order
+        sensitivity to the component's error joint, dotted with the row's direction, over its
+        standard deviation).
     axis_index : int
         The axis.
-    letter : str
-        The direction of its own motion ("X", "Y", "Z").
 
     Returns
     -------
@@ -663,30 +698,92 @@ def periodogram_period(machine: Machine, obs: Observations, r: np.ndarray, axis_
         The period [m] and the independent periods searched; None when no period is plausible
         for these data.
     """
-    rows = obs.w[:, "XYZ".index(letter)] > 0.5
-    if rows.sum() < 20:
+    n = obs.n_points
+    weight = np.bincount(obs.point, weights=gain * gain, minlength=n)
+    seen = weight > 1e-12 * max(float(weight.max(initial=0.0)), 1e-300)
+    if seen.sum() < 20:
         return None
-    x = obs.q[obs.point[rows], axis_index]
-    y = r[rows] * obs.sigma[rows]
+    # each point's least-squares value of the error along the axis' own direction [m]
+    y = (np.bincount(obs.point, weights=gain * r, minlength=n)[seen] / weight[seen])
+    x, weight = obs.q[seen, axis_index], weight[seen]
     if x.size > PERIODOGRAM_POINTS:  # enough to pick the period; the fit then uses every point
         keep = np.random.default_rng(0).choice(x.size, PERIODOGRAM_POINTS, replace=False)
-        x, y = x[keep], y[keep]
+        x, y, weight = x[keep], y[keep], weight[keep]
     span = float(np.ptp(x))
     if span <= 0:
         return None
     u = 2 * (x - x.min()) / span - 1
-    y = y - np.polynomial.legendre.legval(u, np.polynomial.legendre.legfit(u, y, 5))
+    y = y - np.polynomial.legendre.legval(u, np.polynomial.legendre.legfit(u, y, 5, w=np.sqrt(weight)))
     shortest = max(PITCH_PERIOD_MM[0] * 1e-3, 2 * span / len(np.unique(x)))
     longest = min(PITCH_PERIOD_MM[1] * 1e-3, span / MIN_PERIODS)
     if shortest >= longest:
         return None
     independent = max(1.0, span * (1 / shortest - 1 / longest))
+
+    def power(f):
+        return lombscargle(x, y, 2 * np.pi * f, weights=weight, floating_mean=True)
+
     # one frequency per independent period, then a finer look around the strongest
     f = np.linspace(1 / longest, 1 / shortest, int(min(2000, independent)) + 2)
-    y = y - y.mean()
-    k = int(np.argmax(lombscargle(x, y, 2 * np.pi * f)))
+    k = int(np.argmax(power(f)))
     fine = np.linspace(f[max(k - 1, 0)], f[min(k + 1, len(f) - 1)], 17)
-    return float(1.0 / fine[int(np.argmax(lombscargle(x, y, 2 * np.pi * fine)))]), independent
+    return float(1.0 / fine[int(np.argmax(power(fine)))]), independent
+
+
+def table_interpolation(base: Base, proj: Projector, E: np.ndarray, joints: list[str], cand: Candidate,
+                        C: np.ndarray, gamma: np.ndarray, columns: Columns) -> str | None:
+    """Why a periodic error of an axis is its component's table's interpolation, when it is.
+
+    A table leaves, between its nodes, the residual of a smooth function, which repeats at the
+    node spacing and its harmonics; a ball screw's error does neither. So the periodic error is
+    fitted again beside the table one step richer between its nodes
+    (:func:`~volerr_pin.diagnose.candidates.smoother_table`), jointly with the base: the
+    table's residual goes into the richer table, a screw's error stays. The periodic error is
+    the table's unless its amplitude stays within :data:`SURVIVES` of what it was and its
+    inverse (a sinusoid the richer table can take as well is no longer determined beside it,
+    and its amplitude wanders).
+
+    Parameters
+    ----------
+    base : Base
+        The round's base.
+    proj : Projector
+        Its projector.
+    E : ndarray, shape (N, 6, n_error_joints)
+        First-order sensitivity of the error to every error joint.
+    joints : list of str
+        The error joints, in the order of ``E``.
+    cand : Candidate
+        The periodic error (its period set).
+    C : ndarray, shape (rows, k)
+        Its weighted columns (sine and cosine).
+    gamma : ndarray, shape (k,)
+        Its coefficients in the joint fit with the base (SI).
+    columns : Columns
+        The cache of candidate columns.
+
+    Returns
+    -------
+    str or None
+        The reason, with both amplitudes [um]; None when the error survives, the component has
+        no table, or the table cannot be made richer.
+    """
+    smoother = smoother_table(base.machine, cand.component)
+    if smoother is None:
+        return None
+    table, how = smoother
+    richer = Candidate(cand.name, cand.axis, cand.direction, cand.component, table,
+                       label=f"{cand.component} richer between its nodes", kind="raise")
+    C_table = columns(base.machine, E, joints, richer)[0]
+    before = float(np.linalg.norm(gamma))
+    after = float(np.linalg.norm(proj.fit(np.hstack([C_table, C]))[2][-C.shape[1]:]))
+    if SURVIVES * before <= after <= before / SURVIVES:
+        return None
+    why = ("its amplitude falls" if after < before else
+           "the richer table takes the same shape: its amplitude is no longer determined, and goes")
+    return (f"the interpolation of {cand.component}'s table, not a screw's error: beside the table made richer "
+            f"between its nodes ({how}) {why} from {before * UM_PER_M:.3f} to {after * UM_PER_M:.3f} um; "
+            "the table's raise refines it")
 
 
 def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints: list[str], cand: Candidate,
@@ -722,12 +819,10 @@ def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints:
     n = len(base.r)
     searched = 1.0
     if cand.name == "periodic_pitch" and cand.kind == "effect":
-        found = periodogram_period(base.machine, obs, base.r, axis_index_of[cand.axis], cand.component[1])
+        found = periodogram_period(obs, base.r, columns.gain(E, joints, cand.component), axis_index_of[cand.axis])
         if found is None:
             return None
         period, searched = found
-        if interpolation_period(base.machine, cand.component, period):
-            return None  # the table's interpolation, not a screw: its raise refines it
         cand.table = dict(cand.table, period_mm=period * 1e3)
     _, tspec, coefs = columns(base.machine, E, joints, cand)
     nonlinear = [tspec.term.local_names.index(k) for k in tspec.term.nonlinear]
@@ -764,5 +859,10 @@ def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints:
     bic_gain = n * math.log(rss0 / rss1) - k * math.log(n) - 2 * math.log(searched)
     values = c.copy()
     values[lin] = gamma
-    return Score(cand.label, int(extra), p_value, float(bic_gain), None, (rss0 - rss1) / rss0 if rss0 > 0 else 0.0,
-                 cand, tspec, values, C)
+    out = Score(cand.label, int(extra), p_value, float(bic_gain), None, (rss0 - rss1) / rss0 if rss0 > 0 else 0.0,
+                cand, tspec, values, C)
+    if cand.name == "periodic_pitch" and cand.kind == "effect":
+        note = table_interpolation(base, proj, E, joints, cand, C, gamma, columns)
+        if note:   # the table's, not a screw's: its raise refines the table
+            return Score(cand.label, 0, 1.0, 0.0, proj.cv_rms, 0.0, cand, note=note)
+    return out
