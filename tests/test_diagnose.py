@@ -84,7 +84,7 @@ def test_no_effect_is_invented(machines):
 def test_two_hidden_effects_are_both_found_the_larger_first(machines):
     m = machines["vmc500"]
     truth = add_terms(m, {**HIDDEN["backlash"][0], **HIDDEN["drift_time"][0]})  # 2 um vs 3.4 um RMS
-    result = diagnose(m, [campaign(truth, 400, NOISE, 5)])
+    result = diagnose(m, [campaign(truth, 400, NOISE, 5)], sigma_um=NOISE)
     names = [(e.name, e.direction) for e in result.effects]
     assert names[:2] == [("backlash", "y"), ("thermal_drift", "z")]
     assert result.effects[0].rms_before_um > result.effects[1].rms_before_um

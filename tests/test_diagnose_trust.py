@@ -181,6 +181,41 @@ def test_a_floor_from_the_residual_far_above_the_stated_noise_is_not_reached(mac
     assert "misses something" in r.noise_floor_source
 
 
+def test_without_a_stated_noise_the_floor_is_never_claimed(machines, tmp_path, capsys):
+    """The issue's case: a pitch the rounds may not add leaves 1.5 um where the noise gives
+    0.52 um. No noise stated and no repeated points: the floor is an upper bound from that same
+    residual, so whether the model reaches the noise is unknown - null in the report, and said
+    so - where the default weighting of 1 um used to count as a statement and claim it reached.
+    Stated, the same data do not reach it; repeated points measure it without a statement."""
+    m = machines["vmc500"]
+    truth = add_terms(m, {"EYY": {"kind": "periodic_pitch", "prefix": "h", "period_mm": 16.0, "sine_um": [1.5],
+                                  "cosine_um": [1.5]}})
+    data = campaign(truth, 200, NOISE, 4)
+    r = diagnose(m, [data], max_rounds=0)
+    assert r.noise_floor_upper_bound and r.rms_after_um > 2.5 * np.sqrt(3) * NOISE
+    assert r.reaches_noise_floor is None and np.isnan(r.noise_stated_um)
+    assert "no noise was stated" in r.noise_floor_source
+    assert r.to_dict()["reaches_noise_floor"] is None
+    stated = diagnose(m, [data], max_rounds=0, sigma_um=NOISE)
+    assert stated.reaches_noise_floor is False and stated.noise_stated_um == pytest.approx(np.sqrt(3) * NOISE)
+    # the command line: null in the JSON, and the text says it cannot tell
+    path = tmp_path / "pitch.csv"
+    write_points(data, m, path)
+    assert main(["diagnose", "vmc500", str(path), "--max-rounds", "0", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["reaches_noise_floor"] is None and report["noise_stated_um"] is None
+    assert main(["diagnose", "vmc500", str(path), "--max-rounds", "0"]) == 0
+    assert "whether the final model reaches it is unknown: state the noise (--sigma-um)" in capsys.readouterr().out
+    # every point measured twice, nothing stated: the repeats measure the floor, and it is judged
+    twice = campaign(m, 200, NOISE, 5)
+    twice.q[100:], twice.values[100:] = twice.q[:100], twice.values[:100] + np.random.default_rng(3).normal(
+        0.0, NOISE * np.sqrt(2) * 1e-6, (100, 6))
+    for key in ("directions", "forces"):
+        twice.covariates[key][100:] = twice.covariates[key][:100]
+    r = diagnose(m, [twice])
+    assert not r.noise_floor_upper_bound and r.reaches_noise_floor in (True, False)
+
+
 #: two findings on vmc500: the refits without each (and the thermal lags) are shared
 TWO_EFFECTS = {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0},
                "EZZ": {"kind": "thermal_drift", "driver": "time", "prefix": "h", "amplitudes_um": [6.0],

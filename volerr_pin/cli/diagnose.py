@@ -25,8 +25,12 @@ def add_parser(sub) -> None:
     p.add_argument("--folds", type=int, default=5,
                    help="k of the k-fold cross-validation over poses (default 5)")
     p.add_argument("--seed", type=int, default=0, help="seed of the cross-validation split")
-    p.add_argument("--sigma-um", type=float, default=1.0, help="std. deviation of position data (um)")
-    p.add_argument("--sigma-urad", type=float, default=1.0, help="std. deviation of rotation data (urad)")
+    p.add_argument("--sigma-um", type=float, default=None,
+                   help="the noise of position data, std. deviation per component (um): weights the data and is "
+                        "what the final residual is compared with (default: not stated - data weighted at 1 um, "
+                        "and without repeated points the noise floor is unknown)")
+    p.add_argument("--sigma-urad", type=float, default=None,
+                   help="the noise of rotation data, std. deviation (urad; default 1)")
     p.add_argument("--out", help="write the final model as a spec (TOML)")
     p.add_argument("--rrd", help="write a Rerun recording of the steps")
     p.add_argument("--png", help="write a one-page summary figure")
@@ -107,7 +111,8 @@ def run(args) -> int:
         if e.details.get("kept_jointly"):
             out.print(escape(f"  {e.details['kept_jointly']}"))
     for e in result.possible:
-        out.print(escape(f"possible, below practical significance: {e.label} ({e.note.split(': ', 1)[-1]})"))
+        head, _, why = e.note.partition(": ")
+        out.print(escape(f"{head}: {e.label} ({why})"))
     if result.under_modelled:
         out.print(escape(result.off_spec()["label"]) + " (raised; not physical effects): "
                   + escape(", ".join(f"{u.component} ({u.form_before} -> {u.form_after})" for u in result.under_modelled)))
@@ -115,10 +120,12 @@ def run(args) -> int:
         out.print(escape(f"dropped: {e.label} ({e.note})"))
     if result.stopped.get("reason") == "round_limit":
         out.print(escape(result.stopped["label"].replace("max_rounds", "--max-rounds")))
-    verdict = "reaches" if result.reaches_noise_floor else "does not reach"
     floor = "noise floor at most" if result.noise_floor_upper_bound else "noise floor"
-    out.print(f"{floor} {result.noise_floor_um:.3f} um ({escape(result.noise_floor_source)}); the final model "
-              f"{verdict} it. Test: {escape(report['test'])}; {result.seconds:.1f} s")
+    verdict = {True: "the final model reaches it", False: "the final model does not reach it",
+               None: "whether the final model reaches it is unknown: state the noise (--sigma-um) or measure "
+                     "repeated points"}[result.reaches_noise_floor]
+    out.print(f"{floor} {result.noise_floor_um:.3f} um ({escape(result.noise_floor_source)}); {verdict}. "
+              f"Test: {escape(report['test'])}; {result.seconds:.1f} s")
     for note in report["notes"]:
         print(f"note: {note}")
     for key in ("out", "recording", "png"):

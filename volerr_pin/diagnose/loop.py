@@ -52,8 +52,8 @@ WEAK = "in the joint refit its size is"
 
 
 def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects: int = 5,
-             alpha: float = 0.01, folds: int = 5, seed: int = 0, sigma_um: float = 1.0,
-             sigma_urad: float = 1.0, progress=None, keep_machines: bool = False,
+             alpha: float = 0.01, folds: int = 5, seed: int = 0, sigma_um: float | None = None,
+             sigma_urad: float | None = None, progress=None, keep_machines: bool = False,
              max_rounds: int | None = None) -> Diagnosis:
     """Find, name and add the effects the model is missing (see :mod:`volerr_pin.diagnose`).
 
@@ -79,11 +79,17 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
         targets, repeats - stay in one fold).
     seed : int, default 0
         Seed of the shuffling of the poses into folds (>= 0).
-    sigma_um : float, default 1.0
-        Standard deviation of position observations [um]; only when ``measurements`` are
-        not :class:`~volerr_pin.identify.Observations`.
-    sigma_urad : float, default 1.0
-        Standard deviation of rotation observations [urad]; likewise.
+    sigma_um : float, optional
+        The noise of the position observations, as a standard deviation per component [um],
+        when it is known: it weights observations read from measurements, and it is the noise
+        the final residual is compared with. With :class:`~volerr_pin.identify.Observations`,
+        their own standard deviations weight them, and giving ``sigma_um`` (any value) states
+        that those are the noise. Not given (default), the noise is not stated: measurements
+        are weighted at 1 um, and without repeated points the noise floor is unknown - never
+        reported reached (:attr:`~volerr_pin.diagnose.results.Diagnosis.reaches_noise_floor`
+        is None).
+    sigma_urad : float, optional
+        The noise of rotation observations [urad]; weights them (default 1 urad).
     progress : callable(str, int), optional
         Called with a stage name and a step count, for progress bars.
     keep_machines : bool, default False
@@ -119,7 +125,9 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     alpha = fraction("alpha", alpha)
     folds = integer("folds", folds, 2)
     seed = integer("seed", seed, 0)
-    sigma_um, sigma_urad = positive("sigma_um", sigma_um), positive("sigma_urad", sigma_urad)
+    stated = sigma_um is not None
+    sigma_um = positive("sigma_um", 1.0 if sigma_um is None else sigma_um)
+    sigma_urad = positive("sigma_urad", 1.0 if sigma_urad is None else sigma_urad)
     if max_rounds is not None:
         max_rounds = integer("max_rounds", max_rounds, 0)
     obs = measurements if isinstance(measurements, Observations) else build_observations(
@@ -142,7 +150,7 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
         # the cores go to the halves of the designs, the candidates and the refits, not to BLAS on
         # small matrices; the second process of the group reports no progress
         loop = _Loop(machine, obs, split, fixed, alpha, max_effects,
-                     progress if group is None or group.rank == 0 else None, keep_machines)
+                     progress if group is None or group.rank == 0 else None, keep_machines, stated)
         max_rounds = max_effects + 8 if max_rounds is None else max_rounds
         for number in range(max_rounds + 1):
             if not loop.round(number, may_accept=number < max_rounds):
@@ -160,8 +168,9 @@ class _Loop:
     coefficients (with ``fixed``), what was accepted so far, and the caches of the rounds."""
 
     def __init__(self, machine: Machine, obs: Observations, split: list[np.ndarray], fixed: bool, alpha: float,
-                 max_effects: int, progress, keep_machines: bool):
+                 max_effects: int, progress, keep_machines: bool, noise_stated: bool = False):
         self.machine, self.obs, self.split, self.fixed, self.alpha = machine, obs, split, fixed, alpha
+        self.noise_stated = noise_stated
         self.max_effects, self.progress, self.keep_machines = max_effects, progress, keep_machines
         self.cov_obj = machine.check_covariates(obs.n_points, obs.covariates)
         self.axis_index_of = {a: j for j, a in enumerate(machine.axes)}
@@ -495,12 +504,17 @@ class _Loop:
         last_proj, residual = self.holdout(current, final)
         rms_fit = residual_rms(obs, residual)
         floor, source, bound = noise_floor(obs, residual, last_proj.rank)
-        stated = stated_noise(obs)
+        stated = stated_noise(obs) if self.noise_stated else math.nan
         unexplained = bound and floor > STATED_NOISE_FACTOR * stated
         reaches = bool(last_proj.cv_rms <= 1.2 * floor) and not unexplained
         if unexplained:
             source += (f"; it is {floor / stated:.1f} times the noise the observations state ({stated:.3f} um), "
                        "so the model still misses something")
+        elif bound and not self.noise_stated:
+            # a bound from the residual, with nothing to hold it against: a default is not a statement
+            reaches = None
+            source += ("; no noise was stated (sigma_um) and no repeated points measure it, so the floor is "
+                       "unknown and whether the model reaches it cannot be told")
         analysis = residual_analysis(current, obs, self.steps[0].residual)
         findings = []
         for finding, members in group_findings(self.effects):

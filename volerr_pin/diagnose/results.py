@@ -562,8 +562,9 @@ class Diagnosis:
         The noise floor [um] (see ``noise_floor_source``).
     noise_floor_source : str
         Where it comes from: repeated points, or an upper bound from the final residual.
-    reaches_noise_floor : bool
-        Whether the final held-out RMS is within 1.2 times the floor.
+    reaches_noise_floor : bool or None
+        Whether the final held-out RMS is within 1.2 times the floor; None when that cannot be
+        told: the floor is only an upper bound from the final residual and no noise was stated.
     alpha : float
         Family-wise significance level of each round.
     seconds : float
@@ -584,7 +585,7 @@ class Diagnosis:
         (:data:`PRACTICAL_GAIN`, :data:`PRACTICAL_AMPLITUDE`); not in the final model.
     noise_stated_um : float
         The noise the observations state (``sigma_um`` per position component, as the RMS of
-        the 3D norm) [um].
+        the 3D norm) [um]; NaN when none was stated.
     residual : ndarray, shape (rows,) or None
         The final model's residual of every observation row [m or rad].
     stopped : dict
@@ -603,7 +604,7 @@ class Diagnosis:
     rms_fit_um: float
     noise_floor_um: float
     noise_floor_source: str
-    reaches_noise_floor: bool
+    reaches_noise_floor: bool | None
     alpha: float
     seconds: float
     observations: Observations = field(repr=False)

@@ -284,14 +284,15 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
              f"held-out RMS {diagnosis.rms_before_um:.3f} -> {diagnosis.rms_after_um:.3f} um",
              f"noise floor {'at most ' if diagnosis.noise_floor_upper_bound else ''}"
              f"{diagnosis.noise_floor_um:.3f} um ({diagnosis.noise_floor_source})",
-             "reaches the noise floor" if diagnosis.reaches_noise_floor else "does NOT reach the noise floor"]
+             {True: "reaches the noise floor", False: "does NOT reach the noise floor",
+              None: "noise not stated: whether it reaches the floor is unknown"}[diagnosis.reaches_noise_floor]]
     for e in diagnosis.effects:
         params = ", ".join(f"{n.split('.')[-1]} = {p['value']:.4g}"
                            + (f" +- {p['uncertainty']:.2g}" if p["uncertainty"] is not None else "") + f" {p['unit']}"
                            for n, p in e.parameters.items())
         lines.append(f"- {e.label}: {e.rms_before_um:.3f} -> {e.rms_after_um:.3f} um; {params}")
     for e in diagnosis.possible:
-        lines.append(f"- possible, below practical significance: {e.label}")
+        lines.append(f"- {e.note.partition(': ')[0]}: {e.label}")
     if diagnosis.under_modelled:
         lines.append(diagnosis.off_spec()["label"] + " (raised; not physical effects): " + ", ".join(
             u.component for u in diagnosis.under_modelled))
