@@ -40,8 +40,8 @@ ONE_THREAD = {k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_N
 CHILD = r"""
 import json, resource, sys, time
 import volerr_pin as vp
-from volerr_pin.diagnose import diagnose
-from volerr_pin.diagnose import results
+from volerr_pin.diagnosis import diagnose
+from volerr_pin.diagnosis import results
 from volerr_pin.measurements import read_any
 if sys.argv[2] == "one":
     results.WORKERS = 1

@@ -268,7 +268,7 @@ def bench_identification(n):
 DIAGNOSIS = """
 import json, sys, time
 import volerr_pin as vp
-from volerr_pin.diagnose import diagnose
+from volerr_pin.diagnosis import diagnose
 from volerr_pin.simulate import campaign, off_model_geometry
 from volerr_pin.specio import add_terms
 

@@ -26,7 +26,6 @@ import numpy as np
 
 import volerr_pin as vp
 from volerr_pin.measurements.ballbar import evaluate_circular, read_ballbar
-from volerr_pin.diagnose import diagnose
 from volerr_pin.identify import identify
 from volerr_pin.viz.plots import ballbar_png
 from volerr_pin.simulate import ballbar_run, write_ballbar
@@ -78,7 +77,7 @@ def main(out: Path) -> dict:
           f"the bar reads minus that), bar length {setup['length']:+.2f} um (0.8); residual "
           f"{fit['rms_fit_um']:.3f} um, held out {fit['rms_holdout_um']:.3f} um")
 
-    found = diagnose(vp.load_machine("vmc500"), [run])
+    found = vp.diagnose(vp.load_machine("vmc500"), [run])
     print("diagnose from the circles alone, on the bundled spec: "
           + "; ".join(f"{e.name} of {e.axis or e.direction}: "
                       + ", ".join(f"{k} = {v['value']:.2f} +- {v['uncertainty']:.2f} {v['unit']}"

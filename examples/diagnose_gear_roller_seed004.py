@@ -24,7 +24,6 @@ from __future__ import annotations
 import numpy as np
 
 import volerr_pin as vp
-from volerr_pin.diagnose import diagnose
 from volerr_pin.measurements import PointMeasurements
 from volerr_pin.spec import build_term
 from volerr_pin.specio import add_terms
@@ -73,7 +72,7 @@ def main() -> dict:
     peak_gap = np.max(np.abs(runs[1].values[:, 0] - runs[0].values[:, 0])) * 1e6
     print(f"beam model: compliance {c_model * 1e9:.3f} um/kN, {5.45:.2f} um at the peak force "
           f"{f_peak / 1e3:.2f} kN; loaded minus no-load run peaks at {peak_gap:.2f} um (noise 0.2 um)")
-    result = diagnose(machine, runs, fixed=True, folds=5)
+    result = vp.diagnose(machine, runs, fixed=True, folds=5)
     report = result.to_dict()
     for e in report["effects"]:
         (name, p), = e["parameters"].items()

@@ -127,9 +127,7 @@ def whole_robot(table: np.ndarray, axes: list, out: Path | None = None) -> dict:
     print(f"every joint's 6 constant errors identified through the tracker model: {report['rank']} of "
           f"{report['n_parameters']} determined, solver {report['solver']}; residual {report['rms_fit_um']:.1f} um RMS "
           f"per reflector position, {report['rms_holdout_um']:.1f} um held out ({report['holdout']})")
-    from volerr_pin.diagnose import diagnose
-
-    found = diagnose(robot, [data], sigma_um=30.0)
+    found = vp.diagnose(robot, [data], sigma_um=30.0)
     print("what the rest is (volerr diagnose on the same data; held out: whole poses): "
           + "; ".join(f"{u.component} {u.form_before} -> {u.form_after}" for u in found.under_modelled)
           + (("; " + "; ".join(e.label for e in found.effects)) if found.effects else "")

@@ -10,7 +10,7 @@ import pytest
 import volerr_pin as vp
 from volerr_pin.measurements.ballbar import BallbarRun, evaluate_circular, read_ballbar
 from volerr_pin.cli import main
-from volerr_pin.diagnose import diagnose
+from volerr_pin.diagnosis import diagnose
 from volerr_pin.identify import identify
 from volerr_pin.measurements import MeasurementError, read_any
 from volerr_pin.simulate import ballbar_run, write_ballbar

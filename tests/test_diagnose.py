@@ -10,7 +10,7 @@ import rerun as rr
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.diagnose import diagnose
+from volerr_pin.diagnosis import diagnose
 from volerr_pin.simulate import campaign, off_model_geometry, write_points
 from volerr_pin.specio import add_terms, remove_components, replace_terms
 
@@ -235,7 +235,7 @@ def test_a_long_wave_is_not_a_ball_screw(machines):
 def test_a_raised_component_starts_from_the_same_function(machines, component, by):
     """Constant -> degree 1, polynomial + 1 or 2 degrees, table with a node between every
     two: the coarse function is inside the finer space, so nothing moves before the refit."""
-    from volerr_pin.diagnose import geometric_term, raise_components
+    from volerr_pin.diagnosis import geometric_term, raise_components
 
     m = machines["vmc500"]
     raised = raise_components(m, [(component, by)])
@@ -342,7 +342,7 @@ def test_cli_diagnose_refuses_bad_options_in_one_line(machines, tmp_path, capsys
 def test_evidence_and_terms_of_rounds_and_components_that_do_not_exist(machines):
     from types import SimpleNamespace
 
-    from volerr_pin.diagnose import Step, evidence, geometric_term
+    from volerr_pin.diagnosis import Step, evidence, geometric_term
 
     m = machines["vmc500"]
     result = SimpleNamespace(steps=[Step(0, 1.0, [], np.zeros(3))])   # one round, nothing accepted

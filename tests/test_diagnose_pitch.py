@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.diagnose import diagnose
-from volerr_pin.diagnose.candidates import smoother_table
-from volerr_pin.diagnose.scoring import Columns, periodogram_period
+from volerr_pin.diagnosis import diagnose
+from volerr_pin.diagnosis.candidates import smoother_table
+from volerr_pin.diagnosis.projector import Columns
+from volerr_pin.diagnosis.scoring import periodogram_period
 from volerr_pin.identify import build_observations
 from volerr_pin.simulate import campaign, heldout_set
 from volerr_pin.specio import add_terms

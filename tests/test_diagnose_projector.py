@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from volerr_pin.diagnose.scoring import SVD_RTOL, Projector
+from volerr_pin.diagnosis.projector import SVD_RTOL, Projector
 
 POINTS = 90
 ROWS_PER_POINT = 4   # dx, dy, dz and one angle, as a point measured by a laser and a level
@@ -19,10 +19,10 @@ ROWS_PER_POINT = 4   # dx, dy, dz and one angle, as a point measured by a laser 
 @pytest.fixture(autouse=True, params=["whole", "halves"])
 def basis(request, monkeypatch):
     """Every test with the round's basis from the SVD of the whole design and from its two halves
-    of rows (:func:`~volerr_pin.diagnose.scoring._halves_basis`, from 1,000 rows by default)."""
-    from volerr_pin.diagnose import scoring
+    of rows (:func:`~volerr_pin.diagnosis.projector._halves_basis`, from 1,000 rows by default)."""
+    from volerr_pin.diagnosis import projector
 
-    monkeypatch.setattr(scoring, "HALVES_MIN_ROWS", 10**9 if request.param == "whole" else 0)
+    monkeypatch.setattr(projector, "HALVES_MIN_ROWS", 10**9 if request.param == "whole" else 0)
     return request.param
 
 
@@ -158,16 +158,16 @@ def _brute_fit(A: np.ndarray, C: np.ndarray, r: np.ndarray):
 
 def _paths(monkeypatch) -> list:
     """Record, for every least squares of a candidate, whether the small products gave it."""
-    from volerr_pin.diagnose import scoring
+    from volerr_pin.diagnosis import projector
 
-    seen, gram = [], scoring._gram_lstsq
+    seen, gram = [], projector._gram_lstsq
 
     def spy(*args, **kwargs):
         out = gram(*args, **kwargs)
         seen.append(out is not None)
         return out
 
-    monkeypatch.setattr(scoring, "_gram_lstsq", spy)
+    monkeypatch.setattr(projector, "_gram_lstsq", spy)
     return seen
 
 
@@ -233,7 +233,7 @@ def test_the_basis_from_two_halves_is_that_of_the_whole_svd(case):
     columns; to the last bit the same whether one process computes both halves or each of two
     processes in step computes one."""
     from volerr_pin import lockstep
-    from volerr_pin.diagnose.scoring import _halves_basis, _svd
+    from volerr_pin.diagnosis.projector import _halves_basis, _svd
 
     rng = np.random.default_rng(7)
     rows = {"few_rows": 30}.get(case, 1201)

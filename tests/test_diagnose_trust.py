@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from volerr_pin.cli import main
-from volerr_pin.diagnose import axis_directions, build_candidates, diagnose, drift_series
-from volerr_pin.diagnose import results as diagnose_results
+from volerr_pin.diagnosis import axis_directions, build_candidates, diagnose, drift_series
+from volerr_pin.diagnosis import results as diagnose_results
 from volerr_pin.identify import build_observations
 from volerr_pin.simulate import campaign, heldout_set, write_points
 from volerr_pin.specio import add_terms
@@ -60,7 +60,7 @@ def test_a_rotary_periodic_error_over_part_of_a_turn_needs_four_periods(machines
     another smooth shape of the axis' off-spec geometry, so only orders with MIN_PERIODS periods
     in the measured span are tried (the cause of a 4-per-revolution error of A invented beside a
     hidden backlash of B)."""
-    from volerr_pin.diagnose.candidates import MIN_PERIODS, ROTARY_ORDERS
+    from volerr_pin.diagnosis.candidates import MIN_PERIODS, ROTARY_ORDERS
 
     m = machines["cgm4000"]
     obs = build_observations(m, [campaign(m, 60, NOISE, 0)], sigma_um=NOISE)
@@ -231,9 +231,9 @@ def test_the_same_answer_alone_or_in_step(machines, monkeypatch, machine, hidden
     """The whole report to the last bit, one process or two in step (the design, the basis, the
     folds, the candidates, the residuals and the refits shared between them; on cgm4000 a
     per-revolution error passes, whose columns travel for the repeat check)."""
-    import volerr_pin.diagnose.loop as loop
+    import volerr_pin.diagnosis.loop as loop
     from volerr_pin import lockstep
-    from volerr_pin.diagnose import scoring
+    from volerr_pin.diagnosis import projector
     from volerr_pin.identify import design
 
     monkeypatch.setattr(diagnose_results, "others_running", lambda: 0)  # two cores free, whatever else runs
@@ -241,7 +241,7 @@ def test_the_same_answer_alone_or_in_step(machines, monkeypatch, machine, hidden
     monkeypatch.setattr(os, "cpu_count", lambda: 2)
     monkeypatch.setattr(loop, "STEP_MIN_ROWS", 0)   # in step, the designs and the basis in halves, at any size
     monkeypatch.setattr(design, "SPLIT_POINTS", 0)
-    monkeypatch.setattr(scoring, "HALVES_MIN_ROWS", 0)
+    monkeypatch.setattr(projector, "HALVES_MIN_ROWS", 0)
     m = machines[machine]
     truth, data = heldout_set(m, hidden, n, NOISE, 5)
     groups, together = [], lockstep.together
@@ -279,9 +279,9 @@ def test_when_the_second_process_dies_the_diagnosis_ends_alone_with_the_same_ans
     """The second process killed (as for memory) at its first exchange of each kind of share: the
     first computes what it had kept (a half's rows of the basis, a score's columns) and its share
     again, and the report is the one of a diagnosis alone."""
-    import volerr_pin.diagnose.loop as loop
+    import volerr_pin.diagnosis.loop as loop
     from volerr_pin import lockstep
-    from volerr_pin.diagnose import scoring
+    from volerr_pin.diagnosis import projector
     from volerr_pin.identify import design
 
     monkeypatch.setattr(diagnose_results, "others_running", lambda: 0)
@@ -289,7 +289,7 @@ def test_when_the_second_process_dies_the_diagnosis_ends_alone_with_the_same_ans
     monkeypatch.setattr(os, "cpu_count", lambda: 2)
     monkeypatch.setattr(loop, "STEP_MIN_ROWS", 0)
     monkeypatch.setattr(design, "SPLIT_POINTS", 0)
-    monkeypatch.setattr(scoring, "HALVES_MIN_ROWS", 0)
+    monkeypatch.setattr(projector, "HALVES_MIN_ROWS", 0)
     m = machines[machine]
     hidden = (TWO_EFFECTS if machine == "vmc500" else
               {"EBB": {"kind": "periodic_pitch", "prefix": "h", "period_deg": 90.0, "sine_arcsec": [4.0],
@@ -321,7 +321,7 @@ def test_no_model_is_fitted_twice_with_the_same_free_coefficients(machines, monk
     trimmed model, fitted to judge the trim, is not fitted again when the trim is kept."""
     m = machines["vmc500"]
     _, data = heldout_set(m, None, 200, NOISE, 5)
-    import volerr_pin.diagnose.loop as loop
+    import volerr_pin.diagnosis.loop as loop
 
     fits, original = [], loop._quiet_identify
 
@@ -441,7 +441,7 @@ def test_noise_floor_from_repeats_is_the_pooled_scatter_of_each_pair(machines):
     """The floor from repeated points against a pair-by-pair computation: each point measured
     twice (same place, approach and load), the scatter of the pair's residuals pooled; a point
     approached from the other side is no repeat."""
-    from volerr_pin.diagnose.report import noise_floor
+    from volerr_pin.diagnosis.report import noise_floor
 
     m = machines["vmc500"]
     data = campaign(m, 100, NOISE, 2)
@@ -469,7 +469,7 @@ def test_a_refit_whose_values_a_spec_cannot_hold_is_not_accepted(machines, monke
     error's period went to 1e8 deg on a five-axis set); building the next change on it failed
     with an error that ended the diagnosis. Such a refit is not accepted and the candidate's
     note says why; here every refit with a backlash is made to fail the check."""
-    import volerr_pin.diagnose.loop as loop
+    import volerr_pin.diagnosis.loop as loop
     from volerr_pin.errors import SpecError
 
     m = machines["vmc500"]
@@ -494,7 +494,7 @@ def test_a_candidate_too_small_in_its_joint_refit_says_so(machines, monkeypatch)
     SIGNIFICANCE standard uncertainties in its joint refit (a once-per-revolution error of B,
     its period free, came out at 0.02 on a five-axis set); it is not accepted, and its note
     says so with its size. Here every backlash is made to come out at 1.5."""
-    import volerr_pin.diagnose.loop as loop
+    import volerr_pin.diagnosis.loop as loop
 
     m = machines["vmc500"]
     data = campaign(add_terms(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}), 200, NOISE, 3)
@@ -547,7 +547,7 @@ def test_a_batch_of_raises_is_refitted_until_every_member_is_significant(machine
     joint refit are dropped and the rest refitted. When that second refit dropped another, the
     model of the second refit (with it) used to be accepted. Here the second raise of the batch
     is made too small always, the third whenever the second is not in the model."""
-    import volerr_pin.diagnose.loop as loop
+    import volerr_pin.diagnosis.loop as loop
 
     m = machines["vmc500"]
     _, data = heldout_set(m, {}, 200, NOISE, 300)

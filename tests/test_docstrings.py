@@ -14,8 +14,8 @@ import textwrap
 import pytest
 
 MODULES = ("machine", "assembly", "state", "inputs", "poses", "sensitivities", "kinematics", "workspace", "ranking", "identify.observations", "identify.design",
-           "identify.solver", "identify.crossval", "identify.result", "identify.fit", "diagnose.results",
-           "diagnose.candidates", "diagnose.scoring", "diagnose.changes", "diagnose.report", "diagnose.loop", "checks", "compensate", "errormap",
+           "identify.solver", "identify.crossval", "identify.result", "identify.fit", "diagnosis.results",
+           "diagnosis.candidates", "diagnosis.scoring", "diagnosis.changes", "diagnosis.report", "diagnosis.loop", "checks", "compensate", "errormap",
            "thermal", "thermalfit", "measurements.table", "measurements.columns", "measurements.protocol",
            "measurements.points", "measurements.runs", "measurements.tracker", "measurements.ballbar",
            "measurements.series", "measurements.registry", "axisfit", "dh", "iso230",

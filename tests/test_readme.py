@@ -188,6 +188,76 @@ def test_links_in_the_docs_resolve():
                 assert path.exists(), f"{_name(page)}: link to missing {target}"
 
 
+INLINE = re.compile(r"(?<!`)`([^`\n]+)`(?!`)")
+#: an inline span that names the library: ``vp.diagnose(machine, [data])``, ``volerr_pin.diagnosis.Diagnosis``
+LIBRARY_SPAN = re.compile(r"^(vp|volerr_pin)(\.[A-Za-z_]\w*)+(\(.*\))?$")
+
+
+def _inline_library_spans() -> list[tuple[str, int, str]]:
+    """(page, line, span) of every inline code span of the README and docs/ that names the
+    library (``vp.`` or ``volerr_pin.``), outside fenced blocks."""
+    out = []
+    for page in _doc_pages():
+        text = FENCE.sub(lambda m: "\n" * m.group(0).count("\n"), page.read_text())
+        for m in INLINE.finditer(text):
+            span = m.group(1).strip()
+            if LIBRARY_SPAN.match(span):
+                out.append((_name(page), text.count("\n", 0, m.start()) + 1, span))
+    return out
+
+
+def _resolve(dotted: str):
+    """The object a dotted name of the library names, importing submodules as needed."""
+    import importlib
+
+    import volerr_pin
+
+    parts = dotted.split(".")
+    obj, path = volerr_pin, "volerr_pin"
+    for part in parts[1:]:
+        path = f"{path}.{part}"
+        if hasattr(obj, part):
+            obj = getattr(obj, part)
+        else:
+            obj = importlib.import_module(path)
+    return obj
+
+
+def test_inline_code_that_names_the_library_runs_as_written():
+    """Inline code that names the library resolves: every dotted name is there, and a call
+    (``vp.diagnose(machine, [data])``) calls something that takes those arguments. The guide's
+    own call of the diagnosis then runs on the sample data, as a reader would type it."""
+    import ast
+    import inspect
+
+    spans = _inline_library_spans()
+    assert any(span.startswith("vp.diagnose(") for _, _, span in spans)
+    for page, line, span in spans:
+        dotted, _, call = span.partition("(")
+        try:
+            obj = _resolve(dotted.replace("vp.", "volerr_pin.", 1) if dotted.startswith("vp.") else dotted)
+        except (AttributeError, ImportError) as err:
+            raise AssertionError(f"{page}:{line}: `{span}` names nothing: {err}") from err
+        if call:
+            node = ast.parse(span, mode="eval").body
+            assert isinstance(node, ast.Call) and callable(obj), f"{page}:{line}: `{span}` is not a call"
+            try:
+                inspect.signature(obj).bind(*node.args, **{k.arg: k.value for k in node.keywords})
+            except TypeError as err:
+                raise AssertionError(f"{page}:{line}: `{span}` does not fit {dotted}'s signature: {err}") from err
+
+
+def test_the_guides_diagnosis_call_runs_as_written():
+    """docs/guide/diagnose.md: ``vp.diagnose(machine, [data])``, with the machine loaded and the
+    data a file of the sample data, as the page's command uses it."""
+    import volerr_pin as vp
+
+    machine = vp.load_machine("vmc500")
+    data = str(ROOT / "examples" / "data" / "vmc500_tracker.csv")
+    report = vp.diagnose(machine, [data])
+    assert sorted(e.name for e in report.effects) == ["backlash", "thermal_drift"]
+
+
 def test_every_drawn_picture_is_a_valid_command():
     """The docs build's pictures are drawn by commands the CLI accepts, each writing its PNG."""
     from volerr_pin.cli import build_parser

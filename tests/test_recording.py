@@ -178,7 +178,7 @@ def test_the_model_and_the_pictures_do_not_load_rerun():
 
     core = [f"volerr_pin.{m.name}" for m in pkgutil.iter_modules(volerr_pin.__path__)
             if m.name not in ("viz", "cli")]
-    assert "volerr_pin.identify" in core and "volerr_pin.diagnose" in core and len(core) > 20
+    assert "volerr_pin.identify" in core and "volerr_pin.diagnosis" in core and len(core) > 20
     code = (f"import sys, {', '.join(core)}; "
             "print('rerun' in sys.modules, 'matplotlib' in sys.modules); "
             "import volerr_pin.viz.plots; print('rerun' in sys.modules)")

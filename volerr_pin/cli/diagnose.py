@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import shlex
+
 from rich import box
 from rich.markup import escape
 from rich.table import Table
@@ -9,6 +11,27 @@ from rich.table import Table
 from ..safeio import transaction
 from .common import (FitProgress, add_json_arg, add_machine_args, check_run_outputs, distinct_inputs, dumps,
                      machine_of, table_console)
+
+
+def plan_argv(machine: str, separate_by: dict) -> list[str]:
+    """The ``volerr plan`` command of a measurement a diagnosis asks for (a possible finding's
+    ``separate_by``: ``instrument``, ``budget``, ``zone`` of held axes in mm / deg, ``terms``).
+
+    Parameters
+    ----------
+    machine : str
+        The machine as the user named it.
+    separate_by : dict
+        The measurement.
+
+    Returns
+    -------
+    list of str
+        The command's words.
+    """
+    zone = [f"{axis}={value:g}" for axis, value in separate_by["zone"].items()]
+    return ["volerr", "plan", machine, "--instrument", separate_by["instrument"], "--budget",
+            str(separate_by["budget"]), *(["--zone", *zone] if zone else []), "--terms", *separate_by["terms"]]
 
 
 def add_parser(sub) -> None:
@@ -39,7 +62,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..diagnose import diagnose
+    from ..diagnosis import diagnose
     from ..measurements import read_any
     from ..specio import write_spec
 
@@ -113,6 +136,8 @@ def run(args) -> int:
     for e in result.possible:
         head, _, why = e.note.partition(": ")
         out.print(escape(f"{head}: {e.label} ({why})"))
+        if e.details.get("separate_by"):
+            out.print(escape("  to plan it: " + shlex.join(plan_argv(args.machine, e.details["separate_by"]))))
     if result.under_modelled:
         out.print(escape(result.off_spec()["label"]) + " (raised; not physical effects): "
                   + escape(", ".join(f"{u.component} ({u.form_before} -> {u.form_after})" for u in result.under_modelled)))

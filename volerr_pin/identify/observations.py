@@ -9,6 +9,7 @@ points: the norm of each point's position (or rotation) residual.
 
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass
 
@@ -18,6 +19,7 @@ from ..checks import positive
 from ..errors import InputError
 from ..machine import Machine
 from ..measurements.protocol import Measurement, ObservationBlock, ObservationOptions
+from ..measurements.registry import read_any
 from ..units import UM_PER_M, URAD_PER_RAD
 
 __all__ = ["WEIGHTED_LIMIT", "Observations", "build_observations", "check_observations", "data_names",
@@ -173,12 +175,15 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
     ----------
     machine : Machine
         The machine observed.
-    data : iterable of measurements, or one measurement
+    data : iterable of measurements or files, or one of them
         Objects following :class:`~volerr_pin.measurements.protocol.Measurement`:
         :class:`~volerr_pin.measurements.points.PointMeasurements`,
         :class:`~volerr_pin.measurements.runs.Runs`,
         :class:`~volerr_pin.measurements.tracker.TrackerMeasurements`,
-        :class:`~volerr_pin.measurements.ballbar.BallbarRun`, or a registered kind's.
+        :class:`~volerr_pin.measurements.ballbar.BallbarRun`, or a registered kind's; or the
+        paths of their files (str or path-like), read with
+        :func:`~volerr_pin.measurements.read_any` (a run file's axis from ``run_axis``;
+        columns a file gives and nothing uses are warned about).
     sigma_um : float, default 1.0
         Standard deviation of position observations [um].
     sigma_urad : float, default 1.0
@@ -201,16 +206,28 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
         or not given, its target unit does not fit the axis kind, its positions leave the
         travel, a component run belongs to another axis, an object is not a measurement,
         there are no observations, or a covariate the model reads is missing from some files.
+    MeasurementError
+        If a file is malformed (naming it, its line and column).
+
+    Warns
+    -----
+    UserWarning
+        For a file with columns that nothing uses, naming them.
     """
     sigma_um = positive("sigma_um", sigma_um)
     sigma_urad = positive("sigma_urad", sigma_urad)
     options = ObservationOptions(sigma_um, sigma_urad, run_axis, run_at)
-    if isinstance(data, Measurement):
-        data = [data]  # one measurement object
+    if isinstance(data, (Measurement, str, os.PathLike)):
+        data = [data]  # one measurement object or file
     blocks = []
     for item in data:
+        if isinstance(item, (str, os.PathLike)):
+            item = read_any(item, machine, run_axis)
+            if item.unused:
+                warnings.warn(f"{item.source}: columns not used: {', '.join(item.unused)}", stacklevel=2)
         if not isinstance(item, Measurement):
-            raise InputError(f"cannot use {type(item).__name__} as measurements")
+            raise InputError(f"cannot use {type(item).__name__} as measurements: give measurement objects or "
+                             "the paths of their files")
         blocks.append(item.observations(machine, options))
     return stack_blocks(blocks, machine)
 

@@ -34,7 +34,7 @@ As observations (:meth:`BallbarRun.observations`), a ballbar sample is the
 tool's error relative to the workpiece projected on the radial direction at the commanded
 position, with three nuisance terms per file: the set-up's centre offset along both plane
 directions and the bar's length error. Approach directions of the two axes come from the
-motion (for backlash terms); so identification and :func:`volerr_pin.diagnose.diagnose`
+motion (for backlash terms); so identification and :func:`volerr_pin.diagnosis.diagnose`
 see squareness, scale mismatch, backlash and straightness through the same model as
 every other measurement.
 """

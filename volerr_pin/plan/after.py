@@ -1,6 +1,6 @@
 """After a diagnosis: the few extra measurements that settle what it could not tell apart.
 
-A diagnosis report (:meth:`volerr_pin.diagnose.Diagnosis.to_dict`, the JSON ``volerr diagnose``
+A diagnosis report (:meth:`volerr_pin.diagnosis.Diagnosis.to_dict`, the JSON ``volerr diagnose``
 prints) names, for each effect it found, the components it cannot tell
 apart from it at the tool (``same_at_tool_as``), and lists the components it raised
 (``under_modelled``). :func:`after_diagnosis` takes the coefficients of those components

@@ -255,7 +255,7 @@ def thermal_fit_png(result: dict, data, path: str | Path) -> dict:
 def diagnosis_png(diagnosis, path: str | Path) -> dict:
     """One page: held-out RMS per step against the noise floor, and for each accepted effect
     the residual against its driver before and after."""
-    from ..diagnose import drift_series, evidence
+    from ..diagnosis import drift_series, evidence
 
     n_eff = min(len(diagnosis.effects), 4)
     drifts = drift_series(diagnosis)[:2]

@@ -427,7 +427,7 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, pa
 
     Parameters
     ----------
-    diagnosis : volerr_pin.diagnose.Diagnosis
+    diagnosis : volerr_pin.diagnosis.Diagnosis
         The diagnosis.
     path : str or Path
         The ``.rrd`` file, written through a temporary file renamed over it once complete.
@@ -446,7 +446,7 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, pa
     InputError
         If ``path`` cannot be written.
     """
-    from ..diagnose import drift_series, evidence
+    from ..diagnosis import drift_series, evidence
 
     check_outputs({"path": path})
     machine = diagnosis.machine

@@ -134,7 +134,7 @@ def score_all(candidates: list, one, progress, seconds: dict) -> tuple[list, dic
     in the round before (``seconds``, by candidate, updated here alike in both), and a score's
     columns (rows x its columns) stay with the process that scored it: it cross-validates it,
     and only the columns of the per-revolution errors that pass travel (the round's scoring in
-    :mod:`volerr_pin.diagnose.loop`).
+    :mod:`volerr_pin.diagnosis.loop`).
 
     Parameters
     ----------
@@ -542,7 +542,7 @@ class Step:
 
 @dataclass
 class Diagnosis:
-    """Result of :func:`~volerr_pin.diagnose.diagnose`; :meth:`to_dict` gives the JSON report.
+    """Result of :func:`~volerr_pin.diagnosis.diagnose`; :meth:`to_dict` gives the JSON report.
 
     Attributes
     ----------
@@ -573,7 +573,7 @@ class Diagnosis:
         The observations diagnosed.
     residual_analysis : dict
         The base residual against positions and covariates (see
-        :func:`~volerr_pin.diagnose.report.residual_analysis`).
+        :func:`~volerr_pin.diagnosis.report.residual_analysis`).
     under_modelled : list of Raise
         Existing components whose degree or table density was raised.
     dropped : list of Change

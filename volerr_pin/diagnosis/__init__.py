@@ -29,8 +29,8 @@ A real machine's geometry is never exactly the spec's. A smooth residual that a 
 degree of an existing component explains as well as an effect does is reported as
 "geometric component X under-modelled (degree n -> m)" in :attr:`Diagnosis.under_modelled`,
 not as a physical effect. A periodic pitch must have a period in the ball-screw range
-(:data:`~volerr_pin.diagnose.candidates.PITCH_PERIOD_MM`) and at least
-:data:`~volerr_pin.diagnose.candidates.MIN_PERIODS` periods inside the measured
+(:data:`~volerr_pin.diagnosis.candidates.PITCH_PERIOD_MM`) and at least
+:data:`~volerr_pin.diagnosis.candidates.MIN_PERIODS` periods inside the measured
 travel.
 
 Effects whose effect at the tool is the same wherever they sit (a drift in x through any
@@ -38,14 +38,16 @@ axis of a Cartesian machine) are reported with ``axis`` None: the data cannot te
 
 Parts, each importing only those listed before it:
 
-- :mod:`~volerr_pin.diagnose.results`: typed results (candidates, scores, changes, rounds, the
+- :mod:`~volerr_pin.diagnosis.results`: typed results (candidates, scores, changes, rounds, the
   diagnosis and its JSON report);
-- :mod:`~volerr_pin.diagnose.candidates`: what the model could be missing;
-- :mod:`~volerr_pin.diagnose.scoring`: each candidate fitted jointly with the base and scored;
-- :mod:`~volerr_pin.diagnose.changes`: accepted changes applied to the model, their sizes;
-- :mod:`~volerr_pin.diagnose.report`: residual analysis, noise floor, raised components,
+- :mod:`~volerr_pin.diagnosis.candidates`: what the model could be missing;
+- :mod:`~volerr_pin.diagnosis.projector`: the round's base design and its basis, on which a
+  candidate's joint fit and held-out RMS cost a few small products;
+- :mod:`~volerr_pin.diagnosis.scoring`: each candidate fitted jointly with the base and scored;
+- :mod:`~volerr_pin.diagnosis.changes`: accepted changes applied to the model, their sizes;
+- :mod:`~volerr_pin.diagnosis.report`: residual analysis, noise floor, raised components,
   evidence for pictures;
-- :mod:`~volerr_pin.diagnose.loop`: :func:`diagnose`, round by round.
+- :mod:`~volerr_pin.diagnosis.loop`: :func:`diagnose`, round by round.
 """
 
 from .candidates import axis_directions, build_candidates, geometric_term, raised_table

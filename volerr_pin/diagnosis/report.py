@@ -13,12 +13,14 @@ from ..checks import integer
 from ..errors import InputError
 from ..identify import Observations
 from ..machine import Machine
-from ..units import AXIS_UNIT, UM_PER_M, axis_scale
+from ..units import ARCSEC, AXIS_UNIT, UM_PER_M, axis_scale
 from .candidates import form_of
-from .results import Change, Diagnosis, DriftSeries, Evidence, Raise, Score
+from .projector import Projector
+from .results import STATED_NOISE_FACTOR, Change, Diagnosis, DriftSeries, Evidence, Raise, Score
 
-__all__ = ["components_per_point", "drift_series", "driver_values", "effect_amplitude", "evidence",
-           "group_findings", "stated_noise", "noise_floor", "raised_summary", "residual_analysis", "twins_of"]
+__all__ = ["components_per_point", "drift_series", "driver_values", "effect_amplitude", "evidence", "floor_verdict",
+           "group_findings", "stated_noise", "noise_floor", "raised_summary", "residual_analysis", "twins_of",
+           "undecided_rotary"]
 
 
 def residual_analysis(machine: Machine, obs: Observations, r_si: np.ndarray) -> dict:
@@ -121,6 +123,48 @@ def noise_floor(obs: Observations, r_si: np.ndarray, n_params: int) -> tuple[flo
     return (float(sigma * math.sqrt(comps) * UM_PER_M),
             "upper bound from the final residual (n - p degrees of freedom): no repeated points "
             "separate the noise from what the model still misses", True)
+
+
+def floor_verdict(obs: Observations, r_si: np.ndarray, proj: Projector, noise_stated: bool
+                  ) -> tuple[float, str, bool, bool | None, float]:
+    """The noise floor and whether the final model reaches it.
+
+    From repeated points the floor is measured, and the model reaches it when its held-out RMS
+    is within 1.2 times the floor. Otherwise the floor is only an upper bound from the final
+    residual, and that bound cannot say by itself whether the model reaches the noise:
+    against a stated noise, it is reached only while the bound is within
+    :data:`STATED_NOISE_FACTOR` of it; with no noise stated it is unknown (None). A default
+    weighting is not a statement.
+
+    Parameters
+    ----------
+    obs : Observations
+        The observations.
+    r_si : ndarray, shape (rows,)
+        The final residual of every row [m or rad].
+    proj : Projector
+        The final model's projector (its rank and held-out RMS).
+    noise_stated : bool
+        Whether the observations' standard deviations are a stated noise.
+
+    Returns
+    -------
+    tuple of (float, str, bool, bool or None, float)
+        The floor [um], where it comes from, whether it is only an upper bound, whether the
+        model reaches it (None: cannot be told), and the stated noise [um] (NaN: none).
+    """
+    floor, source, bound = noise_floor(obs, r_si, proj.rank)
+    stated = stated_noise(obs) if noise_stated else math.nan
+    reaches = bool(proj.cv_rms <= 1.2 * floor)
+    if bound and floor > STATED_NOISE_FACTOR * stated:
+        reaches = False
+        source += (f"; it is {floor / stated:.1f} times the noise the observations state ({stated:.3f} um), "
+                   "so the model still misses something")
+    elif bound and not noise_stated:
+        reaches = None
+        source += ("; no noise was stated (sigma_um) and no repeated points measure it, so the floor is "
+                   "unknown and whether the model reaches it cannot be told")
+    return floor, source, bound, reaches, stated
 
 
 def twins_of(accepted: list[Change], passing: list[Score], machine: Machine) -> None:
@@ -338,6 +382,68 @@ def effect_amplitude(machine: Machine, obs: Observations, names: list[str]) -> f
         if rows.any():
             best = max(best, 0.5 * float(np.ptp(contribution[rows])))
     return best * UM_PER_M
+
+
+def undecided_rotary(passing: list[Score], effects: list[Change], machine: Machine, obs: Observations,
+                     number: int) -> list[Change]:
+    """Per-revolution errors the data hold but cannot tell from the axis' own geometry.
+
+    A per-revolution candidate of the last round that passed the F-test and the held-out test
+    but was refused - it does not repeat from one turn to the next, its period strays in its
+    joint refit, or its size there falls below significance - is content at that order which
+    the axis' smooth geometry over the measured turns can hold as well. It is listed as
+    possible, with why, and with the measurement that would separate the two: the axis alone
+    over its travel, the other axes held at mid travel (so their geometry does not cloud the
+    repeat), as :func:`volerr_pin.plan.plan` plans it (``details["separate_by"]``: its
+    ``instrument``, ``budget``, ``zone`` - the held axes in mm / deg - and ``terms``), or more
+    turns.
+
+    Parameters
+    ----------
+    passing : list of Score
+        The last round's candidates that passed the F-test and the held-out test (their notes
+        say why they were refused).
+    effects : list of Change
+        The effects found (a per-revolution error found is not undecided).
+    machine : Machine
+        The final model.
+    obs : Observations
+        The observations.
+    number : int
+        The last round (from 0).
+
+    Returns
+    -------
+    list of Change
+        One per undecided error, its ``note`` starting "possible: cannot be told from".
+    """
+    found = {e.label for e in effects}
+    out = []
+    for s in passing:
+        c = s.candidate
+        if c is None or c.name != "periodic_rotary" or not s.note or c.label in found:
+            continue
+        j = machine.axes.index(c.axis)
+        turns = float(np.ptp(obs.q[:, j])) / (2 * np.pi)
+        held = {a: float(v / axis_scale(k)) for a, k, v in zip(machine.axes, machine.axis_kinds, machine.mid_travel)
+                if a != c.axis}
+        plan = {"instrument": "tracker", "budget": max(24, math.ceil(turns * 24)), "zone": held,
+                "terms": [c.component]}
+        at = ", ".join(f"{a} {v:g} {AXIS_UNIT[k]}" for (a, v), k in zip(held.items(), (
+            machine.axis_kinds[machine.axes.index(a)] for a in held)))
+        why = s.note.split(": ", 1)[1] if s.note.startswith("not accepted") else s.note
+        note = (f"possible: cannot be told from {c.axis}'s geometry with these data ({why}); to tell them apart, "
+                f"measure {c.axis} alone over its travel with the other axes held at {at} (a {plan['instrument']} "
+                f"plan of {plan['budget']} poses for {c.component}: separate_by), or over more turns than the "
+                f"{turns:.3g} it was measured over, and diagnose again with both files")
+        amplitude = None
+        if s.coefficients is not None and s.term is not None:
+            local = list(s.term.term.local_names)
+            amplitude = float(np.hypot(*(s.coefficients[local.index(k)] for k in ("s1", "c1")))) / ARCSEC
+        out.append(Change("effect", c.label, c.name, c.component, c.axis, c.direction, c.driver, s.p_value,
+                          s.bic_gain, step=number, note=note,
+                          details={"amplitude_arcsec": amplitude, "separate_by": plan}))
+    return out
 
 
 def group_findings(effects: list[Change]) -> list[tuple[Change, list[Change]]]:

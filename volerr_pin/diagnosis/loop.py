@@ -2,10 +2,10 @@
 repeat; then the final fit, which drops what is no longer significant, and the report.
 
 Each round (:meth:`_Loop.round`) fits every candidate jointly with the present model
-(:mod:`~volerr_pin.diagnose.scoring`) and accepts the best that passes all three tests: an
+(:mod:`~volerr_pin.diagnosis.scoring`) and accepts the best that passes all three tests: an
 F-test at ``alpha`` over the number of candidates, a lower cross-validated RMS, and a size of
-at least :data:`~volerr_pin.diagnose.results.SIGNIFICANCE` standard uncertainties after the
-joint refit (:mod:`~volerr_pin.diagnose.changes`).
+at least :data:`~volerr_pin.diagnosis.results.SIGNIFICANCE` standard uncertainties after the
+joint refit (:mod:`~volerr_pin.diagnosis.changes`).
 """
 
 from __future__ import annotations
@@ -28,11 +28,12 @@ from ..units import UM_PER_M
 from ..specio import add_terms, check_values
 from .candidates import build_candidates
 from .changes import apply_changes, remove_effect, size_of, tested_names, trim_raises, with_lag
-from .report import (components_per_point, effect_amplitude, group_findings, noise_floor, raised_summary,
-                     residual_analysis, stated_noise, twins_of)
-from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, STATED_NOISE_FACTOR, STEP_MIN_ROWS, Change,
+from .report import (components_per_point, effect_amplitude, floor_verdict, group_findings, noise_floor,
+                     raised_summary, residual_analysis, twins_of, undecided_rotary)
+from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, STEP_MIN_ROWS, Change,
                       Diagnosis, Step, free_workers, one_blas_thread, parallel_map, score_all)
-from .scoring import Columns, Projector, base_design, not_repeating, score
+from .projector import Columns, Projector, base_design
+from .scoring import not_repeating, score
 
 __all__ = ["LAGS_S", "PERIOD_WINDOW", "TIME_CHECK_SHARE", "diagnose"]
 
@@ -55,7 +56,7 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
              alpha: float = 0.01, folds: int = 5, seed: int = 0, sigma_um: float | None = None,
              sigma_urad: float | None = None, progress=None, keep_machines: bool = False,
              max_rounds: int | None = None) -> Diagnosis:
-    """Find, name and add the effects the model is missing (see :mod:`volerr_pin.diagnose`).
+    """Find, name and add the effects the model is missing (see :mod:`volerr_pin.diagnosis`).
 
     Parameters
     ----------
@@ -86,7 +87,7 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
         their own standard deviations weight them, and giving ``sigma_um`` (any value) states
         that those are the noise. Not given (default), the noise is not stated: measurements
         are weighted at 1 um, and without repeated points the noise floor is unknown - never
-        reported reached (:attr:`~volerr_pin.diagnose.results.Diagnosis.reaches_noise_floor`
+        reported reached (:attr:`~volerr_pin.diagnosis.results.Diagnosis.reaches_noise_floor`
         is None).
     sigma_urad : float, optional
         The noise of rotation observations [urad]; weights them (default 1 urad).
@@ -97,7 +98,7 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     max_rounds : int, optional
         Rounds that may accept a change, at most (default ``max_effects`` + 8: room for raising
         under-modelled components); one more scores what would still pass
-        (:attr:`~volerr_pin.diagnose.results.Diagnosis.stopped`).
+        (:attr:`~volerr_pin.diagnosis.results.Diagnosis.stopped`).
 
     Returns
     -------
@@ -186,6 +187,7 @@ class _Loop:
         self.previous: list[Change] = []
         self._last_holdout = None
         self.left_passing: list[str] = []       # what still passed when the round limit ended the rounds
+        self.last_passing: list = []            # the last round's passing scores (notes: why refused)
         self.seconds: dict[tuple, float] = {}   # in step: what each candidate took to score last
 
     def fit(self, model: Machine, names: list[str], initialise: bool = False):
@@ -220,7 +222,7 @@ class _Loop:
             record.rms_after_um, record.max_after_um = proj.cv_rms, proj.cv_max
         ranked, passing = self._scores(number, base, proj)
         accepted = self._accept(number, passing, proj) if may_accept else []
-        self.left_passing = [] if may_accept else [s.label for s in passing]
+        self.last_passing, self.left_passing = passing, ([] if may_accept else [s.label for s in passing])
         self.steps.append(Step(number, proj.cv_rms, [s.summary() for s in ranked], base.r * obs.sigma,
                                self.current if self.keep_machines else None, accepted))
         if not accepted:
@@ -503,18 +505,7 @@ class _Loop:
             e.parameters = params
         last_proj, residual = self.holdout(current, final)
         rms_fit = residual_rms(obs, residual)
-        floor, source, bound = noise_floor(obs, residual, last_proj.rank)
-        stated = stated_noise(obs) if self.noise_stated else math.nan
-        unexplained = bound and floor > STATED_NOISE_FACTOR * stated
-        reaches = bool(last_proj.cv_rms <= 1.2 * floor) and not unexplained
-        if unexplained:
-            source += (f"; it is {floor / stated:.1f} times the noise the observations state ({stated:.3f} um), "
-                       "so the model still misses something")
-        elif bound and not self.noise_stated:
-            # a bound from the residual, with nothing to hold it against: a default is not a statement
-            reaches = None
-            source += ("; no noise was stated (sigma_um) and no repeated points measure it, so the floor is "
-                       "unknown and whether the model reaches it cannot be told")
+        floor, source, bound, reaches, stated = floor_verdict(obs, residual, last_proj, self.noise_stated)
         analysis = residual_analysis(current, obs, self.steps[0].residual)
         findings = []
         for finding, members in group_findings(self.effects):
@@ -526,7 +517,9 @@ class _Loop:
             findings.append(finding)
         return Diagnosis(current, self.base_machine, findings, self.steps, self.steps[0].rms_holdout_um,
                          last_proj.cv_rms, rms_fit, floor, source, reaches, self.alpha,
-                         0.0, obs, analysis, raised, dropped, bound, possible, stated, residual), final
+                         0.0, obs, analysis, raised, dropped, bound,
+                         possible + undecided_rotary(self.last_passing, self.effects, current, obs, len(self.steps) - 1),
+                         stated, residual), final
 
     def _thermal(self, members: list[Change], final) -> tuple:
         """A thermal drift's sensors and why, its lag (the temperature terms' common lag that
@@ -587,7 +580,7 @@ def _below(z: float) -> str:
 
 
 def _stopped(loop: _Loop, max_rounds: int) -> dict:
-    """Why the rounds ended (:attr:`~volerr_pin.diagnose.results.Diagnosis.stopped`)."""
+    """Why the rounds ended (:attr:`~volerr_pin.diagnosis.results.Diagnosis.stopped`)."""
     rounds = len(loop.steps)
     if loop.left_passing:
         labels = loop.left_passing
@@ -604,7 +597,7 @@ def _repeat_order(number: int, passing: list, proj: Projector, obs: Observations
                   axis_index_of: dict[str, int]) -> tuple[list, list]:
     """The passing candidates a round may accept first, and those it may accept when none of
     the first is: without the per-revolution errors that do not repeat from one turn to the
-    next (:func:`~volerr_pin.diagnose.scoring.not_repeating`, whose reason becomes the
+    next (:func:`~volerr_pin.diagnosis.scoring.not_repeating`, whose reason becomes the
     score's ``note``), the first also without the raises of their components."""
     failing = set()
     for s in passing:
@@ -621,7 +614,7 @@ def _repeat_order(number: int, passing: list, proj: Projector, obs: Observations
 
 def _judged_trim(loop: _Loop, final) -> tuple | None:
     """The model with the raises' trailing coefficients that the final fit does not find
-    significant trimmed (:func:`~volerr_pin.diagnose.changes.trim_raises`) and refitted
+    significant trimmed (:func:`~volerr_pin.diagnosis.changes.trim_raises`) and refitted
     (:meth:`_Loop._refit`: machine, fit, free names), unless that makes the held-out RMS worse
     by more than :data:`PRACTICAL_GAIN`: collinear terms share what they explain, and each may
     look insignificant alone (a raised EBB beside B's once-per-revolution error). None when
