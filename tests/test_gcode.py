@@ -733,3 +733,47 @@ def test_a_write_to_a_system_variable_is_named_and_loses_the_position(machines, 
     assert ("system variable" in named[0]) == system
     assert ("may be misread" in named[0]) == system
     assert any(w.startswith("line 3: the position before this move is not known") for w in report.warnings) == system
+
+
+G90_1 = """G90.1
+G0 X100 Y100 Z100
+G1 Z50 F300
+G2 X300 Y100 R100
+G0 X30 Y30
+G2 X30 Y30 I20 J20
+G91.1
+G2 X30 Y30 I-10 J-10
+M30
+"""
+
+
+def test_absolute_arc_centres_are_followed(machines):
+    """G90.1 makes I, J, K absolute program coordinates until G91.1 (the issue's programs: the
+    arcs after it were read and written as offsets, so LinuxCNC centred a written piece 16 mm off
+    the path and a full circle about (20, 20) became four arcs about (50, 50)). The programs are
+    read with their centres where the standard puts them, compensated within the tolerance, and
+    every absolute centre written holds the centre to the micrometres the compensation moves it."""
+    m = machines["vmc500"]
+    arcs = [s.arc for s in interpret(m, G90_1) if s.kind == "arc"]
+    # (the R arc's centre is on its chord; the two full circles are about (20, 20), radius 14.14)
+    np.testing.assert_allclose([np.asarray(a.center) * 1e3 for a in arcs], [[200, 100], [20, 20], [20, 20]],
+                               atol=1e-3)   # mm (the R arc's half circle: its centre from the chord)
+    out, report = compensate_program(m, G90_1, tol_um=1.0)
+    assert round_trip(m, G90_1, out)[0] <= 1.0e-6 + 1e-9
+    lines = out.splitlines()
+    absolute = lines[:lines.index("G91.1")]
+    centres = [(float(i), float(j)) for i, j in re.findall(r"I(-?[\d.]+) J(-?[\d.]+)", "\n".join(absolute))]
+    assert centres and all(min(math.hypot(i - 200, j - 100), math.hypot(i - 20, j - 20)) < 0.01 for i, j in centres)
+    offsets = re.findall(r"I(-?[\d.]+) J(-?[\d.]+)", "\n".join(lines[lines.index("G91.1"):]))
+    assert offsets and all(math.hypot(float(i), float(j)) == pytest.approx(math.hypot(10, 10), abs=0.01)
+                           for i, j in offsets)
+
+
+@pytest.mark.parametrize("block, missing", [("G2 X110 Y5 I100", "J"), ("G2 X90 Y5 J5", "I")])
+def test_an_absolute_centre_needs_both_words(machines, block, missing):
+    """Under G90.1 a centre word left out is not an offset of zero: LinuxCNC refuses the block
+    ("J word missing in absolute center arc"), and so does the reader."""
+    program = f"G90.1 F100\nG0 X90 Y5 Z0\n{block}\nM30\n"
+    with pytest.raises(GcodeError, match=rf"<program>:3: an arc with absolute centres \(G90.1\) needs both I and J; "
+                                         rf"{missing} is missing"):
+        compensate_program(machines["vmc500"], program, tol_um=1.0)

@@ -94,7 +94,8 @@ class ArcWords:
 
     def centre_values(self, piece, prev, st: dict, forms: set, written=None) -> dict[str, float]:
         """The centre words of an arc piece, rounded as written: offsets from the written
-        start, and a radius that puts the centre where it is.
+        start (with arc centres in absolute distance mode, ``st["centres_absolute"]``, G90.1:
+        the centre's program coordinates), and a radius that puts the centre where it is.
 
         Parameters
         ----------
@@ -122,8 +123,10 @@ class ArcWords:
         s = self.writer.written(prev, inch) if written is None else written[0]
         out = {}
         if "ijk" in forms:
-            for axis, c, p in ((plane[0], piece.center[0], s[i]), (plane[1], piece.center[1], s[j])):
-                out[CENTRE[axis]] = round(reader.from_si(axis, float(c - p), inch), d)
+            origin = self.writer.origin if st.get("centres_absolute") else None
+            for axis, c, k in ((plane[0], piece.center[0], i), (plane[1], piece.center[1], j)):
+                base = s[k] if origin is None else origin[k]
+                out[CENTRE[axis]] = round(reader.from_si(axis, float(c - base), inch), d)
         if "r" in forms:
             e = self.writer.written(piece.end, inch) if written is None else written[1]
             r = 0.5 * (math.hypot(s[i] - piece.center[0], s[j] - piece.center[1]) +
@@ -194,10 +197,11 @@ class ArcWords:
         scale = INCH if inch else MM
         centre = None
         if "ijk" in forms:
-            offset = np.array([vals[CENTRE[plane[0]]], vals[CENTRE[plane[1]]]]) * scale
-            if math.hypot(*offset) <= ARC_SLACK:
+            words = np.array([vals[CENTRE[plane[0]]], vals[CENTRE[plane[1]]]]) * scale
+            # as a controller reads them: from the written start, or (G90.1) from the origin
+            centre = words + (self.writer.origin[[i, j]] if st.get("centres_absolute") else s[[i, j]])
+            if math.hypot(*(centre - s[[i, j]])) <= ARC_SLACK:
                 return math.inf
-            centre = s[[i, j]] + offset
         if "r" in forms:
             r = vals["R"] * scale
             from_r = None if abs(r) <= ARC_SLACK else centre_from_radius(s[[i, j]], e[[i, j]], r, piece.clockwise)

@@ -52,15 +52,15 @@ def centre_from_radius(start: np.ndarray, end: np.ndarray, radius: float, clockw
 
 
 def read_arc(block: Block, where: str, axes: list[str], linear: list[bool], start: np.ndarray, target: np.ndarray,
-             clockwise: bool, plane_code: int, inch: bool, warn) -> Arc:
+             clockwise: bool, plane_code: int, inch: bool, warn, absolute_origin: np.ndarray | None = None) -> Arc:
     """The arc of a G2/G3 block, from its centre words (I/J/K) or radius (R).
 
     Parameters
     ----------
     block : Block
-        The block: I/J/K centre offsets from the start, or R (negative for more than half
-        a turn), in the program's units; both only if they give the same centre; P whole
-        turns (default 1).
+        The block: I/J/K centre offsets from the start (absolute centre coordinates with
+        ``absolute_origin``), or R (negative for more than half a turn), in the program's
+        units; both only if they give the same centre; P whole turns (default 1).
     where : str
         ``source:line`` for messages.
     axes : list of str
@@ -77,7 +77,10 @@ def read_arc(block: Block, where: str, axes: list[str], linear: list[bool], star
         Coordinates in inch (G20).
     warn : callable
         ``warn(line, text)`` notes something kept but not read.
-
+    absolute_origin : numpy.ndarray, shape (n_axes,), optional
+        With arc centres in absolute distance mode (G90.1): the program's origin [m, rad],
+        which I/J/K are read from, as axis words are; then both centre words of the plane
+        must be given. None (G91.1, the default): I/J/K are offsets from the start.
     Returns
     -------
     Arc
@@ -89,8 +92,8 @@ def read_arc(block: Block, where: str, axes: list[str], linear: list[bool], star
         The plane's axes are not linear axes of the machine, the centre words are
         missing, R cannot join the end points, R and I/J/K disagree, the radius is zero
         or degenerate (not more than :data:`ARC_SLACK`) or too large (:data:`MAX_ARC`),
-        P is not a whole number of turns from 1 to :data:`MAX_TURNS`, or the start and
-        end radii differ.
+        P is not a whole number of turns from 1 to :data:`MAX_TURNS`, the start and
+        end radii differ, or (G90.1) one of the plane's centre words is missing.
     """
     plane = PLANES[plane_code]
     if not all(a in axes and linear[axes.index(a)] for a in plane):
@@ -110,10 +113,19 @@ def read_arc(block: Block, where: str, axes: list[str], linear: list[bool], star
                          f"{MAX_ARC:g} m; NC numbers hold nine digits (program a line)")
     centre = None
     named = [words[o] for o in offs if o in words]
-    if named:
+    if named and absolute_origin is not None:
+        missing = [o for o in offs if o not in words]
+        if missing:
+            raise GcodeError(f"{where}: an arc with absolute centres (G90.1) needs both {offs[0]} and {offs[1]}; "
+                             f"{missing[0]} is missing")
+        centre = np.array([words[offs[0]].value * scale + float(absolute_origin[i]),
+                           words[offs[1]].value * scale + float(absolute_origin[j])])
+        offset = [float(centre[0] - start[i]), float(centre[1] - start[j])]
+    elif named:
         # (on plain floats: the arithmetic of the arrays s + offset, one arc block at a time)
         offset = [(words[o].value if o in words else 0.0) * scale for o in offs]
         centre = np.array([float(start[i]) + offset[0], float(start[j]) + offset[1]])
+    if named:
         r0 = math.hypot(*offset)
         if r0 <= ARC_SLACK:
             text = " ".join(w.name for w in named)

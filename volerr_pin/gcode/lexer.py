@@ -40,7 +40,7 @@ MACRO_G = {65, 66, 67}
 NOT_MOVES = {10: "data setting", 27: "reference check", 28: "reference return", 29: "return from reference",
              30: "2nd reference return", 31: "probing skip", 53: "machine coordinates", 52: "local coordinate system",
              92: "coordinate shift", 41: "cutter compensation",
-             42: "cutter compensation", 90.1: "absolute arc centres", 91.1: "incremental arc centres"}
+             42: "cutter compensation"}
 # G codes after which axis words are not axis positions or tool tips (polar and cylindrical
 # interpolation, polar coordinates, rotated, scaled or mirrored coordinates, tool orientation
 # as a vector): every block up to the code that cancels the mode is kept unchanged

@@ -48,6 +48,9 @@ class ModalState:
         Arc plane: 17 (XY), 18 (ZX) or 19 (YZ).
     absolute : bool
         Absolute coordinates (G90) rather than incremental ones (G91).
+    centres_absolute : bool
+        Arc centre words I, J, K are absolute program coordinates (G90.1) rather than offsets
+        from the arc's start (G91.1, the initial state).
     inch : bool
         Coordinates in inch (G20) rather than mm (G21).
     inverse_time : bool
@@ -73,6 +76,7 @@ class ModalState:
     motion: int | None = None
     plane: int = 17
     absolute: bool = True
+    centres_absolute: bool = False
     inch: bool = False
     inverse_time: bool = False
     canned: bool = False
@@ -83,7 +87,8 @@ class ModalState:
     regions: list = field(default_factory=list)
 
     def apply_g(self, codes: Iterable[float]) -> None:
-        """Apply the modal G codes of a block (motion, plane, distance and unit modes).
+        """Apply the modal G codes of a block (motion, plane, distance, arc centre distance and
+        unit modes).
 
         Parameters
         ----------
@@ -102,6 +107,8 @@ class ModalState:
                 self.absolute = True
             elif g == 91:
                 self.absolute = False
+            elif g in (90.1, 91.1):
+                self.centres_absolute = g == 90.1
             elif g == 20:
                 self.inch = True
             elif g == 21:
@@ -547,7 +554,7 @@ class Interpreter:
         clockwise : bool
             G2 (True) or G3 (False).
         state : ModalState
-            The modal state of the block (plane and units).
+            The modal state of the block (plane, units, arc centre distance mode).
 
         Returns
         -------
@@ -560,7 +567,7 @@ class Interpreter:
             See :func:`~volerr_pin.gcode.arcs.read_arc`.
         """
         return read_arc(block, self.where(block), self.axes, self.linear, start, target, clockwise, state.plane,
-                        state.inch, self.warn)
+                        state.inch, self.warn, self.origin if state.centres_absolute else None)
 
 
 def move_of(reader: Interpreter, block: Block, state: ModalState, coord_words: list[Word],

@@ -23,8 +23,8 @@ class Writer:
     """Writes the pieces of compensated moves as program text.
 
     ``st`` in the methods is the output state: the modes the block is written in
-    (``"absolute"``, ``"inch"``, ``"plane"``, ``"all_known"``) and the output's modal motion
-    (``"out_motion"``, updated as lines are written).
+    (``"absolute"``, ``"inch"``, ``"plane"``, ``"all_known"``, ``"centres_absolute"``) and the
+    output's modal motion (``"out_motion"``, updated as lines are written).
 
     Parameters
     ----------
@@ -43,6 +43,8 @@ class Writer:
         As given.
     arcs : ArcWords
         Writes arc pieces and reads them back.
+    origin : numpy.ndarray, shape (n_axes,)
+        The program's origin [m, rad] (absolute arc centres are written from it).
     """
 
     def __init__(self, reader: Interpreter, tol: float, margin: float):
@@ -53,6 +55,7 @@ class Writer:
                         for a, lin in zip(reader.axes, reader.linear) for inch in (False, True)}
         self._zero = {d: "-0." + "0" * d for d in (4, 5, 6)}
         self._origin = [float(v) for v in reader.origin]
+        self.origin = np.asarray(self._origin)   # [m, rad], for absolute arc centres (G90.1)
         # per output unit (inch or not): each axis' letter, decimals, scale [m or rad per unit],
         # origin [m, rad] and the text of a negative zero
         self._spec = {inch: [(a, self._digits[a, inch], reader._scale[a, inch], o, self._zero[self._digits[a, inch]])
