@@ -777,3 +777,57 @@ def test_an_absolute_centre_needs_both_words(machines, block, missing):
     with pytest.raises(GcodeError, match=rf"<program>:3: an arc with absolute centres \(G90.1\) needs both I and J; "
                                          rf"{missing} is missing"):
         compensate_program(machines["vmc500"], program, tol_um=1.0)
+
+
+@pytest.mark.parametrize("name, program, line", [
+    ("lathe_2axis", "G18 G21 G90\nG0 X40 Z-10\nG50 X200 Z0\nG1 X50 Z-10 F100\nM30\n", 3),
+    ("vmc500", "G0 X100 Y100 Z50\nG50 X200\nG1 X50 F100\nM30\n", 2),
+])
+def test_g50_with_axis_words_is_not_a_move(machines, name, program, line):
+    """G50 with axis words sets the coordinate system on Fanuc lathes (and on a mill it is no
+    scaling's end either): it is no move. It was compensated as one ("G50 X199.9934 Z-0.0009")
+    and every later block from the wrong place; now it and the blocks after it are kept unchanged
+    and named, as after a work offset the program sets."""
+    out, report = compensate_program(machines[name], program, tol_um=1.0)
+    lines, given = out.splitlines(), program.splitlines()
+    assert lines[line - 1:] == given[line - 1:]
+    assert any(w.startswith(f"line {line}: G50 (coordinate system set by G50 with axis words) kept unchanged")
+               for w in report.warnings), report.warnings
+    # G50 alone (scaling off) and a lathe's G50 S (spindle speed limit) set no coordinates
+    out, report = compensate_program(machines["vmc500"], "G50\nG0 X100 Y100 Z50\nG1 X200 F100\n", tol_um=1.0)
+    assert out.splitlines()[1] != "G0 X100 Y100 Z50" and report.passed_through == 0
+
+
+def test_path_blending_tolerances_pass_through(machines):
+    """``G64 P0.01 Q0.001``, a usual first line of LinuxCNC programs, was refused ("P words mean
+    nothing this reader knows here") even with pass_through: its P and Q are G64's."""
+    program = "G64 P0.01 Q0.001\nG0 X100 Y100 Z50\nG1 X200 F100\nM30\n"
+    out, report = compensate_program(machines["vmc500"], program, tol_um=1.0)
+    assert out.splitlines()[0] == "G64 P0.01 Q0.001" and report.passed_through == 0
+    with pytest.raises(GcodeError, match=r"<program>:1:5: P0.01: P words mean nothing this reader knows here"):
+        compensate_program(machines["vmc500"], "G61 P0.01\nG0 X100 Y100 Z50\n", tol_um=1.0)
+
+
+LATHE_PROFILE = """G18 G21 G90
+G0 X40 Z-10
+G1 Z-20 F100
+G2 X60 Z-30 R15
+G1 Z-60
+G3 X70 Z-70 I10 K0
+M30
+"""
+
+
+def test_a_two_axis_lathe_turns_its_arcs(machines):
+    """lathe_2axis has Z and X only: its arcs are G18's (Z, X), with no third axis for a helix.
+    Every lathe profile with an arc used to fail ("an arc needs linear axes Z, X, Y"); it is
+    compensated within the tolerance the lathe's two axes can reach (its errors in y are left:
+    no axis moves in y)."""
+    m = machines["lathe_2axis"]
+    arcs = [s.arc for s in interpret(m, LATHE_PROFILE) if s.kind == "arc"]
+    np.testing.assert_allclose([np.asarray(a.center) * 1e3 for a in arcs], [[-16.0557, 54.4721], [-60, 70]],
+                               atol=1e-3)   # (Z, X) [mm], as LinuxCNC's interpreter reads the program (ARC_FEED)
+    out, report = compensate_program(m, LATHE_PROFILE, tol_um=1.0)
+    assert report.arcs_kept >= 2 and [line for line in out.splitlines() if line.startswith("G3")]
+    with pytest.raises(GcodeError, match=r"<program>:2: an arc in G17 needs linear axes X and Y"):
+        compensate_program(m, "G0 X40 Z-10\nG17 G2 X60 Z-30 R15\n", tol_um=1.0)

@@ -33,7 +33,8 @@ class Arc:
     Attributes
     ----------
     plane : tuple of int (i, j, k)
-        Indices of the coordinates of the arc plane and of the linear third axis.
+        Indices of the coordinates of the arc plane and of the linear third axis (-1 when the
+        machine has none: a 2-axis lathe's arcs in Z and X).
     center : ndarray, shape (2,)
         Centre in the plane [m].
     radius : float
@@ -99,7 +100,7 @@ def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plan
     center : ndarray, shape (2,)
         Centre in the plane [m].
     plane : tuple of int (i, j, k)
-        Indices of the plane's axes and of the third (helical) axis.
+        Indices of the plane's axes and of the third (helical) axis (-1: none).
     clockwise : bool
         Sense of the move (G2 is clockwise).
     full_turns : int, default 0

@@ -199,8 +199,13 @@ class ArcWords:
         if "ijk" in forms:
             words = np.array([vals[CENTRE[plane[0]]], vals[CENTRE[plane[1]]]]) * scale
             # as a controller reads them: from the written start, or (G90.1) from the origin
-            centre = words + (self.writer.origin[[i, j]] if st.get("centres_absolute") else s[[i, j]])
-            if math.hypot(*(centre - s[[i, j]])) <= ARC_SLACK:
+            if st.get("centres_absolute"):
+                centre = self.writer.origin[[i, j]] + words
+                offset = centre - s[[i, j]]
+            else:
+                offset = words
+                centre = s[[i, j]] + offset
+            if math.hypot(*offset) <= ARC_SLACK:
                 return math.inf
         if "r" in forms:
             r = vals["R"] * scale
@@ -245,8 +250,8 @@ class ArcWords:
         return math.sqrt(worst)
 
     def errors(self, start: np.ndarray, end: np.ndarray, center: np.ndarray, turns: np.ndarray,
-               plane: np.ndarray, inch: np.ndarray) -> np.ndarray:
-        """:meth:`arc_error` of many arc pieces at once, written with centre offsets (I/J/K)
+               plane: np.ndarray, inch: np.ndarray, absolute: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`arc_error` of many arc pieces at once, written with centre words (I/J/K)
         after the piece before them (the start as written is the piece's start rounded).
 
         The arithmetic is :meth:`arc_error`'s on arrays; the numbers are rounded to their
@@ -265,6 +270,9 @@ class ArcWords:
             Their planes (17, 18, 19).
         inch : ndarray of bool, shape (P,)
             Whether they are written in inch.
+        absolute : ndarray of bool, shape (P,), optional
+            Whether their centres are written as absolute coordinates (G90.1) rather than as
+            offsets from the start (default: offsets).
 
         Returns
         -------
@@ -277,7 +285,9 @@ class ArcWords:
         if count == 0:
             return np.zeros(0)
         axes = reader.axes
-        ij = np.array([[axes.index(PLANES[code][0]), axes.index(PLANES[code][1])] for code in (17, 18, 19)])
+        # a plane whose axes the machine lacks holds no arc (a 2-axis lathe has only G18's)
+        ij = np.array([[axes.index(PLANES[code][0]), axes.index(PLANES[code][1])]
+                       if PLANES[code][0] in axes and PLANES[code][1] in axes else [0, 0] for code in (17, 18, 19)])
         plane_ij = ij[np.asarray(plane) - 17]
         rows = np.arange(count)
         i, j = plane_ij[:, 0], plane_ij[:, 1]
@@ -295,12 +305,17 @@ class ArcWords:
         s, e = written(start), written(end)
         d = digits[rows, i]
         unit = scale[rows, i]
-        offset = np.stack([np.rint((center[:, 0] - s[rows, i]) / unit * 10.0 ** d) / 10.0 ** d,
-                           np.rint((center[:, 1] - s[rows, j]) / unit * 10.0 ** d) / 10.0 ** d], axis=1)
-        bad = (np.abs(offset) >= 10.0 ** (MAX_DIGITS - d)[:, None]).any(axis=1)
-        offset = offset * unit[:, None]
-        bad |= np.hypot(offset[:, 0], offset[:, 1]) <= ARC_SLACK
-        cx, cy = s[rows, i] + offset[:, 0], s[rows, j] + offset[:, 1]
+        # the centre words are offsets from the written start, or (G90.1) coordinates from the origin
+        absolute = np.zeros(count, dtype=bool) if absolute is None else np.asarray(absolute, dtype=bool)
+        base_i = np.where(absolute, origin[i], s[rows, i])
+        base_j = np.where(absolute, origin[j], s[rows, j])
+        words = np.stack([np.rint((center[:, 0] - base_i) / unit * 10.0 ** d) / 10.0 ** d,
+                          np.rint((center[:, 1] - base_j) / unit * 10.0 ** d) / 10.0 ** d], axis=1)
+        bad = (np.abs(words) >= 10.0 ** (MAX_DIGITS - d)[:, None]).any(axis=1)
+        cx, cy = base_i + words[:, 0] * unit, base_j + words[:, 1] * unit
+        radius = np.where(absolute, np.hypot(cx - s[rows, i], cy - s[rows, j]),
+                          np.hypot(words[:, 0] * unit, words[:, 1] * unit))
+        bad |= radius <= ARC_SLACK
         r0 = np.hypot(s[rows, i] - cx, s[rows, j] - cy)
         r1 = np.hypot(e[rows, i] - cx, e[rows, j] - cy)
         bad |= ~(np.isfinite(cx) & np.isfinite(cy)) | (r0 == 0.0) | (np.abs(r0 - r1) > RADIUS_SLACK)

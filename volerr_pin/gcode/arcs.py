@@ -89,16 +89,18 @@ def read_arc(block: Block, where: str, axes: list[str], linear: list[bool], star
     Raises
     ------
     GcodeError
-        The plane's axes are not linear axes of the machine, the centre words are
+        The plane's two axes are not linear axes of the machine, the centre words are
         missing, R cannot join the end points, R and I/J/K disagree, the radius is zero
         or degenerate (not more than :data:`ARC_SLACK`) or too large (:data:`MAX_ARC`),
         P is not a whole number of turns from 1 to :data:`MAX_TURNS`, the start and
         end radii differ, or (G90.1) one of the plane's centre words is missing.
     """
     plane = PLANES[plane_code]
-    if not all(a in axes and linear[axes.index(a)] for a in plane):
-        raise GcodeError(f"{where}: an arc needs linear axes {', '.join(plane)}")
-    i, j, k = (axes.index(a) for a in plane)
+    if not all(a in axes and linear[axes.index(a)] for a in plane[:2]):
+        raise GcodeError(f"{where}: an arc in G{plane_code} needs linear axes {plane[0]} and {plane[1]}")
+    # the third (helical) axis may be missing: a 2-axis lathe turns its arcs in G18 (Z, X) alone
+    i, j = axes.index(plane[0]), axes.index(plane[1])
+    k = axes.index(plane[2]) if plane[2] in axes else -1
     words = {w.letter: w for w in block.words}
     scale = INCH if inch else MM
     unit = "inch" if inch else "mm"

@@ -136,7 +136,7 @@ class ChunkWriting:
         return result, ps.bounds(total), columns, self._arc_errors(ps, total, singles, ones)
 
     def _arc_errors(self, ps, total: int, singles: list[int], ones: list) -> list | None:
-        """How far each arc piece of the chunk, written with centre offsets, is read back off
+        """How far each arc piece of the chunk, written with centre words, is read back off
         its path (:meth:`~.arc_words.ArcWords.errors`; NaN for straight pieces), or None if
         there are no arc pieces."""
         rows = np.flatnonzero(ps.arc)
@@ -144,12 +144,14 @@ class ChunkWriting:
             return None
         plane = np.full(total, 17)
         inch = np.zeros(total, dtype=bool)
+        absolute = np.zeros(total, dtype=bool)
         plane[singles] = [mv.modes["plane"] for mv in ones]  # (runs of plain lines hold no arcs)
         inch[singles] = [mv.modes["inch"] for mv in ones]
+        absolute[singles] = [mv.modes["centres_absolute"] for mv in ones]
         moves = ps.move[rows]
         errors = np.full(len(ps.arc), np.nan)
         errors[rows] = self.writer.arcs.errors(ps.cw0[rows], ps.cw1[rows], ps.center[rows], ps.sweep[rows],
-                                               plane[moves], inch[moves])
+                                               plane[moves], inch[moves], absolute[moves])
         return errors.tolist()
 
     def move_at(self, i: int) -> _Move:

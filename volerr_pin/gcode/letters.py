@@ -6,6 +6,9 @@ from typing import TYPE_CHECKING
 
 from .lexer import AXIS_LETTERS, Block, GcodeError, Word
 
+#: G64: path blending, whose P and Q are its tolerances
+BLENDING = 64
+
 if TYPE_CHECKING:
     from .modal import Interpreter, ModalState
 
@@ -16,8 +19,9 @@ def check_letters(reader: Interpreter, block: Block, state: ModalState, coord_wo
     """Check that every word of a block means something in its modal state.
 
     Axis words name axes of the machine; I, J, K and R belong to arc moves; P to a
-    dwell, an arc, G54.1 or an M code; Q and L to an M code; a dwell (G4) carries no
-    motion code and no axis word but X (its time).
+    dwell, an arc, G54.1 or an M code; Q and L to an M code; P and Q to G64 (path blending
+    tolerances, which pass through); a dwell (G4) carries no motion code and no axis word but X
+    (its time).
 
     Parameters
     ----------
@@ -71,5 +75,7 @@ def check_letters(reader: Interpreter, block: Block, state: ModalState, coord_wo
         if letter == "P" and (arc_move or has_m or any(g.value == 54.1 for g in gs)):
             continue
         if letter in "QL" and has_m:
+            continue
+        if letter in "PQ" and any(g.value == BLENDING for g in gs):
             continue
         raise GcodeError(f"{where}: {letter} words mean nothing this reader knows here")

@@ -56,6 +56,8 @@ SHIFTS = {52: "local coordinate system"}
 # data settings that change a work offset (G10 L2 / L20): the program's zero is no longer the
 # origin given, and every block after is kept unchanged
 OFFSET_DATA = {2, 20}
+#: G50: the end of scaling (G51) on mills; with axis words, a coordinate setting on Fanuc lathes
+SCALING_OFF = 50
 #: the longest G code: three digits and one decimal (G43.4, G112, G68.2)
 G_DIGITS = re.compile(r"G[ \t]*[-+]?(?:[0-9]{1,3}(?:\.[0-9]?)?|\.[0-9])", re.IGNORECASE)  # a sign: check_words
 CYLINDRICAL = 7.1  # cancelled by G7.1 with a zero rotary word (G7.1 C0)

@@ -2,7 +2,8 @@
 
 Polar and cylindrical interpolation, polar coordinates, rotated, tilted, scaled or mirrored
 coordinates, a tool orientation given as a vector, a shifted zero (G52, G92) or a work offset
-changed by the program (G10 L2 / L20) change how the blocks *after* them are read. A move
+changed by the program (G10 L2 / L20, or G50 with axis words: a Fanuc lathe's coordinate
+setting) change how the blocks *after* them are read. A move
 read under such a mode as if it were untransformed would be compensated at the wrong place,
 so every block from the code that starts the mode up to the block that ends it is kept
 unchanged (and named in the report), or refused with ``strict``. Modes nest: a region ends
@@ -16,7 +17,7 @@ started it, the code that started it (``"G68.2"``, ``"TRACYL"``) and the codes t
 from __future__ import annotations
 
 from .lexer import AXIS_LETTERS as AXES
-from .lexer import CYLINDRICAL, OFFSET_DATA, REGIONS, SHIFTS
+from .lexer import CYLINDRICAL, OFFSET_DATA, REGIONS, SCALING_OFF, SHIFTS
 
 __all__ = ["follow", "region_of"]
 
@@ -48,6 +49,9 @@ def region_of(g: float, words: list[tuple[str, float]], number: int) -> tuple | 
         return (f"{SHIFTS[g]} (G{g:g})", number, f"G{g:g}", shifted) if shifted else None
     if g == 10 and any(letter == "L" and v in OFFSET_DATA for letter, v in words):
         return ("work offset set by G10 (the origin given no longer holds)", number, "G10", ())
+    if g == SCALING_OFF and any(letter in AXES for letter, _ in words):
+        # with axis words G50 is no scaling's end but a coordinate setting (Fanuc lathes): not a move
+        return ("coordinate system set by G50 with axis words (the origin given no longer holds)", number, "G50", ())
     return None
 
 
