@@ -486,12 +486,13 @@ def test_non_motion_lines_of_every_kind_stay_byte_identical(machines):
     program = ("%\nO0042 (part \u00e9 42)\n(header; with a semicolon)\n; a whole-line comment ( with a paren\n"
                "N10 G21 G90 G17 G40 G49 G80 G94\n   \n\t\nN20 T1 M6\n/M8\nM7 M8\nM77\n()\nN30 S8000 M3\n"
                "G0 X10 Y10 Z10\nG4 P500\nG4 X1.5\nG1 F200\nG2\nG1 X20\nM5\nM30\n%_N_SUB_SPF\n%\n")
-    out, report = compensate_program(m, program)
+    out, report = compensate_program(m, program, pass_through=True)
     kept = [ln for ln in program.splitlines() if not re.match(r"G[01] X", ln)]
     assert [ln for ln in out.splitlines() if not re.match(r"G[01] X", ln)] == kept
-    # an M code the reader does not know is kept, and said so once, naming its line
+    # an M code the reader does not know is kept with pass_through, and said so, naming its line
     assert [w for w in report.warnings if "M77" in w] == [
-        "line 11: M77 is not an M code this reader knows: kept unchanged, taken to move no axis"]
+        "line 11: M77 (an M code this reader does not know) kept unchanged; what it changes is not followed, so "
+        "the blocks after it may be misread"]
 
 
 def test_unknown_g_codes_are_refused_unless_pass_through_and_never_moves(machines):
@@ -831,3 +832,46 @@ def test_a_two_axis_lathe_turns_its_arcs(machines):
     assert report.arcs_kept >= 2 and [line for line in out.splitlines() if line.startswith("G3")]
     with pytest.raises(GcodeError, match=r"<program>:2: an arc in G17 needs linear axes X and Y"):
         compensate_program(m, "G0 X40 Z-10\nG17 G2 X60 Z-30 R15\n", tol_um=1.0)
+
+
+def test_m72_restores_what_m70_saved(machines):
+    """LinuxCNC's M70 saves the modes, M72 restores them (not the motion mode), both before the
+    G codes of their block. M72 was read as "moves no axis", so the G91 saved before it stayed in
+    force: the issue's program plunged Z from 50 to -0.003 and rapided to X0 Y0. Each case is as
+    LinuxCNC's interpreter reads it (rs274's canonical moves)."""
+    m = machines["vmc500"]
+    program = "G0 X10 Y10 Z50 F100\nM70\nG91\nG1 X5\nM72\nG1 X100 Y20\nG0 Z60\nM30\n"
+    ends = [s.end * 1e3 for s in interpret(m, program)]
+    np.testing.assert_allclose(ends, [[10, 10, 50], [15, 10, 50], [100, 20, 50], [100, 20, 60]], atol=1e-9)
+    # M70 saves before its block's G91; G91 after M72 in one block holds
+    saved_first = "G0 X1 Y1 Z1\nG91 M70\nG90\nM72\nX1\n"
+    assert interpret(m, saved_first)[-1].end[0] == pytest.approx(1e-3)
+    g_after = "G0 X1 Y1 Z1\nM70\nG91 M72\nX1\n"
+    assert interpret(m, g_after)[-1].end[0] == pytest.approx(2e-3)
+    # the plane, the units and the arc centre mode come back too
+    restored = "G0 X10 Y10 Z50\nM70\nG18 G20 G90.1\nM72\nG2 X30 Y10 I10 J0 F100\n"
+    arc = interpret(m, restored)[-1].arc
+    assert arc.plane[:2] == (0, 1) and np.allclose(arc.center, [0.02, 0.01])
+    out, report = compensate_program(m, program)
+    assert out.splitlines()[4] == "M72" and re.match(r"G1 X99\.99\d\d Y(19\.99|20\.00)\d\d Z(49\.99|50\.00)", out.splitlines()[5])
+
+
+@pytest.mark.parametrize("program", ["G0 X1 Y1 Z1\nM72\n", "G0 X1 Y1 Z1\nM70\nM71\nM72\n"])
+def test_m72_with_nothing_saved_is_refused(machines, program):
+    """LinuxCNC refuses M72 with nothing saved ("Cannot restore context from invalid stack frame")."""
+    with pytest.raises(GcodeError, match=r"<program>:\d: M72 restores the modes M70 saved, and none are saved"):
+        compensate_program(machines["vmc500"], program)
+
+
+def test_an_unknown_m_code_stops_the_run(machines):
+    """An M code whose effect on the modes is unknown may change how every later block reads: it
+    stops the run naming it (as an unknown G code does), unless pass_through keeps it."""
+    program = "G0 X10 Y10 Z50\nM77\nG1 X20 F100\n"
+    with pytest.raises(GcodeError, match=r"<program>:2:1: M77 \(an M code this reader does not know\): what it "
+                                         r"changes cannot be told"):
+        compensate_program(machines["vmc500"], program)
+    out, report = compensate_program(machines["vmc500"], program, pass_through=True)
+    assert out.splitlines()[1] == "M77" and report.passed_through == 1
+    # LinuxCNC's user M codes (M100 - M199) run programs of the configuration, which change no mode
+    out, report = compensate_program(machines["vmc500"], "G0 X10 Y10 Z50\nM101 P2 Q3\nG1 X20 F100\n")
+    assert out.splitlines()[1] == "M101 P2 Q3" and report.passed_through == 0

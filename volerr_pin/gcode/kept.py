@@ -3,15 +3,15 @@
 Canned cycles, macro statements and variables, subprogram calls, reference returns, probing,
 cutter compensation, block delete with moves, and every block under a mode that changes how
 later coordinates read (:mod:`.regions`) are *problems*: kept byte for byte and named, or
-refused with ``strict``. A G code the reader does not know is a problem whose effect cannot be
+refused with ``strict``. A G or M code the reader does not know is a problem whose effect cannot be
 told (``Problem.unknown_code``). A kept block still sets its modal words, and one that may move
 the machine makes the position unknown.
 """
 
 from __future__ import annotations
 
-from .lexer import (CANNED, G_DIGITS, G_GROUPS, KEYWORD, MACRO_G, NOT_MOVES, TOOL_CHANGE_M, Block, GcodeError,
-                    macro_statement, mask_comments, parse_block, uncommented, word_values)
+from .lexer import (CANNED, G_DIGITS, G_GROUPS, KEYWORD, M_GROUPS, MACRO_G, NOT_MOVES, TOOL_CHANGE_M, USER_M, Block,
+                    GcodeError, macro_statement, mask_comments, parse_block, uncommented, word_values)
 from .lexer import AXIS_LETTERS
 from .modal import Interpreter, ModalState
 from .regions import follow, keyword_region, region_of
@@ -28,7 +28,7 @@ class Problem(str):
         The block may set a mode that changes how later blocks read, or move the machine
         somewhere not followed.
     unknown_code : bool
-        The block holds a G code the reader does not know: what it changes cannot be told,
+        The block holds a G or M code the reader does not know: what it changes cannot be told,
         so it is refused unless unknown codes are explicitly kept (``pass_through``).
     column : int
         1-based column of the word that makes the problem (0 if none).
@@ -160,6 +160,8 @@ def _problem(reader: Interpreter, block: Block, state: ModalState) -> Problem | 
                 return _unknown(f"{w.name} (a G code this reader does not know)", w.start + 1)
         elif letter == "M" and w.value in (98, 99):
             return Problem(f"{w.name} (subprogram call or return)")
+        elif letter == "M" and w.value == int(w.value) and w.value not in M_GROUPS and w.value not in USER_M:
+            return _unknown(f"{w.name} (an M code this reader does not know)", w.start + 1)
         elif letter == "O":
             if state.programs:
                 return Problem(f"{w.name} (a second program number: the start of a subprogram)")
@@ -200,6 +202,7 @@ def skip(reader: Interpreter, line: str, state: ModalState, block: Block | None 
         if macro and macro[1]:  # a jump, loop or variable word: where the machine goes is not known
             state.lose_position(f"line {number}")
     reader.work_offset(words, number, state)
+    state.apply_m([v for letter, v in words if letter == "M"], f"{reader.source}:{number}")
     gs = [v for letter, v in words if letter == "G"]
     state.apply_g(gs)
     reader.tool_tip_codes(gs, state, number)

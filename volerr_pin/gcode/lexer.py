@@ -86,10 +86,21 @@ G_GROUPS = {
     **dict.fromkeys((90.1, 91.1), "arc centre distance"), **dict.fromkeys((93, 94, 95), "feed"),
     **dict.fromkeys((96, 97), "spindle speed"), **dict.fromkeys((98, 99), "canned cycle return")}
 # M codes the reader knows, by group; two of one group in a block contradict each other
-# (except mist and flood coolant, M7 M8, which run together)
-M_GROUPS = {**dict.fromkeys((0, 1, 2, 30), "stop"), **dict.fromkeys((3, 4, 5, 19), "spindle"), 6: "tool change",
-            **dict.fromkeys((7, 8, 9), "coolant"), **dict.fromkeys((48, 49), "override"),
+# (except mist and flood coolant, M7 M8, which run together). An M code not listed may change
+# how later blocks read (LinuxCNC's M72 restores the distance, unit and plane modes), so it is
+# refused unless kept explicitly, as an unknown G code is
+M_GROUPS = {**dict.fromkeys((0, 1, 2, 30, 60), "stop"), **dict.fromkeys((3, 4, 5, 19), "spindle"),
+            6: "tool change", 61: "tool number", **dict.fromkeys((7, 8, 9), "coolant"),
+            **dict.fromkeys((48, 49, 50, 51, 52, 53), "override"), **dict.fromkeys((62, 63, 64, 65), "output"),
+            66: "input", **dict.fromkeys((67, 68), "analog output"), **dict.fromkeys((70, 71, 72, 73), "modal state"),
             **dict.fromkeys((98, 99), "subprogram")}
+#: LinuxCNC's user M codes run a program of the machine's configuration, which cannot change the
+#: interpreter's modes or move the axes through it
+USER_M = range(100, 200)
+#: LinuxCNC's modal state: M70 saves the modes (units, distance, arc centre distance, plane, feed
+#: mode), M71 forgets what was saved, M72 restores it (not the motion mode), M73 saves them to be
+#: restored at the return from the subroutine it stands in
+SAVE_MODES, FORGET_MODES, RESTORE_MODES, AUTORESTORE_MODES = 70, 71, 72, 73
 TOOL_CHANGE_M = 6  # its macro moves the axes to the change position: the position is lost
 LATE_M = (0, 1, 2, 5, 9, 30)  # M codes that act at the end of their block's move
 PLANES = {17: ("X", "Y", "Z"), 18: ("Z", "X", "Y"), 19: ("Y", "Z", "X")}  # arc plane axes, then the third

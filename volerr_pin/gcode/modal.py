@@ -21,8 +21,8 @@ from ..machine import Machine
 from ..units import INCH, MM
 from .arcs import read_arc
 from .letters import check_letters
-from .lexer import (AXIS_LETTERS, CANNED, M_GROUPS, TOOL_CHANGE_M, TOOL_TIP_OFF, TOOL_TIP_ON, WORK_OFFSETS, Block,
-                    GcodeError, Word, check_words)
+from .lexer import (AUTORESTORE_MODES, AXIS_LETTERS, CANNED, FORGET_MODES, RESTORE_MODES, SAVE_MODES, TOOL_CHANGE_M,
+                    TOOL_TIP_OFF, TOOL_TIP_ON, WORK_OFFSETS, Block, GcodeError, Word, check_words)
 from .report import Warnings
 
 __all__ = ["AXIS_LETTERS", "BlockMove", "Interpreter", "ModalState", "check_axes", "move_of"]
@@ -69,6 +69,9 @@ class ModalState:
     regions : list of tuple
         The modes in force whose blocks are kept unchanged (:mod:`.regions`), oldest first;
         empty outside them.
+    saved : tuple or None
+        The modes M70 (or M73) saved (:meth:`modes`), and its line; None before any and after
+        M71.
     """
 
     position: np.ndarray
@@ -85,6 +88,44 @@ class ModalState:
     programs: int = 0
     tool_tip: bool = False
     regions: list = field(default_factory=list)
+    saved: tuple | None = None
+
+    def modes(self) -> tuple:
+        """The modes LinuxCNC's M70 saves and M72 restores, as far as they change how blocks read:
+        plane, distance, arc centre distance, units, feed mode (the motion mode is not among them).
+
+        Returns
+        -------
+        tuple
+            ``(plane, absolute, centres_absolute, inch, inverse_time)``.
+        """
+        return self.plane, self.absolute, self.centres_absolute, self.inch, self.inverse_time
+
+    def apply_m(self, codes: Iterable[float], where: str) -> None:
+        """Apply the M codes of a block that save and restore the modes (M70 - M73).
+
+        Parameters
+        ----------
+        codes : iterable of float
+            The values of the block's M words.
+        where : str
+            ``source:line``, for messages.
+
+        Raises
+        ------
+        GcodeError
+            M72 with nothing saved (LinuxCNC refuses it too).
+        """
+        for m in codes:
+            if m in (SAVE_MODES, AUTORESTORE_MODES):
+                self.saved = (self.modes(), where)
+            elif m == FORGET_MODES:
+                self.saved = None
+            elif m == RESTORE_MODES:
+                if self.saved is None:
+                    raise GcodeError(f"{where}: M72 restores the modes M70 saved, and none are saved (no M70 "
+                                     "before it, or M71 since)")
+                self.plane, self.absolute, self.centres_absolute, self.inch, self.inverse_time = self.saved[0]
 
     def apply_g(self, codes: Iterable[float]) -> None:
         """Apply the modal G codes of a block (motion, plane, distance, arc centre distance and
@@ -434,6 +475,10 @@ class Interpreter:
             return None
         check_words(block, self.source)
         gs = [w.value for w in block.words if w.letter == "G"]
+        ms = [w.value for w in block.words if w.letter == "M"]
+        if ms:
+            # LinuxCNC saves and restores the modes before a block's G codes (G91 M72 is incremental)
+            state.apply_m(ms, self.where(block))
         if gs:
             self.work_offset([(w.letter, w.value) for w in block.words], block.number, state)
             state.apply_g(gs)
@@ -441,10 +486,6 @@ class Interpreter:
         coord_words = [w for w in block.words if w.letter in self._index]
         dwell = 4 in gs
         check_letters(self, block, state, coord_words)
-        for w in block.words:
-            if w.letter == "M" and w.value not in M_GROUPS:
-                self.warn(block.number, f"{w.name} is not an M code this reader knows: kept unchanged, taken to "
-                          "move no axis", key=("M", w.value))
         move = None
         if coord_words and not dwell:
             move = self._move(block, state, coord_words, check_travel and not state.tool_tip)
