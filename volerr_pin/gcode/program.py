@@ -17,7 +17,8 @@ import numpy as np
 from ..compensation.moves import ARC, LINE, POINT
 from ..compensation.path import PathCompensator
 from ..machine import Machine
-from .lexer import WORK_OFFSETS, Block, GcodeError, split_lines
+from .flow import Flow
+from .lexer import WORK_OFFSETS, Block, GcodeError, mask_comments, split_lines
 from . import kept
 from .modal import Interpreter, check_axes, move_of
 from .report import Report
@@ -116,6 +117,7 @@ class Program(ChunkWriting):
         inner_urad = None if tol_urad is None else tol_urad * (tol_um - margin) / tol_um
         self.comp = PathCompensator(machine, tol_um=tol_um - margin, method=method, tol_urad=inner_urad)
         self.report = Report(tolerance_um=tol_um)
+        self.flow = Flow(source)
         self.writer = Writer(self.reader, tol_um * 1e-6, self.margin)
         self._plain = plain_line(self.reader.axes)
         self._arc = arc_line(self.reader.axes)
@@ -236,6 +238,7 @@ class Program(ChunkWriting):
         if run is not None:
             entries += self._close(run, state)
         self._flush(entries, write)
+        self.flow.finish(number)
         self.report.blocks_in = number
         if progress is not None:
             progress(number)
@@ -276,6 +279,13 @@ class Program(ChunkWriting):
                 coord_words = [w for w in words if w.letter in reader.axes]
                 return self._entry(block, newline, number, state, state.lost,
                                    move_of(reader, block, state, coord_words, not state.tool_tip))
+        code = mask_comments(body, number, reader.source).upper()
+        if self.flow.line(code, number):
+            body_of = self.flow.body[0] if self.flow.body else None
+            reader.notes.add(number, f"the body of subroutine o{body_of.lower()} kept unchanged: it runs where it "
+                             "is called" if body_of else "the end of a subroutine body kept unchanged")
+            self.report.passed_through += 1
+            return ("raw", body + newline)
         block, problem = kept.classify(reader, body, number, state)
         if problem:
             if self.strict:
@@ -291,6 +301,7 @@ class Program(ChunkWriting):
                 else ""))
             self.report.passed_through += 1
             kept.skip(reader, body, state, block, number)
+            self.flow.called(code, state, f"{reader.source}:{number}")
             return ("raw", body + newline)
         if block.words:
             self._note_offsets(block)
@@ -302,6 +313,8 @@ class Program(ChunkWriting):
         reader = self.reader
         if move is None:
             return ("plain", block, newline)
+        if not state.absolute:
+            self.flow.incremental(number)   # compensated for this pass: a loop may not run it again
         kind = LINE if move.motion == 1 else (ARC if move.motion in (2, 3) else POINT)
         all_known = all(state.known.tolist())  # (as ndarray.all(), without its overhead on a few axes)
         if not all(move.start_known.tolist()):

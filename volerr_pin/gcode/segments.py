@@ -8,7 +8,8 @@ import numpy as np
 
 from ..compensation.arcs import Arc
 from ..machine import Machine
-from .lexer import split_lines
+from .flow import Flow
+from .lexer import mask_comments, split_lines
 from . import kept
 from .modal import Interpreter
 
@@ -96,11 +97,16 @@ def interpret(machine: Machine, text: str, source: str = "<program>", start=None
     """
     reader = Interpreter(machine, source=source, start=start, origin=origin, programming=programming)
     state = reader.initial_state()
+    flow = Flow(source)
     out = []
     for number, (body, _) in enumerate(split_lines(text), start=1):
+        code = mask_comments(body, number, source).upper()
+        if flow.line(code, number):
+            continue   # a subroutine body runs where it is called
         block, problem = kept.classify(reader, body, number, state)
         if problem:
             kept.skip(reader, body, state, block, number)
+            flow.called(code, state, f"{source}:{number}")
             continue
         move = reader.advance(block, state, check_travel=False)
         if move is None:
