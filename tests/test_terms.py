@@ -134,3 +134,37 @@ def test_a_table_too_large_for_the_memory_is_refused_before_it_is_built(monkeypa
         term(table)
     small = {**table, "positions_mm": np.linspace(0, 500, 500).tolist(), "values_um": [0.0] * 500}
     assert term(small).term.size == 500
+
+
+@pytest.mark.parametrize("positions, swing", [
+    ([0, 50, 100, 150, 150.01, 200, 250, 300], 1.72e3),          # a node 0.01 mm from another
+    ([0, 50, 100, 150, 250, 250.000000000001, 300], 1e12),       # the issue's near-duplicate (rounding decides)
+])
+def test_a_cubic_table_that_swings_between_its_nodes_is_refused(positions, swing):
+    """The plausibility check of a table looked at its node values only: nodes 0.01 mm apart
+    among 50 mm steps swung a 0-9 um EXX to -80 ... +90 um, and nodes 1e-12 mm apart made
+    export write LinuxCNC trims of 45,755,321,214 mm. The spline's own reach beyond its values
+    (its Lebesgue constant) is checked, and the closest nodes named."""
+    table = {"kind": "table", "interpolation": "cubic", "positions_mm": positions,
+             "values_um": list(np.linspace(0, 9, len(positions)))}
+    with pytest.raises(T.SpecError, match=r"swings to [\d.e+]+ times their largest size .* more than 10: its nodes "
+                                          r"(150 and 150\.01|250 and 250) mm"):
+        build_term(table, "t", "length", "length", (0.0, positions[-1] * 1e-3))
+    assert T.spline_swing(np.asarray(positions, float) * 1e-3, "not-a-knot")[0] >= 0.99 * swing
+    # as values they are a function the spline really takes between the nodes: its extremes
+    nodes = np.asarray(positions, float) * 1e-3
+    x = np.linspace(nodes[0], nodes[-1], 200_001)
+    from scipy.interpolate import CubicSpline
+    assert np.abs(CubicSpline(nodes, np.linspace(0, 9, len(nodes))).__call__(x)).max() > 9 * 5
+    # the same nodes interpolated linearly stay within their values: accepted
+    build_term(dict(table, interpolation="linear"), "t", "length", "length", (0.0, positions[-1] * 1e-3))
+
+
+@pytest.mark.parametrize("positions", [list(np.linspace(0, 500, 11)), [0, 10, 50, 60, 100, 110, 150],
+                                       [0, 2, 50, 100, 150, 200, 250]])
+def test_tables_of_usual_spacings_are_accepted(positions):
+    """Even steps (a swing of 2), spacings of 1:4 (6) and a short first step (9) stay within
+    the limit."""
+    table = {"kind": "table", "interpolation": "cubic", "positions_mm": positions, "values_um": [0.0] * len(positions)}
+    build_term(table, "t", "length", "length", (0.0, positions[-1] * 1e-3))
+    assert T.spline_swing(np.asarray(positions, float), "not-a-knot")[0] <= T.MAX_SWING
