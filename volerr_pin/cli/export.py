@@ -71,11 +71,13 @@ def run(args) -> int:
     console = table_console()
     console.print(f"{machine.name} -> {args.controller} ({result.kind}): {len(result.files)} file(s) in {args.output}, "
                   "read back as written")
-    table = Table(box=box.SIMPLE, title=f"tool-point position error over {report['points']} points of the zone")
+    table = Table(box=box.SIMPLE, title=f"tool-point position error over {report['points']} points of the zone, "
+                                        "each position reached from both directions")
     for col in ("", "max [um]", "RMS [um]"):
         table.add_column(escape(col), justify="right")
     for label, key in (("uncompensated", "uncompensated"), ("naive tables (components at the nodes)", "naive_residual"),
                        ("written tables, as the controller applies them", "residual"),
+                       ("the same, positions visited once in a random order", "random_order_residual"),
                        ("exact point compensation", "exact_residual")):
         table.add_row(escape(label), f"{report[key + '_max_um']:.4g}", f"{report[key + '_rms_um']:.4g}")
     console.print(table)

@@ -64,6 +64,11 @@ class ExportResult:
         Residuals there with the files and with exact compensation [m].
     fit_points : int
         Points the values were fitted on.
+    random_points : Points or None
+        The evaluation positions visited once each in a random order, directions from that path.
+    random_after : ndarray, shape (N', 3) or None
+        Residuals there with the files [m]: what a program visiting the positions in no
+        particular order sees, beside the both-ways judgement of ``after``.
     notes : list of str
         Facts about the layout (which master each cross table reads, tables left out).
     files : list of str
@@ -86,16 +91,22 @@ class ExportResult:
     node_after: np.ndarray
     node_exact: np.ndarray
     fit_points: int = 0
+    random_points: Points | None = None
+    random_after: np.ndarray | None = None
     notes: list[str] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
 
     @property
     def summaries(self) -> dict[str, Residuals]:
         """Max and RMS of each residual (dict of str to Residuals, um): ``uncompensated``,
-        ``residual``, ``naive``, ``exact``, ``node``, ``node_exact``."""
-        return {"uncompensated": summary(self.before), "residual": summary(self.after),
-                "naive": summary(self.naive_after), "exact": summary(self.exact_after),
-                "node": summary(self.node_after), "node_exact": summary(self.node_exact)}
+        ``residual``, ``naive``, ``exact``, ``node``, ``node_exact`` and (when computed)
+        ``random_order``."""
+        out = {"uncompensated": summary(self.before), "residual": summary(self.after),
+               "naive": summary(self.naive_after), "exact": summary(self.exact_after),
+               "node": summary(self.node_after), "node_exact": summary(self.node_exact)}
+        if self.random_after is not None:
+            out["random_order"] = summary(self.random_after)
+        return out
 
     def to_dict(self) -> dict:
         """The report (JSON-ready; fields in docs/reports.md).
@@ -122,6 +133,8 @@ class ExportResult:
             "exact_residual_max_um": s["exact"].max_um, "exact_residual_rms_um": s["exact"].rms_um,
             "node_points": len(self.node_points), "node_residual_max_um": s["node"].max_um,
             "node_exact_residual_max_um": s["node_exact"].max_um,
+            **({"random_order_residual_max_um": s["random_order"].max_um,
+                "random_order_residual_rms_um": s["random_order"].rms_um} if "random_order" in s else {}),
             "tables": self.compensation.describe(machine),
             "notes": list(self.notes),
             "read_back": True,
@@ -193,10 +206,12 @@ def export_tables(machine: Machine, controller: str | ControllerFormat, folder: 
     """Compensation tables a controller loads, with the residual it leaves.
 
     Lays out the controller's tables over ``zone``, chooses their values by least squares
-    through the model (:func:`volerr_pin.export.fit.fit`) over ``points`` Sobol' points,
-    rounds them to the format, writes the files (as text, and into ``folder`` when given,
-    all or none), reads them back by the controller's rules and checks they say what was
-    meant, then simulates the controller applying what was read at ``points`` other points.
+    through the model (:func:`volerr_pin.export.fit.fit`) over ``points`` Sobol' points
+    reached from both directions (:meth:`~volerr_pin.export.zone.Zone.sample`), rounds them to
+    the format, writes the files (as text, and into ``folder`` when given, all or none), reads
+    them back by the controller's rules and checks they say what was meant, then simulates the
+    controller applying what was read at ``points`` other points reached from both directions,
+    and at their positions visited in a random order.
 
     Parameters
     ----------
@@ -255,10 +270,12 @@ def export_tables(machine: Machine, controller: str | ControllerFormat, folder: 
     at_nodes = zone.corners_and_nodes(grid, NODE_POINTS, seed + 2)
     node_exact = tool_tips(machine, exact_setpoints(machine, at_nodes), at_nodes) - tool_tips(
         machine, at_nodes.q, at_nodes, nominal=True)
+    shuffled = zone.shuffled(evaluation, seed + 3)
     result = ExportResult(machine, fmt, kind, zone, back, naive, texts, evaluation,
                           residuals(machine, None, evaluation), residuals(machine, back, evaluation),
                           residuals(machine, naive, evaluation), exact, at_nodes,
-                          residuals(machine, back, at_nodes), node_exact, fit_points, list(meant.notes))
+                          residuals(machine, back, at_nodes), node_exact, fit_points, shuffled,
+                          residuals(machine, back, shuffled), list(meant.notes))
     if folder is not None:
         with transaction() as tx:
             write_export(result, folder, tx)
