@@ -92,3 +92,27 @@ def test_the_files_state_the_model_and_read_back(machines):
 def test_machines_the_model_cannot_describe_are_refused(machines):
     with pytest.raises(SpecError, match="gear_roller: TF5280 Volumetric Compensation needs precisely three linear"):
         model_of(machines["gear_roller"], Zone.workspace(machines["gear_roller"]), 5)
+
+
+def test_plane_tables_reserve_the_same_points_whatever_their_grid():
+    """kw.crosscomp2.max_points is reserved at the kernel's start-up and refused changed on
+    reloading (TF5200: error 110640): it was written as the table's size, so a re-export with
+    another grid could not be loaded without a restart. It is the manual's default in every
+    export, and every grid fits in it."""
+    import re
+
+    import volerr_pin as vp
+    from volerr_pin.export.isg import PLANE_MAX_POINTS
+    from volerr_pin.export.run import export_tables
+
+    m = vp.load_machine("vmc500")
+    reserved = set()
+    for nodes in (9, 17, 33):
+        texts = export_tables(m, "isg", kind="crosscomp2", nodes=nodes, points=512).texts
+        for text in texts.values():
+            reserved |= set(re.findall(r"^kw\.crosscomp2\.max_points (\d+)$", text, re.M))
+            n1 = re.search(r"^kw\.crosscomp2\.last_index_master1 (\d+)$", text, re.M)
+            n2 = re.search(r"^kw\.crosscomp2\.last_index_master2 (\d+)$", text, re.M)
+            if n1:
+                assert (int(n1.group(1)) + 1) * (int(n2.group(1)) + 1) <= PLANE_MAX_POINTS
+    assert reserved == {"10201"} == {str(PLANE_MAX_POINTS)}

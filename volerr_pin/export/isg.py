@@ -51,6 +51,11 @@ __all__ = ["ISG"]
 UNITS = (0.1 * UM, 1e-4 * DEG)
 VALUE_LIMIT = 32767
 LIMITS = {"ssfk": 1499, "crosscomp": 1000, "crosscomp2": 2500}
+#: ``kw.crosscomp2.max_points`` (P-COMP-00061), written fixed: the manual's default, 101 x 101. The
+#: kernel reserves the table's memory at start-up and refuses another value on reloading the
+#: lists ("can no longer be changed after start-up or after lists are reloaded", error 110640): a
+#: re-export with another grid must load without a restart, so the value never follows the grid
+PLANE_MAX_POINTS = 10201
 LINE_RE = re.compile(r"^\s*(?P<key>[a-z_0-9.\[\]]+)\s+(?P<value>\S+)\s*$", re.IGNORECASE)
 
 
@@ -232,7 +237,8 @@ class ISG:
         errors = np.rint(-t.values / unit).astype(int)
         lines = [f"# plane compensation: {machine.axes[t.output]} over {machine.axes[m1]} (master 1) and "
                  f"{machine.axes[m2]} (master 2); table[j][i]: j along master 2",
-                 "kw.crosscomp2.unit 1", f"kw.crosscomp2.max_points {errors.size}",
+                 "# max_points: the manual's default, the same in every export (fixed at start-up, error 110640)",
+                 "kw.crosscomp2.unit 1", f"kw.crosscomp2.max_points {PLANE_MAX_POINTS}",
                  f"kw.crosscomp2.interval {spacing}",
                  f"kw.crosscomp2.last_index_master1 {len(g1) - 1}", f"kw.crosscomp2.last_index_master2 {len(g2) - 1}",
                  f"kw.crosscomp2.start_position_master1 {int(round(g1[0] / UNITS[0]))}",
