@@ -136,7 +136,11 @@ class Fanuc:
         if used > self.total_points:
             raise InputError(f"nodes: {used} pitch error points in all; the CNC holds {self.total_points}",
                              parameters=("nodes",))
-        return SetpointTables(tuple(tables), len(machine.axes), kind="pitch")
+        rotary = [a for a, k in zip(machine.axes, machine.axis_kinds) if k == "rotary"]
+        notes = [f"rotary axes {', '.join(rotary)}: their points are numbered as a linear-type axis' are; set them up "
+                 "as linear-type axes for pitch error compensation (the 0i manual's rotary-type form, whose farthest "
+                 "negative point is the reference position's own number, is not written)"] if rotary else []
+        return SetpointTables(tuple(tables), len(machine.axes), notes, kind="pitch")
 
     def _magnification(self, values: np.ndarray, unit: float) -> int:
         """Smallest magnification (1..100) at which every increment fits +-127."""

@@ -50,6 +50,12 @@ def com_name(axis: str) -> str:
     return f"{axis}.COM"
 
 
+#: which TNC generation the files are for (said in every report)
+GENERATION = ("the .COM tables are in the AXISPOS column layout of the later controls (as the MANUALplus 620 "
+              "manual enters them): the TNC 407/415/425 manual describes compensation points from a datum at a "
+              "power-of-two spacing instead, which these files do not write")
+
+
 class Heidenhain:
     """HEIDENHAIN TNC nonlinear axis error compensation (.COM tables, .CMA assignment)."""
 
@@ -98,7 +104,12 @@ class Heidenhain:
             tables.append(own_table(machine, zone, m, count, UNITS, directional=True))
             if kind == "cross" and m in lin:
                 tables += [cross_table(machine, zone, s, m, count, UNITS) for s in lin if s != m]
-        return SetpointTables(tuple(tables), len(machine.axes), kind=kind)
+        notes = [GENERATION]
+        rotary = [a for a, k in zip(machine.axes, machine.axis_kinds) if k == "rotary"]
+        if rotary:
+            notes.append(f"rotary axes {', '.join(rotary)}: their entries follow the zone's angles (may be below 0 or "
+                         "beyond 360 deg); the TNC 407/415/425 accepts rotary entries from 0 to 360 deg only")
+        return SetpointTables(tuple(tables), len(machine.axes), notes, kind=kind)
 
     def quantise(self, compensation: SetpointTables, machine: Machine) -> SetpointTables:
         """Values rounded to 0.0001 mm / deg.
