@@ -46,7 +46,8 @@ def _unknown(text: str, column: int) -> Problem:
     return problem
 
 
-def classify(reader: Interpreter, line: str, number: int, state: ModalState) -> tuple[Block | None, Problem | None]:
+def classify(reader: Interpreter, line: str, number: int, state: ModalState,
+             code: str | None = None) -> tuple[Block | None, Problem | None]:
     """Read a line, and say whether it can be followed.
 
     Parameters
@@ -60,6 +61,9 @@ def classify(reader: Interpreter, line: str, number: int, state: ModalState) -> 
     state : ModalState
         The modal state before the block (``canned``, ``programs`` and ``region`` are
         updated).
+    code : str, optional
+        The line with its comments blanked out
+        (:func:`~volerr_pin.gcode.lexer.mask_comments`), when the caller has it.
 
     Returns
     -------
@@ -76,7 +80,7 @@ def classify(reader: Interpreter, line: str, number: int, state: ModalState) -> 
     GcodeError
         A line that cannot be read (see :func:`~volerr_pin.gcode.lexer.parse_block`).
     """
-    code = mask_comments(line, number, reader.source)
+    code = mask_comments(line, number, reader.source) if code is None else code
     if state.regions:
         return None, _in_region(reader, code, number, state)
     keyword = KEYWORD.match(code)

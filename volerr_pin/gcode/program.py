@@ -279,14 +279,15 @@ class Program(ChunkWriting):
                 coord_words = [w for w in words if w.letter in reader.axes]
                 return self._entry(block, newline, number, state, state.lost,
                                    move_of(reader, block, state, coord_words, not state.tool_tip))
-        code = mask_comments(body, number, reader.source).upper()
+        masked = mask_comments(body, number, reader.source)
+        code = masked.upper()
         if self.flow.line(code, number):
             body_of = self.flow.body[0] if self.flow.body else None
             reader.notes.add(number, f"the body of subroutine o{body_of.lower()} kept unchanged: it runs where it "
                              "is called" if body_of else "the end of a subroutine body kept unchanged")
             self.report.passed_through += 1
             return ("raw", body + newline)
-        block, problem = kept.classify(reader, body, number, state)
+        block, problem = kept.classify(reader, body, number, state, masked)
         if problem:
             if self.strict:
                 raise GcodeError(f"{reader.source}:{number}: {problem} cannot be compensated (strict refuses it; "

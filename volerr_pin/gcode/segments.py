@@ -100,10 +100,11 @@ def interpret(machine: Machine, text: str, source: str = "<program>", start=None
     flow = Flow(source)
     out = []
     for number, (body, _) in enumerate(split_lines(text), start=1):
-        code = mask_comments(body, number, source).upper()
+        masked = mask_comments(body, number, source)
+        code = masked.upper()
         if flow.line(code, number):
             continue   # a subroutine body runs where it is called
-        block, problem = kept.classify(reader, body, number, state)
+        block, problem = kept.classify(reader, body, number, state, masked)
         if problem:
             kept.skip(reader, body, state, block, number)
             flow.called(code, state, f"{source}:{number}")
