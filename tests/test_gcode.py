@@ -945,3 +945,28 @@ def test_a_subroutine_body_runs_where_it_is_called(machines):
     # a body that saves the modes with M73 leaves none in force after its return
     restored = SUB.replace("o100 sub\n", "o100 sub\nM73\n")
     assert interpret(m, restored)[-1].end[2] == pytest.approx(5e-3)
+
+
+G92_RESETS = "G92.1\nG0 X100 Y100 Z50\nG1 X200 F100\nG92 X0 Y0\nG1 X10\nG92.2\nG1 X150\nG92.3\nG1 X20\nG92.1\nG1 X250\nM30\n"
+
+
+def test_g92_resets_end_a_shift_and_g92_3_starts_one(machines):
+    """Bare G92.1 and G92.2 leave coordinates as the program's origin reads them (LinuxCNC resets
+    or sets aside the G92 offsets): they end a G92 region, and before any shift they change
+    nothing (43 of LinuxCNC's sample programs were refused for them). G92.3 restores offsets
+    from the parameters, which the reader cannot know: a region of its own, to G92.1 / G92.2."""
+    out, report = compensate_program(machines["vmc500"], G92_RESETS)
+    lines = out.splitlines()
+    assert lines[0] == "G92.1" and lines[1] != "G0 X100 Y100 Z50"           # compensated after it
+    assert lines[4] == "G1 X10" and lines[8] == "G1 X20"                       # kept in the shifts
+    assert lines[6] != "G1 X150" and lines[10] != "G1 X250"                    # compensated after them
+    assert any(w.startswith("line 8: G92.3 (coordinate shift restored from the parameters) kept unchanged")
+               for w in report.warnings), report.warnings
+
+
+def test_a_g92_reset_with_axis_words_is_refused(machines):
+    """LinuxCNC moves to the axis words of a G92.1 block after resetting the offsets; Fanuc
+    controls preset the workpiece coordinates to them. Which a program means cannot be told."""
+    with pytest.raises(GcodeError, match=r"<program>:2:7: X5 with G92.1: LinuxCNC moves there .* Fanuc controls "
+                                         r"preset the workpiece coordinates"):
+        compensate_program(machines["vmc500"], "G0 X1 Y1 Z1\nG92.1 X5\n")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from .lexer import AXIS_LETTERS, Block, GcodeError, Word
+from .lexer import AXIS_LETTERS, SHIFT_RESETS, Block, GcodeError, Word
 
 #: G64: path blending, whose P and Q are its tolerances
 BLENDING = 64
@@ -40,6 +40,11 @@ def check_letters(reader: Interpreter, block: Block, state: ModalState, coord_wo
         Naming line, column and word.
     """
     gs = [w for w in block.words if w.letter == "G"]
+    reset = next((w for w in gs if w.value in SHIFT_RESETS), None)
+    if reset is not None and coord_words:
+        raise GcodeError(f"{reader.where(block, coord_words[0])}: {coord_words[0].name} with {reset.name}: LinuxCNC "
+                         f"moves there after resetting the G92 offsets, Fanuc controls preset the workpiece "
+                         f"coordinates to it; which cannot be told: write {reset.name} on a line of its own")
     dwell = any(w.value == 4 for w in gs)
     if dwell:
         motion = [w for w in gs if w.value in (0, 1, 2, 3)]

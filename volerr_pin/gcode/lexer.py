@@ -49,7 +49,13 @@ REGIONS = {12.1: ("polar interpolation", (13.1,)), 112: ("polar interpolation", 
            68: ("coordinate rotation", (69,)), 68.1: ("tilted working plane", (69,)),
            68.2: ("tilted working plane", (69,)), 51: ("scaling", (50,)), 51.1: ("mirror image", (50.1,)),
            43.5: ("tool orientation given as a vector", (49, 43, 44, 43.4)),
-           92: ("coordinate shift", (92.1,))}
+           92: ("coordinate shift", (92.1, 92.2)),
+           92.3: ("coordinate shift restored from the parameters", (92.1, 92.2))}
+#: G codes that end every coordinate shift (LinuxCNC: G92.1 resets the G92 offsets, G92.2 sets
+#: them aside): bare, they leave coordinates as the program's origin reads them. With axis words
+#: the dialects part (LinuxCNC moves there in the modal motion; on Fanuc controls G92.1 presets
+#: the workpiece coordinates to them), so such a block is refused
+SHIFT_RESETS = (92.1, 92.2)
 # shifts of the program's zero that last until a block of the same code sets them back to zero
 # (G52 X0 Y0 Z0): every block while one axis is shifted is kept unchanged
 SHIFTS = {52: "local coordinate system"}
@@ -73,7 +79,7 @@ WORK_OFFSETS = {54, 55, 56, 57, 58, 59, 54.1, 59.1, 59.2, 59.3}
 # passed through with a warning), never read as a move
 G_GROUPS = {
     **dict.fromkeys((0, 1, 2, 3), "motion"),
-    **dict.fromkeys((4, 9, 10, 27, 28, 29, 30, 31, 52, 53, 65, 92), "non-modal"),
+    **dict.fromkeys((4, 9, 10, 27, 28, 29, 30, 31, 52, 53, 65, 92, 92.1, 92.2, 92.3), "non-modal"),
     **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
     **dict.fromkeys((40, 41, 42), "cutter compensation"),
     **dict.fromkeys((43, 44, 43.4, 43.5, 49), "tool length offset"),
