@@ -289,7 +289,7 @@ START = "G90 G21 G17 G0 X100 Y100 Z100\n"
     ("G1 X150 R2", "2:9", r"R2: R on a straight move \(G1\).*corner rounding"),
     ("G1 X150 I2", "2:9", "I2: I on a straight move"),
     ("I2", "2:1", "I2: I outside an arc move"),
-    ("G2 I50", "2:4", "I50: an arc without end point words"),
+    ("G2 R50", "2:4", "R50: an arc without end point words: only a full circle may leave them out"),
     ("G1 X150 P2", "2:9", "P2: P words mean nothing this reader knows here"),
     ("G1 X150 Q2", "2:9", "Q2: Q words mean nothing"),
     ("G1 X150 L2", "2:9", "L2: L words mean nothing"),
@@ -970,3 +970,19 @@ def test_a_g92_reset_with_axis_words_is_refused(machines):
     with pytest.raises(GcodeError, match=r"<program>:2:7: X5 with G92.1: LinuxCNC moves there .* Fanuc controls "
                                          r"preset the workpiece coordinates"):
         compensate_program(machines["vmc500"], "G0 X1 Y1 Z1\nG92.1 X5\n")
+
+
+FULL_CIRCLES = "G0 X100 Y100 Z50 F100\nG2 I10\nG3 J-5\nG1 X120\nM30\n"
+
+
+def test_a_full_circle_without_end_words_turns_where_the_tool_stands(machines):
+    """``G2 I10`` turns a full circle about the centre from where the tool stands back to it, as
+    LinuxCNC reads it (two sample programs were refused for it); its compensated pieces get end
+    words, the first before its centre words."""
+    m = machines["vmc500"]
+    arcs = [s.arc for s in interpret(m, FULL_CIRCLES) if s.kind == "arc"]
+    np.testing.assert_allclose([np.asarray(a.center) * 1e3 for a in arcs], [[110, 100], [100, 95]], atol=1e-9)
+    assert [round(abs(a.sweep) / (2 * math.pi), 12) for a in arcs] == [1.0, 1.0]
+    out, report = compensate_program(m, FULL_CIRCLES, tol_um=1.0)
+    assert re.match(r"G2 X\d+\.\d{4} Y\d+\.\d{4} Z\d+\.\d{4} I\d", out.splitlines()[1]), out.splitlines()[1]
+    assert round_trip(m, FULL_CIRCLES, out)[0] <= 1e-6 + 1e-9

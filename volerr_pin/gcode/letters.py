@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from .lexer import AXIS_LETTERS, SHIFT_RESETS, Block, GcodeError, Word
+from .lexer import AXIS_LETTERS, CENTRE, PLANES, SHIFT_RESETS, Block, GcodeError, Word
 
 #: G64: path blending, whose P and Q are its tolerances
 BLENDING = 64
@@ -12,7 +12,31 @@ BLENDING = 64
 if TYPE_CHECKING:
     from .modal import Interpreter, ModalState
 
-__all__ = ["check_letters"]
+__all__ = ["check_letters", "full_circle"]
+
+
+def full_circle(block: Block, state: ModalState) -> bool:
+    """Whether a block is a full circle without end words: an arc move (G2 / G3, modal or
+    written) with a centre word of its plane and no axis word, which LinuxCNC turns about the
+    centre from where the tool stands back to it (R alone cannot: no end words, no circle).
+
+    Parameters
+    ----------
+    block : Block
+        The block.
+    state : ModalState
+        The modal state after its G codes.
+
+    Returns
+    -------
+    bool
+        True for such a block.
+    """
+    if state.motion not in (2, 3):
+        return False
+    plane = PLANES[state.plane]
+    letters = {w.letter for w in block.words}
+    return bool(letters & {CENTRE[plane[0]], CENTRE[plane[1]]}) and not letters & set(AXIS_LETTERS)
 
 
 def check_letters(reader: Interpreter, block: Block, state: ModalState, coord_words: list[Word]) -> None:
@@ -54,7 +78,7 @@ def check_letters(reader: Interpreter, block: Block, state: ModalState, coord_wo
         if other:
             raise GcodeError(f"{reader.where(block, other[0])}: {other[0].name} in a dwell (G4): a dwell "
                              "takes its time in P or X and moves no axis")
-    arc_move = bool(coord_words) and not dwell and state.motion in (2, 3)
+    arc_move = not dwell and state.motion in (2, 3) and (bool(coord_words) or full_circle(block, state))
     has_m = None
     for w in block.words:
         letter = w.letter
@@ -67,8 +91,8 @@ def check_letters(reader: Interpreter, block: Block, state: ModalState, coord_wo
             if arc_move:
                 continue
             if state.motion in (2, 3) and not coord_words:
-                why = ("an arc without end point words: write its end point (a full circle ends where it "
-                       "starts)")
+                why = ("an arc without end point words: only a full circle may leave them out, given by the "
+                       "centre words of its plane (R gives none)")
             elif coord_words and state.motion in (0, 1):
                 why = (f"{letter} on a straight move (G{state.motion}): I, J, K and R belong to arcs; corner "
                        "rounding and chamfers are not understood")

@@ -20,7 +20,7 @@ from ..errors import InputError
 from ..machine import Machine
 from ..units import INCH, MM
 from .arcs import read_arc
-from .letters import check_letters
+from .letters import check_letters, full_circle
 from .lexer import (AUTORESTORE_MODES, AXIS_LETTERS, CANNED, FORGET_MODES, RESTORE_MODES, SAVE_MODES, TOOL_CHANGE_M,
                     TOOL_TIP_OFF, TOOL_TIP_ON, WORK_OFFSETS, Block, GcodeError, Word, check_words)
 from .report import Warnings
@@ -487,7 +487,7 @@ class Interpreter:
         dwell = 4 in gs
         check_letters(self, block, state, coord_words)
         move = None
-        if coord_words and not dwell:
+        if (coord_words or full_circle(block, state)) and not dwell:
             move = self._move(block, state, coord_words, check_travel and not state.tool_tip)
         if any(w.letter == "M" and w.value == TOOL_CHANGE_M for w in block.words):
             state.lose_position(f"line {block.number}'s M{TOOL_CHANGE_M} tool change")

@@ -288,7 +288,8 @@ class Writer:
     def rewrite(self, block: Block, piece, prev, st: dict, motion: int, coord_words: list[Word], drop=(),
                 append_missing: bool = True, feed: str | None = None) -> str:
         """The original line with the numbers of its coordinate words replaced in place;
-        axes it did not name are appended after its last coordinate word. For an arc the
+        axes it did not name are appended after its last coordinate word (a full circle
+        without end words gets them before its centre words). For an arc the
         centre words are replaced likewise; an arc piece that had to become a line gets G1
         and loses its centre words. A block that relied on the modal motion gets an explicit
         motion word when the output's modal motion differs.
@@ -337,7 +338,9 @@ class Writer:
             remove(w)
         if feed is not None:
             edits.extend((w.start, w.end, text[w.start] + feed) for w in block.words if w.letter == "F")
-        anchor = max(w.end for w in coord_words)
+        # a full circle without end words (G2 I10) gets its end words before its centre words
+        lead = None if coord_words else min(w.start for w in block.words if w.letter in "IJK")
+        anchor = max(w.end for w in coord_words) if coord_words else lead
         g_new = self.g_of(piece, motion)
         motion_words = [w for w in block.words if w.letter == "G" and w.value in (0, 1, 2, 3)]
         if motion_words:
@@ -345,7 +348,7 @@ class Writer:
             if int(last.value) != g_new:
                 edits.append((last.start, last.end, f"G{g_new}"))
         elif st["out_motion"] != g_new:
-            first = min(w.start for w in coord_words)
+            first = min(w.start for w in coord_words) if coord_words else lead
             edits.append((first, first, f"G{g_new} "))
         st["out_motion"] = g_new
         if motion in (2, 3):
@@ -363,6 +366,9 @@ class Writer:
             for w in block.words:  # turns (P): every piece is less than a quarter turn
                 if w.letter == "P":
                     remove(w)
+            if lead is not None and extra:
+                edits.append((lead, lead, " ".join(extra) + " "))
+                extra = []
             extra += list(new.values())
             anchor = max([anchor] + [w.end for w in centre_words])
         if extra:
