@@ -986,3 +986,14 @@ def test_a_full_circle_without_end_words_turns_where_the_tool_stands(machines):
     out, report = compensate_program(m, FULL_CIRCLES, tol_um=1.0)
     assert re.match(r"G2 X\d+\.\d{4} Y\d+\.\d{4} Z\d+\.\d{4} I\d", out.splitlines()[1]), out.splitlines()[1]
     assert round_trip(m, FULL_CIRCLES, out)[0] <= 1e-6 + 1e-9
+
+
+def test_nothing_after_the_programs_end_is_read(machines):
+    """A controller reads nothing after M2 / M30: notes there ("These ..." reads as a T word) and
+    anything else are kept unchanged and named, not read (four sample programs were refused)."""
+    program = "G0 X100 Y100 Z50\nG1 X200 F100 M30\nThese are notes: T is not read\nG1 X300\n"
+    out, report = compensate_program(machines["vmc500"], program)
+    assert out.splitlines()[2:] == program.splitlines()[2:] and out.splitlines()[1] != "G1 X200 F100 M30"
+    assert "lines 3-4: after the program's end (line 2's M2 / M30) kept unchanged: a controller does not read it" \
+        in report.warnings
+    assert [s.line for s in interpret(machines["vmc500"], program)] == [1, 2]

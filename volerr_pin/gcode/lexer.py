@@ -108,6 +108,7 @@ USER_M = range(100, 200)
 #: restored at the return from the subroutine it stands in
 SAVE_MODES, FORGET_MODES, RESTORE_MODES, AUTORESTORE_MODES = 70, 71, 72, 73
 TOOL_CHANGE_M = 6  # its macro moves the axes to the change position: the position is lost
+PROGRAM_END = (2, 30)  # M codes that end the program: a controller reads nothing after them
 LATE_M = (0, 1, 2, 5, 9, 30)  # M codes that act at the end of their block's move
 PLANES = {17: ("X", "Y", "Z"), 18: ("Z", "X", "Y"), 19: ("Y", "Z", "X")}  # arc plane axes, then the third
 CENTRE = {"X": "I", "Y": "J", "Z": "K"}  # the arc centre word of each linear axis

@@ -18,7 +18,7 @@ from ..compensation.moves import ARC, LINE, POINT
 from ..compensation.path import PathCompensator
 from ..machine import Machine
 from .flow import Flow
-from .lexer import WORK_OFFSETS, Block, GcodeError, mask_comments, split_lines
+from .lexer import PROGRAM_END, WORK_OFFSETS, Block, GcodeError, mask_comments, split_lines
 from . import kept
 from .modal import Interpreter, check_axes, move_of
 from .report import Report
@@ -192,6 +192,7 @@ class Program(ChunkWriting):
         runs = self._runs if self._plain is not None else None
         fast = runs is not None and runs.takes(state)
         run = None  # the open run of plain lines
+        ended = 0   # the line of the M2 / M30 that ended the program
         for number, (body, newline) in enumerate(lines, start=1):
             if self._eol is None and newline:
                 self._eol = newline
@@ -220,7 +221,16 @@ class Program(ChunkWriting):
             if run is not None:
                 entries += self._close(run, state)
                 run = None
+            if ended:
+                # after M2 / M30 the program has ended: a controller reads nothing more
+                reader.notes.add(number, f"after the program's end (line {ended}'s M2 / M30) kept unchanged: a "
+                                 "controller does not read it")
+                entries.append(("raw", body + newline))
+                continue
             entry = self._read(body, newline, number, state)
+            if entry[0] in ("plain", "move") and any(w.letter == "M" and w.value in PROGRAM_END
+                                                      for w in entry[1].words):
+                ended, fast = number, False
             if entry[0] == "move":
                 if mode is not None and entry[3].mode != mode:
                     self._flush(entries, write)

@@ -9,7 +9,7 @@ import numpy as np
 from ..compensation.arcs import Arc
 from ..machine import Machine
 from .flow import Flow
-from .lexer import mask_comments, split_lines
+from .lexer import PROGRAM_END, mask_comments, split_lines
 from . import kept
 from .modal import Interpreter
 
@@ -110,14 +110,20 @@ def interpret(machine: Machine, text: str, source: str = "<program>", start=None
             flow.called(code, state, f"{source}:{number}")
             continue
         move = reader.advance(block, state, check_travel=False)
-        if move is None:
-            continue
-        mode = "tool-tip" if move.tool_tip else "axes"
-        if not move.start_known.all() or move.motion == 0:
-            out.append(Segment(number, "rapid", move.start, move.target, programming=mode))
-        elif move.motion == 1:
-            out.append(Segment(number, "line", move.start, move.target, programming=mode))
-        else:
-            out.append(Segment(number, "arc", move.start, move.target,
-                               reader.arc(block, move.start, move.target, move.motion == 2, state), mode))
+        if move is not None:
+            out.append(_segment(reader, block, move, state, number))
+        if any(w.letter == "M" and w.value in PROGRAM_END for w in block.words):
+            break   # the program ends: nothing after it is read
     return out
+
+
+def _segment(reader: Interpreter, block, move, state, number: int) -> Segment:
+    """The segment of a block's move: a rapid (also a move from an unknown position), a line or
+    an arc."""
+    mode = "tool-tip" if move.tool_tip else "axes"
+    if not move.start_known.all() or move.motion == 0:
+        return Segment(number, "rapid", move.start, move.target, programming=mode)
+    if move.motion == 1:
+        return Segment(number, "line", move.start, move.target, programming=mode)
+    return Segment(number, "arc", move.start, move.target,
+                   reader.arc(block, move.start, move.target, move.motion == 2, state), mode)
