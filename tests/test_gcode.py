@@ -997,3 +997,33 @@ def test_nothing_after_the_programs_end_is_read(machines):
     assert "lines 3-4: after the program's end (line 2's M2 / M30) kept unchanged: a controller does not read it" \
         in report.warnings
     assert [s.line for s in interpret(machines["vmc500"], program)] == [1, 2]
+
+
+LATHE_DIAMETER = """G18 G21 G90 G7
+G0 X80 Z-10
+G1 X80 Z-20 F100
+G2 X120 Z-30 R15
+G1 Z-60
+G3 X140 Z-70 I10 K0
+G91 G1 X10
+G90 G8
+G1 X40
+M30
+"""
+
+
+def test_lathe_diameter_mode_reads_x_as_a_diameter(machines):
+    """LinuxCNC's G7: X words are diameters (absolute and incremental), the centre word I stays
+    a radius; G8 returns to radii. The diameter program is the radius profile's (LATHE_PROFILE)
+    to the micrometre, as LinuxCNC reads both, and is written back in diameters (14 sample
+    programs were refused for G7)."""
+    m = machines["lathe_2axis"]
+    diameter, radius = interpret(m, LATHE_DIAMETER), interpret(m, LATHE_PROFILE)
+    for d, r in zip(diameter, radius):
+        np.testing.assert_allclose(d.end, r.end, atol=1e-12)
+        if d.kind == "arc":
+            np.testing.assert_allclose(d.arc.center, r.arc.center, atol=1e-12)
+    assert diameter[5].end[1] == pytest.approx(0.075) and diameter[6].end[1] == pytest.approx(0.04)
+    out, _ = compensate_program(m, LATHE_DIAMETER, tol_um=1.0)
+    x = [float(v) for v in re.findall(r"X(-?[\d.]+)", out)]
+    assert x[0] == pytest.approx(80, abs=0.01) and x[-1] == pytest.approx(40, abs=0.01)   # diameter, then radius

@@ -17,7 +17,7 @@ import pytest
 import volerr_pin as vp
 from volerr_pin.gcode import compensate_program, interpret
 
-from test_gcode import FULL_CIRCLES, G90_1, LATHE_PROFILE, PROGRAM_500, PROGRAM_700, PROGRAM_CGM, SUB
+from test_gcode import FULL_CIRCLES, G90_1, LATHE_DIAMETER, LATHE_PROFILE, PROGRAM_500, PROGRAM_700, PROGRAM_CGM, SUB
 
 RS274 = shutil.which("rs274")
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(
@@ -37,7 +37,7 @@ PROGRAMS = [
     ("vmc500", PROGRAM_500), ("vmc500", G90_1), ("vmc500", M72), ("vmc500", SUB), ("vmc500", FULL_CIRCLES),
     ("vmc500", "G64 P0.01 Q0.001\nG0 X100 Y100 Z50\nG1 X200 F100\nG2 X300 Y100 R50\nM30\n"),
     ("vmc700", PROGRAM_700), ("vmc700", (ROOT / "examples" / "data" / "part.nc").read_text()),
-    ("cgm4000", PROGRAM_CGM), ("lathe_2axis", LATHE_PROFILE),
+    ("cgm4000", PROGRAM_CGM), ("lathe_2axis", LATHE_PROFILE), ("lathe_2axis", LATHE_DIAMETER),
 ]
 
 

@@ -17,7 +17,7 @@ from ..compensation.arcs import RADIUS_SLACK, sweep_of, sweeps
 from ..compensation.path import Piece
 from ..units import INCH, MM
 from .arcs import ARC_SLACK, centre_from_radius
-from .lexer import CENTRE, PLANES, Block
+from .lexer import CENTRE, DIAMETER_AXIS, PLANES, Block
 
 __all__ = ["ArcWords"]
 
@@ -120,7 +120,7 @@ class ArcWords:
         plane = PLANES[st["plane"]]
         i, j = reader.axes.index(plane[0]), reader.axes.index(plane[1])
         d = self.writer.digits(plane[0], inch)
-        s = self.writer.written(prev, inch) if written is None else written[0]
+        s = self.writer.written(prev, inch, st.get("diameter", False)) if written is None else written[0]
         out = {}
         if "ijk" in forms:
             origin = self.writer.origin if st.get("centres_absolute") else None
@@ -128,7 +128,7 @@ class ArcWords:
                 base = s[k] if origin is None else origin[k]
                 out[CENTRE[axis]] = round(reader.from_si(axis, float(c - base), inch), d)
         if "r" in forms:
-            e = self.writer.written(piece.end, inch) if written is None else written[1]
+            e = self.writer.written(piece.end, inch, st.get("diameter", False)) if written is None else written[1]
             r = 0.5 * (math.hypot(s[i] - piece.center[0], s[j] - piece.center[1]) +
                        math.hypot(e[i] - piece.center[0], e[j] - piece.center[1]))
             out["R"] = round(reader.from_si(plane[0], float(-r if abs(piece.turns) > math.pi else r), inch), d)
@@ -189,7 +189,8 @@ class ArcWords:
         plane = PLANES[st["plane"]]
         i, j = (reader.axes.index(a) for a in plane[:2])
         if written is None:
-            written = self.writer.written(prev, inch), self.writer.written(piece.end, inch)
+            diameter = st.get("diameter", False)
+            written = self.writer.written(prev, inch, diameter), self.writer.written(piece.end, inch, diameter)
         s, e = written
         vals = self.centre_values(piece, prev, st, forms, written)
         if any(abs(v) >= 10.0 ** (MAX_DIGITS - self.writer.digits(plane[0], inch)) for v in vals.values()):
@@ -250,7 +251,8 @@ class ArcWords:
         return math.sqrt(worst)
 
     def errors(self, start: np.ndarray, end: np.ndarray, center: np.ndarray, turns: np.ndarray,
-               plane: np.ndarray, inch: np.ndarray, absolute: np.ndarray | None = None) -> np.ndarray:
+               plane: np.ndarray, inch: np.ndarray, absolute: np.ndarray | None = None,
+               diameter: np.ndarray | None = None) -> np.ndarray:
         """:meth:`arc_error` of many arc pieces at once, written with centre words (I/J/K)
         after the piece before them (the start as written is the piece's start rounded).
 
@@ -273,6 +275,8 @@ class ArcWords:
         absolute : ndarray of bool, shape (P,), optional
             Whether their centres are written as absolute coordinates (G90.1) rather than as
             offsets from the start (default: offsets).
+        diameter : ndarray of bool, shape (P,), optional
+            Whether X is written as a diameter (G7; default: a radius).
 
         Returns
         -------
@@ -298,9 +302,13 @@ class ArcWords:
         digits = np.where(inch[:, None], [[writer.digits(a, True) for a in axes]],
                           [[writer.digits(a, False) for a in axes]])
         power = 10.0 ** digits
+        # positions as written: an X word in diameter mode (G7) is twice the radius; centre words
+        # (I) stay radii
+        halved = np.zeros(count, dtype=bool) if diameter is None else np.asarray(diameter, dtype=bool)
+        position_scale = np.where(halved[:, None] & (np.array(axes) == DIAMETER_AXIS), 0.5 * scale, scale)
 
         def written(q):
-            return np.rint((q - origin) / scale * power) / power * scale + origin
+            return np.rint((q - origin) / position_scale * power) / power * position_scale + origin
 
         s, e = written(start), written(end)
         d = digits[rows, i]
@@ -385,8 +393,8 @@ class ArcWords:
                 if errors is not None and piece_forms == {"ijk"}:
                     error = errors[n]
                 else:
-                    start = written(prev, st["inch"]) if start is None else start
-                    end = written(piece.end, st["inch"])
+                    start = written(prev, st["inch"], st.get("diameter", False)) if start is None else start
+                    end = written(piece.end, st["inch"], st.get("diameter", False))
                     error = self.arc_error(piece, prev, st, piece_forms, (start, end))
                 if error > max(self.writer.tol - piece.residual, rounding):
                     out.extend(self.chords(piece, st))

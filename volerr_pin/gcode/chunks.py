@@ -145,13 +145,15 @@ class ChunkWriting:
         plane = np.full(total, 17)
         inch = np.zeros(total, dtype=bool)
         absolute = np.zeros(total, dtype=bool)
+        diameter = np.zeros(total, dtype=bool)
         plane[singles] = [mv.modes["plane"] for mv in ones]  # (runs of plain lines hold no arcs)
         inch[singles] = [mv.modes["inch"] for mv in ones]
         absolute[singles] = [mv.modes["centres_absolute"] for mv in ones]
+        diameter[singles] = [mv.modes["diameter"] for mv in ones]
         moves = ps.move[rows]
         errors = np.full(len(ps.arc), np.nan)
         errors[rows] = self.writer.arcs.errors(ps.cw0[rows], ps.cw1[rows], ps.center[rows], ps.sweep[rows],
-                                               plane[moves], inch[moves], absolute[moves])
+                                               plane[moves], inch[moves], absolute[moves], diameter[moves])
         return errors.tolist()
 
     def move_at(self, i: int) -> _Move:

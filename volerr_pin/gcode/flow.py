@@ -21,8 +21,8 @@ from .lexer import AUTORESTORE_MODES, GcodeError, word_values
 __all__ = ["Flow"]
 
 #: a LinuxCNC O-word statement: its name (a number or <name>) and keyword
-O_WORD = re.compile(r"[ \t]*(?:N[ \t]*[0-9]+[ \t]*)?O[ \t]*([0-9]+|<[^>]*>)[ \t]*"
-                    r"(SUB|ENDSUB|CALL|WHILE|ENDWHILE|DO|REPEAT|ENDREPEAT|IF|ELSEIF|ELSE|ENDIF|RETURN|BREAK|CONTINUE)\b")
+O_WORD = re.compile(r"[ \t]*(?:N[ \t]*[0-9]+[ \t]*)?O[ \t]*([0-9]+|<[^>]*>)[ \t]*(SUB|ENDSUB|CALL|WHILE|"
+                    r"ENDWHILE|DO|REPEAT|ENDREPEAT|IF|ELSEIF|ELSE|ENDIF|RETURN|BREAK|CONTINUE)\b")
 #: a Fanuc macro loop's start (WHILE [...] DOn) and end (ENDn), and a jump (GOTO n)
 FANUC_DO = re.compile(r"\bWHILE\b.*\bDO[ \t]*([0-9]+)")
 FANUC_END = re.compile(r"^[ \t]*(?:N[ \t]*[0-9]+[ \t]*)?END[ \t]*([0-9]+)\b")

@@ -89,7 +89,8 @@ G_GROUPS = {
     **dict.fromkeys((61, 64), "path control"),
     **dict.fromkeys((66, 67), "modal macro"), **dict.fromkeys((68, 68.1, 68.2, 69), "coordinate rotation"),
     **dict.fromkeys(CANNED | {80}, "canned cycle"), **dict.fromkeys((90, 91), "distance"),
-    **dict.fromkeys((90.1, 91.1), "arc centre distance"), **dict.fromkeys((93, 94, 95), "feed"),
+    **dict.fromkeys((90.1, 91.1), "arc centre distance"), **dict.fromkeys((7, 8), "lathe diameter"),
+    **dict.fromkeys((93, 94, 95), "feed"),
     **dict.fromkeys((96, 97), "spindle speed"), **dict.fromkeys((98, 99), "canned cycle return")}
 # M codes the reader knows, by group; two of one group in a block contradict each other
 # (except mist and flood coolant, M7 M8, which run together). An M code not listed may change
@@ -109,6 +110,9 @@ USER_M = range(100, 200)
 SAVE_MODES, FORGET_MODES, RESTORE_MODES, AUTORESTORE_MODES = 70, 71, 72, 73
 TOOL_CHANGE_M = 6  # its macro moves the axes to the change position: the position is lost
 PROGRAM_END = (2, 30)  # M codes that end the program: a controller reads nothing after them
+#: the axis whose words are diameters in LinuxCNC's lathe diameter mode (G7; G8 radius mode),
+#: its centre word I staying a radius
+DIAMETER_AXIS = "X"
 LATE_M = (0, 1, 2, 5, 9, 30)  # M codes that act at the end of their block's move
 PLANES = {17: ("X", "Y", "Z"), 18: ("Z", "X", "Y"), 19: ("Y", "Z", "X")}  # arc plane axes, then the third
 CENTRE = {"X": "I", "Y": "J", "Z": "K"}  # the arc centre word of each linear axis

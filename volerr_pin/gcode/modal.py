@@ -21,8 +21,8 @@ from ..machine import Machine
 from ..units import INCH, MM
 from .arcs import read_arc
 from .letters import check_letters, full_circle
-from .lexer import (AUTORESTORE_MODES, AXIS_LETTERS, CANNED, FORGET_MODES, RESTORE_MODES, SAVE_MODES, TOOL_CHANGE_M,
-                    TOOL_TIP_OFF, TOOL_TIP_ON, WORK_OFFSETS, Block, GcodeError, Word, check_words)
+from .lexer import (AUTORESTORE_MODES, AXIS_LETTERS, CANNED, DIAMETER_AXIS, FORGET_MODES, RESTORE_MODES, SAVE_MODES,
+                    TOOL_CHANGE_M, TOOL_TIP_OFF, TOOL_TIP_ON, WORK_OFFSETS, Block, GcodeError, Word, check_words)
 from .report import Warnings
 
 __all__ = ["AXIS_LETTERS", "BlockMove", "Interpreter", "ModalState", "check_axes", "move_of"]
@@ -53,6 +53,9 @@ class ModalState:
         from the arc's start (G91.1, the initial state).
     inch : bool
         Coordinates in inch (G20) rather than mm (G21).
+    diameter : bool
+        X words are diameters (LinuxCNC's lathe diameter mode, G7) rather than radii (G8, the
+        initial state); I stays a radius.
     inverse_time : bool
         Inverse time feed (G93): each block's F is the reciprocal of its time [1/min].
     canned : bool
@@ -81,6 +84,7 @@ class ModalState:
     absolute: bool = True
     centres_absolute: bool = False
     inch: bool = False
+    diameter: bool = False
     inverse_time: bool = False
     canned: bool = False
     lost: str = ""
@@ -150,6 +154,8 @@ class ModalState:
                 self.absolute = False
             elif g in (90.1, 91.1):
                 self.centres_absolute = g == 90.1
+            elif g in (7, 8):
+                self.diameter = g == 7
             elif g == 20:
                 self.inch = True
             elif g == 21:
@@ -503,10 +509,12 @@ class Interpreter:
         absolute, inch, index, scale = state.absolute, state.inch, self._index, self._scale
         for w in coord_words:
             j = index[w.letter]
+            # (in diameter mode, G7, an X word is twice the radius it commands)
+            unit = scale[w.letter, inch] * (0.5 if state.diameter and w.letter == DIAMETER_AXIS else 1.0)
             if absolute:
-                value = w.value * scale[w.letter, inch] + self.origin[j]
+                value = w.value * unit + self.origin[j]
             elif known[j]:
-                value = start[j] + w.value * scale[w.letter, inch]
+                value = start[j] + w.value * unit
             else:
                 raise GcodeError(f"{self.where(block, w)}: an incremental move of {w.letter} before its "
                                  "position is known; program it absolutely (G90) first")

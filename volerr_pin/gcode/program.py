@@ -264,7 +264,8 @@ class Program(ChunkWriting):
         if self._runs.close(run, state):
             run.kind = LINE if run.motion == 1 else POINT
             run.modes = {"absolute": True, "inch": state.inch, "plane": state.plane, "all_known": True,
-                         "inverse": state.inverse_time, "centres_absolute": state.centres_absolute}
+                         "inverse": state.inverse_time, "centres_absolute": state.centres_absolute,
+                         "diameter": state.diameter}
             return [("run", run)]
         return [self._read(body, newline, run.first + i, state)
                 for i, (body, newline) in enumerate(zip(run.bodies, run.newlines))]
@@ -344,7 +345,8 @@ class Program(ChunkWriting):
             kind = POINT
         arc = reader.arc(block, move.start, move.target, move.motion == 2, state) if kind == ARC else None
         modes = {"absolute": state.absolute, "inch": state.inch, "plane": state.plane,
-                 "all_known": all_known, "inverse": state.inverse_time, "centres_absolute": state.centres_absolute}
+                 "all_known": all_known, "inverse": state.inverse_time, "centres_absolute": state.centres_absolute,
+                 "diameter": state.diameter}
         mode = "tool-tip" if move.tool_tip else "axes"
         return ("move", block, newline, _Move(kind, move.motion, move.start, move.target, arc, move.coord_words,
                                                modes, number, mode))

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .arc_words import MAX_DIGITS, ArcWords
-from .lexer import CENTRE, LATE_M, PLANES, Block, Word
+from .lexer import CENTRE, DIAMETER_AXIS, LATE_M, PLANES, Block, Word
 from .modal import Interpreter
 
 __all__ = ["MAX_DIGITS", "Writer"]
@@ -23,8 +23,8 @@ class Writer:
     """Writes the pieces of compensated moves as program text.
 
     ``st`` in the methods is the output state: the modes the block is written in
-    (``"absolute"``, ``"inch"``, ``"plane"``, ``"all_known"``, ``"centres_absolute"``) and the
-    output's modal motion (``"out_motion"``, updated as lines are written).
+    (``"absolute"``, ``"inch"``, ``"plane"``, ``"all_known"``, ``"centres_absolute"``,
+    ``"diameter"``) and the output's modal motion (``"out_motion"``, updated as lines are written).
 
     Parameters
     ----------
@@ -56,10 +56,13 @@ class Writer:
         self._zero = {d: "-0." + "0" * d for d in (4, 5, 6)}
         self._origin = [float(v) for v in reader.origin]
         self.origin = np.asarray(self._origin)   # [m, rad], for absolute arc centres (G90.1)
-        # per output unit (inch or not): each axis' letter, decimals, scale [m or rad per unit],
-        # origin [m, rad] and the text of a negative zero
-        self._spec = {inch: [(a, self._digits[a, inch], reader._scale[a, inch], o, self._zero[self._digits[a, inch]])
-                             for a, o in zip(reader.axes, self._origin)] for inch in (False, True)}
+        # per output unit (inch or not) and diameter mode (G7: an X word is twice the radius): each
+        # axis' letter, decimals, scale [m or rad per unit], origin [m, rad] and the text of a
+        # negative zero
+        self._spec = {(inch, diameter): [
+            (a, self._digits[a, inch], reader._scale[a, inch] * (0.5 if diameter and a == DIAMETER_AXIS else 1.0), o,
+             self._zero[self._digits[a, inch]]) for a, o in zip(reader.axes, self._origin)]
+            for inch in (False, True) for diameter in (False, True)}
         self.arcs = ArcWords(self)
 
     # numbers --------------------------------------------------------------------
@@ -120,7 +123,7 @@ class Writer:
         # the arithmetic of fmt(axis, round(from_si(axis, end - origin), digits)), per axis in
         # one loop over plain floats (this runs for every piece written)
         out = {}
-        spec = self._spec[st["inch"]]
+        spec = self._spec[st["inch"], st.get("diameter", False)]
         end = end.tolist() if isinstance(end, np.ndarray) else [float(v) for v in end]
         if st["absolute"]:
             # (formatting to d decimals rounds as round(value, d) does: both give the decimal
@@ -136,7 +139,7 @@ class Writer:
             out[axis] = text[1:] if text == zero else text
         return out
 
-    def written(self, q, inch: bool) -> np.ndarray:
+    def written(self, q, inch: bool, diameter: bool = False) -> np.ndarray:
         """Program coordinates [m, rad] as the written (rounded) numbers give them back.
 
         Parameters
@@ -145,6 +148,8 @@ class Writer:
             Program coordinates [m, rad].
         inch : bool
             Whether linear values are written in inch.
+        diameter : bool, default False
+            Whether X is written as a diameter (G7).
 
         Returns
         -------
@@ -155,7 +160,7 @@ class Writer:
         # of a numpy scalar is ten times slower)
         q = q.tolist() if isinstance(q, np.ndarray) else [float(v) for v in q]
         return np.array([round((v - origin) / scale, d) * scale + origin
-                         for (_, d, scale, origin, _), v in zip(self._spec[inch], q)])
+                         for (_, d, scale, origin, _), v in zip(self._spec[inch, diameter], q)])
 
     # moves ------------------------------------------------------------------------
     def write_move(self, block: Block, newline: str, eol: str, motion: int, coord_words: list[Word],

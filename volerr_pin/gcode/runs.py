@@ -116,7 +116,7 @@ class PlainRuns:
     # reading -------------------------------------------------------------------------
     def takes(self, state: ModalState) -> bool:
         """Whether plain lines can be read as a run in this state: absolute G0 / G1 with every
-        axis known, outside canned cycles and kept regions.
+        axis known, outside canned cycles, kept regions and lathe diameter mode.
 
         Parameters
         ----------
@@ -129,7 +129,7 @@ class PlainRuns:
             True if a plain line would only move the axes it names.
         """
         return (state.motion in (0, 1) and state.absolute and not state.canned and not state.regions
-                and all(state.known.tolist()))
+                and not state.diameter and all(state.known.tolist()))
 
     def shape(self, body: str) -> _Shape | None:
         """The shape of a plain line, or None if the line is anything else.
