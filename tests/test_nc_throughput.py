@@ -16,6 +16,7 @@ import pytest
 
 from volerr_pin.gcode import parse_block
 from volerr_pin.gcode import lexer
+from volerr_pin.gcode.arc_words import arc_errors
 from volerr_pin.gcode.modal import Interpreter
 from volerr_pin.gcode.rewrite import Writer
 
@@ -371,10 +372,11 @@ def test_a_bad_line_inside_a_run_is_named_as_the_full_reader_names_it(machines, 
 
 @pytest.mark.parametrize("name", ["vmc500", "cgm4000"])
 def test_arc_read_back_errors_of_a_chunk_match_each_piece(machines, name):
-    """ArcWords.errors (a chunk's arc pieces at once) gives what ArcWords.arc_error gives piece
+    """arc_errors (a chunk's arc pieces at once) gives what ArcWords.arc_error gives piece
     by piece: random arcs in the three planes, mm and inch, with an origin, clockwise and not,
     from 0.2 um to 50 mm of radius (the smallest round to no centre, or to one whose circle
-    misses the written ends), including arcs read back as the rest of the circle."""
+    misses the written ends), including arcs read back as the rest of the circle; with centres
+    as offsets or (G90.1) absolute, X as a radius or (G7) a diameter."""
     from volerr_pin.compensation.path import Piece
 
     machine = machines[name]
@@ -397,9 +399,13 @@ def test_arc_read_back_errors_of_a_chunk_match_each_piece(machines, name):
         centre[m] = start[m, [i, j]] - radius[m] * np.array([np.cos(a0[m]), np.sin(a0[m])])
         end[m, i] = centre[m, 0] + radius[m] * np.cos(a0[m] + turns[m])
         end[m, j] = centre[m, 1] + radius[m] * np.sin(a0[m] + turns[m])
-    got = writer.arcs.errors(start, end, centre, turns, plane, inch)
+    absolute = rng.random(count) < 0.3
+    diameter = rng.random(count) < 0.3
+    got = arc_errors(writer, start, end, centre, turns, plane, inch, absolute, diameter)
     want = np.array([writer.arcs.arc_error(Piece("arc", start[m], end[m], centre[m], turns[m] < 0, turns[m]),
-                                           start[m], {"plane": plane[m], "inch": inch[m]}, {"ijk"})
+                                           start[m], {"plane": plane[m], "inch": inch[m],
+                                                      "centres_absolute": absolute[m], "diameter": diameter[m]},
+                                           {"ijk"})
                      for m in range(count)])
     finite = np.isfinite(want)
     assert 0.5 < finite.mean() < 0.99  # both outcomes occur

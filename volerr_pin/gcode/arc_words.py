@@ -19,7 +19,7 @@ from ..units import INCH, MM
 from .arcs import ARC_SLACK, centre_from_radius
 from .lexer import CENTRE, DIAMETER_AXIS, PLANES, Block
 
-__all__ = ["ArcWords"]
+__all__ = ["ArcWords", "arc_errors"]
 
 #: digits a written number may have (controllers read nine: 99999.9999 mm)
 MAX_DIGITS = 9
@@ -250,110 +250,6 @@ class ArcWords:
                 worst = gap
         return math.sqrt(worst)
 
-    def errors(self, start: np.ndarray, end: np.ndarray, center: np.ndarray, turns: np.ndarray,
-               plane: np.ndarray, inch: np.ndarray, absolute: np.ndarray | None = None,
-               diameter: np.ndarray | None = None) -> np.ndarray:
-        """:meth:`arc_error` of many arc pieces at once, written with centre words (I/J/K)
-        after the piece before them (the start as written is the piece's start rounded).
-
-        The arithmetic is :meth:`arc_error`'s on arrays; the numbers are rounded to their
-        decimals as NumPy rounds (which may differ from the written digits by a unit of the
-        last place of a double at an exact half), so the two agree to a few 1e-16 m.
-
-        Parameters
-        ----------
-        start, end : ndarray, shape (P, n_axes)
-            Program coordinates of the pieces' ends [m, rad].
-        center : ndarray, shape (P, 2)
-            Their centres in their plane [m].
-        turns : ndarray, shape (P,)
-            Their signed sweeps [rad] (< 0 clockwise).
-        plane : ndarray of int, shape (P,)
-            Their planes (17, 18, 19).
-        inch : ndarray of bool, shape (P,)
-            Whether they are written in inch.
-        absolute : ndarray of bool, shape (P,), optional
-            Whether their centres are written as absolute coordinates (G90.1) rather than as
-            offsets from the start (default: offsets).
-        diameter : ndarray of bool, shape (P,), optional
-            Whether X is written as a diameter (G7; default: a radius).
-
-        Returns
-        -------
-        ndarray, shape (P,)
-            [m]; inf where the numbers define no arc, have too many digits, or define the
-            rest of the circle.
-        """
-        writer, reader = self.writer, self.writer.reader
-        count = len(turns)
-        if count == 0:
-            return np.zeros(0)
-        axes = reader.axes
-        # a plane whose axes the machine lacks holds no arc (a 2-axis lathe has only G18's)
-        ij = np.array([[axes.index(PLANES[code][0]), axes.index(PLANES[code][1])]
-                       if PLANES[code][0] in axes and PLANES[code][1] in axes else [0, 0] for code in (17, 18, 19)])
-        plane_ij = ij[np.asarray(plane) - 17]
-        rows = np.arange(count)
-        i, j = plane_ij[:, 0], plane_ij[:, 1]
-        inch = np.asarray(inch, dtype=bool)
-        origin = np.array([float(v) for v in reader.origin])
-        scale = np.where(inch[:, None], [[reader._scale[a, True] for a in axes]],
-                         [[reader._scale[a, False] for a in axes]])
-        digits = np.where(inch[:, None], [[writer.digits(a, True) for a in axes]],
-                          [[writer.digits(a, False) for a in axes]])
-        power = 10.0 ** digits
-        # positions as written: an X word in diameter mode (G7) is twice the radius; centre words
-        # (I) stay radii
-        halved = np.zeros(count, dtype=bool) if diameter is None else np.asarray(diameter, dtype=bool)
-        position_scale = np.where(halved[:, None] & (np.array(axes) == DIAMETER_AXIS), 0.5 * scale, scale)
-
-        def written(q):
-            return np.rint((q - origin) / position_scale * power) / power * position_scale + origin
-
-        s, e = written(start), written(end)
-        d = digits[rows, i]
-        unit = scale[rows, i]
-        # the centre words are offsets from the written start, or (G90.1) coordinates from the origin
-        absolute = np.zeros(count, dtype=bool) if absolute is None else np.asarray(absolute, dtype=bool)
-        base_i = np.where(absolute, origin[i], s[rows, i])
-        base_j = np.where(absolute, origin[j], s[rows, j])
-        words = np.stack([np.rint((center[:, 0] - base_i) / unit * 10.0 ** d) / 10.0 ** d,
-                          np.rint((center[:, 1] - base_j) / unit * 10.0 ** d) / 10.0 ** d], axis=1)
-        bad = (np.abs(words) >= 10.0 ** (MAX_DIGITS - d)[:, None]).any(axis=1)
-        cx, cy = base_i + words[:, 0] * unit, base_j + words[:, 1] * unit
-        radius = np.where(absolute, np.hypot(cx - s[rows, i], cy - s[rows, j]),
-                          np.hypot(words[:, 0] * unit, words[:, 1] * unit))
-        bad |= radius <= ARC_SLACK
-        r0 = np.hypot(s[rows, i] - cx, s[rows, j] - cy)
-        r1 = np.hypot(e[rows, i] - cx, e[rows, j] - cy)
-        bad |= ~(np.isfinite(cx) & np.isfinite(cy)) | (r0 == 0.0) | (np.abs(r0 - r1) > RADIUS_SLACK)
-        a0 = np.arctan2(s[rows, j] - cy, s[rows, i] - cx)
-        a1 = np.arctan2(e[rows, j] - cy, e[rows, i] - cx)
-        sweep = sweeps(a0, a1, turns >= 0)
-        bad |= np.abs(sweep - turns) > math.pi / 2
-        # against the piece's own arc, at the same fractions
-        pcx, pcy = center[:, 0], center[:, 1]
-        pa0 = np.arctan2(start[rows, j] - pcy, start[rows, i] - pcx)
-        pr = np.hypot(start[rows, i] - pcx, start[rows, j] - pcy)
-        u = np.array(_FRACTIONS)
-        angle = a0[:, None] + u * sweep[:, None]
-        radius = r0[:, None] + u * (r1 - r0)[:, None]
-        own = pa0[:, None] + u * turns[:, None]
-        dx = cx[:, None] + radius * np.cos(angle) - (pcx[:, None] + pr[:, None] * np.cos(own))
-        dy = cy[:, None] + radius * np.sin(angle) - (pcy[:, None] + pr[:, None] * np.sin(own))
-        gap = dx * dx + dy * dy
-        linear = np.array(reader.linear)
-        for k in np.flatnonzero(linear):
-            other = (i != k) & (j != k)
-            if other.any():
-                slope = (e[:, k] - s[:, k]) - (end[:, k] - start[:, k])
-                dk = (s[:, k] - start[:, k])[:, None] + u * slope[:, None]
-                gap += np.where(other[:, None], dk * dk, 0.0)
-        with np.errstate(invalid="ignore"):
-            out = np.sqrt(gap.max(axis=1))
-        out[bad | ~np.isfinite(out)] = math.inf
-        return out
-
     def writable(self, pieces: list, st: dict, forms: set, errors=None) -> list:
         """The pieces of a move with every arc the written numbers cannot hold within the
         tolerance replaced by straight pieces (chords) along it.
@@ -371,7 +267,7 @@ class ArcWords:
         forms : set of str
             The centre forms of the original block.
         errors : sequence of float, optional
-            Per piece, :meth:`errors` as computed for the whole chunk (used for pieces written
+            Per piece, :func:`arc_errors` as computed for the whole chunk (used for pieces written
             with centre offsets).
 
         Returns
@@ -433,3 +329,110 @@ class ArcWords:
         ks = piece.k0 + u * (piece.k1 - piece.k0)
         return [Piece("line", points[m], points[m + 1], residual=piece.residual + sagitta, k0=ks[m], k1=ks[m + 1],
                       limited=piece.limited) for m in range(n)]
+
+
+def arc_errors(writer, start: np.ndarray, end: np.ndarray, center: np.ndarray, turns: np.ndarray,
+           plane: np.ndarray, inch: np.ndarray, absolute: np.ndarray | None = None,
+           diameter: np.ndarray | None = None) -> np.ndarray:
+    """:meth:`ArcWords.arc_error` of many arc pieces at once, written with centre words (I/J/K)
+    after the piece before them (the start as written is the piece's start rounded).
+
+    The arithmetic is :meth:`arc_error`'s on arrays; the numbers are rounded to their
+    decimals as NumPy rounds (which may differ from the written digits by a unit of the
+    last place of a double at an exact half), so the two agree to a few 1e-16 m.
+
+    Parameters
+    ----------
+    writer : Writer
+        The writer whose numbers (decimals, rounding, origin) are used.
+    start, end : ndarray, shape (P, n_axes)
+        Program coordinates of the pieces' ends [m, rad].
+    center : ndarray, shape (P, 2)
+        Their centres in their plane [m].
+    turns : ndarray, shape (P,)
+        Their signed sweeps [rad] (< 0 clockwise).
+    plane : ndarray of int, shape (P,)
+        Their planes (17, 18, 19).
+    inch : ndarray of bool, shape (P,)
+        Whether they are written in inch.
+    absolute : ndarray of bool, shape (P,), optional
+        Whether their centres are written as absolute coordinates (G90.1) rather than as
+        offsets from the start (default: offsets).
+    diameter : ndarray of bool, shape (P,), optional
+        Whether X is written as a diameter (G7; default: a radius).
+
+    Returns
+    -------
+    ndarray, shape (P,)
+        [m]; inf where the numbers define no arc, have too many digits, or define the
+        rest of the circle.
+    """
+    reader = writer.reader
+    count = len(turns)
+    if count == 0:
+        return np.zeros(0)
+    axes = reader.axes
+    # a plane whose axes the machine lacks holds no arc (a 2-axis lathe has only G18's)
+    ij = np.array([[axes.index(PLANES[code][0]), axes.index(PLANES[code][1])]
+                   if PLANES[code][0] in axes and PLANES[code][1] in axes else [0, 0] for code in (17, 18, 19)])
+    plane_ij = ij[np.asarray(plane) - 17]
+    rows = np.arange(count)
+    i, j = plane_ij[:, 0], plane_ij[:, 1]
+    inch = np.asarray(inch, dtype=bool)
+    origin = np.array([float(v) for v in reader.origin])
+    scale = np.where(inch[:, None], [[reader._scale[a, True] for a in axes]],
+                     [[reader._scale[a, False] for a in axes]])
+    digits = np.where(inch[:, None], [[writer.digits(a, True) for a in axes]],
+                      [[writer.digits(a, False) for a in axes]])
+    power = 10.0 ** digits
+    # positions as written: an X word in diameter mode (G7) is twice the radius; centre words
+    # (I) stay radii
+    halved = np.zeros(count, dtype=bool) if diameter is None else np.asarray(diameter, dtype=bool)
+    position_scale = np.where(halved[:, None] & (np.array(axes) == DIAMETER_AXIS), 0.5 * scale, scale)
+
+    def written(q):
+        return np.rint((q - origin) / position_scale * power) / power * position_scale + origin
+
+    s, e = written(start), written(end)
+    d = digits[rows, i]
+    unit = scale[rows, i]
+    # the centre words are offsets from the written start, or (G90.1) coordinates from the origin
+    absolute = np.zeros(count, dtype=bool) if absolute is None else np.asarray(absolute, dtype=bool)
+    base_i = np.where(absolute, origin[i], s[rows, i])
+    base_j = np.where(absolute, origin[j], s[rows, j])
+    words = np.stack([np.rint((center[:, 0] - base_i) / unit * 10.0 ** d) / 10.0 ** d,
+                      np.rint((center[:, 1] - base_j) / unit * 10.0 ** d) / 10.0 ** d], axis=1)
+    bad = (np.abs(words) >= 10.0 ** (MAX_DIGITS - d)[:, None]).any(axis=1)
+    cx, cy = base_i + words[:, 0] * unit, base_j + words[:, 1] * unit
+    radius = np.where(absolute, np.hypot(cx - s[rows, i], cy - s[rows, j]),
+                      np.hypot(words[:, 0] * unit, words[:, 1] * unit))
+    bad |= radius <= ARC_SLACK
+    r0 = np.hypot(s[rows, i] - cx, s[rows, j] - cy)
+    r1 = np.hypot(e[rows, i] - cx, e[rows, j] - cy)
+    bad |= ~(np.isfinite(cx) & np.isfinite(cy)) | (r0 == 0.0) | (np.abs(r0 - r1) > RADIUS_SLACK)
+    a0 = np.arctan2(s[rows, j] - cy, s[rows, i] - cx)
+    a1 = np.arctan2(e[rows, j] - cy, e[rows, i] - cx)
+    sweep = sweeps(a0, a1, turns >= 0)
+    bad |= np.abs(sweep - turns) > math.pi / 2
+    # against the piece's own arc, at the same fractions
+    pcx, pcy = center[:, 0], center[:, 1]
+    pa0 = np.arctan2(start[rows, j] - pcy, start[rows, i] - pcx)
+    pr = np.hypot(start[rows, i] - pcx, start[rows, j] - pcy)
+    u = np.array(_FRACTIONS)
+    angle = a0[:, None] + u * sweep[:, None]
+    radius = r0[:, None] + u * (r1 - r0)[:, None]
+    own = pa0[:, None] + u * turns[:, None]
+    dx = cx[:, None] + radius * np.cos(angle) - (pcx[:, None] + pr[:, None] * np.cos(own))
+    dy = cy[:, None] + radius * np.sin(angle) - (pcy[:, None] + pr[:, None] * np.sin(own))
+    gap = dx * dx + dy * dy
+    linear = np.array(reader.linear)
+    for k in np.flatnonzero(linear):
+        other = (i != k) & (j != k)
+        if other.any():
+            slope = (e[:, k] - s[:, k]) - (end[:, k] - start[:, k])
+            dk = (s[:, k] - start[:, k])[:, None] + u * slope[:, None]
+            gap += np.where(other[:, None], dk * dk, 0.0)
+    with np.errstate(invalid="ignore"):
+        out = np.sqrt(gap.max(axis=1))
+    out[bad | ~np.isfinite(out)] = math.inf
+    return out

@@ -16,6 +16,7 @@ import numpy as np
 from ..compensation.arcs import arc_extent
 from ..compensation.moves import ARC, POINT, MoveBatch
 from ..compensation.path import Piece
+from .arc_words import arc_errors
 from .lexer import Block, GcodeError, parse_block
 from .modal import Interpreter
 from .runs import PlainRun
@@ -137,7 +138,7 @@ class ChunkWriting:
 
     def _arc_errors(self, ps, total: int, singles: list[int], ones: list) -> list | None:
         """How far each arc piece of the chunk, written with centre words, is read back off
-        its path (:meth:`~.arc_words.ArcWords.errors`; NaN for straight pieces), or None if
+        its path (:func:`~.arc_words.arc_errors`; NaN for straight pieces), or None if
         there are no arc pieces."""
         rows = np.flatnonzero(ps.arc)
         if not len(rows):
@@ -152,7 +153,7 @@ class ChunkWriting:
         diameter[singles] = [mv.modes["diameter"] for mv in ones]
         moves = ps.move[rows]
         errors = np.full(len(ps.arc), np.nan)
-        errors[rows] = self.writer.arcs.errors(ps.cw0[rows], ps.cw1[rows], ps.center[rows], ps.sweep[rows],
+        errors[rows] = arc_errors(self.writer, ps.cw0[rows], ps.cw1[rows], ps.center[rows], ps.sweep[rows],
                                                plane[moves], inch[moves], absolute[moves], diameter[moves])
         return errors.tolist()
 
