@@ -651,9 +651,10 @@ def test_program_arguments_are_checked(machines, kwargs, parameter):
 def test_start_is_checked(machines):
     from volerr_pin.gcode import Program
 
-    with pytest.raises(GcodeError, match="^start must hold 3 finite values") as info:
-        Program(machines["vmc500"], start=[0.1, math.nan, 0.1])
+    with pytest.raises(GcodeError, match="^start must hold 3 finite values or NaN") as info:
+        Program(machines["vmc500"], start=[0.1, math.inf, 0.1])
     assert info.value.parameters == ("start",)
+    Program(machines["vmc500"], start=[0.1, math.nan, 0.1])   # NaN: that axis' position is not known
 
 
 def test_a_kept_block_cannot_change_the_work_offset(machines):
@@ -1027,3 +1028,23 @@ def test_lathe_diameter_mode_reads_x_as_a_diameter(machines):
     out, _ = compensate_program(m, LATHE_DIAMETER, tol_um=1.0)
     x = [float(v) for v in re.findall(r"X(-?[\d.]+)", out)]
     assert x[0] == pytest.approx(80, abs=0.01) and x[-1] == pytest.approx(40, abs=0.01)   # diameter, then radius
+
+
+PLANAR = "G17 G21 G90\nG0 X100 Y100\nG1 X200 F500\nG2 X300 Y200 I0 J100\nG1 Y300\nM30\n"
+
+
+def test_a_2d_program_is_compensated_with_z_where_it_stands(machines):
+    """A 2-D plasma or laser program never writes Z: its arcs were refused ("axes Z not yet
+    programmed"). Told where Z stands (start, NaN for the axes not known), every move is
+    compensated whole with Z held there; not told, the refusal says what to give."""
+    m = machines["vmc500"]
+    with pytest.raises(GcodeError, match=r"an arc from an unknown position \(axes Z not yet programmed\).* give "
+                                         r"where the axes stand when the program starts \(start") as err:
+        compensate_program(m, PLANAR, tol_um=1.0)
+    assert err.value.parameters == ("start",)
+    out, report = compensate_program(m, PLANAR, tol_um=1.0, start=[np.nan, np.nan, 0.15])
+    assert report.max_residual_um <= 1.0
+    assert all(re.search(r"Z1(49\.99|50\.00)\d\d", line) for line in out.splitlines()[1:-1]), out
+    assert not any("line 3" in w or "line 4" in w for w in report.warnings), report.warnings
+    with pytest.raises(GcodeError, match=r"start must hold 3 finite values or NaN \(not known\)"):
+        compensate_program(m, PLANAR, start=[np.inf, 0.1, 0.1])

@@ -38,6 +38,9 @@ def add_parser(sub) -> None:
     p.add_argument("--png", help="also draw the error along each move before and after (PNG)")
     p.add_argument("--origin", nargs="+", metavar="AXIS=VALUE",
                    help="program coordinates of the program zero (the work offset, G54 ...; mm, deg)")
+    p.add_argument("--start", nargs="+", metavar="AXIS=VALUE",
+                   help="where axes stand when the program starts (mm, deg): moves from them are compensated whole "
+                        "(a 2-D program never writes Z: give Z=...); axes not named are not known until programmed")
     add_json_arg(p, "print the report as one JSON object")
     p.set_defaults(func=run)
 
@@ -53,8 +56,10 @@ def run(args: argparse.Namespace) -> int:
     source = ProgramFile(path)  # a regular file; read as UTF-8 line by line
     offset = axis_config(machine, args.origin, "--origin")
     origin = [offset.get(axis, 0.0) for axis in machine.axes] if offset else None
+    stands = axis_config(machine, args.start, "--start")
+    start = [stands.get(axis, float("nan")) for axis in machine.axes] if stands else None
     program = Program(machine, tol_um=args.tol_um, tol_urad=args.tol_urad, strict=args.strict,
-                      pass_through=True if args.pass_through else None,
+                      pass_through=True if args.pass_through else None, start=start,
                       method=args.method, source=str(path), origin=origin, programming=args.programming,
                       detail=bool(args.png))
     console = Console(stderr=True, highlight=False)

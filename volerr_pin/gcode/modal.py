@@ -231,8 +231,11 @@ class Interpreter:
     source : str
         Name of the program, for messages.
     start : array_like, shape (n_axes,), optional
-        Axis positions [m, rad] before the program (default: mid-travel); an axis keeps it
-        until the program moves it.
+        Axis positions [m, rad] where the program starts, as far as they are known: an axis
+        keeps its position until the program moves it, and moves from known positions are
+        compensated whole (a 2-D program that never writes Z is compensated with Z where it
+        stands). NaN for an axis whose position is not known: it is taken at mid-travel, and a
+        move from it is compensated at its end point only. Default: none known.
     origin : array_like, shape (n_axes,), optional
         Program coordinates [m, rad] of the program's zero (the work offset, G54 ...):
         absolute program words plus ``origin`` are axis positions (axis programming) or the
@@ -245,7 +248,9 @@ class Interpreter:
     Attributes
     ----------
     start_given : bool
-        Whether ``start`` was given (rather than mid-travel).
+        Whether ``start`` gave any axis' position (rather than mid-travel).
+    start_known : numpy.ndarray of bool, shape (n_axes,)
+        The axes whose start position ``start`` gave.
     notes : Warnings
         What the blocks read so far hold that is kept but not understood.
 
@@ -263,8 +268,10 @@ class Interpreter:
         self.axes = list(machine.axes)
         self.linear = [k == "linear" for k in machine.axis_kinds]
         self.source = source
-        self.start_given = start is not None
-        self.start = machine.mid_travel if start is None else self._vector(start, "start")
+        given = np.full(len(self.axes), np.nan) if start is None else self._vector(start, "start", unknown=True)
+        self.start_known = np.isfinite(given)
+        self.start_given = bool(self.start_known.any())
+        self.start = np.where(self.start_known, given, machine.mid_travel)
         self.origin = np.zeros(len(self.axes)) if origin is None else self._vector(origin, "origin")
         self.notes = Warnings()
         self._noted: set = set()
@@ -314,13 +321,14 @@ class Interpreter:
             mode = self._modes[name] = programming_for(name, self.machine)
         return mode
 
-    def _vector(self, value, name: str) -> np.ndarray:
+    def _vector(self, value, name: str, unknown: bool = False) -> np.ndarray:
         try:
             v = np.asarray(value, dtype=float)
         except (TypeError, ValueError):
-            v = np.array([np.nan])
-        if v.shape != (len(self.axes),) or not np.all(np.isfinite(v)):
-            raise GcodeError(f"{name} must hold {len(self.axes)} finite values (axes {', '.join(self.axes)})",
+            v = np.array([np.inf])
+        if v.shape != (len(self.axes),) or not np.all(np.isfinite(v) | (unknown & np.isnan(v))):
+            what = "finite values or NaN (not known)" if unknown else "finite values"
+            raise GcodeError(f"{name} must hold {len(self.axes)} {what} (axes {', '.join(self.axes)})",
                              parameters=(name,))
         return v
 
@@ -348,12 +356,12 @@ class Interpreter:
         Returns
         -------
         ModalState
-            No motion mode, G17, G90, G21, no axis position known (taken at ``start``),
-            no canned cycle, the programming mode given.
+            No motion mode, G17, G90, G21, the axis positions ``start`` gave known (the others
+            taken at mid-travel), no canned cycle, the programming mode given.
         """
         tool_tip = self.programming == "tool-tip"
         position = self.mode(self.programming).to_words(self.start[None, :])[0].copy()
-        return ModalState(position=position, known=np.zeros(len(self.axes), dtype=bool), tool_tip=tool_tip)
+        return ModalState(position=position, known=self.start_known.copy(), tool_tip=tool_tip)
 
     # units --------------------------------------------------------------------------
     def to_si(self, axis: str, value: float, inch: bool) -> float:

@@ -49,7 +49,8 @@ class Program(ChunkWriting):
         blocks after them may be misread), which are refused otherwise; False is the former
         name of ``strict=True``.
     start : array_like, shape (n_axes,), optional
-        Axis positions [m, rad] before the program (default: mid-travel).
+        Axis positions [m, rad] where the program starts, NaN where not known (see
+        :class:`~volerr_pin.gcode.modal.Interpreter`; default: none known).
     method : str
         Solver of the compensated commands (see :class:`~volerr_pin.compensate.PathCompensator`).
     source : str
@@ -334,12 +335,12 @@ class Program(ChunkWriting):
             why = f"axes {missing} not known since {lost}" if lost else f"axes {missing} not yet programmed"
             if move.motion in (2, 3):
                 raise GcodeError(f"{reader.source}:{number}: an arc from an unknown position ({why}); move every "
-                                 "axis to a known point with G0 or G1 first")
+                                 "axis to a known point with G0 or G1 first, or give where the axes stand when the "
+                                 "program starts (start; a 2-D program never writes Z)", parameters=("start",))
             rest = ""
             if not all_known:
                 rest = (", taking the axes it does not name where they were last programmed" if lost else
-                        ", taking the unprogrammed axes at " +
-                        ("the start position given" if reader.start_given else "mid-travel"))
+                        ", taking the unprogrammed axes at mid-travel")
             reader.notes.add(number, f"the position before this move is not known ({why}); it is compensated at "
                              f"its end point only{rest}")
             kind = POINT
@@ -412,7 +413,8 @@ def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass
     programming : str, default "axes"
         Programming mode when the program starts (``"axes"`` or ``"tool-tip"``).
     start : array_like, shape (n_axes,), optional
-        Axis positions [m, rad] before the program (default: mid-travel).
+        Axis positions [m, rad] where the program starts, NaN where not known (see
+        :class:`~volerr_pin.gcode.modal.Interpreter`; default: none known).
 
     Returns
     -------
