@@ -2,7 +2,8 @@
 (Debian's ``linuxcnc-uspace``; ``.ci/run`` installs it where apt can), takes every compensated
 program of the NC tests, and its canonical moves are the product's own reading of the output:
 every end point, and every arc's centre and plane, to the 4 decimals rs274 prints (of mm, inch
-or deg, in the units the program selects)."""
+or deg, in the units the program selects). And a headless LinuxCNC applies the joint tables the
+product exports as the product simulates them."""
 
 from __future__ import annotations
 
@@ -96,3 +97,139 @@ def test_linuxcnc_reads_the_compensated_program_as_the_product_does(machines, tm
             assert s.arc.plane[:2] == (i, j), (s.line, s.arc.plane, c["plane"])
             for axis, value in zip(c["plane"], s.arc.center):
                 assert _agrees(value * 1e3, c["centre"][axis], c["units"]), (s.line, axis, value, c["centre"])
+
+
+# ---------------------------------------------------------------- the joint tables, applied
+LINUXCNC = shutil.which("linuxcnc")
+#: the user LinuxCNC runs as when the tests run as root (it refuses root); .ci/run creates it
+SIM_USER = "volerr-lcnc"
+
+DRIVER = '''#!/usr/bin/python3
+# A display for a headless LinuxCNC: homes, moves by MDI and reads each joint's commanded and
+# motor position through a HAL component of its own (full precision), then writes them out.
+import json, subprocess, time, hal, linuxcnc
+MOVES, JOINTS, OUT = {moves!r}, {joints}, {out!r}
+c, s = linuxcnc.command(), linuxcnc.stat()
+rows, error = [], None
+try:
+    h = hal.component("probe")
+    for j in range(JOINTS):
+        h.newpin("m%d" % j, hal.HAL_FLOAT, hal.HAL_IN)
+        h.newpin("c%d" % j, hal.HAL_FLOAT, hal.HAL_IN)
+    h.ready()
+    for j in range(JOINTS):
+        subprocess.run(["halcmd", "net", "j%d" % j, "probe.m%d" % j], check=True)
+        subprocess.run(["halcmd", "net", "c%d" % j, "joint.%d.pos-cmd" % j, "probe.c%d" % j], check=True)
+    for state in (linuxcnc.STATE_ESTOP_RESET, linuxcnc.STATE_ON):
+        c.state(state)
+        c.wait_complete()
+    c.mode(linuxcnc.MODE_MANUAL)
+    c.wait_complete()
+    c.teleop_enable(0)
+    c.wait_complete()
+    c.home(-1)
+    c.wait_complete()
+    start = time.time()
+    while time.time() - start < 30:
+        s.poll()
+        if all(s.homed[:JOINTS]):
+            break
+        time.sleep(0.05)
+    c.mode(linuxcnc.MODE_MDI)
+    c.wait_complete()
+    for move in MOVES:
+        c.mdi(move)
+        c.wait_complete(120)
+        time.sleep(0.3)   # the trims settle through their filter
+        rows.append({{"cmd": [h["c%d" % j] for j in range(JOINTS)], "motor": [h["m%d" % j] for j in range(JOINTS)]}})
+except Exception as e:
+    error = repr(e)
+with open(OUT, "w") as f:
+    json.dump({{"rows": rows, "error": error}}, f)
+c.state(linuxcnc.STATE_OFF)
+'''
+
+
+def _ini(machine, comp: dict[int, str], driver: Path, folder: Path) -> str:
+    """A headless LinuxCNC with trivial kinematics, a 1 ms servo period and loopback joints."""
+    letters = "".join(machine.axes)
+    lines = ["[EMC]", "MACHINE = volerr_sim", "VERSION = 1.1", "[DISPLAY]", f"DISPLAY = {driver}",
+             "[TASK]", "TASK = milltask", "CYCLE_TIME = 0.001", "[RS274NGC]", f"PARAMETER_FILE = {folder / 'sim.var'}",
+             "[EMCMOT]", "EMCMOT = motmod", "COMM_TIMEOUT = 1.0", "SERVO_PERIOD = 1000000",
+             "[HAL]", f"HALFILE = {folder / 'sim.hal'}", "[TRAJ]", f"COORDINATES = {letters}", "LINEAR_UNITS = mm",
+             "ANGULAR_UNITS = degree", "DEFAULT_LINEAR_VELOCITY = 50", "MAX_LINEAR_VELOCITY = 400",
+             "[EMCIO]", "EMCIO = io", "CYCLE_TIME = 0.100", f"TOOL_TABLE = {folder / 'tool.tbl'}",
+             "[KINS]", "KINEMATICS = trivkins", f"JOINTS = {len(machine.axes)}"]
+    for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):
+        lo, hi = machine.travel[j] * (1e3 if kind == "linear" else 180 / np.pi)
+        limits = [f"MIN_LIMIT = {lo - 1:g}", f"MAX_LIMIT = {hi + 1:g}", "MAX_VELOCITY = 400", "MAX_ACCELERATION = 3000"]
+        lines += [f"[AXIS_{axis}]", *limits, f"[JOINT_{j}]", f"TYPE = {'LINEAR' if kind == 'linear' else 'ANGULAR'}",
+                  "HOME = 0", "HOME_SEQUENCE = 0", *limits, "COMP_FILE_TYPE = 1", f"COMP_FILE = {comp[j]}"]
+    return "\n".join(lines) + "\n"
+
+
+def _hal(n: int) -> str:
+    return "\n".join(["loadrt [KINS]KINEMATICS",
+                      "loadrt [EMCMOT]EMCMOT servo_period_nsec=[EMCMOT]SERVO_PERIOD num_joints=[KINS]JOINTS",
+                      "addf motion-command-handler servo-thread", "addf motion-controller servo-thread",
+                      *(f"net j{j} joint.{j}.motor-pos-cmd => joint.{j}.motor-pos-fb" for j in range(n)),
+                      "net estop-loop iocontrol.0.user-enable-out => iocontrol.0.emc-enable-in"]) + "\n"
+
+
+@pytest.mark.skipif(LINUXCNC is None, reason="LinuxCNC is not installed (Debian's linuxcnc-uspace)")
+@pytest.mark.parametrize("name, seed", [("vmc500", 0), ("cgm4000", 1)])
+def test_linuxcnc_applies_the_exported_joint_tables_as_simulated(name, seed):
+    """A headless LinuxCNC (trivial kinematics, 1 ms servo period, loopback joints, a display of
+    the test's own that homes and moves by MDI) loads the joint tables the product exports; what
+    it adds to each joint's command (motor position less commanded position) is the correction
+    the product's simulation applies there, direction by direction."""
+    import json
+    import os
+    import pwd
+    import tempfile
+
+    from volerr_pin.export import export_tables
+
+    if os.geteuid() == 0:
+        try:
+            pwd.getpwnam(SIM_USER)
+        except KeyError:
+            pytest.skip(f"LinuxCNC refuses to run as root and the user {SIM_USER} does not exist (.ci/run creates it)")
+    machine = vp.load_machine(name)
+    folder = Path(tempfile.mkdtemp(prefix="volerr-lcnc-", dir="/tmp"))
+    try:
+        os.chmod(folder, 0o777)
+        result = export_tables(machine, "linuxcnc", folder / "comp", points=512)
+        rng = np.random.default_rng(seed)
+        lo, hi = machine.travel[:, 0], machine.travel[:, 1]
+        scale = np.where(np.array(machine.axis_kinds) == "linear", 1e3, 180 / np.pi)
+        q = lo + (0.1 + 0.8 * rng.random((8, len(machine.axes)))) * (hi - lo)   # inside the soft limits
+        q = np.round(q * scale, 4) / scale   # as the MDI words give them
+        moves = ["G1 " + " ".join(f"{a}{v:.4f}" for a, v in zip(machine.axes, row)) + " F20000" for row in q * scale]
+        comp = {j: str(folder / "comp" / f"joint{j}_{a}.comp") for j, a in enumerate(machine.axes)}
+        driver = folder / "driver.py"
+        driver.write_text(DRIVER.format(moves=moves, joints=len(machine.axes), out=str(folder / "result.json")))
+        (folder / "sim.ini").write_text(_ini(machine, comp, driver, folder))
+        (folder / "sim.hal").write_text(_hal(len(machine.axes)))
+        for empty in ("sim.var", "tool.tbl"):
+            (folder / empty).write_text("")
+        for path in [folder, *folder.rglob("*")]:
+            os.chmod(path, 0o777)
+        command = [LINUXCNC, str(folder / "sim.ini")]
+        if os.geteuid() == 0:   # (LinuxCNC writes its logs into HOME: the folder's)
+            command = ["runuser", "-u", SIM_USER, "--", "env", f"HOME={folder}", *command]
+        run = subprocess.run(command, capture_output=True, text=True, timeout=300, cwd=folder)
+        assert (folder / "result.json").exists(), run.stdout[-2000:] + run.stderr[-2000:]
+        report = json.loads((folder / "result.json").read_text())
+        assert report["error"] is None and len(report["rows"]) == len(q), report
+        commanded = np.array([row["cmd"] for row in report["rows"]]) / scale
+        applied = (np.array([row["motor"] for row in report["rows"]]) - np.array([row["cmd"] for row in report["rows"]]))
+        np.testing.assert_allclose(commanded, q, atol=1e-9)
+        # the direction each joint moved into each point (every joint moved from home first)
+        previous = np.vstack([np.zeros(len(machine.axes)), q[:-1]])
+        directions = np.where(q >= previous, 1.0, -1.0)
+        expected = result.compensation.correction(q, directions, np.zeros(len(q))) * scale
+        np.testing.assert_allclose(applied, expected, rtol=0, atol=1e-6)   # mm / deg
+        assert np.abs(expected).max() > 1e-4   # the tables do correct
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
