@@ -1048,3 +1048,13 @@ def test_a_2d_program_is_compensated_with_z_where_it_stands(machines):
     assert not any("line 3" in w or "line 4" in w for w in report.warnings), report.warnings
     with pytest.raises(GcodeError, match=r"start must hold 3 finite values or NaN \(not known\)"):
         compensate_program(m, PLANAR, start=[np.inf, 0.1, 0.1])
+
+
+def test_analog_channel_words_pass_through(machines):
+    """LinuxCNC's M66 - M68 name an analog channel with E (three sample programs were refused:
+    "E words mean nothing this reader knows here"); E stays refused elsewhere."""
+    program = "G0 X100 Y100 Z50\nM68 E0 Q10\nM66 E0 L0\nM67 E1 Q2.5\nM30\n"
+    out, report = compensate_program(machines["vmc500"], program)
+    assert out.splitlines()[1:] == program.splitlines()[1:] and report.passed_through == 0
+    with pytest.raises(GcodeError, match=r"<program>:2:4: E1: E words mean nothing this reader knows here"):
+        compensate_program(machines["vmc500"], "G0 X100 Y100 Z50\nM3 E1\n")

@@ -8,6 +8,8 @@ from .lexer import AXIS_LETTERS, CENTRE, PLANES, SHIFT_RESETS, Block, GcodeError
 
 #: G64: path blending, whose P and Q are its tolerances
 BLENDING = 64
+#: LinuxCNC's M66 (wait on an input), M67 and M68 (analog outputs): their E word names the channel
+ANALOG_M = (66, 67, 68)
 
 if TYPE_CHECKING:
     from .modal import Interpreter, ModalState
@@ -43,8 +45,8 @@ def check_letters(reader: Interpreter, block: Block, state: ModalState, coord_wo
     """Check that every word of a block means something in its modal state.
 
     Axis words name axes of the machine; I, J, K and R belong to arc moves; P to a
-    dwell, an arc, G54.1 or an M code; Q and L to an M code; P and Q to G64 (path blending
-    tolerances, which pass through); a dwell (G4) carries no motion code and no axis word but X
+    dwell, an arc, G54.1 or an M code; Q and L to an M code; E to M66 - M68 (an analog
+    channel); P and Q to G64 (path blending tolerances, which pass through); a dwell (G4) carries no motion code and no axis word but X
     (its time).
 
     Parameters
@@ -105,6 +107,8 @@ def check_letters(reader: Interpreter, block: Block, state: ModalState, coord_wo
             continue
         if letter in "QL" and has_m:
             continue
+        if letter == "E" and any(v.letter == "M" and v.value in ANALOG_M for v in block.words):
+            continue   # the analog channel of LinuxCNC's M66 - M68
         if letter in "PQ" and any(g.value == BLENDING for g in gs):
             continue
         raise GcodeError(f"{where}: {letter} words mean nothing this reader knows here")
