@@ -25,7 +25,7 @@ from .lexer import (AUTORESTORE_MODES, AXIS_LETTERS, CANNED, DIAMETER_AXIS, FORG
                     TOOL_CHANGE_M, TOOL_TIP_OFF, TOOL_TIP_ON, WORK_OFFSETS, Block, GcodeError, Word, check_words)
 from .report import Warnings
 
-__all__ = ["AXIS_LETTERS", "BlockMove", "Interpreter", "ModalState", "check_axes", "move_of"]
+__all__ = ["AXIS_LETTERS", "BlockMove", "Interpreter", "ModalState", "axis_vector", "check_axes", "move_of"]
 
 
 
@@ -220,6 +220,41 @@ def check_axes(machine: Machine) -> None:
             raise GcodeError(f"{machine.name}: axis '{axis}' is not an NC address letter")
 
 
+def axis_vector(value, name: str, axes: list[str], unknown: bool = False) -> np.ndarray:
+    """A value per axis, checked: finite numbers (or, with ``unknown``, NaN for an axis not
+    known).
+
+    Parameters
+    ----------
+    value : array_like, shape (n_axes,)
+        The values.
+    name : str
+        The parameter, for messages.
+    axes : list of str
+        The machine's axes.
+    unknown : bool, default False
+        Whether NaN (not known) is allowed.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_axes,)
+        The values as floats.
+
+    Raises
+    ------
+    GcodeError
+        Naming ``name``, for another shape, an infinite value, or NaN where not allowed.
+    """
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        v = np.array([np.inf])
+    if v.shape != (len(axes),) or not np.all(np.isfinite(v) | (unknown & np.isnan(v))):
+        what = "finite values or NaN (not known)" if unknown else "finite values"
+        raise GcodeError(f"{name} must hold {len(axes)} {what} (axes {', '.join(axes)})", parameters=(name,))
+    return v
+
+
 class Interpreter:
     """Follows the modal state of a program through its blocks, for a machine whose axes are
     NC address letters (X, Y, Z, A, B, C, U, V, W).
@@ -268,11 +303,11 @@ class Interpreter:
         self.axes = list(machine.axes)
         self.linear = [k == "linear" for k in machine.axis_kinds]
         self.source = source
-        given = np.full(len(self.axes), np.nan) if start is None else self._vector(start, "start", unknown=True)
+        given = np.full(len(self.axes), np.nan) if start is None else axis_vector(start, "start", self.axes, unknown=True)
         self.start_known = np.isfinite(given)
         self.start_given = bool(self.start_known.any())
         self.start = np.where(self.start_known, given, machine.mid_travel)
-        self.origin = np.zeros(len(self.axes)) if origin is None else self._vector(origin, "origin")
+        self.origin = np.zeros(len(self.axes)) if origin is None else axis_vector(origin, "origin", self.axes)
         self.notes = Warnings()
         self._noted: set = set()
         self._modes: dict[str, Programming] = {}
@@ -320,17 +355,6 @@ class Interpreter:
         if mode is None:
             mode = self._modes[name] = programming_for(name, self.machine)
         return mode
-
-    def _vector(self, value, name: str, unknown: bool = False) -> np.ndarray:
-        try:
-            v = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            v = np.array([np.inf])
-        if v.shape != (len(self.axes),) or not np.all(np.isfinite(v) | (unknown & np.isnan(v))):
-            what = "finite values or NaN (not known)" if unknown else "finite values"
-            raise GcodeError(f"{name} must hold {len(self.axes)} {what} (axes {', '.join(self.axes)})",
-                             parameters=(name,))
-        return v
 
     def warn(self, number: int, text: str, key=None) -> None:
         """Note something a block holds that is kept but not understood.
