@@ -75,20 +75,31 @@ def lagged_name(sensor: str, lag: float) -> str:
 def add_lagged_temperatures(cov: Covariates, requests) -> Covariates:
     """Covariates with ``sensor@<lag>s`` entries: each sensor read ``lag`` s earlier along
     the points' own time series (sorted by t; linear interpolation; before the first sample
-    the first value holds)."""
+    the first value holds) - the whole record (``history``) when the covariates carry it, else
+    the points themselves. Points of different ``series`` (files) are different series: a lag
+    never reaches from one file into another, whose clock may start at 0 again."""
     if not requests:
         return cov
     if cov.t is None:
         raise InputError("a temperature lag needs the covariate t (time, s)")
-    order = np.argsort(cov.t, kind="stable")
-    times = cov.t[order]
+    series = np.zeros(cov.n) if cov.series is None else cov.series
+    record = cov.history   # the whole record, when the points are a part of it
+    rec_t = cov.t if record is None else record.t
+    rec_series = series if record is None else record.series
     temps = dict(cov.temperatures)
     for sensor, lag in requests:
-        if sensor not in cov.temperatures:
+        if sensor not in cov.temperatures or (record is not None and sensor not in record.temperatures):
             raise InputError(f"a term reads sensor '{sensor}' {lag:g} s earlier, but no temperature "
                              f"'{sensor}' is given")
-        temps[lagged_name(sensor, lag)] = np.interp(cov.t - lag, times, cov.temperatures[sensor][order])
-    return Covariates(cov.n, cov.t, temps, cov.forces, cov.directions)
+        rec_values = cov.temperatures[sensor] if record is None else record.temperatures[sensor]
+        lagged = np.empty(cov.n)
+        for s in np.unique(series):
+            rows = np.flatnonzero(series == s)
+            samples = np.flatnonzero(rec_series == s)
+            order = samples[np.argsort(rec_t[samples], kind="stable")]
+            lagged[rows] = np.interp(cov.t[rows] - lag, rec_t[order], rec_values[order])
+        temps[lagged_name(sensor, lag)] = lagged
+    return Covariates(cov.n, cov.t, temps, cov.forces, cov.directions, cov.series, cov.history)
 
 
 def _saturation(t: np.ndarray, tau: float, stop: float | None):

@@ -23,6 +23,7 @@ from .spec import parse_component_name, read_toml
 from .safeio import require_memory
 from .units import ARCSEC, ARCSEC_PER_RAD, UM, UM_PER_M, scale, split_key
 from .checks import integer, positive
+from .speckeys import within
 from .workspace import sample
 
 DIRECTIONS = {"x": [0], "y": [1], "z": [2], "all": [0, 1, 2]}
@@ -89,6 +90,57 @@ class Ranking:
                 "by": self.by, "basis": self.basis, "ranking": rows}
 
 
+def tolerance_key(key: str, value, machine: Machine, seen: dict, path: str | Path) -> tuple[str, str, float]:
+    """One key of a tolerance file read by a spec's rules: its stem (a component of the
+    machine, or ``default``), its quantity and its SI value.
+
+    Parameters
+    ----------
+    key : str
+        The key, with its unit (``EXX_um``, ``default_arcsec``).
+    value : object
+        Its value (a number).
+    machine : Machine
+        The machine.
+    seen : dict
+        ``(stem, quantity) -> key`` of the keys read so far (updated): one value under one key.
+    path : str or Path
+        The file, for messages.
+
+    Returns
+    -------
+    tuple of (str, str, float)
+        Stem, ``"length"`` or ``"angle"``, the value [m or rad].
+
+    Raises
+    ------
+    SpecError
+        Naming the file and the key: no unit or one of the wrong kind, a component the machine
+        lacks, a tolerance given under two keys (``EXX_um`` and ``EXX_mm``), a value that is not
+        a non-negative finite number or lies beyond a spec's plausibility limits (an error of
+        1 m or 1 rad).
+    """
+    stem, unit = split_key(key)
+    where = f"{path}: {key}"
+    if unit is None:
+        raise SpecError(f"{where}: give the unit in the key, e.g. {key}_um or {key}_arcsec")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+        raise SpecError(f"{where}: expected a non-negative number, got {value!r}")
+    if stem == "default":
+        quantity = "length" if unit in ("m", "mm", "um", "nm") else "angle"
+    elif stem in machine.components:
+        quantity = "length" if parse_component_name(stem)[0] in "XYZ" else "angle"
+    else:
+        raise SpecError(f"{where}: '{stem}' is not an error term of {machine.name} "
+                        f"(terms: {', '.join(machine.components)})")
+    first = seen.setdefault((stem, quantity), key)
+    if first != key:
+        raise SpecError(f"{path}: both {first} and {key} given; give the tolerance once, with its unit")
+    factor = scale(unit, quantity, where)
+    within(np.array([value * factor]), f"error_{quantity}", where, unit, factor)
+    return stem, quantity, value * factor
+
+
 def read_tolerances(path: str | Path, machine: Machine) -> dict[str, float]:
     """Read ``term -> expected magnitude`` from a TOML file.
 
@@ -110,30 +162,18 @@ def read_tolerances(path: str | Path, machine: Machine) -> dict[str, float]:
     Raises
     ------
     SpecError
-        Naming the file and the term when one is unknown, has no or the wrong unit, is not a
-        non-negative number, or is missing.
+        Naming the file and the term when one is unknown, has no or the wrong unit, is given
+        twice, is not a non-negative number or is beyond sense (:func:`tolerance_key`), or is
+        missing.
     """
     path = Path(path)
     data = read_toml(path)
     defaults: dict[str, float] = {}
     values: dict[str, float] = {}
+    seen: dict[tuple[str, str], str] = {}
     for key, value in data.items():
-        stem, unit = split_key(key)
-        where = f"{path}: {key}"
-        if unit is None:
-            raise SpecError(f"{where}: give the unit in the key, e.g. {key}_um or {key}_arcsec")
-        if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-            raise SpecError(f"{where}: expected a non-negative number, got {value!r}")
-        if stem == "default":
-            quantity = "length" if unit in ("m", "mm", "um", "nm") else "angle"
-            defaults[quantity] = value * scale(unit, quantity, where)
-            continue
-        if stem not in machine.components:
-            raise SpecError(f"{where}: '{stem}' is not an error term of {machine.name} "
-                            f"(terms: {', '.join(machine.components)})")
-        direction = parse_component_name(stem)[0]
-        quantity = "length" if direction in "XYZ" else "angle"
-        values[stem] = value * scale(unit, quantity, where)
+        stem, quantity, si = tolerance_key(key, value, machine, seen, path)
+        (defaults if stem == "default" else values)[quantity if stem == "default" else stem] = si
     missing = []
     for name in machine.components:
         if name not in values:

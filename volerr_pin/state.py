@@ -15,7 +15,7 @@ import numpy as np
 from .checks import real_array
 from .effects import add_lagged_temperatures
 from .errors import InputError
-from .terms import Covariates
+from .terms import Covariates, TemperatureHistory
 
 if TYPE_CHECKING:  # the machine imports this module; its type is only named here
     from .machine import Machine
@@ -23,7 +23,7 @@ if TYPE_CHECKING:  # the machine imports this module; its type is only named her
 __all__ = ["COVARIATES", "check_covariates", "merge_state", "with_state_defaults"]
 
 #: the covariates a machine can read
-COVARIATES = ("t", "temperatures", "forces", "directions")
+COVARIATES = ("t", "temperatures", "forces", "directions", "series", "history")
 
 
 def merge_state(state: Mapping, axes: tuple[str, ...], t=None, temperatures: Mapping | None = None, forces=None,
@@ -143,7 +143,11 @@ def check_covariates(machine: "Machine", n: int, covariates: Mapping) -> Covaria
         Number of points.
     covariates : mapping
         ``t`` (n,) [s], ``temperatures`` {sensor: (n,)} [degC], ``forces`` (n, 3) [N],
-        ``directions`` (n, n_axes) of +1/-1; missing or None entries are not given.
+        ``directions`` (n, n_axes) of +1/-1, ``series`` (n,) whole numbers naming the time
+        series each point belongs to (the file it came from: a lagged temperature is read
+        along its own series only), ``history`` the whole temperature record the points are
+        part of (:class:`~volerr_pin.terms.TemperatureHistory`); missing or None entries are
+        not given.
 
     Returns
     -------
@@ -187,4 +191,13 @@ def check_covariates(machine: "Machine", n: int, covariates: Mapping) -> Covaria
         directions = vector("directions", directions, (n, len(axes)))
         if not np.all(np.isin(directions, (-1.0, 1.0))):
             raise InputError("covariate 'directions' must hold only +1 and -1")
-    return add_lagged_temperatures(Covariates(n, t, temps, forces, directions), machine.assembly.lags)
+    series = covariates.get("series")
+    if series is not None:
+        series = vector("series", series, (n,))
+        if not np.all(series == np.round(series)):
+            raise InputError("covariate 'series' must hold whole numbers (one per time series)")
+    history = covariates.get("history")
+    if history is not None and not isinstance(history, TemperatureHistory):
+        raise InputError(f"covariate 'history' must be a TemperatureHistory, got {type(history).__name__}")
+    return add_lagged_temperatures(Covariates(n, t, temps, forces, directions, series, history),
+                                   machine.assembly.lags)

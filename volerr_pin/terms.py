@@ -46,6 +46,12 @@ class Covariates:
         Process force at the tool [N].
     directions : (N, n_axes) array or None
         Approach direction of each axis, +1 or -1.
+    series : (N,) array or None
+        The time series each point belongs to (a file of its own); None: one series.
+    history : TemperatureHistory or None
+        The whole measured temperature record the points are taken from, for lagged
+        temperatures (a subset of the points still reads the record, not just itself); None:
+        the points themselves are the record.
     """
 
     n: int
@@ -53,13 +59,38 @@ class Covariates:
     temperatures: Mapping[str, np.ndarray] = field(default_factory=dict)
     forces: np.ndarray | None = None
     directions: np.ndarray | None = None
+    series: np.ndarray | None = None
+    history: "TemperatureHistory | None" = None
 
     def take(self, rows: slice) -> "Covariates":
-        """The covariates of a contiguous block of points."""
+        """The covariates of a contiguous block of points (the history stays whole)."""
         cut = lambda a: None if a is None else a[rows]
         n = len(range(*rows.indices(self.n)))
         return Covariates(n, cut(self.t), {k: v[rows] for k, v in self.temperatures.items()},
-                          cut(self.forces), cut(self.directions))
+                          cut(self.forces), cut(self.directions), cut(self.series), self.history)
+
+
+@dataclass(frozen=True)
+class TemperatureHistory:
+    """A measured temperature record: every sample's time, series and temperatures (SI).
+
+    Lagged temperatures are read from it, each point along its own series, so that any
+    subset of the points (a cross-validation fold, a chunk) reads the same values as all of
+    them. Covariates carry it whole under the key ``history``.
+
+    Attributes
+    ----------
+    t : ndarray, shape (M,)
+        Times [s].
+    series : ndarray, shape (M,)
+        The series (file) of each sample.
+    temperatures : mapping of str to ndarray, shape (M,)
+        Temperatures [degC] by sensor.
+    """
+
+    t: np.ndarray
+    series: np.ndarray
+    temperatures: Mapping[str, np.ndarray]
 
 
 @dataclass(frozen=True)

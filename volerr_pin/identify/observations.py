@@ -20,6 +20,7 @@ from ..errors import InputError
 from ..machine import Machine
 from ..measurements.protocol import Measurement, ObservationBlock, ObservationOptions
 from ..measurements.registry import read_any
+from ..terms import TemperatureHistory
 from ..units import UM_PER_M, URAD_PER_RAD
 
 __all__ = ["WEIGHTED_LIMIT", "Observations", "build_observations", "check_observations", "data_names",
@@ -152,7 +153,10 @@ def take_covariates(cov: dict, idx) -> dict:
     """
     out = {}
     for key, value in cov.items():
-        out[key] = {k: v[idx] for k, v in value.items()} if isinstance(value, dict) else value[idx]
+        if key == "history":
+            out[key] = value   # the whole record: lagged temperatures read it, not only these points
+        else:
+            out[key] = {k: v[idx] for k, v in value.items()} if isinstance(value, dict) else value[idx]
     return out
 
 
@@ -325,6 +329,15 @@ def _merge_covariates(parts: list[dict], sizes: list[int], machine: Machine) -> 
             merged[key] = {s: np.concatenate([p[key][s] for p in parts]) for s in sensors}
         else:
             merged[key] = np.concatenate([p[key] for p in parts])
+    if "t" in merged and len(parts) > 1 and "series" not in merged:
+        # each file is its own time series (its clock may start at 0 again): a lag stays inside it
+        merged["series"] = np.repeat(np.arange(len(parts), dtype=float), sizes)
+    if "t" in merged and merged.get("temperatures"):
+        # the whole record: a fold, a chunk or a half of the points reads lagged temperatures from it
+        merged["history"] = TemperatureHistory(np.asarray(merged["t"], dtype=float),
+                                               np.asarray(merged.get("series", np.zeros(sum(sizes))), dtype=float),
+                                               {s: np.asarray(v, dtype=float)
+                                                for s, v in merged["temperatures"].items()})
     return merged
 
 

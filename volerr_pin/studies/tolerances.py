@@ -28,7 +28,8 @@ import numpy as np
 from ..errors import SpecError
 from ..machine import Machine
 from ..spec import parse_component_name, read_toml
-from ..units import ARCSEC, UM, scale, split_key
+from ..ranking import tolerance_key
+from ..units import ARCSEC, UM, split_key
 from .distributions import DISTRIBUTIONS, Distribution, distribution
 
 __all__ = ["Tolerance", "Tolerances", "read_tolerance_file", "tolerances_toml"]
@@ -164,9 +165,11 @@ def read_tolerance_file(path: str | Path, machine: Machine) -> Tolerances:
     ------
     SpecError
         Naming the file and the key, when a key names no component of the machine, has no
-        unit or one of the wrong kind, a value is not a non-negative number (a cost not a
-        positive one), a distribution is unknown, an entry table has other keys, or a
-        component has no tolerance and no default covers it.
+        unit or one of the wrong kind, a component (or a default) is given under two keys
+        (``EXX_um`` and ``EXX_mm``), a value is not a non-negative number (a cost not a
+        positive one) or lies beyond a spec's plausibility limits (an error of 1 m or 1 rad),
+        a distribution is unknown, an entry table has other keys, or a component has no
+        tolerance and no default covers it.
     """
     path = Path(path)
     data = read_toml(path)
@@ -175,11 +178,9 @@ def read_tolerance_file(path: str | Path, machine: Machine) -> Tolerances:
         default_dist = _dist(data.pop("distribution"), f"{path}: distribution")
     defaults: dict[str, float] = {}
     given: dict[str, tuple[float, object, float]] = {}
+    seen: dict[tuple[str, str], str] = {}   # (stem, quantity) -> the key it was given under
     for key, raw in data.items():
-        stem, unit = split_key(key)
         where = f"{path}: {key}"
-        if unit is None:
-            raise SpecError(f"{where}: give the unit in the key, e.g. {key}_um or {key}_arcsec")
         dist, cost = None, 1.0
         if isinstance(raw, dict):
             extra = sorted(set(raw) - ENTRY_KEYS)
@@ -191,19 +192,14 @@ def read_tolerance_file(path: str | Path, machine: Machine) -> Tolerances:
                 dist = _dist(raw["distribution"], f"{where}.distribution")
             if "cost" in raw:
                 cost = _number(raw["cost"], f"{where}.cost", positive=True)
-            raw = raw["value"]
-        value = _number(raw, where)
-        if stem == "default":
-            if dist is not None or cost != 1.0:
+            if split_key(key)[0] == "default":
                 raise SpecError(f"{where}: a default takes a number only")
-            quantity = "length" if unit in ("m", "mm", "um", "nm") else "angle"
-            defaults[quantity] = value * scale(unit, quantity, where)
-            continue
-        if stem not in machine.components:
-            raise SpecError(f"{where}: '{stem}' is not an error term of {machine.name} "
-                            f"(terms: {', '.join(machine.components)})")
-        quantity = "length" if parse_component_name(stem)[0] in "XYZ" else "angle"
-        given[stem] = (value * scale(unit, quantity, where), dist, cost)
+            raw = raw["value"]
+        stem, quantity, value = tolerance_key(key, raw, machine, seen, path)
+        if stem == "default":
+            defaults[quantity] = value
+        else:
+            given[stem] = (value, dist, cost)
     entries, missing = [], []
     for name in machine.components:
         angular = parse_component_name(name)[0] not in "XYZ"
