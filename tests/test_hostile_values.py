@@ -13,9 +13,16 @@ from __future__ import annotations
 
 import pytest
 
-from test_hostile import Case, _marks, _with_paths, example, judge, run_in_process
+from test_hostile import OK, Case, _marks, _with_paths, example, judge, run_in_process
 
 TOLERANCES = "default_um = 1\ndefault_arcsec = 1\n"
+
+
+def points(temperature_column: str, values=(21.0, 22.0, 23.0, 24.0)) -> str:
+    """A point measurement of vmc500 with one temperature column."""
+    rows = [f"{100 + 50 * i},{80 + 40 * i},{50 + 30 * i},0.1,0.2,-0.1,{v}" for i, v in enumerate(values)]
+    return "\n".join([f"x,y,z,dx,dy,dz,{temperature_column}", *rows]) + "\n"
+
 
 CASES = [
     # --- one value under one key -------------------------------------------------------------
@@ -32,6 +39,19 @@ CASES = [
     Case("key-tolerance-entry-table-and-number", "tolerance vmc500 --tolerances t.toml --samples 64",
          {"t.toml": 'EXX_um = { value = 2, distribution = "normal" }\nEXX_mm = 0.001\n' + TOLERANCES},
          ("t.toml", "EXX_um", "EXX_mm")),
+    # --- units named and known ----------------------------------------------------------------
+    Case("unit-temperature-in-fahrenheit-spelled-F", "identify vmc500 m.csv --terms T_spindle",
+         {"m.csv": points("T_spindle_F", (70.0, 71.0, 72.0, 73.0))}, ("'T_spindle_F'",)),
+    Case("unit-temperature-in-kelvin-spelled-out", "identify vmc500 m.csv",
+         {"m.csv": points("T_spindle_kelvin", (295.0, 296.0, 297.0, 298.0))}, ("'T_spindle_kelvin'",)),
+    Case("unit-temperature-in-lower-case-degc", "identify vmc500 m.csv",
+         {"m.csv": points("T_spindle_degc")}, ("'T_spindle_degc'",)),
+    Case("unit-temperature-in-a-length", "identify vmc500 m.csv",
+         {"m.csv": points("T_spindle_mm")}, ("'T_spindle_mm'",)),
+    Case("unit-temperature-below-absolute-zero-in-kelvin", "identify vmc500 m.csv",
+         {"m.csv": points("T_spindle_K", (295.0, -1.0, 297.0, 298.0))}, ("m.csv:3:7",)),
+    Case("unit-temperature-sensor-in-kelvin-taken", "identify vmc500 m.csv",
+         {"m.csv": points("T_spindle_K", (295.0, 296.0, 297.0, 298.0))}, expect=OK),
     # --- magnitudes within sense ---------------------------------------------------------------
     Case("sense-tolerance-overflowing", "tolerance vmc500 --tolerances t.toml --samples 64",
          {"t.toml": "EXX_um = 1e300\n" + TOLERANCES}, ("t.toml", "EXX_um")),

@@ -285,3 +285,41 @@ def test_a_lag_reads_each_file_along_its_own_record(machines):
     np.testing.assert_array_equal(part, lagged[some])
     k = identify(model, days, sigma_um=NOISE)
     assert k.machine.theta[k.machine.parameter_names.index("EZZ.h.k_spindle")] == pytest.approx(2e-6, rel=0.02)
+
+
+@pytest.mark.parametrize("unit, to_file", [("degC", lambda c: c), ("K", lambda c: c + 273.15),
+                                           ("degF", lambda c: c * 9.0 / 5.0 + 32.0)])
+def test_a_temperature_column_in_kelvin_or_fahrenheit_is_converted_to_degC(machines, tmp_path, unit, to_file):
+    """Issue 44: T_spindle_degF was read as a sensor 'spindle_degF' in degC (-0.3897 um/K for a
+    true -0.7015) and T_spindle_K took the 20 degC reference in kelvin. The units the reader
+    knows are converted as the column is read, so the fit finds the truth whichever the file
+    uses, and the sensor keeps its name."""
+    from volerr_pin.identify import identify
+    from volerr_pin.measurements import read_points
+    from volerr_pin.simulate import campaign, write_points
+    from volerr_pin.specio import add_terms
+
+    m = machines["vmc500"]
+    term = {"kind": "thermal_drift", "driver": "temperature", "prefix": "h", "sensors": ["spindle"],
+            "coefficients_um_per_K": [-0.7015], "reference_degC": 20.0}
+    truth = add_terms(m, {"EZZ": term})
+    model = add_terms(m, {"EZZ": dict(term, coefficients_um_per_K=[0.0])})
+    day = campaign(truth, 120, NOISE, 5)
+    celsius = day.covariates["temperatures"]["spindle"] = 20.0 + 6.0 * np.random.default_rng(5).random(120)
+    day.values[:, :3] = truth.volumetric_error(day.q, **day.covariates)[:, :3] + np.random.default_rng(
+        6).normal(0.0, NOISE * 1e-6, (120, 3))
+    write_points(day, m, tmp_path / "c.csv")
+    lines = (tmp_path / "c.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    col = header.index("T_spindle")
+    header[col] = f"T_spindle_{unit}"
+    rows = [ln.split(",") for ln in lines[1:]]
+    for row, c in zip(rows, celsius):
+        row[col] = repr(float(to_file(c)))
+    (tmp_path / "f.csv").write_text("\n".join(",".join(r) for r in [header, *rows]) + "\n")
+    read = read_points(tmp_path / "f.csv", m)
+    assert "spindle" in read.covariates["temperatures"] and not any("_" in s for s in read.covariates["temperatures"])
+    np.testing.assert_allclose(read.covariates["temperatures"]["spindle"], celsius, rtol=0, atol=1e-9)
+    fit = identify(model, [read], sigma_um=NOISE)
+    k = fit.machine.theta[fit.machine.parameter_names.index("EZZ.h.k_spindle")]
+    assert k == pytest.approx(-0.7015e-6, rel=0.03)

@@ -32,6 +32,12 @@ TIME = {"s": 1.0, "min": 60.0, "h": 3600.0}
 #: units of each quantity a key suffix may name
 QUANTITIES = {"length": LENGTH, "angle": ANGLE, "time": TIME, "temperature": {"degC": 1.0},
               "force": {"N": 1.0}}
+#: temperature units a measurement column may name -> (scale, offset): degC = scale * value + offset
+TEMPERATURE = {"degC": (1.0, 0.0), "K": (1.0, -273.15), "degF": (5.0 / 9.0, -160.0 / 9.0)}
+#: suffixes that read like a temperature unit but are none of :data:`TEMPERATURE` (compared in
+#: lower case): a column ending so is refused rather than read as a sensor of that name
+TEMPERATURE_LIKE = frozenset({"c", "f", "r", "k", "deg", "degc", "degf", "degk", "degr", "ra", "celsius",
+                              "centigrade", "fahrenheit", "kelvin", "rankine", "°c", "°f", "°", "oc", "of"})
 
 MM = LENGTH["mm"]
 UM = LENGTH["um"]

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..units import AXIS_UNIT, axis_scale, split_key
+from ..units import AXIS_UNIT, PLAUSIBLE, TEMPERATURE, TEMPERATURE_LIKE, axis_scale, split_key
 from .table import MeasurementError, Table
 
-__all__ = ["DEVIATIONS", "DEVIATION_UNITS", "header_columns", "positions_and_covariates"]
+__all__ = ["DEVIATIONS", "DEVIATION_UNITS", "header_columns", "positions_and_covariates", "temperature_column"]
 
 #: deviation columns of point measurements, in the order of the error's six components
 DEVIATIONS = ("dx", "dy", "dz", "rx", "ry", "rz")
@@ -42,14 +42,17 @@ def header_columns(table: Table, machine) -> dict[str, int]:
     """
     columns: dict[str, int] = {}
     for col, name in enumerate(table.header):
-        stem, unit = split_key(name, ("length", "angle", "time", "temperature", "force"))
+        stem, unit = temperature_column(table, col) if name.startswith("T_") else (None, None)
+        if stem is None:
+            stem, unit = split_key(name, ("length", "angle", "time", "temperature", "force"))
         if stem in columns:
             first = table.header[columns[stem]]
             raise MeasurementError(f"{table.path}:{table.header_line}:{col + 1}: columns '{first}' "
                                    f"(column {columns[stem] + 1}) and '{name}' are both {stem}; keep one")
         columns[stem] = col
         expected = _expected_unit(stem, machine)
-        if unit is not None and expected is not None and unit != expected:
+        if unit is not None and expected is not None and unit != expected and not (
+                expected == "degC" and unit in TEMPERATURE):
             raise MeasurementError(f"{table.path}:{table.header_line}:{col + 1}: column '{name}': "
                                    f"unit '{unit}' is not the file unit '{expected}' of {stem}")
     return columns
@@ -110,7 +113,19 @@ def positions_and_covariates(table: Table, columns: dict[str, int], machine) -> 
     temps = {}
     for name, col in columns.items():
         if name.startswith("T_") and len(name) > 2:
-            temps[name[2:]] = table.column(col, limit="temperature", unit="degC")
+            unit = temperature_column(table, col)[1] or "degC"
+            scale, offset = TEMPERATURE[unit]
+            raw = table.column(col)
+            values = raw * scale + offset
+            low, high = PLAUSIBLE["temperature"]
+            bad = np.flatnonzero((values < low) | (values > high))
+            if bad.size and unit != "degC":
+                r = int(bad[0])
+                raise MeasurementError(f"{table.where(r, col)}: column '{table.header[col]}': {raw[r]:g} {unit} "
+                                       f"= {values[r]:g} degC is implausible: a temperature lies within "
+                                       f"{low:g} .. {high:g} degC (docs/measurements.md)")
+            table.check_plausible(col, values, "temperature", "degC")
+            temps[name[2:]] = values
             used.add(col)
     if temps:
         covariates["temperatures"] = temps
@@ -136,6 +151,48 @@ def positions_and_covariates(table: Table, columns: dict[str, int], machine) -> 
                                        f"direction must be +1 or -1, got {table.rows[bad[0]][col].strip()}")
         covariates["directions"] = directions
     return q, covariates, used
+
+
+def temperature_column(table: Table, col: int) -> tuple[str | None, str | None]:
+    """The sensor column and temperature unit a ``T_`` column names.
+
+    ``T_spindle`` is in degC; ``T_spindle_degC``, ``T_spindle_K`` and ``T_spindle_degF`` name
+    their unit (the values are converted to degC as they are read).
+
+    Parameters
+    ----------
+    table : Table
+        The table.
+    col : int
+        Index of a column whose name starts with ``T_``.
+
+    Returns
+    -------
+    (str or None, str or None)
+        The column's stem (``T_spindle``) and its unit (None when the name gives none);
+        ``(None, None)`` when the name ends in another quantity's unit (``T_spindle_mm``),
+        which :func:`header_columns` refuses as the wrong unit.
+
+    Raises
+    ------
+    MeasurementError
+        If the name ends in something that reads like a temperature unit but is none of
+        degC, K and degF (``T_spindle_F``, ``T_spindle_kelvin``, ``T_spindle_degc``): it would
+        otherwise be read as a sensor of that name, in degC.
+    """
+    name = table.header[col]
+    stem, sep, suffix = name.rpartition("_")
+    if sep and stem.startswith("T_") and len(stem) > 2:
+        if suffix in TEMPERATURE:
+            return stem, suffix
+        if suffix.lower() in TEMPERATURE_LIKE:
+            raise MeasurementError(
+                f"{table.path}:{table.header_line}:{col + 1}: column '{name}': unit '{suffix}' is not "
+                f"one the reader knows; a temperature column names degC, K or degF "
+                f"({stem}_degC, {stem}_K, {stem}_degF), or none for degC")
+        if split_key(name, ("length", "angle", "time", "force"))[1] is not None:
+            return None, None
+    return name, None
 
 
 def _expected_unit(stem: str, machine) -> str | None:
