@@ -165,7 +165,7 @@ def test_an_accepted_period_a_fit_takes_out_of_its_window_is_fitted_again_held(o
         if len(calls) == 1:   # the free fit: its period wanders off
             theta = res.machine.theta.copy()
             theta[k] = 2 * np.pi * factor
-            res = dataclasses.replace(res, machine=res.machine.with_theta(theta))
+            res = dataclasses.replace(res, machine=res.machine._with_theta(theta))  # as a fit makes it
         return res
 
     monkeypatch.setattr(diagnose_loop, "_quiet_identify", straying)

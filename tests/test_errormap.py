@@ -205,7 +205,7 @@ def test_axis_tables_are_written_whole(machines, tmp_path):
     in one line, and nothing but the tables is left behind."""
     m = machines["vmc500"]
     (tmp_path / "taken").write_text("")
-    with pytest.raises(InputError, match="directory: cannot make the folder"):
+    with pytest.raises(InputError, match="directory: .*taken is not a folder"):
         axis_tables(m, tmp_path / "taken" / "sub", points=3)
     files = axis_tables(m, tmp_path / "tables", points=3)
     assert sorted(p.name for p in (tmp_path / "tables").iterdir()) == sorted(f.rsplit("/", 1)[1] for f in files)

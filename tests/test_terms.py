@@ -126,11 +126,11 @@ def test_bad_term_tables_name_the_key(table, match):
 
 def test_a_table_too_large_for_the_memory_is_refused_before_it_is_built(monkeypatch):
     """A spline table keeps every node's unit vector: a spec of a few hundred kB with 100,000
-    positions would ask for 400 GB. The check names the key instead."""
+    positions would ask for 1 TB. The check names the key instead."""
     monkeypatch.setattr(safeio, "available_memory", lambda: 1e9)
     n = 10_000
     table = {"kind": "table", "positions_mm": np.linspace(0, 500, n).tolist(), "values_um": [0.0] * n}
-    with pytest.raises(ValueError, match=r"test\.positions_mm: a table of 10,000 positions needs about 4 GB"):
+    with pytest.raises(ValueError, match=r"test\.positions_mm: a table of 10,000 positions needs about 10 GB"):
         term(table)
     small = {**table, "positions_mm": np.linspace(0, 500, 500).tolist(), "values_um": [0.0] * 500}
     assert term(small).term.size == 500

@@ -225,12 +225,26 @@ def test_an_identification_report_gives_values_uncertainties_and_correlations(ma
 
 
 @pytest.mark.parametrize("text, match", [
-    ("{\"parameters\": {\n  \"EXX.n0\": {\"value\": 1,}}}", r"id.json: line 2 column \d+: not JSON"),
+    ("{\"parameters\": {\n  \"EXX.n0\": {\"value\": 1,}}}", r"id.json:2:\d+: not JSON"),
     ("[1, 2]", "no 'parameters' object"),
     ("{\"parameters\": {\"EQQ.c0\": {\"value\": 1, \"uncertainty\": 1}}}", "parameters.EQQ.c0: not a coefficient"),
     ("{\"parameters\": {\"EXX.n0\": {\"value\": 1, \"uncertainty\": 1, \"unit\": \"mm\"}}}", "unit 'mm'"),
     ("{\"parameters\": {\"EXX.n0\": {\"value\": 1, \"uncertainty\": -1}}}", "expected a non-negative number"),
     ("{\"parameters\": {\"EXX.n0\": {\"value\": 1, \"uncertainty\": null}}}", "no coefficient has an uncertainty"),
+    # issue 44: a report read back goes through a spec's rules
+    ("{\"parameters\": {\"EXX.n0\": {\"value\": 1e300, \"uncertainty\": 1}}}",
+     r"parameters.EXX.n0.value: 1e\+300 um is implausible"),
+    ("{\"parameters\": {\"EXX.n0\": {\"value\": 1, \"uncertainty\": 1e300}}}",
+     r"parameters.EXX.n0.uncertainty: 1e\+300 um is implausible"),
+    ("{\"parameters\": {\"EXX.n0\": {\"value\": 506, \"uncertainty\": 1, \"value\": 18}}}",
+     r"key 'value' is given twice in one object \(506 and 18\)"),
+    ("{\"parameters\": {\"EXX.n0\": {\"value\": NaN, \"uncertainty\": 1}}}", "NaN is not a JSON number"),
+    ("{\"parameters\": {\"EXX.n0\": {\"value\": 1, \"uncertainty\": 1}},"
+     " \"correlation\": {\"parameters\": [\"EXX.n0\", \"EQQ.c0\"], \"matrix\": [[1, 0.5], [0.5, 1]]}}",
+     r"correlation.parameters\[1\]: 'EQQ.c0' is not a coefficient of vmc500"),
+    ("{\"machine\": \"vmc700\", \"parameters\": {\"EXX.n0\": {\"value\": 1, \"uncertainty\": 1}}}",
+     "the report is of 'vmc700', not of 'vmc500'"),
+    ("[" * 50_000 + "]" * 50_000, "nested too deep"),
 ])
 def test_a_bad_identification_report_is_refused_naming_the_file(machines, tmp_path, text, match):
     path = tmp_path / "id.json"

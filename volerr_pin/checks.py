@@ -10,7 +10,73 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["counts", "fraction", "integer", "one_point", "positive", "real_array", "whole_numbers"]
+__all__ = ["counts", "fraction", "integer", "one_point", "positive", "measurement_sigma", "real_array", "sensible", "whole_numbers"]
+
+
+def measurement_sigma(name: str, value) -> float:
+    """A standard uncertainty of measured values, ``sigma_um`` or ``sigma_urad``: positive,
+    finite and within what a deviation may be (1 m, 1 rad).
+
+    Parameters
+    ----------
+    name : str
+        ``"sigma_um"`` or ``"sigma_urad"`` (its unit is read from the name).
+    value : object
+        The value given, in that unit.
+
+    Returns
+    -------
+    float
+        The number, in the unit given.
+
+    Raises
+    ------
+    InputError
+        Naming ``name``.
+    """
+    number = positive(name, value)
+    limit = "error_angle" if name.endswith("_urad") else "error_length"
+    sensible(name, number * 1e-6, limit, name.rpartition("_")[2], 1e-6)
+    return number
+
+
+def sensible(name: str, values, limit: str, unit: str, unit_scale: float = 1.0) -> np.ndarray:
+    """SI values refused unless finite and within the plausibility limit a spec's value of the
+    same kind has (:data:`volerr_pin.units.PLAUSIBLE`).
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name, for the message (the command line says its option).
+    values : array_like
+        The values, SI.
+    limit : str
+        A key of :data:`~volerr_pin.units.PLAUSIBLE` ("error_length", "position_length", ...).
+    unit : str
+        The unit the caller gave the values in, for the message.
+    unit_scale : float, default 1.0
+        SI value of one such unit.
+
+    Returns
+    -------
+    ndarray
+        The values as floats.
+
+    Raises
+    ------
+    InputError
+        Naming ``name``, the first value beyond the limit and the limit in ``unit``.
+    """
+    from .units import PLAUSIBLE, describe_range, shown
+
+    array = np.asarray(values, dtype=float)
+    low, high = PLAUSIBLE[limit]
+    bad = np.flatnonzero(~((array >= low) & (array <= high)))
+    if bad.size:
+        value = array.ravel()[bad[0]] / unit_scale
+        raise InputError(f"{name}: {shown(value)} {unit} is {'not a number' if math.isnan(value) else 'implausible'}: "
+                         f"{describe_range(limit, unit, unit_scale)}", parameters=(name,))
+    return array
 
 
 def positive(name: str, value) -> float:

@@ -148,7 +148,7 @@ def compensate_points(machine: Machine, q_desired, *, method: str = "newton", to
         raise InputError(f"method must be 'newton' or 'recursive', got {method!r}", parameters=("method",))
     tol_um, tol_urad, lever = _positive("tol_um", tol_um), _positive("tol_urad", tol_urad), _positive("lever", lever)
     max_iter = _integer("max_iter", max_iter, 0)
-    q_d = machine.check_q(q_desired)
+    q_d = machine.check_q(q_desired, name="q_desired")
     require_memory(len(q_d) * COMPENSATION_BYTES, f"compensating {len(q_d):,} positions", ("q_desired",))
     n = len(q_d)
     orientation = has_rotary(machine) if orientation is None else orientation

@@ -42,7 +42,7 @@ from numpy.polynomial import legendre
 from .errors import InputError, SpecError
 from .speckeys import TermSite, find_key, number, numbers, stem_of, unit_of, within
 from .terms import MAX_COEFFICIENTS, Context, Covariates, Term
-from .units import TIME, scale
+from .units import ANGLE, TIME, scale
 
 
 STATE_HINT = "; give it with the points, or hold the machine in a state (Machine.with_state)"
@@ -536,6 +536,10 @@ class PeriodicPitch(Term):
     def coefficient_units(self):
         return [(self.unit_scale, self.unit)] * (2 * self.harmonics) + [(self.position_scale, self.position_unit)]
 
+    def coefficient_limits(self):
+        quantity = "angle" if self.position_unit in ANGLE else "length"
+        return super().coefficient_limits()[:-1] + [f"period_{quantity}"]
+
     def to_spec(self, c):
         return {"kind": "periodic_pitch",
                 f"period_{self.position_unit}": float(c[-1] / self.position_scale),
@@ -551,6 +555,7 @@ class PeriodicPitch(Term):
         period, punit, pscale, pkey = site.value(table, "period", position, count=1)
         if period[0] <= 0:
             raise SpecError(f"{site.where}.{pkey}: the period must be positive")
+        within(period, f"period_{position}", f"{site.where}.{pkey}", punit, pscale)
         sines, unit, factor, skey = site.value(table, "sine")
         _count(sines.size, site, skey, "harmonics")
         cosines, _, _, _ = site.value(table, "cosine", count=sines.size)

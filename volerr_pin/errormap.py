@@ -30,7 +30,7 @@ import numpy as np
 
 from .errors import InputError
 from .machine import Machine
-from .safeio import check_outputs, replacing, require_memory
+from .safeio import check_output_folder, check_outputs, replacing, require_memory, transaction
 from .units import AXIS_UNIT, axis_scale
 from .checks import counts, integer
 
@@ -531,34 +531,31 @@ def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> li
     points = integer("points", points, 2)
     require_memory(points * (8 * 3 * (len(machine.axes) + len(machine.components)) + EVALUATION_BYTES),
                    f"axis tables at {points:,} positions", ("points",))
-    directory = Path(directory)
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise InputError(f"directory: cannot make the folder {directory}: {err.strerror or err}",
-                         parameters=("directory",)) from None
+    directory = check_output_folder("directory", directory)
     travel = machine.travel
     mid = machine.mid_travel
     info = {t["component"]: t["owner"] for t in machine.assembly.term_info()}
     files = []
-    for j, axis in enumerate(machine.axes):
-        comps = [c for c in machine.components if info.get(c) == axis]
-        if not comps:
-            continue
-        lo, hi = travel[j] if np.isfinite(travel[j]).all() else (0.0, 2 * np.pi)
-        q = np.tile(mid, (points, 1))
-        q[:, j] = np.linspace(lo, hi, points)
-        vals = machine.component_values(q)
-        cols = [machine.components.index(c) for c in comps]
-        path = directory / f"{machine.name}_{axis}.csv"
-        with replacing(path) as tmp, open(tmp, "w", newline="") as fh:
-            fh.write(f"# volerr_pin ISO 230-1 component errors of axis {axis} ({machine.name}); "
-                     "errors as motions of the tool relative to the workpiece\n")
-            w = csv.writer(fh, lineterminator="\n")
-            w.writerow([f"{axis}_{AXIS_UNIT[machine.axis_kinds[j]]}"] + [
-                f"{c}_{'urad' if c[1] in 'ABC' else 'um'}" for c in comps])
-            for row, pos in zip(vals[:, cols], q[:, j]):
-                w.writerow([f"{pos / axis_scale(machine.axis_kinds[j]):.4f}"]
-                           + [f"{v * 1e6:.4f}" for v in row])
-        files.append(str(path))
+    with transaction() as tx:
+        tx.folder(directory)
+        for j, axis in enumerate(machine.axes):
+            comps = [c for c in machine.components if info.get(c) == axis]
+            if not comps:
+                continue
+            lo, hi = travel[j] if np.isfinite(travel[j]).all() else (0.0, 2 * np.pi)
+            q = np.tile(mid, (points, 1))
+            q[:, j] = np.linspace(lo, hi, points)
+            vals = machine.component_values(q)
+            cols = [machine.components.index(c) for c in comps]
+            path = directory / f"{machine.name}_{axis}.csv"
+            with open(tx.path(path), "w", newline="") as fh:
+                fh.write(f"# volerr_pin ISO 230-1 component errors of axis {axis} ({machine.name}); "
+                         "errors as motions of the tool relative to the workpiece\n")
+                w = csv.writer(fh, lineterminator="\n")
+                w.writerow([f"{axis}_{AXIS_UNIT[machine.axis_kinds[j]]}"] + [
+                    f"{c}_{'urad' if c[1] in 'ABC' else 'um'}" for c in comps])
+                for row, pos in zip(vals[:, cols], q[:, j]):
+                    w.writerow([f"{pos / axis_scale(machine.axis_kinds[j]):.4f}"]
+                               + [f"{v * 1e6:.4f}" for v in row])
+            files.append(str(path))
     return files

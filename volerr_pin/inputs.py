@@ -13,12 +13,16 @@ import numpy as np
 
 from .checks import real_array
 from .errors import InputError
+from .safeio import require_memory
 from .terms import Covariates
+
+#: evaluations below this many bytes are not sized against the free memory
+SMALL_REQUEST = 64 * 2**20
 
 if TYPE_CHECKING:  # the machine imports this module; its type is only named here
     from .machine import Machine
 
-__all__ = ["check_inputs", "check_q", "check_theta", "outside_travel"]
+__all__ = ["check_inputs", "check_q", "check_theta", "outside_travel", "plausible_theta", "theta_bounds"]
 
 
 def outside_travel(machine: "Machine", q: np.ndarray) -> np.ndarray:
@@ -74,7 +78,64 @@ def check_theta(machine: "Machine", theta) -> np.ndarray:
     return theta
 
 
-def check_q(machine: "Machine", q, extrapolate: bool = False) -> np.ndarray:
+def theta_bounds(machine: "Machine") -> np.ndarray:
+    """Lowest and highest plausible SI value of each coefficient, by the spec's rules.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+
+    Returns
+    -------
+    ndarray, shape (P, 2)
+        The bounds (an error within 1 m or 1 rad, a time constant within 1e10 s, a period
+        from a micrometre to 1 km), in the order of ``parameter_names``; read-only.
+    """
+    cached = machine.__dict__.get("_theta_bounds")
+    if cached is None:
+        bounds = {name: b for comp in machine.spec.components for tspec in comp.terms
+                  for name, b in zip(tspec.names(comp.name), tspec.term.coefficient_bounds())}
+        cached = np.array([bounds[n] for n in machine.parameter_names]).reshape(-1, 2)
+        cached.flags.writeable = False
+        machine.__dict__["_theta_bounds"] = cached
+    return cached
+
+
+def plausible_theta(machine: "Machine", theta: np.ndarray) -> np.ndarray:
+    """``theta`` (checked by :func:`check_theta`), refused beyond :func:`theta_bounds`.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    theta : ndarray, shape (P,)
+        Coefficients, SI.
+
+    Returns
+    -------
+    ndarray, shape (P,)
+        ``theta``.
+
+    Raises
+    ------
+    InputError
+        Naming the first coefficient beyond its bounds, in its display unit.
+    """
+    low, high = theta_bounds(machine).T
+    bad = np.flatnonzero((theta < low) | (theta > high))
+    if bad.size:
+        k = int(bad[0])
+        name = machine.parameter_names[k]
+        units = {n: u for comp in machine.spec.components for tspec in comp.terms
+                 for n, u in zip(tspec.names(comp.name), tspec.term.coefficient_units())}
+        factor, unit = units[name]
+        raise InputError(f"theta[{k}] ({name}) = {theta[k] / factor:.10g} {unit} is implausible: "
+                         f"the spec's limit is {low[k] / factor:.10g} .. {high[k] / factor:.10g} {unit}")
+    return theta
+
+
+def check_q(machine: "Machine", q, extrapolate: bool = False, columns: int = 0, name: str = "q") -> np.ndarray:
     """Convert ``q`` to a float array of NC positions and check it.
 
     Parameters
@@ -85,6 +146,13 @@ def check_q(machine: "Machine", q, extrapolate: bool = False) -> np.ndarray:
         NC positions [m, rad]; a single point becomes one row.
     extrapolate : bool, default False
         Allow positions outside the travel.
+    columns : int, default 0
+        Columns of a sensitivity the evaluation returns per point (0 for errors alone): with
+        the number of points, what the evaluation will hold, checked against the free memory
+        before ``q`` is copied (a broadcast view of a billion points takes one row of memory).
+    name : str, default "q"
+        The caller's name of the positions (``q_desired``), so that a refusal names what the
+        caller was given.
 
     Returns
     -------
@@ -95,31 +163,38 @@ def check_q(machine: "Machine", q, extrapolate: bool = False) -> np.ndarray:
     ------
     InputError
         If ``q`` is not real numbers, has the wrong shape, holds a value that is not finite, or
-        (unless ``extrapolate``) leaves the travel (see :func:`outside_travel`).
+        (unless ``extrapolate``) leaves the travel (see :func:`outside_travel`), or more
+        points than the free memory can evaluate at once.
     """
-    q = real_array(q, f"q (shape (N, {len(machine.axes)}))", "q")
+    shape = q.shape if isinstance(q, np.ndarray) else ()   # a list is already in memory
+    if len(shape) == 2:
+        # measured peaks: about 8 x (64 + P) bytes a point for errors, 8 x 8 per sensitivity column
+        per_point = 8 * (64 + len(machine.assembly.names) + 8 * columns + 2 * len(machine.axes))
+        if shape[0] * per_point > SMALL_REQUEST:   # the fits' many small calls read no /proc/meminfo
+            require_memory(shape[0] * per_point, f"evaluating {shape[0]:,} positions {name}")
+    q = real_array(q, f"{name} (shape (N, {len(machine.axes)}))", name)
     if q.ndim == 1 and q.shape[0] == len(machine.axes):
         q = q[None, :]
     if q.ndim != 2 or q.shape[1] != len(machine.axes):
-        raise InputError(f"q has shape {q.shape}; expected (N, {len(machine.axes)}) with columns "
+        raise InputError(f"{name} has shape {q.shape}; expected (N, {len(machine.axes)}) with columns "
                          f"{', '.join(machine.axes)}")
     bad = np.argwhere(~np.isfinite(q))
     if bad.size:
         i, j = bad[0]
-        raise InputError(f"q[{i}, {j}] (axis {machine.axes[j]}) is {q[i, j]}")
+        raise InputError(f"{name}[{i}, {j}] (axis {machine.axes[j]}) is {q[i, j]}")
     if not extrapolate:
         outside = machine.outside_travel(q)
         if outside.any():
             i, j = np.argwhere(outside)[0]
             unit = "m" if machine.axis_kinds[j] == "linear" else "rad"
             raise InputError(
-                f"q[{i}, {j}] = {q[i, j]:.6g} {unit} is outside the travel of axis {machine.axes[j]} "
+                f"{name}[{i}, {j}] = {q[i, j]:.6g} {unit} is outside the travel of axis {machine.axes[j]} "
                 f"[{machine.assembly.travel[j, 0]:.6g}, {machine.assembly.travel[j, 1]:.6g}] {unit} "
                 f"({int(outside.sum())} value(s) outside); pass extrapolate=True to evaluate there")
     return q
 
 
-def check_inputs(machine: "Machine", q, theta=None, *, extrapolate: bool = False, **covariates
+def check_inputs(machine: "Machine", q, theta=None, *, extrapolate: bool = False, columns: int = 0, **covariates
                  ) -> tuple[np.ndarray, np.ndarray, Covariates]:
     """Check positions, coefficients and covariates at once, as every evaluation does.
 
@@ -133,6 +208,10 @@ def check_inputs(machine: "Machine", q, theta=None, *, extrapolate: bool = False
         Coefficients (SI); defaults to the machine's.
     extrapolate : bool, default False
         Allow positions outside the travel.
+    columns : int, default 0
+        Columns of a sensitivity the evaluation returns per point (0 for errors alone): with
+        the number of points, what the evaluation will hold, checked against the free memory
+        before ``q`` is copied (a broadcast view of a billion points is one row in memory).
     **covariates
         As for :meth:`~volerr_pin.machine.Machine.volumetric_error`.
 
@@ -148,7 +227,8 @@ def check_inputs(machine: "Machine", q, theta=None, *, extrapolate: bool = False
     Raises
     ------
     InputError
-        For invalid ``q``, ``theta`` or covariates.
+        For invalid ``q``, ``theta`` or covariates, or more points than the free memory can
+        evaluate at once (see :func:`check_q`).
     """
-    q = machine.check_q(q, extrapolate)
+    q = machine.check_q(q, extrapolate, columns)
     return q, check_theta(machine, theta), machine.check_covariates(q.shape[0], covariates)

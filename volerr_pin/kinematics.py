@@ -28,14 +28,29 @@ CHUNK = 16384  # points per block: keeps the joint-value block in cache, memory 
 PARALLEL_MIN = 2048  # fewer points run on the calling thread: waking a thread pool costs more
 
 
+def _njit(**options):
+    """``numba.njit`` with its compiled code cached on disk where a cache can be written (beside
+    the source, or under the user's cache folder); where neither can - an installation that is
+    read-only for a user whose HOME is not writable - the kernels are compiled in memory at
+    each start instead of failing the import."""
+    def wrap(fn):
+        try:
+            return numba.njit(cache=True, **options)(fn)
+        except RuntimeError as err:
+            if "no locator available" not in str(err):
+                raise
+            return numba.njit(**options)(fn)
+    return wrap
+
+
 def _kernel(fn):
     """Compile ``fn`` twice - over threads (``numba.prange``) and on the calling thread - and
     pick by the number of points (``values.shape[1]``, the first argument): small calls
     (thousands of them in an identification or diagnosis) then never wait for a pool."""
-    parallel = numba.njit(cache=True, parallel=True, fastmath=FAST)(fn)
+    parallel = _njit(parallel=True, fastmath=FAST)(fn)
     twin = types.FunctionType(fn.__code__, fn.__globals__, fn.__name__ + "_serial")
     twin.__qualname__ = fn.__qualname__ + "_serial"  # its own on-disk cache entry
-    serial = numba.njit(cache=True, fastmath=FAST)(twin)
+    serial = _njit(fastmath=FAST)(twin)
 
     def run(values, *args):
         return (parallel if values.shape[1] >= PARALLEL_MIN else serial)(values, *args)
@@ -222,7 +237,7 @@ def build_chain(model: pin.Model, tool_frame: str, workpiece_frame: str,
     )
 
 
-@numba.njit(cache=True, fastmath=FAST)
+@_njit(fastmath=FAST)
 def _sincos(v):
     """sin and cos; a short series for the tiny angles of error joints (exact to rounding
     for |v| < 1e-2: the first omitted terms are below 1e-26), libm otherwise."""
@@ -237,7 +252,7 @@ def _sincos(v):
 # Poses inside the kernels are (R, p) with R a 9-tuple (row-major) and p a 3-tuple: plain
 # scalars that stay in registers, no per-point allocation.
 
-@numba.njit(cache=True, fastmath=FAST)
+@_njit(fastmath=FAST)
 def _compose_constant(R, p, C_R, C_p, k):
     """(R, p) * (C_R[k], C_p[k]); arrays are indexed here, not sliced (no views in the loop)."""
     p = (p[0] + R[0] * C_p[k, 0] + R[1] * C_p[k, 1] + R[2] * C_p[k, 2],
@@ -255,7 +270,7 @@ def _compose_constant(R, p, C_R, C_p, k):
     return R, p
 
 
-@numba.njit(cache=True, fastmath=FAST)
+@_njit(fastmath=FAST)
 def _compose_motion(R, p, kind, axis, k, v):
     if kind == PX:
         return R, (p[0] + v * R[0], p[1] + v * R[3], p[2] + v * R[6])
@@ -294,7 +309,7 @@ def _compose_motion(R, p, kind, axis, k, v):
             R[6] * m02 + R[7] * m12 + R[8] * m22), p
 
 
-@numba.njit(cache=True, fastmath=FAST)
+@_njit(fastmath=FAST)
 def _pose(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p, with_errors):
     R = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     p = (0.0, 0.0, 0.0)
@@ -307,7 +322,7 @@ def _pose(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end
     return _compose_constant(R, p, end_R, end_p, 0)
 
 
-@numba.njit(cache=True, fastmath=FAST)
+@_njit(fastmath=FAST)
 def _times_transpose(Ra, Rn):
     """Ra Rn^T of two rotations (row-major 9-tuples): the error rotation of an actual pose
     against the nominal one."""
@@ -322,7 +337,7 @@ def _times_transpose(Ra, Rn):
             Ra[6] * Rn[6] + Ra[7] * Rn[7] + Ra[8] * Rn[8])
 
 
-@numba.njit(cache=True, fastmath=FAST)
+@_njit(fastmath=FAST)
 def _rotation_vector(D):
     """log of a rotation matrix (9-tuple), accurate for tiny angles, valid up to pi."""
     wx = 0.5 * (D[7] - D[5])
@@ -431,7 +446,7 @@ def _poses(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p
                 out_R[i, r, c] = R[3 * r + c]
 
 
-@numba.njit(cache=True, fastmath=FAST)
+@_njit(fastmath=FAST)
 def _jacobian_point(values, i, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, end_p,
                     nominal, J):
     """Derivative of the tool pose (in the workpiece frame) w.r.t. every joint value, for point i.
@@ -486,7 +501,7 @@ def _jacobian(values, C_R, C_p, C_id, kind, axis, col, sign, is_error, end_R, en
                         nominal, out_J[i])
 
 
-@numba.njit(cache=True, fastmath=FAST)
+@_njit(fastmath=FAST)
 def _left_jacobian_inverse(x, y, z):
     """Jl^-1 at the rotation vector (x, y, z), row-major 9-tuple: I - K/2 + c K^2 with K its
     skew matrix (K^2 = phi phi^T - |phi|^2 I), as :func:`log3_left_jacobian_inverse`."""

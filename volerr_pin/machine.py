@@ -173,6 +173,9 @@ class Machine:
         """Names of the coefficients ``theta`` (e.g. ``EXX.c2``), in order; tuple of P str."""
         return self._asm.names
 
+    #: (P, 2) lowest and highest plausible SI value of each coefficient (:func:`~volerr_pin.inputs.theta_bounds`)
+    theta_bounds = property(inputs.theta_bounds)
+
     @property
     def theta(self) -> np.ndarray:
         """Current coefficient values, ndarray of shape (P,) in the SI unit of each coefficient; a copy."""
@@ -241,9 +244,14 @@ class Machine:
         Raises
         ------
         InputError
-            If ``theta`` does not have shape (P,) or holds a value that is not finite.
+            If ``theta`` does not have shape (P,), holds a value that is not finite, or one
+            beyond the plausibility limits a spec would refuse (:attr:`theta_bounds`).
         """
-        theta = self.check_theta(theta)
+        return self._with_theta(inputs.plausible_theta(self, self.check_theta(theta)))
+
+    def _with_theta(self, theta: np.ndarray) -> "Machine":
+        """:meth:`with_theta` of a checked array without the plausibility limits: for the steps
+        of a fit, which may pass through any value on the way."""
         other = object.__new__(Machine)
         other.__dict__.update(self.__dict__)
         other._theta = theta

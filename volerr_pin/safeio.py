@@ -23,6 +23,7 @@ the machine has free, naming the parameter that sets its size.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import stat
 import tempfile
@@ -32,7 +33,7 @@ from pathlib import Path
 from .errors import InputError
 
 __all__ = ["READ_OVERHEAD", "Transaction", "available_memory", "check_output_folder", "check_outputs", "keep_backup", "replacing", "require_memory",
-           "read_text", "same_file", "transaction", "write_text"]
+           "read_json", "read_text", "same_file", "transaction", "write_text"]
 
 #: fraction of the free memory one request may take
 MEMORY_SHARE = 0.5
@@ -226,8 +227,51 @@ class Transaction:
 
     def __init__(self):
         self._pending: list[tuple[Path, Path, bool]] = []  # (temporary, target, keep a backup)
+        self._made: list[Path] = []   # folders made for the outputs, parents first
         #: the backups kept of replaced files, once committed
         self.backups: list[Path] = []
+
+    def folder(self, path: str | os.PathLike) -> Path:
+        """Make the folder ``path`` (and its missing parents) for outputs; the folders made are
+        removed again if the run fails, so a refused or failed run leaves no empty folder.
+
+        Parameters
+        ----------
+        path : path
+            The folder.
+
+        Returns
+        -------
+        Path
+            The folder.
+        """
+        path = Path(path)
+        missing = []
+        probe = path
+        while not probe.exists() and probe != probe.parent:
+            missing.append(probe)
+            probe = probe.parent
+        path.mkdir(parents=True, exist_ok=True)
+        self._made.extend(reversed(missing))
+        return path
+
+    def target_of(self, temporary: str | os.PathLike) -> Path | None:
+        """The target a temporary path of this transaction stands for.
+
+        Parameters
+        ----------
+        temporary : path
+            A path :meth:`path` handed out (or any other).
+
+        Returns
+        -------
+        Path or None
+            Its target; None for a path this transaction did not hand out.
+        """
+        for tmp, target, _ in self._pending:
+            if str(tmp) == str(temporary):
+                return target
+        return None
 
     def path(self, target: str | os.PathLike, *, backup: bool = False) -> Path:
         """A temporary file beside ``target`` (empty, hidden, with exactly its suffix - none
@@ -294,13 +338,19 @@ class Transaction:
         for folder in {target.parent for _, target, _ in self._pending}:
             _fsync_folder(folder)
         self._pending.clear()
+        self._made.clear()
 
     def abort(self) -> None:
-        """Remove every temporary file; the targets stay as they were."""
+        """Remove every temporary file and the folders made for the outputs; the targets stay
+        as they were."""
         for tmp, _, _ in self._pending:
             with contextlib.suppress(FileNotFoundError):
                 tmp.unlink()
         self._pending.clear()
+        for folder in reversed(self._made):
+            with contextlib.suppress(OSError):   # not empty: something else wrote there meanwhile
+                folder.rmdir()
+        self._made.clear()
 
 
 @contextlib.contextmanager
@@ -317,14 +367,30 @@ def transaction() -> Iterator[Transaction]:
     tx = Transaction()
     try:
         yield tx
+    except OSError as err:
+        tx.abort()
+        raise _named(err, tx) from None
     except BaseException:
         tx.abort()
         raise
     try:
         tx.commit()
+    except OSError as err:
+        tx.abort()
+        raise _named(err, tx) from None
     except BaseException:
         tx.abort()
         raise
+
+
+def _named(err: OSError, tx: Transaction) -> OSError:
+    """An error writing outputs, naming the output (not its hidden temporary file)."""
+    target = tx.target_of(err.filename) if err.filename else None
+    if target is None and err.filename is None and len(tx._pending) == 1:
+        target = tx._pending[0][1]
+    if target is None and err.filename is None:
+        target = ", ".join(str(t) for _, t, _ in tx._pending) or None
+    return OSError(err.errno, err.strerror, str(target) if target is not None else err.filename)
 
 
 @contextlib.contextmanager
@@ -544,3 +610,67 @@ def read_text(path: str | os.PathLike, error: type[Exception] = InputError, what
         line, column = _line_and_column(data, data.index(b"\x00"))
         raise error(f"{path}:{line}:{column}: a NUL byte; this is not a text file")
     return content.removeprefix("\ufeff")
+
+
+class _Duplicate(Exception):
+    def __init__(self, key: str, first, second):
+        super().__init__(key)
+        self.key, self.first, self.second = key, first, second
+
+
+def _unique_keys(pairs: list) -> dict:
+    out: dict = {}
+    for key, value in pairs:
+        if key in out:
+            raise _Duplicate(key, out[key], value)
+        out[key] = value
+    return out
+
+
+def _no_constant(name: str):
+    raise ValueError(name)
+
+
+def read_json(path: str | os.PathLike, error: type[Exception] = InputError, what: str = "JSON report"):
+    """A JSON file that a user names, read by a spec's rules: through :func:`read_text`, with
+    one value under one key, finite numbers only, and nesting Python can read.
+
+    Parameters
+    ----------
+    path : str or path
+        The file.
+    error : type, default InputError
+        Exception class raised, constructed with the message.
+    what : str
+        What the file is, for messages.
+
+    Returns
+    -------
+    object
+        The parsed JSON.
+
+    Raises
+    ------
+    InputError
+        (or ``error``) Naming the file: what :func:`read_text` refuses; text that is not JSON
+        (naming line and column); a key given twice in one object (the later would win
+        without a word); ``NaN`` or ``Infinity`` (not JSON, though Python writes them); or
+        arrays and objects nested deeper than Python's recursion allows.
+    """
+    text = read_text(path, error, what)
+    try:
+        return json.loads(text, object_pairs_hook=_unique_keys, parse_constant=_no_constant)
+    except json.JSONDecodeError as err:
+        raise error(f"{path}:{err.lineno}:{err.colno}: not JSON: {err.msg}") from None
+    except _Duplicate as dup:
+        raise error(f"{path}: key {dup.key!r} is given twice in one object ({_brief(dup.first)} and "
+                    f"{_brief(dup.second)}); keep one") from None
+    except ValueError as err:
+        raise error(f"{path}: {err} is not a JSON number; a {what} holds finite numbers only") from None
+    except RecursionError:
+        raise error(f"{path}: arrays or objects nested too deep to read; this is not a {what}") from None
+
+
+def _brief(value) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 40 else text[:37] + "..."

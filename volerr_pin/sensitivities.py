@@ -104,7 +104,7 @@ def sensitivity(machine: "Machine", q, theta=None, *, parameters=None, first_ord
     single = one_point(q)
     cols = parameter_columns(machine, parameters)
     asm = machine.assembly
-    q, theta, cov = machine.check_inputs(q, theta, extrapolate=extrapolate, **covariates)
+    q, theta, cov = machine.check_inputs(q, theta, extrapolate=extrapolate, columns=len(cols), **covariates)
     out = np.empty((q.shape[0], 6, len(cols)))
     param_column = np.ascontiguousarray(asm.param_column[cols])
     for start in range(0, q.shape[0], asm.block):

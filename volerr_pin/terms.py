@@ -23,7 +23,21 @@ from scipy.interpolate import CubicSpline, make_interp_spline
 from .errors import InputError, SpecError
 from .safeio import require_memory
 from .speckeys import TermSite, text
-from .units import scale
+from .units import ANGLE, LENGTH, PLAUSIBLE, TIME, scale
+
+#: peak memory of reading a table of n nodes, per n^2 (measured 96 bytes at 1,000 and 2,000 nodes;
+#: the estimate of 40 had a 7,000-node cubic table take 4.8 GB where 1.96 GB was allowed for)
+TABLE_BYTES_PER_NODE_PAIR = 100.0
+
+#: SI value of the numerator of a coefficient's display unit (``um`` of ``um/K``, ``ppm`` of a strain)
+_NUMERATOR_SCALE = {**LENGTH, **ANGLE, **TIME, "ppm": 1e-6}
+
+
+def _limit_of(unit: str) -> str:
+    numerator = unit.partition("/")[0]
+    if numerator in TIME:
+        return "time"
+    return "error_angle" if numerator in ANGLE else "error_length"
 
 #: the most coefficients of a polynomial term: beyond, a table describes an error better (and a
 #: degree of thousands, a few characters in a spec, would take the memory of the evaluation)
@@ -143,6 +157,22 @@ class Term:
     def coefficient_units(self) -> list[tuple[float, str]]:
         """(SI per display unit, display unit) of each coefficient, as the spec writes it."""
         return [(self.unit_scale, self.unit)] * self.size
+
+    def coefficient_limits(self) -> list[str]:
+        """The plausibility limit (a key of :data:`volerr_pin.units.PLAUSIBLE`) of each
+        coefficient, read from its display unit's numerator: an error for a length or angle
+        (and a length or angle per kelvin, newton or position), a time for a time constant."""
+        return [_limit_of(unit) for _, unit in self.coefficient_units()]
+
+    def coefficient_bounds(self) -> np.ndarray:
+        """(size, 2) lowest and highest plausible SI value of each coefficient: the spec's
+        rule, a value in its display unit times its numerator's unit within the limit of
+        :meth:`coefficient_limits` (1 m, 1 rad, 1e10 s; 1 m per kelvin)."""
+        out = np.empty((self.size, 2))
+        for k, ((si_per_unit, unit), limit) in enumerate(zip(self.coefficient_units(), self.coefficient_limits())):
+            numerator = unit.partition("/")[0]
+            out[k] = np.array(PLAUSIBLE[limit]) * si_per_unit / _NUMERATOR_SCALE[numerator]
+        return out
 
     def lag_requests(self) -> tuple[tuple[str, float], ...]:
         """(sensor, lag [s]) pairs whose delayed temperatures the term reads."""
@@ -442,8 +472,8 @@ class Table(LinearTerm):
                             f"least {minimum} positions, got {nodes.size}")
         if values.size != nodes.size:
             raise SpecError(f"{where}: {nodes.size} positions but {values.size} values")
-        try:  # the spline of every node's unit vector: (4 + 1) n^2 numbers
-            require_memory(40.0 * nodes.size**2, f"{where}.{pkey}: a table of {nodes.size:,} positions")
+        try:  # the splines of every node's unit vector and their swing check: 96 n^2 bytes measured at its peak
+            require_memory(TABLE_BYTES_PER_NODE_PAIR * nodes.size**2, f"{where}.{pkey}: a table of {nodes.size:,} positions")
         except InputError as err:
             raise SpecError(str(err)) from None
         if np.any(np.diff(nodes) <= 0):

@@ -68,12 +68,15 @@ PLAUSIBLE = {
     "temperature": (-273.15, 1000.0),             # degC: below absolute zero, or melting
     "force": (-1e7, 1e7),                         # N: 10 MN
     "reading": (-1e15, 1e15),                     # a series value of unknown unit (epoch ms pass)
+    "period_length": (1e-6, 1e3),                 # a period of a micrometre is a unit mistake, not a screw
+    "period_angle": (ANGLE["arcsec"], 1e7 * DEG),  # an angular period below an arc second
 }
 #: what each limit is of, for messages
 PLAUSIBLE_WHAT = {"error_length": "a deviation", "error_angle": "an angular deviation",
                   "position_length": "a position", "position_angle": "a rotary position",
                   "time": "a time", "temperature": "a temperature", "force": "a force",
-                  "reading": "a reading in any unit"}
+                  "reading": "a reading in any unit", "period_length": "a period",
+                  "period_angle": "an angular period"}
 
 #: a decimal number as files write it: digits, an optional point and exponent; no NaN or
 #: inf spellings, underscores, hex or non-ASCII digits (all of which float() would take)

@@ -29,6 +29,7 @@ import numpy as np
 from lxml import etree
 
 from .errors import InputError, URDFError
+from .units import PLAUSIBLE, describe_range, shown
 
 JOINT_TYPES = ("fixed", "prismatic", "revolute", "continuous", "floating", "planar")
 #: directions of the six error joints of a group, in order
@@ -179,7 +180,10 @@ def _where(source: str, element) -> str:
     return f"{source}:{line}: {label}" if line else f"{source}: {label}"
 
 
-def _floats(source: str, element, attr: str, count: int, default: str | None) -> tuple[float, ...]:
+def _floats(source: str, element, attr: str, count: int, default: str | None, limit: str | None = None
+            ) -> tuple[float, ...]:
+    """``count`` finite numbers of an attribute, within the plausibility limit ``limit`` (a key of
+    :data:`volerr_pin.units.PLAUSIBLE`, SI values) when one is given."""
     text = element.get(attr, default)
     if text is None:
         raise URDFError(f"{_where(source, element)}: missing attribute '{attr}'")
@@ -192,6 +196,13 @@ def _floats(source: str, element, attr: str, count: int, default: str | None) ->
     if len(values) != count or not all(math.isfinite(v) for v in values):
         raise URDFError(f"{_where(source, element)}: attribute {attr}='{text}' must be "
                         f"{count} finite numbers")
+    if limit is not None:
+        low, high = PLAUSIBLE[limit]
+        unit = "rad" if limit.endswith("angle") else "m"
+        for v in values:
+            if not low <= v <= high:
+                raise URDFError(f"{_where(source, element)}: attribute {attr}='{text}': {shown(v)} {unit} is "
+                                f"implausible: {describe_range(limit, unit)}")
     return values
 
 
@@ -298,8 +309,8 @@ def parse_urdf(text: str | bytes, source: str = "<string>", *, max_joints: int =
         origin = element.find("origin")
         xyz = rpy = (0.0, 0.0, 0.0)
         if origin is not None:
-            xyz = _floats(source, origin, "xyz", 3, "0 0 0")
-            rpy = _floats(source, origin, "rpy", 3, "0 0 0")
+            xyz = _floats(source, origin, "xyz", 3, "0 0 0", "position_length")
+            rpy = _floats(source, origin, "rpy", 3, "0 0 0", "position_angle")
         axis = (1.0, 0.0, 0.0)
         axis_el = element.find("axis")
         if axis_el is not None:
@@ -313,8 +324,9 @@ def parse_urdf(text: str | bytes, source: str = "<string>", *, max_joints: int =
             limit = element.find("limit")
             if limit is None:
                 raise URDFError(f"{where}: a {jtype} joint needs <limit lower='...' upper='...'>")
-            lower = _floats(source, limit, "lower", 1, None)[0]
-            upper = _floats(source, limit, "upper", 1, None)[0]
+            travel = "position_length" if jtype == "prismatic" else "position_angle"
+            lower = _floats(source, limit, "lower", 1, None, travel)[0]
+            upper = _floats(source, limit, "upper", 1, None, travel)[0]
             if not lower < upper:
                 raise URDFError(f"{_where(source, limit)}: lower={lower} must be below upper={upper}")
         elif jtype == "continuous":

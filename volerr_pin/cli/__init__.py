@@ -3,14 +3,18 @@
 Each command parses its arguments, calls the library and prints; every number comes from
 the library.
 
-Exit status 0 on success, 2 on bad input (one line on stderr naming the culprit).
+Exit status 0 on success, 2 on bad input (one line on stderr naming the culprit); 130 on
+Ctrl-C, 143 on SIGTERM and 129 on SIGHUP (one line; a run's outputs are written all or none,
+so none is left half-written and no temporary file stays behind).
 ``--json`` prints exactly one JSON object on stdout.
 """
 
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 import warnings
 
 from .. import __version__
@@ -45,10 +49,27 @@ def _note(message, category, filename, lineno, file=None, line=None) -> None:
     print(f"volerr: note: {message}", file=sys.stderr)
 
 
+class Stopped(BaseException):
+    """A termination signal (SIGTERM, SIGHUP) raised where the run stands, so that its
+    transaction removes its temporary files as on Ctrl-C."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _stop(signum, frame) -> None:
+    raise Stopped(signum)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run ``volerr`` with ``argv`` (default: the process arguments); returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        for signum in (signal.SIGTERM, signal.SIGHUP):
+            previous[signum] = signal.signal(signum, _stop)
     try:
         with warnings.catch_warnings():
             # the library's warnings are notes for the user: one line each, no source location
@@ -58,5 +79,16 @@ def main(argv: list[str] | None = None) -> int:
         print(f"volerr: error: {in_cli_words(err)}", file=sys.stderr)
         return 2
     except OSError as err:
-        print(f"volerr: error: {err.filename or ''}: {err.strerror}", file=sys.stderr)
+        print(f"volerr: error: {err.filename or 'writing the outputs'}: {err.strerror}; the outputs are left "
+              "as they were", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("volerr: error: interrupted; the outputs are left as they were", file=sys.stderr)
+        return 130
+    except Stopped as stop:
+        print(f"volerr: error: stopped by {signal.Signals(stop.signum).name}; the outputs are left as they were",
+              file=sys.stderr)
+        return 128 + stop.signum
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-import json
 import os
 
 import numpy as np
 from rich.markup import escape
 
+from ..checks import sensible
 from ..errors import InputError
-from ..safeio import read_text, transaction
+from ..safeio import read_json, transaction
 from .common import add_json_arg, add_machine_args, check_run_outputs, dumps, machine_of, table_console
 
 
@@ -67,7 +67,9 @@ def add_parser(sub) -> None:
 
 def _targets(args) -> np.ndarray | None:
     rows = [list(t) for t in args.targets or []]
-    rows += [[0.0, 0.0, -float(length)] for length in args.tool_lengths or []]  # tool z points into the spindle
+    lengths = sensible("tool_lengths", np.array(args.tool_lengths or [], dtype=float) * 1e-3, "position_length",
+                       "mm", 1e-3) * 1e3
+    rows += [[0.0, 0.0, -float(length)] for length in lengths]  # tool z points into the spindle
     return np.array(rows) * 1e-3 if rows else None
 
 
@@ -101,11 +103,7 @@ def run(args) -> int:
     if args.nc:
         check_axes(machine)
     if args.after:
-        text = read_text(args.after, what="diagnosis report")
-        try:
-            report = json.loads(text)
-        except json.JSONDecodeError as err:
-            raise InputError(f"{args.after}:{err.lineno}:{err.colno}: not JSON: {err.msg}") from None
+        report = read_json(args.after, what="diagnosis report")
         result = after_diagnosis(machine, kind, setup, report, args.budget, candidates=args.candidates,
                                  seed=args.seed, source=str(args.after))
         units = result.units

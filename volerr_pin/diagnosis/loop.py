@@ -17,7 +17,7 @@ import warnings
 import numpy as np
 
 from .. import lockstep
-from ..checks import fraction, integer, positive
+from ..checks import fraction, integer, measurement_sigma
 from ..errors import InputError, SpecError
 from ..identify import (Identification, Observations, build_observations, check_observations, conditioning_note,
                         identify, parameter_units, pose_folds, residual_rms)
@@ -127,8 +127,8 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
     folds = integer("folds", folds, 2)
     seed = integer("seed", seed, 0)
     stated = sigma_um is not None
-    sigma_um = positive("sigma_um", 1.0 if sigma_um is None else sigma_um)
-    sigma_urad = positive("sigma_urad", 1.0 if sigma_urad is None else sigma_urad)
+    sigma_um = measurement_sigma("sigma_um", 1.0 if sigma_um is None else sigma_um)
+    sigma_urad = measurement_sigma("sigma_urad", 1.0 if sigma_urad is None else sigma_urad)
     if max_rounds is not None:
         max_rounds = integer("max_rounds", max_rounds, 0)
     obs = measurements if isinstance(measurements, Observations) else build_observations(
@@ -204,7 +204,7 @@ class _Loop:
             theta = model.theta.copy()
             for n, p in strayed.items():
                 theta[model.parameter_names.index(n)] = p
-            res = _quiet_identify(model.with_theta(theta), self.obs, free=_free(self, model, names, set(strayed)),
+            res = _quiet_identify(model._with_theta(model.check_theta(theta)), self.obs, free=_free(self, model, names, set(strayed)),
                                   initialise=initialise)
         return res.machine, res.fitted, np.array(list(res.nuisance.values())), res
 
@@ -765,5 +765,5 @@ def _hold_periods(loop: _Loop) -> None:
     theta = loop.current.theta.copy()
     for n, v in held.items():
         theta[names.index(n)] = v
-    loop.current = loop.current.with_theta(theta)
+    loop.current = loop.current._with_theta(loop.current.check_theta(theta))
     loop.held = set(held)

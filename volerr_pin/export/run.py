@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import InputError, SpecError
 from ..machine import Machine
-from ..safeio import Transaction, check_outputs, transaction
+from ..safeio import Transaction, check_output_folder, check_outputs, transaction
 from ..units import AXIS_UNIT, MM, axis_scale
 from .fit import fit
 from .protocol import Compensation, ControllerFormat
@@ -250,6 +250,8 @@ def export_tables(machine: Machine, controller: str | ControllerFormat, folder: 
         For a machine the controller cannot compensate this way.
     """
     fmt = controller if isinstance(controller, ControllerFormat) else controller_format(controller)
+    if folder is not None:
+        check_output_folder("folder", folder)
     zone = zone or Zone.workspace(machine)
     kind = _kind(fmt, kind, machine, zone, nodes)
     step = progress or (lambda stage: None)
@@ -309,14 +311,17 @@ def write_export(result: ExportResult, folder: str | os.PathLike, tx: Transactio
     targets = {name: folder / name for name in sorted(result.texts)}
     inputs = [p for p in {os.fspath(result.machine.spec.source), os.fspath(result.machine.spec.urdf)}
               if Path(p).is_file()]
-    folder.mkdir(parents=True, exist_ok=True)
+    tx.folder(folder)
     for target in targets.values():
         check_outputs({"folder": target}, inputs)
     temporary = {}
     for name, target in targets.items():
         path = tx.path(target)
-        with open(path, "w", encoding="ascii", newline="\n") as fh:
-            fh.write(result.texts[name])
+        try:
+            with open(path, "w", encoding="ascii", newline="\n") as fh:
+                fh.write(result.texts[name])
+        except OSError as err:   # a full disk: name the file
+            raise OSError(err.errno, err.strerror, str(target)) from None
         temporary[name] = path
     on_disk = {name: path.read_text(encoding="ascii") for name, path in temporary.items()}
     _same(result.compensation, result.controller.read(on_disk, result.machine), f"{folder}")

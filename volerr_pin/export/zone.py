@@ -23,8 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import qmc
 
+from ..checks import integer, sensible
 from ..errors import InputError
 from ..machine import Machine
+from ..safeio import require_memory
 from ..units import AXIS_UNIT, MM, axis_scale, parse_number
 
 __all__ = ["Points", "Zone", "motion_directions", "node_positions", "parse_zone"]
@@ -90,13 +92,17 @@ class Zone:
         Raises
         ------
         InputError
-            If ``n`` is below 2.
+            If ``n`` is not a whole number of at least 2 or its points would not fit in the free
+            memory, or ``seed`` is negative.
         """
-        if n < 2:
-            raise InputError(f"points must be at least 2, got {n}", parameters=("points",))
+        n = integer("points", n, 2)
+        seed = integer("seed", seed, 0)
         lo, hi = self.ranges[:, 0], self.ranges[:, 1]
         axes = len(lo)
         half = (n + 1) // 2
+        # the Sobol' draw (to the next power of two), then the points visited twice each
+        require_memory(8 * (2 * half * (2 * axes + 1) + n * (3 * axes + 2)), f"a sample of {n:,} positions over the zone",
+                       ("points",))
         unit = qmc.Sobol(d=2 * axes + 1, scramble=True, seed=seed).random_base2(int(np.ceil(np.log2(half))))[:half]
         q = lo + unit[:, :axes] * (hi - lo)
         tool = self.tool[0] + unit[:, axes] * (self.tool[1] - self.tool[0])
@@ -278,7 +284,7 @@ def parse_zone(machine: Machine, items: list[str] | None) -> Zone:
         if lo > hi:
             raise InputError(f"zone: '{item}': the range runs backwards ({lo:g} > {hi:g})", parameters=("zone",))
         if key == TOOL_KEY:
-            tool = (lo * MM, hi * MM)
+            tool = tuple(sensible("zone", np.array([lo, hi]) * MM, "position_length", "mm", MM))
             continue
         if key not in machine.axes:
             raise InputError(f"zone: '{item}' names no axis of {machine.name} (axes: {', '.join(machine.axes)}; "

@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 
 from .. import lockstep
-from ..checks import fraction, integer, positive
+from ..checks import fraction, integer, measurement_sigma, positive
 from ..errors import InputError
 from ..identifiability import analyse
 from ..machine import Machine
@@ -113,7 +113,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     obs = data if isinstance(data, Observations) else build_observations(
         machine, data, sigma_um=sigma_um, sigma_urad=sigma_urad, run_axis=run_axis, run_at=run_at)
     if isinstance(data, Observations):
-        positive("sigma_um", sigma_um), positive("sigma_urad", sigma_urad)
+        measurement_sigma("sigma_um", sigma_um), measurement_sigma("sigma_urad", sigma_urad)
     check_observations(obs)
     if lockstep.active() is None:   # in step, a diagnosis checked the memory for both processes at its start
         require_memory(_memory_needed(obs, folds if holdout is None else 1),
@@ -147,7 +147,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         uncertainty[free[kept_theta]] = std[n_nu:] * residual_sigma
         ill = ill or rank_deficient
     residual_si = r * obs.sigma
-    fitted_machine = machine.with_theta(theta)
+    fitted_machine = machine._with_theta(machine.check_theta(theta))
     rms_fit = residual_rms(obs, residual_si)
     rms_fit_rot = residual_rms(obs, residual_si, angular=True)
     fitted_idx = free[kept_theta] if convention == "prior" else free

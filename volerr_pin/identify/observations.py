@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import positive
+from ..checks import measurement_sigma
 from ..errors import InputError
 from ..machine import Machine
 from ..measurements.protocol import Measurement, ObservationBlock, ObservationOptions
@@ -218,8 +218,8 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
     UserWarning
         For a file with columns that nothing uses, naming them.
     """
-    sigma_um = positive("sigma_um", sigma_um)
-    sigma_urad = positive("sigma_urad", sigma_urad)
+    sigma_um = measurement_sigma("sigma_um", sigma_um)
+    sigma_urad = measurement_sigma("sigma_urad", sigma_urad)
     options = ObservationOptions(sigma_um, sigma_urad, run_axis, run_at)
     if isinstance(data, (Measurement, str, os.PathLike)):
         data = [data]  # one measurement object or file

@@ -28,6 +28,7 @@ from ..checks import integer
 from ..errors import InputError
 from ..identify import identify, parameter_units
 from .assess import predicted
+from .campaign import size_pool
 from .design import d_optimal, unit_design
 
 __all__ = ["AfterPlan", "after_diagnosis", "components_to_settle"]
@@ -138,11 +139,15 @@ def after_diagnosis(machine, instrument, setup, report: dict, budget: int, *, ca
     Raises
     ------
     InputError
-        If the report is not a diagnosis, names a component the model lacks, or ``budget``
-        exceeds the candidates.
+        If the report is not a diagnosis, is of another machine, names a component the model
+        lacks, or ``budget`` exceeds the candidates.
     """
     budget = integer("budget", budget, 1)
     groups = components_to_settle(report, source)
+    named = report.get("machine")
+    if named is not None and named != machine.name:
+        raise InputError(f"{source}: a diagnosis of {named!r}, not of {machine.name!r}; plan with the spec "
+                         "diagnose wrote for the machine it diagnosed", parameters=("after",))
     wanted = [c for g in groups for c in g]
     missing = [c for c in dict.fromkeys(wanted) if c not in machine.components]
     if missing:
@@ -155,6 +160,8 @@ def after_diagnosis(machine, instrument, setup, report: dict, budget: int, *, ca
     if budget > candidates:
         raise InputError(f"budget {budget} exceeds the {candidates} candidates to choose from",
                          parameters=("budget", "candidates"))
+    candidates = integer("candidates", candidates, 1)
+    size_pool(machine, setup, candidates, free)
     pool = instrument.candidates(machine, setup, candidates, "sobol", seed)
     design = unit_design(machine, instrument, setup, pool, free)
     analysis = design.analyse()

@@ -18,9 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..checks import integer, positive
+from ..checks import integer, positive, sensible
 from ..errors import InputError
 from ..identify import parameter_units
+from ..safeio import require_memory
 from ..units import UM_PER_M, axis_scales
 from .assess import predicted, simulated, zone_summary
 from .design import UnitDesign, d_optimal, unit_design
@@ -77,17 +78,36 @@ def make_setup(machine, instrument, *, zone=None, sigma_um: float | None = None,
     if outside.size:
         raise InputError(f"zone: axis {machine.axes[outside[0]]} leaves its travel", parameters=("zone",))
     sigma = positive("sigma_um", instrument.default_sigma_um if sigma_um is None else sigma_um) * 1e-6
+    sensible("sigma_um", sigma, "error_length", "um", 1e-6)
     targets = np.zeros((1, 3)) if targets is None else np.asarray(targets, dtype=float).reshape(-1, 3)
     if not len(targets) or not np.all(np.isfinite(targets)):
         raise InputError("targets must be finite (x, y, z) offsets", parameters=("targets",))
+    sensible("targets", targets, "position_length", "mm", 1e-3)
     if station is not None:
         station = np.asarray(station, dtype=float)
         if station.shape != (3,) or not np.all(np.isfinite(station)):
             raise InputError("station must be 3 finite coordinates", parameters=("station",))
+        sensible("station", station, "position_length", "mm", 1e-3)
     angle = positive("acceptance_deg", acceptance_deg)
     if angle >= 90:
         raise InputError(f"acceptance_deg must be below 90, got {angle}", parameters=("acceptance_deg",))
     return Setup(zone, sigma, targets, station, float(np.radians(angle)))
+
+
+def size_pool(machine, setup: Setup, count: int, free) -> None:
+    """Refuse a pool of ``count`` candidate units whose design would not fit in the free memory,
+    before any is drawn: per unit, three rows per target of a sensitivity to every free
+    coefficient, the axes and the instrument's own unknowns (a lower bound of what the design
+    holds).
+
+    Raises
+    ------
+    InputError
+        Naming ``candidates``.
+    """
+    rows = 3 * max(1, len(setup.targets))
+    require_memory(8 * count * rows * (len(free) + len(machine.axes) + 6), f"a pool of {count:,} candidate units",
+                   ("candidates",))
 
 
 def free_coefficients(machine, terms=None) -> np.ndarray:
@@ -269,6 +289,7 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
                          parameters=("budget", "candidates"))
     setup = setup or make_setup(machine, instrument)
     free = free_coefficients(machine, terms)
+    size_pool(machine, setup, candidates, free)
     pool = instrument.candidates(machine, setup, candidates, "sobol", seed)
     design = unit_design(machine, instrument, setup, pool, free)
     analysis = design.analyse()

@@ -16,19 +16,19 @@
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ..checks import sensible
 from ..errors import InputError
 from ..identifiability import analyse
 from ..identify import parameter_units
 from ..machine import Machine
 from ..safeio import require_memory
-from ..safeio import read_text
+from ..safeio import read_json
 from ..units import UM
 from ..workspace import sample
 
@@ -111,16 +111,14 @@ def covariance_from_report(machine: Machine, path: str | Path) -> Covariance:
         semi-definite.
     """
     path = Path(path)
-    text = read_text(path, InputError, "identification report")
-    try:
-        report = json.loads(text)
-    except json.JSONDecodeError as err:
-        raise _report_error(path, f"line {err.lineno} column {err.colno}: not JSON ({err.msg})") from None
+    report = read_json(path, InputError, "identification report")
     if not isinstance(report, dict) or not isinstance(report.get("parameters"), dict):
         raise _report_error(path, "no 'parameters' object: not an identification report")
+    _same_machine(path, report, machine)
     units = parameter_units(machine)
     names = machine.parameter_names
     theta = machine.theta
+    bounds = machine.theta_bounds
     sigma = np.full(len(names), np.nan)
     for name, entry in report["parameters"].items():
         if name not in units:
@@ -132,15 +130,22 @@ def covariance_from_report(machine: Machine, path: str | Path) -> Covariance:
             raise _report_error(path, f"parameters.{name}: unit {entry.get('unit')!r}, but {machine.name} gives "
                                       f"it in {unit!r}; was the report made for this machine?")
         k = names.index(name)
+        low, high = bounds[k] / factor
         value = entry.get("value")
         if value is not None:
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise _report_error(path, f"parameters.{name}.value: expected a number, got {value!r}")
+            if not low <= value <= high:
+                raise _report_error(path, f"parameters.{name}.value: {value:.10g} {unit} is implausible: a spec "
+                                          f"refuses values beyond {low:.10g} .. {high:.10g} {unit}")
             theta[k] = value * factor
         u = entry.get("uncertainty")
         if u is not None:
             if isinstance(u, bool) or not isinstance(u, (int, float)) or not math.isfinite(u) or u < 0:
                 raise _report_error(path, f"parameters.{name}.uncertainty: expected a non-negative number, got {u!r}")
+            if u > high - low:
+                raise _report_error(path, f"parameters.{name}.uncertainty: {u:.10g} {unit} is implausible: wider "
+                                          f"than all a spec allows ({low:.10g} .. {high:.10g} {unit})")
             sigma[k] = u * abs(factor)
     indices = np.flatnonzero(np.isfinite(sigma) & (sigma > 0))
     if not indices.size:
@@ -150,15 +155,29 @@ def covariance_from_report(machine: Machine, path: str | Path) -> Covariance:
     R = np.eye(len(indices))
     corr = report.get("correlation")
     if corr is not None:
-        R = _correlation(path, corr, [names[k] for k in indices])
+        R = _correlation(path, corr, [names[k] for k in indices], machine)
     return Covariance(machine.with_theta(theta), indices, R * np.outer(D, D), f"identification report {path}",
                       tuple(names[k] for k in range(len(names)) if k not in set(indices.tolist())))
 
 
-def _correlation(path: Path, corr, wanted: list[str]) -> np.ndarray:
+def _same_machine(path: Path, report: dict, machine: Machine) -> None:
+    """A report that names its machine must name this one."""
+    named = report.get("machine")
+    if named is not None and named != machine.name:
+        raise _report_error(path, f"machine: the report is of {named!r}, not of {machine.name!r}; give a report "
+                                  f"made for {machine.name}")
+
+
+def _correlation(path: Path, corr, wanted: list[str], machine: Machine) -> np.ndarray:
     if not isinstance(corr, dict) or not isinstance(corr.get("parameters"), list):
         raise _report_error(path, "correlation: expected {\"parameters\": [...], \"matrix\": [[...]]}")
     given = corr["parameters"]
+    for i, name in enumerate(given):
+        if not isinstance(name, str) or name not in machine.parameter_names:
+            raise _report_error(path, f"correlation.parameters[{i}]: {name!r} is not a coefficient of "
+                                      f"{machine.name}; a correlation is used in full or not at all")
+        if name in given[:i]:
+            raise _report_error(path, f"correlation.parameters[{i}]: {name!r} is named twice")
     try:
         matrix = np.asarray(corr.get("matrix"), dtype=float)
     except (TypeError, ValueError):
@@ -211,6 +230,7 @@ def covariance_from_campaign(machine: Machine, sigma: float, *, points: int = 20
     if not (isinstance(sigma, (int, float)) and math.isfinite(sigma) and sigma > 0):
         raise InputError(f"instrument_sigma must be a positive number of um, got {sigma / UM if sigma else sigma!r}",
                          parameters=("instrument_sigma",))
+    sensible("instrument_sigma", sigma, "error_length", "um", UM)
     if isinstance(points, bool) or int(points) != points or points < 1:
         raise InputError(f"campaign_points must be >= 1, got {points!r}", parameters=("campaign_points",))
     require_memory(points * 6.0 * len(machine.parameter_names) * 8 * 3, f"a campaign of {points:,} poses",

@@ -544,7 +544,7 @@ def compensated_points(machine: Machine, q_desired: np.ndarray, command: Callabl
     InputError
         If the compensation returns another shape or values that are not finite.
     """
-    q_desired = machine.check_q(q_desired)
+    q_desired = machine.check_q(q_desired, name="q_desired")
     q_c = np.asarray(command(q_desired), dtype=float)
     if q_c.shape != q_desired.shape or not np.isfinite(q_c).all():
         raise InputError(f"compensation: expected finite commands of shape {q_desired.shape}, got shape "
