@@ -126,7 +126,7 @@ class PortableMachine:
             if built is None:
                 from ..urdf import parse_urdf
 
-                built = Machine(self._spec, parse_urdf(self._urdf, self._source)).with_theta(self._theta)
+                built = Machine(self._spec, parse_urdf(self._urdf, self._source))._with_theta(self._theta)
                 if self._state:
                     built = built.with_state(**self._state)
                 if len(_BUILT) > 8:
