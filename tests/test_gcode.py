@@ -274,7 +274,9 @@ START = "G90 G21 G17 G0 X100 Y100 Z100\n"
     ("G17 G18 G2 X200 Y100 I50 J0", "2:5", "G17 and G18 in one block: both are plane codes"),
     ("G20 G21 G1 X150", "2:5", "G20 and G21 in one block: both are units codes"),
     ("G2 G3 X200 Y100 I50 J0", "2:4", "G2 and G3 in one block"),
-    ("G1 X200 G4 P1", "2:1", "G1 and G4 \\(dwell\\) in one block"),
+    ("G1 X200 G4", "2:1", "G1 and G4 \\(dwell\\) in one block without P"),
+    ("G4 P1 G2 X200 Y100 R60", "2:7", "G2 and G4 \\(dwell\\) in one block: P would be both the dwell time and "
+                                      "the arc's turns"),
     ("G4 Y10", "2:4", r"Y10 in a dwell \(G4\)"),
     ("M3 M4", "2:4", "M3 and M4 in one block: both are spindle codes"),
     ("M3 M3", "2:4", "M3 appears twice"),
@@ -1058,3 +1060,21 @@ def test_analog_channel_words_pass_through(machines):
     assert out.splitlines()[1:] == program.splitlines()[1:] and report.passed_through == 0
     with pytest.raises(GcodeError, match=r"<program>:2:4: E1: E words mean nothing this reader knows here"):
         compensate_program(machines["vmc500"], "G0 X100 Y100 Z50\nM3 E1\n")
+
+
+#: LinuxCNC's skeleton program opens its rapids with a short dwell in the same block
+DWELL_AND_MOVE = "G21 G90 G17\nG04 P.001 G0 X100 Y100 Z50\nG4 P0.5 G1 X200 Y150 F300\nG04 P.01 G1 X300 Y100\nM30\n"
+
+
+def test_a_dwell_and_a_move_in_one_block_dwell_then_move(machines):
+    """Issue 43: `G04 P.001 G0 X1 Y1` (LinuxCNC's skeleton.ngc) was refused as 'G0 and G4 in one
+    block'. LinuxCNC dwells, then moves; the axis words are the move's and are compensated."""
+    m = machines["vmc500"]
+    moves = interpret(m, DWELL_AND_MOVE)
+    np.testing.assert_allclose([mv.end * 1e3 for mv in moves],
+                               [[100, 100, 50], [200, 150, 50], [300, 100, 50]], atol=1e-12)
+    out, report = compensate_program(m, DWELL_AND_MOVE, tol_um=1.0)
+    assert report.moves == 3 and "G04 P.001 G0 X" in out and "G4 P0.5 G1 X" in out
+    with pytest.raises(GcodeError, match=r"2:\d+: G0 and G4 \(dwell\) in one block without P: give the dwell "
+                                         r"time in P"):
+        interpret(m, "G21 G90\nG4 G0 X100 Y100 Z50\nM30\n")

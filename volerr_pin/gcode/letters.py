@@ -46,8 +46,9 @@ def check_letters(reader: Interpreter, block: Block, state: ModalState, coord_wo
 
     Axis words name axes of the machine; I, J, K and R belong to arc moves; P to a
     dwell, an arc, G54.1 or an M code; Q and L to an M code; E to M66 - M68 (an analog
-    channel); P and Q to G64 (path blending tolerances, which pass through); a dwell (G4) carries no motion code and no axis word but X
-    (its time).
+    channel); P and Q to G64 (path blending tolerances, which pass through); a dwell (G4)
+    carries no axis word but X (its time), or P (its time) with a motion code whose move
+    follows the dwell.
 
     Parameters
     ----------
@@ -72,10 +73,18 @@ def check_letters(reader: Interpreter, block: Block, state: ModalState, coord_wo
                          f"moves there after resetting the G92 offsets, Fanuc controls preset the workpiece "
                          f"coordinates to it; which cannot be told: write {reset.name} on a line of its own")
     dwell = any(w.value == 4 for w in gs)
-    if dwell:
-        motion = [w for w in gs if w.value in (0, 1, 2, 3)]
-        if motion:
-            raise GcodeError(f"{reader.where(block, motion[0])}: {motion[0].name} and G4 (dwell) in one block")
+    motion = [w for w in gs if w.value in (0, 1, 2, 3)]
+    if dwell and motion:
+        # LinuxCNC dwells, then moves (its skeleton program opens so: G04 P.001 G0 X1 Y1); the
+        # axis words are the move's, so the time must be in P (Fanuc's G4 X would be ambiguous)
+        if motion[0].value in (2, 3):
+            raise GcodeError(f"{reader.where(block, motion[0])}: {motion[0].name} and G4 (dwell) in one block: P "
+                             "would be both the dwell time and the arc's turns; dwell on a line of its own")
+        if not any(w.letter == "P" for w in block.words):
+            raise GcodeError(f"{reader.where(block, motion[0])}: {motion[0].name} and G4 (dwell) in one block "
+                             "without P: give the dwell time in P (an X word is the move's)")
+        dwell = False
+    elif dwell:
         other = [w for w in coord_words if w.letter != "X"]
         if other:
             raise GcodeError(f"{reader.where(block, other[0])}: {other[0].name} in a dwell (G4): a dwell "
@@ -103,7 +112,7 @@ def check_letters(reader: Interpreter, block: Block, state: ModalState, coord_wo
             raise GcodeError(f"{where}: {why}")
         if has_m is None:
             has_m = any(v.letter == "M" for v in block.words)
-        if letter == "P" and (arc_move or has_m or any(g.value == 54.1 for g in gs)):
+        if letter == "P" and (arc_move or has_m or any(g.value in (54.1, 4) for g in gs)):
             continue
         if letter in "QL" and has_m:
             continue

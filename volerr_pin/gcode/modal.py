@@ -522,7 +522,7 @@ class Interpreter:
             state.apply_g(gs)
             self.tool_tip_codes(gs, state, block.number)
         coord_words = [w for w in block.words if w.letter in self._index]
-        dwell = 4 in gs
+        dwell = 4 in gs and not any(g in (0, 1, 2, 3) for g in gs)   # with a motion code, the move follows
         check_letters(self, block, state, coord_words)
         move = None
         if (coord_words or full_circle(block, state)) and not dwell:
