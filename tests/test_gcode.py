@@ -1078,3 +1078,13 @@ def test_a_dwell_and_a_move_in_one_block_dwell_then_move(machines):
     with pytest.raises(GcodeError, match=r"2:\d+: G0 and G4 \(dwell\) in one block without P: give the dwell "
                                          r"time in P"):
         interpret(m, "G21 G90\nG4 G0 X100 Y100 Z50\nM30\n")
+
+
+def test_a_subroutine_body_of_plain_moves_is_kept_not_read(machines):
+    """Issue 43: LinuxCNC's jog_around.ngc defines a body of plain lines after `G91 G0 X 25`
+    (`Y-25`, ...). The fast path for plain lines read them as moves where the body is
+    defined ('coordinates without a motion mode'); a body is kept unchanged, line by line."""
+    program = "O<jog> sub\nG17\nG21\nG91 G0 X 25\nY-25\nZ-25\nO<jog> endsub\nG90 G0 X100 Y100 Z50\nM2\n"
+    out, report = compensate_program(machines["vmc500"], program, tol_um=1.0)
+    assert out.splitlines()[:7] == program.splitlines()[:7]
+    assert report.passed_through == 7 and report.moves == 1

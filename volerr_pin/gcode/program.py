@@ -239,8 +239,8 @@ class Program(ChunkWriting):
                 mode = entry[3].mode
                 moves += 1
             entries.append(entry)
-            if runs is not None:
-                fast = runs.takes(state)
+            if runs is not None:   # a subroutine body is kept line by line, not read as moves
+                fast = runs.takes(state) and self.flow.body is None
             if moves >= self._chunk or len(entries) >= MOST_LINES:
                 self._flush(entries, write)
                 entries, moves = [], 0
@@ -276,7 +276,7 @@ class Program(ChunkWriting):
         """One line as ("raw", text) (kept unchanged), ("plain", block, newline) (no move) or
         ("move", block, newline, _Move)."""
         reader = self.reader
-        if not state.regions and not state.canned:
+        if not state.regions and not state.canned and self.flow.body is None:
             words = plain_words(self._plain, body)
             if words is not None:  # the fast path (see runs.plain_words)
                 block = Block(number, body, words, body, False)
