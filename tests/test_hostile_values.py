@@ -202,6 +202,15 @@ def test_a_full_disk_leaves_no_folder_and_names_the_file(machines, tmp_path, mon
     assert sorted(p.name for p in tmp_path.iterdir()) == []   # neither folder stays, nor a temporary file
 
 
+def _default_signals() -> None:
+    """In the child before it runs: the signals at their defaults. A test run started in the
+    background of a shell inherits SIGINT ignored, and Python then leaves Ctrl-C ignored."""
+    import signal
+
+    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, signal.SIG_DFL)
+
+
 @pytest.mark.parametrize("signum, status", [(2, 130), (15, 143), (1, 129)])
 def test_a_signal_during_compensate_leaves_no_temporary_file(tmp_path, signum, status):
     """Issue 44: SIGTERM or SIGHUP during compensate of a long program left a hidden 4.6 MB
@@ -220,7 +229,8 @@ def test_a_signal_during_compensate_leaves_no_temporary_file(tmp_path, signum, s
     program = tmp_path / "long.nc"
     program.write_text("\n".join(["G21 G90 G17", "G0 X100 Y100 Z100", *moves, "M30"]) + "\n")
     proc = subprocess.Popen([sys.executable, "-m", "volerr_pin.cli", "compensate", "vmc500", "long.nc", "-o", "out.nc"],
-                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_default_signals)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None and not any(".part" in p.name for p in tmp_path.iterdir()):
         time.sleep(0.05)
@@ -296,7 +306,8 @@ def test_ctrl_c_during_a_study_on_dask_workers_is_one_line(tmp_path):
     (tmp_path / "t.toml").write_text(TOLERANCES)
     proc = subprocess.Popen([sys.executable, "-m", "volerr_pin.cli", "tolerance", "vmc500", "--tolerances", "t.toml",
                              "--samples", "200000", "--workers", "2", "--json"], cwd=tmp_path,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=_default_signals)
     time.sleep(12)   # the cluster is up and the draws are running
     assert proc.poll() is None, "the study ended before it could be interrupted"
     os.kill(proc.pid, signal.SIGINT)
