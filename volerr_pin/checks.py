@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from .errors import InputError
+from .units import within
 
 __all__ = ["counts", "fraction", "integer", "one_point", "positive", "measurement_sigma", "real_array", "sensible", "whole_numbers"]
 
@@ -65,18 +66,10 @@ def sensible(name: str, values, limit: str, unit: str, unit_scale: float = 1.0) 
     Raises
     ------
     InputError
-        Naming ``name``, the first value beyond the limit and the limit in ``unit``.
+        Naming ``name``, the first value beyond the limit (or not a number) and the limit in
+        ``unit`` (:func:`~volerr_pin.units.within`).
     """
-    from .units import PLAUSIBLE, describe_range, shown
-
-    array = np.asarray(values, dtype=float)
-    low, high = PLAUSIBLE[limit]
-    bad = np.flatnonzero(~((array >= low) & (array <= high)))
-    if bad.size:
-        value = array.ravel()[bad[0]] / unit_scale
-        raise InputError(f"{name}: {shown(value)} {unit} is {'not a number' if math.isnan(value) else 'implausible'}: "
-                         f"{describe_range(limit, unit, unit_scale)}", parameters=(name,))
-    return array
+    return within(values, limit, name, unit, unit_scale, error=InputError, parameters=(name,))
 
 
 def positive(name: str, value) -> float:

@@ -40,9 +40,9 @@ import numpy as np
 from numpy.polynomial import legendre
 
 from .errors import InputError, SpecError
-from .speckeys import TermSite, find_key, number, numbers, stem_of, unit_of, within
+from .speckeys import TermSite, find_key, number, numbers, stem_of, unit_of
 from .terms import MAX_COEFFICIENTS, Context, Covariates, Term
-from .units import ANGLE, TIME, scale
+from .units import ANGLE, TIME, scale, within
 
 
 STATE_HINT = "; give it with the points, or hold the machine in a state (Machine.with_state)"

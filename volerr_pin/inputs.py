@@ -46,7 +46,7 @@ def outside_travel(machine: "Machine", q: np.ndarray) -> np.ndarray:
     return (q < machine.assembly.travel[:, 0] - tol) | (q > machine.assembly.travel[:, 1] + tol)
 
 
-def check_theta(machine: "Machine", theta) -> np.ndarray:
+def check_theta(machine: "Machine", theta, limits: bool = False) -> np.ndarray:
     """Coefficients as a new float array, checked; the machine's own when not given.
 
     Parameters
@@ -55,6 +55,8 @@ def check_theta(machine: "Machine", theta) -> np.ndarray:
         The machine (``self`` of the method).
     theta : array_like, shape (P,) or None
         Coefficients in the SI unit of each (order of ``parameter_names``).
+    limits : bool, default False
+        Also refuse values beyond the limits a spec would (:func:`plausible_theta`).
 
     Returns
     -------
@@ -64,7 +66,8 @@ def check_theta(machine: "Machine", theta) -> np.ndarray:
     Raises
     ------
     InputError
-        If ``theta`` does not have shape (P,) or holds a value that is not finite.
+        If ``theta`` does not have shape (P,) or holds a value that is not finite (or, with
+        ``limits``, one beyond its plausibility limits).
     """
     if theta is None:
         return machine.theta
@@ -75,7 +78,7 @@ def check_theta(machine: "Machine", theta) -> np.ndarray:
     bad = np.flatnonzero(~np.isfinite(theta))
     if bad.size:
         raise InputError(f"theta[{bad[0]}] ({machine.assembly.names[bad[0]]}) is {theta[bad[0]]}")
-    return theta
+    return plausible_theta(machine, theta) if limits else theta
 
 
 def theta_bounds(machine: "Machine") -> np.ndarray:

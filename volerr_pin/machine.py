@@ -247,11 +247,12 @@ class Machine:
             If ``theta`` does not have shape (P,), holds a value that is not finite, or one
             beyond the plausibility limits a spec would refuse (:attr:`theta_bounds`).
         """
-        return self._with_theta(inputs.plausible_theta(self, self.check_theta(theta)))
+        return self._with_theta(theta, limits=True)
 
-    def _with_theta(self, theta: np.ndarray) -> "Machine":
-        """:meth:`with_theta` of a checked array without the plausibility limits: for the steps
-        of a fit, which may pass through any value on the way."""
+    def _with_theta(self, theta, limits: bool = False) -> "Machine":
+        """:meth:`with_theta`, by default without the plausibility limits: for the steps of a fit,
+        which may pass through any value on the way, and for simulated truths."""
+        theta = self.check_theta(theta, limits=limits)
         other = object.__new__(Machine)
         other.__dict__.update(self.__dict__)
         other._theta = theta

@@ -21,9 +21,8 @@ from .identifiability import IdentifiabilityGroup, analyse
 from .machine import Machine
 from .spec import parse_component_name, read_toml
 from .safeio import require_memory
-from .units import ARCSEC, ARCSEC_PER_RAD, UM, UM_PER_M, scale, split_key
+from .units import ARCSEC, ARCSEC_PER_RAD, LENGTH, UM, UM_PER_M, scale, split_key, within
 from .checks import integer, positive
-from .speckeys import within
 from .workspace import sample
 
 DIRECTIONS = {"x": [0], "y": [1], "z": [2], "all": [0, 1, 2]}
@@ -127,7 +126,7 @@ def tolerance_key(key: str, value, machine: Machine, seen: dict, path: str | Pat
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
         raise SpecError(f"{where}: expected a non-negative number, got {value!r}")
     if stem == "default":
-        quantity = "length" if unit in ("m", "mm", "um", "nm") else "angle"
+        quantity = "length" if unit in LENGTH else "angle"
     elif stem in machine.components:
         quantity = "length" if parse_component_name(stem)[0] in "XYZ" else "angle"
     else:

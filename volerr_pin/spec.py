@@ -18,9 +18,9 @@ import numpy as np
 from . import terms as T
 from .errors import SpecError
 from .safeio import read_text
-from .speckeys import NAME_RE, TermSite, check_keys, find_key, numbers, text, within
+from .speckeys import NAME_RE, TermSite, check_keys, find_key, numbers, text
 from .termkinds import read_term
-from .units import scale
+from .units import scale, within
 from .urdf import URDF, load_urdf
 
 DIRECTIONS = ("X", "Y", "Z", "A", "B", "C")

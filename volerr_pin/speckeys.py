@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from .errors import SpecError
-from .units import PLAUSIBLE, describe_range, scale, shown, split_key
+from .units import scale, split_key, within
 
 #: a plain name: components, prefixes, joints, bodies
 NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -128,16 +128,6 @@ def text(table: dict, key: str, where: str, default: str | None = None) -> str:
     if not isinstance(value, str):
         raise SpecError(f"{where}.{key}: expected a string (in quotes), got {_shown(value)}")
     return value
-
-
-def within(values: np.ndarray, limit: str, where: str, unit: str, unit_scale: float) -> None:
-    """Raise a :class:`SpecError` when an SI value lies beyond the plausibility limit ``limit``
-    (a key of :data:`volerr_pin.units.PLAUSIBLE`), naming ``where`` and the value in ``unit``."""
-    low, high = PLAUSIBLE[limit]
-    bad = np.flatnonzero((values < low) | (values > high))
-    if bad.size:
-        raise SpecError(f"{where}: {shown(values[bad[0]] / unit_scale)} {unit} is implausible: "
-                        f"{describe_range(limit, unit, unit_scale)}")
 
 
 @dataclass(frozen=True)

@@ -164,6 +164,50 @@ def describe_range(kind: str, unit: str, unit_scale: float = 1.0) -> str:
     return f"{PLAUSIBLE_WHAT[kind]} lies within {low:g} .. {high:g} {unit}".rstrip()
 
 
+def within(values, limit: str, where: str, unit: str, unit_scale: float = 1.0, *,
+           error: type[Exception] = SpecError, parameters: tuple[str, ...] = ()) -> np.ndarray:
+    """SI values refused unless they lie within the plausibility limit ``limit``: the one check
+    every reader (specs, URDFs, options, reports) holds its values to.
+
+    Parameters
+    ----------
+    values : array_like
+        The values, SI.
+    limit : str
+        A key of :data:`PLAUSIBLE`.
+    where : str
+        What the values are (a file and key, an option), the start of the message.
+    unit : str
+        The unit the values were given in, for the message.
+    unit_scale : float, default 1.0
+        SI value of one such unit.
+    error : type, default SpecError
+        Exception class raised, constructed with the message (and ``parameters``).
+    parameters : tuple of str, optional
+        The parameters the values come from, for a :class:`~volerr_pin.errors.VolerrError`.
+
+    Returns
+    -------
+    ndarray
+        The values as floats.
+
+    Raises
+    ------
+    SpecError
+        (or ``error``) Naming ``where``, the first value beyond the limit (or not a number) in
+        ``unit`` and the limit.
+    """
+    array = np.asarray(values, dtype=float)
+    low, high = PLAUSIBLE[limit]
+    bad = np.flatnonzero(~((array >= low) & (array <= high)))
+    if bad.size:
+        value = array.ravel()[bad[0]] / unit_scale
+        message = (f"{where}: {shown(value)} {unit} is {'not a number' if math.isnan(value) else 'implausible'}: "
+                   f"{describe_range(limit, unit, unit_scale)}")
+        raise error(message, parameters=parameters) if parameters else error(message)
+    return array
+
+
 def scale(unit: str, quantity: str, where: str) -> float:
     """SI factor of a unit.
 

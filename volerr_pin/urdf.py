@@ -29,7 +29,7 @@ import numpy as np
 from lxml import etree
 
 from .errors import InputError, URDFError
-from .units import PLAUSIBLE, describe_range, shown
+from .units import within
 
 JOINT_TYPES = ("fixed", "prismatic", "revolute", "continuous", "floating", "planar")
 #: directions of the six error joints of a group, in order
@@ -197,12 +197,8 @@ def _floats(source: str, element, attr: str, count: int, default: str | None, li
         raise URDFError(f"{_where(source, element)}: attribute {attr}='{text}' must be "
                         f"{count} finite numbers")
     if limit is not None:
-        low, high = PLAUSIBLE[limit]
-        unit = "rad" if limit.endswith("angle") else "m"
-        for v in values:
-            if not low <= v <= high:
-                raise URDFError(f"{_where(source, element)}: attribute {attr}='{text}': {shown(v)} {unit} is "
-                                f"implausible: {describe_range(limit, unit)}")
+        within(values, limit, f"{_where(source, element)}: attribute {attr}='{text}'",
+               "rad" if limit.endswith("angle") else "m", error=URDFError)
     return values
 
 

@@ -204,7 +204,7 @@ class _Loop:
             theta = model.theta.copy()
             for n, p in strayed.items():
                 theta[model.parameter_names.index(n)] = p
-            res = _quiet_identify(model._with_theta(model.check_theta(theta)), self.obs, free=_free(self, model, names, set(strayed)),
+            res = _quiet_identify(model._with_theta(theta), self.obs, free=_free(self, model, names, set(strayed)),
                                   initialise=initialise)
         return res.machine, res.fitted, np.array(list(res.nuisance.values())), res
 
@@ -765,5 +765,5 @@ def _hold_periods(loop: _Loop) -> None:
     theta = loop.current.theta.copy()
     for n, v in held.items():
         theta[names.index(n)] = v
-    loop.current = loop.current._with_theta(loop.current.check_theta(theta))
+    loop.current = loop.current._with_theta(theta)
     loop.held = set(held)

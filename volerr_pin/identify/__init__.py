@@ -28,9 +28,9 @@ from .design import predict_observations
 from .fit import identify
 from .observations import (Observations, build_observations, check_observations, point_squares, residual_rms,
                            stack_blocks)
-from .result import Identification, parameter_units
+from .result import Identification, check_report_machine, parameter_units
 from .solver import CONDITION_LIMIT, conditioning_note
 
 __all__ = ["CONDITION_LIMIT", "Identification", "Observations", "build_observations", "check_observations",
-           "conditioning_note", "identify", "parameter_units", "point_squares", "pose_folds", "predict_observations",
-           "residual_rms", "stack_blocks"]
+           "check_report_machine", "conditioning_note", "identify", "parameter_units", "point_squares",
+           "pose_folds", "predict_observations", "residual_rms", "stack_blocks"]

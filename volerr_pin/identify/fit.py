@@ -147,7 +147,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         uncertainty[free[kept_theta]] = std[n_nu:] * residual_sigma
         ill = ill or rank_deficient
     residual_si = r * obs.sigma
-    fitted_machine = machine._with_theta(machine.check_theta(theta))
+    fitted_machine = machine._with_theta(theta)
     rms_fit = residual_rms(obs, residual_si)
     rms_fit_rot = residual_rms(obs, residual_si, angular=True)
     fitted_idx = free[kept_theta] if convention == "prior" else free

@@ -7,11 +7,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import InputError
 from ..identifiability import Analysis
 from ..machine import Machine
 from ..units import UM_PER_M, URAD_PER_RAD
 
-__all__ = ["Identification", "parameter_units"]
+__all__ = ["Identification", "check_report_machine", "parameter_units"]
 
 
 @dataclass
@@ -173,3 +174,29 @@ def parameter_units(machine: Machine) -> dict[str, tuple[float, str]]:
     """
     return {name: unit for comp in machine.spec.components for tspec in comp.terms
             for name, unit in zip(tspec.names(comp.name), tspec.term.coefficient_units())}
+
+
+def check_report_machine(report: dict, machine: Machine, source: str, what: str = "report") -> None:
+    """Refuse a report read back (an identification, a diagnosis) that names another machine in
+    its ``machine`` field: its coefficients or components may share names with this machine's.
+
+    Parameters
+    ----------
+    report : dict
+        The report.
+    machine : Machine
+        The machine it is used for.
+    source : str
+        Its file, for messages.
+    what : str
+        What the report is, for messages.
+
+    Raises
+    ------
+    InputError
+        Naming the file and both machines.
+    """
+    named = report.get("machine")
+    if named is not None and named != machine.name:
+        raise InputError(f"{source}: machine: the {what} is of {named!r}, not of {machine.name!r}; give one made "
+                         f"for {machine.name}")

@@ -114,17 +114,19 @@ def positions_and_covariates(table: Table, columns: dict[str, int], machine) -> 
     for name, col in columns.items():
         if name.startswith("T_") and len(name) > 2:
             unit = temperature_column(table, col)[1] or "degC"
-            scale, offset = TEMPERATURE[unit]
-            raw = table.column(col)
-            values = raw * scale + offset
-            low, high = PLAUSIBLE["temperature"]
-            bad = np.flatnonzero((values < low) | (values > high))
-            if bad.size and unit != "degC":
-                r = int(bad[0])
-                raise MeasurementError(f"{table.where(r, col)}: column '{table.header[col]}': {raw[r]:g} {unit} "
-                                       f"= {values[r]:g} degC is implausible: a temperature lies within "
-                                       f"{low:g} .. {high:g} degC (docs/measurements.md)")
-            table.check_plausible(col, values, "temperature", "degC")
+            if unit == "degC":
+                values = table.column(col, limit="temperature", unit="degC")
+            else:   # converted to degC first; the refusal shows the value in both units
+                scale, offset = TEMPERATURE[unit]
+                raw = table.column(col)
+                values = raw * scale + offset
+                low, high = PLAUSIBLE["temperature"]
+                bad = np.flatnonzero((values < low) | (values > high))
+                if bad.size:
+                    r = int(bad[0])
+                    raise MeasurementError(f"{table.where(r, col)}: column '{table.header[col]}': {raw[r]:g} {unit} "
+                                           f"= {values[r]:g} degC is implausible: a temperature lies within "
+                                           f"{low:g} .. {high:g} degC (docs/measurements.md)")
             temps[name[2:]] = values
             used.add(col)
     if temps:

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..checks import integer
 from ..errors import InputError
-from ..identify import identify, parameter_units
+from ..identify import check_report_machine, identify, parameter_units
 from .assess import predicted
 from .campaign import size_pool
 from .design import d_optimal, unit_design
@@ -144,10 +144,7 @@ def after_diagnosis(machine, instrument, setup, report: dict, budget: int, *, ca
     """
     budget = integer("budget", budget, 1)
     groups = components_to_settle(report, source)
-    named = report.get("machine")
-    if named is not None and named != machine.name:
-        raise InputError(f"{source}: a diagnosis of {named!r}, not of {machine.name!r}; plan with the spec "
-                         "diagnose wrote for the machine it diagnosed", parameters=("after",))
+    check_report_machine(report, machine, source, "diagnosis")
     wanted = [c for g in groups for c in g]
     missing = [c for c in dict.fromkeys(wanted) if c not in machine.components]
     if missing:
@@ -157,10 +154,10 @@ def after_diagnosis(machine, instrument, setup, report: dict, budget: int, *, ca
         return AfterPlan([], [], [], {}, True)
     names = set(wanted)
     free = np.array([k for k, n in enumerate(machine.parameter_names) if n.split(".")[0] in names], dtype=int)
+    candidates = integer("candidates", candidates, 1)
     if budget > candidates:
         raise InputError(f"budget {budget} exceeds the {candidates} candidates to choose from",
                          parameters=("budget", "candidates"))
-    candidates = integer("candidates", candidates, 1)
     size_pool(machine, setup, candidates, free)
     pool = instrument.candidates(machine, setup, candidates, "sobol", seed)
     design = unit_design(machine, instrument, setup, pool, free)
@@ -183,7 +180,7 @@ def _simulate(machine, instrument, setup, units, free, std, seed) -> tuple[dict,
     rng = np.random.default_rng(seed)
     truth = machine.theta.copy()
     truth[free] = np.where(np.isfinite(std), 10.0 * std, 0.0) * rng.choice([-1.0, 1.0], len(free))
-    true_machine = machine._with_theta(machine.check_theta(truth))   # a simulated truth: no spec limit applies
+    true_machine = machine._with_theta(truth)   # a simulated truth: no spec limit applies
     from ..identify import stack_blocks
     from ..identify.design import rows_of
     from ..measurements.protocol import ObservationOptions
@@ -199,7 +196,7 @@ def _simulate(machine, instrument, setup, units, free, std, seed) -> tuple[dict,
     prior_theta[free] = 0.0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        fit = identify(machine._with_theta(machine.check_theta(prior_theta)), data, free=free, folds=0, sigma_um=sigma_um,
+        fit = identify(machine._with_theta(prior_theta), data, free=free, folds=0, sigma_um=sigma_um,
                        sigma_urad=sigma_um, initialise=False)
     grouped = {n for g in fit.groups for n in g.parameters}
     units_of = parameter_units(machine)

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..checks import integer, positive, sensible
+from ..checks import integer, measurement_sigma, positive, sensible
 from ..errors import InputError
 from ..identify import parameter_units
 from ..safeio import require_memory
@@ -77,8 +77,7 @@ def make_setup(machine, instrument, *, zone=None, sigma_um: float | None = None,
     outside = np.flatnonzero((zone[:, 0] < travel[:, 0] - 1e-12) | (zone[:, 1] > travel[:, 1] + 1e-12))
     if outside.size:
         raise InputError(f"zone: axis {machine.axes[outside[0]]} leaves its travel", parameters=("zone",))
-    sigma = positive("sigma_um", instrument.default_sigma_um if sigma_um is None else sigma_um) * 1e-6
-    sensible("sigma_um", sigma, "error_length", "um", 1e-6)
+    sigma = measurement_sigma("sigma_um", instrument.default_sigma_um if sigma_um is None else sigma_um) * 1e-6
     targets = np.zeros((1, 3)) if targets is None else np.asarray(targets, dtype=float).reshape(-1, 3)
     if not len(targets) or not np.all(np.isfinite(targets)):
         raise InputError("targets must be finite (x, y, z) offsets", parameters=("targets",))

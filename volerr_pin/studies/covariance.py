@@ -25,7 +25,7 @@ import numpy as np
 from ..checks import sensible
 from ..errors import InputError
 from ..identifiability import analyse
-from ..identify import parameter_units
+from ..identify import check_report_machine, parameter_units
 from ..machine import Machine
 from ..safeio import require_memory
 from ..safeio import read_json
@@ -114,7 +114,7 @@ def covariance_from_report(machine: Machine, path: str | Path) -> Covariance:
     report = read_json(path, InputError, "identification report")
     if not isinstance(report, dict) or not isinstance(report.get("parameters"), dict):
         raise _report_error(path, "no 'parameters' object: not an identification report")
-    _same_machine(path, report, machine)
+    check_report_machine(report, machine, str(path))
     units = parameter_units(machine)
     names = machine.parameter_names
     theta = machine.theta
@@ -158,14 +158,6 @@ def covariance_from_report(machine: Machine, path: str | Path) -> Covariance:
         R = _correlation(path, corr, [names[k] for k in indices], machine)
     return Covariance(machine.with_theta(theta), indices, R * np.outer(D, D), f"identification report {path}",
                       tuple(names[k] for k in range(len(names)) if k not in set(indices.tolist())))
-
-
-def _same_machine(path: Path, report: dict, machine: Machine) -> None:
-    """A report that names its machine must name this one."""
-    named = report.get("machine")
-    if named is not None and named != machine.name:
-        raise _report_error(path, f"machine: the report is of {named!r}, not of {machine.name!r}; give a report "
-                                  f"made for {machine.name}")
 
 
 def _correlation(path: Path, corr, wanted: list[str], machine: Machine) -> np.ndarray:
