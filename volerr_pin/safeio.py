@@ -367,13 +367,6 @@ def transaction() -> Iterator[Transaction]:
     tx = Transaction()
     try:
         yield tx
-    except OSError as err:
-        tx.abort()
-        raise _named(err, tx) from None
-    except BaseException:
-        tx.abort()
-        raise
-    try:
         tx.commit()
     except OSError as err:
         tx.abort()
@@ -385,11 +378,10 @@ def transaction() -> Iterator[Transaction]:
 
 def _named(err: OSError, tx: Transaction) -> OSError:
     """An error writing outputs, naming the output (not its hidden temporary file)."""
-    target = tx.target_of(err.filename) if err.filename else None
-    if target is None and err.filename is None and len(tx._pending) == 1:
-        target = tx._pending[0][1]
-    if target is None and err.filename is None:
+    if err.filename is None:   # a full disk says no file: the outputs being written
         target = ", ".join(str(t) for _, t, _ in tx._pending) or None
+    else:
+        target = tx.target_of(err.filename)
     return OSError(err.errno, err.strerror, str(target) if target is not None else err.filename)
 
 
