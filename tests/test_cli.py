@@ -110,13 +110,13 @@ def test_compensate_json_and_errors(tmp_path, capsys):
     # a G code the reader does not know may change how later blocks read: refused unless
     # --pass-through keeps it (with a warning)
     unknown = tmp_path / "unknown.nc"
-    unknown.write_text("G90 G0 X10 Y10 Z10\nG5.1 Q1\nG1 X30\n")
+    unknown.write_text("G90 G0 X10 Y10 Z10\nG77 Q1\nG1 X30\n")
     assert main(["compensate", "vmc500", str(unknown), "-o", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "unknown.nc:2:1" in err and "--pass-through" in err and not out.exists()
     assert main(["compensate", "vmc500", str(unknown), "-o", str(out), "--pass-through", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
-    assert report["passed_through"] == 1 and any("line 2: G5.1" in w and "misread" in w for w in report["warnings"])
+    assert report["passed_through"] == 1 and any("line 2: G77" in w and "misread" in w for w in report["warnings"])
     with pytest.raises(SystemExit) as exit:  # argparse: the two contradict each other
         main(["compensate", "vmc500", str(src), "-o", str(out), "--strict", "--pass-through"])
     assert exit.value.code == 2 and "not allowed with" in capsys.readouterr().err

@@ -521,14 +521,15 @@ def test_unknown_g_codes_are_refused_unless_pass_through_and_never_moves(machine
 
 
 @pytest.mark.parametrize("kept, lost", [
-    ("#1 = 5", False), ("N10 #100 = [#1 + 2] (scale)", False),
-    ("G1 X#1", True), ("G1 X[#1 + 2]", True), ("G#1 X10", True), ("IF [#1 GT 2] GOTO 10", True),
+    ("#1 = 5", False), ("N10 #100 = [#5001 + 2] (scale)", False),
+    ("G1 X#5420", True), ("G1 X[#5420 + 2]", True), ("G#5400 X10", True), ("IF [#1 GT 2] GOTO 10", True),
     ("WHILE [#1 LT 10] DO1", True), ("END1", True), ("M98 P100", True), ("G65 P9010 A1", True),
     ("G81 X20 Y20 Z5 R12", True), ("G77", False),
 ])
 def test_a_kept_block_that_may_move_loses_the_position(machines, kept, lost):
-    """A jump, a loop, a call or a word whose value is a variable may move the machine or run
-    the blocks in another order: the move after it is compensated at its end point only."""
+    """A jump, a loop, a call or a word whose value only the running machine knows (#5420, the
+    current X) may move the machine or run the blocks in another order: the move after it is
+    compensated at its end point only."""
     program = START + f"{kept}\nG80\nG1 X150 F100\n"
     out, report = compensate_program(machines["vmc500"], program, pass_through=True)
     assert out.splitlines()[1] == kept
@@ -891,11 +892,30 @@ LOOPS = {
 }
 
 
-@pytest.mark.parametrize("kind", list(LOOPS))
-def test_a_loop_over_an_incremental_move_is_refused_by_name(machines, kind):
-    """A block a loop runs again is compensated for one pass: an incremental move among them adds
-    that pass's correction at every other place (three passes of the issue's G91 step: Z 4.1 um
-    off, with no warning). Such a loop is refused, naming it and the move."""
+@pytest.mark.parametrize("kind", ["o_while", "o_repeat", "o_do"])
+def test_a_loop_over_an_incremental_move_is_followed(machines, kind):
+    """A block a loop runs again was compensated for one pass: an incremental move among them
+    added that pass's correction at every other place (three passes of the issue's G91 step: Z
+    4.1 um off, with no warning). A LinuxCNC loop is now followed: the program as run holds the
+    step three times, each compensated where it runs, and ends where the program means."""
+    m = machines["vmc500"]
+    program = LOOPS[kind]
+    out, report = compensate_program(m, program)
+    steps = [line for line in out.splitlines() if line.startswith("G91 G1 Z")]
+    assert len(steps) == 3 and report.expanded["loop_passes"] == 3, out
+    assert report.moves == 4 and report.moves_kept == 0 and report.motion_compensated == 1.0
+    # each pass ends where the same steps written absolutely are compensated to (Z 90, 80, 70)
+    absolute, _ = compensate_program(m, "G0 X100 Y100 Z100\nG1 Z90 F100\nG1 Z80\nG1 Z70\nM30\n")
+    ends = np.array([s.end for s in interpret(m, out)])
+    expected = np.array([s.end for s in interpret(m, absolute)])
+    assert interpret(m, program)[-1].end[2] == pytest.approx(0.070)
+    assert ends.shape == expected.shape and np.abs(ends - expected).max() < 0.11e-6   # the written digits
+
+
+@pytest.mark.parametrize("kind", ["goto", "fanuc_while", "unseen_label"])
+def test_a_fanuc_loop_over_an_incremental_move_is_refused_by_name(machines, kind):
+    """A Fanuc-style loop or jump is not followed: a block it runs again would be compensated
+    for one pass, so such a loop over an incremental move is refused, naming it and the move."""
     program = LOOPS[kind]
     # (a loop statement itself loses the position: an incremental move right after it is refused
     # for that, before the loop's end is read)
@@ -934,8 +954,9 @@ M30
 def test_a_subroutine_body_runs_where_it_is_called(machines):
     """The modes a LinuxCNC subroutine body sets hold where it is called, not where it is
     defined: its G18 made the main program's G17 arc split as a ZX arc, its G20 made mm moves
-    read as inches. The body is kept unchanged; the arc before the call is an XY arc in mm, the
-    move after it is in inch (LinuxCNC: Z 5 inch), as LinuxCNC's interpreter reads both."""
+    read as inches. The body now runs where it is called (the program as run holds it there);
+    the arc before the call is an XY arc in mm, the move after it is in inch (LinuxCNC: Z 5
+    inch), as LinuxCNC's interpreter reads both."""
     m = machines["vmc500"]
     segments = interpret(m, SUB)
     arc = [s.arc for s in segments if s.kind == "arc"][0]
@@ -943,8 +964,11 @@ def test_a_subroutine_body_runs_where_it_is_called(machines):
     assert segments[-1].end[2] == pytest.approx(5 * 0.0254)
     out, report = compensate_program(m, SUB)
     lines = out.splitlines()
-    assert lines[:4] == SUB.splitlines()[:4] and re.fullmatch(r"G1 Z(4\.99|5\.00)\d{4}", lines[-2]), lines
-    assert "lines 1-3: the body of subroutine o100 kept unchanged: it runs where it is called" in report.warnings
+    assert lines[0] == "G17 G21 G90" and lines[-4:-2] == ["G18", "G20"], lines
+    assert re.fullmatch(r"G1 Z(4\.99|5\.00)\d{4} X\S+ Y\S+", lines[-2]), lines   # inch, 6 decimals
+    assert not any("o100" in line for line in lines) and report.expanded == {"blocks_run": 7, "calls": 1,
+                                                                              "loop_passes": 0}
+    assert any(w.startswith("the program's parameters, expressions and O-words were followed") for w in report.warnings)
     # a body that saves the modes with M73 leaves none in force after its return
     restored = SUB.replace("o100 sub\n", "o100 sub\nM73\n")
     assert interpret(m, restored)[-1].end[2] == pytest.approx(5e-3)
@@ -1042,8 +1066,15 @@ def test_a_2d_program_is_compensated_with_z_where_it_stands(machines):
     m = machines["vmc500"]
     with pytest.raises(GcodeError, match=r"an arc from an unknown position \(axes Z not yet programmed\).* give "
                                          r"where the axes stand when the program starts \(start") as err:
-        compensate_program(m, PLANAR, tol_um=1.0)
-    assert err.value.parameters == ("start",)
+        compensate_program(m, PLANAR, tol_um=1.0, strict=True)
+    assert err.value.parameters == ("start", "strict")
+    # not strict, the arc is kept unchanged and named (no Z word is written into a program
+    # that never moves Z: its height may be the torch height control's)
+    out, report = compensate_program(m, PLANAR, tol_um=1.0)
+    assert out.splitlines()[3] == "G2 X300 Y200 I0 J100" and "Z" not in out
+    assert any(w.startswith("line 4: an arc from an unknown position (axes Z not yet programmed) kept unchanged")
+               for w in report.warnings)
+    assert report.moves == 3 and report.moves_kept == 1 and report.motion_compensated == 0.75
     out, report = compensate_program(m, PLANAR, tol_um=1.0, start=[np.nan, np.nan, 0.15])
     assert report.max_residual_um <= 1.0
     assert all(re.search(r"Z1(49\.99|50\.00)\d\d", line) for line in out.splitlines()[1:-1]), out

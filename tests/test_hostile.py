@@ -611,7 +611,7 @@ CASES = [
          outputs=("out.nc",), result=kept_unchanged("out.nc", 3, 7)),
     Case("nc-g-code-of-22-digits", "compensate vmc700 prog.nc -o out.nc",
          program("G1000000000000000000000 X200\n"), ("prog.nc:3:1",)),
-    Case("nc-unknown-g-code", "compensate vmc700 prog.nc -o out.nc", program("G5.1 Q1\nG1 X200\n"),
+    Case("nc-unknown-g-code", "compensate vmc700 prog.nc -o out.nc", program("G5.7 Q1\nG1 X200\n"),
          ("prog.nc:3:1",)),
     Case("nc-radius-word-on-a-line", "compensate vmc700 prog.nc -o out.nc", program("G1 X200 R5\n"),
          ("prog.nc:3", "R5"), NOTE, outputs=("out.nc",)),

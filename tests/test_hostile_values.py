@@ -218,7 +218,6 @@ def test_a_signal_during_compensate_leaves_no_temporary_file(tmp_path, signum, s
     status, and nothing written."""
     import os
     import random
-    import signal
     import subprocess
     import sys
     import time

@@ -41,6 +41,9 @@ def add_parser(sub) -> None:
     p.add_argument("--start", nargs="+", metavar="AXIS=VALUE",
                    help="where axes stand when the program starts (mm, deg): moves from them are compensated whole "
                         "(a 2-D program never writes Z: give Z=...); axes not named are not known until programmed")
+    p.add_argument("--most-blocks", type=int, default=None, metavar="N",
+                   help="the most blocks a program whose loops and subroutine calls are followed may run "
+                        "(default: a million); a program that would run more is refused, naming the loop")
     add_json_arg(p, "print the report as one JSON object")
     p.set_defaults(func=run)
 
@@ -49,6 +52,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn
 
     from ..gcode import Program, ProgramFile
+    from ..gcode.macros import MOST_BLOCKS, may_need
 
     machine = machine_of(args)
     path = Path(args.program)
@@ -61,14 +65,17 @@ def run(args: argparse.Namespace) -> int:
     program = Program(machine, tol_um=args.tol_um, tol_urad=args.tol_urad, strict=args.strict,
                       pass_through=True if args.pass_through else None, start=start,
                       method=args.method, source=str(path), origin=origin, programming=args.programming,
-                      detail=bool(args.png))
+                      detail=bool(args.png), most_blocks=MOST_BLOCKS if args.most_blocks is None else args.most_blocks)
     console = Console(stderr=True, highlight=False)
     with transaction() as tx:  # the program, its report and picture are all written, or none
         with open(tx.path(args.output), "w", encoding="utf-8", newline="") as out, \
                 Progress(TextColumn("compensating"), BarColumn(), DownloadColumn(), TimeRemainingColumn(),
                          console=console, transient=True, disable=args.json or not console.is_terminal) as bar:
             task = bar.add_task("", total=max(source.size, 1))
-            program.run(source.lines(), out.write, progress=lambda n: bar.update(task, completed=source.done))
+            lines = source.lines()
+            if may_need(source.lines(), str(path)):   # parameters, expressions or O-words: follow them
+                lines = program.expand(list(source.lines()))
+            program.run(lines, out.write, progress=lambda n: bar.update(task, completed=source.done))
         report = {"machine": machine.name, "input": str(path), "output": str(args.output),
                   **program.report.to_dict()}
         if args.png:
@@ -88,6 +95,8 @@ def run(args: argparse.Namespace) -> int:
           f"compensation (tolerance {r.tolerance_um:g} um)")
     if r.passed_through:
         print(f"{r.passed_through} line(s) kept unchanged: they cannot be compensated (named below)")
+    if r.motion_compensated is not None:
+        print(f"moves compensated: {r.moves} of {r.moves + r.moves_kept} ({100 * r.motion_compensated:.1f} %)")
     for w in r.warnings:
         print(f"warning: {w}")
     for key in ("report", "png"):

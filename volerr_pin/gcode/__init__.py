@@ -11,6 +11,11 @@ compensated block keeps its text and only the numbers of its coordinate words ch
 coordinate words are appended, since compensation moves every axis); the extra pieces of a
 split move are inserted as new lines after it.
 
+A program with parameters, expressions or LinuxCNC O-words (subroutines, loops, branches) is
+expanded into the program as LinuxCNC runs it, and that is compensated and written
+(:mod:`.macros`); LinuxCNC's polar words ``@`` / ``^`` are written as the X and Y they mean
+(:mod:`.polar`).
+
 Nothing is guessed: a character that belongs to no word, a repeated word, two codes of one
 group, a word that means nothing in its block (I/J/K/R off an arc, an axis the machine does
 not have, an E word ...), a degenerate arc, or R and I/J/K that disagree stop the
@@ -21,7 +26,8 @@ unchanged and named in the report's warnings, or refused with ``strict``; G code
 does not know are refused unless ``pass_through``. A tool change (M6) and a kept block that
 names axes make the position unknown.
 
-Modules: :mod:`.lexer` (words, blocks, lines, code tables), :mod:`.modal` (the modal state
+Modules: :mod:`.macros` and :mod:`.expressions` (programs as run), :mod:`.polar`,
+:mod:`.lexer` (words, blocks, lines, code tables), :mod:`.modal` (the modal state
 and the moves it gives), :mod:`.arcs` (reading arcs), :mod:`.segments` (:func:`interpret`),
 :mod:`.source` (reading a file line by line), :mod:`.program` (compensating as a stream),
 :mod:`.kept` (what cannot be compensated) and :mod:`.regions` (modes that change how later

@@ -10,7 +10,7 @@ the machine makes the position unknown.
 
 from __future__ import annotations
 
-from .lexer import (CANNED, G_DIGITS, G_GROUPS, KEYWORD, M_GROUPS, MACRO_G, NOT_MOVES, TOOL_CHANGE_M, USER_M, Block,
+from .lexer import (CANNED, G_DIGITS, G_GROUPS, KEPT_MOTION, KEYWORD, LATHE_CYCLES, M_GROUPS, MACRO_G, NOT_MOVES, TOOL_CHANGE_M, USER_M, Block,
                     GcodeError, macro_statement, mask_comments, parse_block, uncommented, word_values)
 from .lexer import AXIS_LETTERS
 from .modal import Interpreter, ModalState
@@ -160,6 +160,10 @@ def _problem(reader: Interpreter, block: Block, state: ModalState) -> Problem | 
                 return Problem(f"{w.name} (macro call)")
             if g in NOT_MOVES:  # G52 X0 (no shift), G10 of tool data ...
                 return Problem(f"{w.name} ({NOT_MOVES[g]})")
+            if g in KEPT_MOTION or (g in LATHE_CYCLES and any(v.letter == "Q" for v in words)):
+                what = f"{w.name} ({KEPT_MOTION.get(g) or LATHE_CYCLES[g]})"
+                state.canned = what   # (true: its axis words after it are its, as a cycle's)
+                return Problem(what)
             if g not in G_GROUPS:
                 return _unknown(f"{w.name} (a G code this reader does not know)", w.start + 1)
         elif letter == "M" and w.value in (98, 99):
@@ -174,6 +178,8 @@ def _problem(reader: Interpreter, block: Block, state: ModalState) -> Problem | 
         if any(w.letter == "G" and w.value in (0, 1, 2, 3, 80) for w in words):
             state.canned = False
         elif any(w.letter in reader.axes or w.letter in AXIS_LETTERS + "IJKRQPL" for w in words):
+            if isinstance(state.canned, str):
+                return Problem(f"a block of the {state.canned} still in force")
             return Problem("a canned-cycle position (the cycle is still active)")
     return None
 

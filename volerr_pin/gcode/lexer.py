@@ -35,6 +35,17 @@ MACRO = re.compile(r"\b(IF|WHILE|GOTO|DO\d*|END\d*|SUB|ENDSUB|CALL|RETURN|ELSE|E
                    r"ENDREPEAT|BREAK|CONTINUE|THEN)\b")
 CANNED = {73, 74, 76, 81, 82, 83, 84, 85, 86, 87, 88, 89}
 MACRO_G = {65, 66, 67}
+#: LinuxCNC motions the model does not interpolate: kept unchanged, with every block after them
+#: that names axes, up to the next G0-G3 or G80 (like a canned cycle); where they end is not
+#: followed (a probe stops where it touches)
+KEPT_MOTION = {33: "spindle-synchronized motion", 33.1: "rigid tapping", 38.2: "probing", 38.3: "probing",
+               38.4: "probing", 38.5: "probing", 5: "cubic spline", 5.1: "quadratic spline", 5.2: "NURBS",
+               5.3: "NURBS end"}
+#: LinuxCNC's lathe cycles (their profile is the subroutine named by Q); without Q these codes
+#: mean other things on other controls (Siemens: G70 inch, G71 mm), so they are refused
+LATHE_CYCLES = {70: "lathe finishing cycle", 71: "lathe roughing cycle", 71.1: "lathe roughing cycle",
+                71.2: "lathe roughing cycle", 72: "lathe facing cycle", 72.1: "lathe facing cycle",
+                72.2: "lathe facing cycle"}
 # G codes whose axis words are not a move the program interpolates (data, reference returns,
 # machine coordinates, probing) or that change the geometry in ways not modelled
 NOT_MOVES = {10: "data setting", 27: "reference check", 28: "reference return", 29: "return from reference",
@@ -50,7 +61,10 @@ REGIONS = {12.1: ("polar interpolation", (13.1,)), 112: ("polar interpolation", 
            68.2: ("tilted working plane", (69,)), 51: ("scaling", (50,)), 51.1: ("mirror image", (50.1,)),
            43.5: ("tool orientation given as a vector", (49, 43, 44, 43.4)),
            92: ("coordinate shift", (92.1, 92.2)),
-           92.3: ("coordinate shift restored from the parameters", (92.1, 92.2))}
+           92.3: ("coordinate shift restored from the parameters", (92.1, 92.2)),
+           # the controller offsets the path by the tool's radius and joins the offset pieces
+           # itself: a move split into pieces would get corners it rounds or refuses
+           **dict.fromkeys((41, 42, 41.1, 42.1), ("cutter radius compensation", (40,)))}
 #: G codes that end every coordinate shift (LinuxCNC: G92.1 resets the G92 offsets, G92.2 sets
 #: them aside): bare, they leave coordinates as the program's origin reads them. With axis words
 #: the dialects part (LinuxCNC moves there in the modal motion; on Fanuc controls G92.1 presets
@@ -81,7 +95,7 @@ G_GROUPS = {
     **dict.fromkeys((0, 1, 2, 3), "motion"),
     **dict.fromkeys((4, 9, 10, 27, 28, 29, 30, 31, 52, 53, 65, 92, 92.1, 92.2, 92.3), "non-modal"),
     **dict.fromkeys((17, 18, 19), "plane"), **dict.fromkeys((20, 21), "units"),
-    **dict.fromkeys((40, 41, 42), "cutter compensation"),
+    **dict.fromkeys((40, 41, 42, 41.1, 42.1), "cutter compensation"),
     **dict.fromkeys((43, 44, 43.4, 43.5, 49), "tool length offset"),
     **dict.fromkeys((51, 50), "scaling"), **dict.fromkeys((51.1, 50.1), "mirror image"),
     **dict.fromkeys((12.1, 13.1, 112, 113), "polar interpolation"), 7.1: "cylindrical interpolation",

@@ -10,6 +10,7 @@ length. Every line that is not a compensated move is written byte for byte.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Iterable
 
 import numpy as np
@@ -18,9 +19,11 @@ from ..compensation.moves import ARC, LINE, POINT
 from ..compensation.path import PathCompensator
 from ..machine import Machine
 from .flow import Flow
-from .lexer import PROGRAM_END, WORK_OFFSETS, Block, GcodeError, mask_comments, split_lines
+from . import macros
+from .lexer import CANNED, PROGRAM_END, WORK_OFFSETS, Block, GcodeError, mask_comments, split_lines
 from . import kept
 from .modal import Interpreter, check_axes, move_of
+from .polar import POLAR_WORD, g_codes, has_polar, to_cartesian
 from .report import Report
 from .rewrite import Writer
 from .chunks import FIRST_CHUNK, ChunkWriting, _Move
@@ -95,7 +98,8 @@ class Program(ChunkWriting):
 
     def __init__(self, machine: Machine, tol_um: float = 1.0, pass_through: bool | None = None,
                  start=None, method: str = "newton", source: str = "<program>", tol_urad: float | None = None,
-                 origin=None, *, strict: bool | None = None, programming: str = "axes", detail: bool = False):
+                 origin=None, *, strict: bool | None = None, programming: str = "axes", detail: bool = False,
+                 most_blocks: int = macros.MOST_BLOCKS):
         check_axes(machine)  # the machine is reported before the tolerance
         if not (math.isfinite(tol_um) and tol_um >= MIN_TOL_UM):
             raise GcodeError(f"tol_um must be finite and at least {MIN_TOL_UM:g} um (what the point compensation "
@@ -134,6 +138,15 @@ class Program(ChunkWriting):
         self._last = None  # (axis positions, residual) of the last compensated move's end
         self._eol = None
         self._noted: set = set()
+        # an axis word of a kept line: the letter (not inside a keyword) and a value
+        self._axis_word = re.compile(r"(?<![A-Z])[" + "".join(self.reader.axes) + r"][ \t]*[-+.0-9#\[]")
+        if isinstance(most_blocks, bool) or not isinstance(most_blocks, int) or most_blocks < 1:
+            raise GcodeError(f"most_blocks must be a whole number of at least 1, got {most_blocks!r}",
+                             parameters=("most_blocks",))
+        self.most_blocks = most_blocks
+        self.source = source
+        self._origin = None   # for an expanded program: the line each block as run comes from
+        self._lines_in = None
 
     # the run --------------------------------------------------------------------
     def compensate(self, text: str, progress: Callable[[int], None] | None = None) -> str:
@@ -157,8 +170,32 @@ class Program(ChunkWriting):
             A block that cannot be read or compensated, naming its line.
         """
         out: list[str] = []
-        self.run(split_lines(text), out.append, progress)
+        self.run(self.expand(split_lines(text)), out.append, progress)
         return "".join(out)
+
+    def expand(self, lines: list[tuple[str, str]]) -> list[tuple[str, str]]:
+        """The program as it runs, if its parameters, expressions and O-words can be followed.
+
+        Parameters
+        ----------
+        lines : list of (str, str)
+            The program's lines and their endings.
+
+        Returns
+        -------
+        list of (str, str)
+            The blocks as run (see :mod:`.macros`), or ``lines`` itself when there is nothing
+            to expand or the expansion is stopped by what only the running machine knows
+            (the report's warnings say what); give the result to :meth:`run`. Messages about
+            an expanded program name the line each block comes from.
+
+        Raises
+        ------
+        GcodeError
+            A program that would run more than ``most_blocks`` blocks, naming the loop or
+            call running then.
+        """
+        return _expanded(self, lines)
 
     def run(self, lines: Iterable[tuple[str, str]], write: Callable[[str], object],
             progress: Callable[[int], None] | None = None) -> Report:
@@ -184,6 +221,14 @@ class Program(ChunkWriting):
             A block that cannot be read or compensated, naming its line (lines before it may
             have been written already).
         """
+        try:
+            return self._run(lines, write, progress)
+        except GcodeError as err:
+            if self._origin is None:
+                raise
+            raise macros.renamed(err, self.source, self._origin) from None
+
+    def _run(self, lines, write, progress) -> Report:
         reader = self.reader
         state = reader.initial_state()
         entries: list = []
@@ -250,7 +295,7 @@ class Program(ChunkWriting):
             entries += self._close(run, state)
         self._flush(entries, write)
         self.flow.finish(number)
-        self.report.blocks_in = number
+        self.report.blocks_in = number if self._lines_in is None else self._lines_in
         if progress is not None:
             progress(number)
         notes = reader.notes
@@ -292,12 +337,23 @@ class Program(ChunkWriting):
                 return self._entry(block, newline, number, state, state.lost,
                                    move_of(reader, block, state, coord_words, not state.tool_tip))
         masked = mask_comments(body, number, reader.source)
+        if has_polar(masked) and self.flow.body is None:
+            if state.canned or state.regions or any(g in CANNED for g in g_codes(masked)):
+                # a drilling position (G81 ... ^60 L6): kept with its cycle
+                reader.notes.add(number, "polar coordinates (@ ^) of a canned cycle kept unchanged")
+                self._kept(masked, move=True)
+                kept.skip(reader, POLAR_WORD.sub("", masked), state, None, number)
+                state.lose_position(f"line {number}")
+                return ("raw", body + newline)
+            body = to_cartesian(reader, body, masked, number, state)
+            masked = mask_comments(body, number, reader.source)
+            reader.notes.add(number, "polar coordinates (@ ^) written as the X and Y they mean")
         code = masked.upper()
         if self.flow.line(code, number):
             body_of = self.flow.body[0] if self.flow.body else None
             reader.notes.add(number, f"the body of subroutine o{body_of.lower()} kept unchanged: it runs where it "
                              "is called" if body_of else "the end of a subroutine body kept unchanged")
-            self.report.passed_through += 1
+            self.report.passed_through += 1   # a definition: its moves run where it is called
             return ("raw", body + newline)
         block, problem = kept.classify(reader, body, number, state, masked)
         if problem:
@@ -312,7 +368,7 @@ class Program(ChunkWriting):
             reader.notes.add(number, f"{problem} kept unchanged" + (
                 "; what it changes is not followed, so the blocks after it may be misread" if problem.modes_unknown
                 else ""))
-            self.report.passed_through += 1
+            self._kept(code)
             kept.skip(reader, body, state, block, number)
             self.flow.called(code, state, f"{reader.source}:{number}")
             return ("raw", body + newline)
@@ -320,6 +376,13 @@ class Program(ChunkWriting):
             self._note_offsets(block)
         lost = state.lost
         return self._entry(block, newline, number, state, lost, reader.advance(block, state))
+
+    def _kept(self, code: str, move: bool | None = None) -> None:
+        """Count a line kept unchanged (and, if it names an axis or ``move``, a move run
+        uncompensated)."""
+        self.report.passed_through += 1
+        if move or (move is None and self._axis_word.search(code)):
+            self.report.moves_kept += 1
 
     def _entry(self, block: Block, newline: str, number: int, state, lost: str, move) -> tuple:
         """The entry of a block that was read and followed (``move`` as advance gives it)."""
@@ -334,9 +397,16 @@ class Program(ChunkWriting):
             missing = ", ".join(a for a, k in zip(reader.axes, move.start_known) if not k)
             why = f"axes {missing} not known since {lost}" if lost else f"axes {missing} not yet programmed"
             if move.motion in (2, 3):
-                raise GcodeError(f"{reader.source}:{number}: an arc from an unknown position ({why}); move every "
-                                 "axis to a known point with G0 or G1 first, or give where the axes stand when the "
-                                 "program starts (start; a 2-D program never writes Z)", parameters=("start",))
+                if self.strict:
+                    raise GcodeError(f"{reader.source}:{number}: an arc from an unknown position ({why}); move "
+                                     "every axis to a known point with G0 or G1 first, or give where the axes stand "
+                                     "when the program starts (start; a 2-D program never writes Z)",
+                                     parameters=("start", "strict"))
+                reader.notes.add(number, f"an arc from an unknown position ({why}) kept unchanged: give where the "
+                                 "axes stand when the program starts (start; a 2-D program never writes Z) to "
+                                 "compensate it")
+                self._kept(block.text.upper())
+                return ("raw", block.text + newline)
             rest = ""
             if not all_known:
                 rest = (", taking the axes it does not name where they were last programmed" if lost else
@@ -369,6 +439,30 @@ class Program(ChunkWriting):
 
     # compensating and writing -------------------------------------------------------
 
+
+def _expanded(program: Program, lines: list[tuple[str, str]]) -> list[tuple[str, str]]:
+    """:meth:`Program.expand`: the lines to run, with the program's report and warnings told."""
+    try:
+        expansion = macros.expand(lines, program.source, program.most_blocks)
+    except macros.Unfollowable as why:
+        program.reader.notes.note(f"the program's parameters, expressions and O-words are not followed (line "
+                                  f"{why.line}: {why}): their blocks are kept unchanged")
+        return lines
+    if expansion is None:
+        return lines
+    program._origin = expansion.origin
+    program._lines_in = len(lines)
+    program.reader.notes.origin = expansion.origin
+    program.report.expanded = {"blocks_run": len(expansion.lines), "calls": expansion.calls,
+                               "loop_passes": expansion.passes}
+    program.reader.notes.note(
+        f"the program's parameters, expressions and O-words were followed as LinuxCNC runs them ({len(lines):,} "
+        f"lines run as {len(expansion.lines):,} blocks; {expansion.calls:,} subroutine calls, "
+        f"{expansion.passes:,} loop passes): the output is the program as run, numbers in place of "
+        "parameters and expressions")
+    return expansion.lines
+
+
 def _levers(machine: Machine) -> list[float]:
     """For each rotary axis, how far the rounding of its written angle (0.5e-5 deg) moves the
     tool tip at most [um] (its largest lever over a few poses)."""
@@ -385,7 +479,7 @@ def _levers(machine: Machine) -> list[float]:
 def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass_through: bool | None = None,
                        method: str = "newton", source: str = "<program>", tol_urad: float | None = None,
                        origin=None, strict: bool | None = None, programming: str = "axes",
-                       start=None) -> tuple[str, Report]:
+                       start=None, most_blocks: int = macros.MOST_BLOCKS) -> tuple[str, Report]:
     """Compensate an NC program.
 
     Parameters
@@ -415,6 +509,9 @@ def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass
     start : array_like, shape (n_axes,), optional
         Axis positions [m, rad] where the program starts, NaN where not known (see
         :class:`~volerr_pin.gcode.modal.Interpreter`; default: none known).
+    most_blocks : int
+        The most blocks a program whose loops and subroutine calls are followed may run
+        (see :mod:`~volerr_pin.gcode.macros`).
 
     Returns
     -------
@@ -429,5 +526,6 @@ def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass
         Invalid arguments, or a block that cannot be read or compensated, naming its line.
     """
     program = Program(machine, tol_um=tol_um, pass_through=pass_through, method=method, source=source,
-                      tol_urad=tol_urad, origin=origin, strict=strict, programming=programming, start=start)
+                      tol_urad=tol_urad, origin=origin, strict=strict, programming=programming, start=start,
+                      most_blocks=most_blocks)
     return program.compensate(text), program.report

@@ -34,6 +34,7 @@ class Warnings:
         self._worst: dict[str, float] = {}
         self._dropped = 0
         self.general: list[str] = []
+        self.origin = None   # for an expanded program: the line each block as run comes from
 
     def add(self, line: int, text: str, worst: float | None = None) -> None:
         """Note ``text`` about a line.
@@ -48,6 +49,8 @@ class Warnings:
         worst : float, optional
             A value the warning gives the largest of over all its lines.
         """
+        if self.origin is not None and 1 <= line <= len(self.origin):
+            line = self.origin[line - 1]
         ranges = self._lines.get(text)
         if ranges is None:
             if len(self._lines) >= MOST_TEXTS:
@@ -173,6 +176,14 @@ class Report:
         Arcs written as arcs only, and arcs some of whose pieces became lines.
     passed_through : int
         Lines kept unchanged because they cannot be compensated (named in the warnings).
+    moves_kept : int
+        Of those, the lines that name an axis (moves run uncompensated).
+    motion_compensated : float or None
+        ``moves / (moves + moves_kept)``: the share of the program's moves compensated (None
+        for a program without moves).
+    expanded : dict or None
+        For a program whose parameters, expressions and O-words were followed (see
+        :mod:`.macros`): ``blocks_run``, ``calls``, ``loop_passes``.
     programming : list of str
         Programming modes the moves were read in (``"axes"``, ``"tool-tip"``).
     warnings : list of str
@@ -192,9 +203,17 @@ class Report:
     arcs_kept: int = 0
     arcs_as_lines: int = 0
     passed_through: int = 0
+    moves_kept: int = 0
+    expanded: dict | None = None
     programming: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     detail: Detail = field(default_factory=Detail, repr=False)
+
+    @property
+    def motion_compensated(self) -> float | None:
+        """The share of the program's moves compensated (None without moves)."""
+        total = self.moves + self.moves_kept
+        return self.moves / total if total else None
 
     def to_dict(self) -> dict:
         """The report for JSON.
@@ -208,5 +227,7 @@ class Report:
                 "pieces": self.pieces, "max_residual_um": self.max_residual_um,
                 "max_before_um": self.max_before_um, "tolerance_um": self.tolerance_um,
                 "arcs_kept": self.arcs_kept, "arcs_as_lines": self.arcs_as_lines,
-                "passed_through": self.passed_through, "programming": list(self.programming),
+                "passed_through": self.passed_through, "moves_kept": self.moves_kept,
+                "motion_compensated": self.motion_compensated, "expanded": self.expanded,
+                "programming": list(self.programming),
                 "warnings": list(self.warnings)}

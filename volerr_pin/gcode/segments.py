@@ -9,9 +9,11 @@ import numpy as np
 from ..compensation.arcs import Arc
 from ..machine import Machine
 from .flow import Flow
-from .lexer import PROGRAM_END, mask_comments, split_lines
+from . import macros
+from .lexer import CANNED, PROGRAM_END, GcodeError, mask_comments, split_lines
 from . import kept
 from .modal import Interpreter
+from .polar import POLAR_WORD, g_codes, has_polar, to_cartesian
 
 __all__ = ["Segment", "interpret"]
 
@@ -96,11 +98,32 @@ def interpret(machine: Machine, text: str, source: str = "<program>", start=None
         A block that cannot be read, naming its line.
     """
     reader = Interpreter(machine, source=source, start=start, origin=origin, programming=programming)
+    lines = split_lines(text)
+    try:
+        expansion = macros.expand(lines, source)
+    except macros.Unfollowable:
+        expansion = None   # read as it is, macro blocks kept (as compensate_program reads it)
+    if expansion is None:
+        return _segments(reader, lines, source, None)
+    try:
+        return _segments(reader, expansion.lines, source, expansion.origin)
+    except GcodeError as err:
+        raise macros.renamed(err, source, expansion.origin) from None
+
+
+def _segments(reader: Interpreter, lines, source: str, origin) -> list[Segment]:
     state = reader.initial_state()
     flow = Flow(source)
     out = []
-    for number, (body, _) in enumerate(split_lines(text), start=1):
+    for number, (body, _) in enumerate(lines, start=1):
         masked = mask_comments(body, number, source)
+        if has_polar(masked) and flow.body is None:
+            if state.canned or state.regions or any(g in CANNED for g in g_codes(masked)):
+                kept.skip(reader, POLAR_WORD.sub("", masked), state, None, number)   # a canned cycle's
+                state.lose_position(f"line {number}")
+                continue
+            body = to_cartesian(reader, body, masked, number, state)
+            masked = mask_comments(body, number, source)
         code = masked.upper()
         if flow.line(code, number):
             continue   # a subroutine body runs where it is called
@@ -111,7 +134,7 @@ def interpret(machine: Machine, text: str, source: str = "<program>", start=None
             continue
         move = reader.advance(block, state, check_travel=False)
         if move is not None:
-            out.append(_segment(reader, block, move, state, number))
+            out.append(_segment(reader, block, move, state, number if origin is None else origin[number - 1]))
         if any(w.letter == "M" and w.value in PROGRAM_END for w in block.words):
             break   # the program ends: nothing after it is read
     return out
