@@ -10,13 +10,15 @@ from __future__ import annotations
 import re
 import shutil
 import subprocess
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.gcode import compensate_program, interpret
+from volerr_pin.gcode import compensate_program, interpret, split_lines
+from volerr_pin.gcode.macros import Unfollowable, expand
 
 from test_gcode import DWELL_AND_MOVE, FULL_CIRCLES, G90_1, LATHE_DIAMETER, LATHE_PROFILE, PROGRAM_500, PROGRAM_700, PROGRAM_CGM, SUB
 
@@ -34,10 +36,54 @@ ARC_AXES = {"XY": ("X", "Y", "Z"), "XZ": ("Z", "X", "Y"), "YZ": ("Y", "Z", "X")}
 SCALE = {"MM": 1.0, "INCHES": 25.4, "CM": 10.0}
 
 M72 = "G0 X10 Y10 Z50 F100\nM70\nG91\nG1 X5\nM72\nG1 X100 Y20\nG0 Z60\nM30\n"
+#: every operator, function, parameter kind and O-word the product follows, and polar words:
+#: LinuxCNC must read the program itself as the product does (the expansion's rules), and the
+#: compensated program as run too
+MACROS = """G21 G90 G17
+#<_base> = 150
+#1 = [2 ** 3 ** 2 / 64 + 7 MOD 3 - -7 MOD 3]
+#2 = [1 LT 2 AND 3 GT 4 OR 1 EQ 1.0000001 XOR 0]
+#<r> = [SQRT[16] * 10 + ABS[-5] + FIX[-1.5] + FUP[-1.5] + ROUND[2.5] + EXP[0] + LN[1]]
+G0 X#<_base> Y[#<_base> + #1] Z[200 + #2]
+G1 X[#<_base> + #<r> * COS[30]] Y[#<_base> + #<r> * SIN[30]] F500
+G1 X[#<_base> + 50 * TAN[45]] Y[#<_base> + ATAN[1]/[-1]] Z[200 + ASIN[0.5] + ACOS[0.5]]
+o100 sub
+  #<n> = #1
+  o101 while [#<n> GT 0]
+    G91 G1 X[#2 / #1] Y1 Z-1
+    #<n> = [#<n> - 1]
+    o102 if [#<n> EQ 2]
+      o101 continue
+    o102 elseif [#<n> EQ 1]
+      G90 G1 Z190
+    o102 else
+      G90
+    o102 endif
+  o101 endwhile
+  G90
+  o100 return [#<n> + 10]
+o100 endsub
+o100 call [4] [20]
+G0 Z[190 + #<_value>]
+o103 repeat [3]
+  G91 G2 X10 Y0 I5 J0 Z-1
+o103 endrepeat
+o104 do
+  G90 G0 Z#<_base>
+o104 while [0]
+G90 G0 X0 Y0
+G0 X150 Y150
+G1 @250 F300
+^40
+G91 @-20 ^5
+G90 G3 ^60 I[-230 * COS[45]] J[-230 * SIN[45]]
+G90 G0 X200 Y200
+M30
+"""
 PROGRAMS = [
     ("vmc500", PROGRAM_500), ("vmc500", G90_1), ("vmc500", M72), ("vmc500", SUB), ("vmc500", FULL_CIRCLES),
     ("vmc500", "G64 P0.01 Q0.001\nG0 X100 Y100 Z50\nG1 X200 F100\nG2 X300 Y100 R50\nM30\n"),
-    ("vmc500", DWELL_AND_MOVE),
+    ("vmc500", DWELL_AND_MOVE), ("vmc500", MACROS),
     ("vmc700", PROGRAM_700), ("vmc700", (ROOT / "examples" / "data" / "part.nc").read_text()),
     ("cgm4000", PROGRAM_CGM), ("lathe_2axis", LATHE_PROFILE), ("lathe_2axis", LATHE_DIAMETER),
 ]
@@ -81,6 +127,44 @@ def test_linuxcnc_reads_the_compensated_program_as_the_product_does(machines, tm
     path = tmp_path / "out.ngc"
     path.write_text(out if out.rstrip().endswith(("M30", "M2", "%")) else out + "M30\n")
     reads_as_the_product_does(m, path, tmp_path / "out.canon")
+
+
+@pytest.mark.parametrize("name, program", PROGRAMS, ids=[f"{n}-{k}" for k, (n, _) in enumerate(PROGRAMS)])
+def test_pygcode_finds_no_word_or_comment_lost(machines, name, program):
+    """pygcode (PyPI), a G-code reader of its own, reads the program and the compensated one:
+    every comment, and every word but the coordinates (whose numbers change) and the motion
+    codes of the pieces a split move adds, is in both, as often. A program whose parameters
+    and loops are followed is compared as run (its O-word lines are meant to go)."""
+    pygcode = pytest.importorskip("pygcode", reason="pygcode (PyPI) is not installed: pip install -e .[test]")
+    m = machines[name]
+    out, _ = compensate_program(m, program, tol_um=1.0, pass_through=True)
+    try:
+        expansion = expand(split_lines(program))
+    except Unfollowable:   # read as written
+        expansion = None
+    reference = program if expansion is None else "".join(body + end for body, end in expansion.lines)
+
+    def words(text: str) -> tuple[list[str], Counter]:
+        comments, kept = [], Counter()
+        for number, raw in enumerate(text.splitlines(), start=1):
+            try:
+                line = pygcode.Line(raw)
+            except Exception as err:   # pygcode reads no parameters or expressions
+                pytest.skip(f"pygcode cannot read line {number} ({raw!r}): {err}")
+            if line.comment:
+                comments.append(str(line.comment))
+            kept.update(str(w) for w in line.block.words
+                        if not (w.letter in m.axes or w.letter in "IJKR" or (w.letter == "G" and w.value in (0, 1, 2, 3))))
+        return comments, kept
+
+    assert words(out) == words(reference)
+
+
+def test_linuxcnc_reads_parameters_expressions_loops_and_polar_words_as_the_product_does(machines, tmp_path):
+    """The expansion's rules against LinuxCNC's own interpreter, on the program as written."""
+    path = tmp_path / "in.ngc"
+    path.write_text(MACROS)
+    reads_as_the_product_does(machines["vmc500"], path, tmp_path / "in.canon")
 
 
 def reads_as_the_product_does(m, path: Path, canon_path: Path) -> None:
