@@ -296,53 +296,13 @@ class _Expander(Values):
                 self.call(k, name, rest, col)
                 k += 1
             elif kw == "WHILE":
-                end = self.end_of[k]
-                self.running.append((label, k + 1))
-                while self.condition(k):
-                    self.passes += 1
-                    self.step(k)
-                    try:
-                        self.run(k + 1, end)
-                    except _Signal as sig:
-                        if sig.kind == "break":
-                            break
-                        if sig.kind != "continue":
-                            raise
-                self.running.pop()
-                k = end + 1
-            elif kw == "DO":
+                k = self.loop(k, self.end_of[k], label, before=lambda k=k: self.condition(k))
+            elif kw == "DO":   # the test is at the end: one pass at least
                 end = self.do_end[k]
-                self.running.append((label, k + 1))
-                while True:
-                    self.passes += 1
-                    self.step(k)
-                    try:
-                        self.run(k + 1, end)
-                    except _Signal as sig:
-                        if sig.kind == "break":
-                            break
-                        if sig.kind != "continue":
-                            raise
-                    if not self.condition(end):
-                        break
-                self.running.pop()
-                k = end + 1
+                k = self.loop(k, end, label, after=lambda: self.condition(end))
             elif kw == "REPEAT":
-                end = self.end_of[k]
-                count = round(self.condition(k))
-                self.running.append((label, k + 1))
-                for _ in range(max(count, 0)):
-                    self.passes += 1
-                    self.step(k)
-                    try:
-                        self.run(k + 1, end)
-                    except _Signal as sig:
-                        if sig.kind == "break":
-                            break
-                        if sig.kind != "continue":
-                            raise
-                self.running.pop()
-                k = end + 1
+                count = iter(range(max(round(self.condition(k)), 0)))
+                k = self.loop(k, self.end_of[k], label, before=lambda: next(count, None) is not None)
             elif kw == "IF":
                 marks = self.branches[k]
                 heads = [k] + marks[:-1]
@@ -360,6 +320,25 @@ class _Expander(Values):
                 raise _Signal("return", value)
             else:   # a stray end (matched ones are jumped over) cannot be reached in a valid program
                 raise self._error(self.coded[k], 0, f"{label} where no block of it is open")
+
+    def loop(self, k: int, end: int, label: str, before=None, after=None) -> int:
+        """Run a loop's body (lines k + 1 .. end - 1) pass after pass, until ``before()`` is false
+        before a pass, ``after()`` after one, or a break; the line after the loop."""
+        self.running.append((label, k + 1))
+        while before is None or before():
+            self.passes += 1
+            self.step(k)
+            try:
+                self.run(k + 1, end)
+            except _Signal as sig:
+                if sig.kind == "break":
+                    break
+                if sig.kind != "continue":
+                    raise
+            if after is not None and not after():
+                break
+        self.running.pop()
+        return end + 1
 
     def call(self, k: int, name: str, rest: str, col: int) -> None:
         line = self.coded[k]
