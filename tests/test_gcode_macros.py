@@ -36,7 +36,7 @@ def x_of(text: str) -> list[float]:
     ("[10 - 4 - 3]", 3.0), ("[12 / 3 / 2]", 2.0),
     ("[7 MOD 3]", 1.0), ("[-7 MOD 3]", 2.0),   # LinuxCNC's MOD is never negative
     ("[1 EQ 1.0000001]", 1.0), ("[1 EQ 1.00001]", 0.0), ("[1 NE 1.0000001]", 0.0),
-    ("[2 GE 2.0000001]", 1.0), ("[2 GT 2.0000001]", 0.0), ("[1 LE 0.9999999]", 1.0),
+    ("[2 GE 1.9999999]", 1.0), ("[2 GT 2.0000001]", 0.0), ("[1 LE 1.0000001]", 1.0), ("[2 LE 2]", 1.0),
     ("[1 LT 2 AND 3 GT 4]", 0.0), ("[1 LT 2 OR 3 GT 4]", 1.0), ("[1 XOR 1]", 0.0),
     ("[1 + 2 LT 4]", 1.0),                 # + before LT
     ("ATAN[1]/[1]", 45.0), ("ATAN[-1]/[-1]", -135.0), ("SIN[30]", 0.5), ("COS[60]", 0.5),
@@ -104,6 +104,16 @@ def compensate_program_with(**kw):
     from pathlib import Path
     m = load_machine(Path(__file__).resolve().parents[1] / "machines" / "vmc500")
     return compensate_program(m, START, **kw)
+
+
+def test_a_comparison_linuxcnc_versions_decide_differently_stops_the_expansion():
+    """LinuxCNC 2.9.0 and later take LE / GE within 1e-6 as equal, earlier versions (Debian 12
+    ships 2.9.0~pre1) compare exactly: LinuxCNC's own threading.ngc counts 0.0005 steps up to
+    0.0375 and, by the version, runs 76 passes or 75. The product does not guess which."""
+    program = "#1 = 0\no1 while [#1 LE 0.0375]\nG0 X[#1 * 100]\n#1 = [#1 + 0.0005]\no1 endwhile\n"
+    with pytest.raises(Unfollowable, match=r"0\.0375000000000000\d* LE 0\.0375 \(equal within 1e-06\) is true "
+                                           r"for LinuxCNC 2\.9\.0 and later and false for earlier versions"):
+        expand(split_lines(program))
 
 
 @pytest.mark.parametrize("program, why", [

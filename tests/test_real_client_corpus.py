@@ -4,9 +4,10 @@ interpreter (rs274), as a corpus no one wrote for the product.
 Of the programs rs274 accepts, the product must compensate at least nine in ten on a
 three-axis machine whose travel holds them all, and of their moves at least nine in ten (as
 its report counts them: moves compensated against moves kept unchanged). Every program it
-writes must be accepted by rs274 and read by it as the product reads it, move by move (except
-programs with moves the product keeps unchanged, whose paths only the controller knows:
-probing, lathe cycles, cutter radius compensation ...). The programs are read where LinuxCNC
+writes must be accepted by rs274 and read by it as the product reads it, move by move; a
+program with moves the product keeps unchanged, whose paths only the controller knows
+(probing, lathe cycles, cutter radius compensation ...), must be run by rs274 along the path
+it runs for the program as written (every motion, in order, within a gross bound). The programs are read where LinuxCNC
 installed them (Debian's package ``linuxcnc-uspace``); none is copied into the repository.
 """
 
@@ -17,6 +18,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import volerr_pin as vp
@@ -31,10 +33,12 @@ pytestmark = [pytest.mark.slow, pytest.mark.skipif(
 ROOT = Path(__file__).resolve().parents[1]
 #: the share of the programs rs274 accepts that the product must compensate (measured: 180 of 188)
 ACCEPTED = 0.9
-#: the share of their moves it must compensate, as its reports count them (measured: 95.7 %)
+#: the share of their moves it must compensate, as its reports count them (measured: 11,980 of
+#: 12,391, 96.7 %)
 MOTION = 0.9
 #: the same against LinuxCNC's count of the motions they run (canonical moves), which also
-#: counts each move a kept cycle makes (lathe cycles, drilling) (measured: 89.1 %)
+#: counts each move a kept cycle makes (lathe cycles, drilling) and each pass of a kept loop:
+#: measured 11,980 of 13,809 (86.8 %), short of the nine in ten the issue asks; a floor
 MOTION_RUN = 0.85
 
 
@@ -54,6 +58,52 @@ def _wide(folder: Path) -> vp.Machine:
     (folder / "vmc500.urdf").write_text(urdf)
     (folder / "errors.toml").write_text(spec)
     return vp.load_machine(folder)
+
+
+#: how far LinuxCNC's motion for a compensated program may stand from its motion for the
+#: program as written [mm]: a gross bound (the wide vmc500 corrects by up to about 50 um)
+GROSS_MM = 0.1
+
+
+def _moves(canon: Path) -> list[dict]:
+    """rs274's motions, in order: end point [mm], and an arc's centre (its plane's two axes) [mm]."""
+    out = []
+    for c in canonical_moves(canon.read_text()):
+        move = {"end": np.array([c["end"][a] * c["units"] for a in "XYZ"])}
+        if c["kind"] == "arc" and all(a in "XYZ" for a in c["plane"]):
+            move["plane"] = ["XYZ".index(a) for a in c["plane"]]
+            move["centre"] = np.array([c["centre"][a] * c["units"] for a in c["plane"]])
+        out.append(move)
+    return out
+
+
+def _on_path(point: np.ndarray, start: np.ndarray, move: dict) -> bool:
+    """Whether a point is on a move (from ``start``) within :data:`GROSS_MM`: a piece of it."""
+    end = move["end"]
+    if "centre" in move:   # on the arc's circle (or helix) about its centre
+        i, j = move["plane"]
+        radius = np.hypot(*(end[[i, j]] - move["centre"]))
+        return abs(np.hypot(*(point[[i, j]] - move["centre"])) - radius) <= GROSS_MM
+    d = end - start
+    t = np.clip((point - start) @ d / (d @ d), 0.0, 1.0) if d @ d > 0 else 0.0
+    return np.linalg.norm(start + t * d - point) <= GROSS_MM
+
+
+def follows(before: list[dict], after: list[dict], name: str) -> None:
+    """LinuxCNC runs ``after`` along ``before``: every motion of ``before`` ends at one of
+    ``after``, in order, within :data:`GROSS_MM`, and the motions of ``after`` between (the
+    pieces of a split move) lie on the move they split."""
+    j = 0
+    start = after[0]["end"] if after else np.zeros(3)
+    for k, move in enumerate(before):
+        while j < len(after) and np.linalg.norm(after[j]["end"] - move["end"]) > GROSS_MM:
+            assert _on_path(after[j]["end"], start, move), (
+                f"{name}: LinuxCNC's motion {j + 1} for the compensated program, to {after[j]['end']} mm, is on "
+                f"no motion it makes for the program as written (motion {k + 1}, to {move['end']} mm)")
+            j += 1
+        assert j < len(after), f"{name}: LinuxCNC's motion {k + 1} of {len(before)}, to {move['end']} mm, is not run"
+        start = move["end"]
+        j += 1
 
 
 def test_linuxcnc_sample_programs_are_compensated_and_read_back_alike(tmp_path):
@@ -80,10 +130,16 @@ def test_linuxcnc_sample_programs_are_compensated_and_read_back_alike(tmp_path):
         run_by_linuxcnc += len(canonical_moves((tmp_path / "in.canon").read_text()))
         path = tmp_path / f"out{k}.ngc"
         path.write_text(out)
-        if report.moves_kept:   # moves only the controller follows: only rs274's acceptance is asked
+        if report.moves_kept:
+            # moves only the controller follows (probing, lathe cycles, cutter compensation ...):
+            # the product cannot read the program as LinuxCNC runs it, but LinuxCNC must run the
+            # compensated program along the original: every motion it made for the program, in
+            # order, within a gross bound of the compensation (corrections are tens of um; every
+            # misreading LinuxCNC exposed was off by millimetres)
             run = subprocess.run([RS274, "-g", str(path), str(tmp_path / "out.canon")], capture_output=True,
                                  text=True, timeout=120, cwd=tmp_path)
             assert run.returncode == 0, (program, run.stdout[-300:])
+            follows(_moves(tmp_path / "in.canon"), _moves(tmp_path / "out.canon"), program.name)
         else:
             reads_as_the_product_does(m, path, tmp_path / "out.canon")
     assert linuxcnc > 100

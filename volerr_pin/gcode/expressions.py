@@ -137,6 +137,13 @@ class Values:
             raise self._error(line, at, "a division by zero")
         if op == "**" and left < 0 and math.floor(right) != right:
             raise self._error(line, at, "a negative number raised to a fractional power")
+        if op in ("LE", "GE") and 0 < abs(left - right) < TOLERANCE_EQUAL and (left <= right) != (op == "LE"):
+            # LinuxCNC 2.9.0 and later compare LE / GE within TOLERANCE_EQUAL, earlier versions
+            # (Debian 12's 2.9.0~pre1 among them) exactly: here they disagree, so how the
+            # program runs depends on the controller's version
+            raise self._error(line, at, f"{number_text(left)} {op} {number_text(right)} (equal within "
+                                        f"{TOLERANCE_EQUAL:g}) is true for LinuxCNC 2.9.0 and later and false "
+                                        "for earlier versions: how the program runs depends on the controller")
         if op == "MOD":
             v = math.fmod(left, right) if right else math.nan
             v = v + abs(right) if v < 0 else v
