@@ -167,6 +167,39 @@ def test_linuxcnc_reads_parameters_expressions_loops_and_polar_words_as_the_prod
     reads_as_the_product_does(machines["vmc500"], path, tmp_path / "in.canon")
 
 
+def _random_expression(rng, depth: int = 0) -> str:
+    """A random rs274ngc expression that is defined everywhere (no division by zero, no root of
+    a negative ...), over the parameters #1, #2 and #<p>."""
+    if depth > 3 or rng.random() < 0.3:
+        return rng.choice(["#1", "#2", "#<p>", f"{rng.uniform(-50, 50):.4f}", str(rng.integers(-9, 10))])
+    a, b = _random_expression(rng, depth + 1), _random_expression(rng, depth + 1)
+    return str(rng.choice([
+        f"[{a} + {b}]", f"[{a} - {b}]", f"[{a} * {b}]", f"[{a} / [ABS[{b}] + 1]]", f"[{a} MOD [ABS[{b}] + 1]]",
+        f"[ABS[{a}] ** [ABS[{b}] MOD 3]]", f"[{a} GT {b}]", f"[{a} EQ {b}]", f"[{a} LT {b} OR {b} LT 0]",
+        f"[{a} NE {b} AND {a} GT 0]", f"[{a} XOR {b}]", f"SIN[{a}]", f"COS[{a}]", f"ATAN[{a}]/[{b}]",
+        f"SQRT[ABS[{a}]]", f"LN[ABS[{a}] + 1]", f"EXP[[{a}] MOD 3]", f"FIX[{a}]", f"FUP[{a}]", f"ROUND[{a}]",
+        f"ABS[{a}]", f"ASIN[SIN[{a}]]", f"ACOS[COS[{a}]]", f"-{a}", f"[{a} + 2 * {b} ** 2 - {a} / 4]"]))
+
+
+def test_linuxcnc_computes_random_expressions_as_the_product_does(machines, tmp_path):
+    """300 random expressions (every operator and function, nested, over parameters set along
+    the way), each an X word: rs274 and the product give the same number."""
+    rng = np.random.default_rng(43)
+    lines = ["G21 G90 G17", "#1 = 3.25", "#2 = -7", "#<p> = 12.5", "G0 X0 Y100 Z100"]
+    def short() -> str:   # rs274 reads lines of at most 255 characters
+        while len(text := _random_expression(rng)) > 200:
+            pass
+        return text
+
+    for k in range(300):
+        lines.append(f"G1 X[ABS[{short()}] MOD 400] F1000")
+        if k % 10 == 0:   # parameters change along the way
+            lines.append(f"#{1 + k % 2} = [[{short()}] MOD 100]")
+    path = tmp_path / "random.ngc"
+    path.write_text("\n".join(lines + ["M30"]) + "\n")
+    reads_as_the_product_does(machines["vmc500"], path, tmp_path / "random.canon")
+
+
 def reads_as_the_product_does(m, path: Path, canon_path: Path) -> None:
     """rs274 accepts the program at ``path``, and its canonical moves are the product's reading
     of it, move by move, to the digits rs274 prints."""
