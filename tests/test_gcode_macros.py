@@ -76,12 +76,56 @@ def test_a_subroutine_runs_where_it_is_called_with_its_own_locals():
 
 def test_loops_and_branches():
     program = ("#1 = 0\no1 while [#1 LT 5]\n#1 = [#1 + 1]\n"
-               "o2 if [#1 EQ 2]\no1 continue\no2 elseif [#1 EQ 4]\no1 break\no2 else\nG0 X#1\no2 endif\n"
+               "o2 if [#1 EQ 2]\nG0 X200\no2 elseif [#1 EQ 4]\nG0 X400\no2 else\nG0 X#1\no2 endif\n"
                "o1 endwhile\n"
                "o3 do\nG0 X99\no3 while [0]\n"           # a do loop runs once before its test
                "o4 repeat [2]\nG0 X[#1 * 10]\no4 endrepeat\n"
                "o5 while [0]\nG0 X1234\no5 endwhile\n")
-    assert x_of(program) == [1, 3, 99, 40, 40]
+    assert x_of(program) == [1, 200, 3, 400, 5, 99, 50, 50]
+
+
+@pytest.mark.parametrize("program, why", [
+    # LinuxCNC keeps a break's state past its loop: the do loop after it runs once (not 3 times)
+    ("o1 while [1]\nG0 X1\no1 break\no1 endwhile\n#1 = 0\no2 do\n#1 = [#1 + 1]\nG0 Y#1\no2 while [#1 LT 3]\n",
+     r"o1 break: LinuxCNC's break and continue leave state"),
+    ("o1 repeat [2]\nG0 X1\no1 continue\no1 endrepeat\n", r"o1 continue"),
+    # its repeat count survives a return from inside the loop, into the next call
+    ("o1 sub\no2 repeat [2]\nG0 X#1\no1 return\no2 endrepeat\no1 endsub\no1 call [1]\no1 call [2]\n",
+     r"o2 repeat: a return from inside it leaves its count"),
+    ("o1 if [EXISTS[#<_metric>]]\nG0 X1\no1 endif\n", r"LinuxCNC predefines names beginning with _"),
+    ("o1 if [1]\nG0 X1\no1 endif\no1 if [1]\nG0 X2\no1 endif\n", r"label o1 opens two blocks \(lines 1 and 4\)"),
+])
+def test_what_linuxcnc_runs_its_own_way_is_not_followed(program, why):
+    """Found by running programs through rs274 beside the product: these run by LinuxCNC's own
+    state, which the product does not guess."""
+    with pytest.raises(Unfollowable, match=why):
+        expand(split_lines(program))
+
+
+@pytest.mark.parametrize("program, where", [
+    ("o1 if [1] G0 X5\nG0 Y5\no1 endif\n", r"p\.ngc:1:11: 'G0X5' after an O-word statement; LinuxCNC refuses it"),
+    ("o1 repeat [2]\nG0 X1\no1 endrepeat G0 X2\n", r"p\.ngc:3:14: 'G0X2' after an O-word"),
+    ("G0 X[1 (c) + 2]\n", r"p\.ngc:1:8: a comment inside an expression; LinuxCNC refuses it"),
+])
+def test_what_linuxcnc_refuses_is_refused(program, where):
+    with pytest.raises(GcodeError, match=where):
+        expand(split_lines(program), "p.ngc")
+
+
+@pytest.mark.parametrize("expr", ["[0 ** -1]", "EXP[800]", "[10 ** 400]", "FIX[1" + "0" * 400 + "]"])
+def test_values_beyond_any_number_stop_the_expansion(expr):
+    """LinuxCNC: "Calculation resulted in 'infinity'"; the product never writes X inf."""
+    with pytest.raises(Unfollowable, match=r"not a finite number|beyond any number"):
+        expand(split_lines(f"G0 X{expr}\n"))
+
+
+def test_calls_nest_as_deep_as_linuxcnc_lets_them_and_a_definition_read_in_passing_clears_value():
+    recursion = "o1 sub\no2 if [#1 GT 0]\no1 call [#1 - 1]\no2 endif\nG0 X#1\no1 endsub\n"
+    assert x_of(recursion + "o1 call [8]\n") == list(range(9))     # 9 nested calls
+    with pytest.raises(Unfollowable, match=r"calls nested deeper than 10"):
+        expand(split_lines(recursion + "o1 call [9]\n"))            # LinuxCNC: too many subroutine levels
+    program = "o1 sub\no1 return [3]\no1 endsub\no1 call\no2 sub\nG0 Z1\no2 endsub\nG0 X#<_value>\n"
+    assert x_of(program) == [0]   # rs274: X0 (passing o2's endsub cleared the 3 o1 returned)
 
 
 def test_an_endless_loop_is_refused_naming_it():
@@ -198,7 +242,11 @@ def test_polar_words_are_written_as_the_x_and_y_they_mean(machines, words, x, y)
 
 
 @pytest.mark.parametrize("line, error", [
-    ("G18 G1 @10 ^30", r":3:8: polar coordinates \(@ \^\) in the G18 plane"),
+    ("G18\nG1 @10 ^30", r":4:4: polar coordinates \(@ \^\) in the G18 plane"),
+    ("G92 @5 ^10", r":3:5: polar coordinates \(@ \^\) in a G92 block; LinuxCNC takes them for moves only"),
+    ("G53 G0 @50 ^30", r":3:8: polar coordinates \(@ \^\) in a G53 block"),
+    ("G0 X0 Y0\nG0 @50", r":4:4: a polar word from the origin, where the angle is indeterminate"),
+    ("G0 X0 Y0\nG91 G0 @50 ^10", r":4:8: a polar word from the origin"),
     ("G1 X10 @10", r":3:4: X or Y with polar coordinates"),
     ("G1 @10 @20", r":3:8: two @ words in one block"),
     ("G1 @ ^30", r":3:4: '@' without a number"),

@@ -53,7 +53,7 @@ o100 sub
     G91 G1 X[#2 / #1] Y1 Z-1
     #<n> = [#<n> - 1]
     o102 if [#<n> EQ 2]
-      o101 continue
+      G91 G1 Y2
     o102 elseif [#<n> EQ 1]
       G90 G1 Z190
     o102 else

@@ -102,9 +102,12 @@ class Values:
         if not m:
             raise self._error(line, i, f"'{c}' does not start a value")
         try:
-            return float(m.group()), m.end()
+            v = float(m.group())
         except ValueError:
             raise self._error(line, i, f"'{m.group()}' is not a number") from None
+        if not math.isfinite(v):
+            raise self._error(line, i, f"'{m.group()[:20]}...' is beyond any number")
+        return v, m.end()
 
     def expression(self, line: Line, i: int) -> tuple[float, int]:
         """``[ ... ]`` starting at ``i`` (LinuxCNC's precedence, left to right)."""
@@ -148,7 +151,7 @@ class Values:
             v = math.fmod(left, right) if right else math.nan
             v = v + abs(right) if v < 0 else v
         else:
-            v = {"**": lambda: math.pow(left, right), "*": lambda: left * right, "/": lambda: left / right,
+            pick = {"**": lambda: math.pow(left, right), "*": lambda: left * right, "/": lambda: left / right,
                  "+": lambda: left + right, "-": lambda: left - right,
                  "EQ": lambda: float(abs(left - right) < TOLERANCE_EQUAL),
                  "NE": lambda: float(abs(left - right) >= TOLERANCE_EQUAL),
@@ -156,7 +159,11 @@ class Values:
                  "GE": lambda: float(abs(left - right) < TOLERANCE_EQUAL or left >= right),
                  "LE": lambda: float(abs(left - right) < TOLERANCE_EQUAL or left <= right),
                  "AND": lambda: float(left != 0 and right != 0), "OR": lambda: float(left != 0 or right != 0),
-                 "XOR": lambda: float((left != 0) != (right != 0))}[op]()
+                 "XOR": lambda: float((left != 0) != (right != 0))}[op]
+            try:
+                v = pick()
+            except (ValueError, OverflowError):   # 0 ** -1, 10 ** 400
+                v = math.inf
         if not math.isfinite(v):
             raise self._error(line, at, f"{number_text(left)} {op} {number_text(right)} is not a finite number")
         values.append(v)
@@ -185,8 +192,14 @@ class Values:
                "COS": lambda a: math.cos(math.radians(a)), "SIN": lambda a: math.sin(math.radians(a)),
                "TAN": lambda a: math.tan(math.radians(a)), "EXP": math.exp, "FIX": math.floor, "FUP": math.ceil,
                "LN": math.log, "SQRT": math.sqrt,
-               "ROUND": lambda a: float(int(a + (-0.5 if a < 0 else 0.5)))}[name](v)
-        return float(out), j
+               "ROUND": lambda a: float(int(a + (-0.5 if a < 0 else 0.5)))}[name]
+        try:
+            out = float(out(v))
+        except (ValueError, OverflowError):   # EXP[800]
+            out = math.inf
+        if not math.isfinite(out):
+            raise self._error(line, i, f"{name} of {number_text(v)} is not a finite number")
+        return out, j
 
     def parameter(self, line: Line, i: int) -> tuple[float, int]:
         """``#n``, ``#<name>``, ``#[expr]`` or ``##n`` at ``i``: its value."""
@@ -214,6 +227,9 @@ class Values:
             table = self.globals_named if name.startswith("_") else frame.named
             if name in table:
                 return table[name]
+            if exists and name.startswith("_"):   # LinuxCNC predefines many such names (_metric, _x ...)
+                raise self._error(line, i, f"EXISTS[#<{name}>]: LinuxCNC predefines names beginning with _, which "
+                                           "only the running machine knows")
             if exists:
                 return None
             if name.startswith("_"):

@@ -23,14 +23,16 @@ written. The rules are LinuxCNC's (rs274ngc):
   arguments of ``call`` are ``#1`` ..., the rest 0; ``return`` / ``endsub`` with a value set
   ``#<_value>``; other numbered parameters and ``_`` names are global; numbered parameters
   never set read as 0;
-- ``sub`` / ``endsub`` / ``return`` / ``call``, ``while`` / ``endwhile``, ``do`` / ``while``,
-  ``repeat`` / ``endrepeat``, ``if`` / ``elseif`` / ``else`` / ``endif``, ``break``,
-  ``continue``; M2 / M30 ends the run.
+- ``sub`` / ``endsub`` / ``return`` / ``call`` (at most 9 calls deep; passing over a
+  definition clears ``#<_value>``), ``while`` / ``endwhile``, ``do`` / ``while``, ``repeat`` /
+  ``endrepeat``, ``if`` / ``elseif`` / ``else`` / ``endif``; M2 / M30 ends the run.
 
 What only the running machine knows cannot be followed: parameters from 5000 up that the
 program did not set (positions, probe results, offsets, tool data), LinuxCNC's predefined
 ``#<_...>`` names, subroutines in other files, M73 (whose restore happens at a return the flat
-program does not have), Fanuc-style macros. Such a program is not expanded: it is read as
+program does not have), Fanuc-style macros, and what LinuxCNC runs by state of its own
+(``break`` / ``continue``, a ``return`` from inside a ``repeat``, ``EXISTS`` of a ``_`` name, a
+label opening two blocks of one subroutine) or differently by version (LE / GE within 1e-6). Such a program is not expanded: it is read as
 before, its macro blocks kept unchanged and named, and the report says what stopped the
 expansion. Expansion is bounded: a program that would run more than ``most_blocks`` blocks is
 refused, naming the loop or call that was running.
@@ -52,7 +54,7 @@ __all__ = ["Expansion", "MOST_BLOCKS", "Unfollowable", "expand", "may_need", "re
 #: the most blocks an expanded program may run (a million-block program is the largest the
 #: product is measured on)
 MOST_BLOCKS = 1_000_000
-#: subroutine calls nested deeper than LinuxCNC's limit (INTERP_SUB_ROUTINE_LEVELS) are refused
+#: LinuxCNC's INTERP_SUB_ROUTINE_LEVELS: the main program and at most 9 nested calls
 MOST_DEPTH = 10
 #: a quick test for a line that may hold a parameter, an expression or an O-word
 MARK = re.compile(r"[#\[]|^[ \t]*(?:/[ \t]*)?(?:N[ \t]*[0-9]+[ \t]*)?O", re.IGNORECASE)
@@ -109,6 +111,15 @@ def may_need(lines: Iterable[tuple[str, str]], source: str = "<program>") -> boo
     return False
 
 
+def _no_comment_inside(body: str, masked: str, number: int, source: str) -> None:
+    """LinuxCNC refuses a comment inside an expression ("Unknown operation")."""
+    depth = 0
+    for col, (c, m) in enumerate(zip(body, masked)):
+        if c == "(" and m != "(" and depth > 0:
+            raise GcodeError(f"{source}:{number}:{col + 1}: a comment inside an expression; LinuxCNC refuses it")
+        depth += (m == "[") - (m == "]")
+
+
 class _Signal(Exception):
     """break / continue / return / the program's end, carried up to what handles it."""
 
@@ -128,6 +139,8 @@ class _Expander(Values):
         self.control: dict[int, tuple[str, str, str, int]] = {}  # line index -> (name, keyword, rest, col)
         for k, (body, _) in enumerate(lines):
             masked = mask_comments(body, k + 1, source)
+            if "(" in body and "[" in body:
+                _no_comment_inside(body, masked, k + 1, source)
             line = Line(masked, k + 1)
             self.coded.append(line)
             code = line.code[1:] if line.code.startswith("/") else line.code
@@ -152,8 +165,21 @@ class _Expander(Values):
         self.do_end: dict[int, int] = {}        # do -> its closing while
         stack: list[tuple[str, str, int]] = []
         closes = {"ENDSUB": "SUB", "ENDWHILE": "WHILE", "ENDREPEAT": "REPEAT", "ENDIF": "IF"}
+        starts: dict[tuple[str, str], int] = {}
         for k in sorted(self.control):
-            name, kw, _, _ = self.control[k]
+            name, kw, rest, col = self.control[k]
+            if rest and (kw in ("SUB", "DO", "ELSE", "ENDIF", "ENDWHILE", "ENDREPEAT", "BREAK", "CONTINUE")
+                         or (kw == "WHILE" and stack and stack[-1][:2] == (name, "DO") and not rest.startswith("["))):
+                self._nothing_after(k, col)
+            if kw in ("WHILE", "DO", "REPEAT", "IF") and not (
+                    kw == "WHILE" and stack and stack[-1][:2] == (name, "DO")):
+                # LinuxCNC refuses a label that opens two blocks of one subroutine (or of the main
+                # program): "duplicate O-word label"
+                scope = next((s[0] for s in reversed(stack) if s[1] == "SUB"), "")
+                if (scope, name) in starts:
+                    raise Unfollowable(k + 1, f"label o{name.lower()} opens two blocks (lines "
+                                              f"{starts[scope, name] + 1} and {k + 1})")
+                starts[scope, name] = k
             if kw in ("SUB", "WHILE", "DO", "REPEAT", "IF"):
                 if kw == "WHILE" and stack and stack[-1][:2] == (name, "DO"):
                     _, _, start = stack.pop()
@@ -265,7 +291,17 @@ class _Expander(Values):
         if not rest.startswith("["):
             raise self._error(line, col, f"o{name.lower()} {kw.lower()} needs a condition in [ ]")
         v, j = self.expression(line, col)
+        self._nothing_after(k, j)
         return v
+
+    def _nothing_after(self, k: int, j: int) -> None:
+        """LinuxCNC refuses anything after an O-word's statement ("Unexpected character after
+        O-word")."""
+        line = self.coded[k]
+        if j < len(line.code):
+            col = line.cols[j] + 1
+            raise GcodeError(f"{self.source}:{k + 1}:{col}: '{line.code[j:j + 12]}' after an O-word statement; "
+                             "LinuxCNC refuses it")
 
     def step(self, k: int) -> None:
         """Count a line run, or a loop's pass: past ``most`` the program is refused."""
@@ -289,6 +325,8 @@ class _Expander(Values):
             name, kw, rest, col = self.control[k]
             label = f"o{name.lower()} {kw.lower()}"
             if kw == "SUB":   # a definition: kept as written unless a call runs it (see expand)
+                # LinuxCNC reads its endsub in passing, which clears the value a call returned
+                self.globals_named["_value"] = self.globals_named["_value_returned"] = 0.0
                 self.out.append((None, name))
                 self.origin.append(k + 1)
                 k = self.end_of[k] + 1
@@ -312,18 +350,24 @@ class _Expander(Values):
                         break
                 k = marks[-1] + 1
             elif kw in ("BREAK", "CONTINUE"):
-                raise _Signal(kw.lower())
+                # LinuxCNC keeps a break's or continue's state past its loop (a later do loop runs
+                # once, a later break loops back), and a named one leaves the loop it names
+                raise Unfollowable(k + 1, f"{label}: LinuxCNC's break and continue leave state that later loops "
+                                          "depend on")
             elif kw in ("RETURN", "ENDSUB"):
                 if len(self.frames) == 1:
                     raise self._error(self.coded[k], col, f"{label} outside a subroutine")
-                value = self.expression(self.coded[k], col)[0] if rest.startswith("[") else None
+                value = None
+                if rest.startswith("["):
+                    value, j = self.expression(self.coded[k], col)
+                    self._nothing_after(k, j)
                 raise _Signal("return", value)
             else:   # a stray end (matched ones are jumped over) cannot be reached in a valid program
                 raise self._error(self.coded[k], 0, f"{label} where no block of it is open")
 
     def loop(self, k: int, end: int, label: str, before=None, after=None) -> int:
         """Run a loop's body (lines k + 1 .. end - 1) pass after pass, until ``before()`` is false
-        before a pass, ``after()`` after one, or a break; the line after the loop."""
+        before a pass or ``after()`` after one; the line after the loop."""
         self.running.append((label, k + 1))
         while before is None or before():
             self.passes += 1
@@ -331,10 +375,11 @@ class _Expander(Values):
             try:
                 self.run(k + 1, end)
             except _Signal as sig:
-                if sig.kind == "break":
-                    break
-                if sig.kind != "continue":
-                    raise
+                if sig.kind == "return" and label.endswith("repeat"):
+                    # LinuxCNC keeps a repeat's count past a return from inside it
+                    raise Unfollowable(k + 1, f"{label}: a return from inside it leaves its count for the next "
+                                              "call (LinuxCNC)") from None
+                raise
             if after is not None and not after():
                 break
         self.running.pop()
@@ -345,7 +390,7 @@ class _Expander(Values):
         if name not in self.subs:
             raise self._error(line, 0, f"o{name.lower()} is not defined in this program (a subroutine file is "
                                        "looked up by the running machine)")
-        if len(self.frames) > MOST_DEPTH:
+        if len(self.frames) >= MOST_DEPTH:
             raise self._error(line, 0, f"calls nested deeper than {MOST_DEPTH} (LinuxCNC's limit)")
         args, j = [], col
         while j < len(line.code):
@@ -365,7 +410,8 @@ class _Expander(Values):
             self.run(start + 1, end)
             _, _, tail, tcol = self.control[end]
             if tail.startswith("["):
-                value = self.expression(self.coded[end], tcol)[0]
+                value, j = self.expression(self.coded[end], tcol)
+                self._nothing_after(end, j)
         except _Signal as sig:
             if sig.kind != "return":
                 if sig.kind == "end":

@@ -23,6 +23,8 @@ from .lexer import GcodeError
 __all__ = ["POLAR_WORD", "g_codes", "has_polar", "to_cartesian"]
 
 POLAR_WORD = re.compile(r"([@^])[ \t]*([-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))")
+#: G codes whose blocks LinuxCNC refuses polar words in (they are no moves)
+NOT_MOTION = {4, 10, 28, 28.1, 30, 30.1, 52, 53}
 G_WORD = re.compile(r"G[ \t]*([0-9]+(?:\.[0-9]+)?)", re.IGNORECASE)
 XY_WORD = re.compile(r"(?<![A-Z])[XY][ \t]*[-+.0-9]", re.IGNORECASE)
 
@@ -87,11 +89,14 @@ def to_cartesian(reader, body: str, masked: str, number: int, state) -> str:
     if xy:
         raise GcodeError(f"{where}:{xy.start() + 1}: X or Y with polar coordinates (@ ^) in one block; LinuxCNC "
                          "refuses it")
+    # (LinuxCNC asks for the plane in force before the block; its own distance and units apply)
     plane, absolute, inch = state.plane, state.absolute, state.inch
     for g in g_codes(code):
-        plane = int(g) if g in (17, 18, 19) else plane
         absolute = True if g == 90 else (False if g == 91 else absolute)
         inch = True if g == 20 else (False if g == 21 else inch)
+        if g in NOT_MOTION or int(g) == 92:
+            raise GcodeError(f"{where}:{first}: polar coordinates (@ ^) in a G{g:g} block; LinuxCNC takes them "
+                             "for moves only")
     if plane != 17:
         raise GcodeError(f"{where}:{first}: polar coordinates (@ ^) in the G{plane} plane; LinuxCNC takes them in "
                          "the XY plane (G17) only")
@@ -107,6 +112,9 @@ def to_cartesian(reader, body: str, masked: str, number: int, state) -> str:
     x0 = (state.position[ix] - reader.origin[ix]) / ux
     y0 = (state.position[iy] - reader.origin[iy]) / uy
     r0, a0 = math.hypot(x0, y0), math.degrees(math.atan2(y0, x0))
+    if r0 == 0 and (not absolute or "^" not in given):
+        raise GcodeError(f"{where}:{first}: a polar word from the origin, where the angle is indeterminate; "
+                         "LinuxCNC refuses it")
     if absolute:
         r, a = given.get("@", r0), given.get("^", a0)
     else:

@@ -381,7 +381,7 @@ class Program(ChunkWriting):
         """Count a line kept unchanged (and, if it names an axis or ``move``, a move run
         uncompensated)."""
         self.report.passed_through += 1
-        if move or (move is None and self._axis_word.search(code)):
+        if move or (move is None and (self._axis_word.search(code) or CALLS.search(code))):
             self.report.moves_kept += 1
 
     def _entry(self, block: Block, newline: str, number: int, state, lost: str, move) -> tuple:
@@ -438,6 +438,10 @@ class Program(ChunkWriting):
                                       "different tool length changes the angular errors' lever arms")
 
     # compensating and writing -------------------------------------------------------
+
+
+#: a kept call runs blocks the reader does not follow (an O-word call, M98, G65 / G66): a move kept
+CALLS = re.compile(r"\bCALL\b|(?<![A-Z])M[ \t]*0*98(?![0-9])|(?<![A-Z])G[ \t]*0*6[56](?![0-9.])")
 
 
 def _expanded(program: Program, lines: list[tuple[str, str]]) -> list[tuple[str, str]]:
