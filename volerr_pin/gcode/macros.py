@@ -121,7 +121,7 @@ def _no_comment_inside(body: str, masked: str, number: int, source: str) -> None
 
 
 class _Signal(Exception):
-    """break / continue / return / the program's end, carried up to what handles it."""
+    """A return (to its call) or the program's end (to the top), carried up to what handles it."""
 
     def __init__(self, kind: str, value: float | None = None):
         super().__init__(kind)
@@ -413,10 +413,8 @@ class _Expander(Values):
                 value, j = self.expression(self.coded[end], tcol)
                 self._nothing_after(end, j)
         except _Signal as sig:
-            if sig.kind != "return":
-                if sig.kind == "end":
-                    raise
-                raise self._error(line, 0, f"{sig.kind} outside a loop in o{name.lower()}") from None
+            if sig.kind != "return":   # the program's end
+                raise
             value = sig.value
         finally:
             self.frames.pop()
@@ -454,9 +452,7 @@ def expand(lines: list[tuple[str, str]], source: str = "<program>", most_blocks:
     ex = _Expander(lines, source, most_blocks)
     try:
         ex.run(0, len(lines))
-    except _Signal as sig:
-        if sig.kind != "end":
-            raise Unfollowable(ex.origin[-1] if len(ex.origin) else 1, f"{sig.kind} outside a loop") from None
+    except _Signal:   # the program's end (a return outside a call is refused where it stands)
         last = ex.origin[-1]   # the M2 / M30: what follows is never read; it is kept as written
         for k in range(last, len(lines)):
             ex.out.append(lines[k])

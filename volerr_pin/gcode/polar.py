@@ -18,9 +18,10 @@ from __future__ import annotations
 import math
 import re
 
-from .lexer import GcodeError
+from . import kept
+from .lexer import CANNED, GcodeError
 
-__all__ = ["POLAR_WORD", "g_codes", "has_polar", "to_cartesian"]
+__all__ = ["POLAR_WORD", "g_codes", "has_polar", "read_polar", "to_cartesian"]
 
 POLAR_WORD = re.compile(r"([@^])[ \t]*([-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))")
 #: G codes whose blocks LinuxCNC refuses polar words in (they are no moves)
@@ -32,6 +33,20 @@ XY_WORD = re.compile(r"(?<![A-Z])[XY][ \t]*[-+.0-9]", re.IGNORECASE)
 def has_polar(masked: str) -> bool:
     """Whether a line's code (comments blanked) holds a polar word."""
     return "@" in masked or "^" in masked
+
+
+def read_polar(reader, body: str, masked: str, number: int, state) -> str | None:
+    """A line with polar words as the reader takes it: with X and Y in their place, or None for
+    a drilling position (``G81 ... ^60 L6``), kept with its cycle (``state`` follows it: its
+    modes set, the position unknown after it).
+
+    Parameters are those of :func:`to_cartesian`.
+    """
+    if state.canned or state.regions or any(g in CANNED for g in g_codes(masked)):
+        kept.skip(reader, POLAR_WORD.sub("", masked), state, None, number)
+        state.lose_position(f"line {number}")
+        return None
+    return to_cartesian(reader, body, masked, number, state)
 
 
 def g_codes(masked: str) -> list[float]:

@@ -20,10 +20,10 @@ from ..compensation.path import PathCompensator
 from ..machine import Machine
 from .flow import Flow
 from . import macros
-from .lexer import CANNED, PROGRAM_END, WORK_OFFSETS, Block, GcodeError, mask_comments, split_lines
+from .lexer import PROGRAM_END, WORK_OFFSETS, Block, GcodeError, mask_comments, split_lines
 from . import kept
 from .modal import Interpreter, check_axes, move_of
-from .polar import POLAR_WORD, g_codes, has_polar, to_cartesian
+from .polar import has_polar, read_polar
 from .report import Report
 from .rewrite import Writer
 from .chunks import FIRST_CHUNK, ChunkWriting, _Move
@@ -338,14 +338,12 @@ class Program(ChunkWriting):
                                    move_of(reader, block, state, coord_words, not state.tool_tip))
         masked = mask_comments(body, number, reader.source)
         if has_polar(masked) and self.flow.body is None:
-            if state.canned or state.regions or any(g in CANNED for g in g_codes(masked)):
-                # a drilling position (G81 ... ^60 L6): kept with its cycle
+            cartesian = read_polar(reader, body, masked, number, state)
+            if cartesian is None:
                 reader.notes.add(number, "polar coordinates (@ ^) of a canned cycle kept unchanged")
                 self._kept(masked, move=True)
-                kept.skip(reader, POLAR_WORD.sub("", masked), state, None, number)
-                state.lose_position(f"line {number}")
                 return ("raw", body + newline)
-            body = to_cartesian(reader, body, masked, number, state)
+            body = cartesian
             masked = mask_comments(body, number, reader.source)
             reader.notes.add(number, "polar coordinates (@ ^) written as the X and Y they mean")
         code = masked.upper()

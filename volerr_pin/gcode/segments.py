@@ -10,10 +10,10 @@ from ..compensation.arcs import Arc
 from ..machine import Machine
 from .flow import Flow
 from . import macros
-from .lexer import CANNED, PROGRAM_END, GcodeError, mask_comments, split_lines
+from .lexer import PROGRAM_END, GcodeError, mask_comments, split_lines
 from . import kept
 from .modal import Interpreter
-from .polar import POLAR_WORD, g_codes, has_polar, to_cartesian
+from .polar import has_polar, read_polar
 
 __all__ = ["Segment", "interpret"]
 
@@ -118,11 +118,9 @@ def _segments(reader: Interpreter, lines, source: str, origin) -> list[Segment]:
     for number, (body, _) in enumerate(lines, start=1):
         masked = mask_comments(body, number, source)
         if has_polar(masked) and flow.body is None:
-            if state.canned or state.regions or any(g in CANNED for g in g_codes(masked)):
-                kept.skip(reader, POLAR_WORD.sub("", masked), state, None, number)   # a canned cycle's
-                state.lose_position(f"line {number}")
+            body = read_polar(reader, body, masked, number, state)
+            if body is None:   # a canned cycle's position
                 continue
-            body = to_cartesian(reader, body, masked, number, state)
             masked = mask_comments(body, number, source)
         code = masked.upper()
         if flow.line(code, number):
