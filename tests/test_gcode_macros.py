@@ -184,16 +184,19 @@ def test_an_unfollowable_program_is_read_as_before_and_says_why(machines):
 
 
 def test_a_subroutine_no_call_runs_stays_defined_and_globals_stay_set(machines):
-    """A lathe cycle's Q names a subroutine it runs itself: the definition stays, and the global
-    it reads is set in the program as run."""
+    """A subroutine no call runs stays defined (another program's call, or a controller's menu,
+    may name it), and the globals set are set in the program as run; a lathe cycle runs its
+    profile as a call (tests/test_gcode_profiles.py)."""
     program = ("G18 G21 G90 G7\nG0 X40 Z10\n#<_d> = [2 * 1.5]\n"
                "o100 sub\nG1 X[10 + #<_d>] Z0\nG1 Z-10\no100 endsub\n"
-               "o200 sub\nG1 X#1 F100\no200 endsub\n"
+               "o200 sub\nG1 X#1 F100\no200 endsub\no300 sub\nG1 X[#<_d>]\no300 endsub\n"
                "G71 Q100 X40 Z10 D0.5 I1 R0.3\no200 call [30]\nM30\n")
     lines = run(program)
     assert lines[2] == "#<_d> = 3"
-    assert lines[3:7] == ["o100 sub", "G1 X[10 + #<_d>] Z0", "G1 Z-10", "o100 endsub"]
-    assert "o200 sub" not in lines and "G1 X30 F100" in lines
+    assert lines[3:6] == ["o300 sub", "G1 X[#<_d>]", "o300 endsub"]
+    assert lines[6:10] == ["o301 sub", "G1 X13 Z0", "G1 Z-10", "o301 endsub"]
+    assert lines[10] == "G71 Q301 X40 Z10 D0.5 I1 R0.3"
+    assert "o100 sub" not in lines and "o200 sub" not in lines and "G1 X30 F100" in lines
 
 
 def test_errors_name_the_line_a_block_comes_from(machines):
@@ -205,7 +208,7 @@ def test_errors_name_the_line_a_block_comes_from(machines):
                                      "o1 call [120]\nM30\n", pass_through=True, source="p.ngc")
     # warnings name the line in the subroutine (5), not the block as run (4)
     assert any(w.startswith("line 5: G77 (a G code this reader does not know) kept") for w in report.warnings)
-    assert report.blocks_in == 8 and report.expanded == {"blocks_run": 5, "calls": 1, "loop_passes": 0}
+    assert report.blocks_in == 8 and report.expanded == {"blocks_run": 5, "calls": 1, "loop_passes": 0, "profiles": 0}
 
 
 def test_a_loop_is_compensated_pass_by_pass(machines):
@@ -299,7 +302,7 @@ def test_the_report_gives_the_share_of_motion_compensated(machines, tmp_path, ca
     assert main(["compensate", "vmc500", str(program), "-o", str(tmp_path / "o.ngc"), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["moves"] == 4 and report["moves_kept"] == 1 and report["motion_compensated"] == pytest.approx(0.8)
-    assert report["expanded"] == {"blocks_run": 11, "calls": 0, "loop_passes": 3} and report["blocks_in"] == 9
+    assert report["expanded"] == {"blocks_run": 11, "calls": 0, "loop_passes": 3, "profiles": 0} and report["blocks_in"] == 9
     assert "o1" not in (tmp_path / "o.ngc").read_text()
     assert main(["compensate", "vmc500", str(program), "-o", str(tmp_path / "o1.ngc"),
                  "--most-blocks", "5"]) != 0

@@ -95,6 +95,8 @@ def run(args: argparse.Namespace) -> int:
           f"compensation (tolerance {r.tolerance_um:g} um)")
     if r.passed_through:
         print(f"{r.passed_through} line(s) kept unchanged: they cannot be compensated (named below)")
+    if r.expanded and r.expanded["profiles"]:
+        print(f"{r.expanded['profiles']} lathe cycle(s) compensated through their profiles")
     if r.motion_compensated is not None:
         print(f"moves compensated: {r.moves} of {r.moves + r.moves_kept} ({100 * r.motion_compensated:.1f} %)")
     for w in r.warnings:

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 
 from .expressions import LITERAL, Frame, Line, Unfollowable, Values, number_text
-from .lexer import GcodeError, mask_comments
+from .lexer import LATHE_CYCLES, GcodeError, mask_comments, uncommented, word_values
 
 __all__ = ["Expansion", "MOST_BLOCKS", "Unfollowable", "expand", "may_need", "renamed"]
 
@@ -65,6 +65,12 @@ O_LINE = re.compile(r"(?:N[0-9.]+)?O([0-9]+|<[^>]*>)(" + "|".join(KEYWORDS) + ")
 #: word letters of a block (LinuxCNC's, with the polar ``@`` and ``^``, and O for a Fanuc-style
 #: program number, which the reader judges)
 LETTERS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ@^")
+#: the words of a lathe cycle's profile as the product compensates it: the motions G0 - G3 in
+#: X and Z, arcs by I K or R, and F S N, which the cycle ignores (LinuxCNC reads nothing else of
+#: a profile: its other G codes, fillets A and chamfers C, U and W, keep the profile as written)
+PROFILE_WORDS = frozenset("GXZIKRFSN")
+#: a lathe cycle's Q word, as run (a number)
+Q_WORD = re.compile(r"Q[ \t]*[-+]?[ \t]*[0-9.]+")
 
 
 @dataclass
@@ -79,12 +85,16 @@ class Expansion:
         For each of them, the line of the program it comes from (1-based).
     calls, passes : int
         Subroutine calls followed, and loop passes run.
+    profiles : dict of str to str
+        Lathe cycles (G70 - G72) whose profile ran as a new subroutine written before the
+        cycle: its name, and the cycle's block as run (see :meth:`_Expander.profile`).
     """
 
     lines: list
     origin: array
     calls: int = 0
     passes: int = 0
+    profiles: dict = None
 
 
 def may_need(lines: Iterable[tuple[str, str]], source: str = "<program>") -> bool:
@@ -154,8 +164,11 @@ class _Expander(Values):
         self.running: list[tuple[str, int]] = []   # loops and calls running: (what, line)
         self.changed = False
         self.called: set[str] = set()
+        self.needed: set[str] = set()            # subroutines a cycle names as written
+        self.profiles: dict[str, str] = {}
         self.steps = 0
         self._structure()
+        self.fresh = 1 + max((int(n) for n in self.subs if n.isdigit()), default=0)
 
     # the structure: subroutines, loops and branches matched by name ----------------------
     def _structure(self) -> None:
@@ -271,10 +284,58 @@ class _Expander(Values):
             parts.append(body[last:])
             body = "".join(parts)
             if body.strip():   # a line that only set locals of a call is gone
-                self._emit(body, newline, k)
+                self._cycle_or_emit(body, newline, k)
         elif body.strip() or len(self.frames) == 1:   # blank lines of a body are not repeated at each call
-            self._emit(body, newline, k)
+            self._cycle_or_emit(body, newline, k)
         return ends
+
+    def _cycle_or_emit(self, body: str, newline: str, k: int) -> None:
+        if not (("7" in body and ("Q" in body or "q" in body)) and self.profile(body, newline, k)):
+            self._emit(body, newline, k)
+
+    def profile(self, body: str, newline: str, k: int) -> bool:
+        """Write a lathe cycle (G70 - G72 with Q) whose profile is a subroutine of this program
+        with its profile as run: a new subroutine, written before the cycle, which then names it.
+
+        LinuxCNC's cycle runs the profile as a call, in the cycle's modes, reading of each block
+        only its motion (G0 as G1) and X Z I K R (A C U W too). A profile of those words alone is
+        written as run, every value a number, where the compensation reads it as the path the
+        cycle follows; any other keeps the cycle naming its subroutine as written.
+
+        Returns
+        -------
+        bool
+            True if the cycle was written with its profile (False: nothing was written).
+        """
+        masked = mask_comments(body, k + 1, self.source)
+        words = word_values(uncommented(masked))
+        q = [v for letter, v in words if letter == "Q"]
+        if not any(letter == "G" and v in LATHE_CYCLES for letter, v in words) or len(q) != 1:
+            return False
+        name = next((n for n in self.subs if n.isdigit() and int(n) == q[0]), None)
+        where = Q_WORD.search(masked.upper())
+        if name is None or where is None:
+            return False
+        n0, called = len(self.out), name in self.called
+        self.call(k, name, "", len(self.coded[k].code))   # the cycle's call: its settings stand
+        profile, origin = self.out[n0:], self.origin[n0:]
+        del self.out[n0:], self.origin[n0:]
+        if not _plain_profile(profile, self.source):
+            if not called:
+                self.called.discard(name)
+            self.needed.add(name)
+            return False
+        new, eol = str(self.fresh), newline or "\n"
+        self.fresh += 1
+        cycle = body[:where.start()] + f"Q{new}" + body[where.end():]
+        self.profiles[new] = cycle
+        self._emit(f"o{new} sub", eol, k)
+        self.out += profile
+        self.origin.extend(origin)
+        self._emit(f"o{new} endsub", eol, k)
+        self._emit(cycle, newline, k)
+        self.changed = True
+        return True
 
     @staticmethod
     def _computed(s: str, a: int, b: int) -> bool:
@@ -468,12 +529,32 @@ def expand(lines: list[tuple[str, str]], source: str = "<program>", most_blocks:
         if body is not None:
             out.append((body, newline))
             origin.append(n)
-        elif newline not in ex.called:
+        elif newline not in ex.called or newline in ex.needed:
             start, end = ex.subs[newline]
             out += lines[start:end + 1]
             origin.extend(range(start + 1, end + 2))
-    return Expansion(out, origin, ex.calls, ex.passes)
+    return Expansion(out, origin, ex.calls, ex.passes, ex.profiles)
 
+
+
+def _plain_profile(profile: list[tuple[str, str]], source: str) -> bool:
+    """Whether a profile as run is read by LinuxCNC's lathe cycles as the compensation reads it:
+    only :data:`PROFILE_WORDS`, motion codes G0 - G3, a motion code before the first axis word,
+    at least one move, and no block delete."""
+    motion = moves = False
+    for n, (body, _) in enumerate(profile, start=1):
+        code = uncommented(mask_comments(body, n, source))
+        if code.lstrip().startswith("/"):
+            return False
+        words = word_values(code)
+        if any(letter not in PROFILE_WORDS or (letter == "G" and v not in (0, 1, 2, 3)) for letter, v in words):
+            return False
+        motion = motion or any(letter == "G" for letter, _ in words)
+        if any(letter in "XZ" for letter, _ in words):
+            if not motion:
+                return False
+            moves = True
+    return moves
 
 
 def renamed(err: GcodeError, source: str, origin) -> GcodeError:

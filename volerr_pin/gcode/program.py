@@ -20,10 +20,11 @@ from ..compensation.path import PathCompensator
 from ..machine import Machine
 from .flow import Flow
 from . import macros
-from .lexer import PROGRAM_END, WORK_OFFSETS, Block, GcodeError, mask_comments, split_lines
+from .lexer import LATHE_CYCLES, PROGRAM_END, WORK_OFFSETS, Block, GcodeError, mask_comments, split_lines
 from . import kept
 from .modal import Interpreter, check_axes, move_of
 from .polar import has_polar, read_polar
+from .profiles import Profiles
 from .report import Report
 from .rewrite import Writer
 from .chunks import FIRST_CHUNK, ChunkWriting, _Move
@@ -147,6 +148,7 @@ class Program(ChunkWriting):
         self.source = source
         self._origin = None   # for an expanded program: the line each block as run comes from
         self._lines_in = None
+        self._profiles = Profiles()   # lathe cycles' profiles written by the expansion
 
     # the run --------------------------------------------------------------------
     def compensate(self, text: str, progress: Callable[[int], None] | None = None) -> str:
@@ -284,8 +286,13 @@ class Program(ChunkWriting):
                 mode = entry[3].mode
                 moves += 1
             entries.append(entry)
+            edge = self._profiles.take()
+            if edge:   # a profile's moves are compensated apart: the cycle's path, not the program's
+                self._flush(entries, write)
+                entries, moves = [], 0
+                write = self._profiles.switch(self, edge, write)
             if runs is not None:   # a subroutine body is kept line by line, not read as moves
-                fast = runs.takes(state) and self.flow.body is None
+                fast = runs.takes(state) and self.flow.body is None and not self._profiles.reading
             if moves >= self._chunk or len(entries) >= MOST_LINES:
                 self._flush(entries, write)
                 entries, moves = [], 0
@@ -321,6 +328,8 @@ class Program(ChunkWriting):
         """One line as ("raw", text) (kept unchanged), ("plain", block, newline) (no move) or
         ("move", block, newline, _Move)."""
         reader = self.reader
+        if self._profiles.reading:
+            self._profiles.raw.append(body + newline)
         if not state.regions and not state.canned and self.flow.body is None:
             words = plain_words(self._plain, body)
             if words is not None:  # the fast path (see runs.plain_words)
@@ -347,6 +356,8 @@ class Program(ChunkWriting):
             masked = mask_comments(body, number, reader.source)
             reader.notes.add(number, "polar coordinates (@ ^) written as the X and Y they mean")
         code = masked.upper()
+        if self.flow.body is None and self._profiles.line(reader, code, number, state):
+            return ("raw", body + newline)
         if self.flow.line(code, number):
             body_of = self.flow.body[0] if self.flow.body else None
             reader.notes.add(number, f"the body of subroutine o{body_of.lower()} kept unchanged: it runs where it "
@@ -354,6 +365,14 @@ class Program(ChunkWriting):
             self.report.passed_through += 1   # a definition: its moves run where it is called
             return ("raw", body + newline)
         block, problem = kept.classify(reader, body, number, state, masked)
+        done = self._profiles.done
+        if problem and done and block is not None and any(w.letter == "G" and w.value in LATHE_CYCLES
+                                                          for w in block.words):
+            self._profiles.done = None
+            reader.notes.add(number, f"{problem} kept as written: it cuts along its profile, compensated as "
+                             f"subroutine o{done[0]} written before it")
+            kept.skip(reader, body, state, block, number)
+            return ("raw", body + newline)
         if problem:
             if self.strict:
                 raise GcodeError(f"{reader.source}:{number}: {problem} cannot be compensated (strict refuses it; "
@@ -371,7 +390,7 @@ class Program(ChunkWriting):
             self.flow.called(code, state, f"{reader.source}:{number}")
             return ("raw", body + newline)
         if block.words:
-            self._note_offsets(block)
+            _note_offsets(self, block)
         lost = state.lost
         return self._entry(block, newline, number, state, lost, reader.advance(block, state))
 
@@ -389,7 +408,8 @@ class Program(ChunkWriting):
             return ("plain", block, newline)
         if not state.absolute:
             self.flow.incremental(number)   # compensated for this pass: a loop may not run it again
-        kind = LINE if move.motion == 1 else (ARC if move.motion in (2, 3) else POINT)
+        kind = LINE if move.motion == 1 or (move.motion == 0 and self._profiles.reading) else (
+            ARC if move.motion in (2, 3) else POINT)   # (a lathe cycle cuts its profile's G0 as G1)
         all_known = all(state.known.tolist())  # (as ndarray.all(), without its overhead on a few axes)
         if not all(move.start_known.tolist()):
             missing = ", ".join(a for a, k in zip(reader.axes, move.start_known) if not k)
@@ -420,26 +440,27 @@ class Program(ChunkWriting):
         return ("move", block, newline, _Move(kind, move.motion, move.start, move.target, arc, move.coord_words,
                                                modes, number, mode))
 
-    def _note_offsets(self, block: Block) -> None:
-        """Warn (once) of work and tool offsets, which the model does not know."""
-        noted = self._noted
-        for w in block.words:
-            if (w.letter == "G" and w.value in WORK_OFFSETS and "offset" not in noted
-                    and not self.reader.origin.any()):
-                noted.add("offset")
-                self.reader.notes.add(block.number, f"work offset G{w.value:g}: program coordinates are taken as "
-                                      "axis positions (give the work offset as the program origin, in mm / deg)")
-            if ((w.letter == "G" and w.value in (43, 44, 43.4)) or w.letter in "HD") and "tool" not in noted:
-                noted.add("tool")
-                what = f"G{w.value:g} tool length offset" if w.letter == "G" else f"tool offset word {w.name}"
-                self.reader.notes.add(block.number, f"{what}: the errors are those of the model's tool point; a "
-                                      "different tool length changes the angular errors' lever arms")
-
     # compensating and writing -------------------------------------------------------
 
 
 #: a kept call runs blocks the reader does not follow (an O-word call, M98, G65 / G66): a move kept
 CALLS = re.compile(r"\bCALL\b|(?<![A-Z])M[ \t]*0*98(?![0-9])|(?<![A-Z])G[ \t]*0*6[56](?![0-9.])")
+
+
+def _note_offsets(program: Program, block: Block) -> None:
+    """Warn (once) of work and tool offsets, which the model does not know."""
+    noted = program._noted
+    for w in block.words:
+        if (w.letter == "G" and w.value in WORK_OFFSETS and "offset" not in noted
+                and not program.reader.origin.any()):
+            noted.add("offset")
+            program.reader.notes.add(block.number, f"work offset G{w.value:g}: program coordinates are taken as "
+                                  "axis positions (give the work offset as the program origin, in mm / deg)")
+        if ((w.letter == "G" and w.value in (43, 44, 43.4)) or w.letter in "HD") and "tool" not in noted:
+            noted.add("tool")
+            what = f"G{w.value:g} tool length offset" if w.letter == "G" else f"tool offset word {w.name}"
+            program.reader.notes.add(block.number, f"{what}: the errors are those of the model's tool point; a "
+                                  "different tool length changes the angular errors' lever arms")
 
 
 def _expanded(program: Program, lines: list[tuple[str, str]]) -> list[tuple[str, str]]:
@@ -456,7 +477,8 @@ def _expanded(program: Program, lines: list[tuple[str, str]]) -> list[tuple[str,
     program._lines_in = len(lines)
     program.reader.notes.origin = expansion.origin
     program.report.expanded = {"blocks_run": len(expansion.lines), "calls": expansion.calls,
-                               "loop_passes": expansion.passes}
+                               "loop_passes": expansion.passes, "profiles": len(expansion.profiles)}
+    program._profiles = Profiles(expansion.profiles)
     program.reader.notes.note(
         f"the program's parameters, expressions and O-words were followed as LinuxCNC runs them ({len(lines):,} "
         f"lines run as {len(expansion.lines):,} blocks; {expansion.calls:,} subroutine calls, "
