@@ -170,3 +170,12 @@ def test_linuxcnc_cuts_along_the_compensated_profile(machines, tmp_path, head, c
     assert all(np.linalg.norm(canon["in"][k]["end"] - start) <= 0.5 for k in same), \
         [canon["in"][k]["end"] for k in same]
     assert sum(changed) >= 6   # each of the profile's six moves, cut at least once
+
+
+def test_a_profile_is_numbered_above_every_o_word_of_the_program():
+    """A new subroutine must not take a label the program uses (a loop's o500 in the main program
+    and a subroutine o500 are one label to LinuxCNC)."""
+    program = cycle_program("G18 G21\nG0 X80 Z-5\no500 repeat [1]\nG0 X80\no500 endrepeat\no<600> sub\no<600> endsub",
+                            "G71 Q100 X80 Z-5 D0.5")
+    bodies = [body for body, _ in expand(split_lines(program)).lines]
+    assert "o601 sub" in bodies and "G71 Q601 X80 Z-5 D0.5" in bodies

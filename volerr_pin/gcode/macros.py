@@ -168,7 +168,9 @@ class _Expander(Values):
         self.profiles: dict[str, str] = {}
         self.steps = 0
         self._structure()
-        self.fresh = 1 + max((int(n) for n in self.subs if n.isdigit()), default=0)
+        # the new subroutines' numbers (lathe cycles' profiles): above every O-word number used
+        self.fresh = 1 + max((int(n.strip("<> \t")) for n, *_ in self.control.values() if n.strip("<> \t").isdigit()),
+                             default=0)
 
     # the structure: subroutines, loops and branches matched by name ----------------------
     def _structure(self) -> None:
