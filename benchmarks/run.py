@@ -356,7 +356,7 @@ def bench_scaling(sizes):
 # ------------------------------------------------------------------ report
 SECTIONS = {"export": "Controller exports", "studies": "Uncertainty and tolerance studies",
             "plan": "Measurement planning", "nc": "NC programs (volerr compensate)",
-            "diagnose": "Diagnosis: default threads against one thread"}
+            "diagnose": "Diagnosis: its own threads against a one-thread environment"}
 
 
 def run_section(name: str, quick: bool) -> str:

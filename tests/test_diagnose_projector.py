@@ -107,9 +107,9 @@ def test_a_direction_the_training_set_sees_faintly(faint, own):
 
 
 def test_a_fold_takes_its_training_rows_of_the_basis_when_asked():
-    """In a diagnosis run in step, a fold solved by the other process holds no training rows of
-    the basis until a candidate's fit needs them (one the small products cannot give: a fold whose
-    training set sees a direction faintly): the held-out RMS is the same to the last bit."""
+    """A fold fitted from the all-rows basis holds no copy of its training rows of it until a
+    candidate's fit needs them (one the small products cannot give: a fold whose training set
+    sees a direction faintly): the held-out RMS is the same to the last bit."""
     rng, obs, A, r, folds = _data(7)
     only = np.isin(obs.point, folds[2])
     A[:, 3] = np.where(only, A[:, 3], 3e-3 * rng.normal(size=len(r)) * np.abs(A[:, 3]).max())
@@ -230,9 +230,7 @@ def test_the_held_out_rms_of_a_candidate_partly_in_the_base_span(seed, monkeypat
 @pytest.mark.parametrize("case", ["random", "zero_in_a_half", "rank_deficient", "few_rows"])
 def test_the_basis_from_two_halves_is_that_of_the_whole_svd(case):
     """The same span, singular values and cut as numpy's SVD of the whole design, orthonormal
-    columns; to the last bit the same whether one process computes both halves or each of two
-    processes in step computes one."""
-    from volerr_pin import lockstep
+    columns."""
     from volerr_pin.diagnosis.projector import _halves_basis, _svd
 
     rng = np.random.default_rng(7)
@@ -250,7 +248,3 @@ def test_the_basis_from_two_halves_is_that_of_the_whole_svd(case):
     assert np.allclose(U.T @ U, np.eye(U.shape[1]), atol=1e-13)
     assert np.allclose(U @ (U.T @ A), A, rtol=0, atol=1e-12 * np.abs(A).max())
     assert np.allclose(U @ U.T, U1 @ U1.T, atol=1e-12)
-    with lockstep.together(2) as group:
-        shared = _halves_basis(A)
-        same = group.share(bool(np.array_equal(shared[0], U) and np.array_equal(shared[1], s)), "same")
-    assert same == [True, True]

@@ -7,8 +7,6 @@ from __future__ import annotations
 import json
 import os
 import re
-import signal
-import time
 from pathlib import Path
 
 import numpy as np
@@ -222,98 +220,20 @@ TWO_EFFECTS = {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0},
                        "time_constants_min": [50.0]}}
 
 
-@pytest.mark.parametrize("machine, hidden, n, rounds", [
-    ("vmc500", TWO_EFFECTS, 300, 4),
-    ("cgm4000", {"EBB": {"kind": "periodic_pitch", "prefix": "h", "period_deg": 90.0, "sine_arcsec": [4.0],
-                         "cosine_arcsec": [0.0]}}, 200, 2),
-])
-def test_the_same_answer_alone_or_in_step(machines, monkeypatch, machine, hidden, n, rounds):
-    """The whole report to the last bit, one process or two in step (the design, the basis, the
-    folds, the candidates, the residuals and the refits shared between them; on cgm4000 a
-    per-revolution error passes, whose columns travel for the repeat check)."""
-    import volerr_pin.diagnosis.loop as loop
-    from volerr_pin import lockstep
-    from volerr_pin.diagnosis import projector
-    from volerr_pin.identify import design
+def test_a_diagnosis_runs_in_one_process_on_its_own_thread(machines, monkeypatch):
+    """No process is started and no thread either: a diagnosis's parallelism is the caller's to
+    choose (issue 45), and its BLAS runs on one thread inside it."""
+    import threading
 
-    monkeypatch.setattr(diagnose_results, "others_running", lambda: 0)  # two cores free, whatever else runs
-    monkeypatch.setattr(diagnose_results, "_load_reading", None)
-    monkeypatch.setattr(os, "cpu_count", lambda: 2)
-    monkeypatch.setattr(loop, "STEP_MIN_ROWS", 0)   # in step, the designs and the basis in halves, at any size
-    monkeypatch.setattr(design, "SPLIT_POINTS", 0)
-    monkeypatch.setattr(projector, "HALVES_MIN_ROWS", 0)
-    m = machines[machine]
-    truth, data = heldout_set(m, hidden, n, NOISE, 5)
-    groups, together = [], lockstep.together
+    def refused(*args, **kwargs):
+        raise AssertionError("a diagnosis started a process or a thread")
 
-    def recorded(size):
-        groups.append(size)
-        return together(size)
-
-    monkeypatch.setattr(lockstep, "together", recorded)
-    tags, share = [], lockstep.Group.map
-    monkeypatch.setattr(lockstep.Group, "map", lambda self, fn, items, tag="", ranks=None: (
-        tags.append(tag if list(items) else None), share(self, fn, items, tag, ranks))[1])
-    runs = []
-    for workers in (1, 2):
-        monkeypatch.setattr(diagnose_results, "WORKERS", workers)
-        report = diagnose(m, [data], max_rounds=rounds).to_dict()
-        report.pop("seconds")
-        runs.append(report)
-    assert groups == [1, 2]
-    assert {"design", "residual", "joint sensitivity", "basis factors", "basis rows", "folds",
-            "candidates", "cross-validation"} <= set(tags)
-    assert ("refits" in tags) == (machine == "vmc500")   # two findings: the refits without each shared
-    assert ("passing columns" in tags) == (machine == "cgm4000")   # a per-revolution error's columns travelled
-    assert runs[0]["effects"] or runs[0]["under_modelled"]
-    # the whole report: every round's candidates and scores, the effects, their numbers
-    assert runs[0] == runs[1]
-
-
-@pytest.mark.parametrize("machine, tag", [("vmc500", "design"), ("vmc500", "basis rows"),
-                                          ("vmc500", "joint sensitivity"), ("vmc500", "candidates"),
-                                          ("vmc500", "cross-validation"), ("vmc500", "refits"),
-                                          ("cgm4000", "passing columns")])
-def test_when_the_second_process_dies_the_diagnosis_ends_alone_with_the_same_answer(machines, monkeypatch,
-                                                                                    machine, tag):
-    """The second process killed (as for memory) at its first exchange of each kind of share: the
-    first computes what it had kept (a half's rows of the basis, a score's columns) and its share
-    again, and the report is the one of a diagnosis alone."""
-    import volerr_pin.diagnosis.loop as loop
-    from volerr_pin import lockstep
-    from volerr_pin.diagnosis import projector
-    from volerr_pin.identify import design
-
-    monkeypatch.setattr(diagnose_results, "others_running", lambda: 0)
-    monkeypatch.setattr(diagnose_results, "_load_reading", None)
-    monkeypatch.setattr(os, "cpu_count", lambda: 2)
-    monkeypatch.setattr(loop, "STEP_MIN_ROWS", 0)
-    monkeypatch.setattr(design, "SPLIT_POINTS", 0)
-    monkeypatch.setattr(projector, "HALVES_MIN_ROWS", 0)
-    m = machines[machine]
-    hidden = (TWO_EFFECTS if machine == "vmc500" else
-              {"EBB": {"kind": "periodic_pitch", "prefix": "h", "period_deg": 90.0, "sine_arcsec": [4.0],
-                       "cosine_arcsec": [0.0]}})
-    _, data = heldout_set(m, hidden, 300 if machine == "vmc500" else 200, NOISE, 5)
-    first, share, reached = os.getpid(), lockstep.Group.share, []
-
-    def dies(self, mine, tag_=""):
-        if os.getpid() != first and tag_ == tag:
-            os.kill(os.getpid(), signal.SIGKILL)
-        if tag_ == tag:
-            reached.append(tag_)   # in the first process: the share the second died at
-        return share(self, mine, tag_)
-
-    monkeypatch.setattr(lockstep.Group, "share", dies)
-    runs = []
-    for workers in (1, 2):
-        monkeypatch.setattr(diagnose_results, "WORKERS", workers)
-        # the refits after the loop come with both findings, from round 4
-        report = diagnose(m, [data], max_rounds=4 if tag == "refits" else 2).to_dict()
-        report.pop("seconds")
-        runs.append(report)
-    assert reached   # the second process died there
-    assert runs[0] == runs[1]
+    monkeypatch.setattr(os, "fork", refused)
+    monkeypatch.setattr(threading.Thread, "start", refused)
+    m = machines["vmc500"]
+    _, data = heldout_set(m, TWO_EFFECTS, 300, NOISE, 5)
+    report = diagnose(m, [data], max_rounds=2)
+    assert report.effects or report.under_modelled
 
 
 def test_no_model_is_fitted_twice_with_the_same_free_coefficients(machines, monkeypatch):
@@ -338,75 +258,6 @@ def test_no_model_is_fitted_twice_with_the_same_free_coefficients(machines, monk
     diagnose(m, [data])
     assert any(t is not None for t in trims)  # a trim was kept (the case this is about)
     assert len(fits) == len(set(fits))
-
-
-@pytest.mark.parametrize("text, others", [
-    (b"0.52 0.58 0.59 1/197 86512\n", 0), (b"1.98 1.50 0.90 3/201 86601\n", 2), (b"0.0 0.0 0.0 0/5 1\n", 0),
-    (b"0.52 0.58 0.59\n", None), (b"0.52 0.58 0.59 x/197 86512\n", None), (None, None),
-])
-def test_others_running_reads_the_runnable_tasks_less_this_one(tmp_path, text, others):
-    path = tmp_path / "loadavg"
-    if text is not None:
-        path.write_bytes(text)
-    assert diagnose_results.others_running(str(path)) == others
-
-
-def test_a_process_computing_beside_is_counted():
-    import subprocess
-    import sys
-
-    if not os.path.exists("/proc/loadavg"):
-        pytest.skip("no /proc/loadavg here")
-    spinner = subprocess.Popen([sys.executable, "-c", "print('up', flush=True)\nwhile True: pass"],
-                               stdout=subprocess.PIPE)
-    try:
-        assert spinner.stdout.readline() == b"up\n"
-        assert diagnose_results.others_running() >= 1   # runnable all the time: running or waiting for a core
-    finally:
-        spinner.kill()
-        spinner.wait()
-
-
-@pytest.mark.parametrize("cores, others, workers, expected", [
-    (2, 0, 2, 2), (2, 1, 2, 1), (2, 5, 2, 1), (8, 3, 4, 4), (8, 6, 4, 2), (2, None, 2, 2), (2, 0, 1, 1),
-])
-def test_free_workers_leave_the_cores_other_processes_keep_busy(monkeypatch, cores, others, workers, expected):
-    readings = []
-    monkeypatch.setattr(diagnose_results, "others_running", lambda: readings.append(1) or others)
-    monkeypatch.setattr(diagnose_results, "_load_reading", None)
-    monkeypatch.setattr(diagnose_results, "WORKERS", workers)
-    monkeypatch.setattr(os, "cpu_count", lambda: cores)
-    assert diagnose_results.free_workers() == expected
-    assert diagnose_results.free_workers() == expected and len(readings) == 1   # one reading serves a while
-    monkeypatch.setattr(diagnose_results, "LOAD_READING_S", 0.0)
-    diagnose_results.free_workers()
-    assert len(readings) == 2
-
-
-@pytest.mark.parametrize("env, expected", [
-    ({}, 2), ({"OMP_NUM_THREADS": "1"}, 1), ({"NUMBA_NUM_THREADS": "1"}, 1), ({"OMP_NUM_THREADS": "8"}, 2),
-    ({"OMP_NUM_THREADS": "x", "NUMBA_NUM_THREADS": ""}, 2), ({"OMP_NUM_THREADS": "0"}, 2),
-])
-def test_the_cores_honour_a_thread_limit_in_the_environment(monkeypatch, env, expected):
-    for name in ("OMP_NUM_THREADS", "NUMBA_NUM_THREADS"):
-        monkeypatch.delenv(name, raising=False)
-    for name, value in env.items():
-        monkeypatch.setenv(name, value)
-    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
-    assert diagnose_results._cores() == expected
-
-
-@pytest.mark.parametrize("others, threads", [(0, True), (1, False)])
-def test_by_default_a_busy_machine_gets_no_second_thread(monkeypatch, others, threads):
-    import threading
-
-    monkeypatch.setattr(diagnose_results, "others_running", lambda: others)
-    monkeypatch.setattr(diagnose_results, "_load_reading", None)
-    monkeypatch.setattr(diagnose_results, "WORKERS", 2)
-    monkeypatch.setattr(os, "cpu_count", lambda: 2)
-    assert diagnose_results.parallel_map(lambda x: -x, range(37)) == [-x for x in range(37)]
-    ids = diagnose_results.parallel_map(lambda x: (time.sleep(0.02), threading.get_ident())[1], range(6))
-    assert (len(set(ids)) > 1) == threads
 
 
 def test_cli_reports_the_thermal_finding_and_documents_every_field(machines, tmp_path, capsys):
@@ -575,14 +426,3 @@ def test_a_batch_of_raises_is_refitted_until_every_member_is_significant(machine
     assert not any(notes[label] for label in (a.label for a in step.accepted_all))
 
 
-@pytest.mark.parametrize("seconds, expected", [
-    ([5.0, 1.0, 1.0, 1.0, 1.0, 1.0], [0, 1, 1, 1, 1, 1]),   # the longest alone, the rest beside it
-    ([1.0, 2.0, 3.0, 4.0], [0, 1, 1, 0]),                   # 4 | 3, then 2 to the 3 and 1 to the 4
-    ([None, None, None], [0, 1, 0]),                        # nothing known: in turn
-    ([None, 3.0, 1.0], [1, 0, 1]),                          # not known: the mean of the known (2)
-    ([], []),
-])
-def test_candidates_are_shared_by_the_time_they_took(seconds, expected):
-    from volerr_pin.lockstep import balanced
-
-    assert balanced(seconds, 2) == expected

@@ -79,8 +79,7 @@ class FitProgress:
     """A progress bar on stderr for fits that take more than a moment (terminals only).
 
     ``with FitProgress(enabled) as progress`` gives ``progress(stage, step)`` or None. The bar is
-    drawn by the updates, at most every :attr:`REFRESH_S`, not by a thread of its own: a
-    diagnosis forks its second process only where no other thread runs (:mod:`volerr_pin.lockstep`).
+    drawn by the updates, at most every :attr:`REFRESH_S`, not by a thread of its own.
     """
 
     REFRESH_S = 0.1

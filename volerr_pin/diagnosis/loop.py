@@ -16,22 +16,21 @@ import warnings
 
 import numpy as np
 
-from .. import lockstep
 from ..checks import fraction, integer, measurement_sigma
 from ..errors import InputError, SpecError
 from ..identify import (Identification, Observations, build_observations, check_observations, conditioning_note,
                         identify, parameter_units, pose_folds, residual_rms)
 from ..identify.design import by_halves
 from ..machine import Machine
-from ..safeio import MEMORY_SHARE, available_memory, require_memory
+from ..safeio import require_memory
 from ..units import UM_PER_M
 from ..specio import add_terms, check_values
 from .candidates import build_candidates
 from .changes import apply_changes, remove_effect, size_of, tested_names, trim_raises, with_lag
 from .report import (components_per_point, effect_amplitude, floor_verdict, group_findings, noise_floor,
                      raised_summary, residual_analysis, twins_of, undecided_rotary)
-from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, STEP_MIN_ROWS, Change,
-                      Diagnosis, Step, free_workers, one_blas_thread, parallel_map, score_all)
+from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Change, Diagnosis, Step,
+                      one_blas_thread)
 from .projector import Columns, Projector, base_design
 from .scoring import not_repeating, score
 
@@ -143,15 +142,9 @@ def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects
         raise InputError(f"{obs.n_points} points at {poses} distinct {'pose' if poses == 1 else 'poses'}: too few "
                          f"for folds = {folds} (k-fold cross-validation needs at least {2 * folds})",
                          parameters=("folds",))
-    needed = _memory_needed(machine, obs, folds)
-    require_memory(needed, f"diagnosing {obs.n_points} points ({len(obs.y)} observations)")
-    # two processes in step where two cores are free and the memory holds a second diagnosis
-    in_step = len(obs.y) >= STEP_MIN_ROWS and free_workers() >= 2 and 2 * needed <= MEMORY_SHARE * available_memory()
-    with one_blas_thread(), lockstep.together(2 if in_step else 1) as group:
-        # the cores go to the halves of the designs, the candidates and the refits, not to BLAS on
-        # small matrices; the second process of the group reports no progress
-        loop = _Loop(machine, obs, split, fixed, alpha, max_effects,
-                     progress if group is None or group.rank == 0 else None, keep_machines, stated)
+    require_memory(_memory_needed(machine, obs, folds), f"diagnosing {obs.n_points} points ({len(obs.y)} observations)")
+    with one_blas_thread():   # BLAS threads cost more than they give on a diagnosis's small matrices
+        loop = _Loop(machine, obs, split, fixed, alpha, max_effects, progress, keep_machines, stated)
         max_rounds = max_effects + 8 if max_rounds is None else max_rounds
         for number in range(max_rounds + 1):
             if not loop.round(number, may_accept=number < max_rounds):
@@ -188,7 +181,6 @@ class _Loop:
         self._last_holdout = None
         self.left_passing: list[str] = []       # what still passed when the round limit ended the rounds
         self.last_passing: list = []            # the last round's passing scores (notes: why refused)
-        self.seconds: dict[tuple, float] = {}   # in step: what each candidate took to score last
 
     def fit(self, model: Machine, names: list[str], initialise: bool = False):
         """The model fitted (all coefficients; with ``fixed`` only ``names``): (machine,
@@ -246,30 +238,20 @@ class _Loop:
         def one(cand):
             return score(base, proj, obs, E, joints, cand, self.cov_obj, self.axis_index_of, self.columns)
 
-        def columns_of(s):
-            # in step a score's columns are kept by the process that scored it: where the other
-            # process of the group ended first, they are computed again here (the same numbers)
-            if s.columns is None:
-                s.columns = one(s.candidate).columns
-            return s.columns
-
-        group = lockstep.active()
-        scores, owner = score_all(candidates, one, progress, self.seconds)
+        scores = []
+        for k, cand in enumerate(candidates):
+            s = one(cand)
+            progress(k + 1)
+            if s is not None:
+                scores.append(s)
         m = max(1, len(scores))
         ranked = sorted(scores, key=lambda s: -s.bic_gain)
         # cross-validate what could pass and what is shown
         shown = [s for k, s in enumerate(ranked) if s.cv_rms_um is None and (k < 10 or s.p_value < self.alpha / m)]
-        cv = (parallel_map(lambda s: proj.cv(s.columns), shown) if group is None else
-              group.map(lambda s: proj.cv(columns_of(s)), shown, "cross-validation", [owner[id(s)] for s in shown]))
-        for s, cv in zip(shown, cv):
-            s.cv_rms_um = cv
+        for s in shown:
+            s.cv_rms_um = proj.cv(s.columns)
         passing = [s for s in ranked if s.extra > 0 and s.p_value < self.alpha / m
                    and s.cv_rms_um is not None and s.cv_rms_um < proj.cv_rms * (1 - 1e-3)]
-        if group is not None:   # the repeat check of a per-revolution error needs its columns in both
-            rotary = [s for s in passing if s.candidate.name == "periodic_rotary"]
-            for s, columns in zip(rotary, group.map(columns_of, rotary, "passing columns",
-                                                    [owner[id(s)] for s in rotary])):
-                s.columns = columns
         return ranked, passing
 
     def _accept(self, number: int, passing: list, proj: Projector) -> list[Change]:
@@ -373,21 +355,6 @@ class _Loop:
         model, res, _ = self.without(members)
         return self.holdout(model, res)[0].cv_rms
 
-    def in_parallel(self, tasks: list) -> list:
-        """``[task() for task in tasks]``, independent refits, shared between the processes of a
-        diagnosis in step (their results - numbers and arrays - travel; a fitted machine does
-        not pickle). A single task runs in step, its own parts shared, rather than whole in one
-        process while the other waits."""
-        group = lockstep.active()
-        if group is None or len(tasks) == 1:
-            return [task() for task in tasks]
-        # the last held-out projector a task kept is that process's own: both keep the one before
-        kept = self._last_holdout
-        try:
-            return group.map(_call, tasks, "refits")
-        finally:
-            self._last_holdout = kept
-
     def without(self, members: list[Change]):
         """The present model without these effects, refitted: (machine, fit, free names)."""
         model = self.current
@@ -424,7 +391,7 @@ class _Loop:
                 return final, dropped
             _, i = min(weak)
             gone = self.effects[i]
-            # the present model's held-out RMS in step, both processes keeping it (asked for again)
+            # the present model's held-out RMS (asked for again)
             with_rms = self.holdout(self.current, final)[0].cv_rms
             without_rms = self.holdout_without([gone])
             if without_rms > with_rms * (1 + PRACTICAL_GAIN):
@@ -448,11 +415,11 @@ class _Loop:
         a held-out RMS gain below :data:`PRACTICAL_GAIN` of the held-out RMS before, or an
         amplitude below :data:`PRACTICAL_AMPLITUDE` of the noise per component."""
         groups = [members for _, members in group_findings(self.effects)]
-        # the present model's held-out RMS in step, both processes keeping it (the final model's
-        # is asked for again); the refits without each finding shared
+        # the present model's held-out RMS (the final model's is asked for again), and the refits
+        # without each finding
         proj, residual = self.holdout(self.current, final)
         cv_rms, floor = proj.cv_rms, noise_floor(self.obs, residual, proj.rank)[0]
-        befores = self.in_parallel([lambda members=members: self.holdout_without(members) for members in groups])
+        befores = [self.holdout_without(members) for members in groups]
         noise_pc = floor / math.sqrt(components_per_point(self.obs))
         below = []
         for members, before in zip(groups, befores):
@@ -547,7 +514,7 @@ class _Loop:
                 return self.holdout(fitted_model, res)[0].cv_rms
 
             lags = (0.0, *LAGS_S)
-            tried = dict(zip(lags, self.in_parallel([lambda lag_s=lag_s: lagged(lag_s) for lag_s in lags])))
+            tried = {lag_s: lagged(lag_s) for lag_s in lags}
             base_rms = tried[0.0]
             best_rms, best_lag = min((rms, lag_s) for lag_s, rms in tried.items() if lag_s)
             if best_rms < 0.99 * base_rms:
@@ -625,7 +592,6 @@ def _judged_trim(loop: _Loop, final) -> tuple | None:
     before = loop.holdout(loop.current, final)[0].cv_rms
     refit = loop._refit(trimmed)
     model, res, _ = refit
-    # in step, both processes keeping the trimmed model's projector (the final one when the trim stays)
     after = loop.holdout(model, res)[0].cv_rms
     return refit if after <= before * (1 + PRACTICAL_GAIN) else None
 
@@ -644,15 +610,9 @@ def _offered(loop: _Loop) -> tuple[list, np.ndarray, list[str]]:
                                  f"value_{'um' if c.component[1] in 'XYZ' else 'arcsec'}": 0.0}
                    for c in candidates if c.component not in loop.current.error_joints}
     probe = add_terms(loop.current, missing_loc) if missing_loc else loop.current
-    # in step, each process computes half of the points
     E = by_halves(loop.obs, lambda q, **cov: probe.error_joint_sensitivity(q, first_order=True, **cov),
                   "joint sensitivity")
     return candidates, E, list(probe.error_joints)
-
-
-def _call(task):
-    """The result of a task (for :meth:`Group.map <volerr_pin.lockstep.Group.map>`)."""
-    return task()
 
 
 def _quiet_identify(machine: Machine, obs: Observations, **options) -> Identification:
@@ -704,8 +664,7 @@ def _time_check(loop: _Loop, members: list[Change], final) -> dict | None:
             part[f"rms_predicted_along{key}_um"] = float(np.sqrt(np.mean(residual[rows] ** 2)) * UM_PER_M)
         return part
 
-    parts = loop.in_parallel([lambda key=key, model=model: predicted(key, model)
-                              for key, model in (("", loop.current), ("_without", model_without))])
+    parts = [predicted(key, model) for key, model in (("", loop.current), ("_without", model_without))]
     if any(part is None for part in parts):
         return None
     for part in parts:

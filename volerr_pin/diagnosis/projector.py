@@ -13,13 +13,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import lapack
 
-from .. import lockstep
 from ..identify import Observations, point_squares, predict_observations
 from ..machine import Machine
 from ..spec import build_term, parse_component_name
 from ..terms import Context, Covariates
 from ..units import UM_PER_M
-from .results import Candidate, parallel_map
+from .results import Candidate
 
 __all__ = ["FOLD_SEEN", "GRAM_FOLD_SEEN", "GRAM_MIN", "GRAM_ZERO", "HALVES_MIN_ROWS", "SVD_RTOL", "Base", "Columns",
            "Projector", "base_design"]
@@ -224,36 +223,27 @@ def _svd(A: np.ndarray, rtol: float = SVD_RTOL):
 def _halves_basis(A: np.ndarray, rtol: float = SVD_RTOL):
     """(U, s) of :func:`_svd`, from the two halves of A's rows: each half's QR factor (with its
     orthonormal Q), the SVD of the two factors stacked, and each half's rows of U as its Q times
-    its block of that SVD's left vectors. The halves are computed by the two processes of a
-    diagnosis run in step (:mod:`volerr_pin.lockstep`), else one after the other; both ways give
-    the same basis to the last bit (one process: 0.94 to 0.96 of the time of ``numpy.linalg.svd``
-    on 12,000 x 130). Too few rows for halves of at least A's columns: :func:`_svd`."""
+    its block of that SVD's left vectors, one half after the other (0.94 to 0.96 of the time of
+    ``numpy.linalg.svd`` on 12,000 x 130). Too few rows for halves of at least A's columns: :func:`_svd`."""
     m, n = A.shape
     if n == 0 or m < max(2 * n, HALVES_MIN_ROWS):
         return _svd(A, rtol)[:2]
     halves = [A[:m // 2], A[m // 2:]]
-    group = lockstep.active()
-    run = group.map if group is not None else (lambda fn, items, tag: [fn(x) for x in items])
-    q = {}   # each half's Q, kept by the process that factored it
+    q = []   # each half's Q
 
-    def factor(k):
+    def factor(half):
         # a copy (asfortranarray of one column's rows is a view, which geqrf would overwrite)
-        qr, tau, _, info = lapack.dgeqrf(np.array(halves[k], order="F"), overwrite_a=1)
+        qr, tau, _, info = lapack.dgeqrf(np.array(half, order="F"), overwrite_a=1)
         if info != 0:  # pragma: no cover - only for arguments this function never passes
             raise RuntimeError(f"LAPACK geqrf failed (info {info})")
         R = np.triu(qr[:n])
-        q[k] = lapack.dorgqr(qr, tau, overwrite_a=1)[0]
+        q.append(lapack.dorgqr(qr, tau, overwrite_a=1)[0])
         return R
 
-    U2, s, _ = np.linalg.svd(np.vstack(run(factor, [0, 1], "basis factors")), full_matrices=False)
+    U2, s, _ = np.linalg.svd(np.vstack([factor(half) for half in halves]), full_matrices=False)
     keep = s > rtol * s[0] if s[0] > 0 else np.zeros(s.size, bool)
     U2, s = U2[:, keep], s[keep]
-    def rows(k):
-        if k not in q:   # the other process of a group ended before its half's rows: factored here
-            factor(k)
-        return q[k] @ U2[k * n:(k + 1) * n]
-
-    return np.vstack(run(rows, [0, 1], "basis rows")), s
+    return np.vstack([q[k] @ U2[k * n:(k + 1) * n] for k in range(2)]), s
 
 
 def _small_lstsq(G: np.ndarray, r: np.ndarray, tol: float = 1e-6, covariance: bool = False):
@@ -397,9 +387,8 @@ class Projector:
         U = self.Q
         self.rank = U.shape[1]
         held = [np.isin(obs.point, test) for test in folds]
-        rows_of_basis = {}   # U[T] of the folds this process solved
 
-        def solve(k):
+        def fold(k):
             # a training fit predicts the validation rows as X_V W X_T^T r[T], and its own rows
             # as X_T W X_T^T r[T]: from the rows of the basis of all rows (X = U, W = (U_T^T
             # U_T)^-1, which needs no factorisation of the training set), or - when the training
@@ -408,36 +397,24 @@ class Projector:
             # first is taken only where the second would keep every direction of U: A[T]'s
             # singular values are at least sqrt(w_min) s_min and at most s_max, so none falls
             # below the SVD's cut (SVD_RTOL of the largest). The fold's fit of the base residual
-            # is made here too. What is returned travels between the processes of a diagnosis in
-            # step: W and the fit, not U's rows
+            # is made here too
             V = held[k]
             T = ~V
-            X_T = rows_of_basis[k] = U[T]
+            X_T = U[T]
             w, Z = np.linalg.eigh(X_T.T @ X_T)
             if w.size and w[0] >= FOLD_SEEN and math.sqrt(w[0]) * s_all[-1] >= SVD_RTOL * s_all[0]:
-                W, gram, X_V, own = (Z / w) @ Z.T, bool(w[0] >= GRAM_FOLD_SEEN), U[V], None
+                W, gram, X_V = (Z / w) @ Z.T, bool(w[0] >= GRAM_FOLD_SEEN), U[V]
             else:
-                del rows_of_basis[k]
                 X_T, s, Vt = _svd(A[T])
                 W, gram, X_V = None, False, A[V] @ (Vt.T / s) if s.size else np.zeros((int(V.sum()), 0))
-                own = X_T, X_V
             coef = X_T.T @ r[T] if W is None else W @ (X_T.T @ r[T])
             e_T = r[T] - X_T @ coef
-            return W, gram, own, coef, e_T, r[V] - X_V @ coef, X_T.T @ e_T
+            # (a fold fitted from the all-rows basis keeps no copy of its training rows of it: they
+            # are taken again where a candidate's fit needs them)
+            return _Fold(~V, V, X_T if W is None else None, X_V, W, pos[V], e_T=e_T, e_V=r[V] - X_V @ coef,
+                         coef=coef, gram=gram, Xe=X_T.T @ e_T, U=U)
 
-        def fold(k, solved):
-            W, gram, own, coef, e_T, e_V, Xe = solved
-            V = held[k]
-            if own is not None:
-                X_T, X_V = own
-            else:   # the training rows of U: those this process took in solving it, or when asked for
-                X_T, X_V = rows_of_basis.pop(k, None), U[V]
-            return _Fold(~V, V, X_T, X_V, W, pos[V], e_T=e_T, e_V=e_V, coef=coef, gram=gram, Xe=Xe, U=U)
-
-        group = lockstep.active()
-        solved = (group.map(solve, range(len(folds)), "folds") if group is not None
-                  else parallel_map(solve, range(len(folds))))
-        self.folds = [fold(k, x) for k, x in enumerate(solved)]
+        self.folds = [fold(k) for k in range(len(folds))]
         # Q^T row by row: its products with a candidate's few columns took 1.3 to 2 times as long
         # through the transposed view
         self.QT = np.ascontiguousarray(self.Q.T)

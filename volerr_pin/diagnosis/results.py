@@ -1,194 +1,27 @@
 """What a diagnosis finds, typed: candidates, their scores, the changes accepted, the rounds and
-the result with its JSON report (docs/reports.md); and how its work uses the cores (threads,
-the candidates shared between two processes in step)."""
+the result with its JSON report (docs/reports.md); and the BLAS threads its work runs on."""
 
 from __future__ import annotations
 
 import math
-import os
-import time
-from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .. import lockstep
 from ..identify import Observations
 from ..machine import Machine
 
-__all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR", "STEP_MIN_ROWS", "WORKERS",
-           "Candidate", "Change", "Diagnosis", "DriftSeries", "Evidence", "Raise", "Score", "Step", "free_workers",
-           "one_blas_thread", "others_running", "parallel_map", "score_all"]
-
-#: observation rows from which a diagnosis runs as two processes in step (:mod:`volerr_pin.lockstep`)
-#: when two cores are free: below, the work both processes repeat outweighs the halves (vmc500
-#: with every covariate column, against one process, alternating in fresh processes: at 400
-#: points 0.93 of the wall time for 1.58 times the CPU; at 1,000 points 0.72 for 1.22; at 4,000
-#: points 0.73 for 1.30, benchmarks/diagnose.py)
-STEP_MIN_ROWS = 3000
-def _cores() -> int:
-    """The cores this process may use, at most what ``OMP_NUM_THREADS`` or ``NUMBA_NUM_THREADS``
-    allow (a user or a batch system that sets one to 1 asks for one core)."""
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    for name in ("OMP_NUM_THREADS", "NUMBA_NUM_THREADS"):
-        value = os.environ.get(name, "").strip()
-        if value.isdigit() and int(value) > 0:
-            cores = min(cores, int(value))
-    return max(1, cores)
-
-
-#: the cores this process may use (:func:`_cores`, at most 4): the threads of
-#: :func:`parallel_map`, and whether a diagnosis may run as two processes in step (at least 2)
-WORKERS = min(4, _cores())
-#: seconds a reading of the machine's load (:func:`free_workers`) serves before it is read again
-LOAD_READING_S = 0.5
-_load_reading: tuple[float, int | None] | None = None
-
-
-def others_running(loadavg: str = "/proc/loadavg") -> int | None:
-    """Tasks of other processes running or waiting for a core now: the machine's runnable
-    tasks (the fourth field of ``/proc/loadavg``), this thread not counted, the fewest of
-    three readings half a millisecond apart (a process passing through is not counted, one
-    that computes is).
-
-    Parameters
-    ----------
-    loadavg : str, optional
-        The file to read.
-
-    Returns
-    -------
-    int or None
-        The count; None where the system does not say.
-    """
-    counts = []
-    for k in range(3):
-        if k:
-            time.sleep(0.0005)
-        try:
-            with open(loadavg, "rb") as fh:
-                counts.append(int(fh.read().split()[3].split(b"/")[0]))
-        except (OSError, ValueError, IndexError):
-            return None
-    return max(0, min(counts) - 1)
-
-
-def free_workers() -> int:
-    """:data:`WORKERS`, less what other processes computing now leave this one: on a machine
-    whose other cores are busy, a second process in step or threads would only take turns with
-    them and with each other (beside one process spinning on one of 2 cores, two forked workers
-    took 1.14 to 1.17 times as long as one, benchmarks/diagnose.py). Read at most every
-    :data:`LOAD_READING_S`; where the load cannot be read, :data:`WORKERS`.
-
-    Returns
-    -------
-    int
-        Workers, at least 1.
-    """
-    global _load_reading
-    now = time.monotonic()
-    if _load_reading is None or now - _load_reading[0] > LOAD_READING_S:
-        _load_reading = (now, others_running())
-    others = _load_reading[1]
-    if others is None:
-        return WORKERS
-    return max(1, min(WORKERS, (os.cpu_count() or 1) - others))
-
-
-def parallel_map(fn, items, workers: int | None = None) -> list:
-    """``[fn(x) for x in items]`` on :data:`WORKERS` threads (in order). The work is NumPy and
-    LAPACK on matrices of a few hundred columns, which release the interpreter lock; run under
-    :func:`one_blas_thread` so that the threads, not BLAS, use the cores.
-
-    Parameters
-    ----------
-    fn : callable
-        The function of one item.
-    items : iterable
-        The items.
-    workers : int, optional
-        Threads (default :func:`free_workers`: :data:`WORKERS` less the cores other processes
-        keep busy).
-
-    Returns
-    -------
-    list
-        The results, in the order of ``items``.
-    """
-    items = list(items)
-    if len(items) <= 1:
-        return [fn(x) for x in items]
-    workers = free_workers() if workers is None else workers
-    if workers <= 1:
-        return [fn(x) for x in items]
-    with ThreadPoolExecutor(min(workers, len(items))) as pool:
-        return list(pool.map(fn, items))
-
-
-def score_all(candidates: list, one, progress, seconds: dict) -> tuple[list, dict]:
-    """The candidates' scores (``one(candidate)``; None left out), in order, and in step the
-    process that scored each (``id(score)`` -> rank).
-
-    In step the candidates are shared between the two processes by the time each took to score
-    in the round before (``seconds``, by candidate, updated here alike in both), and a score's
-    columns (rows x its columns) stay with the process that scored it: it cross-validates it,
-    and only the columns of the per-revolution errors that pass travel (the round's scoring in
-    :mod:`volerr_pin.diagnosis.loop`).
-
-    Parameters
-    ----------
-    candidates : list of Candidate
-        The round's candidates.
-    one : callable(Candidate) -> Score or None
-        A candidate's score.
-    progress : callable(int)
-        Called with the number of candidates scored.
-    seconds : dict
-        What each candidate took to score in the round before, by its key; updated.
-
-    Returns
-    -------
-    tuple of (list of Score, dict)
-        The scores, and ``id(score)`` -> the process that scored it (empty alone).
-    """
-    group = lockstep.active()
-    scores, owner = [], {}
-    if group is None:
-        for k, cand in enumerate(candidates):
-            s = one(cand)
-            progress(k + 1)
-            if s is not None:
-                scores.append(s)
-        return scores, owner
-    keys = [(c.label, c.name, c.component, c.driver, c.kind) for c in candidates]
-    ranks = lockstep.balanced([seconds.get(key) for key in keys], group.size)
-    kept = {}
-
-    def light(k):
-        start = time.perf_counter()
-        s = one(candidates[k])
-        if s is not None and s.columns is not None:
-            kept[k], s = s.columns, replace(s, columns=None)
-        return s, time.perf_counter() - start
-
-    progress(0)
-    for k, (s, took) in enumerate(group.map(light, range(len(candidates)), "candidates", ranks)):
-        seconds[keys[k]] = took   # both processes keep the same times: the next round's shares
-        if s is not None:
-            s.columns = kept.get(k)
-            owner[id(s)] = ranks[k]
-            scores.append(s)
-    progress(len(candidates))
-    return scores, owner
+__all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR", "Candidate", "Change",
+           "Diagnosis", "DriftSeries", "Evidence", "Raise", "Score", "Step", "one_blas_thread"]
 
 
 @contextmanager
 def one_blas_thread():
-    """Limit BLAS and OpenMP (threadpoolctl) and numba to one thread inside the block, so that
-    a diagnosis's small matrices do not oversubscribe the cores: its parallelism is over
-    the halves of its work (:mod:`volerr_pin.lockstep`, :func:`parallel_map`). Without threadpoolctl
-    BLAS keeps its threads.
+    """Limit BLAS and OpenMP (threadpoolctl) and numba to one thread inside the block: on a
+    diagnosis's matrices of a few hundred columns, threads cost more in waiting than they give
+    (and beside another busy process they can double the time). Without threadpoolctl BLAS keeps
+    its threads.
 
     Yields
     ------

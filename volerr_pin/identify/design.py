@@ -8,7 +8,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import lapack
 
-from .. import lockstep
 from ..errors import InputError
 from ..machine import Machine
 from ..units import UM_PER_M, URAD_PER_RAD
@@ -50,20 +49,19 @@ def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray,
 
 def by_halves(obs: Observations, fn, tag: str) -> np.ndarray:
     """``fn(q, **covariates)`` of every point (one row per point), over the two halves of the
-    points from :data:`SPLIT_POINTS` points, else over all of them: in a diagnosis run in step
-    (:mod:`volerr_pin.lockstep`) each process computes one half. Alone the same halves are
-    computed one after the other, so that the result is the same to the last bit either way (a
-    point's error computed among other points may differ from it computed among all of them in
-    the last bit: vectorised loops start elsewhere).
+    points from :data:`SPLIT_POINTS` points, else over all of them, one after the other (the
+    halves keep every result as it was computed: a point's error computed among other points
+    may differ from it computed among all of them in the last bit, as vectorised loops start
+    elsewhere).
 
     Parameters
     ----------
     obs : Observations
         The observations.
     fn : callable
-        The function of the positions and covariates of some points; its results must pickle.
+        The function of the positions and covariates of some points.
     tag : str
-        What is computed (for the exchange in step).
+        What is computed (for messages).
 
     Returns
     -------
@@ -77,8 +75,7 @@ def by_halves(obs: Observations, fn, tag: str) -> np.ndarray:
     if n < SPLIT_POINTS:
         return part(slice(0, n))
     halves = [slice(0, (n + 1) // 2), slice((n + 1) // 2, n)]
-    group = lockstep.active()
-    return np.concatenate(group.map(part, halves, tag) if group is not None else [part(half) for half in halves])
+    return np.concatenate([part(half) for half in halves])
 
 
 def rows_of(w: np.ndarray, point: np.ndarray, error: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -303,8 +300,7 @@ def reduce_design(machine: Machine, obs: Observations, theta: np.ndarray, column
                 obs, {"residuals or sensitivities": block}))
         return R, r
 
-    group = lockstep.active()
-    reduced = group.map(reduce, halves, "design") if group is not None and len(halves) > 1 else map(reduce, halves)
+    reduced = map(reduce, halves)
     r = np.empty(len(obs.y))
     factors = []
     for half, (R, parts) in zip(halves, reduced):
@@ -313,8 +309,7 @@ def reduce_design(machine: Machine, obs: Observations, theta: np.ndarray, column
             r[rows] = values
     if len(factors) == 1:
         return r, factors[0]
-    # the two halves' factors stacked and factored again: that of all rows (the same whether one
-    # process computed both halves or each of two in step computed one)
+    # the two halves' factors stacked and factored again: that of all rows
     return r, stacked_factor(factors[0], [factors[1]], np.ones(len(factors[1])))
 
 

@@ -8,7 +8,6 @@ import warnings
 
 import numpy as np
 
-from .. import lockstep
 from ..checks import fraction, integer, measurement_sigma, positive
 from ..errors import InputError
 from ..identifiability import analyse
@@ -115,9 +114,8 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     if isinstance(data, Observations):
         measurement_sigma("sigma_um", sigma_um), measurement_sigma("sigma_urad", sigma_urad)
     check_observations(obs)
-    if lockstep.active() is None:   # in step, a diagnosis checked the memory for both processes at its start
-        require_memory(_memory_needed(obs, folds if holdout is None else 1),
-                       f"fitting {obs.n_points} points ({len(obs.y)} observations) of {data_names(obs)}")
+    require_memory(_memory_needed(obs, folds if holdout is None else 1),
+                   f"fitting {obs.n_points} points ({len(obs.y)} observations) of {data_names(obs)}")
     free = _free(machine, terms, free)
     if free.size == 0 and obs.nuisance.shape[1] == 0:
         raise InputError(f"{machine.name} has no coefficients to fit")
