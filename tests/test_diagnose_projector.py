@@ -207,10 +207,13 @@ def test_a_candidates_joint_fit_is_that_of_lstsq_whichever_way_it_is_computed(ca
     assert coef == pytest.approx(joint_coef, rel=1e-6)
     gamma, cov, rss2, extra2 = proj.covariance(C)
     assert extra2 == extra and rss2 == pytest.approx(rss, rel=1e-12) and gamma == pytest.approx(coef, rel=1e-12)
-    # the candidate's covariance (unit variance) is its block of the joint inverse Gram matrix
+    # the candidate's covariance (unit variance) is its block of the joint inverse Gram matrix,
+    # from the singular values of the unit columns (the Gram matrix itself squares their
+    # condition number: 1e10 for a column 1e-5 from the span, so its inverse is good to 1e-6)
     J = np.hstack([A, C])
     norms = np.linalg.norm(J, axis=0)
-    full = np.linalg.inv((J / norms).T @ (J / norms)) / np.outer(norms, norms)
+    _, s, vt = np.linalg.svd(J / norms, full_matrices=False)
+    full = (vt.T / s**2) @ vt / np.outer(norms, norms)
     assert cov == pytest.approx(full[-2:, -2:], rel=1e-6)
 
 

@@ -426,3 +426,31 @@ def test_a_batch_of_raises_is_refitted_until_every_member_is_significant(machine
     assert not any(notes[label] for label in (a.label for a in step.accepted_all))
 
 
+
+
+def test_a_diagnosis_builds_pinocchios_model_once_at_most(monkeypatch):
+    """A backlash hidden: the rounds edit the model many times and offer squareness on X, whose
+    error joints the spec lacks, in every round; Pinocchio's model is built once (issue 45: at
+    most twice, counting the machine's own)."""
+    import volerr_pin.assembly as assembly
+
+    from volerr_pin import load_machine
+
+    m = load_machine("vmc500")  # its own: the structures it gathers are shared with its edits
+    assert not any(name.endswith("0X") for name in m.error_joints)
+    _, data = heldout_set(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}, 300, NOISE, 7)
+    built, build = [], assembly.pin.buildModelFromXML
+    monkeypatch.setattr(assembly.pin, "buildModelFromXML", lambda *a, **k: built.append(1) or build(*a, **k))
+    import volerr_pin.diagnosis.loop as loop
+
+    offered, original = [], loop._offered
+
+    def recorded(state):
+        candidates, E, joints = original(state)
+        offered.append([c.component for c in candidates if c.component.endswith("0X")])
+        return candidates, E, joints
+
+    monkeypatch.setattr(loop, "_offered", recorded)
+    report = diagnose(m, [data], max_rounds=4)
+    assert [e.component for e in report.effects] == ["EYY"] and len(offered) > 2 and all(offered), offered
+    assert len(built) == 1

@@ -48,3 +48,55 @@ def test_check_values_refuses_what_a_spec_file_would(machines):
     theta = m.theta.copy()
     theta[m.parameter_names.index("EBB.rotary.period")] = np.radians(1e6)   # far, but a spec holds it
     check_values(m.with_theta(theta))
+
+
+def _counting_builds(monkeypatch) -> list:
+    """Record every build of a Pinocchio model from an injected URDF."""
+    import volerr_pin.assembly as assembly
+
+    built, build = [], assembly.pin.buildModelFromXML
+
+    def counted(*args, **kwargs):
+        built.append(1)
+        return build(*args, **kwargs)
+
+    monkeypatch.setattr(assembly.pin, "buildModelFromXML", counted)
+    return built
+
+
+@pytest.mark.parametrize("name", ["vmc500", "cgm4000"])
+def test_an_edited_machine_is_the_machine_its_spec_builds(monkeypatch, name):
+    """Edits share the model they were made from: a raised degree builds nothing; the first
+    location error (new error joints) builds once, with room for every later one; an edit back
+    to the first error joints uses the first model. Each edit is
+    the machine its spec builds afresh, to the last bit: errors, sensitivities, error joints and
+    coefficients (the unused error joints stay at zero)."""
+    import numpy as np
+
+    from conftest import random_q
+    from volerr_pin.specio import add_terms, remove_components
+
+    m = vp.load_machine(name)  # its own: the structures it gathers are shared with its edits
+    built = _counting_builds(monkeypatch)
+    owner = m.axes[0]
+    raised = add_terms(m, legendre_terms(m, [m.components[0]], 4, start=3))
+    square = add_terms(raised, {f"EC0{owner}": {"kind": "constant", "prefix": "sq", "value_arcsec": 20.0}})
+    both = add_terms(square, {f"EX0{owner}": {"kind": "constant", "prefix": "sq", "value_um": 3.0}})
+    back = remove_components(both, [f"EC0{owner}", f"EX0{owner}"])
+    assert len(built) == 1
+    assert raised.assembly.model is m.assembly.model
+    assert both.assembly.model is square.assembly.model
+    assert back.assembly.model is m.assembly.model  # the first structure that holds its error joints
+    built.clear()
+    q = random_q(m, 50, seed=3)
+    rng = np.random.default_rng(3)
+    for edited in (raised, square, both, back):
+        fresh = vp.Machine(edited.spec, edited.urdf, package_dirs=edited.package_dirs)
+        assert (fresh.error_joints, fresh.parameter_names) == (edited.error_joints, edited.parameter_names)
+        theta = edited.theta + 1e-6 * rng.normal(size=len(edited.theta))
+        cov = {"t": np.linspace(0, 3600, len(q))}
+        np.testing.assert_array_equal(edited.volumetric_error(q, theta, **cov), fresh.volumetric_error(q, theta, **cov))
+        np.testing.assert_array_equal(edited.sensitivity(q, theta, **cov), fresh.sensitivity(q, theta, **cov))
+        np.testing.assert_array_equal(edited.error_joint_sensitivity(q, theta, **cov),
+                                      fresh.error_joint_sensitivity(q, theta, **cov))
+    assert len(built) == 4  # the fresh ones

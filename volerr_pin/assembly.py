@@ -13,7 +13,9 @@ motions of the tool relative to the workpiece).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import dataclasses
+
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -106,6 +108,9 @@ class Assembly:
         Velocity index of the error joint of each coefficient.
     theta : ndarray, shape (P,)
         The spec's coefficient values (SI, read-only).
+    structures : list of Assembly
+        The structures (error joints, model, chain) edits of this assembly may share, its own
+        first (see :func:`assemble`); shared by all of them.
     """
 
     spec: MachineSpec
@@ -127,6 +132,7 @@ class Assembly:
     names: tuple
     param_column: np.ndarray
     theta: np.ndarray
+    structures: list = field(default_factory=list, repr=False)
 
     @property
     def nonlinear_parameters(self) -> tuple[int, ...]:
@@ -173,14 +179,16 @@ class Assembly:
                 for comp in self.components for tspec, span in comp.terms]
 
 
-def _sites(spec: MachineSpec) -> list[Site]:
-    """The error sites of a spec: location owners, axes, bodies (see the module docstring)."""
+def _sites(spec: MachineSpec, every_location: bool = False) -> list[Site]:
+    """The error sites of a spec: location owners, axes, bodies (see the module docstring);
+    with ``every_location``, a location site for every axis and body, in the same order."""
     sites, owner_joint = [], {}
     for axis in spec.axes:
         owner_joint[axis.name] = (axis.joint, axis.reference)
     for body in spec.bodies:
         owner_joint[body.name] = (body.joint, body.reference)
-    located = sorted({c.owner for c in spec.components if c.location}, key=list(owner_joint).index)
+    located = list(owner_joint) if every_location else sorted(
+        {c.owner for c in spec.components if c.location}, key=list(owner_joint).index)
     for owner in located:
         joint, ref = owner_joint[owner]
         sites.append(Site(f"loc_{owner}", joint, "before", ref,
@@ -207,8 +215,17 @@ def _refuse_mimic_between(spec: MachineSpec, urdf: URDF) -> None:
                             "mimic joints are not supported there")
 
 
-def assemble(spec: MachineSpec, urdf: URDF, package_dirs=()) -> Assembly:
+def assemble(spec: MachineSpec, urdf: URDF, package_dirs=(), like: Assembly | None = None) -> Assembly:
     """Inject the error joints, build Pinocchio's model and flatten the chain.
+
+    With ``like``, the assembly of a machine this spec edits (same URDF, axes, bodies and
+    frames; other components, terms or coefficients), only the coefficients are laid out again:
+    the injected URDF, Pinocchio model and chain of one of ``like``'s structures are shared.
+    An edit that needs an error site none of them has (a location error added) builds once more,
+    with a location site on every axis and body, and every later edit shares that structure;
+    the error joints a spec does not need stay at zero there (they are in ``model`` but not in
+    ``sites``). So a diagnosis, however many rounds it edits the model, builds Pinocchio's
+    model at most twice.
 
     Parameters
     ----------
@@ -220,6 +237,9 @@ def assemble(spec: MachineSpec, urdf: URDF, package_dirs=()) -> Assembly:
     package_dirs : path or iterable of path, optional
         Folders of ``package://`` packages for pictures (the package a spec names its URDF
         by is added).
+    like : Assembly, optional
+        The assembly of the machine this spec edits (see above); one of another URDF, other
+        axes, bodies or frames is not used.
 
     Returns
     -------
@@ -240,8 +260,29 @@ def assemble(spec: MachineSpec, urdf: URDF, package_dirs=()) -> Assembly:
         If a folder of ``package_dirs`` does not exist.
     """
     package_dirs = package_folders(package_folders(package_dirs) + spec_package(spec))
-    _refuse_mimic_between(spec, urdf)
     sites = _sites(spec)
+    if like is None or not _same_frame(like, spec, urdf, package_dirs):
+        structure = _structure(spec, urdf, package_dirs, sites)
+        structure.structures.append(structure)
+        return _laid_out(spec, structure, sites)
+    for structure in like.structures:
+        if set(sites) <= set(structure.sites):
+            return _laid_out(spec, structure, sites)
+    # an edit that needs error joints its machine lacks (a location error added): build once with
+    # a location site on every axis and body, so that every later edit shares that model too
+    try:
+        structure = _structure(spec, urdf, package_dirs, _sites(spec, every_location=True))
+    except (SpecError, URDFError):  # an owner off the chain, or too many joints: only what it needs
+        structure = _structure(spec, urdf, package_dirs, sites)
+    structure = dataclasses.replace(structure, structures=like.structures)
+    like.structures.append(structure)
+    return _laid_out(spec, structure, sites)
+
+
+def _structure(spec: MachineSpec, urdf: URDF, package_dirs: tuple, sites: list[Site]) -> Assembly:
+    """The error joints of ``sites`` injected into ``urdf``, Pinocchio's model of the result and
+    its chain, as an assembly without components (:func:`_laid_out` adds them)."""
+    _refuse_mimic_between(spec, urdf)
     taken = set(urdf.joints) | set(urdf.links)
     for site in sites:
         clash = taken & (set(site.names) | {f"{site.key}__err{i}" for i in range(7)})
@@ -256,10 +297,21 @@ def assemble(spec: MachineSpec, urdf: URDF, package_dirs=()) -> Assembly:
     for frame in (spec.tool_frame, spec.workpiece_frame):
         if not model.existFrame(frame):
             raise SpecError(f"{spec.source}: frame '{frame}' is not in the model")
-    # points per block: Jacobian blocks (rows, 6, nv) stay within BLOCK_BYTES however many joints
-    block = int(max(64, min(K.CHUNK, BLOCK_BYTES // (48 * model.nv))))
     error_ids = {model.getJointId(n) for s in sites for n in s.names}
     chain = K.build_chain(model, spec.tool_frame, spec.workpiece_frame, error_ids)
+    chain_sign = _chain_sign(spec, model, chain)
+    axis_cols = np.array([model.idx_vs[model.getJointId(a.joint)] for a in spec.axes])
+    axis_signs = np.array([a.sign for a in spec.axes])
+    axis_chain = tuple(chain_sign(a.joint, f"axis {a.name}") for a in spec.axes)
+    error_joint_cols = np.array([model.idx_vs[model.getJointId(n)] for s in sites for n in s.names], dtype=int)
+    error_joint_signs = np.array([chain_sign(n, f"error site {s.key}") for s in sites for n in s.names])
+    travel = np.array([axis_travel(urdf, a) for a in spec.axes], dtype=float).reshape(-1, 2)
+    return Assembly(spec, urdf, package_dirs, tuple(sites), injected, model, chain, 0, axis_cols, axis_signs,
+                    axis_chain, error_joint_cols, error_joint_signs, travel, (), (), (), np.zeros(0, int), np.zeros(0))
+
+
+def _chain_sign(spec: MachineSpec, model: pin.Model, chain) -> callable:
+    """The sign of a joint on the chain from the workpiece to the tool; one off it is refused."""
     op_sign = dict(zip(chain.joints, chain.sign))
 
     def chain_sign(joint_name: str, what: str) -> float:
@@ -270,13 +322,34 @@ def assemble(spec: MachineSpec, urdf: URDF, package_dirs=()) -> Assembly:
                             f"'{spec.tool_frame}', so it cannot move the tool relative to the "
                             "workpiece")
         return float(op_sign[jid])
+    return chain_sign
 
-    axis_cols = np.array([model.idx_vs[model.getJointId(a.joint)] for a in spec.axes])
-    axis_signs = np.array([a.sign for a in spec.axes])
-    axis_chain = tuple(chain_sign(a.joint, f"axis {a.name}") for a in spec.axes)
-    error_joint_cols = np.array([model.idx_vs[model.getJointId(n)] for s in sites for n in s.names], dtype=int)
-    error_joint_signs = np.array([chain_sign(n, f"error site {s.key}") for s in sites for n in s.names])
-    travel = np.array([axis_travel(urdf, a) for a in spec.axes], dtype=float).reshape(-1, 2)
+
+def _same_frame(like: Assembly, spec: MachineSpec, urdf: URDF, package_dirs: tuple) -> bool:
+    """Whether ``spec`` on ``urdf`` has the axes, bodies and frames of ``like``: an edit of its
+    components, whose error joints may be laid out on one of ``like``'s structures."""
+    old = like.spec
+    return (like.urdf is urdf and like.package_dirs == package_dirs
+            and (old.axes, old.bodies, old.tool_frame, old.workpiece_frame)
+            == (spec.axes, spec.bodies, spec.tool_frame, spec.workpiece_frame))
+
+
+def _laid_out(spec: MachineSpec, structure: Assembly, sites: list[Site]) -> Assembly:
+    """The assembly of ``spec``: its error ``sites`` (all among the structure's) and its
+    components' terms and coefficients laid out on the model and chain of ``structure``; the
+    structure's other error joints stay at zero."""
+    model = structure.model
+    chain_sign = _chain_sign(spec, model, structure.chain)
+    every = [n for s in structure.sites for n in s.names]
+    col = dict(zip(every, structure.error_joint_cols))
+    sign = dict(zip(every, structure.error_joint_signs))
+    names_here = [n for s in sites for n in s.names]
+    error_joint_cols = np.array([col[n] for n in names_here], dtype=int)
+    error_joint_signs = np.array([sign[n] for n in names_here], dtype=float)
+    # points per block: Jacobian blocks (rows, 6, nv) stay within BLOCK_BYTES however many
+    # joints (counted without the structure's unused error joints, as a model of its own has)
+    nv = model.nv - (len(every) - len(names_here))
+    block = int(max(64, min(K.CHUNK, BLOCK_BYTES // (48 * nv))))
     axis_names = [a.name for a in spec.axes]
     components, names, theta = [], [], []
     for comp in spec.components:
@@ -295,9 +368,10 @@ def assemble(spec: MachineSpec, urdf: URDF, package_dirs=()) -> Assembly:
                              for _ in range(span.start, span.stop)], dtype=int)
     theta = np.asarray(theta, dtype=float)
     theta.flags.writeable = False
-    return Assembly(spec, urdf, package_dirs, tuple(sites), injected, model, chain, block, axis_cols, axis_signs,
-                    axis_chain, error_joint_cols, error_joint_signs, travel, tuple(components), lags, tuple(names),
-                    param_column, theta)
+    return dataclasses.replace(structure, spec=spec, sites=tuple(sites), block=block,
+                               error_joint_cols=error_joint_cols, error_joint_signs=error_joint_signs,
+                               components=tuple(components), lags=lags, names=tuple(names),
+                               param_column=param_column, theta=theta)
 
 
 def spec_package(spec: MachineSpec) -> tuple[Path, ...]:

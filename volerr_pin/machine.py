@@ -106,6 +106,17 @@ class Machine:
         self._theta = self._asm.theta
         self._state: dict = {}
 
+    def _edited(self, spec: MachineSpec) -> "Machine":
+        """A machine of ``spec`` (an edit of this one's components) on the same URDF: its
+        coefficients laid out again on a Pinocchio model and chain this one's edits share
+        (:func:`~volerr_pin.assembly.assemble` with ``like``); no state, the spec's coefficient
+        values."""
+        other = object.__new__(Machine)
+        other._asm = assemble(spec, self._asm.urdf, self._asm.package_dirs, like=self._asm)
+        other._theta = other._asm.theta
+        other._state = {}
+        return other
+
     @property
     def assembly(self) -> Assembly:
         """The assembled model (:class:`~volerr_pin.assembly.Assembly`): error sites, Pinocchio
@@ -196,7 +207,12 @@ class Machine:
 
     @property
     def model(self) -> pin.Model:
-        """The Pinocchio model with error joints (a copy: the machine is immutable)."""
+        """The Pinocchio model with error joints (a copy: the machine is immutable).
+
+        A machine made by editing another (:mod:`volerr_pin.specio`) shares that machine's
+        model; where an edit added a location error, the model has a location site on every axis
+        and body, and the error joints it does not use (not in :attr:`error_joints`) stay at
+        zero."""
         return pin.Model(self._asm.model)
 
     @property
@@ -215,7 +231,7 @@ class Machine:
         return self._asm.urdf
 
     def injected_urdf(self) -> str:
-        """The URDF with the error joints, as XML text.
+        """The URDF with the error joints, as XML text (those of :attr:`model`).
 
         Joint values: an axis joint takes ``sign * q``; an error joint takes the error value
         on the tool chain and its negative on the workpiece chain (errors are defined as

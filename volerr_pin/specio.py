@@ -40,7 +40,7 @@ def _owners(machine: Machine) -> dict:
 def _rebuilt(machine: Machine, spec, theta_of) -> Machine:
     """A machine of ``spec`` on the same URDF, with coefficients ``theta_of(fresh)`` and the
     state ``machine`` is held in."""
-    fresh = Machine(spec, machine.urdf, package_dirs=machine.package_dirs)
+    fresh = machine._edited(spec)
     fresh = fresh.with_theta(theta_of(fresh))
     return fresh.with_state(**machine.state) if machine.state else fresh
 
