@@ -16,7 +16,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 import volerr_pin as vp
-from volerr_pin.compensate import PathCompensator, arc_from_center, evaluate_compensation
+from volerr_pin.compensation import PathCompensator, arc_from_center, evaluate_compensation
 from volerr_pin.workspace import sample
 
 

@@ -137,7 +137,7 @@ def test_cli_ballbar(machines, tmp_path, capsys):
     _, truth, _ = _truth(machines["vmc500"])
     path = tmp_path / "circle.csv"
     write_ballbar(ballbar_run(truth, centre_mm=CENTRE, noise_um=0.1, seed=3), path)
-    assert main(["ballbar", str(path), "--json", "--plot", str(tmp_path / "c.png")]) == 0
+    assert main(["ballbar", str(path), "--json", "--png", str(tmp_path / "c.png")]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["G"] > report["G_ccw"] > 0 and report["H"] > 2.0          # 4 um of backlash in X
     assert (tmp_path / "c.png").stat().st_size > 10_000

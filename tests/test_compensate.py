@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from volerr_pin.compensate import (PathCompensator, arc_from_center, compensate_points,
-                                   evaluate_compensation)
+from volerr_pin.compensation import (PathCompensator, arc_from_center, compensate_points,
+                                     evaluate_compensation)
 from volerr_pin.errors import InputError
 
 from conftest import random_q

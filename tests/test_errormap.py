@@ -8,7 +8,7 @@ import itertools
 import numpy as np
 import pytest
 
-from volerr_pin.compensate import compensate_points
+from volerr_pin.compensation import compensate_points
 from volerr_pin.errormap import ErrorMap, axis_tables, compensation_table, natural_nodes, shape_functions
 from volerr_pin.errors import InputError
 
@@ -147,7 +147,7 @@ def test_a_table_the_disk_cannot_hold_is_refused_before_any_work(machines, tmp_p
 
 
 def test_a_failed_table_leaves_the_old_file_and_no_temporary(machines, tmp_path, monkeypatch):
-    import volerr_pin.compensate as compensate
+    import volerr_pin.compensation.points as compensate
 
     target = tmp_path / "table.csv"
     target.write_text("old\n")

@@ -88,7 +88,7 @@ def test_export_cli_refuses_a_machine_and_an_output_that_is_a_file(tmp_path, cap
     assert "axis J1 is not an NC axis" in capsys.readouterr().err
     (tmp_path / "file").write_text("keep")
     assert main(["export", "vmc500", "--controller", "linuxcnc", "-o", str(tmp_path / "file")]) == 2
-    assert capsys.readouterr().err.startswith("volerr: error: --output:")
+    assert capsys.readouterr().err.startswith("volerr: error: --out:")
     assert (tmp_path / "file").read_text() == "keep"
 
 

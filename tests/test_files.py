@@ -129,9 +129,9 @@ def test_a_temporary_file_has_exactly_its_targets_suffix(tmp_path, name):
 
 
 @pytest.mark.parametrize("argv", [
-    ["iso230-2", str(DATA / "vmc500_x_positioning.csv"), "--plot", "picture"],
-    ["iso230-2", str(DATA / "vmc500_x_positioning.csv"), "--plot", "p" * 255],
-    ["thermal-fit", str(DATA / "vmc500_spindle_thermal.csv"), "--target", "dz_um", "--plot", "picture"],
+    ["iso230-2", str(DATA / "vmc500_x_positioning.csv"), "--png", "picture"],
+    ["iso230-2", str(DATA / "vmc500_x_positioning.csv"), "--png", "p" * 255],
+    ["thermal-fit", str(DATA / "vmc500_spindle_thermal.csv"), "--target", "dz_um", "--png", "picture"],
 ])
 def test_a_picture_named_without_a_suffix_is_a_png(work, capsys, argv):
     # the longest name a file may have too: its temporary file beside it was longer (refused after the work)
@@ -192,11 +192,11 @@ def test_require_memory_names_the_parameter(monkeypatch):
 
 def test_compensate_refuses_its_input_as_output(work, capsys):
     before = snapshot(work)
-    refused(capsys, ["compensate", "vmc700", "P.nc", "-o", "P.nc"], "--output: P.nc is an input")
+    refused(capsys, ["compensate", "vmc700", "P.nc", "-o", "P.nc"], "--out: P.nc is an input")
     os.symlink("P.nc", "L.nc")
     os.link("P.nc", "H.nc")
-    refused(capsys, ["compensate", "vmc700", "P.nc", "-o", "L.nc"], "--output: L.nc is an input of this run (P.nc)")
-    refused(capsys, ["compensate", "vmc700", "P.nc", "-o", "H.nc"], "--output: H.nc is an input")
+    refused(capsys, ["compensate", "vmc700", "P.nc", "-o", "L.nc"], "--out: L.nc is an input of this run (P.nc)")
+    refused(capsys, ["compensate", "vmc700", "P.nc", "-o", "H.nc"], "--out: H.nc is an input")
     refused(capsys, ["compensate", "vmc700", "P.nc", "-o", "out.nc", "--report", "out.nc"], "--report")
     assert {k: v for k, v in snapshot(work).items() if k == "P.nc"} == before
 
@@ -207,8 +207,8 @@ def test_urdf_and_dh_refuse_their_input_as_output(work, capsys):
                                 "j1,revolute,100,0,0,0,-90,90\n")
     before = snapshot(work)
     refused(capsys, ["urdf", "A.urdf", "--tool-frame", "tool0", "--workpiece-frame", "base", "-o", "A.urdf"],
-            "--output: A.urdf is an input")
-    refused(capsys, ["dh", "t.csv", "-o", "t.csv"], "--output: t.csv is an input")
+            "--out: A.urdf is an input")
+    refused(capsys, ["dh", "t.csv", "-o", "t.csv"], "--out: this writes a URDF: its name ends in .urdf or .xml, got t.csv")
     assert snapshot(work) == before
 
 
@@ -218,7 +218,7 @@ def test_identify_refuses_to_replace_the_machines_own_spec(work, capsys):
     refused(capsys, ["identify", "m", str(DATA / "vmc500_x_positioning.csv"), "--out", "m/errors.toml"],
             "--out: m/errors.toml is an input")
     refused(capsys, ["identify", "m", str(DATA / "vmc500_x_positioning.csv"), "--out", "m/vmc500.urdf"],
-            "--out: m/vmc500.urdf is an input")
+            "--out: this writes a spec (TOML): its name ends in .toml, got m/vmc500.urdf")
     assert snapshot(work) == before
 
 
@@ -239,19 +239,21 @@ def test_write_spec_refuses_the_machines_own_files(tmp_path):
     (["compensate", "vmc700", "P.nc", "-o", "existing.out", "--report", "missing/r.json"], "--report"),
     (["compensate", "vmc700", "P.nc", "-o", "existing.out", "--png", "missing/x.png"], "--png"),
     (["compensate", "vmc700", "P.nc", "-o", "existing.out", "--png", "x.notapicture"], "--png"),
-    (["field", "vmc500", "--out", "existing.out", "--png", "missing/x.png"], "--png"),
-    (["field", "vmc500", "--out", "folder"], "--out: folder is a folder"),
-    (["iso230-2", str(DATA / "vmc500_x_positioning.csv"), "--plot", "missing/x.png"], "--plot"),
-    (["ballbar", str(DATA / "vmc500_ballbar_xy.csv"), "--plot", "folder"], "--plot"),
+    (["field", "vmc500", "--out", "f.rrd", "--png", "missing/x.png"], "--png"),
+    (["field", "vmc500", "--out", "folder.rrd"], "--out: folder.rrd is a folder"),
+    (["field", "vmc500", "--out", "existing.out"], "--out: this writes a Rerun recording: its name ends in .rrd"),
+    (["iso230-2", str(DATA / "vmc500_x_positioning.csv"), "--png", "missing/x.png"], "--png"),
+    (["ballbar", str(DATA / "vmc500_ballbar_xy.csv"), "--png", "folder"], "--png"),
     (["rank", "vmc500", "--png", "missing/x.png"], "--png"),
     (["gear", "gear_roller", "--rrd", "existing.out", "--png", "missing/x.png"], "--png"),
-    (["thermal-fit", str(DATA / "vmc500_spindle_thermal.csv"), "--target", "dz_um", "--plot", "pipe"], "--plot: pipe exists and is not"),
-    (["demo", "--out", "folder"], "--out"),
+    (["thermal-fit", str(DATA / "vmc500_spindle_thermal.csv"), "--target", "dz_um", "--png", "pipe"], "--png: pipe exists and is not"),
+    (["demo", "--out", "folder.rrd"], "--out: folder.rrd is a folder"),
     (["errormap", "vmc500", "--table", "folder"], "--table"),
     (["errormap", "vmc500", "--axis-tables", "existing.out/sub"], "--axis-tables: existing.out is not a folder"),
 ])
 def test_bad_output_is_refused_before_any_work(work, capsys, argv, culprit):
     (work / "folder").mkdir()
+    (work / "folder.rrd").mkdir()
     (work / "existing.out").write_text("keep me")
     os.mkfifo(work / "pipe")
     before = snapshot(work)

@@ -362,7 +362,7 @@ def test_an_arc_piece_written_as_a_line_drops_its_centre_words(machines):
     """When a compensated arc piece is a straight line (three collinear compensated points),
     the block becomes G1 and loses I/J without leaving gaps; a following modal arc block
     gets its G2 back."""
-    from volerr_pin.compensate import Piece
+    from volerr_pin.compensation import Piece
     from volerr_pin.gcode import Program, parse_block
 
     m = machines["vmc500"]
@@ -603,7 +603,7 @@ def test_an_arc_the_written_numbers_cannot_hold_is_written_as_chords(machines):
     """A compensated arc piece whose centre words would round to zero, whose written ends
     would read as nearly a full circle, or whose centre is too far for nine digits, becomes
     straight pieces along it, within the tolerance."""
-    from volerr_pin.compensate import Piece
+    from volerr_pin.compensation import Piece
     from volerr_pin.gcode import Program, parse_block
 
     m = machines["vmc500"]

@@ -49,7 +49,7 @@ import pytest
 import volerr_pin as vp
 from volerr_pin import dh, errormap, iso230, measurements, thermalfit, workspace
 from volerr_pin.cli import main
-from volerr_pin.compensate import compensate_points
+from volerr_pin.compensation import compensate_points
 from volerr_pin.machine import machines_dir
 
 from conftest import needs_device
@@ -454,9 +454,9 @@ CASES = [
     Case("loss-compensate-report-is-the-program", "compensate vmc700 part.nc -o out.nc --report part.nc",
          {"part.nc": SHORT}, ("--report", "part.nc")),
     Case("loss-compensate-output-symlink-to-the-program", "compensate vmc700 part.nc -o link.nc",
-         {"part.nc": SHORT, "link.nc": symlink("part.nc")}, ("--output", "link.nc")),
+         {"part.nc": SHORT, "link.nc": symlink("part.nc")}, ("--out", "link.nc")),
     Case("loss-compensate-output-hardlink-to-the-program", "compensate vmc700 part.nc -o hard.nc",
-         {"part.nc": SHORT, "hard.nc": hardlink("part.nc")}, ("--output", "hard.nc"), outputs=("hard.nc",)),
+         {"part.nc": SHORT, "hard.nc": hardlink("part.nc")}, ("--out", "hard.nc"), outputs=("hard.nc",)),
     Case("loss-compensate-report-equals-output", "compensate vmc700 part.nc -o out.nc --report out.nc",
          {"part.nc": SHORT}, ("--report", "out.nc")),
     Case("loss-compensate-report-equals-output-through-dotdot",
@@ -467,7 +467,7 @@ CASES = [
     Case("loss-compensate-report-on-a-full-device", "compensate vmc700 part.nc -o out.nc --report full.json",
          {"part.nc": SHORT, "full.json": symlink("/dev/full")}, ("--report", "full.json")),
     Case("loss-compensate-output-is-a-folder", "compensate vmc700 part.nc -o outdir",
-         {"part.nc": SHORT, "outdir": directory()}, ("--output", "outdir")),
+         {"part.nc": SHORT, "outdir": directory()}, ("--out", "outdir")),
     Case("loss-compensate-report-symlink-to-null-device", "compensate vmc700 part.nc -o out.nc --report null.json",
          {"part.nc": SHORT, "null.json": symlink("/dev/null")}, ("--report", "null.json"), ANY,
          outputs=("out.nc", "null.json")),
@@ -495,19 +495,19 @@ CASES = [
     Case("loss-errormap-table-written-before-axis-tables-fail",
          "errormap vmc500 --points 10 --order 1 --elements 1 --table t.csv --nodes 2 --axis-tables taken.txt",
          {"taken.txt": "a file, not a folder\n"}, ("--axis-tables", "taken.txt")),
-    Case("loss-iso230-plot-is-the-runs", "iso230-2 runs.csv --plot runs.csv", {"runs.csv": RUNS},
-         ("--plot", "runs.csv")),
-    Case("loss-iso230-plot-unknown-picture-format", "iso230-2 runs.csv --plot plot.txt", {"runs.csv": RUNS},
-         ("--plot", "plot.txt")),
-    Case("loss-ballbar-plot-hardlink-to-the-data", "ballbar circle.csv --plot circle.png",
-         {"circle.csv": CIRCLE, "circle.png": hardlink("circle.csv")}, ("--plot", "circle.png"),
+    Case("loss-iso230-plot-is-the-runs", "iso230-2 runs.csv --png runs.csv", {"runs.csv": RUNS},
+         ("--png", "runs.csv")),
+    Case("loss-iso230-plot-unknown-picture-format", "iso230-2 runs.csv --png plot.txt", {"runs.csv": RUNS},
+         ("--png", "plot.txt")),
+    Case("loss-ballbar-plot-hardlink-to-the-data", "ballbar circle.csv --png circle.png",
+         {"circle.csv": CIRCLE, "circle.png": hardlink("circle.csv")}, ("--png", "circle.png"),
          outputs=("circle.png",)),
-    Case("loss-ballbar-plot-on-a-full-device", "ballbar circle.csv --plot full.png",
-         {"circle.csv": CIRCLE, "full.png": symlink("/dev/full")}, ("--plot", "full.png")),
+    Case("loss-ballbar-plot-on-a-full-device", "ballbar circle.csv --png full.png",
+         {"circle.csv": CIRCLE, "full.png": symlink("/dev/full")}, ("--png", "full.png")),
     Case("loss-thermal-fit-plot-symlink-to-the-test-file",
-         "thermal-fit a.csv --target dz_um --test b.csv --plot plot.png",
+         "thermal-fit a.csv --target dz_um --test b.csv --png plot.png",
          {"a.csv": SERIES, "b.csv": SERIES.replace("0.306", "0.307"), "plot.png": symlink("b.csv")},
-         ("--plot", "plot.png")),
+         ("--png", "plot.png")),
     Case("loss-rank-png-is-the-tolerances", "rank vmc500 --points 16 --tolerances tol.toml --png tol.toml",
          {"tol.toml": example("vmc500_tolerances.toml")}, ("--png", "tol.toml")),
     Case("loss-field-out-is-the-urdf", f"field robot/slide.urdf {FIELD} --out robot/slide.urdf",
@@ -515,9 +515,9 @@ CASES = [
     Case("loss-demo-out-is-the-spec", "demo --machine m --grid 2 --out m/errors.toml",
          machine_files("vmc500", "m"), ("--out", "errors.toml")),
     Case("loss-urdf-output-is-the-spec", "urdf m -o m/errors.toml", machine_files("vmc500", "m"),
-         ("--output", "errors.toml")),
+         ("--out", "errors.toml")),
     Case("loss-dh-output-hardlink-to-the-table", "dh robot.csv -o robot.urdf",
-         {"robot.csv": DH, "robot.urdf": hardlink("robot.csv")}, ("--output", "robot.urdf"),
+         {"robot.csv": DH, "robot.urdf": hardlink("robot.csv")}, ("--out", "robot.urdf"),
          outputs=("robot.urdf",)),
     Case("loss-gear-rrd-equals-png",
          "gear gear_roller --tooth 1 --profile-points 5 --face-points 3 --png g.png --rrd g.png", {},
@@ -875,7 +875,7 @@ SLOW_CASES = [
          {"robot/slide.urdf": slide_urdf("meshes/huge.stl"), "robot/meshes/huge.stl": sparse(20 << 30)},
          ("huge.stl",), NOTE, outputs=("f.rrd",)),
     Case("loss-compensate-output-is-a-fifo", "compensate vmc700 part.nc -o out.nc",
-         {"part.nc": PART, "out.nc": fifo()}, ("--output", "out.nc"), timeout=FIFO_TIMEOUT),
+         {"part.nc": PART, "out.nc": fifo()}, ("--out", "out.nc"), timeout=FIFO_TIMEOUT),
 ]
 
 

@@ -261,7 +261,7 @@ def test_import_works_where_no_compiled_kernel_cache_can_be_written(machines):
 def test_a_refused_position_names_the_argument_it_came_from(machines):
     """Issue 44: 'q[0, 0] (axis X) is nan' said nothing of where the value came from when the
     caller had passed q_desired."""
-    from volerr_pin.compensate import compensate_points
+    from volerr_pin.compensation import compensate_points
 
     m = machines["vmc500"]
     q = np.tile(m.mid_travel, (3, 1))

@@ -492,8 +492,10 @@ def test_the_stacked_factor_is_that_of_the_whole_weighted_design():
 
 def test_the_design_reduced_in_two_halves_is_the_whole_designs(machines, monkeypatch):
     """From SPLIT_POINTS points the design is reduced in two halves whose factors are factored
-    again: the same residual to the last bit and the same factor to rounding as one pass over
-    every chunk (R^T R = J^T J, the design built here row by row)."""
+    again: the same residual and the same factor to rounding as one pass over every chunk
+    (R^T R = J^T J, the design built here row by row). Not to the last bit: a point's
+    prediction may round differently in a batch of another length (the compiled kernels'
+    vector loops and their remainders), and nothing exchanges halves any more."""
     from volerr_pin.identify import build_observations
     from volerr_pin.identify import design
     from volerr_pin.identify.design import predict_observations, reduce_design
@@ -508,9 +510,10 @@ def test_the_design_reduced_in_two_halves_is_the_whole_designs(machines, monkeyp
     pred, A = predict_observations(m, obs, theta, columns)
     J = np.column_stack([obs.nuisance, A, obs.y - pred - obs.nuisance @ nuisance]) / obs.sigma[:, None]
     assert R.T @ R == pytest.approx(J.T @ J, rel=1e-10, abs=1e-12 * np.abs(J.T @ J).max())
-    np.testing.assert_array_equal(r, J[:, -1])
+    scale = np.abs(J[:, -1]).max()
+    np.testing.assert_allclose(r, J[:, -1], rtol=1e-12, atol=1e-14 * scale)
     monkeypatch.setattr(design, "SPLIT_POINTS", 10**9)   # one chunk, one pass
     r_one, R_one = reduce_design(m, obs, theta, columns, nuisance)
-    np.testing.assert_array_equal(r, r_one)
+    np.testing.assert_allclose(r, r_one, rtol=1e-12, atol=1e-14 * scale)
     assert np.abs(R) == pytest.approx(np.abs(R_one), rel=1e-9, abs=1e-9 * np.abs(R).max())
     monkeypatch.undo()

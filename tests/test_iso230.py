@@ -117,7 +117,7 @@ def test_cli_json_fields(tmp_path, capsys):
                 rows.append(f"{t},{c},{d},{0.01 * t + 0.5 * d + rng.normal(0, 0.2):.4f}")
     path.write_text("\n".join(rows) + "\n")
     png = tmp_path / "iso.png"
-    assert main(["iso230-2", str(path), "--json", "--plot", str(png)]) == 0
+    assert main(["iso230-2", str(path), "--json", "--png", str(png)]) == 0
     r = json.loads(capsys.readouterr().out)
     for key in ("unit", "A", "A_up", "A_down", "B", "B_mean", "E", "E_up", "E_down", "M", "R", "R_up",
                 "R_down", "positions"):

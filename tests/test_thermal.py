@@ -141,7 +141,7 @@ def test_thermal_fit_cli_contract(tmp_path, capsys):
     write_series(tmp_path / "run.csv")
     png = tmp_path / "fit.png"
     assert main(["thermal-fit", str(tmp_path / "run.csv"), "--target", "growth um", "--lag", "1",
-                 "--holdout", "0.2", "--json", "--plot", str(png)]) == 0
+                 "--holdout", "0.2", "--json", "--png", str(png)]) == 0
     r = json.loads(capsys.readouterr().out)
     for key in ("target", "method", "sensors", "lag", "n_fit", "r2", "residual_se", "n_holdout", "rmse_holdout"):
         assert key in r

@@ -408,7 +408,7 @@ def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), c
         spanned one or a position outside the travel, ``nodes`` is not three whole numbers
         >= 2, or the table would not fit on the disk of ``path``'s folder.
     """
-    from .compensate import compensate_points
+    from .compensation.points import compensate_points
 
     path = check_outputs({"path": path})["path"]
     lin, fixed = _map_axes(machine, config, "a compensation table")

@@ -24,7 +24,7 @@ from . import (ballbar, compensate, demo, dh, diagnose, errormap, field, gear, i
 from . import tolerance, uncertainty
 from . import export
 from . import plan
-from .common import in_cli_words
+from .common import check_out_name, in_cli_words
 
 #: one module per command, in the order ``volerr --help`` lists them
 COMMANDS = (demo, field, rank, iso230, identify, thermal_fit, diagnose, compensate, export, errormap, ballbar,
@@ -74,6 +74,7 @@ def main(argv: list[str] | None = None) -> int:
         with warnings.catch_warnings():
             # the library's warnings are notes for the user: one line each, no source location
             warnings.showwarning = _note
+            check_out_name(args)
             return args.func(args)
     except VolerrError as err:
         print(f"volerr: error: {in_cli_words(err)}", file=sys.stderr)

@@ -9,7 +9,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..safeio import transaction
-from .common import add_json_arg, check_run_outputs, dumps, note_unused, table_console
+from .common import add_json_arg, add_png_arg, check_run_outputs, dumps, note_unused, table_console
 
 
 def add_parser(sub) -> None:
@@ -17,23 +17,23 @@ def add_parser(sub) -> None:
     p.add_argument("file", help="ballbar file: angle_deg, deviation_um[, direction] with '# plane:' and "
                                 "'# radius:' header lines")
     add_json_arg(p)
-    p.add_argument("--plot", help="write the ISO 230-4 polar picture (PNG)")
+    add_png_arg(p, "write the ISO 230-4 polar picture (PNG)", old=("--plot",))
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     from ..measurements.ballbar import evaluate_circular, read_ballbar
 
-    check_run_outputs({"plot": args.plot}, [args.file])
+    check_run_outputs({"png": args.png}, [args.file])
     run = read_ballbar(args.file)
     note_unused(args.file, run.unused)
     result = evaluate_circular(run)
-    if args.plot:
+    if args.png:
         from ..viz.plots import ballbar_png
 
         with transaction() as tx:
-            ballbar_png(run, result, tx.path(args.plot), title=f"ISO 230-4: {Path(args.file).name}")
-        result["plot"] = str(args.plot)
+            ballbar_png(run, result, tx.path(args.png), title=f"ISO 230-4: {Path(args.file).name}")
+        result["png"] = result["plot"] = str(args.png)  # "plot": the field's name until 2026-11
     if args.json:
         print(dumps(result))
         return 0
@@ -57,6 +57,6 @@ def run(args) -> int:
     cx, cy = result["centre_offset_um"]
     out.print(f"least-squares centre off the nominal one by {cx:+.3f} um along {result['plane'][0]}, "
               f"{cy:+.3f} um along {result['plane'][1]} (the set-up, mostly)")
-    if args.plot:
-        print(f"wrote {args.plot}")
+    if args.png:
+        print(f"wrote {args.png}")
     return 0

@@ -118,7 +118,12 @@ class FitProgress:
 # ------------------------------------------------------------------ files
 
 #: options whose file is a picture: its suffix must be a format the pictures can be written in
-PICTURES = ("png", "plot")
+PICTURES = ("png",)
+
+#: the suffixes of the files the commands write, and what each holds
+WRITTEN = {".toml": "a spec or tolerance file (TOML)", ".rrd": "a Rerun recording", ".csv": "a table (CSV)",
+           ".json": "a report (JSON)", ".urdf": "a URDF", ".png": "a picture", ".svg": "a picture",
+           ".pdf": "a picture"}
 
 
 def machine_files(machine: Machine) -> list[Path]:
@@ -142,8 +147,8 @@ def check_run_outputs(outputs: dict, inputs=(), machine: Machine | None = None) 
     none is an input (``inputs`` and the machine's own files), a folder or a device, or lies in
     a missing or read-only folder; pictures have a suffix they can be written in.
 
-    ``outputs`` maps the option's name as Python spells it (``"output"``, ``"png"``) to its value;
-    the names are said as options (``--output``) in messages."""
+    ``outputs`` maps the option's name as Python spells it (``"out"``, ``"png"``) to its value;
+    the names are said as options (``--out``) in messages."""
     checked = check_outputs(outputs, [*inputs, *(machine_files(machine) if machine is not None else ())])
     for name in PICTURES:
         if name in checked:
@@ -154,6 +159,59 @@ def check_run_outputs(outputs: dict, inputs=(), machine: Machine | None = None) 
 
 
 # ------------------------------------------------------------------ options
+
+
+class _OldSpelling(argparse.Action):
+    """An option as an older release spelled it (``--output``, ``--plot``): hidden from the
+    help, it gives the new option's value and says the new spelling on stderr."""
+
+    def __init__(self, option_strings, dest, new: str, **kwargs):
+        super().__init__(option_strings, dest, help=argparse.SUPPRESS, **kwargs)
+        self.new = new
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"volerr: warning: {option_string} is spelled {self.new} now; {option_string} will go in the next "
+              "release", file=sys.stderr)
+        setattr(namespace, self.dest, values)
+
+
+def check_out_name(args: argparse.Namespace) -> None:
+    """Refuse an ``-o/--out`` named as another kind of file than the command writes (its suffix
+    against :func:`add_out_arg`'s ``suffixes``), before any work."""
+    out, kind = getattr(args, "out", None), getattr(args, "out_kind", None)
+    if out is None or kind is None:
+        return
+    suffixes, what = kind
+    suffix = Path(out).suffix.lower()
+    if suffixes is None and suffix in WRITTEN:
+        raise InputError(f"out: {out} is named as {WRITTEN[suffix]}, but this writes {what}", parameters=("out",))
+    if suffixes is not None and suffix not in suffixes:
+        raise InputError(f"out: this writes {what}: its name ends in {' or '.join(suffixes)}, got {out}",
+                         parameters=("out",))
+
+
+def add_out_arg(parser: argparse.ArgumentParser, help: str, *, suffixes: tuple[str, ...] | None = None,
+                what: str = "", required: bool = False, metavar: str = "FILE", old: tuple[str, ...] = (),
+                default: str | None = None) -> None:
+    """``-o/--out``, the file (or folder, with ``what`` empty) a command writes: the one
+    spelling of every command (``old`` spellings stay hidden and warn). Its suffix is checked
+    against ``suffixes`` (None: a file of none of the kinds the commands write elsewhere) by
+    :func:`check_out_name`, before any work."""
+    options = parser.add_mutually_exclusive_group(required=required) if old else parser
+    options.add_argument("-o", "--out", metavar=metavar, help=help,
+                         **({} if old else {"required": required, "default": default}))
+    for spelling in old:
+        options.add_argument(spelling, dest="out", action=_OldSpelling, new="-o/--out", metavar=metavar)
+    if what:
+        parser.set_defaults(out_kind=(suffixes, what))
+
+
+def add_png_arg(parser: argparse.ArgumentParser, help: str, *, old: tuple[str, ...] = ()) -> None:
+    """``--png``, the picture a command draws (its format checked with the outputs; ``old``
+    spellings stay hidden and warn)."""
+    parser.add_argument("--png", metavar="FILE.png", help=help)
+    for spelling in old:
+        parser.add_argument(spelling, dest="png", action=_OldSpelling, new="--png", metavar="FILE.png")
 
 
 def positive(text: str) -> int:

@@ -8,7 +8,8 @@ from pathlib import Path
 from rich.console import Console
 
 from ..safeio import transaction
-from .common import add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of
+from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, axis_config, check_run_outputs, dumps,
+                     machine_of)
 
 
 def add_parser(sub) -> None:
@@ -16,7 +17,7 @@ def add_parser(sub) -> None:
     add_machine_args(p)
     add_state_arg(p)
     p.add_argument("program", help="NC program (ISO 6983 / RS-274)")
-    p.add_argument("-o", "--output", required=True, help="compensated program to write")
+    add_out_arg(p, "compensated program to write", what="an NC program", required=True, old=("--output",))
     p.add_argument("--tol-um", type=float, default=1.0, help="position tolerance along every move (default 1)")
     p.add_argument("--tol-urad", type=float,
                    help="tool-axis tolerance on machines with rotary axes (default 10 per um of --tol-um)")
@@ -56,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
 
     machine = machine_of(args)
     path = Path(args.program)
-    check_run_outputs({"output": args.output, "report": args.report, "png": args.png}, [path], machine)
+    check_run_outputs({"out": args.out, "report": args.report, "png": args.png}, [path], machine)
     source = ProgramFile(path)  # a regular file; read as UTF-8 line by line
     offset = axis_config(machine, args.origin, "--origin")
     origin = [offset.get(axis, 0.0) for axis in machine.axes] if offset else None
@@ -68,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
                       detail=bool(args.png), most_blocks=MOST_BLOCKS if args.most_blocks is None else args.most_blocks)
     console = Console(stderr=True, highlight=False)
     with transaction() as tx:  # the program, its report and picture are all written, or none
-        with open(tx.path(args.output), "w", encoding="utf-8", newline="") as out, \
+        with open(tx.path(args.out), "w", encoding="utf-8", newline="") as out, \
                 Progress(TextColumn("compensating"), BarColumn(), DownloadColumn(), TimeRemainingColumn(),
                          console=console, transient=True, disable=args.json or not console.is_terminal) as bar:
             task = bar.add_task("", total=max(source.size, 1))
@@ -76,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
             if may_need(source.lines(), str(path)):   # parameters, expressions or O-words: follow them
                 lines = program.expand(list(source.lines()))
             program.run(lines, out.write, progress=lambda n: bar.update(task, completed=source.done))
-        report = {"machine": machine.name, "input": str(path), "output": str(args.output),
+        report = {"machine": machine.name, "input": str(path), "output": str(args.out),
                   **program.report.to_dict()}
         if args.png:
             from ..viz.plots import compensation_png
@@ -89,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
         print(dumps(report))
         return 0
     r = program.report
-    print(f"{path} -> {args.output}: {r.blocks_in} blocks in, {r.blocks_out} out; {r.moves} moves in "
+    print(f"{path} -> {args.out}: {r.blocks_in} blocks in, {r.blocks_out} out; {r.moves} moves in "
           f"{r.pieces} pieces ({r.arcs_kept} arcs kept as arcs, {r.arcs_as_lines} as lines)")
     print(f"largest error along the moves: {r.max_before_um:.2f} um before, {r.max_residual_um:.3f} um after "
           f"compensation (tolerance {r.tolerance_um:g} um)")

@@ -6,7 +6,8 @@ from ..describe import machine_info
 from ..ranking import rank
 from ..safeio import transaction
 from ..workspace import error_summary, grid, sample
-from .common import add_json_arg, add_machine_args, add_state_arg, check_run_outputs, dumps, machine_of, table_console
+from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, check_run_outputs, dumps, machine_of,
+                     table_console)
 from .tables import print_info, print_ranking, print_recording, print_summary
 
 
@@ -15,8 +16,8 @@ def add_parser(sub) -> None:
     add_machine_args(p, positional=False)
     p.add_argument("--grid", type=int, default=11, help="grid points per axis (default 11)")
     p.add_argument("--top", type=int, default=5, help="ranking rows to show (default 5)")
-    p.add_argument("--out", default="volerr_demo.rrd",
-                   help="Rerun recording to write (default volerr_demo.rrd)")
+    add_out_arg(p, "Rerun recording to write (default volerr_demo.rrd)", suffixes=(".rrd",), what="a Rerun recording",
+                default="volerr_demo.rrd")
     add_json_arg(p)
     add_state_arg(p)
     p.set_defaults(func=run)

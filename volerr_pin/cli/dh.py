@@ -6,14 +6,14 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..safeio import write_text
-from .common import check_run_outputs
+from .common import add_out_arg, check_run_outputs
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("dh", help="a URDF from a Denavit-Hartenberg table (standard or modified)")
     p.add_argument("table", help="DH table: joint,type,a_mm,alpha_deg,d_mm,theta_deg,lower,upper "
                                  "with '# convention:' and '# tool:' header lines")
-    p.add_argument("-o", "--output", required=True, help="URDF file to write")
+    add_out_arg(p, "URDF file to write", suffixes=(".urdf", ".xml"), what="a URDF", required=True, old=("--output",))
     p.add_argument("--name", help="robot name (default: the table's file name)")
     p.add_argument("--base-frame", default="base", help="name of the base frame (default base)")
     p.add_argument("--tool-frame", default="tool0", help="name of the tool frame (default tool0)")
@@ -23,7 +23,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from ..dh import dh_to_urdf, read_dh
 
-    check_run_outputs({"output": args.output}, [args.table])
+    check_run_outputs({"out": args.out}, [args.table])
     rows, convention, tool = read_dh(args.table)
     try:
         text = dh_to_urdf(rows, convention, name=args.name or Path(args.table).stem, base=args.base_frame,
@@ -34,8 +34,8 @@ def run(args) -> int:
         raise InputError(f"{args.table}: {err}") from None
     except ValueError as err:
         raise InputError(f"{args.table}: {err}") from None
-    write_text(args.output, text)
-    print(f"wrote {args.output}: {len(rows)} joints ({convention} DH), frames '{args.base_frame}' and "
-          f"'{args.tool_frame}'; load it with: volerr info {args.output} --tool-frame {args.tool_frame} "
+    write_text(args.out, text)
+    print(f"wrote {args.out}: {len(rows)} joints ({convention} DH), frames '{args.base_frame}' and "
+          f"'{args.tool_frame}'; load it with: volerr info {args.out} --tool-frame {args.tool_frame} "
           f"--workpiece-frame {args.base_frame}")
     return 0

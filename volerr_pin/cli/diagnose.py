@@ -9,8 +9,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..safeio import transaction
-from .common import (FitProgress, add_json_arg, add_machine_args, check_run_outputs, distinct_inputs, dumps,
-                     machine_of, table_console)
+from .common import (FitProgress, add_json_arg, add_machine_args, add_out_arg, check_run_outputs, distinct_inputs,
+                     dumps, machine_of, table_console)
 
 
 def plan_argv(machine: str, separate_by: dict) -> list[str]:
@@ -54,7 +54,7 @@ def add_parser(sub) -> None:
                         "and without repeated points the noise floor is unknown)")
     p.add_argument("--sigma-urad", type=float, default=None,
                    help="the noise of rotation data, std. deviation (urad; default 1)")
-    p.add_argument("--out", help="write the final model as a spec (TOML)")
+    add_out_arg(p, "write the final model as a spec (TOML)", suffixes=(".toml",), what="a spec (TOML)")
     p.add_argument("--rrd", help="write a Rerun recording of the steps")
     p.add_argument("--png", help="write a one-page summary figure")
     add_json_arg(p)

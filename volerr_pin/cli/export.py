@@ -9,8 +9,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..safeio import check_output_folder, transaction
-from .common import (FitProgress, add_json_arg, add_machine_args, add_state_arg, check_run_outputs, dumps, machine_of,
-                     positive, table_console)
+from .common import (FitProgress, add_json_arg, add_machine_args, add_out_arg, add_state_arg, check_run_outputs, dumps,
+                     machine_of, positive, table_console)
 
 
 def add_parser(sub) -> None:
@@ -21,7 +21,7 @@ def add_parser(sub) -> None:
     add_machine_args(p)
     add_state_arg(p)
     p.add_argument("--controller", required=True, choices=list(CONTROLLERS), help="the controller whose files to write")
-    p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder to write the files into")
+    add_out_arg(p, "folder to write the files into", required=True, metavar="DIR", old=("--output",))
     p.add_argument("--kind", help=f"kind of tables (default the controller's most capable that fits): {kinds}")
     p.add_argument("--zone", nargs="+", metavar="KEY=RANGE",
                    help="working zone: AXIS=LO:HI (mm, deg) or AXIS=V per axis, tool=LO:HI or tool=L (mm, the tool "
@@ -40,19 +40,19 @@ def run(args) -> int:
     from ..export import export_tables, layout_files, parse_zone, write_export
 
     machine = machine_of(args)
-    check_output_folder("output", args.output)
+    check_output_folder("out", args.out)
     check_run_outputs({"png": args.png, "rrd": args.rrd}, machine=machine)
     zone = parse_zone(machine, args.zone)
     names = layout_files(machine, args.controller, zone=zone, kind=args.kind, nodes=args.nodes)  # refusals first
-    if Path(args.output).is_dir():
+    if Path(args.out).is_dir():
         for name in names:
-            check_run_outputs({"output": Path(args.output) / name}, machine=machine)
+            check_run_outputs({"out": Path(args.out) / name}, machine=machine)
     with FitProgress(not args.json) as progress:
         result = export_tables(machine, args.controller, zone=zone, kind=args.kind, nodes=args.nodes,
                                points=args.points, seed=args.seed,
                                progress=(lambda stage: progress(stage, 0)) if progress else None)
     with transaction() as tx:                  # tables, picture and recording: all written, or none
-        write_export(result, args.output, tx)
+        write_export(result, args.out, tx)
         if args.png:
             from ..viz.export import export_png
 
@@ -69,7 +69,7 @@ def run(args) -> int:
         print(dumps(report))
         return 0
     console = table_console()
-    console.print(f"{machine.name} -> {args.controller} ({result.kind}): {len(result.files)} file(s) in {args.output}, "
+    console.print(f"{machine.name} -> {args.controller} ({result.kind}): {len(result.files)} file(s) in {args.out}, "
                   "read back as written")
     table = Table(box=box.SIMPLE, title=f"tool-point position error over {report['points']} points of the zone, "
                                         "each position reached from both directions")

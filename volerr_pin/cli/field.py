@@ -6,8 +6,8 @@ from ..errors import InputError
 from ..ranking import rank
 from ..safeio import transaction
 from ..workspace import sample
-from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of,
-                     positive)
+from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, axis_config, check_run_outputs, dumps,
+                     machine_of, positive)
 from .tables import print_recording
 
 
@@ -15,7 +15,7 @@ def add_parser(sub) -> None:
     p = sub.add_parser("field", help="Rerun recording of the error field")
     add_machine_args(p)
     add_state_arg(p)
-    p.add_argument("--out", required=True, help="recording file (.rrd)")
+    add_out_arg(p, "recording file (.rrd)", suffixes=(".rrd",), what="a Rerun recording", required=True)
     p.add_argument("--grid", type=positive, nargs="+", metavar="N",
                    help="points per linear axis (one value for all, or one per linear axis; default 9)")
     p.add_argument("--scale", type=float, help="arrow magnification (default: a round factor "

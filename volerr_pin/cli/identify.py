@@ -8,7 +8,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..safeio import transaction
-from .common import (FitProgress, add_json_arg, add_machine_args, axis_components, axis_positions,
+from .common import (FitProgress, add_json_arg, add_machine_args, add_out_arg, axis_components, axis_positions,
                      check_run_outputs, distinct_inputs, dumps, machine_of, table_console)
 from .tables import print_groups
 
@@ -19,7 +19,7 @@ def add_parser(sub) -> None:
     p.add_argument("data", nargs="+", help="measurement files (points, positioning or component runs)")
     p.add_argument("--terms", nargs="+", metavar="TERM", help="components to fit (default: all)")
     p.add_argument("--degree", type=int, help="refit the terms as Legendre polynomials of this degree")
-    p.add_argument("--out", help="write the identified spec (TOML) here")
+    add_out_arg(p, "write the identified spec (TOML) here", suffixes=(".toml",), what="a spec (TOML)")
     p.add_argument("--axis", help="axis of runs that do not name it ('# axis: X')")
     p.add_argument("--at", nargs="+", metavar="AXIS=VALUE", help="other axes' positions during runs (mm, deg)")
     cv = p.add_mutually_exclusive_group()

@@ -10,13 +10,13 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..safeio import transaction
-from .common import add_json_arg, check_run_outputs, dumps, note_unused, table_console
+from .common import add_json_arg, add_png_arg, check_run_outputs, dumps, note_unused, table_console
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("iso230-2", help="ISO 230-2 evaluation of positioning runs")
     p.add_argument("runs", help="CSV: target_mm,cycle,direction,deviation_um (or _deg / _arcsec)")
-    p.add_argument("--plot", help="write the standard's picture (PNG)")
+    add_png_arg(p, "write the standard's picture (PNG)", old=("--plot",))
     add_json_arg(p)
     p.set_defaults(func=run)
 
@@ -25,21 +25,21 @@ def run(args) -> int:
     from ..iso230 import evaluate_runs
     from ..measurements import read_runs
 
-    check_run_outputs({"plot": args.plot}, [args.runs])
+    check_run_outputs({"png": args.png}, [args.runs])
     runs = read_runs(args.runs)
     note_unused(args.runs, runs.unused)
     result = evaluate_runs(runs)
-    if args.plot:
+    if args.png:
         from ..viz.plots import iso230_png
 
         with transaction() as tx:
-            iso230_png(result, tx.path(args.plot), title=f"ISO 230-2: {Path(args.runs).name}")
+            iso230_png(result, tx.path(args.png), title=f"ISO 230-2: {Path(args.runs).name}")
     if args.json:
         print(dumps({k: v for k, v in result.items() if k != "source"} | {"source": result["source"]}))
     else:
         _print_iso(table_console(), result)
-        if args.plot:
-            print(f"wrote {args.plot}")
+        if args.png:
+            print(f"wrote {args.png}")
     return 0
 
 

@@ -10,7 +10,7 @@ from rich.markup import escape
 from ..checks import sensible
 from ..errors import InputError
 from ..safeio import read_json, transaction
-from .common import add_json_arg, add_machine_args, check_run_outputs, dumps, machine_of, table_console
+from .common import add_json_arg, add_machine_args, add_out_arg, check_run_outputs, dumps, machine_of, table_console
 
 
 def _triple(text: str) -> tuple[float, float, float]:
@@ -34,7 +34,8 @@ def add_parser(sub) -> None:
     p.add_argument("--instrument", required=True, choices=sorted(INSTRUMENTS), help="the instrument")
     p.add_argument("--budget", type=int, required=True,
                    help="number of units to measure: poses (tracker, probe), runs (interferometer), circles (ballbar)")
-    p.add_argument("--out", help="the plan: the measurement file the instrument produces, deviations empty (CSV)")
+    add_out_arg(p, "the plan: the measurement file the instrument produces, deviations empty (CSV)", suffixes=(".csv",),
+                what="a measurement file (CSV)")
     p.add_argument("--template", help="the results template identify reads once filled (CSV with comments)")
     p.add_argument("--nc", help="NC program visiting the poses with a dwell at each")
     p.add_argument("--zone", nargs="+", metavar="AXIS=LO:HI", help="working zone (mm, deg; default the travel)")

@@ -9,7 +9,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..safeio import transaction
-from .common import add_json_arg, check_run_outputs, dumps, table_console
+from .common import add_json_arg, add_png_arg, check_run_outputs, dumps, table_console
 
 
 def add_parser(sub) -> None:
@@ -26,7 +26,7 @@ def add_parser(sub) -> None:
     held.add_argument("--holdout", type=float, default=0.0, help="hold out the last fraction of rows")
     held.add_argument("--test", nargs="+", help="held-out files (fit on DATA, predict these)")
     p.add_argument("--top", type=int, default=5, help="sensors to rank (default 5)")
-    p.add_argument("--plot", help="write measured vs modelled (PNG)")
+    add_png_arg(p, "write measured vs modelled (PNG)", old=("--plot",))
     add_json_arg(p)
     p.set_defaults(func=run)
 
@@ -35,16 +35,16 @@ def run(args) -> int:
     from ..measurements.series import read_series
     from ..thermalfit import thermal_fit
 
-    check_run_outputs({"plot": args.plot}, [*args.data, *(args.test or ())])
+    check_run_outputs({"png": args.png}, [*args.data, *(args.test or ())])
     data = read_series(args.data)
     test = read_series(args.test) if args.test else None
     result = thermal_fit(data, args.target, args.sensors, lag=args.lag, method=args.method,
                          holdout=args.holdout, test=test, rank_top=args.top)
-    if args.plot:
+    if args.png:
         from ..viz.plots import thermal_fit_png
 
         with transaction() as tx:
-            thermal_fit_png(result, data if test is None else None, tx.path(args.plot))
+            thermal_fit_png(result, data if test is None else None, tx.path(args.png))
     if args.json:
         print(dumps({k: v for k, v in result.items() if k not in ("fitted", "predicted_holdout")}))
         return 0
@@ -66,6 +66,6 @@ def run(args) -> int:
     for i, row in enumerate(result["sensor_ranking"], 1):
         table.add_row(str(i), escape(row["sensor"]), f"{row['r2']:.5f}")
     console.print(table)
-    if args.plot:
-        print(f"wrote {args.plot}")
+    if args.png:
+        print(f"wrote {args.png}")
     return 0

@@ -11,7 +11,8 @@ from rich.table import Table
 
 from ..safeio import transaction
 from ..units import UM
-from .common import add_json_arg, add_machine_args, add_state_arg, check_run_outputs, dumps, machine_of, table_console
+from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, check_run_outputs, dumps, machine_of,
+                     table_console)
 from .uncertainty import StudyProgress, add_study_args, count, engine_of, positive_float, probability
 
 
@@ -30,7 +31,8 @@ def add_parser(sub) -> None:
                    help="base samples N of the Sobol' design, a power of 2: N (D + 2) runs (default 256)")
     p.add_argument("--no-sobol", action="store_true", help="skip the sensitivity indices")
     p.add_argument("--no-reallocation", action="store_true", help="skip the re-allocation")
-    p.add_argument("--out", metavar="FILE.toml", help="write the suggested tolerances as a tolerance file")
+    add_out_arg(p, "write the suggested tolerances as a tolerance file", suffixes=(".toml",),
+                what="a tolerance file (TOML)", metavar="FILE.toml")
     p.add_argument("--png", help="write the distribution of the largest error, with T marked")
     add_json_arg(p)
     p.set_defaults(func=run)

@@ -17,8 +17,8 @@ from rich.table import Table
 from ..export.registry import CONTROLLERS
 from ..safeio import transaction
 from ..units import UM
-from .common import (add_json_arg, add_machine_args, add_state_arg, check_run_outputs, dumps, machine_of, positive,
-                     table_console)
+from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, check_run_outputs, dumps, machine_of,
+                     positive, table_console)
 
 
 # ------------------------------------------------------------------ shared by the studies
@@ -148,7 +148,8 @@ def add_parser(sub) -> None:
                    help="also the residual after this compensation, computed on the estimate: exact point "
                         "compensation, or a controller's tables as volerr export writes them and the controller "
                         "applies them (default none)")
-    p.add_argument("--out", metavar="FIELD.csv", help="write every point's numbers (positions mm/deg, errors um)")
+    add_out_arg(p, "write every point's numbers (positions mm/deg, errors um)", suffixes=(".csv",), what="a table (CSV)",
+                metavar="FIELD.csv")
     p.add_argument("--rrd", metavar="FILE.rrd", help="write a Rerun recording of the uncertainty field")
     add_json_arg(p)
     p.set_defaults(func=run)

@@ -5,23 +5,23 @@ from __future__ import annotations
 import sys
 
 from ..safeio import write_text
-from .common import add_machine_args, check_run_outputs, machine_of
+from .common import add_machine_args, add_out_arg, check_run_outputs, machine_of
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("urdf", help="the URDF with error joints injected")
     add_machine_args(p)
-    p.add_argument("-o", "--output", help="file to write (default: stdout)")
+    add_out_arg(p, "file to write (default: stdout)", suffixes=(".urdf", ".xml"), what="a URDF", old=("--output",))
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     machine = machine_of(args)
-    check_run_outputs({"output": args.output}, machine=machine)
+    check_run_outputs({"out": args.out}, machine=machine)
     text = machine.injected_urdf()
-    if args.output:
-        write_text(args.output, text)
-        print(f"wrote {args.output}: {len(machine.error_joints)} error joints in "
+    if args.out:
+        write_text(args.out, text)
+        print(f"wrote {args.out}: {len(machine.error_joints)} error joints in "
               f"{len(machine.error_joints) // 6} groups", file=sys.stderr)
     else:
         sys.stdout.write(text)

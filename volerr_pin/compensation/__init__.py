@@ -1,6 +1,6 @@
 """Compensation: points, paths and the programming modes of NC programs.
 
-Point compensation (seed 002's recursion and Newton) is :mod:`volerr_pin.compensate`. Modules:
+Point compensation (seed 002's recursion and Newton) is :mod:`.points`. Modules:
 :mod:`.arcs` (desired arcs, circles through compensated points), :mod:`.programming`
 (program coordinates to axis positions: :mod:`.axes_mode`, :mod:`.tool_tip`),
 :mod:`.solver` (the residual measure and the batch solver of compensated points),
@@ -12,7 +12,7 @@ pieces), :mod:`.lines` and :mod:`.splitter` (splitting straight moves and arcs),
 from .arcs import Arc, arc_from_center
 from .moves import ARC, LINE, POINT, MoveBatch, PieceSet
 from .path import BatchResult, PathCompensation, PathCompensator, Piece
-from ..compensate import PointCompensation, compensate_points, evaluate_compensation
+from .points import PointCompensation, compensate_points, evaluate_compensation
 from .programming import PROGRAMMINGS, Programming, programming_for
 
 __all__ = ["ARC", "Arc", "BatchResult", "LINE", "MoveBatch", "POINT", "PROGRAMMINGS", "PathCompensation",

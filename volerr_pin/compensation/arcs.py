@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..compensate import COMPENSATION_BYTES
+from .points import COMPENSATION_BYTES
 from ..errors import InputError
 from ..safeio import require_memory
 from ..workspace import _integer

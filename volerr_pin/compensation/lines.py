@@ -27,7 +27,7 @@ import numpy as np
 
 from .context import Context, segment_max
 from .moves import PieceSet
-from ..compensate import solve_damped
+from .points import solve_damped
 
 __all__ = ["LinePieces", "plan_lines"]
 

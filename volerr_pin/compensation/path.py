@@ -28,7 +28,7 @@ from .arcs import Arc
 from .context import Context
 from .lines import plan_lines
 from .moves import ARC, LINE, POINT, MoveBatch, PieceSet
-from ..compensate import has_rotary
+from .points import has_rotary
 from .programming import Programming, programming_for
 from .smoothness import Smoothness
 from .solver import PointSolver, PoseMetric

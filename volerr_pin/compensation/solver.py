@@ -10,7 +10,7 @@ errors change by parts in 1e5, so each step shrinks the residual by about that f
 Jacobian is computed once when it is the same everywhere, as on a Cartesian machine), then
 steps on the actual Jacobian for the few points that do not converge so (singular poses).
 Only the points still iterating are evaluated. It finds what
-:func:`~volerr_pin.compensate.compensate_points` finds, in about a third of the
+:func:`~volerr_pin.compensation.compensate_points` finds, in about a third of the
 evaluations.
 """
 
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..machine import Machine
-from ..compensate import skew, solve_damped
+from .points import skew, solve_damped
 
 __all__ = ["PointSolver", "PoseMetric", "SolvedPoints"]
 
@@ -163,7 +163,7 @@ class PointSolver:
         Poses and residual measure.
     method : "newton" or "recursive"
         ``"recursive"``: seed 002's recursion (nominal Jacobian only, positions only, as
-        :func:`~volerr_pin.compensate.compensate_points`); ``"newton"``: nominal
+        :func:`~volerr_pin.compensation.compensate_points`); ``"newton"``: nominal
         Jacobian steps, then actual-Jacobian steps for points that do not converge.
     tol : float
         Position tolerance of a point [m].

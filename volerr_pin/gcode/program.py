@@ -56,7 +56,7 @@ class Program(ChunkWriting):
         Axis positions [m, rad] where the program starts, NaN where not known (see
         :class:`~volerr_pin.gcode.modal.Interpreter`; default: none known).
     method : str
-        Solver of the compensated commands (see :class:`~volerr_pin.compensate.PathCompensator`).
+        Solver of the compensated commands (see :class:`~volerr_pin.compensation.PathCompensator`).
     source : str
         Name of the program, for messages.
     tol_urad : float, optional

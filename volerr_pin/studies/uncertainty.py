@@ -447,14 +447,14 @@ def point_compensation(machine: Machine, **options) -> Callable[[np.ndarray], np
     machine : Machine
         The machine at the estimate.
     **options
-        Passed to :func:`volerr_pin.compensate.compensate_points` (``method``, ``tol_um``, ...).
+        Passed to :func:`volerr_pin.compensation.compensate_points` (``method``, ``tol_um``, ...).
 
     Returns
     -------
     callable
         ``command(q_desired) -> q_commanded``, both (N, n_axes) [m, rad].
     """
-    from ..compensate import compensate_points
+    from ..compensation.points import compensate_points
 
     def command(q_desired: np.ndarray) -> np.ndarray:
         return compensate_points(machine, q_desired, **options).q
