@@ -13,9 +13,9 @@ import textwrap
 
 import pytest
 
-MODULES = ("machine", "assembly", "state", "inputs", "poses", "sensitivities", "kinematics", "workspace", "ranking", "identify.observations", "identify.design",
+MODULES = ("machine", "assembly", "state", "inputs", "evaluate", "kinematics", "workspace", "ranking", "identify.observations", "identify.design",
            "identify.solver", "identify.crossval", "identify.result", "identify.fit", "diagnosis.results",
-           "diagnosis.candidates", "diagnosis.scoring", "diagnosis.changes", "diagnosis.report", "diagnosis.loop", "checks", "compensate", "errormap",
+           "diagnosis.candidates", "diagnosis.scoring", "diagnosis.changes", "diagnosis.report", "diagnosis.loop", "checks", "compensation.points", "errormap",
            "thermal", "thermalfit", "measurements.table", "measurements.columns", "measurements.protocol",
            "measurements.points", "measurements.runs", "measurements.tracker", "measurements.ballbar",
            "measurements.series", "measurements.registry", "axisfit", "dh", "iso230",

@@ -1,9 +1,8 @@
 """The layout holds: the layers of docs/layout.md (no module imports from a layer above its
-own, imports inside functions included), the order inside the packages, no import cycle, and
-sizes a newcomer can hold in mind (modules up to 800 lines, classes up to 400).
-
-Imports under ``if TYPE_CHECKING:`` are left out: they name a type for annotations and run
-nothing (``sensitivities`` names the ``Machine`` whose methods it provides).
+own), the order inside the packages, and no import cycle. Every kind of import counts: at the
+top, inside functions, under ``if TYPE_CHECKING:`` (a type named for annotations is a
+dependency a reader must follow too) and a module loaded by name through ``importlib``.
+Sizes are a review guideline, not a test.
 """
 
 from __future__ import annotations
@@ -30,26 +29,39 @@ def module_name(path: Path) -> str:
 MODULES = {module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
 
 
-def _type_checking_only(tree: ast.Module) -> set[int]:
-    """Ids of the import nodes inside ``if TYPE_CHECKING:`` blocks."""
-    out = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
-            out |= {id(n) for stmt in node.body for n in ast.walk(stmt)}
-    return out
+def _loaded_by_name(node: ast.AST, package: str) -> str | None:
+    """The module an ``importlib.import_module("...")`` call loads (a relative name resolved
+    against ``package``; the constant start of an f-string), or None for another node."""
+    if not (isinstance(node, ast.Call) and node.args
+            and getattr(node.func, "attr", getattr(node.func, "id", None)) in ("import_module", "_import_module")):
+        return None
+    arg = node.args[0]
+    if isinstance(arg, ast.JoinedStr):
+        arg = arg.values[0] if arg.values else None
+    if not (isinstance(arg, ast.Constant) and isinstance(arg.value, str)):
+        return None
+    text = arg.value.rstrip(".")
+    if text.startswith("volerr_pin"):
+        return text.removeprefix("volerr_pin").lstrip(".") or "__init__"
+    if not text.startswith("."):
+        return None
+    level = len(text) - len(text.lstrip("."))
+    base = package.split(".") if package else []
+    return ".".join(base[:len(base) - level + 1] + [text.lstrip(".")]) or "__init__"
 
 
 def imports(name: str) -> set[str]:
-    """The library modules a module imports (at any depth of its code), by module name."""
+    """The library modules a module imports (at any depth of its code, under TYPE_CHECKING too,
+    and loaded by name through importlib), by module name."""
     path = MODULES[name]
     tree = ast.parse(path.read_text(), str(path))
-    skip = _type_checking_only(tree)
     package = name if path.name == "__init__.py" and name != "__init__" else name.rpartition(".")[0]
     out = set()
     for node in ast.walk(tree):
-        if id(node) in skip:
-            continue
-        if isinstance(node, ast.ImportFrom):
+        loaded = _loaded_by_name(node, package)
+        if loaded is not None:
+            out.add(loaded if loaded in MODULES else loaded.rpartition(".")[0] or "__init__")
+        elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package.split(".") if package else []
                 base = base[:len(base) - node.level + 1]
@@ -156,15 +168,18 @@ def test_no_import_cycle():
             visit(name, [name])
 
 
-def test_the_checker_sees_function_level_and_relative_imports(tmp_path, monkeypatch):
-    """A function-level import of a higher layer is found, a TYPE_CHECKING one is not."""
+def test_the_checker_sees_every_kind_of_import(tmp_path, monkeypatch):
+    """A function-level import, one under TYPE_CHECKING and a module loaded by name through
+    importlib (a constant or the start of an f-string) are all found."""
     (tmp_path / "state.py").write_text(
-        "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .machine import Machine\n"
-        "def f():\n    from .viz.plots import something\n    from ..cli import main\n")
+        "import importlib\nfrom typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .machine import Machine\n"
+        "def f():\n    from .viz.plots import something\n    from ..cli import main\n"
+        "def g(kind):\n    importlib.import_module(f'.studies.{kind}', __package__)\n"
+        "    return importlib.import_module('volerr_pin.export.registry')\n")
     monkeypatch.setitem(MODULES, "state", tmp_path / "state.py")
-    assert imports("state") == {"viz.plots", "cli"}
+    assert imports("state") == {"machine", "viz.plots", "cli", "studies", "export.registry"}
     table = layers()
-    assert {layer_of(t, table) for t in imports("state")} == {7, 8}    # both above state's layer 2
+    assert {layer_of(t, table) for t in imports("state")} == {3, 6, 7, 8}    # all above state's layer 2
 
 
 def test_every_package_is_in_the_distribution():

@@ -278,11 +278,18 @@ def test_docstring_bars_are_escaped_outside_literals():
 
 
 def test_api_reference_has_every_module():
-    """Every module of the package gets a page (``__main__``, which runs the CLI, excepted)."""
-    names = _ext("apipages").modules()
+    """Every module of the package gets a page (``__main__``, which runs the CLI, and the old
+    names kept for one release excepted), and every package a page listing its modules."""
+    pages = _ext("apipages")
+    names = pages.modules()
     on_disk = {".".join(p.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
                for p in (ROOT / "volerr_pin").rglob("*.py")}
-    assert set(names) == {n for n in on_disk if not n.endswith("__main__")}
+    assert set(names) == {n for n in on_disk if not n.endswith("__main__") and n not in pages.ALIASES}
+    listed = set()
+    for package in pages.packages(names):
+        page = pages.package_page(package, names)
+        listed |= set(re.findall(r"^- :doc:`([\w.]+)`", page, re.M))
+    assert listed == set(names) - {"volerr_pin"}
 
 
 @pytest.mark.slow

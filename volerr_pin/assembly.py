@@ -135,6 +135,16 @@ class Assembly:
     structures: list = field(default_factory=list, repr=False)
 
     @property
+    def axes(self) -> tuple[str, ...]:
+        """Axis names in the order of the columns of ``q`` (tuple of str)."""
+        return tuple(a.name for a in self.spec.axes)
+
+    @property
+    def axis_kinds(self) -> tuple[str, ...]:
+        """Kind of each axis, "linear" (a prismatic joint, SI unit m) or "rotary" (SI unit rad)."""
+        return tuple("linear" if self.urdf.joints[a.joint].type == "prismatic" else "rotary" for a in self.spec.axes)
+
+    @property
     def nonlinear_parameters(self) -> tuple[int, ...]:
         """Indices (into theta) of coefficients the model is not linear in (time constants,
         periods); tuple of int."""

@@ -1,37 +1,34 @@
 """The checks every evaluation of a machine makes of its inputs: NC positions (shape, finite,
-within the travel unless extrapolation is asked for), coefficients and covariates.
+within the travel unless extrapolation is asked for), coefficients and the coefficients a
+derivative is taken by (the covariates are :mod:`volerr_pin.state`'s).
 
-Each function takes the machine first and is also its method (``m.check_q(q)`` is
-``check_q(m, q)``).
+Each function takes the assembled model (:class:`~volerr_pin.assembly.Assembly`) first;
+:class:`~volerr_pin.machine.Machine` checks its inputs with them once, then calls the model
+core (:mod:`volerr_pin.evaluate`).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
+from .assembly import Assembly
 from .checks import real_array
 from .errors import InputError
 from .safeio import require_memory
-from .terms import Covariates
 
 #: evaluations below this many bytes are not sized against the free memory
 SMALL_REQUEST = 64 * 2**20
 
-if TYPE_CHECKING:  # the machine imports this module; its type is only named here
-    from .machine import Machine
-
-__all__ = ["check_inputs", "check_q", "check_theta", "outside_travel", "plausible_theta", "theta_bounds"]
+__all__ = ["check_parameters", "check_q", "check_theta", "outside_travel", "plausible_theta", "theta_bounds"]
 
 
-def outside_travel(machine: "Machine", q: np.ndarray) -> np.ndarray:
+def outside_travel(asm: Assembly, q: np.ndarray) -> np.ndarray:
     """Where positions leave the travel by more than rounding.
 
     Parameters
     ----------
-    machine : Machine
-        The machine (``self`` of the method).
+    asm : Assembly
+        The assembled model.
     q : ndarray, shape (N, n_axes)
         NC positions [m, rad] (not converted or checked).
 
@@ -41,20 +38,20 @@ def outside_travel(machine: "Machine", q: np.ndarray) -> np.ndarray:
         True where ``q`` is below the lower or above the upper travel by more than 1e-9 of the
         span (at least 1e-9 m or rad).
     """
-    span = machine.assembly.travel[:, 1] - machine.assembly.travel[:, 0]
+    span = asm.travel[:, 1] - asm.travel[:, 0]
     tol = 1e-9 * np.where(np.isfinite(span), np.maximum(span, 1.0), 1.0)
-    return (q < machine.assembly.travel[:, 0] - tol) | (q > machine.assembly.travel[:, 1] + tol)
+    return (q < asm.travel[:, 0] - tol) | (q > asm.travel[:, 1] + tol)
 
 
-def check_theta(machine: "Machine", theta, limits: bool = False) -> np.ndarray:
-    """Coefficients as a new float array, checked; the machine's own when not given.
+def check_theta(asm: Assembly, theta, limits: bool = False) -> np.ndarray:
+    """Coefficients as a new float array, checked.
 
     Parameters
     ----------
-    machine : Machine
-        The machine (``self`` of the method).
-    theta : array_like, shape (P,) or None
-        Coefficients in the SI unit of each (order of ``parameter_names``).
+    asm : Assembly
+        The assembled model.
+    theta : array_like, shape (P,)
+        Coefficients in the SI unit of each (order of ``asm.names``).
     limits : bool, default False
         Also refuse values beyond the limits a spec would (:func:`plausible_theta`).
 
@@ -69,25 +66,23 @@ def check_theta(machine: "Machine", theta, limits: bool = False) -> np.ndarray:
         If ``theta`` does not have shape (P,) or holds a value that is not finite (or, with
         ``limits``, one beyond its plausibility limits).
     """
-    if theta is None:
-        return machine.theta
     theta = real_array(theta, "theta", "theta")
-    if theta.shape != (len(machine.assembly.names),):
-        raise InputError(f"theta has shape {theta.shape}; expected ({len(machine.assembly.names)},) "
-                         f"for the parameters of {machine.name}")
+    if theta.shape != (len(asm.names),):
+        raise InputError(f"theta has shape {theta.shape}; expected ({len(asm.names)},) "
+                         f"for the parameters of {asm.spec.name}")
     bad = np.flatnonzero(~np.isfinite(theta))
     if bad.size:
-        raise InputError(f"theta[{bad[0]}] ({machine.assembly.names[bad[0]]}) is {theta[bad[0]]}")
-    return plausible_theta(machine, theta) if limits else theta
+        raise InputError(f"theta[{bad[0]}] ({asm.names[bad[0]]}) is {theta[bad[0]]}")
+    return plausible_theta(asm, theta) if limits else theta
 
 
-def theta_bounds(machine: "Machine") -> np.ndarray:
+def theta_bounds(asm: Assembly) -> np.ndarray:
     """Lowest and highest plausible SI value of each coefficient, by the spec's rules.
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
+    asm : Assembly
+        The assembled model.
 
     Returns
     -------
@@ -95,23 +90,23 @@ def theta_bounds(machine: "Machine") -> np.ndarray:
         The bounds (an error within 1 m or 1 rad, a time constant within 1e10 s, a period
         from a micrometre to 1 km), in the order of ``parameter_names``; read-only.
     """
-    cached = machine.__dict__.get("_theta_bounds")
+    cached = asm.__dict__.get("_theta_bounds")   # the assembly is frozen: computed once, kept aside
     if cached is None:
-        bounds = {name: b for comp in machine.spec.components for tspec in comp.terms
+        bounds = {name: b for comp in asm.spec.components for tspec in comp.terms
                   for name, b in zip(tspec.names(comp.name), tspec.term.coefficient_bounds())}
-        cached = np.array([bounds[n] for n in machine.parameter_names]).reshape(-1, 2)
+        cached = np.array([bounds[n] for n in asm.names]).reshape(-1, 2)
         cached.flags.writeable = False
-        machine.__dict__["_theta_bounds"] = cached
+        asm.__dict__["_theta_bounds"] = cached
     return cached
 
 
-def plausible_theta(machine: "Machine", theta: np.ndarray) -> np.ndarray:
+def plausible_theta(asm: Assembly, theta: np.ndarray) -> np.ndarray:
     """``theta`` (checked by :func:`check_theta`), refused beyond :func:`theta_bounds`.
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
+    asm : Assembly
+        The assembled model.
     theta : ndarray, shape (P,)
         Coefficients, SI.
 
@@ -125,12 +120,12 @@ def plausible_theta(machine: "Machine", theta: np.ndarray) -> np.ndarray:
     InputError
         Naming the first coefficient beyond its bounds, in its display unit.
     """
-    low, high = theta_bounds(machine).T
+    low, high = theta_bounds(asm).T
     bad = np.flatnonzero((theta < low) | (theta > high))
     if bad.size:
         k = int(bad[0])
-        name = machine.parameter_names[k]
-        units = {n: u for comp in machine.spec.components for tspec in comp.terms
+        name = asm.names[k]
+        units = {n: u for comp in asm.spec.components for tspec in comp.terms
                  for n, u in zip(tspec.names(comp.name), tspec.term.coefficient_units())}
         factor, unit = units[name]
         raise InputError(f"theta[{k}] ({name}) = {theta[k] / factor:.10g} {unit} is implausible: "
@@ -138,13 +133,13 @@ def plausible_theta(machine: "Machine", theta: np.ndarray) -> np.ndarray:
     return theta
 
 
-def check_q(machine: "Machine", q, extrapolate: bool = False, columns: int = 0, name: str = "q") -> np.ndarray:
+def check_q(asm: Assembly, q, extrapolate: bool = False, columns: int = 0, name: str = "q") -> np.ndarray:
     """Convert ``q`` to a float array of NC positions and check it.
 
     Parameters
     ----------
-    machine : Machine
-        The machine (``self`` of the method).
+    asm : Assembly
+        The assembled model.
     q : array_like, shape (N, n_axes) or (n_axes,)
         NC positions [m, rad]; a single point becomes one row.
     extrapolate : bool, default False
@@ -172,66 +167,59 @@ def check_q(machine: "Machine", q, extrapolate: bool = False, columns: int = 0, 
     shape = q.shape if isinstance(q, np.ndarray) else ()   # a list is already in memory
     if len(shape) == 2:
         # measured peaks: about 8 x (64 + P) bytes a point for errors, 8 x 8 per sensitivity column
-        per_point = 8 * (64 + len(machine.assembly.names) + 8 * columns + 2 * len(machine.axes))
+        per_point = 8 * (64 + len(asm.names) + 8 * columns + 2 * len(asm.axes))
         if shape[0] * per_point > SMALL_REQUEST:   # the fits' many small calls read no /proc/meminfo
             require_memory(shape[0] * per_point, f"evaluating {shape[0]:,} positions {name}")
-    q = real_array(q, f"{name} (shape (N, {len(machine.axes)}))", name)
-    if q.ndim == 1 and q.shape[0] == len(machine.axes):
+    q = real_array(q, f"{name} (shape (N, {len(asm.axes)}))", name)
+    if q.ndim == 1 and q.shape[0] == len(asm.axes):
         q = q[None, :]
-    if q.ndim != 2 or q.shape[1] != len(machine.axes):
-        raise InputError(f"{name} has shape {q.shape}; expected (N, {len(machine.axes)}) with columns "
-                         f"{', '.join(machine.axes)}")
+    if q.ndim != 2 or q.shape[1] != len(asm.axes):
+        raise InputError(f"{name} has shape {q.shape}; expected (N, {len(asm.axes)}) with columns "
+                         f"{', '.join(asm.axes)}")
     bad = np.argwhere(~np.isfinite(q))
     if bad.size:
         i, j = bad[0]
-        raise InputError(f"{name}[{i}, {j}] (axis {machine.axes[j]}) is {q[i, j]}")
+        raise InputError(f"{name}[{i}, {j}] (axis {asm.axes[j]}) is {q[i, j]}")
     if not extrapolate:
-        outside = machine.outside_travel(q)
+        outside = outside_travel(asm, q)
         if outside.any():
             i, j = np.argwhere(outside)[0]
-            unit = "m" if machine.axis_kinds[j] == "linear" else "rad"
+            unit = "m" if asm.axis_kinds[j] == "linear" else "rad"
             raise InputError(
-                f"{name}[{i}, {j}] = {q[i, j]:.6g} {unit} is outside the travel of axis {machine.axes[j]} "
-                f"[{machine.assembly.travel[j, 0]:.6g}, {machine.assembly.travel[j, 1]:.6g}] {unit} "
+                f"{name}[{i}, {j}] = {q[i, j]:.6g} {unit} is outside the travel of axis {asm.axes[j]} "
+                f"[{asm.travel[j, 0]:.6g}, {asm.travel[j, 1]:.6g}] {unit} "
                 f"({int(outside.sum())} value(s) outside); pass extrapolate=True to evaluate there")
     return q
 
 
-def check_inputs(machine: "Machine", q, theta=None, *, extrapolate: bool = False, columns: int = 0, **covariates
-                 ) -> tuple[np.ndarray, np.ndarray, Covariates]:
-    """Check positions, coefficients and covariates at once, as every evaluation does.
+def check_parameters(asm: Assembly, parameters) -> np.ndarray:
+    """Indices of ``theta`` (all when None), checked: negative indices would wrap.
 
     Parameters
     ----------
-    machine : Machine
-        The machine (``self`` of the method).
-    q : array_like, shape (N, n_axes) or (n_axes,)
-        NC positions [m, rad].
-    theta : array_like, shape (P,), optional
-        Coefficients (SI); defaults to the machine's.
-    extrapolate : bool, default False
-        Allow positions outside the travel.
-    columns : int, default 0
-        Columns of a sensitivity the evaluation returns per point (0 for errors alone): with
-        the number of points, what the evaluation will hold, checked against the free memory
-        before ``q`` is copied (a broadcast view of a billion points is one row in memory).
-    **covariates
-        As for :meth:`~volerr_pin.machine.Machine.volumetric_error`.
+    asm : Assembly
+        The assembled model.
+    parameters : array_like of int or None
+        Indices of coefficients.
 
     Returns
     -------
-    q : ndarray, shape (N, n_axes)
-        The positions (see :func:`check_q`).
-    theta : ndarray, shape (P,)
-        The coefficients (the machine's own array when not given: not to be modified).
-    covariates : Covariates
-        The covariates (see :func:`~volerr_pin.state.check_covariates`).
+    ndarray of int, shape (P',)
+        The indices.
 
     Raises
     ------
     InputError
-        For invalid ``q``, ``theta`` or covariates, or more points than the free memory can
-        evaluate at once (see :func:`check_q`).
+        Naming ``parameters``, for values that are not indices of ``theta``.
     """
-    q = machine.check_q(q, extrapolate, columns)
-    return q, check_theta(machine, theta), machine.check_covariates(q.shape[0], covariates)
+    count = len(asm.names)
+    if parameters is None:
+        return np.arange(count)
+    raw = np.atleast_1d(np.asarray(parameters, dtype=object))
+    if raw.ndim != 1 or not all(isinstance(p, (int, np.integer)) and not isinstance(p, bool)
+                                and 0 <= p < count for p in raw):
+        bad = next((p for p in raw.ravel() if not (isinstance(p, (int, np.integer)) and not isinstance(p, bool)
+                                                  and 0 <= p < count)), raw)
+        raise InputError(f"parameters must be indices of theta, 0 to {count - 1}, got {bad!r} (an index of "
+                         "a name is parameter_names.index(name))", parameters=("parameters",))
+    return raw.astype(int)

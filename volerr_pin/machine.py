@@ -2,7 +2,9 @@
 
 :class:`Machine` is the assembled model (:mod:`volerr_pin.assembly`) with coefficient values
 and a state (:mod:`volerr_pin.state`); it evaluates the error and the tool pose at NC positions.
-Its derivatives are the functions of :mod:`volerr_pin.sensitivities`, bound as its methods.
+It is the checked front end of the model core: each evaluation and derivative checks its
+inputs once (:mod:`volerr_pin.inputs`, :mod:`volerr_pin.state`) and calls the trusted,
+batched free functions of :mod:`volerr_pin.evaluate` on the assembled model.
 """
 
 from __future__ import annotations
@@ -14,13 +16,13 @@ from typing import Mapping
 import numpy as np
 import pinocchio as pin
 
-from . import inputs, poses, sensitivities
+from . import evaluate, inputs
 from . import state as states
-from . import kinematics as K
 from .assembly import Assembly, assemble, component_values, joint_values
 from .checks import one_point
 from .errors import InputError, SpecError
 from .spec import MachineSpec, load_spec, spec_from_urdf
+from .terms import Covariates
 from .urdf import URDF, load_urdf, package_folders
 
 __all__ = ["SPEC_FILE", "Machine", "bundled_machines", "load_machine", "machines_dir"]
@@ -137,13 +139,12 @@ class Machine:
     @property
     def axes(self) -> tuple[str, ...]:
         """Axis names in the order of the columns of ``q`` (tuple of str)."""
-        return tuple(a.name for a in self._asm.spec.axes)
+        return self._asm.axes
 
     @property
     def axis_kinds(self) -> tuple[str, ...]:
         """Kind of each axis, "linear" (a prismatic joint, SI unit m) or "rotary" (SI unit rad)."""
-        return tuple("linear" if self._asm.urdf.joints[a.joint].type == "prismatic" else "rotary"
-                     for a in self._asm.spec.axes)
+        return self._asm.axis_kinds
 
     @property
     def travel(self) -> np.ndarray:
@@ -184,8 +185,11 @@ class Machine:
         """Names of the coefficients ``theta`` (e.g. ``EXX.c2``), in order; tuple of P str."""
         return self._asm.names
 
-    #: (P, 2) lowest and highest plausible SI value of each coefficient (:func:`~volerr_pin.inputs.theta_bounds`)
-    theta_bounds = property(inputs.theta_bounds)
+    @property
+    def theta_bounds(self) -> np.ndarray:
+        """(P, 2) lowest and highest plausible SI value of each coefficient, read-only
+        (:func:`~volerr_pin.inputs.theta_bounds`)."""
+        return inputs.theta_bounds(self._asm)
 
     @property
     def theta(self) -> np.ndarray:
@@ -375,17 +379,243 @@ class Machine:
         machine without temperature-driven terms)."""
         return self._asm.sensors
 
+    # ------------------------------------------------------------------ checks
+    # (volerr_pin.inputs and volerr_pin.state check, on the assembled model; every evaluation
+    # below checks its inputs once and calls the model core, volerr_pin.evaluate)
+
+    def outside_travel(self, q: np.ndarray) -> np.ndarray:
+        """Where positions leave the travel by more than rounding.
+
+        Parameters
+        ----------
+        q : ndarray, shape (N, n_axes)
+            NC positions [m, rad] (not converted or checked).
+
+        Returns
+        -------
+        ndarray of bool, shape (N, n_axes)
+            True where ``q`` is below the lower or above the upper travel by more than 1e-9 of the
+            span (at least 1e-9 m or rad).
+        """
+        return inputs.outside_travel(self._asm, q)
+
+    def check_q(self, q, extrapolate: bool = False, columns: int = 0, name: str = "q") -> np.ndarray:
+        """Convert ``q`` to a float array of NC positions and check it.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad]; a single point becomes one row.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        columns : int, default 0
+            Columns of a sensitivity the evaluation returns per point (0 for errors alone): with
+            the number of points, what the evaluation will hold, checked against the free memory
+            before ``q`` is copied (a broadcast view of a billion points takes one row of memory).
+        name : str, default "q"
+            The caller's name of the positions (``q_desired``), so that a refusal names what the
+            caller was given.
+
+        Returns
+        -------
+        ndarray, shape (N, n_axes)
+            The positions as a new float array [m, rad].
+
+        Raises
+        ------
+        InputError
+            If ``q`` is not real numbers, has the wrong shape, holds a value that is not finite, or
+            (unless ``extrapolate``) leaves the travel (see :meth:`outside_travel`), or more
+            points than the free memory can evaluate at once.
+        """
+        return inputs.check_q(self._asm, q, extrapolate, columns, name)
+
+    def check_theta(self, theta, limits: bool = False) -> np.ndarray:
+        """Coefficients as a new float array, checked; the machine's own when not given.
+
+        Parameters
+        ----------
+        theta : array_like, shape (P,) or None
+            Coefficients in the SI unit of each (order of ``parameter_names``).
+        limits : bool, default False
+            Also refuse values beyond the limits a spec would (:func:`~volerr_pin.inputs.plausible_theta`).
+
+        Returns
+        -------
+        ndarray, shape (P,)
+            The coefficients.
+
+        Raises
+        ------
+        InputError
+            If ``theta`` does not have shape (P,) or holds a value that is not finite (or, with
+            ``limits``, one beyond its plausibility limits).
+        """
+        return self._theta if theta is None else inputs.check_theta(self._asm, theta, limits)
+
+    def check_covariates(self, n: int, covariates: Mapping) -> Covariates:
+        """Check keyword covariates (t, temperatures, forces, directions; see
+        :meth:`volumetric_error`).
+
+        Covariates not given are filled in from the state set by
+        :meth:`with_state`, and the lagged temperatures that terms read
+        (``sensor@<lag>s``) are added.
+
+        Parameters
+        ----------
+        n : int
+            Number of points.
+        covariates : mapping
+            ``t`` (n,) [s], ``temperatures`` {sensor: (n,)} [degC], ``forces`` (n, 3) [N],
+            ``directions`` (n, n_axes) of +1/-1, ``series`` (n,) whole numbers naming the time
+            series each point belongs to (the file it came from: a lagged temperature is read
+            along its own series only), ``history`` the whole temperature record the points are
+            part of (:class:`~volerr_pin.terms.TemperatureHistory`); missing or None entries are
+            not given.
+
+        Returns
+        -------
+        Covariates
+            The checked covariates as float arrays (SI).
+
+        Raises
+        ------
+        InputError
+            For an unknown covariate, a value that is not numeric, has the wrong shape or is not
+            finite, a sensor name containing '@' (reserved for lags), directions other than +1 /
+            -1, or a lagged temperature without ``t``.
+        """
+        return states.check_covariates(self._asm, self._state, n, covariates)
+
+    def check_inputs(self, q, theta=None, *, extrapolate: bool = False, columns: int = 0, **covariates
+                     ) -> tuple[np.ndarray, np.ndarray, Covariates]:
+        """Check positions, coefficients and covariates at once, as every evaluation does.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad].
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        columns : int, default 0
+            Columns of a sensitivity the evaluation returns per point (0 for errors alone): with
+            the number of points, what the evaluation will hold, checked against the free memory
+            before ``q`` is copied (a broadcast view of a billion points is one row in memory).
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        q : ndarray, shape (N, n_axes)
+            The positions (see :meth:`check_q`).
+        theta : ndarray, shape (P,)
+            The coefficients (the machine's own array when not given: not to be modified).
+        covariates : Covariates
+            The covariates (see :meth:`check_covariates`).
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates, or more points than the free memory can
+            evaluate at once (see :meth:`check_q`).
+        """
+        q = self.check_q(q, extrapolate, columns)
+        return q, self.check_theta(theta), self.check_covariates(q.shape[0], covariates)
+
+    def joint_values(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
+        """Values of all Pinocchio joints (axes and error joints) at ``q``.
+
+        An axis joint takes ``sign * q``; an error joint the value of its component error on the
+        tool chain and its negative on the workpiece chain (see :mod:`volerr_pin.assembly`).
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives N = 1).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, nv)
+            Joint values [m, rad], columns in Pinocchio's velocity-space order (``model.idx_vs``).
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
+        q, theta, cov = self.check_inputs(q, theta, extrapolate=extrapolate, **covariates)
+        return joint_values(self._asm, q, theta, cov).T
+
+    def tool_poses(self, q, theta=None, *, nominal: bool = False, extrapolate: bool = False,
+                   **covariates) -> tuple[np.ndarray, np.ndarray]:
+        """Poses of the tool frame in the workpiece frame, actual (default) or nominal.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives N = 1).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`. Ignored when ``nominal``.
+        nominal : bool, default False
+            The nominal pose (every error joint at zero), which needs no covariates.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`; ignored when ``nominal``.
+
+        Returns
+        -------
+        R : ndarray, shape (N, 3, 3)
+            Rotations of the tool frame in the workpiece frame.
+        p : ndarray, shape (N, 3)
+            Positions of the tool frame's origin in the workpiece frame [m].
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
+        if nominal:
+            return evaluate.tool_poses(self._asm, self.check_q(q, extrapolate), None, None, nominal=True)
+        q, theta, cov = self.check_inputs(q, theta, extrapolate=extrapolate, **covariates)
+        return evaluate.tool_poses(self._asm, q, theta, cov)
+
+    def pinocchio_configuration(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
+        """Configurations of the machine's Pinocchio model for the points ``q``.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives N = 1).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, nq)
+            Pinocchio configuration vectors (cos, sin pairs for continuous joints).
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
+        q, theta, cov = self.check_inputs(q, theta, extrapolate=extrapolate, **covariates)
+        return evaluate.pinocchio_configuration(self._asm, q, theta, cov)
+
     # ------------------------------------------------------------------ evaluation
-    # (the checks of the inputs are volerr_pin.inputs', the covariates volerr_pin.state's;
-    # joint values and poses volerr_pin.poses': all are the machine's methods too)
-    outside_travel = inputs.outside_travel
-    check_q = inputs.check_q
-    check_theta = inputs.check_theta
-    check_inputs = inputs.check_inputs
-    check_covariates = states.check_covariates
-    joint_values = poses.joint_values
-    tool_poses = poses.tool_poses
-    pinocchio_configuration = poses.pinocchio_configuration
 
     def component_values(self, q, theta=None, *, extrapolate: bool = False, without_covariates: bool = False,
                          **covariates) -> np.ndarray:
@@ -458,21 +688,187 @@ class Machine:
         q = self.check_q(q, extrapolate)
         theta = self.check_theta(theta)
         cov = self.check_covariates(q.shape[0], covariates)
-        out = np.empty((q.shape[0], 6))
-        buffer = np.empty((self._asm.model.nv, min(self._asm.block, q.shape[0])))
-        for start in range(0, q.shape[0], self._asm.block):  # bounded memory for millions of points
-            rows = slice(start, start + self._asm.block)
-            values = joint_values(self._asm, q[rows], theta, cov.take(rows), out=buffer)
-            K.pose_error(self._asm.chain, values, order, out=out[rows])
+        out = evaluate.volumetric_error(self._asm, q, theta, cov, order)
         return out[0] if single else out
 
     # ------------------------------------------------------------------ derivatives
-    # (volerr_pin.sensitivities owns them; they are the machine's methods too)
-    sensitivity = sensitivities.sensitivity
-    component_sensitivity = sensitivities.component_sensitivity
-    error_joint_sensitivity = sensitivities.error_joint_sensitivity
-    axis_jacobian = sensitivities.axis_jacobian
-    joint_jacobian = sensitivities.joint_jacobian
+    # (exact: Jacobians of the tool frame relative to the workpiece frame along the same chain as
+    # the error, checked against Pinocchio's frame Jacobians, chained with the derivatives of the
+    # error terms; the rotation rows include the inverse left Jacobian of the rotation vector)
+
+    def sensitivity(self, q, theta=None, *, parameters=None, first_order: bool = False, extrapolate: bool = False,
+                    **covariates) -> np.ndarray:
+        """Derivative of :meth:`volumetric_error` with respect to the
+        coefficients ``theta``.
+
+        Exact: Jacobians of the tool frame relative to the workpiece frame (the same chain
+        as the error, checked against Pinocchio's frame Jacobians), chained with the
+        derivatives of the error terms; the rotation rows include the inverse left
+        Jacobian of the rotation-vector error.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives a (6, P') result).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI) at which to differentiate; defaults to :attr:`theta`.
+        parameters : array_like of int, shape (P',), optional
+            Indices of the coefficients to differentiate by, in that order; default all (P' = P).
+        first_order : bool, default False
+            Take the kinematics at zero error (the derivative of the first-order model), where
+            dependencies between coefficients are exact.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, 6, P') or (6, P')
+            d error / d theta: m or rad of error per SI unit of the coefficient; rows dx, dy, dz,
+            rx, ry, rz.
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates, or ``parameters`` that are not indices of
+            ``theta``.
+        """
+        single = one_point(q)
+        cols = inputs.check_parameters(self._asm, parameters)
+        q, theta, cov = self.check_inputs(q, theta, extrapolate=extrapolate, columns=len(cols), **covariates)
+        out = evaluate.sensitivity(self._asm, q, theta, cov, cols, first_order)
+        return out[0] if single else out
+
+    def component_sensitivity(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
+        """Derivative of the error with respect to each component error's value at the point.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives a (6, n_components) result).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, 6, n_components) or (6, n_components)
+            Error (dx, dy, dz [m], rx, ry, rz [rad]) per m or rad of each component, in the order
+            of :attr:`components`.
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
+        single = one_point(q)
+        q, theta, cov = self.check_inputs(q, theta, extrapolate=extrapolate, **covariates)
+        out = evaluate.component_sensitivity(self._asm, q, theta, cov)
+        return out[0] if single else out
+
+    def error_joint_sensitivity(self, q, theta=None, *, first_order: bool = False, extrapolate: bool = False,
+                                **covariates) -> np.ndarray:
+        """Derivative of the error with respect to the value of every injected error joint.
+
+        In the order of :attr:`error_joints`, ISO sense, whether or
+        not the spec gives the joint a term: what adding a term to any component would do.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives a (6, n_error_joints) result).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        first_order : bool, default False
+            Evaluate at zero error.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, 6, n_error_joints) or (6, n_error_joints)
+            Error (dx, dy, dz [m], rx, ry, rz [rad]) per m or rad of each error joint.
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
+        single = one_point(q)
+        q, theta, cov = self.check_inputs(q, theta, extrapolate=extrapolate, **covariates)
+        out = evaluate.error_joint_sensitivity(self._asm, q, theta, cov, first_order)
+        return out[0] if single else out
+
+    def axis_jacobian(self, q, theta=None, *, nominal: bool = False, extrapolate: bool = False,
+                      **covariates) -> np.ndarray:
+        """Derivative of the tool pose relative to the workpiece with respect to the NC positions.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives a (6, n_axes) result).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        nominal : bool, default False
+            Ignore the errors. The actual Jacobian (default) includes the position derivatives
+            of the error terms.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, 6, n_axes) or (6, n_axes)
+            Rows 0-2 the tool point's displacement [m per m or rad], rows 3-5 the rotation
+            (angular velocity, workpiece axes) [rad per m or rad].
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
+        single = one_point(q)
+        q, theta, cov = self.check_inputs(q, theta, extrapolate=extrapolate, **covariates)
+        out = evaluate.axis_jacobian(self._asm, q, theta, cov, nominal)
+        return out[0] if single else out
+
+    def joint_jacobian(self, q, theta=None, *, extrapolate: bool = False, **covariates) -> np.ndarray:
+        """Derivative of the tool pose with respect to the values of all Pinocchio joints.
+
+        As Pinocchio's frame Jacobians give it: point velocity and angular velocity of the tool,
+        in workpiece axes.
+
+        Parameters
+        ----------
+        q : array_like, shape (N, n_axes) or (n_axes,)
+            NC positions [m, rad] (a single point gives N = 1).
+        theta : array_like, shape (P,), optional
+            Coefficients (SI); defaults to :attr:`theta`.
+        extrapolate : bool, default False
+            Allow positions outside the travel.
+        **covariates
+            As for :meth:`volumetric_error`.
+
+        Returns
+        -------
+        ndarray, shape (N, 6, nv)
+            Rows 0-2 [m per m or rad of the joint], rows 3-5 [rad per m or rad]; columns in
+            Pinocchio's velocity-space order.
+
+        Raises
+        ------
+        InputError
+            For invalid ``q``, ``theta`` or covariates.
+        """
+        q, theta, cov = self.check_inputs(q, theta, extrapolate=extrapolate, **covariates)
+        return evaluate.joint_jacobian(self._asm, q, theta, cov)
 
     def __repr__(self) -> str:
         return (f"<Machine {self.name}: axes {', '.join(self.axes)}; {len(self._asm.components)} error "

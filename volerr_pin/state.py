@@ -8,17 +8,15 @@ state, and adds the lagged temperatures the terms read.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Mapping
+from typing import Mapping
 
 import numpy as np
 
+from .assembly import Assembly
 from .checks import real_array
 from .effects import add_lagged_temperatures
 from .errors import InputError
 from .terms import Covariates, TemperatureHistory
-
-if TYPE_CHECKING:  # the machine imports this module; its type is only named here
-    from .machine import Machine
 
 __all__ = ["COVARIATES", "check_covariates", "merge_state", "with_state_defaults"]
 
@@ -127,18 +125,21 @@ def with_state_defaults(state: Mapping, n: int, covariates: Mapping) -> dict:
     return out
 
 
-def check_covariates(machine: "Machine", n: int, covariates: Mapping) -> Covariates:
+def check_covariates(asm: Assembly, state: Mapping, n: int, covariates: Mapping) -> Covariates:
     """Check keyword covariates (t, temperatures, forces, directions; see
     :meth:`~volerr_pin.machine.Machine.volumetric_error`).
 
     Covariates not given are filled in from the state set by
     :meth:`~volerr_pin.machine.Machine.with_state`, and the lagged temperatures that terms read
-    (``sensor@<lag>s``) are added. Also the machine's method.
+    (``sensor@<lag>s``) are added.
 
     Parameters
     ----------
-    machine : Machine
-        The machine (``self`` of the method): its axes name the columns of ``directions``.
+    asm : Assembly
+        The assembled model: its axes name the columns of ``directions``, its terms the lagged
+        temperatures to add.
+    state : mapping
+        The machine's state (:func:`merge_state`): the covariates not given.
     n : int
         Number of points.
     covariates : mapping
@@ -161,9 +162,9 @@ def check_covariates(machine: "Machine", n: int, covariates: Mapping) -> Covaria
         finite, a sensor name containing '@' (reserved for lags), directions other than +1 /
         -1, or a lagged temperature without ``t``.
     """
-    axes = machine.axes
+    axes = asm.axes
     known = set(COVARIATES)
-    covariates = with_state_defaults(machine.state, n, covariates)
+    covariates = with_state_defaults(state, n, covariates)
     unknown = sorted(set(covariates) - known)
     if unknown:
         raise InputError(f"unknown covariate(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
@@ -200,4 +201,4 @@ def check_covariates(machine: "Machine", n: int, covariates: Mapping) -> Covaria
     if history is not None and not isinstance(history, TemperatureHistory):
         raise InputError(f"covariate 'history' must be a TemperatureHistory, got {type(history).__name__}")
     return add_lagged_temperatures(Covariates(n, t, temps, forces, directions, series, history),
-                                   machine.assembly.lags)
+                                   asm.lags)

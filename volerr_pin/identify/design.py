@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import lapack
 
+from .. import evaluate
 from ..errors import InputError
 from ..machine import Machine
 from ..units import UM_PER_M, URAD_PER_RAD
@@ -42,9 +43,42 @@ def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray,
     A : ndarray, shape (rows, F)
         d pred / d theta[free] [m or rad per SI unit of the coefficient].
     """
-    error = machine.volumetric_error(obs.q, theta, **obs.covariates)
-    S = machine.sensitivity(obs.q, theta, parameters=free, first_order=first_order, **obs.covariates)
+    error, S = error_and_sensitivity(machine, obs.q, theta, free, obs.covariates, first_order)
     return rows_of(obs.w, obs.point, error, S)
+
+
+def error_and_sensitivity(machine: Machine, q: np.ndarray, theta: np.ndarray, columns, covariates: dict,
+                          first_order: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The error at points and its sensitivity to some coefficients, the inputs checked once
+    and both evaluated by the model core (:mod:`volerr_pin.evaluate`).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    q : ndarray, shape (N, n_axes)
+        NC positions [m, rad].
+    theta : ndarray, shape (P,)
+        Coefficients (SI).
+    columns : ndarray of int, shape (F,)
+        Indices of the coefficients to differentiate by.
+    covariates : dict
+        The points' covariates, as :meth:`~volerr_pin.machine.Machine.volumetric_error` takes them.
+    first_order : bool, default False
+        The sensitivity of the first-order model.
+
+    Returns
+    -------
+    error : ndarray, shape (N, 6)
+        The error [m, rad].
+    S : ndarray, shape (N, 6, F)
+        d error / d theta[columns].
+    """
+    columns = np.asarray(columns, dtype=int)
+    q, theta, cov = machine.check_inputs(q, theta, columns=len(columns), **covariates)
+    asm = machine.assembly
+    return (evaluate.volumetric_error(asm, q, theta, cov),
+            evaluate.sensitivity(asm, q, theta, cov, columns, first_order))
 
 
 def by_halves(obs: Observations, fn, tag: str) -> np.ndarray:
@@ -290,8 +324,7 @@ def reduce_design(machine: Machine, obs: Observations, theta: np.ndarray, column
         for points, rows in half:
             cov = take_covariates(obs.covariates, points)
             q = obs.q[points]
-            error = machine.volumetric_error(q, theta, **cov)
-            S = machine.sensitivity(q, theta, parameters=columns, first_order=first_order, **cov)
+            error, S = error_and_sensitivity(machine, q, theta, columns, cov, first_order)
             pred, A = rows_of(obs.w[rows], obs.point[rows] - points[0], error, S)
             sigma = obs.sigma[rows]
             misfit = obs.y[rows] - pred - obs.nuisance[rows] @ nuisance
