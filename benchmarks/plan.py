@@ -2,7 +2,7 @@
 
     python benchmarks/plan.py [--quick] [--markdown FILE] [--instruments tracker probe ballbar]
 
-For vmc500, vmc700, cgm4000 and ur5, ``volerr_pin.plan.plan`` chooses N poses for a laser
+For vmc500, vmc700, cgm4000 and ur5, ``volerr_pin.studies.plan.plan`` chooses N poses for a laser
 tracker (two reflectors: one at the tool point, one 100 mm off it along the tool's x axis,
 5 um per coordinate) and for a probe at the tool point (1 um), and, on the machines with
 linear X, Y, Z axes, M circles for a ballbar (radii 50 to 300 mm, both directions, 72
@@ -10,7 +10,7 @@ samples per direction, 0.7 um), and compares them with a grid and uniform random
 the same count: the predicted standard uncertainty of the volumetric error over the zone
 (RMS over 512 Sobol' points), the geometric mean of the coefficients' predicted standard
 uncertainties, and the same two found by simulating the campaign (10 repeats, fixed seeds)
-and identifying from it with ``volerr_pin.identify``. A ratio below 1 means the plan is
+and identifying from it with ``volerr_pin.fit.identify``. A ratio below 1 means the plan is
 better; "not identified" means the reference design leaves coefficients that the plan
 identifies undetermined. Also a section of ``benchmarks/run.py``
 (``section(quick) -> str``).
@@ -25,7 +25,7 @@ import time
 import numpy as np
 
 import volerr_pin as vp
-from volerr_pin.plan import instrument, make_setup, plan
+from volerr_pin.studies.plan import instrument, make_setup, plan
 
 #: machine -> budget N per instrument (about twice the poses that the identifiable
 #: coefficients need)
@@ -101,7 +101,7 @@ def main() -> int:
     text = section(args.quick, args.instruments)
     print(text)
     if args.markdown:
-        from volerr_pin.safeio import write_text
+        from volerr_pin.base.safeio import write_text
 
         write_text(args.markdown, text)
     return 0

@@ -45,9 +45,9 @@ import numpy as np
 import pinocchio as pin
 
 import volerr_pin as vp
-from volerr_pin import kinematics as K
-from volerr_pin.assembly import parameter_jacobian
-from volerr_pin.workspace import sample
+from volerr_pin.model import kinematics as K
+from volerr_pin.model.assembly import parameter_jacobian
+from volerr_pin.model.workspace import sample
 
 
 def best_of(fn, repeat=3):
@@ -251,8 +251,8 @@ def peak_memory(name, n):
 
 
 def bench_identification(n):
-    from volerr_pin.identify import identify
-    from volerr_pin.simulate import campaign
+    from volerr_pin.fit.identify import identify
+    from volerr_pin.measurements.simulate import campaign
 
     truth = vp.load_machine("vmc500")
     data = campaign(truth, n=n, noise_um=0.3, seed=1)
@@ -268,9 +268,9 @@ def bench_identification(n):
 DIAGNOSIS = """
 import json, sys, time
 import volerr_pin as vp
-from volerr_pin.diagnosis import diagnose
-from volerr_pin.simulate import campaign, off_model_geometry
-from volerr_pin.specio import add_terms
+from volerr_pin.fit.diagnosis import diagnose
+from volerr_pin.measurements.simulate import campaign, off_model_geometry
+from volerr_pin.model.specio import add_terms
 
 n, style = int(sys.argv[1]), sys.argv[2]
 m = vp.load_machine("vmc500")
@@ -329,7 +329,7 @@ def nc_program(n_blocks: int) -> str:
 
 
 def bench_compensation(n_blocks):
-    from volerr_pin.gcode import compensate_program
+    from volerr_pin.compensation.gcode import compensate_program
 
     m = vp.load_machine("vmc500")
     compensate_program(m, nc_program(60))
@@ -514,7 +514,7 @@ def main(argv=None):
     text = markdown(info)
     print(text)
     if args.markdown:
-        from volerr_pin.safeio import write_text
+        from volerr_pin.base.safeio import write_text
 
         write_text(args.markdown, text + "\n")
     if args.json:

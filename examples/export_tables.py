@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 import volerr_pin as vp
-from volerr_pin.export import CONTROLLERS, export_tables
+from volerr_pin.compensation.export import CONTROLLERS, export_tables
 
 MACHINES = ("vmc500", "vmc700", "cgm4000")
 

@@ -29,9 +29,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 import volerr_pin as vp
-from volerr_pin.gear import SEED004_GEAR, contact_springback, contribution_degrees, flank_deviations, unit_error_study
-from volerr_pin.specio import remove_components, replace_terms, with_axis_errors
-from volerr_pin.units import UM
+from volerr_pin.applications.gear import SEED004_GEAR, contact_springback, contribution_degrees, flank_deviations, unit_error_study
+from volerr_pin.model.specio import remove_components, replace_terms, with_axis_errors
+from volerr_pin.base.units import UM
 
 # seed 004, Tables 2 and 4: total profile, total helix, single pitch deviation [mm]
 PAPER = {"EXA": (0.973, 0.9611, 0.9575), "EYA": (0.3615, 0.29988, -0.2838), "EZA": (0.0, 0.0, 0.0),

@@ -27,8 +27,8 @@ import rerun.blueprint as rrb
 
 import volerr_pin as vp
 from volerr_pin.viz.recording import log_field, log_machine, log_time_series, new_recording, streaming
-from volerr_pin.specio import add_terms
-from volerr_pin.workspace import evaluate_field, field_grid
+from volerr_pin.model.specio import add_terms
+from volerr_pin.model.workspace import evaluate_field, field_grid
 
 HOURS = 20.0
 REFERENCE_MM = (-250.0, 100.0)  # Z, X: mid-length of a part, 100 mm radius

@@ -43,8 +43,8 @@ from pathlib import Path
 import numpy as np
 
 import volerr_pin as vp
-from volerr_pin.simulate import ballbar_run, campaign, off_model_geometry, write_ballbar, write_points
-from volerr_pin.specio import add_terms
+from volerr_pin.measurements.simulate import ballbar_run, campaign, off_model_geometry, write_ballbar, write_points
+from volerr_pin.model.specio import add_terms
 
 HERE = Path(__file__).resolve().parent
 HIDDEN = {"EXX": {"kind": "backlash", "prefix": "rev", "reversal_um": 3.0},

@@ -7,7 +7,7 @@ reports J3 Fanuc-style, relative to the horizontal: the physical elbow angle is 
 which is why the J2 block commands J3 = -J2 (the elbow stays put while the shoulder turns).
 
 For every joint this fits the three SMR circles and the axis line
-(:func:`volerr_pin.axisfit.fit_axis`). It prints how far the points lie from their circles
+(:func:`volerr_pin.applications.axisfit.fit_axis`). It prints how far the points lie from their circles
 (the per-axis fit residual), how far the turned angles are from the commanded ones (joint
 angle transmission error and scale), and the geometry between consecutive axes (their
 angle and distance along the common normal, the DH alpha and a of the arm as built). The
@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from volerr_pin.axisfit import axis_relation, fit_axis
+from volerr_pin.applications.axisfit import axis_relation, fit_axis
 
 ARCSEC = 180.0 / math.pi * 3600.0
 
@@ -93,8 +93,8 @@ def whole_robot(table: np.ndarray, axes: list, out: Path | None = None) -> dict:
     import tempfile
 
     import volerr_pin as vp
-    from volerr_pin.axisfit import axes_to_urdf
-    from volerr_pin.identify import identify
+    from volerr_pin.applications.axisfit import axes_to_urdf
+    from volerr_pin.fit.identify import identify
     from volerr_pin.measurements.tracker import read_tracker
 
     joints = table[:, 15:21].copy()

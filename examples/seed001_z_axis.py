@@ -23,10 +23,10 @@ from pathlib import Path
 import numpy as np
 
 import volerr_pin as vp
-from volerr_pin.identify import identify
-from volerr_pin.iso230 import evaluate_runs
+from volerr_pin.fit.identify import identify
+from volerr_pin.applications.iso230 import evaluate_runs
 from volerr_pin.measurements import Runs, read_runs
-from volerr_pin.specio import legendre_terms, replace_terms, write_spec
+from volerr_pin.model.specio import legendre_terms, replace_terms, write_spec
 
 DATA = Path(__file__).resolve().parent / "data"
 DEGREE = 6

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from volerr_pin.measurements import read_series
-from volerr_pin.thermalfit import thermal_fit
+from volerr_pin.applications.thermalfit import thermal_fit
 
 
 def data_dir() -> Path | None:

@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import volerr_pin as vp
-from volerr_pin.axisfit import axis_relation, fit_axis, fit_circle
+from volerr_pin.applications.axisfit import axis_relation, fit_axis, fit_circle
 
 AXIS_POINT = np.array([1.2, -0.4, 0.3])
 AXIS_DIR = np.array([0.3, -0.2, 0.93]) / np.linalg.norm([0.3, -0.2, 0.93])
@@ -102,7 +102,7 @@ def test_bundled_robot_axes_from_simulated_sweeps(machines):
 def test_a_robot_rebuilt_from_its_measured_axes(machines, tmp_path):
     """UR5 sweeps -> axes -> URDF: the rebuilt arm puts the targets where the UR5 does, at any
     joint values (relative to the reference configuration of the sweeps)."""
-    from volerr_pin.axisfit import axes_to_urdf
+    from volerr_pin.applications.axisfit import axes_to_urdf
 
     m = machines["ur5"]
     offsets = np.array([[0.05, 0.02, 0.03], [0.1, 0.0, 0.0], [0.0, 0.1, 0.05]])
@@ -124,8 +124,8 @@ def test_a_robot_rebuilt_from_its_measured_axes(machines, tmp_path):
 
 
 def test_axes_to_urdf_refuses_mismatched_lists():
-    from volerr_pin.axisfit import Axis, axes_to_urdf
-    from volerr_pin.errors import InputError
+    from volerr_pin.applications.axisfit import Axis, axes_to_urdf
+    from volerr_pin.base.errors import InputError
 
     axis = Axis(point=np.zeros(3), direction=np.array([0.0, 0.0, 1.0]), circles=(), angle_residual=np.zeros(0),
                 angle_scale=1.0)

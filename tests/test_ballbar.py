@@ -10,11 +10,11 @@ import pytest
 import volerr_pin as vp
 from volerr_pin.measurements.ballbar import BallbarRun, evaluate_circular, read_ballbar
 from volerr_pin.cli import main
-from volerr_pin.diagnosis import diagnose
-from volerr_pin.identify import identify
+from volerr_pin.fit.diagnosis import diagnose
+from volerr_pin.fit.identify import identify
 from volerr_pin.measurements import MeasurementError, read_any
-from volerr_pin.simulate import ballbar_run, write_ballbar
-from volerr_pin.specio import add_terms
+from volerr_pin.measurements.simulate import ballbar_run, write_ballbar
+from volerr_pin.model.specio import add_terms
 
 ANGLES = np.linspace(0.0, 2 * np.pi, 360, endpoint=False)
 CENTRE = {"X": 250.0, "Y": 200.0, "Z": 200.0}

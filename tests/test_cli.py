@@ -148,7 +148,7 @@ def test_compensate_png(tmp_path, capsys):
 def _thermal_spec(tmp_path):
     """vmc500 with a 6 um thermal drift along z with a 50 min time constant."""
     import volerr_pin as vp
-    from volerr_pin.specio import add_terms, write_spec
+    from volerr_pin.model.specio import add_terms, write_spec
 
     m = add_terms(vp.load_machine("vmc500"), {
         "EZZ": {"kind": "thermal_drift", "driver": "time", "prefix": "h", "amplitudes_um": [6.0],
@@ -166,7 +166,7 @@ def test_state_drives_time_dependent_terms(tmp_path, capsys):
     assert main(["errormap", str(spec), "--elements", "1", "--points", "400", "--order", "3",
                  "--state", "t=3600", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
-    from volerr_pin.errormap import ErrorMap
+    from volerr_pin.compensation.errormap import ErrorMap
 
     warm = ErrorMap.build(m.with_state(t=3600.0), (1, 1, 1), 3).interpolation_error(400, 0)
     cold = ErrorMap.build(m.with_state(t=0.0), (1, 1, 1), 3).interpolation_error(400, 0)
@@ -186,7 +186,7 @@ def test_state_drives_time_dependent_terms(tmp_path, capsys):
 def test_with_state_fills_missing_covariates_only():
     import numpy as np
     import volerr_pin as vp
-    from volerr_pin.specio import add_terms
+    from volerr_pin.model.specio import add_terms
 
     m = add_terms(vp.load_machine("vmc500"), {
         "EZZ": {"kind": "thermal_drift", "driver": "time", "prefix": "h", "amplitudes_um": [6.0],
@@ -221,7 +221,7 @@ def test_covariates_in_some_files_only(tmp_path, capsys):
     """A tracker file with times and temperatures beside an interferometer run without them:
     a geometric model does not read them (a note), a model that does needs them everywhere."""
     import volerr_pin as vp
-    from volerr_pin.simulate import campaign, write_points
+    from volerr_pin.measurements.simulate import campaign, write_points
 
     m = vp.load_machine("vmc500")
     points = tmp_path / "points.csv"
@@ -255,7 +255,7 @@ def test_library_errors_name_parameters_and_the_cli_its_options(tmp_path, capsys
 
     import volerr_pin as vp
     from volerr_pin.measurements import read_series
-    from volerr_pin.thermalfit import thermal_fit
+    from volerr_pin.applications.thermalfit import thermal_fit
 
     data = Path(__file__).parents[1] / "examples" / "data" / "vmc500_spindle_thermal.csv"
     series = read_series([str(data)])
@@ -271,7 +271,7 @@ def test_library_errors_name_parameters_and_the_cli_its_options(tmp_path, capsys
     run = tmp_path / "run.csv"
     run.write_text("target_mm,cycle,direction,deviation_um\n0,1,1,0.5\n100,1,1,1.5\n")
     m = vp.load_machine("vmc500")
-    from volerr_pin.identify import identify
+    from volerr_pin.fit.identify import identify
     from volerr_pin.measurements import read_runs
 
     with pytest.raises(vp.InputError, match="in the file or run_axis$"):
@@ -291,7 +291,7 @@ def test_library_errors_name_parameters_and_the_cli_its_options(tmp_path, capsys
 
 def test_state_the_machine_does_not_read_is_noted(tmp_path, capsys):
     import volerr_pin as vp
-    from volerr_pin.specio import replace_terms, write_spec
+    from volerr_pin.model.specio import replace_terms, write_spec
 
     assert vp.load_machine("vmc500").sensors == ()
     assert main(["rank", "vmc500", "--points", "16", "--state", "nosuch=25", "t=3", "--json"]) == 0

@@ -9,7 +9,7 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.dh import DHRow, dh_to_urdf, read_dh, transform
+from volerr_pin.applications.dh import DHRow, dh_to_urdf, read_dh, transform
 from volerr_pin.measurements import MeasurementError
 
 
@@ -89,8 +89,8 @@ def test_duplicate_joint_names_are_refused(tmp_path, capsys):
 
 
 def test_unknown_convention_is_refused():
-    from volerr_pin.dh import DHRow, split, transform
-    from volerr_pin.errors import InputError
+    from volerr_pin.applications.dh import DHRow, split, transform
+    from volerr_pin.base.errors import InputError
 
     row = DHRow(name="j1", a=0.1, alpha=0.0, d=0.0, theta=0.0)
     for function in (lambda: transform(row, 0.0, "craig"), lambda: split(row, "craig")):

@@ -10,9 +10,9 @@ import rerun as rr
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.diagnosis import diagnose
-from volerr_pin.simulate import campaign, off_model_geometry, write_points
-from volerr_pin.specio import add_terms, remove_components, replace_terms
+from volerr_pin.fit.diagnosis import diagnose
+from volerr_pin.measurements.simulate import campaign, off_model_geometry, write_points
+from volerr_pin.model.specio import add_terms, remove_components, replace_terms
 
 NOISE = 0.3
 FLOOR = np.sqrt(3) * NOISE  # RMS of the 3D norm of the noise: 0.52 um
@@ -235,7 +235,7 @@ def test_a_long_wave_is_not_a_ball_screw(machines):
 def test_a_raised_component_starts_from_the_same_function(machines, component, by):
     """Constant -> degree 1, polynomial + 1 or 2 degrees, table with a node between every
     two: the coarse function is inside the finer space, so nothing moves before the refit."""
-    from volerr_pin.diagnosis import geometric_term, raise_components
+    from volerr_pin.fit.diagnosis import geometric_term, raise_components
 
     m = machines["vmc500"]
     raised = raise_components(m, [(component, by)])
@@ -314,7 +314,7 @@ def test_data_with_nothing_to_diagnose_are_refused(machines):
 
 
 def test_a_diagnosis_too_large_for_the_memory_is_refused_before_it_starts(machines, monkeypatch):
-    import volerr_pin.safeio as safeio
+    import volerr_pin.base.safeio as safeio
 
     m = machines["vmc500"]
     monkeypatch.setattr(safeio, "available_memory", lambda: 10_000_000)
@@ -342,7 +342,7 @@ def test_cli_diagnose_refuses_bad_options_in_one_line(machines, tmp_path, capsys
 def test_evidence_and_terms_of_rounds_and_components_that_do_not_exist(machines):
     from types import SimpleNamespace
 
-    from volerr_pin.diagnosis import Step, evidence, geometric_term
+    from volerr_pin.fit.diagnosis import Step, evidence, geometric_term
 
     m = machines["vmc500"]
     result = SimpleNamespace(steps=[Step(0, 1.0, [], np.zeros(3))])   # one round, nothing accepted

@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from volerr_pin.diagnosis import diagnose
-from volerr_pin.identify import build_observations
-from volerr_pin.diagnosis.results import PRACTICAL_AMPLITUDE, PRACTICAL_GAIN
-from volerr_pin.simulate import heldout_set
+from volerr_pin.fit.diagnosis import diagnose
+from volerr_pin.fit.identify import build_observations
+from volerr_pin.fit.diagnosis.results import PRACTICAL_AMPLITUDE, PRACTICAL_GAIN
+from volerr_pin.measurements.simulate import heldout_set
 
 NOISE = 0.3
 FLOOR = np.sqrt(3) * NOISE
@@ -220,9 +220,9 @@ def test_five_axis_per_revolution_periods_stay_in_their_window(machines):
     3,000 rad), and the next change's spec refused that value: the diagnosis stopped with an
     error. Now every round's model holds at most one per-revolution term of an order per
     component, within its window, and the result names the error or nothing."""
-    from volerr_pin.diagnosis.candidates import ROTARY_ORDERS
-    from volerr_pin.diagnosis.loop import PERIOD_WINDOW
-    from volerr_pin.specio import replace_terms, term_tables
+    from volerr_pin.fit.diagnosis.candidates import ROTARY_ORDERS
+    from volerr_pin.fit.diagnosis.loop import PERIOD_WINDOW
+    from volerr_pin.model.specio import replace_terms, term_tables
 
     m = machines["cgm4000"]
     hidden, expected = CGM["once_per_revolution"]
@@ -262,7 +262,7 @@ def test_real_spindle_sensors_are_one_thermal_finding(machines):
     import csv
 
     from volerr_pin.measurements.points import PointMeasurements
-    from volerr_pin.simulate import off_model_geometry
+    from volerr_pin.measurements.simulate import off_model_geometry
 
     with open(SPINDLE, encoding="utf-8-sig") as f:
         rows = list(csv.reader(f))

@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.diagnosis import diagnose
-from volerr_pin.diagnosis.candidates import smoother_table
-from volerr_pin.diagnosis.projector import Columns
-from volerr_pin.diagnosis.scoring import periodogram_period
-from volerr_pin.identify import build_observations
-from volerr_pin.simulate import campaign, heldout_set
-from volerr_pin.specio import add_terms
+from volerr_pin.fit.diagnosis import diagnose
+from volerr_pin.fit.diagnosis.candidates import smoother_table
+from volerr_pin.fit.diagnosis.projector import Columns
+from volerr_pin.fit.diagnosis.scoring import periodogram_period
+from volerr_pin.fit.identify import build_observations
+from volerr_pin.measurements.simulate import campaign, heldout_set
+from volerr_pin.model.specio import add_terms
 
 HMC = Path(__file__).resolve().parent / "data" / "hmc_b"
 NOISE = 0.3

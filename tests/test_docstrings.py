@@ -13,16 +13,16 @@ import textwrap
 
 import pytest
 
-MODULES = ("machine", "assembly", "state", "inputs", "evaluate", "kinematics", "workspace", "ranking", "identify.observations", "identify.design",
-           "identify.solver", "identify.crossval", "identify.result", "identify.fit", "diagnosis.results",
-           "diagnosis.candidates", "diagnosis.scoring", "diagnosis.changes", "diagnosis.report", "diagnosis.loop", "checks", "compensation.points", "errormap",
-           "thermal", "thermalfit", "measurements.table", "measurements.columns", "measurements.protocol",
+MODULES = ("model.machine", "model.assembly", "model.state", "model.inputs", "model.evaluate", "model.kinematics", "model.workspace", "fit.ranking", "fit.identify.observations", "fit.identify.design",
+           "fit.identify.solver", "fit.identify.crossval", "fit.identify.result", "fit.identify.fit", "fit.diagnosis.results",
+           "fit.diagnosis.candidates", "fit.diagnosis.scoring", "fit.diagnosis.changes", "fit.diagnosis.report", "fit.diagnosis.loop", "base.checks", "compensation.points", "compensation.errormap",
+           "applications.thermal", "applications.thermalfit", "measurements.table", "measurements.columns", "measurements.protocol",
            "measurements.points", "measurements.runs", "measurements.tracker", "measurements.ballbar",
-           "measurements.series", "measurements.registry", "axisfit", "dh", "iso230",
-           "simulate", "specio", "identifiability", "describe", "urdf", "gear.geometry", "gear.generation", "gear.flanks", "gear.sources",
-           "gear.springback", "safeio", "export.run",
-           "export.fit", "export.simulate", "export.tables", "export.zone", "export.registry",
-           "gcode.lexer", "gcode.modal", "gcode.rewrite")
+           "measurements.series", "measurements.registry", "applications.axisfit", "applications.dh", "applications.iso230",
+           "measurements.simulate", "model.specio", "fit.identifiability", "model.describe", "model.urdf", "applications.gear.geometry", "applications.gear.generation", "applications.gear.flanks", "applications.gear.sources",
+           "applications.gear.springback", "base.safeio", "compensation.export.run",
+           "compensation.export.fit", "compensation.export.simulate", "compensation.export.tables", "compensation.export.zone", "compensation.export.registry",
+           "compensation.gcode.lexer", "compensation.gcode.modal", "compensation.gcode.rewrite")
 
 SECTION_RE = re.compile(r"^(\w[\w ]*)\n-{3,}$", re.MULTILINE)
 

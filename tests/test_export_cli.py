@@ -16,9 +16,9 @@ import rerun as rr
 from volerr_pin.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
-MODULES = ["export", "export.protocol", "export.registry", "export.zone", "export.tables", "export.simulate",
-           "export.fit", "export.run", "export.layouts", "export.linuxcnc", "export.isg", "export.isg_model",
-           "export.isg_volumetric", "export.siemens", "export.heidenhain", "export.fanuc", "viz.export"]
+MODULES = ["compensation.export", "compensation.export.protocol", "compensation.export.registry", "compensation.export.zone", "compensation.export.tables", "compensation.export.simulate",
+           "compensation.export.fit", "compensation.export.run", "compensation.export.layouts", "compensation.export.linuxcnc", "compensation.export.isg", "compensation.export.isg_model",
+           "compensation.export.isg_volumetric", "compensation.export.siemens", "compensation.export.heidenhain", "compensation.export.fanuc", "viz.export"]
 
 
 def chunks(path, entity):
@@ -128,7 +128,7 @@ def test_export_api_has_numpydoc_sections(name):
 
 def test_controllers_doc_cites_every_format_and_links_resolve():
     text = (ROOT / "docs" / "controllers.md").read_text()
-    from volerr_pin.export import CONTROLLERS
+    from volerr_pin.compensation.export import CONTROLLERS
 
     for name, fmt in CONTROLLERS.items():
         assert f"`{name}`" in text

@@ -22,10 +22,10 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.errors import InputError
-from volerr_pin.export import Zone, export_tables
-from volerr_pin.export.linuxcnc import LinuxCNC
-from volerr_pin.specio import add_terms, remove_components, replace_terms
+from volerr_pin.base.errors import InputError
+from volerr_pin.compensation.export import Zone, export_tables
+from volerr_pin.compensation.export.linuxcnc import LinuxCNC
+from volerr_pin.model.specio import add_terms, remove_components, replace_terms
 
 LINELEN = 255
 EMCMOT_COMP_SIZE = 256

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.errors import InputError
-from volerr_pin.export import Zone, parse_zone
-from volerr_pin.export.fit import fit
-from volerr_pin.export.simulate import exact_setpoints, residuals, tip_jacobian, tool_tips
-from volerr_pin.export.tables import SetpointTables, Table, interpolation_weights, quantised
-from volerr_pin.export.zone import Points, motion_directions
-from volerr_pin.specio import remove_components, replace_terms
+from volerr_pin.base.errors import InputError
+from volerr_pin.compensation.export import Zone, parse_zone
+from volerr_pin.compensation.export.fit import fit
+from volerr_pin.compensation.export.simulate import exact_setpoints, residuals, tip_jacobian, tool_tips
+from volerr_pin.compensation.export.tables import SetpointTables, Table, interpolation_weights, quantised
+from volerr_pin.compensation.export.zone import Points, motion_directions
+from volerr_pin.model.specio import remove_components, replace_terms
 
 
 def test_linear_weights_interpolate_and_hold_the_ends():
@@ -143,8 +143,8 @@ def test_a_direction_tables_claimed_residual_is_what_a_random_order_leaves():
     judged on the Sobol' sequence's own order the claim was 18.40 / 6.10 um (max / RMS) where the
     same points in random order gave 24.57 / 6.74 um. Both-ways points give a claim within 5 % of
     the random order, which the report gives beside it."""
-    from volerr_pin.export.run import export_tables
-    from volerr_pin.specio import add_terms
+    from volerr_pin.compensation.export.run import export_tables
+    from volerr_pin.model.specio import add_terms
 
     m = add_terms(vp.load_machine("vmc500"), {"EXX": {"kind": "backlash", "prefix": "h", "reversal_um": 6.0}})
     for controller in ("linuxcnc", "fanuc"):

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from volerr_pin.gcode import GcodeError, compensate_program, interpret
+from volerr_pin.compensation.gcode import GcodeError, compensate_program, interpret
 
 PROGRAM_500 = """%
 O1001 (test program)
@@ -363,7 +363,7 @@ def test_an_arc_piece_written_as_a_line_drops_its_centre_words(machines):
     the block becomes G1 and loses I/J without leaving gaps; a following modal arc block
     gets its G2 back."""
     from volerr_pin.compensation import Piece
-    from volerr_pin.gcode import Program, parse_block
+    from volerr_pin.compensation.gcode import Program, parse_block
 
     m = machines["vmc500"]
     writer = Program(m).writer
@@ -448,8 +448,8 @@ def test_origin_shifts_program_coordinates_to_axis_positions(machines):
 def test_modal_state_follows_the_blocks(machines):
     """The modal state between blocks: modes and position from the blocks read, canned
     cycles tracked, and a skipped block that names axes makes every position unknown."""
-    from volerr_pin.gcode import kept, parse_block
-    from volerr_pin.gcode.modal import Interpreter
+    from volerr_pin.compensation.gcode import kept, parse_block
+    from volerr_pin.compensation.gcode.modal import Interpreter
 
     reader = Interpreter(machines["vmc500"])
     state = reader.initial_state()
@@ -604,7 +604,7 @@ def test_an_arc_the_written_numbers_cannot_hold_is_written_as_chords(machines):
     would read as nearly a full circle, or whose centre is too far for nine digits, becomes
     straight pieces along it, within the tolerance."""
     from volerr_pin.compensation import Piece
-    from volerr_pin.gcode import Program, parse_block
+    from volerr_pin.compensation.gcode import Program, parse_block
 
     m = machines["vmc500"]
     writer = Program(m, tol_um=1.0).writer
@@ -652,7 +652,7 @@ def test_program_arguments_are_checked(machines, kwargs, parameter):
 
 
 def test_start_is_checked(machines):
-    from volerr_pin.gcode import Program
+    from volerr_pin.compensation.gcode import Program
 
     with pytest.raises(GcodeError, match="^start must hold 3 finite values or NaN") as info:
         Program(machines["vmc500"], start=[0.1, math.inf, 0.1])

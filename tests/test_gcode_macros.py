@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from volerr_pin.cli import main
-from volerr_pin.gcode import GcodeError, compensate_program, interpret, split_lines
-from volerr_pin.gcode.macros import Unfollowable, expand, may_need
+from volerr_pin.compensation.gcode import GcodeError, compensate_program, interpret, split_lines
+from volerr_pin.compensation.gcode.macros import Unfollowable, expand, may_need
 
 START = "G21 G90 G17\nG0 X100 Y100 Z100\n"
 

@@ -13,10 +13,10 @@ import subprocess
 
 import pytest
 
-from volerr_pin.gcode import compensate_program, split_lines
-from volerr_pin.gcode.macros import expand
-from volerr_pin.gcode.profiles import Profiles
-from volerr_pin.gcode.modal import ModalState
+from volerr_pin.compensation.gcode import compensate_program, split_lines
+from volerr_pin.compensation.gcode.macros import expand
+from volerr_pin.compensation.gcode.profiles import Profiles
+from volerr_pin.compensation.gcode.modal import ModalState
 
 import numpy as np
 

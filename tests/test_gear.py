@@ -10,12 +10,12 @@ from scipy.spatial.transform import Rotation
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.errors import InputError
-from volerr_pin.gear import (SEED004_GEAR, GearPair, contribution_degrees, deviations_by_source,
+from volerr_pin.base.errors import InputError
+from volerr_pin.applications.gear import (SEED004_GEAR, GearPair, contribution_degrees, deviations_by_source,
                              flank_deviations, unit_error_study)
-from volerr_pin.gear.generation import flank_grid, mesh_of
-from volerr_pin.specio import remove_components, replace_terms, with_axis_errors
-from volerr_pin.units import ARCSEC, DEG, MM, UM
+from volerr_pin.applications.gear.generation import flank_grid, mesh_of
+from volerr_pin.model.specio import remove_components, replace_terms, with_axis_errors
+from volerr_pin.base.units import ARCSEC, DEG, MM, UM
 
 G = SEED004_GEAR
 
@@ -321,7 +321,7 @@ STEEL = {"e_tool": 210e9, "e_work": 209e9, "nu_tool": 0.3, "nu_work": 0.3, "yiel
 def test_springback_is_dimensionally_consistent():
     """Seed 004's contact formulas in N, mm, MPa give the SI result in mm: the logarithm's
     argument and the CEB ratio are dimensionless, as they must be."""
-    from volerr_pin.gear import contact_springback
+    from volerr_pin.applications.gear import contact_springback
 
     si = contact_springback([30.79e3, 3.01e3], [0.02, 0.0029], G, roll=1e-3, **STEEL)
     in_mm = GearPair(module=1.75, pressure_angle=20 * DEG, teeth=46, tool_teeth=128, face_width=20.0)
@@ -367,7 +367,7 @@ def test_through_rolling_carries_feed_axis_errors_into_the_helix(bare):
 def test_state_reaches_every_source(roller):
     """A time-driven term needs the machine's state in every single-source row, not only in
     'all' (the rebuilt single-source machines keep the state)."""
-    from volerr_pin.specio import add_terms
+    from volerr_pin.model.specio import add_terms
 
     warm = add_terms(roller, {"EXA": {"kind": "thermal_drift", "driver": "time", "amplitudes_um": [4.0],
                                       "time_constants_min": [30.0]}}).with_state(t=3600.0)
@@ -427,5 +427,5 @@ def test_more_bad_inputs(roller):
     with pytest.raises(InputError, match=r"\(Y=0, Z=-5, A=0, B=0; mm, deg\)"):
         flank_deviations(roller, at={"Z": -0.005})
     with pytest.raises(InputError, match="broadcast"):
-        from volerr_pin.gear import contact_springback
+        from volerr_pin.applications.gear import contact_springback
         contact_springback([1e3, 2e3], [0.01, 0.02, 0.03], G, **STEEL)

@@ -139,7 +139,7 @@ def test_with_theta_refuses_what_a_spec_would_refuse(machines):
         m.with_theta(theta)
     theta[0] = 0.999  # 999 mm: absurd for a machine, but within what a spec may state
     assert m.with_theta(theta).theta[0] == 0.999
-    from volerr_pin.specio import add_terms
+    from volerr_pin.model.specio import add_terms
 
     p = add_terms(m, {"EXX": {"kind": "periodic_pitch", "prefix": "h", "period_mm": 5.0, "sine_um": [1.0],
                               "cosine_um": [0.0]}})
@@ -166,7 +166,7 @@ def test_a_billion_points_broadcast_from_one_are_sized_before_they_are_copied(ma
 def test_export_tables_into_a_device_is_refused_before_any_work(machines):
     """Issue 44: export_tables(m, "linuxcnc", "/dev/null") raised FileExistsError after the
     whole fit. The folder is checked first, as the command line checks it."""
-    from volerr_pin.export import export_tables
+    from volerr_pin.compensation.export import export_tables
 
     with pytest.raises(vp.InputError, match=r"folder: /dev/null is not a folder"):
         export_tables(machines["vmc500"], "linuxcnc", "/dev/null", points=8)
@@ -179,7 +179,7 @@ def test_a_full_disk_leaves_no_folder_and_names_the_file(machines, tmp_path, mon
     import errno
 
     from volerr_pin.cli import main
-    from volerr_pin.export import run as export_run
+    from volerr_pin.compensation.export import run as export_run
 
     class Full:
         def __init__(self, *args, **kwargs):
@@ -277,8 +277,8 @@ def test_the_memory_a_large_table_takes_is_what_its_reading_was_sized_for(machin
     reading one (traced) stays within the size it is checked against."""
     import tracemalloc
 
-    from volerr_pin.specio import add_terms
-    from volerr_pin.terms import TABLE_BYTES_PER_NODE_PAIR
+    from volerr_pin.model.specio import add_terms
+    from volerr_pin.model.terms import TABLE_BYTES_PER_NODE_PAIR
 
     n = 1200
     term = {"kind": "table", "prefix": "t", "interpolation": "cubic", "positions_mm": list(np.linspace(0, 500, n)),

@@ -9,10 +9,10 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.identify import identify
+from volerr_pin.fit.identify import identify
 from volerr_pin.measurements import PointMeasurements, read_runs
-from volerr_pin.specio import write_spec
-from volerr_pin.workspace import sample
+from volerr_pin.model.specio import write_spec
+from volerr_pin.model.workspace import sample
 
 
 def tool_points(machine, truth, n, noise, seed):
@@ -181,8 +181,8 @@ def test_cli_identify_bad_input(tmp_path, capsys):
 def test_a_time_constant_in_seconds_is_not_taken_for_no_effect(machines):
     """cgm4000's angular coefficients move the tool by metres per radian, a time constant by
     nanometres per second: the zero test compares typical changes, not SI units."""
-    from volerr_pin.simulate import campaign
-    from volerr_pin.specio import add_terms
+    from volerr_pin.measurements.simulate import campaign
+    from volerr_pin.model.specio import add_terms
 
     m = machines["cgm4000"]
     drift = {"EZX": {"kind": "thermal_drift", "driver": "time", "prefix": "d", "amplitudes_um": [6.0],
@@ -199,8 +199,8 @@ def test_a_time_constant_in_seconds_is_not_taken_for_no_effect(machines):
 def test_a_fit_that_did_not_converge_is_not_called_fitted(machines):
     """One Gauss-Newton step on a drift whose time constant starts far off: the report says
     where it stopped, and no coefficient is called fitted."""
-    from volerr_pin.simulate import campaign
-    from volerr_pin.specio import add_terms
+    from volerr_pin.measurements.simulate import campaign
+    from volerr_pin.model.specio import add_terms
 
     m = machines["vmc500"]
     drift = {"kind": "thermal_drift", "driver": "time", "prefix": "h", "amplitudes_um": [6.0],
@@ -234,7 +234,7 @@ def test_coefficients_the_data_cannot_determine_are_marked(machines):
 def test_per_point_rms_is_the_rms_of_point_error_norms(machines):
     """One helper gives every per-point RMS: the norm of each point's position residual
     (its x, y, z rows together), then the RMS over the points that have such rows."""
-    from volerr_pin.identify import build_observations, point_squares, residual_rms
+    from volerr_pin.fit.identify import build_observations, point_squares, residual_rms
     from volerr_pin.measurements import PointMeasurements
 
     m = machines["vmc500"]
@@ -296,7 +296,7 @@ def test_a_holdout_that_leaves_no_pose_to_fit_is_refused(machines, small_points)
 
 
 def test_observations_a_fit_cannot_use_are_refused_naming_the_line(machines, small_points):
-    from volerr_pin.identify import build_observations
+    from volerr_pin.fit.identify import build_observations
 
     m = machines["vmc500"]
     values = small_points.values.copy()
@@ -362,7 +362,7 @@ def test_one_point_one_pose_and_one_object(machines, small_points):
 def test_chunked_design_gives_the_fit_of_the_whole_design(machines, monkeypatch):
     """The fit reduces its design chunk by chunk (so it never holds every point's
     sensitivities); chunks of 64 points give the one-chunk result to rounding."""
-    import volerr_pin.identify.design as design
+    import volerr_pin.fit.identify.design as design
 
     m = machines["cgm4000"]
     truth, _ = identifiable_truth(m, 300, seed=5)
@@ -401,7 +401,7 @@ def test_one_term_given_as_a_string_is_that_term(machines, small_points):
 
 
 def test_observations_built_by_hand_must_be_consistent(machines, small_points):
-    from volerr_pin.identify import build_observations
+    from volerr_pin.fit.identify import build_observations
 
     m = machines["vmc500"]
     obs = build_observations(m, [small_points])
@@ -418,7 +418,7 @@ def test_observations_built_by_hand_must_be_consistent(machines, small_points):
 def test_cli_says_an_ill_conditioned_fit_in_one_note_and_the_report(tmp_path, capsys, monkeypatch):
     """The limit lowered to 1 makes any fit ill-conditioned: the command prints the warning as
     one note and the JSON report carries the flag."""
-    import volerr_pin.identify.solver as solver
+    import volerr_pin.fit.identify.solver as solver
 
     monkeypatch.setattr(solver, "CONDITION_LIMIT", 1.0)
     path = tmp_path / "points.csv"
@@ -435,9 +435,9 @@ def test_the_solver_returns_the_factor_at_its_coefficients_reducing_each_design_
     """The triangular factor and residual a fit returns (its uncertainties and residual RMS)
     are those of the returned coefficients, and no design is reduced twice at the same
     coefficients (a fit that stops without a step reuses the last one)."""
-    import volerr_pin.identify.solver as solver
-    from volerr_pin.identify import build_observations
-    from volerr_pin.identify.design import reduce_design
+    import volerr_pin.fit.identify.solver as solver
+    from volerr_pin.fit.identify import build_observations
+    from volerr_pin.fit.identify.design import reduce_design
 
     m = machines["vmc500"]
     truth, probe = identifiable_truth(m, 300, seed=7)
@@ -466,7 +466,7 @@ def test_the_stacked_factor_is_that_of_the_whole_weighted_design():
     """Blocks factored one after another on top of the factor so far give the factor of the
     whole design divided row by row by sigma (R^T R = J^T J; |R| as numpy's QR gives it, to
     rounding), whatever the sizes: more rows than columns, fewer, none."""
-    from volerr_pin.identify.design import stacked_factor
+    from volerr_pin.fit.identify.design import stacked_factor
 
     rng = np.random.default_rng(5)
     n = 7
@@ -496,9 +496,9 @@ def test_the_design_reduced_in_two_halves_is_the_whole_designs(machines, monkeyp
     (R^T R = J^T J, the design built here row by row). Not to the last bit: a point's
     prediction may round differently in a batch of another length (the compiled kernels'
     vector loops and their remainders), and nothing exchanges halves any more."""
-    from volerr_pin.identify import build_observations
-    from volerr_pin.identify import design
-    from volerr_pin.identify.design import predict_observations, reduce_design
+    from volerr_pin.fit.identify import build_observations
+    from volerr_pin.fit.identify import design
+    from volerr_pin.fit.identify.design import predict_observations, reduce_design
 
     m = machines["vmc500"]
     truth, probe = identifiable_truth(m, 300, seed=7)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from volerr_pin.cli import main
-from volerr_pin.iso230 import evaluate, evaluate_runs
+from volerr_pin.applications.iso230 import evaluate, evaluate_runs
 from volerr_pin.measurements import read_runs
 
 R2 = math.sqrt(2.0)

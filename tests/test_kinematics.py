@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 import volerr_pin as vp
-from volerr_pin import kinematics as K
+from volerr_pin.model import kinematics as K
 
 from conftest import ALL_MACHINES, random_q
 
@@ -162,7 +162,7 @@ def test_the_kernels_inverse_left_jacobian_is_pinocchios():
     left one is its transpose at phi) from 1e-2 to 3 rad, and below, where Pinocchio goes through
     the rotation matrix and loses digits, against the series I - K/2 + (1/12 + t^2/720 +
     t^4/30240) K^2, on both sides of the kernel's own switch to a series (1e-4)."""
-    from volerr_pin.kinematics import _left_jacobian_inverse, log3_left_jacobian_inverse
+    from volerr_pin.model.kinematics import _left_jacobian_inverse, log3_left_jacobian_inverse
 
     rng = np.random.default_rng(3)
     for size in (0.0, 1e-9, 3e-5, 9.9e-5, 1.01e-4, 1e-3, 1e-2, 0.3, 3.0):

@@ -18,7 +18,7 @@ PACKAGE = ROOT / "volerr_pin"
 LAYOUT = ROOT / "docs" / "layout.md"
 #: sizes over the limits that another issue is bringing down (issue 25: the NC program rewrite)
 def module_name(path: Path) -> str:
-    """``identify.fit`` for volerr_pin/identify/fit.py, ``identify`` for its __init__, ``__init__``
+    """``identify.fit`` for volerr_pin/fit/identify/fit.py, ``identify`` for its __init__, ``__init__``
     for the package's own."""
     parts = list(path.relative_to(PACKAGE).with_suffix("").parts)
     if parts[-1] == "__init__" and len(parts) > 1:
@@ -86,7 +86,7 @@ def _names(cell: str) -> list[str]:
 
 
 def layers() -> dict[str, int]:
-    """Module or package (``identify/``) -> layer, from the table of docs/layout.md."""
+    """Package (``fit/``) or module (``__init__``) -> layer, from the table of docs/layout.md."""
     out = {}
     for number, cell in re.findall(r"^\| (\d+) [^|]*\| (.*) \|$", LAYOUT.read_text(), re.M):
         for entry in _names(cell):
@@ -96,11 +96,13 @@ def layers() -> dict[str, int]:
 
 
 def package_order() -> dict[str, dict[str, int]]:
-    """Package -> {part: level} from the table of docs/layout.md (top first, '>' between levels)."""
+    """Package (dotted: ``fit.identify``) -> {part: level} from the table of docs/layout.md (top
+    first, '>' between levels; a part is a module or a package inside it)."""
     out = {}
-    for package, cell in re.findall(r"^\| `(\w+)/` \| (`__init__` > [^|]*) \|$", LAYOUT.read_text(), re.M):
+    for package, cell in re.findall(r"^\| `([\w/]+)/` \| (`__init__`[^|]* > [^|]*) \|$", LAYOUT.read_text(), re.M):
         levels = cell.split(">")
-        out[package] = {part: len(levels) - k for k, level in enumerate(levels) for part in _names(level)}
+        out[package.replace("/", ".")] = {part: len(levels) - k for k, level in enumerate(levels)
+                                          for part in _names(level)}
     return out
 
 
@@ -113,8 +115,18 @@ def layer_of(name: str, table: dict[str, int]) -> int | None:
 
 def test_the_layout_table_is_read():
     table, order = layers(), package_order()
-    assert table["cli/"] == 8 and table["kinematics"] == 0 and table["measurements/"] == 4
+    assert table["cli/"] == 6 and table["base/"] == 0 and table["measurements/"] == 2 and table["__init__"] == 4
     assert order["measurements"]["registry"] > order["measurements"]["points"] > order["measurements"]["table"]
+    assert order["model"]["machine"] > order["model"]["evaluate"] > order["model"]["assembly"]
+    assert order["fit"]["diagnosis"] > order["fit"]["identify"] and "lexer" in order["compensation.gcode"]
+
+
+def test_the_package_root_shows_the_layers():
+    """At most 12 entries at the root of the package, and every folder there is a layer."""
+    entries = sorted(p.name for p in PACKAGE.iterdir() if p.name != "__pycache__" and not p.name.endswith(".egg-info"))
+    assert len(entries) <= 12, entries
+    table = layers()
+    assert {e + "/" for e in entries if (PACKAGE / e).is_dir()} == {k for k in table if k.endswith("/")}
 
 
 def test_every_module_has_a_layer():
@@ -138,13 +150,16 @@ def test_no_part_of_a_package_imports_one_above_it(package):
     order = package_order()[package]
 
     def part(name):
-        return name.removeprefix(package).lstrip(".") or "__init__"
+        rest = name.removeprefix(package).lstrip(".")
+        return rest.split(".")[0] if rest else "__init__"
 
     parts = {name for name in MODULES if name == package or name.startswith(package + ".")}
     unlisted = sorted(p for p in parts if part(p) not in order)
     assert not unlisted, f"docs/layout.md does not order {unlisted} in {package}/"
     for name in parts:
         for target in imports(name) & parts:
+            if part(target) == part(name):
+                continue   # inside one part (a package's own modules): its own row orders them
             assert order[part(target)] <= order[part(name)], \
                 f"{name} imports {target}, which stands above it in {package}/"
 
@@ -173,13 +188,13 @@ def test_the_checker_sees_every_kind_of_import(tmp_path, monkeypatch):
     importlib (a constant or the start of an f-string) are all found."""
     (tmp_path / "state.py").write_text(
         "import importlib\nfrom typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .machine import Machine\n"
-        "def f():\n    from .viz.plots import something\n    from ..cli import main\n"
-        "def g(kind):\n    importlib.import_module(f'.studies.{kind}', __package__)\n"
-        "    return importlib.import_module('volerr_pin.export.registry')\n")
-    monkeypatch.setitem(MODULES, "state", tmp_path / "state.py")
-    assert imports("state") == {"machine", "viz.plots", "cli", "studies", "export.registry"}
+        "def f():\n    from ..viz.plots import something\n    from ..cli import main\n"
+        "def g(kind):\n    importlib.import_module(f'..studies.{kind}', __package__)\n"
+        "    return importlib.import_module('volerr_pin.compensation.export.registry')\n")
+    monkeypatch.setitem(MODULES, "model.state", tmp_path / "state.py")
+    assert imports("model.state") == {"model.machine", "viz.plots", "cli", "studies", "compensation.export.registry"}
     table = layers()
-    assert {layer_of(t, table) for t in imports("state")} == {3, 6, 7, 8}    # all above state's layer 2
+    assert {layer_of(t, table) for t in imports("model.state")} == {1, 3, 4, 5, 6}   # all but its own above model/'s 1
 
 
 def test_every_package_is_in_the_distribution():
@@ -205,3 +220,26 @@ def test_every_bundled_machine_is_in_the_distribution():
     assert folders, f"no machine folders found in {machines}"
     missing = folders - set(setup["packages"])
     assert not missing, f"add to [tool.setuptools] packages in pyproject.toml: {sorted(missing)}"
+
+
+def test_the_old_module_names_import_the_same_modules_and_warn():
+    """For one release the names before the layout (volerr_pin.machine, a module under an old
+    package, volerr_pin.compensate) import the modules of the new names, the same objects (no
+    second copy), each with a DeprecationWarning that names the new place."""
+    import subprocess
+    import sys
+
+    code = ("import warnings; warnings.simplefilter('always')\n"
+            "import volerr_pin.machine as a, volerr_pin.model.machine as b\n"
+            "from volerr_pin.gcode.lexer import Block\n"
+            "import volerr_pin.compensation.gcode.lexer as L, volerr_pin.compensate as c, volerr_pin.compensation as C\n"
+            "import volerr_pin as vp\n"
+            "print(a is b, Block is L.Block, c is C, vp.specio is vp.model.specio, b.__spec__.name,\n"
+            "      sorted(n for n in sys.modules if n.startswith('volerr_pin.gcode')))\n").replace("import warnings;",
+                                                                                                "import sys, warnings;")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.split("\n")[0] == ("True True True True volerr_pin.model.machine "
+                                          "['volerr_pin.gcode', 'volerr_pin.gcode.lexer']")
+    for old, new in [("machine", "model.machine"), ("gcode", "compensation.gcode"), ("compensate", "compensation"),
+                     ("specio", "model.specio")]:
+        assert f"DeprecationWarning: volerr_pin.{old} is volerr_pin.{new} now" in done.stderr

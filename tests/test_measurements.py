@@ -8,7 +8,7 @@ import re
 import numpy as np
 import pytest
 
-from volerr_pin import safeio
+from volerr_pin.base import safeio
 from volerr_pin.measurements import MeasurementError, Table, read_any, read_points, read_runs
 
 POINTS = """# tracker data, vmc500
@@ -416,7 +416,7 @@ def test_the_documented_plausibility_limits_are_the_ones_applied():
     """docs/measurements.md states each limit; a change of one without the other fails here."""
     from pathlib import Path
 
-    from volerr_pin.units import DEG, PLAUSIBLE
+    from volerr_pin.base.units import DEG, PLAUSIBLE
 
     doc = (Path(__file__).resolve().parents[1] / "docs" / "measurements.md").read_text()
     section = doc[doc.index("### Plausibility limits"):doc.index("## Point measurements")]

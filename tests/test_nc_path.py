@@ -27,7 +27,7 @@ import re
 import numpy as np
 import pytest
 
-from volerr_pin.gcode import compensate_program
+from volerr_pin.compensation.gcode import compensate_program
 
 TOL_UM = 1.0
 TOL_URAD = 10.0

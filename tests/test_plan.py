@@ -1,4 +1,4 @@
-"""volerr_pin.plan: the D-optimal choice against brute force, the predicted covariance against
+"""volerr_pin.studies.plan: the D-optimal choice against brute force, the predicted covariance against
 identify's, what no plan separates (closed forms), the plan against grid and random poses,
 the files (a filled plan read back by identify, the NC program read by the product's NC
 reader), the after-diagnosis plan on a simulated case, a toy instrument registered without
@@ -19,18 +19,18 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.errors import InputError
-from volerr_pin.gcode import interpret
-from volerr_pin.identify import identify
+from volerr_pin.base.errors import InputError
+from volerr_pin.compensation.gcode import interpret
+from volerr_pin.fit.identify import identify
 from volerr_pin.measurements import read_any
 from volerr_pin.measurements.points import PointMeasurements
 from volerr_pin.measurements.protocol import ObservationOptions
-from volerr_pin.plan import INSTRUMENTS, instrument, make_setup, plan, register_instrument
-from volerr_pin.plan.after import after_diagnosis, components_to_settle
-from volerr_pin.plan.design import UnitDesign, d_optimal
-from volerr_pin.plan.nc import StopsProgram, nc_program, time_estimate
-from volerr_pin.plan.poses import grid_counts, pose_candidates
-from volerr_pin.plan.tracker import in_sight
+from volerr_pin.studies.plan import INSTRUMENTS, instrument, make_setup, plan, register_instrument
+from volerr_pin.studies.plan.after import after_diagnosis, components_to_settle
+from volerr_pin.studies.plan.design import UnitDesign, d_optimal
+from volerr_pin.studies.plan.nc import StopsProgram, nc_program, time_estimate
+from volerr_pin.studies.plan.poses import grid_counts, pose_candidates
+from volerr_pin.studies.plan.tracker import in_sight
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -426,7 +426,7 @@ def test_interferometer_runs_are_files_identify_reads(tmp_path, vmc500, capsys):
 
 
 def test_files_of_one_unit_each_are_numbered_to_the_width_of_the_count(tmp_path):
-    from volerr_pin.plan.protocol import numbered_files
+    from volerr_pin.studies.plan.protocol import numbered_files
 
     assert [p.name for p in numbered_files(tmp_path / "bb.csv", 3, "circle")] == [
         "bb_circle01.csv", "bb_circle02.csv", "bb_circle03.csv"]

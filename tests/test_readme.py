@@ -189,7 +189,7 @@ def test_links_in_the_docs_resolve():
 
 
 INLINE = re.compile(r"(?<!`)`([^`\n]+)`(?!`)")
-#: an inline span that names the library: ``vp.diagnose(machine, [data])``, ``volerr_pin.diagnosis.Diagnosis``
+#: an inline span that names the library: ``vp.diagnose(machine, [data])``, ``volerr_pin.fit.diagnosis.Diagnosis``
 LIBRARY_SPAN = re.compile(r"^(vp|volerr_pin)(\.[A-Za-z_]\w*)+(\(.*\))?$")
 
 
@@ -278,13 +278,13 @@ def test_docstring_bars_are_escaped_outside_literals():
 
 
 def test_api_reference_has_every_module():
-    """Every module of the package gets a page (``__main__``, which runs the CLI, and the old
-    names kept for one release excepted), and every package a page listing its modules."""
+    """Every module of the package gets a page (``__main__``, which runs the CLI, excepted), and
+    every package a page listing its modules."""
     pages = _ext("apipages")
     names = pages.modules()
     on_disk = {".".join(p.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
                for p in (ROOT / "volerr_pin").rglob("*.py")}
-    assert set(names) == {n for n in on_disk if not n.endswith("__main__") and n not in pages.ALIASES}
+    assert set(names) == {n for n in on_disk if not n.endswith("__main__")}
     listed = set()
     for package in pages.packages(names):
         page = pages.package_page(package, names)

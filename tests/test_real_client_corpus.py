@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.gcode import GcodeError, compensate_program
+from volerr_pin.compensation.gcode import GcodeError, compensate_program
 
 from test_real_client_linuxcnc import RS274, canonical_moves, reads_as_the_product_does
 

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.gcode import compensate_program, interpret, split_lines
-from volerr_pin.gcode.macros import Unfollowable, expand
+from volerr_pin.compensation.gcode import compensate_program, interpret, split_lines
+from volerr_pin.compensation.gcode.macros import Unfollowable, expand
 
 from test_gcode import DWELL_AND_MOVE, FULL_CIRCLES, G90_1, LATHE_DIAMETER, LATHE_PROFILE, PROGRAM_500, PROGRAM_700, PROGRAM_CGM, SUB
 
@@ -315,7 +315,7 @@ def test_linuxcnc_applies_the_exported_joint_tables_as_simulated(name, seed):
     import pwd
     import tempfile
 
-    from volerr_pin.export import export_tables
+    from volerr_pin.compensation.export import export_tables
 
     if os.geteuid() == 0:
         try:

@@ -12,11 +12,11 @@ import rerun as rr
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.errors import InputError
+from volerr_pin.base.errors import InputError
 from volerr_pin.viz.plots import field_slice_png, ranking_png
-from volerr_pin.ranking import rank
+from volerr_pin.fit.ranking import rank
 from volerr_pin.viz.recording import log_field, log_time_series, new_recording, record_field, sweep_angles
-from volerr_pin.workspace import evaluate_field, field_grid
+from volerr_pin.model.workspace import evaluate_field, field_grid
 
 
 def chunks(path, entity):
@@ -176,9 +176,9 @@ def test_the_model_and_the_pictures_do_not_load_rerun():
 
     import volerr_pin
 
-    core = [f"volerr_pin.{m.name}" for m in pkgutil.iter_modules(volerr_pin.__path__)
-            if m.name not in ("viz", "cli")]
-    assert "volerr_pin.identify" in core and "volerr_pin.diagnosis" in core and len(core) > 20
+    core = [m.name for m in pkgutil.walk_packages(volerr_pin.__path__, "volerr_pin.")
+            if m.name.split(".")[1] not in ("viz", "cli")]
+    assert "volerr_pin.fit.identify" in core and "volerr_pin.fit.diagnosis" in core and len(core) > 20
     code = (f"import sys, {', '.join(core)}; "
             "print('rerun' in sys.modules, 'matplotlib' in sys.modules); "
             "import volerr_pin.viz.plots; print('rerun' in sys.modules)")
@@ -188,7 +188,7 @@ def test_the_model_and_the_pictures_do_not_load_rerun():
 
 @pytest.mark.filterwarnings("error:RRD file has no footer")
 def test_gear_recording_holds_the_normal_deviations(machines, tmp_path):
-    from volerr_pin.gear import deviations_by_source
+    from volerr_pin.applications.gear import deviations_by_source
     from volerr_pin.viz.recording import record_gear
 
     rows = deviations_by_source(machines["gear_roller"], components=["EXA", "ECB"], profile_points=5, face_points=3)

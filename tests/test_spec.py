@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin import safeio
-from volerr_pin.machine import machines_dir
-from volerr_pin.spec import read_toml
+from volerr_pin.base import safeio
+from volerr_pin.model.machine import machines_dir
+from volerr_pin.model.spec import read_toml
 
 from conftest import random_q
 

@@ -6,7 +6,7 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.specio import MAX_DEGREE, legendre_terms
+from volerr_pin.model.specio import MAX_DEGREE, legendre_terms
 
 
 def test_legendre_degree_is_bounded(machines):
@@ -33,8 +33,8 @@ def test_check_values_refuses_what_a_spec_file_would(machines):
     error of 3,000 rad); the check names it as reading a spec would, and passes the rest."""
     import numpy as np
 
-    from volerr_pin.errors import SpecError
-    from volerr_pin.specio import add_terms, check_values
+    from volerr_pin.base.errors import SpecError
+    from volerr_pin.model.specio import add_terms, check_values
 
     m = add_terms(machines["cgm4000"], {"EBB": {"kind": "periodic_pitch", "prefix": "rotary", "period_deg": 360.0,
                                                 "sine_arcsec": [5.0], "cosine_arcsec": [2.0], "origin_deg": 0.0}})
@@ -52,7 +52,7 @@ def test_check_values_refuses_what_a_spec_file_would(machines):
 
 def _counting_builds(monkeypatch) -> list:
     """Record every build of a Pinocchio model from an injected URDF."""
-    import volerr_pin.assembly as assembly
+    import volerr_pin.model.assembly as assembly
 
     built, build = [], assembly.pin.buildModelFromXML
 
@@ -74,7 +74,7 @@ def test_an_edited_machine_is_the_machine_its_spec_builds(monkeypatch, name):
     import numpy as np
 
     from conftest import random_q
-    from volerr_pin.specio import add_terms, remove_components
+    from volerr_pin.model.specio import add_terms, remove_components
 
     m = vp.load_machine(name)  # its own: the structures it gathers are shared with its edits
     built = _counting_builds(monkeypatch)

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from volerr_pin import safeio
-from volerr_pin import terms as T
-from volerr_pin.spec import build_term
+from volerr_pin.base import safeio
+from volerr_pin.model import terms as T
+from volerr_pin.model.spec import build_term
 
 TRAVEL = (0.0, 0.5)
 

@@ -11,9 +11,9 @@ NOISE = 0.3
 import pytest
 
 from volerr_pin.cli import main
-from volerr_pin.thermal import GM11, GM1N, feed_axis_six_point, spindle_five_point
+from volerr_pin.applications.thermal import GM11, GM1N, feed_axis_six_point, spindle_five_point
 from volerr_pin.measurements import SeriesData, read_series
-from volerr_pin.thermalfit import thermal_fit
+from volerr_pin.applications.thermalfit import thermal_fit
 
 
 def test_gm11_reproduces_a_worked_example_to_the_printed_digits():
@@ -257,10 +257,10 @@ def test_a_lag_reads_each_file_along_its_own_record(machines):
     starts at 0 gave -0.10 um/K for a true 2.00 (each file alone: 2.00): the lag reached into the
     other day. Each file is its own time series, and a subset of the points (a fold, a half, a
     chunk) reads the lagged temperature from the whole record, not from itself alone."""
-    from volerr_pin.identify import build_observations, identify
-    from volerr_pin.identify.observations import take_covariates
-    from volerr_pin.simulate import campaign
-    from volerr_pin.specio import add_terms
+    from volerr_pin.fit.identify import build_observations, identify
+    from volerr_pin.fit.identify.observations import take_covariates
+    from volerr_pin.measurements.simulate import campaign
+    from volerr_pin.model.specio import add_terms
 
     m = machines["vmc500"]
     term = {"kind": "thermal_drift", "driver": "temperature", "prefix": "h", "sensors": ["spindle"],
@@ -294,10 +294,10 @@ def test_a_temperature_column_in_kelvin_or_fahrenheit_is_converted_to_degC(machi
     true -0.7015) and T_spindle_K took the 20 degC reference in kelvin. The units the reader
     knows are converted as the column is read, so the fit finds the truth whichever the file
     uses, and the sensor keeps its name."""
-    from volerr_pin.identify import identify
+    from volerr_pin.fit.identify import identify
     from volerr_pin.measurements import read_points
-    from volerr_pin.simulate import campaign, write_points
-    from volerr_pin.specio import add_terms
+    from volerr_pin.measurements.simulate import campaign, write_points
+    from volerr_pin.model.specio import add_terms
 
     m = machines["vmc500"]
     term = {"kind": "thermal_drift", "driver": "temperature", "prefix": "h", "sensors": ["spindle"],

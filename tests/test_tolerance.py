@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.ranking import read_tolerances
+from volerr_pin.fit.ranking import read_tolerances
 from volerr_pin.studies.sobol import sobol_indices
 from volerr_pin.studies.tolerance import study_tolerances, tolerance_machine
 from volerr_pin.studies.tolerances import read_tolerance_file, tolerances_toml
-from volerr_pin.units import ARCSEC, UM
-from volerr_pin.workspace import grid
+from volerr_pin.base.units import ARCSEC, UM
+from volerr_pin.model.workspace import grid
 
 
 ROOT = Path(__file__).resolve().parent.parent

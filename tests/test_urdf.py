@@ -8,7 +8,7 @@ import pytest
 import yourdfpy
 
 import volerr_pin as vp
-from volerr_pin.urdf import load_urdf, parse_urdf
+from volerr_pin.model.urdf import load_urdf, parse_urdf
 
 from conftest import ALL_MACHINES, needs_device, random_q
 

@@ -1,7 +1,7 @@
 """The API reference, grouped by package, written before the pages are read.
 
 Every module found by :func:`pkgutil.walk_packages` (``__main__`` left out: importing it runs
-the command line; old names kept for one release left out too) gets
+the command line) gets
 ``docs/api/generated/<module>.rst`` (ignored by git) with an ``automodule`` of its documented
 members. Each package gets a page ``docs/api/generated/<package>.rst``: the first paragraph
 of its docstring, what it exports, and a summary of each of its modules (the first paragraph
@@ -20,12 +20,10 @@ from pathlib import Path
 
 DOCS = Path(__file__).resolve().parents[1]
 OUT = DOCS / "api" / "generated"
-#: old names kept for one release, importing what lives elsewhere now (and warning): no page
-ALIASES = {"volerr_pin.compensate"}
 
 
 def modules(package: str = "volerr_pin") -> list[str]:
-    """Names of the package's modules and subpackages (``__main__`` and old names left out),
+    """Names of the package's modules and subpackages (``__main__`` left out),
     sorted.
 
     Parameters
@@ -40,7 +38,7 @@ def modules(package: str = "volerr_pin") -> list[str]:
     """
     root = __import__(package)
     names = [package] + [m.name for m in pkgutil.walk_packages(root.__path__, package + ".")
-                         if m.name.rsplit(".", 1)[-1] != "__main__" and m.name not in ALIASES]
+                         if m.name.rsplit(".", 1)[-1] != "__main__"]
     return sorted(names)
 
 

@@ -18,7 +18,7 @@ import threading
 import warnings
 
 from .. import __version__
-from ..errors import VolerrError
+from ..base.errors import VolerrError
 from . import (ballbar, compensate, demo, dh, diagnose, errormap, field, gear, identify, info, iso230, rank,
                thermal_fit, urdf)
 from . import tolerance, uncertainty

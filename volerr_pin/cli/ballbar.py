@@ -8,7 +8,7 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from ..safeio import transaction
+from ..base.safeio import transaction
 from .common import add_json_arg, add_png_arg, check_run_outputs, dumps, note_unused, table_console
 
 

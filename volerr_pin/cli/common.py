@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 from rich.console import Console
 
-from ..errors import InputError, VolerrError
-from ..machine import Machine, load_machine
-from ..safeio import check_outputs, same_file
-from ..spec import parse_component_name
-from ..units import axis_values_to_si, parse_axis_values
+from ..base.errors import InputError, VolerrError
+from ..model.machine import Machine, load_machine
+from ..base.safeio import check_outputs, same_file
+from ..model.spec import parse_component_name
+from ..base.units import axis_values_to_si, parse_axis_values
 
 DEFAULT_MACHINE = "vmc500"
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from rich.console import Console
 
-from ..safeio import transaction
+from ..base.safeio import transaction
 from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, axis_config, check_run_outputs, dumps,
                      machine_of)
 
@@ -52,8 +52,8 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn
 
-    from ..gcode import Program, ProgramFile
-    from ..gcode.macros import MOST_BLOCKS, may_need
+    from ..compensation.gcode import Program, ProgramFile
+    from ..compensation.gcode.macros import MOST_BLOCKS, may_need
 
     machine = machine_of(args)
     path = Path(args.program)

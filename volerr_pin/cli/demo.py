@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from ..describe import machine_info
-from ..ranking import rank
-from ..safeio import transaction
-from ..workspace import error_summary, grid, sample
+from ..model.describe import machine_info
+from ..fit.ranking import rank
+from ..base.safeio import transaction
+from ..model.workspace import error_summary, grid, sample
 from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, check_run_outputs, dumps, machine_of,
                      table_console)
 from .tables import print_info, print_ranking, print_recording, print_summary
@@ -37,7 +37,7 @@ def run(args) -> int:
     with transaction() as tx:
         recording = tx.final(record_field(machine, tx.path(args.out), ranking=ranked.to_dict(top=15),
                                           counts=[args.grid] * linear if linear else None))
-    from ..compensate import evaluate_compensation
+    from ..compensation import evaluate_compensation
 
     compensation = evaluate_compensation(machine, points)
     if args.json:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import InputError
-from ..safeio import write_text
+from ..base.errors import InputError
+from ..base.safeio import write_text
 from .common import add_out_arg, check_run_outputs
 
 
@@ -21,7 +21,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..dh import dh_to_urdf, read_dh
+    from ..applications.dh import dh_to_urdf, read_dh
 
     check_run_outputs({"out": args.out}, [args.table])
     rows, convention, tool = read_dh(args.table)

@@ -8,7 +8,7 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from ..safeio import transaction
+from ..base.safeio import transaction
 from .common import (FitProgress, add_json_arg, add_machine_args, add_out_arg, check_run_outputs, distinct_inputs,
                      dumps, machine_of, table_console)
 
@@ -62,9 +62,9 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..diagnosis import diagnose
+    from ..fit.diagnosis import diagnose
     from ..measurements import read_any
-    from ..specio import write_spec
+    from ..model.specio import write_spec
 
     machine = machine_of(args)
     distinct_inputs(args.data, "DATA")

@@ -6,8 +6,8 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from ..errors import InputError
-from ..safeio import check_output_folder
+from ..base.errors import InputError
+from ..base.safeio import check_output_folder
 from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of,
                      positive, table_console)
 
@@ -32,7 +32,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..errormap import ErrorMap, axis_tables, compensation_table
+    from ..compensation.errormap import ErrorMap, axis_tables, compensation_table
 
     machine = machine_of(args)
     check_run_outputs({"table": args.table}, machine=machine)

@@ -8,13 +8,13 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from ..safeio import check_output_folder, transaction
+from ..base.safeio import check_output_folder, transaction
 from .common import (FitProgress, add_json_arg, add_machine_args, add_out_arg, add_state_arg, check_run_outputs, dumps,
                      machine_of, positive, table_console)
 
 
 def add_parser(sub) -> None:
-    from ..export import CONTROLLERS
+    from ..compensation.export import CONTROLLERS
 
     kinds = "; ".join(f"{name}: {', '.join(f.kinds)}" for name, f in CONTROLLERS.items())
     p = sub.add_parser("export", help="compensation tables a controller loads, with the residual it leaves")
@@ -37,7 +37,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..export import export_tables, layout_files, parse_zone, write_export
+    from ..compensation.export import export_tables, layout_files, parse_zone, write_export
 
     machine = machine_of(args)
     check_output_folder("out", args.out)

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from ..errors import InputError
-from ..ranking import rank
-from ..safeio import transaction
-from ..workspace import sample
+from ..base.errors import InputError
+from ..fit.ranking import rank
+from ..base.safeio import transaction
+from ..model.workspace import sample
 from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, axis_config, check_run_outputs, dumps,
                      machine_of, positive)
 from .tables import print_recording

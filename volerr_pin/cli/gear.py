@@ -5,11 +5,11 @@ from __future__ import annotations
 import math
 import sys
 
-from ..errors import InputError
-from ..gear import FLANKS, SEED004_GEAR, GearPair, contribution_degrees, deviations_by_source, unit_error_study
-from ..safeio import transaction
-from ..specio import with_axis_errors
-from ..units import DEG, MM
+from ..base.errors import InputError
+from ..applications.gear import FLANKS, SEED004_GEAR, GearPair, contribution_degrees, deviations_by_source, unit_error_study
+from ..base.safeio import transaction
+from ..model.specio import with_axis_errors
+from ..base.units import DEG, MM
 from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of,
                      positive, table_console)
 

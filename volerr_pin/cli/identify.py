@@ -7,7 +7,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from ..safeio import transaction
+from ..base.safeio import transaction
 from .common import (FitProgress, add_json_arg, add_machine_args, add_out_arg, axis_components, axis_positions,
                      check_run_outputs, distinct_inputs, dumps, machine_of, table_console)
 from .tables import print_groups
@@ -36,9 +36,9 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..identify import identify
+    from ..fit.identify import identify
     from ..measurements import read_any
-    from ..specio import legendre_terms, replace_terms, write_spec
+    from ..model.specio import legendre_terms, replace_terms, write_spec
 
     machine = machine_of(args)
     distinct_inputs(args.data, "DATA")
@@ -69,7 +69,7 @@ def run(args) -> int:
     if args.json:
         print(dumps(report))
         return 0
-    from ..identify import parameter_units
+    from ..fit.identify import parameter_units
 
     _print_identification(table_console(), report, parameter_units(machine))
     for note in notes:

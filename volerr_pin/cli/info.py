@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..describe import machine_info
+from ..model.describe import machine_info
 from .common import add_json_arg, add_machine_args, add_state_arg, dumps, machine_of, table_console
 from .tables import print_info
 

@@ -9,7 +9,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from ..safeio import transaction
+from ..base.safeio import transaction
 from .common import add_json_arg, add_png_arg, check_run_outputs, dumps, note_unused, table_console
 
 
@@ -22,7 +22,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..iso230 import evaluate_runs
+    from ..applications.iso230 import evaluate_runs
     from ..measurements import read_runs
 
     check_run_outputs({"png": args.png}, [args.runs])

@@ -7,9 +7,9 @@ import os
 import numpy as np
 from rich.markup import escape
 
-from ..checks import sensible
-from ..errors import InputError
-from ..safeio import read_json, transaction
+from ..base.checks import sensible
+from ..base.errors import InputError
+from ..base.safeio import read_json, transaction
 from .common import add_json_arg, add_machine_args, add_out_arg, check_run_outputs, dumps, machine_of, table_console
 
 
@@ -27,7 +27,7 @@ def _triple(text: str) -> tuple[float, float, float]:
 
 
 def add_parser(sub) -> None:
-    from ..plan import INSTRUMENTS
+    from ..studies.plan import INSTRUMENTS
 
     p = sub.add_parser("plan", help="plan a measurement campaign: poses, predicted uncertainties, NC program")
     add_machine_args(p)
@@ -75,10 +75,10 @@ def _targets(args) -> np.ndarray | None:
 
 
 def run(args) -> int:
-    from ..export.zone import parse_zone
-    from ..plan import instrument, make_setup, plan
-    from ..plan.after import after_diagnosis
-    from ..plan.nc import check_axes, time_estimate
+    from ..compensation.export.zone import parse_zone
+    from ..studies.plan import instrument, make_setup, plan
+    from ..studies.plan.after import after_diagnosis
+    from ..studies.plan.nc import check_axes, time_estimate
 
     machine = machine_of(args)
     inputs = [args.after] if args.after else []
@@ -144,7 +144,7 @@ def run(args) -> int:
 
 
 def _poses(machine, visits) -> list[dict]:
-    from ..units import axis_scales
+    from ..base.units import axis_scales
 
     scale = axis_scales(machine.axis_kinds)
     return [dict(zip(machine.axes, (float(v) for v in row / scale))) for row in visits]

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import sys
 
-from ..ranking import rank, read_tolerances, tool_identifiability
-from ..safeio import transaction
+from ..fit.ranking import rank, read_tolerances, tool_identifiability
+from ..base.safeio import transaction
 from .common import (add_json_arg, add_machine_args, add_state_arg, check_run_outputs, dumps, machine_of, positive,
                      table_console)
 from .tables import print_groups, print_ranking
@@ -55,7 +55,7 @@ def run(args) -> int:
         what = "tolerances" if tolerances else "current error values"
         print_ranking(console, result, f"{machine.name}: tool-point error by {args.by} "
                                         f"({args.points} points, direction {args.direction}, {what})")
-        from ..identify import parameter_units
+        from ..fit.identify import parameter_units
 
         print_groups(console, groups, units=parameter_units(machine))
     return 0

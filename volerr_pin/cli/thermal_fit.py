@@ -8,7 +8,7 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from ..safeio import transaction
+from ..base.safeio import transaction
 from .common import add_json_arg, add_png_arg, check_run_outputs, dumps, table_console
 
 
@@ -33,7 +33,7 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     from ..measurements.series import read_series
-    from ..thermalfit import thermal_fit
+    from ..applications.thermalfit import thermal_fit
 
     check_run_outputs({"png": args.png}, [*args.data, *(args.test or ())])
     data = read_series(args.data)

@@ -9,8 +9,8 @@ import sys
 from rich import box
 from rich.table import Table
 
-from ..safeio import transaction
-from ..units import UM
+from ..base.safeio import transaction
+from ..base.units import UM
 from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, check_run_outputs, dumps, machine_of,
                      table_console)
 from .uncertainty import StudyProgress, add_study_args, count, engine_of, positive_float, probability

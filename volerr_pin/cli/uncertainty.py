@@ -14,9 +14,9 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
-from ..export.registry import CONTROLLERS
-from ..safeio import transaction
-from ..units import UM
+from ..compensation.export.registry import CONTROLLERS
+from ..base.safeio import transaction
+from ..base.units import UM
 from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, check_run_outputs, dumps, machine_of,
                      positive, table_console)
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from ..safeio import write_text
+from ..base.safeio import write_text
 from .common import add_machine_args, add_out_arg, check_run_outputs, machine_of
 
 

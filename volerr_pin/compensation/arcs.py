@@ -14,9 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .points import COMPENSATION_BYTES
-from ..errors import InputError
-from ..safeio import require_memory
-from ..workspace import _integer
+from ..base.errors import InputError
+from ..base.safeio import require_memory
+from ..model.workspace import _integer
 
 #: memory of a quarter turn of a compensated arc: its points, samples and pieces [bytes]
 ARC_QUARTER_BYTES = 8 * COMPENSATION_BYTES

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..machine import Machine
+from ..model.machine import Machine
 
 
 class AxisProgramming:

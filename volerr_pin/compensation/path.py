@@ -20,10 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ..machine import Machine
-from ..safeio import require_memory
-from ..workspace import _integer, _positive
+from ..base.errors import InputError
+from ..model.machine import Machine
+from ..base.safeio import require_memory
+from ..model.workspace import _integer, _positive
 from .arcs import Arc
 from .context import Context
 from .lines import plan_lines

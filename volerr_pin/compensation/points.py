@@ -23,11 +23,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
-from ..machine import Machine
-from ..safeio import require_memory
-from ..units import UM_PER_M, URAD_PER_RAD
-from ..workspace import _integer, _positive
+from ..base.errors import InputError
+from ..model.machine import Machine
+from ..base.safeio import require_memory
+from ..base.units import UM_PER_M, URAD_PER_RAD
+from ..model.workspace import _integer, _positive
 
 #: memory of one point compensated by :func:`compensate_points` (measured: 1.4-2.1 kB) [bytes]
 COMPENSATION_BYTES = 2500

@@ -19,8 +19,8 @@ from typing import Protocol
 
 import numpy as np
 
-from ..errors import InputError
-from ..machine import Machine
+from ..base.errors import InputError
+from ..model.machine import Machine
 
 __all__ = ["PROGRAMMINGS", "Programming", "programming_for"]
 

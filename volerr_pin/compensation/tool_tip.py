@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
-from ..machine import Machine
+from ..base.errors import InputError
+from ..model.machine import Machine
 
 #: the words that carry the tool tip, and the workpiece direction each carries
 TIP_WORDS = ("X", "Y", "Z")

@@ -34,7 +34,7 @@ As observations (:meth:`BallbarRun.observations`), a ballbar sample is the
 tool's error relative to the workpiece projected on the radial direction at the commanded
 position, with three nuisance terms per file: the set-up's centre offset along both plane
 directions and the bar's length error. Approach directions of the two axes come from the
-motion (for backlash terms); so identification and :func:`volerr_pin.diagnosis.diagnose`
+motion (for backlash terms); so identification and :func:`volerr_pin.fit.diagnosis.diagnose`
 see squareness, scale mismatch, backlash and straightness through the same model as
 every other measurement.
 """
@@ -48,9 +48,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from ..units import DEG, LENGTH, MM, PLAUSIBLE, parse_number
-from ..workspace import config_from_file
+from ..base.errors import InputError
+from ..base.units import DEG, LENGTH, MM, PLAUSIBLE, parse_number
+from ..model.workspace import config_from_file
 from .protocol import MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
 from .table import DIRECTION_WORDS, MeasurementError, Table, axis_values, read_table
 
@@ -389,7 +389,7 @@ def ballbar_positions(machine, run: BallbarRun) -> tuple[np.ndarray, np.ndarray,
         The machine; the run's plane axes must be two of its linear axes.
     run : BallbarRun
         The circular test; the centre comes from its ``centre`` (other axes at their default
-        configuration, see :func:`~volerr_pin.workspace.config_from_file`).
+        configuration, see :func:`~volerr_pin.model.workspace.config_from_file`).
 
     Returns
     -------

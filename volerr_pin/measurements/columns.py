@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..units import AXIS_UNIT, PLAUSIBLE, TEMPERATURE, TEMPERATURE_LIKE, axis_scale, split_key
+from ..base.units import AXIS_UNIT, PLAUSIBLE, TEMPERATURE, TEMPERATURE_LIKE, axis_scale, split_key
 from .table import MeasurementError, Table
 
 __all__ = ["DEVIATIONS", "DEVIATION_UNITS", "header_columns", "positions_and_covariates", "temperature_column"]

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..base.errors import InputError
 from .columns import DEVIATION_UNITS, DEVIATIONS, header_columns, positions_and_covariates
 from .protocol import MeasurementKind, ObservationBlock, ObservationOptions
 from .table import MeasurementError, Table, read_table

@@ -10,7 +10,7 @@ row is linear in both::
 
     y ~ w . e(q_point) + nuisance_design . nuisance
 
-so that :func:`volerr_pin.identify.identify` and :func:`volerr_pin.diagnosis.diagnose` fit
+so that :func:`volerr_pin.fit.identify.identify` and :func:`volerr_pin.fit.diagnosis.diagnose` fit
 every kind with the same exact sensitivities, and nuisance terms need no start values (a
 linear term is found in one step from anywhere). Generic code never asks which kind it holds;
 a new instrument is one module with a measurement and a kind, registered in

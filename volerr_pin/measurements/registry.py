@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import InputError
+from ..base.errors import InputError
 from . import ballbar, points, runs, tracker
 from .protocol import Measurement, MeasurementKind
 from .table import MeasurementError, read_file, read_table

@@ -28,10 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from ..spec import parse_component_name
-from ..units import ANGLE, DEG, LENGTH, MM, PLAUSIBLE, axis_scale, describe_range, parse_number, shown
-from ..workspace import config_from_file
+from ..base.errors import InputError
+from ..model.spec import parse_component_name
+from ..base.units import ANGLE, DEG, LENGTH, MM, PLAUSIBLE, axis_scale, describe_range, parse_number, shown
+from ..model.workspace import config_from_file
 from .protocol import MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
 from .table import (DIRECTION_WORDS, META_RE, MeasurementError, Table, add_meta, axis_values, read_file,
                     read_table)
@@ -540,7 +540,7 @@ def _refuse_repeated_approaches(table: Table, target: np.ndarray, cycle: np.ndar
                                 unit: str) -> None:
     """One approach per target, cycle and direction: a repeated row would count as one more
     approach (a sixth of five) and change every statistic. Targets are compared as
-    :func:`volerr_pin.iso230.evaluate` groups them, to 1e-9 of their unit."""
+    :func:`volerr_pin.applications.iso230.evaluate` groups them, to 1e-9 of their unit."""
     first: dict[tuple[float, int, int], int] = {}
     for r, key in enumerate(zip(np.round(target, 9).tolist(), cycle.astype(int).tolist(),
                                 direction.astype(int).tolist())):

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from ..safeio import same_file
+from ..base.errors import InputError
+from ..base.safeio import same_file
 from .table import MeasurementError, read_table
 
 __all__ = ["SeriesData", "read_series"]

@@ -5,7 +5,7 @@ and header comments before the header row carry metadata: ``# axis: X``, ``# at:
 Z=150``, ``# plane: X, Y``, ``# radius: 100``, ``# centre: X=250, Y=200``, ``# convention:``,
 ``# tool:``. Every error names file, line and column.
 
-Values beyond the plausibility limits of :data:`volerr_pin.units.PLAUSIBLE` (a deviation of
+Values beyond the plausibility limits of :data:`volerr_pin.base.units.PLAUSIBLE` (a deviation of
 more than 1 m, a position beyond 1 km, a temperature below absolute zero...) are refused,
 naming file, line and column: they are mistakes, not measurements (docs/measurements.md).
 """
@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from ..safeio import read_text
-from ..units import PLAUSIBLE, describe_range, parse_axis_values, parse_number, shown
+from ..base.errors import InputError
+from ..base.safeio import read_text
+from ..base.units import PLAUSIBLE, describe_range, parse_axis_values, parse_number, shown
 
 __all__ = ["DIRECTION_WORDS", "META_RE", "MeasurementError", "Table", "add_meta", "axis_values", "read_file",
            "read_table"]
@@ -37,7 +37,7 @@ DIRECTION_WORDS = {**{w: "1" for w in ("+1", "1", "+", "fwd", "forward", "up", "
 class MeasurementError(InputError):
     """A measurement file is malformed (the message names file, line and column).
 
-    A subclass of :class:`~volerr_pin.errors.InputError`; constructed like it.
+    A subclass of :class:`~volerr_pin.base.errors.InputError`; constructed like it.
     """
 
 
@@ -138,7 +138,7 @@ class Table:
         allow_empty : bool, default False
             Empty cells give NaN instead of an error.
         limit : str, optional
-            A key of :data:`volerr_pin.units.PLAUSIBLE` ("error_length", "time", ...): values
+            A key of :data:`volerr_pin.base.units.PLAUSIBLE` ("error_length", "time", ...): values
             beyond it are refused.
         unit : str, optional
             The column's unit, for the message.
@@ -185,7 +185,7 @@ class Table:
         values : ndarray, shape (n_rows,)
             The values in the column's unit (NaN: not measured, passes).
         limit : str
-            A key of :data:`volerr_pin.units.PLAUSIBLE`.
+            A key of :data:`volerr_pin.base.units.PLAUSIBLE`.
         unit : str
             The unit of the values, for the message.
         unit_scale : float, default 1.0

@@ -32,8 +32,8 @@ from scipy.optimize import minimize
 from scipy.special import ndtr
 from scipy.stats import beta
 
-from ..errors import InputError
-from ..machine import Machine
+from ..base.errors import InputError
+from ..model.machine import Machine
 from .engine import Engine, InProcess, plan_chunks
 from .montecarlo import SAMPLE_CHUNK, MonteCarlo, Points, ToleranceSource, run_monte_carlo
 from .tolerances import Tolerances

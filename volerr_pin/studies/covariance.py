@@ -9,7 +9,7 @@
   have, from a stated campaign: the tool position measured in x, y and z at ``points``
   poses (Sobol' points over the travels) with an instrument of standard uncertainty
   ``sigma`` per coordinate, independent. ``Sigma = sigma^2 (J^T J)^-1`` over the coefficients
-  such a campaign determines (:func:`volerr_pin.identifiability.analyse`, as ``identify``
+  such a campaign determines (:func:`volerr_pin.fit.identifiability.analyse`, as ``identify``
   decides it); the others are held at their values, as ``identify`` holds them, and are
   not propagated.
 """
@@ -22,15 +22,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..checks import sensible
-from ..errors import InputError
-from ..identifiability import analyse
-from ..identify import check_report_machine, parameter_units
-from ..machine import Machine
-from ..safeio import require_memory
-from ..safeio import read_json
-from ..units import UM
-from ..workspace import sample
+from ..base.checks import sensible
+from ..base.errors import InputError
+from ..fit.identifiability import analyse
+from ..fit.identify import check_report_machine, parameter_units
+from ..model.machine import Machine
+from ..base.safeio import require_memory
+from ..base.safeio import read_json
+from ..base.units import UM
+from ..model.workspace import sample
 
 __all__ = ["Covariance", "covariance_from_campaign", "covariance_from_report"]
 

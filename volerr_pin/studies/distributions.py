@@ -15,7 +15,7 @@ from typing import Protocol
 import numpy as np
 from scipy.special import ndtri
 
-from ..errors import InputError
+from ..base.errors import InputError
 
 __all__ = ["DISTRIBUTIONS", "Distribution", "Normal", "Uniform", "distribution"]
 

@@ -35,9 +35,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..errors import InputError
-from ..machine import Machine
-from ..safeio import require_memory
+from ..base.errors import InputError
+from ..model.machine import Machine
+from ..base.safeio import require_memory
 
 __all__ = ["DaskEngine", "Engine", "InProcess", "PortableMachine", "available_cores", "chunk_rng", "connect",
            "local_cluster"]
@@ -124,7 +124,7 @@ class PortableMachine:
         if self._machine is None:
             built = _BUILT.get(self.key)
             if built is None:
-                from ..urdf import parse_urdf
+                from ..model.urdf import parse_urdf
 
                 built = Machine(self._spec, parse_urdf(self._urdf, self._source))._with_theta(self._theta)
                 if self._state:

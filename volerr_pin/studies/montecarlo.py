@@ -31,9 +31,9 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from ..errors import InputError
-from ..machine import Machine
-from ..safeio import require_memory
+from ..base.errors import InputError
+from ..model.machine import Machine
+from ..base.safeio import require_memory
 from .distributions import Distribution
 from .evaluator import CALL_POINTS, evaluator_of
 from .engine import Engine, InProcess, PortableMachine, chunk_rng, plan_chunks, tasks_of
@@ -569,7 +569,7 @@ def grid_points(machine: Machine, counts) -> np.ndarray:
         Naming ``grid``, if a count is below 1, there are neither one nor ``n_axes`` counts,
         or the grid would not fit in memory.
     """
-    from ..workspace import grid
+    from ..model.workspace import grid
 
     counts = [int(c) for c in np.atleast_1d(counts)]
     n_axes = len(machine.axes)

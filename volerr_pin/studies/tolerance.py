@@ -18,12 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ..machine import Machine
-from ..spec import parse_component_name
-from ..specio import replace_terms
-from ..safeio import require_memory
-from ..units import UM_PER_M
+from ..base.errors import InputError
+from ..model.machine import Machine
+from ..model.spec import parse_component_name
+from ..model.specio import replace_terms
+from ..base.safeio import require_memory
+from ..base.units import UM_PER_M
 from .allocation import Reallocation, reallocate
 from .engine import Engine, InProcess
 from .montecarlo import MonteCarlo, RowsSource, ToleranceSource, make_points, run_monte_carlo

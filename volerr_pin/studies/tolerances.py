@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SpecError
-from ..machine import Machine
-from ..spec import parse_component_name, read_toml
-from ..ranking import tolerance_key
-from ..units import ARCSEC, UM, split_key
+from ..base.errors import SpecError
+from ..model.machine import Machine
+from ..model.spec import parse_component_name, read_toml
+from ..fit.ranking import tolerance_key
+from ..base.units import ARCSEC, UM, split_key
 from .distributions import DISTRIBUTIONS, Distribution, distribution
 
 __all__ = ["Tolerance", "Tolerances", "read_tolerance_file", "tolerances_toml"]

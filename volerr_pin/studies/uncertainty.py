@@ -54,13 +54,13 @@ from typing import Callable
 import numpy as np
 from scipy.special import ndtri
 
-from ..errors import InputError
-from ..machine import Machine
-from ..units import UM_PER_M
-from ..workspace import to_engineering
+from ..base.errors import InputError
+from ..model.machine import Machine
+from ..base.units import UM_PER_M
+from ..model.workspace import to_engineering
 from .covariance import Covariance
 from .engine import Engine, InProcess
-from ..safeio import require_memory
+from ..base.safeio import require_memory
 from .montecarlo import (QUANTILE_TASK_BYTES, MonteCarlo, NormalSource, Points, make_points, point_quantiles,
                          run_monte_carlo)
 
@@ -467,7 +467,7 @@ def table_compensation(machine: Machine, controller: str, **options) -> Callable
     command map the controller makes of them.
 
     The tables are laid out, fitted, rounded to the format, written and read back by the
-    controller's rules (:func:`volerr_pin.export.export_tables`); the map adds the corrections
+    controller's rules (:func:`volerr_pin.compensation.export.export_tables`); the map adds the corrections
     the controller reads from them to the desired positions, with the tool at the machine's
     tool point and the approach directions of the machine's state. So the residual of the
     study holds what the tables cannot represent (their interpolation, their rounding) beside
@@ -480,14 +480,14 @@ def table_compensation(machine: Machine, controller: str, **options) -> Callable
     controller : str
         ``linuxcnc``, ``isg``, ``siemens-840d``, ``heidenhain`` or ``fanuc``.
     **options
-        Passed to :func:`volerr_pin.export.export_tables` (``zone``, ``kind``, ``nodes``,
+        Passed to :func:`volerr_pin.compensation.export.export_tables` (``zone``, ``kind``, ``nodes``,
         ``points``, ``seed``).
 
     Returns
     -------
     callable
         ``command(q_desired) -> q_commanded``, both (N, n_axes) [m, rad]; its ``__name__`` is
-        the controller's and its ``export`` the :class:`~volerr_pin.export.ExportResult`.
+        the controller's and its ``export`` the :class:`~volerr_pin.compensation.export.ExportResult`.
 
     Raises
     ------
@@ -498,7 +498,7 @@ def table_compensation(machine: Machine, controller: str, **options) -> Callable
     SpecError
         For a machine the controller cannot compensate this way.
     """
-    from ..export import controller_format, export_tables
+    from ..compensation.export import controller_format, export_tables
 
     fmt = controller_format(controller)
     directions = machine.state.get("directions")
@@ -700,7 +700,7 @@ def study_uncertainty(covariance: Covariance, q: np.ndarray, *, samples: int = 2
         if compensation == "point":
             compensation = point_compensation(machine)
         elif isinstance(compensation, str):
-            from ..export import CONTROLLERS
+            from ..compensation.export import CONTROLLERS
 
             if compensation not in CONTROLLERS:
                 raise InputError(f"compensation must be 'point', a controller ({', '.join(CONTROLLERS)}) or a "

@@ -1,5 +1,5 @@
 """Pictures of a controller export: the error before and after the controller applies its
-tables (:class:`volerr_pin.export.ExportResult`).
+tables (:class:`volerr_pin.compensation.export.ExportResult`).
 
 - :func:`export_png`: the distribution of the tool-point error over the zone (uncompensated,
   naive tables, the written tables as the controller applies them, exact compensation) and
@@ -17,10 +17,10 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from ..export import ExportResult
-from ..safeio import check_outputs
-from ..units import UM_PER_M
-from ..workspace import nice_scale, to_engineering
+from ..compensation.export import ExportResult
+from ..base.safeio import check_outputs
+from ..base.units import UM_PER_M
+from ..model.workspace import nice_scale, to_engineering
 from .plots import plt, save
 from .recording import colours, new_recording, streaming
 
@@ -102,7 +102,7 @@ def record_export(result: ExportResult, path: str | Path, scale: float | None = 
     """
     check_outputs({"path": path})
     machine = result.machine
-    from ..export.simulate import tool_tips
+    from ..compensation.export.simulate import tool_tips
 
     where = tool_tips(machine, result.points.q, result.points, nominal=True)
     norms = _norms(result)

@@ -10,12 +10,12 @@ matplotlib.use("Agg")  # files only, no display
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..machine import Machine  # noqa: E402
-from ..workspace import default_config, evaluate_field  # noqa: E402
-from ..workspace import sample, to_engineering  # noqa: E402
-from ..errors import InputError  # noqa: E402
-from ..safeio import replacing  # noqa: E402
-from ..units import UM_PER_M  # noqa: E402
+from ..model.machine import Machine  # noqa: E402
+from ..model.workspace import default_config, evaluate_field  # noqa: E402
+from ..model.workspace import sample, to_engineering  # noqa: E402
+from ..base.errors import InputError  # noqa: E402
+from ..base.safeio import replacing  # noqa: E402
+from ..base.units import UM_PER_M  # noqa: E402
 
 AXES = "xyz"
 
@@ -255,7 +255,7 @@ def thermal_fit_png(result: dict, data, path: str | Path) -> dict:
 def diagnosis_png(diagnosis, path: str | Path) -> dict:
     """One page: held-out RMS per step against the noise floor, and for each accepted effect
     the residual against its driver before and after."""
-    from ..diagnosis import drift_series, evidence
+    from ..fit.diagnosis import drift_series, evidence
 
     n_eff = min(len(diagnosis.effects), 4)
     drifts = drift_series(diagnosis)[:2]
@@ -379,9 +379,9 @@ def gear_png(deviations, path: str | Path, title: str = "") -> dict:
     """The generated flanks' normal deviations: maps over profile x face width of the worst
     tooth of each flank, and every tooth's flank position on the pitch circle.
 
-    ``deviations`` is a :class:`volerr_pin.gear.FlankDeviations`.
+    ``deviations`` is a :class:`volerr_pin.applications.gear.FlankDeviations`.
     """
-    from ..gear import FLANKS, pitch_positions
+    from ..applications.gear import FLANKS, pitch_positions
 
     normal = deviations.normal * UM_PER_M                     # (2, teeth, profile, face) um
     diameter = 2 * deviations.radius * 1e3

@@ -15,7 +15,7 @@ Field data sit in the URDF's workpiece frame (``CoordinateFrame``), so they move
 table in the 3D view. Rotary axes get a sweep on the ``sweep`` timeline.
 
 Recordings are shared, so Rerun's URDF importer (which embeds every mesh file a URDF names)
-is only ever given a copy of the URDF whose meshes passed :func:`volerr_pin.urdf.checked_meshes`:
+is only ever given a copy of the URDF whose meshes passed :func:`volerr_pin.model.urdf.checked_meshes`:
 inside the URDF's folder or a package folder named, regular files, limited in size; other
 visuals are dropped with a warning. Files are written through a temporary file beside the
 target, renamed over it once Rerun has closed it (footer written), so a failed run leaves an
@@ -37,12 +37,12 @@ import rerun as rr
 import rerun.blueprint as rrb
 from matplotlib import colormaps
 
-from ..errors import InputError
-from ..machine import Machine
-from ..safeio import check_outputs, replacing, require_memory
-from ..urdf import checked_meshes, complete_limits, package_folders
-from ..workspace import FieldData, default_config, evaluate_field, field_grid, nice_scale, to_engineering
-from ..units import UM_PER_M
+from ..base.errors import InputError
+from ..model.machine import Machine
+from ..base.safeio import check_outputs, replacing, require_memory
+from ..model.urdf import checked_meshes, complete_limits, package_folders
+from ..model.workspace import FieldData, default_config, evaluate_field, field_grid, nice_scale, to_engineering
+from ..base.units import UM_PER_M
 
 #: memory a field point takes while it is evaluated and logged, and per sweep step held [bytes]
 #: (measured: about 0.6 kB per point and step for a 5-axis machine; doubled for headroom)
@@ -74,8 +74,8 @@ def log_machine(rec: rr.RecordingStream, machine: Machine, q: np.ndarray,
     static except for the axes named in ``moving`` (those are logged on the active timeline
     by :func:`log_joint_transforms`).
 
-    Meshes are read only as :func:`volerr_pin.urdf.checked_meshes` allows, from the machine's
-    :attr:`~volerr_pin.machine.Machine.package_dirs` and ``package_dirs``; a visual whose mesh
+    Meshes are read only as :func:`volerr_pin.model.urdf.checked_meshes` allows, from the machine's
+    :attr:`~volerr_pin.model.machine.Machine.package_dirs` and ``package_dirs``; a visual whose mesh
     is refused is left out with a warning naming the URDF, its line and the mesh."""
     from rerun.urdf import UrdfTree
 
@@ -108,7 +108,7 @@ def _rerun_urdf(machine: Machine, package_dirs=None, meshes: bool = True):
     """The path of a copy of the machine's URDF that Rerun's importer may read, in a temporary
     folder for the duration of the block: every ``<limit>`` with ``effort`` and ``velocity`` (URDF
     allows leaving them out, the importer does not), and every mesh a checked copy beside it
-    (:func:`volerr_pin.urdf.checked_meshes`; refused ones dropped with a warning), or no visuals
+    (:func:`volerr_pin.model.urdf.checked_meshes`; refused ones dropped with a warning), or no visuals
     at all when ``meshes`` is False."""
     with tempfile.TemporaryDirectory(prefix="volerr_urdf_") as folder:
         if meshes:
@@ -258,7 +258,7 @@ def log_field(rec: rr.RecordingStream, machine: Machine, field: FieldData, prefi
 
 
 def log_ranking(rec: rr.RecordingStream, ranking: dict, prefix: str = "sensitivity") -> None:
-    """The ranking (from :func:`volerr_pin.ranking.rank`.to_dict()) as a bar chart and a table."""
+    """The ranking (from :func:`volerr_pin.fit.ranking.rank`.to_dict()) as a bar chart and a table."""
     rows = ranking["ranking"]
     rec.log(f"{prefix}/ranking", rr.BarChart(np.array([r["rms_um"] for r in rows]),
                                              color=[64, 110, 180]), static=True)
@@ -301,13 +301,13 @@ def record_field(machine: Machine, path: str | Path | None = None, *, counts=Non
         The ``.rrd`` file, written through a temporary file beside it and renamed over it once
         complete (a failed run leaves an existing file as it was); None for a viewer only.
     counts : sequence of int, optional
-        Points per linear axis (see :func:`volerr_pin.workspace.field_grid`).
+        Points per linear axis (see :func:`volerr_pin.model.workspace.field_grid`).
     config : dict of str to float, optional
         Positions of the axes that do not span the field [m, rad].
     scale : float, optional
-        Arrow magnification (default: a round factor, see :func:`volerr_pin.workspace.nice_scale`).
+        Arrow magnification (default: a round factor, see :func:`volerr_pin.model.workspace.nice_scale`).
     ranking : dict, optional
-        A ranking (:meth:`volerr_pin.ranking.Ranking.to_dict`) to show beside the field.
+        A ranking (:meth:`volerr_pin.fit.ranking.Ranking.to_dict`) to show beside the field.
     sweep_steps : int, default 24
         Steps of the rotary-axis sweep; 0 for none.
     spawn : bool, default False
@@ -368,7 +368,7 @@ def record_field(machine: Machine, path: str | Path | None = None, *, counts=Non
 
 
 def _field_points(machine: Machine, counts) -> int | None:
-    """How many points :func:`~volerr_pin.workspace.field_grid` will make, without making them;
+    """How many points :func:`~volerr_pin.model.workspace.field_grid` will make, without making them;
     None when ``counts`` is not something it accepts (it then says why)."""
     linear = sum(k == "linear" for k in machine.axis_kinds)
     if not linear:
@@ -427,7 +427,7 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, pa
 
     Parameters
     ----------
-    diagnosis : volerr_pin.diagnosis.Diagnosis
+    diagnosis : volerr_pin.fit.diagnosis.Diagnosis
         The diagnosis.
     path : str or Path
         The ``.rrd`` file, written through a temporary file renamed over it once complete.
@@ -446,7 +446,7 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, pa
     InputError
         If ``path`` cannot be written.
     """
-    from ..diagnosis import drift_series, evidence
+    from ..fit.diagnosis import drift_series, evidence
 
     check_outputs({"path": path})
     machine = diagnosis.machine
@@ -519,14 +519,14 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, pa
 def record_gear(rows, path: str | Path, scale: float | None = None) -> dict:
     """The generated gear flanks, one error source per step of the ``source`` timeline.
 
-    ``rows`` are :class:`volerr_pin.gear.SourceDeviations` (a source alone, or all together):
+    ``rows`` are :class:`volerr_pin.applications.gear.SourceDeviations` (a source alone, or all together):
     each step shows every evaluated flank point in the workpiece frame coloured by its normal
     deviation (red: more material, blue: less; one colour scale over all steps, in
     ``normal_deviation_um``) and arrows along the normals of length deviation x ``scale``.
 
     Parameters
     ----------
-    rows : sequence of volerr_pin.gear.SourceDeviations
+    rows : sequence of volerr_pin.applications.gear.SourceDeviations
         The sources, in the order of the steps.
     path : str or Path
         The ``.rrd`` file, written through a temporary file renamed over it once complete.

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..safeio import check_outputs
-from ..units import UM_PER_M
-from ..workspace import default_config
+from ..base.safeio import check_outputs
+from ..base.units import UM_PER_M
+from ..model.workspace import default_config
 
 __all__ = ["log_uncertainty_field", "max_error_png", "record_uncertainty"]
 

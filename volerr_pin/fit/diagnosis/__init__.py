@@ -1,0 +1,63 @@
+"""Find where model and measurements disagree, name the missing effect, add it, repeat.
+
+The loop (:func:`diagnose`):
+
+1. fit the base model to the data (:func:`volerr_pin.fit.identify.identify`; with ``fixed`` the
+   spec's values are kept);
+2. look at the residuals against positions, time, temperatures, forces and approach
+   directions (correlations, reversal steps, a periodogram over each linear axis);
+3. build candidates for every axis, direction and sensor they can apply to: the catalogue
+   effects - ``thermal_drift`` (time, each temperature), ``thermal_expansion``,
+   ``backlash``, ``force_deflection``, ``periodic_pitch`` - the geometric terms the spec
+   leaves out (``positioning``, ``straightness``, ``angular``, ``squareness``,
+   ``location``), and the base model's own adequacy: every polynomial component one degree
+   higher, every table with twice the nodes. Each is fitted jointly with the base model
+   (linearised at the base fit, non-linear coefficients by grid search or periodogram);
+4. score them: BIC ranks them; the best is accepted only if (a) an F-test of its extra
+   parameters is significant at ``alpha`` divided by the number of candidates (Bonferroni;
+   a period found by searching a periodogram is further divided by the number of independent
+   periods searched), (b) it lowers the k-fold cross-validated RMS, and (c) after the
+   joint refit its size is significant: the largest |value| / standard uncertainty of its
+   linear coefficients is at least 3 (for a raised degree: the new top coefficient). A
+   winning under-modelled component is accepted together with the other components that
+   pass on their own (they are checked one by one after the refit);
+5. repeat until no candidate passes; refit; drop any effect whose size is no longer
+   significant; estimate the noise floor (from repeated points if any, else an upper bound
+   from the final residual) and say whether the final model reaches it.
+
+A real machine's geometry is never exactly the spec's. A smooth residual that a higher
+degree of an existing component explains as well as an effect does is reported as
+"geometric component X under-modelled (degree n -> m)" in :attr:`Diagnosis.under_modelled`,
+not as a physical effect. A periodic pitch must have a period in the ball-screw range
+(:data:`~volerr_pin.fit.diagnosis.candidates.PITCH_PERIOD_MM`) and at least
+:data:`~volerr_pin.fit.diagnosis.candidates.MIN_PERIODS` periods inside the measured
+travel.
+
+Effects whose effect at the tool is the same wherever they sit (a drift in x through any
+axis of a Cartesian machine) are reported with ``axis`` None: the data cannot tell which.
+
+Parts, each importing only those listed before it:
+
+- :mod:`~volerr_pin.fit.diagnosis.results`: typed results (candidates, scores, changes, rounds, the
+  diagnosis and its JSON report);
+- :mod:`~volerr_pin.fit.diagnosis.candidates`: what the model could be missing;
+- :mod:`~volerr_pin.fit.diagnosis.projector`: the round's base design and its basis, on which a
+  candidate's joint fit and held-out RMS cost a few small products;
+- :mod:`~volerr_pin.fit.diagnosis.scoring`: each candidate fitted jointly with the base and scored;
+- :mod:`~volerr_pin.fit.diagnosis.changes`: accepted changes applied to the model, their sizes;
+- :mod:`~volerr_pin.fit.diagnosis.report`: residual analysis, noise floor, raised components,
+  evidence for pictures;
+- :mod:`~volerr_pin.fit.diagnosis.loop`: :func:`diagnose`, round by round.
+"""
+
+from .candidates import axis_directions, build_candidates, geometric_term, raised_table
+from .changes import raise_components
+from .loop import diagnose
+from .report import drift_series, driver_values, evidence, residual_analysis
+from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Candidate, Change, Diagnosis, DriftSeries,
+                      Evidence, Raise, Score, Step)
+
+__all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "Candidate", "Change", "Diagnosis", "DriftSeries",
+           "Evidence", "Raise", "Score", "Step", "axis_directions", "build_candidates", "diagnose", "drift_series",
+           "driver_values", "evidence", "geometric_term", "raise_components",
+           "raised_table", "residual_analysis"]

@@ -1,0 +1,416 @@
+"""Candidates: everything a model could be missing, on every axis, direction and sensor the data
+allow - the catalogue effects (``thermal_drift``, ``thermal_expansion``, ``backlash``,
+``force_deflection``, ``periodic_pitch``, ``periodic_rotary``), the geometric components the spec leaves out
+(``positioning``, ``straightness``, ``angular``, ``squareness``, ``location``) and the
+spec's own components one step richer (a polynomial 1, 2 or 4 degrees higher, a table with a
+node between every two).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...base.errors import InputError
+from ..identify import Observations
+from ...model.machine import Machine
+from ...model.spec import component_name, parse_component_name
+from ...model.termkinds import GEOMETRIC
+from ...model.terms import Context, Covariates
+from .results import Candidate
+
+__all__ = ["LETTERS", "MAX_DEGREE", "MAX_NODES", "MIN_PERIODS", "PITCH_PERIOD_MM", "RAISE_BY", "ROTARY_ORDERS",
+           "adequacy_candidates", "axis_directions", "build_candidates", "direction_of", "form_of",
+           "geometric_name", "geometric_term", "raised_table", "smoother_table"]
+
+LETTERS = "XYZABC"
+PITCH_PERIOD_MM = (1.0, 50.0)   # ball-screw leads
+MIN_PERIODS = 4                 # periods of a pitch error inside the measured travel
+MAX_DEGREE = 12                 # a polynomial component is not raised beyond this degree
+MAX_NODES = 65                  # nor a table beyond this many nodes
+RAISE_BY = (1, 2, 4)            # degrees a polynomial may gain in one round
+ROTARY_ORDERS = (1, 2, 3, 4, 6, 8)   # periods per revolution a rotary axis' periodic error is tried with
+
+
+# ----------------------------------------------------------------------------- candidates
+def axis_directions(machine: Machine) -> dict[str, str]:
+    """The error direction letter of each axis' own motion in the axis' own frame (X for an x
+    slide, B for a table turning about its own y), whatever the other axes' positions.
+
+    An axis' component errors act in its own frame, so its own motion is the component whose
+    effect at the tool moves as the axis does: the error joint ``E<d><axis>`` whose
+    translation (linear axes) or rotation (rotary axes) at the tool is parallel to the axis'
+    own column of the Jacobian. Both turn with the other axes, so the answer does not depend
+    on where they stand (a B table carried by an A cradle at -10 deg is still about B's own y).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+
+    Returns
+    -------
+    dict of str to str
+        Axis -> letter, for the axes that move along (or about) one direction of their own frame.
+    """
+    q = machine.mid_travel[None, :]
+    J = machine.axis_jacobian(q, nominal=True)[0]
+    E = machine.error_joint_sensitivity(q, first_order=True)[0]
+    joints = list(machine.error_joints)
+    out = {}
+    for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):
+        part = slice(0, 3) if kind == "linear" else slice(3, 6)
+        v = J[part, j]
+        norm_v = np.linalg.norm(v)
+        if norm_v == 0:
+            continue
+        for d in ("XYZ" if kind == "linear" else "ABC"):
+            name = component_name(d, axis)
+            if name not in joints:
+                continue
+            e = E[part, joints.index(name)]
+            norm_e = np.linalg.norm(e)
+            if norm_e > 0 and abs(float(e @ v)) > 0.999 * norm_e * norm_v:
+                out[axis] = d
+                break
+    return out
+
+
+def direction_of(letter: str) -> str:
+    """The report's direction of a component letter: "x", "y" or "z" (rotations: about that axis).
+
+    Parameters
+    ----------
+    letter : str
+        "X", "Y", "Z", "A", "B" or "C".
+
+    Returns
+    -------
+    str
+        "x", "y" or "z".
+    """
+    return letter.lower() if letter in "XYZ" else "xyz"["ABC".index(letter)]
+
+
+def geometric_name(direction: str, owner: str, location: bool, own: str | None, linear: bool) -> str:
+    """The catalogue name of a geometric component.
+
+    Parameters
+    ----------
+    direction : str
+        Its error direction letter.
+    owner : str
+        The axis it belongs to.
+    location : bool
+        A location (constant) error.
+    own : str or None
+        The direction of the axis' own motion (:func:`axis_directions`).
+    linear : bool
+        The axis is linear.
+
+    Returns
+    -------
+    str
+        "positioning", "straightness", "angular", "squareness" or "location".
+    """
+    if location:
+        return "squareness" if (direction in "ABC" and linear) else "location"
+    if direction in "ABC":
+        return "angular"
+    return "positioning" if direction == own else "straightness"
+
+
+def build_candidates(machine: Machine, obs: Observations) -> list[Candidate]:
+    """Every catalogue effect the data's covariates allow, on every axis and direction.
+
+    Parameters
+    ----------
+    machine : Machine
+        The present model.
+    obs : Observations
+        The observations (their covariates say which effects can be seen).
+
+    Returns
+    -------
+    list of Candidate
+        Effects, missing geometric components, then raised components, each labelled.
+    """
+    cov = obs.covariates
+    own = axis_directions(machine)
+    out: list[Candidate] = []
+    sites = [a for a in machine.axes] + [b.name for b in machine.spec.bodies]
+    has_t = "t" in cov and np.ptp(cov["t"]) > 0
+    sensors = [s for s, v in (cov.get("temperatures") or {}).items() if np.ptp(v) > 0]
+    forces = cov.get("forces")
+    force_axes = [i for i in range(3) if forces is not None and np.ptp(forces[:, i]) > 0]
+    directions = cov.get("directions")
+
+    def unit_of(direction):
+        return ("um", "length") if direction in "XYZ" else ("arcsec", "angle")
+
+    # position-independent translations: drift and deflection, through every site
+    for site in sites:
+        for d in "XYZ":
+            comp = component_name(d, site)
+            if has_t:
+                out.append(Candidate("thermal_drift", site, d.lower(), comp,
+                                     {"kind": "thermal_drift", "driver": "time", "amplitudes_um": [0.0],
+                                      "time_constants_min": [60.0]}, "t"))
+            for s in sensors:
+                ref = float(np.mean(cov["temperatures"][s]))
+                out.append(Candidate("thermal_drift", site, d.lower(), comp,
+                                     {"kind": "thermal_drift", "driver": "temperature", "sensors": [s],
+                                      "coefficients_um_per_K": [0.0], "reference_degC": ref}, f"T_{s}"))
+            for i in force_axes:
+                out.append(Candidate("force_deflection", site, d.lower(), comp,
+                                     {"kind": "force_deflection", "force": "xyz"[i],
+                                      "compliance_um_per_N": [0.0]}, f"F{'xyz'[i]}"))
+    # axis-bound effects on the positioning component
+    for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):
+        letter = own.get(axis)
+        if letter is None:
+            continue
+        comp = component_name(letter, axis)
+        lo, hi = machine.travel[j]
+        if directions is not None and len(np.unique(directions[:, j])) == 2:
+            unit = "um" if kind == "linear" else "arcsec"
+            out.append(Candidate("backlash", axis, direction_of(letter), comp,
+                                 {"kind": "backlash", f"reversal_{unit}": 0.0}, f"dir_{axis}"))
+        if kind != "linear":
+            # an error that repeats n times per revolution: over a full turn it closes on itself,
+            # which no smooth function of the angle does; over part of a turn a period or two is
+            # just another smooth shape, as the axis' off-spec geometry (its raise) is, so there it
+            # needs MIN_PERIODS periods in the measured span, as a pitch error does
+            span = float(np.ptp(obs.q[:, j])) if obs.n_points else 0.0
+            periods = 1 if span >= 2 * np.pi * (1 - 1e-9) else MIN_PERIODS
+            for n in ROTARY_ORDERS:
+                if span >= periods * 2 * np.pi / n * (1 - 1e-9):
+                    out.append(Candidate("periodic_rotary", axis, direction_of(letter), comp,
+                                         {"kind": "periodic_pitch", "period_deg": 360.0 / n, "sine_arcsec": [0.0],
+                                          "cosine_arcsec": [0.0], "origin_deg": 0.0}, f"q_{axis}"))
+            continue
+        for s in sensors:
+            ref = float(np.mean(cov["temperatures"][s]))
+            out.append(Candidate("thermal_expansion", axis, letter.lower(), comp,
+                                 {"kind": "thermal_expansion", "driver": "temperature", "sensor": s,
+                                  "coefficient_ppm_per_K": 0.0, "reference_degC": ref,
+                                  "origin_mm": float(lo * 1e3)}, f"T_{s}"))
+        if has_t:
+            out.append(Candidate("thermal_expansion", axis, letter.lower(), comp,
+                                 {"kind": "thermal_expansion", "driver": "time", "strains_ppm": [0.0],
+                                  "time_constants_min": [60.0], "origin_mm": float(lo * 1e3)}, "t"))
+        out.append(Candidate("periodic_pitch", axis, letter.lower(), comp,
+                             {"kind": "periodic_pitch", "period_mm": 0.0, "sine_um": [0.0], "cosine_um": [0.0],
+                              "origin_mm": float(lo * 1e3)}, f"q_{axis}"))
+    # geometric terms the spec leaves out
+    present = set(machine.components)
+    for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):
+        for d in LETTERS:
+            comp = component_name(d, axis)
+            if comp not in present:
+                unit, _ = unit_of(d)
+                name = geometric_name(d, axis, False, own.get(axis), kind == "linear")
+                # degrees: positioning 5 (interferometer tables bend), straightness 3, angular 2
+                coefs = [0.0] * (6 if name == "positioning" else 4 if d in "XYZ" else 3)
+                out.append(Candidate(name, axis, d.lower() if d in "XYZ" else "xyz"["ABC".index(d)], comp,
+                                     {"kind": "legendre", f"coefficients_{unit}": coefs}, f"q_{axis}",
+                                     kind="missing"))
+        for d in ("ABC" if kind == "linear" else LETTERS):
+            comp = component_name(d, axis, True)
+            if comp not in present:
+                unit, _ = unit_of(d)
+                name = geometric_name(d, axis, True, own.get(axis), kind == "linear")
+                out.append(Candidate(name, axis, d.lower() if d in "XYZ" else "xyz"["ABC".index(d)], comp,
+                                     {"kind": "constant", f"value_{unit}": 0.0}, kind="missing"))
+    out += adequacy_candidates(machine, own)
+    for c in out:
+        c.label = c.describe()
+    return out
+
+
+def geometric_term(machine: Machine, component: str):
+    """The component's geometric term (constant, polynomial, table).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    component : str
+        A component error of its spec.
+
+    Returns
+    -------
+    tuple of (int, TermSpec)
+        The term's index among the component's terms and the term; (None, None) when it has
+        none.
+
+    Raises
+    ------
+    InputError
+        Naming ``component``, when the spec has no such component.
+    """
+    comp = next((c for c in machine.spec.components if c.name == component), None)
+    if comp is None:
+        raise InputError(f"component: {component!r} is not an error term of {machine.name}", parameters=("component",))
+    for i, tspec in enumerate(comp.terms):
+        if tspec.term.kind in GEOMETRIC:
+            return i, tspec
+    return None, None
+
+
+def smoother_table(machine: Machine, component: str) -> tuple[dict, str] | None:
+    """The component's table one step richer between its nodes, zero-valued, for asking whether
+    a period along the axis is the table's interpolation.
+
+    Between its nodes a table leaves the residual of a smooth function that repeats at the node
+    spacing and its harmonics: the kinks of linear interpolation put it at every harmonic, a
+    cubic spline's is far smaller and at the spacing. A linear table's becomes a cubic spline
+    through the same nodes (with the linear table beside it, that space takes the smooth
+    function's bumps between the nodes at every harmonic); a spline's gains a node between
+    every two (its residual falls sixteen-fold). Neither takes a sinusoid whose period is below
+    twice the new node spacing: a ball screw's error survives both.
+
+    Parameters
+    ----------
+    machine : Machine
+        The model.
+    component : str
+        The component a periodic error would be added to.
+
+    Returns
+    -------
+    tuple of (dict, str) or None
+        The spec table and what it is, in words; None when the component has no table or (a
+        spline) its nodes are at :data:`MAX_NODES` already.
+    """
+    if component not in machine.components:
+        return None
+    _, tspec = geometric_term(machine, component)
+    if tspec is None or tspec.term.kind != "table":
+        return None
+    if tspec.term.interpolation == "linear":
+        table = dict(tspec.term.to_spec(np.zeros(tspec.term.size)), interpolation="cubic")
+        how = "a cubic spline through its nodes"
+    else:
+        raised = raised_table(machine, component)
+        if raised is None:
+            return None
+        table, how = raised[1], "a node between every two"
+    table.pop("prefix", None)
+    return table, how
+
+
+def raised_table(machine: Machine, component: str, values: np.ndarray | None = None, by: int = 1):
+    """The component's geometric term richer, as a spec table, and (from, to).
+
+    A constant becomes a Legendre polynomial of degree ``by``, a polynomial gains ``by``
+    degrees (two are offered because an odd or even part alone may be what is missing),
+    a table gains a node between every two (the coarser function space is inside the finer
+    one, so the base fit is reproduced exactly; ``by`` is ignored). With ``values`` (the
+    term's coefficients, SI) the table starts from the present function; else it is
+    zero-valued.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    component : str
+        A component error of its spec.
+    values : ndarray, optional
+        The term's coefficients (SI), to start from the present function.
+    by : int, default 1
+        Degrees to add (tables: only 1).
+
+    Returns
+    -------
+    tuple of (int, dict, tuple of str) or None
+        The term's index, the richer spec table and the forms (from, to); None when the term
+        would pass :data:`MAX_DEGREE` / :data:`MAX_NODES` or there is no geometric term.
+    """
+    index, tspec = geometric_term(machine, component)
+    if tspec is None:
+        return None
+    term = tspec.term
+    zero = np.zeros(term.size) if values is None else np.asarray(values, float)
+    table = term.to_spec(zero)
+    if term.kind in ("constant", "legendre", "monomial"):
+        degree = 0 if term.kind == "constant" else term.degree
+        if degree + by > MAX_DEGREE:
+            return None
+        if term.kind == "constant":
+            unit = term.unit
+            table = {"kind": "legendre", f"coefficients_{unit}": [table[f"value_{unit}"]] + [0.0] * by}
+        else:
+            key = f"coefficients_{term.unit}"
+            table[key] = list(table[key]) + [0.0] * by
+        change = ("constant" if term.kind == "constant" else f"degree {degree}", f"degree {degree + by}")
+    elif by != 1:
+        return None
+    else:
+        nodes = term.nodes
+        if 2 * len(nodes) - 1 > MAX_NODES:
+            return None
+        fine = np.sort(np.r_[nodes, 0.5 * (nodes[1:] + nodes[:-1])])
+        ctx = Context(fine, None, Covariates(len(fine)))
+        table[f"positions_{term.position_unit}"] = [float(x / term.position_scale) for x in fine]
+        table[f"values_{term.unit}"] = [float(v / term.unit_scale) for v in term.value(zero, ctx)]
+        change = (f"table of {len(nodes)} nodes", f"{len(fine)} nodes")
+    if tspec.prefix:
+        table["prefix"] = tspec.prefix
+    return index, table, change
+
+
+def adequacy_candidates(machine: Machine, own: dict[str, str]) -> list[Candidate]:
+    """Every component error of an axis with its geometric term one step richer.
+
+    Parameters
+    ----------
+    machine : Machine
+        The present model.
+    own : dict of str to str
+        The direction of each axis' own motion (:func:`axis_directions`).
+
+    Returns
+    -------
+    list of Candidate
+        One "raise" candidate per component and step (:data:`RAISE_BY`).
+    """
+    out = []
+    for comp in machine.spec.components:
+        direction, location, owner = parse_component_name(comp.name)
+        if location or owner not in machine.axes:
+            continue
+        j = machine.axes.index(owner)
+        if not np.all(np.isfinite(machine.travel[j])):
+            continue  # a polynomial over the travel needs a finite travel
+        for by in RAISE_BY:
+            raised = raised_table(machine, comp.name, by=by)
+            if raised is None:
+                continue
+            _, table, change = raised
+            name = geometric_name(direction, owner, False, own.get(owner), machine.axis_kinds[j] == "linear")
+            out.append(Candidate(name, owner, direction.lower() if direction in "XYZ"
+                                 else "xyz"["ABC".index(direction)], comp.name, table, f"q_{owner}",
+                                 kind="raise", change=change, by=by))
+    return out
+
+
+def form_of(machine: Machine, component: str) -> str:
+    """The form of a component's geometric term in words.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    component : str
+        A component with a geometric term.
+
+    Returns
+    -------
+    str
+        "constant", "degree 3" or "table of 9 nodes".
+    """
+    _, tspec = geometric_term(machine, component)
+    term = tspec.term
+    if term.kind == "table":
+        return f"table of {len(term.nodes)} nodes"
+    return "constant" if term.kind == "constant" else f"degree {term.degree}"

@@ -1,0 +1,270 @@
+"""Changes to the model: an accepted effect added as a term, under-modelled components raised
+(starting from their present function, so the base fit is reproduced exactly), an effect
+removed again, raises trimmed to what the final fit finds significant; and the size of a
+change in standard uncertainties, which decides whether it stays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...model.machine import Machine
+from ...model.specio import add_terms, remove_components, replace_terms, term_tables
+from .candidates import geometric_term, raised_table
+from .results import SIGNIFICANCE, Change, Score
+
+__all__ = ["PREFIX", "apply_changes", "raise_components", "remove_effect", "size_of", "tested_names", "trim_raises", "with_lag"]
+
+#: coefficient-name prefix of each catalogue effect's term (geometric terms: "geom")
+PREFIX = {"thermal_drift": "drift", "thermal_expansion": "expansion", "backlash": "reversal",
+          "force_deflection": "load", "periodic_pitch": "pitch", "periodic_rotary": "rotary"}
+
+
+def _unique_prefix(machine: Machine, component: str, stem: str) -> str:
+    used = {n.split(".")[1] for n in machine.parameter_names if n.startswith(component + ".")
+            and n.count(".") == 2}
+    if stem not in used:
+        return stem
+    k = 2
+    while f"{stem}{k}" in used:
+        k += 1
+    return f"{stem}{k}"
+
+
+def _table_with(tspec, coefs, prefix):
+    table = tspec.term.to_spec(coefs)
+    table["prefix"] = prefix
+    return table
+
+
+def raise_components(machine: Machine, components: list[tuple[str, int]]) -> Machine:
+    """The machine with these components' geometric terms raised, each starting from its
+    present function (an exact reproduction for tables and polynomials alike).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    components : list of tuple of (str, int)
+        (component, degrees to add) pairs.
+
+    Returns
+    -------
+    Machine
+        The machine with the raised terms.
+    """
+    theta = dict(zip(machine.parameter_names, machine.theta))
+    present = term_tables(machine)
+    tables = {}
+    for component, by in components:
+        index, tspec = geometric_term(machine, component)
+        values = np.array([theta[n] for n in tspec.names(component)])
+        _, table, _ = raised_table(machine, component, values, by)
+        tables[component] = present[component]
+        tables[component][index] = table
+    return replace_terms(machine, tables)
+
+
+def remove_effect(machine: Machine, effect: Change) -> Machine:
+    """The machine without an accepted effect's terms.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    effect : Change
+        An effect accepted earlier.
+
+    Returns
+    -------
+    Machine
+        The machine without the terms holding ``effect.names``.
+    """
+    component = effect.component
+    names = set(effect.names)
+    comp = next(c for c in machine.spec.components if c.name == component)
+    keep = [i for i, t in enumerate(comp.terms) if not names & set(t.names(component))]
+    if not keep:
+        return remove_components(machine, [component])
+    tables = term_tables(machine)[component]
+    return replace_terms(machine, {component: [tables[i] for i in keep]})
+
+
+def apply_changes(machine: Machine, batch: list[Score]) -> tuple[Machine, list[Change]]:
+    """The machine with scored candidates added (one effect, or under-modelled components
+    raised together).
+
+    Parameters
+    ----------
+    machine : Machine
+        The present model.
+    batch : list of Score
+        One effect's score, or the scores of under-modelled components raised together.
+
+    Returns
+    -------
+    machine : Machine
+        The new model.
+    changes : list of Change
+        What was added, one per score.
+    """
+    raises = [(s.candidate.component, s.candidate.by) for s in batch if s.candidate.kind == "raise"]
+    if raises:
+        new = raise_components(machine, raises)
+        records = []
+        for score in batch:
+            cand = score.candidate
+            _, tspec = geometric_term(new, cand.component)
+            records.append(Change("under_modelled", cand.label, cand.name, cand.component, cand.axis, cand.direction,
+                                  cand.driver, score.p_value, score.bic_gain, by=cand.by,
+                                  form_before=cand.change[0], form_after=cand.change[1],
+                                  names=list(tspec.names(cand.component))))
+        return new, records
+    (score,) = batch
+    cand = score.candidate
+    before = set(machine.parameter_names)
+    prefix = _unique_prefix(machine, cand.component, PREFIX.get(cand.name, "geom"))
+    table_spec = _table_with(score.term, score.coefficients, prefix)
+    if not (cand.name in PREFIX or cand.component in machine.components):
+        table_spec.pop("prefix", None)
+    new = add_terms(machine, {cand.component: table_spec})
+    return new, [Change("effect", cand.label, cand.name, cand.component,
+                        cand.axis if cand.axis in machine.axes else None, cand.direction, cand.driver,
+                        score.p_value, score.bic_gain, names=[n for n in new.parameter_names if n not in before])]
+
+
+def trim_raises(machine: Machine, fit, base: Machine, components) -> Machine | None:
+    """Raised polynomials lose their trailing coefficients that the final fit does not find
+    significant (a component raised by 4 where 1 was enough).
+
+    Parameters
+    ----------
+    machine : Machine
+        The final model.
+    fit : Identification or None
+        Its fit (None: nothing to trim).
+    base : Machine
+        The base model (the components' forms before the raises).
+    components : set of str
+        The raised components.
+
+    Returns
+    -------
+    Machine or None
+        The trimmed model; None when nothing changes.
+    """
+    if fit is None:
+        return None
+    tables = {}
+    present = None
+    for component in sorted(components):
+        index, tspec = geometric_term(machine, component)
+        if tspec.term.kind not in ("legendre", "monomial"):
+            continue
+        _, original = geometric_term(base, component)
+        start = 0 if original.term.kind == "constant" else original.term.degree
+        names = tspec.names(component)
+        z = []
+        for name in names:
+            k = machine.parameter_names.index(name)
+            u = fit.uncertainty[k]
+            z.append(abs(machine.theta[k]) / u if np.isfinite(u) and u > 0 else 0.0)
+        keep = max([start] + [d for d in range(start + 1, len(names)) if z[d] >= SIGNIFICANCE])
+        if keep >= tspec.term.degree:
+            continue
+        present = present or term_tables(machine)
+        terms = present[component]
+        key = f"coefficients_{tspec.term.unit}"
+        terms[index] = dict(terms[index], **{key: list(terms[index][key])[:keep + 1]})
+        tables[component] = terms
+    return replace_terms(machine, tables) if tables else None
+
+
+def tested_names(machine: Machine, change: Change) -> list[str]:
+    """The coefficients whose size decides whether a change stays: a raised polynomial's new
+    coefficients, an effect's (or missing component's) own coefficients; none for a
+    denser table (its F-test and cross-validation decide).
+
+    Parameters
+    ----------
+    machine : Machine
+        The model with the change.
+    change : Change
+        The change.
+
+    Returns
+    -------
+    list of str
+        Coefficient names.
+    """
+    if change.kind != "under_modelled":
+        return change.names
+    _, tspec = geometric_term(machine, change.component)
+    if tspec.term.kind == "table":
+        return []
+    return list(tspec.names(change.component)[-change.by:])
+
+
+def size_of(res, names: list[str]) -> float:
+    """Largest |value| / standard uncertainty over the linear coefficients ``names`` of a
+    fit; 0 when a non-linear one (time constant, period) is not determined or no linear
+    one is.
+
+    Parameters
+    ----------
+    res : Identification
+        The fit.
+    names : list of str
+        Coefficient names.
+
+    Returns
+    -------
+    float
+        The size in standard uncertainties.
+    """
+    machine = res.machine
+    nonlinear = set(machine.nonlinear_parameters)
+    z = 0.0
+    for name in names:
+        k = machine.parameter_names.index(name)
+        u = res.uncertainty[k]
+        if k in nonlinear:
+            if not np.isfinite(u):
+                return 0.0
+            continue
+        if np.isfinite(u) and u > 0:
+            z = max(z, abs(float(machine.theta[k])) / float(u))
+    return z
+
+
+def with_lag(machine: Machine, effects: list[Change], lag_s: float) -> Machine:
+    """The machine with the temperature-driven drift terms of ``effects`` reading their
+    sensors ``lag_s`` seconds late (the other terms unchanged).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    effects : list of Change
+        Accepted thermal drifts.
+    lag_s : float
+        The lag [s] (0: none).
+
+    Returns
+    -------
+    Machine
+        The machine with the lagged terms, their coefficients kept.
+    """
+    present = term_tables(machine)
+    tables = {}
+    for effect in effects:
+        comp = next(c for c in machine.spec.components if c.name == effect.component)
+        names = set(effect.names)
+        terms = tables.get(effect.component, present[effect.component])
+        for i, t in enumerate(comp.terms):
+            if names & set(t.names(effect.component)) and terms[i].get("driver") == "temperature":
+                terms[i] = {k: v for k, v in terms[i].items() if k != "lag_s"}
+                if lag_s:
+                    terms[i]["lag_s"] = float(lag_s)
+        tables[effect.component] = terms
+    return replace_terms(machine, tables) if tables else machine

@@ -1,0 +1,640 @@
+"""Effect terms: thermal drift and expansion, backlash, force deflection, periodic pitch.
+
+Each is a :class:`~volerr_pin.model.terms.Term` of a component error, driven by covariates (time
+``t``, ``temperatures``, ``forces``, ``directions``) and, for some, the axis position. All
+give exact derivatives with respect to their coefficients (including the non-linear ones:
+time constants and periods) and to the axis position. Spec keys (units in the names) are
+documented in ``docs/spec-format.md``.
+
+Forms (value in the component's unit, SI inside):
+
+- ``thermal_drift``, driver ``time``: ``sum_k a_k g(t; tau_k)`` with
+  ``g = 1 - exp(-t / tau)`` for ``0 <= t <= t_stop`` (0 before t = 0) and
+  ``g = (1 - exp(-t_stop / tau)) exp(-(t - t_stop) / tau)`` after a stop at ``t_stop``
+  (cooling). Coefficients ``a1, tau1, a2, tau2, ...``.
+- ``thermal_drift``, driver ``temperature``: ``sum_s k_s (T_s(t - lag) - T_ref,s)``;
+  coefficients ``k_<sensor>``. A lag reads each sensor ``lag`` seconds earlier, from the
+  points' own time series (linear interpolation; the first sample holds before it).
+- ``thermal_expansion``, driver ``temperature``: ``alpha (T - T_ref) (q - q0)``, alpha in
+  1/K (coefficient ``alpha``); driver ``time`` (Srivastava et al.): ``(q - q0) sum_k
+  s_k (1 - exp(-t / tau_k))``, strains ``s_k``, coefficients ``s1, tau1, ...``.
+- ``backlash``: ``(b / 2) d`` with the axis' approach direction ``d = +-1`` (0 when no
+  directions are given: the mean of both); coefficient ``b``.
+- ``force_deflection``: ``F_i sum_k c_k P_k(u)``, a compliance (Legendre in the axis
+  position over its travel when more than one coefficient) times one force component;
+  coefficients ``c0, c1, ...``. ``model = "beam"`` computes c0 from seed 004's
+  simply-supported beam, ``b (L^2 - b^2)^1.5 / (9 sqrt(3) E I L)``; ``model = "torsion"``
+  from ``32 e a / (G pi d^4)``.
+- ``periodic_pitch``: ``sum_h s_h sin(2 pi h (q - q0) / p) + c_h cos(2 pi h (q - q0) / p)``;
+  coefficients ``s1, c1, s2, c2, ..., period``.
+  On a rotary axis ``q``, ``p`` and ``q0`` are angles (``period_deg = 360`` repeats once per
+  revolution).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.polynomial import legendre
+
+from ..base.errors import InputError, SpecError
+from .speckeys import TermSite, find_key, number, numbers, stem_of, unit_of
+from .terms import MAX_COEFFICIENTS, Context, Covariates, Term
+from ..base.units import ANGLE, TIME, scale, within
+
+
+STATE_HINT = "; give it with the points, or hold the machine in a state (Machine.with_state)"
+#: what STATE_HINT names, for interfaces that say it in their own words
+STATE_API = ("Machine.with_state",)
+
+
+def _need_t(ctx: Context, kind: str) -> np.ndarray:
+    t = ctx.covariates.t
+    if t is None:
+        raise InputError(f"{ctx.component}: its {kind} term needs the covariate t (time, s){STATE_HINT}",
+                         parameters=STATE_API)
+    return t
+
+
+def _need_temperature(ctx: Context, sensor: str, lag: float = 0.0) -> np.ndarray:
+    key = sensor if lag == 0.0 else lagged_name(sensor, lag)
+    temps = ctx.covariates.temperatures
+    if key not in temps:
+        known = ", ".join(k for k in temps if "@" not in k) or "none"
+        raise InputError(f"{ctx.component}: this term needs the temperature of sensor '{sensor}' "
+                         f"(given: {known}){STATE_HINT}", parameters=STATE_API)
+    return temps[key]
+
+
+def lagged_name(sensor: str, lag: float) -> str:
+    return f"{sensor}@{lag:g}s"
+
+
+def add_lagged_temperatures(cov: Covariates, requests) -> Covariates:
+    """Covariates with ``sensor@<lag>s`` entries: each sensor read ``lag`` s earlier along
+    the points' own time series (sorted by t; linear interpolation; before the first sample
+    the first value holds) - the whole record (``history``) when the covariates carry it, else
+    the points themselves. Points of different ``series`` (files) are different series: a lag
+    never reaches from one file into another, whose clock may start at 0 again."""
+    if not requests:
+        return cov
+    if cov.t is None:
+        raise InputError("a temperature lag needs the covariate t (time, s)")
+    series = np.zeros(cov.n) if cov.series is None else cov.series
+    record = cov.history   # the whole record, when the points are a part of it
+    rec_t = cov.t if record is None else record.t
+    rec_series = series if record is None else record.series
+    temps = dict(cov.temperatures)
+    for sensor, lag in requests:
+        if sensor not in cov.temperatures or (record is not None and sensor not in record.temperatures):
+            raise InputError(f"a term reads sensor '{sensor}' {lag:g} s earlier, but no temperature "
+                             f"'{sensor}' is given")
+        rec_values = cov.temperatures[sensor] if record is None else record.temperatures[sensor]
+        lagged = np.empty(cov.n)
+        for s in np.unique(series):
+            rows = np.flatnonzero(series == s)
+            samples = np.flatnonzero(rec_series == s)
+            order = samples[np.argsort(rec_t[samples], kind="stable")]
+            lagged[rows] = np.interp(cov.t[rows] - lag, rec_t[order], rec_values[order])
+        temps[lagged_name(sensor, lag)] = lagged
+    return Covariates(cov.n, cov.t, temps, cov.forces, cov.directions, cov.series, cov.history)
+
+
+def _saturation(t: np.ndarray, tau: float, stop: float | None):
+    """g(t; tau) and dg/dtau for heating from t = 0 and cooling after ``stop``."""
+    t = np.asarray(t, dtype=float)
+    heat = np.clip(t, 0.0, None) if stop is None else np.clip(t, 0.0, stop)
+    e = np.exp(-heat / tau)
+    g = 1.0 - e
+    dg = -e * heat / tau**2
+    if stop is not None:
+        after = t > stop
+        if np.any(after):
+            dt = t[after] - stop
+            decay = np.exp(-dt / tau)
+            g_stop, dg_stop = g[after], dg[after]
+            g[after] = g_stop * decay
+            dg[after] = dg_stop * decay + g_stop * decay * dt / tau**2
+    return g, dg
+
+
+def _tau_grid(cov: Covariates) -> np.ndarray:
+    if cov.t is None or cov.t.size < 2:
+        return np.array([])
+    span = float(np.ptp(cov.t))
+    if span <= 0:
+        return np.array([])
+    return np.geomspace(span / 300.0, 3.0 * span, 48)
+
+
+@dataclass(frozen=True, eq=False)
+class DriftTime(Term):
+    unit: str
+    unit_scale: float
+    count: int
+    stop: float | None
+    time_unit: str
+    kind = "thermal_drift"
+    covariates = ("t",)
+
+    @property
+    def local_names(self):  # type: ignore[override]
+        return tuple(n for k in range(1, self.count + 1) for n in (f"a{k}", f"tau{k}"))
+
+    @property
+    def nonlinear(self):  # type: ignore[override]
+        return tuple(f"tau{k}" for k in range(1, self.count + 1))
+
+    def value(self, c, ctx):
+        t = _need_t(ctx, "thermal_drift")
+        return sum(c[2 * k] * _saturation(t, c[2 * k + 1], self.stop)[0] for k in range(self.count))
+
+    def jacobian(self, c, ctx):
+        t = _need_t(ctx, "thermal_drift")
+        out = np.empty((ctx.n, 2 * self.count))
+        for k in range(self.count):
+            g, dg = _saturation(t, c[2 * k + 1], self.stop)
+            out[:, 2 * k] = g
+            out[:, 2 * k + 1] = c[2 * k] * dg
+        return out
+
+    def search_grid(self, name, c, cov):
+        return _tau_grid(cov)
+
+    def coefficient_units(self):
+        return [(self.unit_scale, self.unit), (TIME[self.time_unit], self.time_unit)] * self.count
+
+    def to_spec(self, c):
+        table = {"kind": "thermal_drift", "driver": "time",
+                 f"amplitudes_{self.unit}": [float(c[2 * k] / self.unit_scale) for k in range(self.count)],
+                 f"time_constants_{self.time_unit}": [float(c[2 * k + 1] / TIME[self.time_unit])
+                                                      for k in range(self.count)]}
+        if self.stop is not None:
+            table[f"stop_{self.time_unit}"] = float(self.stop / TIME[self.time_unit])
+        return table
+
+    keys = frozenset({"driver", "amplitudes", "time_constants", "stop"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        amps, unit, factor, akey = site.value(table, "amplitudes")
+        _count(amps.size, site, akey, "amplitudes")
+        taus = _time_constants(table, site, amps.size)
+        tunit = unit_of(find_key(table, "time_constants", site.where)[1], "time_constants")
+        stop, _, _, skey = site.value(table, "stop", "time", required=False, count=1)
+        if stop is not None and stop[0] < 0:
+            raise SpecError(f"{site.where}.{skey}: heating stops at or after t = 0, got {table[skey]}")
+        stop = None if stop is None else float(stop[0])
+        return cls(unit, factor, amps.size, stop, tunit), np.ravel(np.column_stack([amps, taus]))
+
+
+@dataclass(frozen=True, eq=False)
+class DriftTemperature(Term):
+    unit: str
+    unit_scale: float
+    sensors: tuple[str, ...]
+    reference: tuple[float, ...]
+    lag: float
+    kind = "thermal_drift"
+    covariates = ("temperatures",)
+
+    @property
+    def local_names(self):  # type: ignore[override]
+        return tuple(f"k_{s}" for s in self.sensors)
+
+    def lag_requests(self):
+        return tuple((s, self.lag) for s in self.sensors) if self.lag else ()
+
+    def temperature_sensors(self):
+        return self.sensors
+
+    def coefficient_units(self):
+        return [(self.unit_scale, f"{self.unit}/K")] * self.size
+
+    def jacobian(self, c, ctx):
+        return np.column_stack([_need_temperature(ctx, s, self.lag) - ref
+                                for s, ref in zip(self.sensors, self.reference)])
+
+    def value(self, c, ctx):
+        return self.jacobian(c, ctx) @ c
+
+    def to_spec(self, c):
+        table = {"kind": "thermal_drift", "driver": "temperature", "sensors": list(self.sensors),
+                 f"coefficients_{self.unit}_per_K": [float(v / self.unit_scale) for v in c],
+                 "reference_degC": list(self.reference)}
+        if self.lag:
+            table["lag_s"] = self.lag
+        return table
+
+    keys = frozenset({"driver", "sensors", "coefficients", "reference_degC", "lag_s"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        where = site.where
+        sensors = table.get("sensors")
+        if not isinstance(sensors, list) or not sensors or not all(isinstance(s, str) and s for s in sensors):
+            raise SpecError(f"{where}.sensors: expected a list of sensor names, got {sensors!r}")
+        twice = sorted({s for s in sensors if sensors.count(s) > 1})
+        if twice:
+            raise SpecError(f"{where}.sensors: sensor '{twice[0]}' is listed twice")
+        coef, unit, factor, _ = site.value(table, "coefficients", count=len(sensors), per="K")
+        ref = _temperatures(table.get("reference_degC", 20.0), f"{where}.reference_degC")
+        ref = np.broadcast_to(ref, (len(sensors),)) if ref.size == 1 else numbers(
+            ref, f"{where}.reference_degC", len(sensors))
+        lag = number(table.get("lag_s", 0.0), f"{where}.lag_s")
+        if lag < 0:
+            raise SpecError(f"{where}.lag_s: must be >= 0")
+        within(np.array([lag]), "time", f"{where}.lag_s", "s", 1.0)
+        return cls(unit, factor, tuple(sensors), tuple(float(r) for r in ref), lag), coef
+
+
+@dataclass(frozen=True, eq=False)
+class ExpansionTemperature(Term):
+    sensor: str
+    reference: float
+    origin: float
+    kind = "thermal_expansion"
+    axis_only = True
+    linear_length_only = True
+    covariates = ("temperatures",)
+
+    local_names = ("alpha",)
+
+    def temperature_sensors(self):
+        return (self.sensor,)
+
+    def coefficient_units(self):
+        return [(1e-6, "ppm/K")]
+
+    def _parts(self, ctx):
+        return _need_temperature(ctx, self.sensor) - self.reference, ctx.position - self.origin
+
+    def value(self, c, ctx):
+        dT, dq = self._parts(ctx)
+        return c[0] * dT * dq
+
+    def jacobian(self, c, ctx):
+        dT, dq = self._parts(ctx)
+        return (dT * dq)[:, None]
+
+    def position_slope(self, c, ctx):
+        dT, _ = self._parts(ctx)
+        return c[0] * dT
+
+    def to_spec(self, c):
+        return {"kind": "thermal_expansion", "driver": "temperature", "sensor": self.sensor,
+                "coefficient_ppm_per_K": float(c[0] * 1e6), "reference_degC": self.reference,
+                "origin_mm": self.origin * 1e3}
+
+    keys = frozenset({"driver", "sensor", "coefficient_per_K", "coefficient_ppm_per_K", "reference_degC",
+                      "origin"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        where = site.where
+        sensor = table.get("sensor")
+        if not isinstance(sensor, str) or not sensor:
+            raise SpecError(f"{where}.sensor: expected a sensor name, got {sensor!r}")
+        if ("coefficient_per_K" in table) == ("coefficient_ppm_per_K" in table):
+            raise SpecError(f"{where}: give one of coefficient_per_K or coefficient_ppm_per_K")
+        alpha = (number(table.get("coefficient_per_K", 0.0), f"{where}.coefficient_per_K")
+                 + number(table.get("coefficient_ppm_per_K", 0.0), f"{where}.coefficient_ppm_per_K") * 1e-6)
+        if abs(alpha) > 1.0:  # a strain of 1 per kelvin: a unit mistake, not a material
+            key = "coefficient_per_K" if "coefficient_per_K" in table else "coefficient_ppm_per_K"
+            raise SpecError(f"{where}.{key}: {table[key]} is implausible: an expansion coefficient lies "
+                            "within +-1 per K (+-1e6 ppm/K)")
+        reference = float(_temperatures(table.get("reference_degC", 20.0), f"{where}.reference_degC", 1)[0])
+        return cls(sensor, reference, _origin(table, site)), np.array([alpha])
+
+
+@dataclass(frozen=True, eq=False)
+class ExpansionTime(Term):
+    count: int
+    origin: float
+    time_unit: str
+    kind = "thermal_expansion"
+    axis_only = True
+    linear_length_only = True
+    covariates = ("t",)
+
+    @property
+    def local_names(self):  # type: ignore[override]
+        return tuple(n for k in range(1, self.count + 1) for n in (f"s{k}", f"tau{k}"))
+
+    @property
+    def nonlinear(self):  # type: ignore[override]
+        return tuple(f"tau{k}" for k in range(1, self.count + 1))
+
+    def _strain(self, c, ctx):
+        t = _need_t(ctx, "thermal_expansion")
+        strain = np.zeros(ctx.n)
+        parts = []
+        for k in range(self.count):
+            g, dg = _saturation(t, c[2 * k + 1], None)
+            strain += c[2 * k] * g
+            parts.append((g, c[2 * k] * dg))
+        return strain, parts
+
+    def value(self, c, ctx):
+        return self._strain(c, ctx)[0] * (ctx.position - self.origin)
+
+    def jacobian(self, c, ctx):
+        _, parts = self._strain(c, ctx)
+        dq = ctx.position - self.origin
+        return np.column_stack([col * dq for g, dg in parts for col in (g, dg)])
+
+    def position_slope(self, c, ctx):
+        return self._strain(c, ctx)[0]
+
+    def search_grid(self, name, c, cov):
+        return _tau_grid(cov)
+
+    def coefficient_units(self):
+        return [(1e-6, "ppm"), (TIME[self.time_unit], self.time_unit)] * self.count
+
+    def to_spec(self, c):
+        return {"kind": "thermal_expansion", "driver": "time",
+                "strains_ppm": [float(c[2 * k] * 1e6) for k in range(self.count)],
+                f"time_constants_{self.time_unit}": [float(c[2 * k + 1] / TIME[self.time_unit])
+                                                     for k in range(self.count)],
+                "origin_mm": self.origin * 1e3}
+
+    keys = frozenset({"driver", "strains_ppm", "time_constants", "origin"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        if "strains_ppm" not in table:
+            raise SpecError(f"{site.where}: missing 'strains_ppm'")
+        strains = numbers(table["strains_ppm"], f"{site.where}.strains_ppm")
+        _count(strains.size, site, "strains_ppm", "strains")
+        if np.any(np.abs(strains) > 1e6):
+            raise SpecError(f"{site.where}.strains_ppm: a strain lies within +-1e6 ppm, got {table['strains_ppm']}")
+        taus = _time_constants(table, site, strains.size)
+        tunit = unit_of(find_key(table, "time_constants", site.where)[1], "time_constants")
+        return (cls(strains.size, _origin(table, site), tunit),
+                np.ravel(np.column_stack([strains * 1e-6, taus])))
+
+
+@dataclass(frozen=True, eq=False)
+class Backlash(Term):
+    unit: str
+    unit_scale: float
+    kind = "backlash"
+    axis_only = True
+    covariates = ("directions",)
+    local_names = ("b",)
+
+    def _direction(self, ctx):
+        d = ctx.covariates.directions
+        if d is None or ctx.axis_index is None:
+            return np.zeros(ctx.n)
+        return d[:, ctx.axis_index]
+
+    def value(self, c, ctx):
+        return 0.5 * c[0] * self._direction(ctx)
+
+    def jacobian(self, c, ctx):
+        return (0.5 * self._direction(ctx))[:, None]
+
+    def to_spec(self, c):
+        return {"kind": "backlash", f"reversal_{self.unit}": float(c[0] / self.unit_scale)}
+
+    keys = frozenset({"reversal"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        b, unit, factor, _ = site.value(table, "reversal", count=1)
+        return cls(unit, factor), b
+
+
+@dataclass(frozen=True, eq=False)
+class ForceDeflection(Term):
+    unit: str
+    unit_scale: float
+    force: int
+    degree: int
+    travel: tuple[float, float] | None
+    model: dict | None = None
+    kind = "force_deflection"
+    covariates = ("forces",)
+
+    @property
+    def local_names(self):  # type: ignore[override]
+        return tuple(f"c{k}" for k in range(self.degree + 1))
+
+    def _force(self, ctx):
+        F = ctx.covariates.forces
+        if F is None:
+            raise InputError(f"{ctx.component}: this term needs the covariate forces (N, 3) [N]{STATE_HINT}",
+                             parameters=STATE_API)
+        return F[:, self.force]
+
+    def _basis(self, ctx):
+        if self.degree == 0:
+            return np.ones((ctx.n, 1)), np.zeros((ctx.n, 1))
+        lo, hi = self.travel
+        u = (2.0 * ctx.position - lo - hi) / (hi - lo)
+        V = legendre.legvander(u, self.degree)
+        dV = np.zeros_like(V)
+        for k in range(1, self.degree + 1):
+            e = np.zeros(k + 1)
+            e[k] = 1.0
+            dV[:, k] = legendre.legval(u, legendre.legder(e)) * 2.0 / (hi - lo)
+        return V, dV
+
+    def jacobian(self, c, ctx):
+        return self._basis(ctx)[0] * self._force(ctx)[:, None]
+
+    def value(self, c, ctx):
+        return self.jacobian(c, ctx) @ c
+
+    def position_slope(self, c, ctx):
+        return (self._basis(ctx)[1] @ c) * self._force(ctx)
+
+    def coefficient_units(self):
+        return [(self.unit_scale, f"{self.unit}/N")] * self.size
+
+    def to_spec(self, c):
+        table = {"kind": "force_deflection", "force": "xyz"[self.force],
+                 f"compliance_{self.unit}_per_N": [float(v / self.unit_scale) for v in c]}
+        if self.model is not None and self.degree == 0 and math.isclose(
+                c[0], self.model["compliance"], rel_tol=1e-12):
+            table = {"kind": "force_deflection", "force": "xyz"[self.force], **self.model["keys"]}
+        return table
+
+    keys = frozenset({"force", "compliance", "model", "E_GPa", "G_GPa", "d", "I_mm4", "L", "b", "e", "a"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        where, quantity = site.where, site.quantity
+        force = table.get("force")
+        if not isinstance(force, str) or force not in ("x", "y", "z"):
+            raise SpecError(f"{where}.force: must be 'x', 'y' or 'z', got {force!r}")
+        model = table.get("model")
+        used = {None: {"compliance"}, "beam": {"E_GPa", "L", "b", "d", "I_mm4"},
+                "torsion": {"G_GPa", "d", "e", "a"}}.get(model, set())
+        unused = sorted(k for k in table if stem_of(k) in cls.keys - used - {"force", "model"})
+        if unused:
+            named = f"the {model} model" if model else "a compliance (no model)"
+            raise SpecError(f"{where}: {', '.join(unused)} not used by {named}")
+        if model is not None:
+            c0, keys = _structural_model(table, model, quantity, where)
+            unit = "um" if quantity == "length" else "urad"
+            return (cls(unit, scale(unit, quantity, where), "xyz".index(force), 0, None,
+                        {"compliance": c0, "keys": keys}), np.array([c0]))
+        comp, unit, factor, ckey = site.value(table, "compliance", per="N")
+        _count(comp.size, site, ckey, "coefficients")
+        if comp.size > 1 and (site.travel is None or not site.owner_is_axis):
+            raise SpecError(f"{where}: a position-dependent compliance needs an axis with a travel")
+        return cls(unit, factor, "xyz".index(force), comp.size - 1, site.travel), comp
+
+
+@dataclass(frozen=True, eq=False)
+class PeriodicPitch(Term):
+    unit: str
+    unit_scale: float
+    harmonics: int
+    origin: float
+    position_unit: str
+    position_scale: float
+    kind = "periodic_pitch"
+    axis_only = True
+
+    @property
+    def local_names(self):  # type: ignore[override]
+        return tuple(n for h in range(1, self.harmonics + 1) for n in (f"s{h}", f"c{h}")) + ("period",)
+
+    nonlinear = ("period",)
+
+    def _phase(self, c, ctx):
+        p = c[-1]
+        h = np.arange(1, self.harmonics + 1)
+        return 2.0 * np.pi * np.outer(ctx.position - self.origin, h) / p, h, p
+
+    def value(self, c, ctx):
+        phi, _, _ = self._phase(c, ctx)
+        return np.sin(phi) @ c[0:-1:2] + np.cos(phi) @ c[1:-1:2]
+
+    def jacobian(self, c, ctx):
+        phi, h, p = self._phase(c, ctx)
+        out = np.empty((ctx.n, self.size))
+        out[:, 0:-1:2] = np.sin(phi)
+        out[:, 1:-1:2] = np.cos(phi)
+        dphase = (np.cos(phi) * c[0:-1:2] - np.sin(phi) * c[1:-1:2])  # d value / d phi_h
+        out[:, -1] = -(dphase * phi).sum(axis=1) / p
+        return out
+
+    def position_slope(self, c, ctx):
+        phi, h, p = self._phase(c, ctx)
+        return (np.cos(phi) * c[0:-1:2] - np.sin(phi) * c[1:-1:2]) @ (2.0 * np.pi * h / p)
+
+    def search_grid(self, name, c, cov):
+        return c[-1] * np.linspace(0.7, 1.3, 61)
+
+    def coefficient_units(self):
+        return [(self.unit_scale, self.unit)] * (2 * self.harmonics) + [(self.position_scale, self.position_unit)]
+
+    def coefficient_limits(self):
+        quantity = "angle" if self.position_unit in ANGLE else "length"
+        return super().coefficient_limits()[:-1] + [f"period_{quantity}"]
+
+    def to_spec(self, c):
+        return {"kind": "periodic_pitch",
+                f"period_{self.position_unit}": float(c[-1] / self.position_scale),
+                f"sine_{self.unit}": [float(v / self.unit_scale) for v in c[0:-1:2]],
+                f"cosine_{self.unit}": [float(v / self.unit_scale) for v in c[1:-1:2]],
+                f"origin_{self.position_unit}": float(self.origin / self.position_scale)}
+
+    keys = frozenset({"period", "sine", "cosine", "origin"})
+
+    @classmethod
+    def from_spec(cls, table, site):
+        position = site.position_quantity or "length"   # a rotary axis' period is an angle
+        period, punit, pscale, pkey = site.value(table, "period", position, count=1)
+        if period[0] <= 0:
+            raise SpecError(f"{site.where}.{pkey}: the period must be positive")
+        within(period, f"period_{position}", f"{site.where}.{pkey}", punit, pscale)
+        sines, unit, factor, skey = site.value(table, "sine")
+        _count(sines.size, site, skey, "harmonics")
+        cosines, _, _, _ = site.value(table, "cosine", count=sines.size)
+        coefs = np.r_[np.ravel(np.column_stack([sines, cosines])), period]
+        return cls(unit, factor, sines.size, _origin(table, site, position), punit, pscale), coefs
+
+
+def _count(count: int, site: TermSite, key: str, what: str) -> None:
+    """Between 1 and :data:`~volerr_pin.model.terms.MAX_COEFFICIENTS` values of a list key."""
+    if not 1 <= count <= MAX_COEFFICIENTS:
+        raise SpecError(f"{site.where}.{key}: {count} {what}; give 1 to {MAX_COEFFICIENTS}")
+
+
+def _time_constants(table: dict, site: TermSite, count: int) -> np.ndarray:
+    """``time_constants_<unit>``: ``count`` positive times, s."""
+    taus, _, _, key = site.value(table, "time_constants", "time", count=count)
+    if np.any(taus <= 0):
+        raise SpecError(f"{site.where}.{key}: time constants must be positive, got {table[key]}")
+    return taus
+
+
+def _temperatures(value, where: str, count: int | None = None) -> np.ndarray:
+    """Temperatures [degC] within the plausibility limits."""
+    temps = numbers(value, where, count)
+    within(temps, "temperature", where, "degC", 1.0)
+    return temps
+
+
+def _origin(table: dict, site: TermSite, quantity: str = "length") -> float:
+    """The axis position ``q0`` an effect is measured from (``origin_<unit>``, default 0), m
+    (``quantity`` "angle": rad)."""
+    origin, _, _, _ = site.value(table, "origin", quantity, required=False, count=1)
+    return 0.0 if origin is None else float(origin[0])
+
+
+#: effect kinds by (kind, driver); driver None for kinds without one
+EFFECTS = {("thermal_drift", "time"): DriftTime, ("thermal_drift", "temperature"): DriftTemperature,
+           ("thermal_expansion", "temperature"): ExpansionTemperature, ("thermal_expansion", "time"): ExpansionTime,
+           ("backlash", None): Backlash, ("force_deflection", None): ForceDeflection,
+           ("periodic_pitch", None): PeriodicPitch}
+
+
+def _structural_model(table, model, quantity, where):
+    """Compliance [m/N or rad/N] from seed 004's beam and torsion formulas."""
+    def length(key):
+        value, k = find_key(table, key, where, example="mm")
+        return number(value, f"{where}.{k}") * scale(unit_of(k, key), "length", f"{where}.{k}")
+
+    def modulus(key):
+        if key not in table:
+            raise SpecError(f"{where}: the {model} model needs {key}")
+        return number(table[key], f"{where}.{key}") * 1e9
+
+    keys = {"model": model}
+    if model == "beam":
+        if quantity != "length":
+            raise SpecError(f"{where}: the beam model gives a deflection (a length error)")
+        E = modulus("E_GPa")
+        L, b = length("L"), length("b")
+        if "I_mm4" in table:
+            if any(stem_of(k) == "d" for k in table):
+                raise SpecError(f"{where}: give either I_mm4 or the diameter d, not both")
+            I = number(table["I_mm4"], f"{where}.I_mm4") * 1e-12
+            keys["I_mm4"] = table["I_mm4"]
+        else:
+            d = length("d")
+            I = math.pi * d**4 / 64.0
+            keys.update({k: table[k] for k in table if stem_of(k) == "d"})
+        if not (E > 0 and L > 0 and 0 < b < L and I > 0):
+            raise SpecError(f"{where}: beam model needs E_GPa > 0, L > b > 0 and a positive I or d")
+        keys.update({k: table[k] for k in table if stem_of(k) in ("L", "b")} | {"E_GPa": table["E_GPa"]})
+        return b * (L**2 - b**2) ** 1.5 / (9.0 * math.sqrt(3.0) * E * I * L), keys
+    if model == "torsion":
+        if quantity != "angle":
+            raise SpecError(f"{where}: the torsion model gives an angle (an angular error)")
+        G = modulus("G_GPa")
+        d, e, a = length("d"), length("e"), length("a")
+        if not (G > 0 and d > 0):
+            raise SpecError(f"{where}: torsion model needs G_GPa > 0 and d > 0")
+        keys.update({k: table[k] for k in table if stem_of(k) in ("d", "e", "a")} | {"G_GPa": table["G_GPa"]})
+        return 32.0 * e * a / (G * math.pi * d**4), keys
+    raise SpecError(f"{where}.model: must be 'beam' or 'torsion', got {model!r}")
