@@ -42,7 +42,7 @@ METHODS = ("linear", "gm11", "gm1n", "vwgm1n")
 #: other sensors has no coefficient of its own (exact collinearity, up to rounding in the file)
 COLLINEAR = 1e-6
 
-__all__ = ["METHODS", "SeriesData", "read_series", "thermal_fit"]
+__all__ = ["METHODS", "thermal_fit"]   # SeriesData and read_series are volerr_pin.measurements.series's
 
 
 def _design(data: SeriesData, target: str, sensors: list[str], lag: int):
