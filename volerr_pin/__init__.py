@@ -79,7 +79,7 @@ class _OldNames:
 def _install_old_names() -> None:
     import sys
 
-    if not any(isinstance(f, type) and f is _OldNames for f in sys.meta_path):
+    if _OldNames not in sys.meta_path:
         sys.meta_path.insert(0, _OldNames)   # before the path finder, which would load a second copy
 
 

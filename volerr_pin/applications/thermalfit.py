@@ -33,7 +33,8 @@ import numbers
 import numpy as np
 
 from ..base.errors import InputError
-from ..measurements.series import SeriesData, read_series
+from ..measurements.series import SeriesData
+from ..measurements.series import read_series  # noqa: F401  (importable from here, as before; documented there)
 from ..base.safeio import same_file
 from .thermal import GM11, GM1N
 

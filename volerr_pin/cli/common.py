@@ -198,8 +198,8 @@ def add_out_arg(parser: argparse.ArgumentParser, help: str, *, suffixes: tuple[s
     against ``suffixes`` (None: a file of none of the kinds the commands write elsewhere) by
     :func:`check_out_name`, before any work."""
     options = parser.add_mutually_exclusive_group(required=required) if old else parser
-    options.add_argument("-o", "--out", metavar=metavar, help=help,
-                         **({} if old else {"required": required, "default": default}))
+    options.add_argument("-o", "--out", metavar=metavar, help=help, default=default,
+                         **({} if old else {"required": required}))   # in a group, the group is required
     for spelling in old:
         options.add_argument(spelling, dest="out", action=_OldSpelling, new="-o/--out", metavar=metavar)
     if what:

@@ -685,9 +685,7 @@ class Machine:
         single = one_point(q)
         if order not in (None, 1):
             raise InputError(f"order must be None (exact) or 1 (first order), got {order!r}")
-        q = self.check_q(q, extrapolate)
-        theta = self.check_theta(theta)
-        cov = self.check_covariates(q.shape[0], covariates)
+        q, theta, cov = self.check_inputs(q, theta, extrapolate=extrapolate, **covariates)
         out = evaluate.volumetric_error(self._asm, q, theta, cov, order)
         return out[0] if single else out
 

@@ -13,7 +13,7 @@ import numpy as np
 from ...model import evaluate
 from ..identifiability import Analysis, analyse
 from ...model.machine import Machine
-from .design import (column_scale, default_rcond, error_and_sensitivity, point_chunks, reduce_design,
+from .design import (column_scale, default_rcond, point_chunks, reduce_design,
                      refuse_non_finite, rows_of, stacked_factor, typical_sizes, weighted_residual)
 from .observations import Observations, take_covariates
 
@@ -182,14 +182,16 @@ def initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray,
         for points, rows in point_chunks(obs, len(others) + len(own)):
             cov = take_covariates(obs.covariates, points)
             q, w, local, sigma = obs.q[points], obs.w[rows], obs.point[rows] - points[0], obs.sigma[rows, None]
-            error, S = error_and_sensitivity(machine, q, theta, others, cov)
-            _, A_other = rows_of(w, local, error, S)
-            q, _, cov = machine.check_inputs(q, theta, columns=len(own), **cov)   # once for every grid value
+            # checked once for the other terms' columns and every grid value (the model core)
+            q, checked, cov = machine.check_inputs(q, theta, columns=len(others) + len(own), **cov)
+            asm = machine.assembly
+            error = evaluate.volumetric_error(asm, q, checked, cov)
+            _, A_other = rows_of(w, local, error, evaluate.sensitivity(asm, q, checked, cov, others))
             for g, value in enumerate(grid):
                 trial = theta.copy()
                 trial[k] = value
-                error = evaluate.volumetric_error(machine.assembly, q, trial, cov)
-                pred, A_own = rows_of(w, local, error, evaluate.sensitivity(machine.assembly, q, trial, cov, own))
+                error = evaluate.volumetric_error(asm, q, trial, cov)
+                pred, A_own = rows_of(w, local, error, evaluate.sensitivity(asm, q, trial, cov, own))
                 factors[g] = stacked_factor(factors[g], [obs.nuisance[rows], A_other, A_own, obs.y[rows] - pred],
                                             sigma[:, 0], lambda block: refuse_non_finite(
                                                 obs, {"residuals or sensitivities": block}))
