@@ -21,7 +21,7 @@ from volerr_pin.fit.identify import build_observations
 from volerr_pin.measurements.simulate import campaign, heldout_set
 from volerr_pin.model.specio import add_terms
 
-HMC = Path(__file__).resolve().parent / "data" / "hmc_b"
+HMC = Path(__file__).resolve().parents[1] / "data" / "hmc_b"
 NOISE = 0.3
 FLOOR = np.sqrt(3) * NOISE
 

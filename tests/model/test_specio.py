@@ -21,7 +21,7 @@ def test_legendre_degree_is_bounded(machines):
 def test_identify_names_the_degree_option(tmp_path, capsys):
     from pathlib import Path
 
-    data = Path(__file__).resolve().parents[1] / "examples" / "data" / "vmc500_x_positioning.csv"
+    data = Path(__file__).resolve().parents[2] / "examples" / "data" / "vmc500_x_positioning.csv"
     assert main(["identify", "vmc500", str(data), "--terms", "EXX", "--degree", "1000"]) == 2
     assert capsys.readouterr().err.strip() == (
         f"volerr: error: --degree must be 0 to {MAX_DEGREE}, got 1000 (a polynomial of higher degree over the travel "

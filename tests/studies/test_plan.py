@@ -32,7 +32,7 @@ from volerr_pin.studies.plan.nc import StopsProgram, nc_program, time_estimate
 from volerr_pin.studies.plan.poses import grid_counts, pose_candidates
 from volerr_pin.studies.plan.tracker import in_sight
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,7 @@ way it comes in - tolerance files, reports read back, measurement columns, URDF 
 and the Python API - by the spec's rules: one value under one key, units named and known,
 magnitudes within sense, sizes before allocation.
 
-The cases run through the oracle of the second pass (``tests/test_hostile.py``: no traceback,
+The cases run through the oracle of the second pass (``tests/cli/test_hostile.py``: no traceback,
 exit 0 or 2 with one line naming the culprit, nothing created or changed on a refusal). They
 grow by kind, not by instance: ``key-`` one value under one key, ``unit-`` units named and known,
 ``sense-`` magnitudes within sense, ``size-`` sizes before allocation, ``series-`` time series.

@@ -15,7 +15,7 @@ import rerun as rr
 
 from volerr_pin.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 MODULES = ["compensation.export", "compensation.export.protocol", "compensation.export.registry", "compensation.export.zone", "compensation.export.tables", "compensation.export.simulate",
            "compensation.export.fit", "compensation.export.run", "compensation.export.layouts", "compensation.export.linuxcnc", "compensation.export.isg", "compensation.export.isg_model",
            "compensation.export.isg_volumetric", "compensation.export.siemens", "compensation.export.heidenhain", "compensation.export.fanuc", "viz.export"]

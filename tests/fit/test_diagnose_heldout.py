@@ -247,7 +247,7 @@ def _real_data() -> Path:
     import os
 
     root = os.environ.get("VOLERR_REAL_DATA")
-    return Path(root) if root else Path(__file__).resolve().parents[2] / "shared" / "real-data"
+    return Path(root) if root else Path(__file__).resolve().parents[3] / "shared" / "real-data"
 
 
 SPINDLE = _real_data() / "sjtu_spindle_thermal" / "spindle_thermal_original.csv"

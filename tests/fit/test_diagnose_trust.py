@@ -19,7 +19,7 @@ from volerr_pin.fit.identify import build_observations
 from volerr_pin.measurements.simulate import campaign, heldout_set, write_points
 from volerr_pin.model.specio import add_terms
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 NOISE = 0.3
 ARCSEC = np.pi / 180 / 3600
 

@@ -146,7 +146,7 @@ def test_an_endless_loop_is_refused_naming_it():
 def compensate_program_with(**kw):
     from volerr_pin import load_machine
     from pathlib import Path
-    m = load_machine(Path(__file__).resolve().parents[1] / "machines" / "vmc500")
+    m = load_machine(Path(__file__).resolve().parents[2] / "machines" / "vmc500")
     return compensate_program(m, START, **kw)
 
 
@@ -186,7 +186,7 @@ def test_an_unfollowable_program_is_read_as_before_and_says_why(machines):
 def test_a_subroutine_no_call_runs_stays_defined_and_globals_stay_set(machines):
     """A subroutine no call runs stays defined (another program's call, or a controller's menu,
     may name it), and the globals set are set in the program as run; a lathe cycle runs its
-    profile as a call (tests/test_gcode_profiles.py)."""
+    profile as a call (tests/compensation/test_gcode_profiles.py)."""
     program = ("G18 G21 G90 G7\nG0 X40 Z10\n#<_d> = [2 * 1.5]\n"
                "o100 sub\nG1 X[10 + #<_d>] Z0\nG1 Z-10\no100 endsub\n"
                "o200 sub\nG1 X#1 F100\no200 endsub\no300 sub\nG1 X[#<_d>]\no300 endsub\n"

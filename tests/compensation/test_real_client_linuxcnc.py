@@ -27,7 +27,7 @@ pytestmark = [pytest.mark.slow, pytest.mark.skipif(
     RS274 is None, reason="LinuxCNC's interpreter rs274 is not installed (Debian's linuxcnc-uspace, as root: "
                           "apt-get install --no-install-recommends linuxcnc-uspace)")]
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 #: rs274 prints 4 decimals: a reading agrees when it rounds to the number printed
 PRINTED = 0.5e-4 * (1 + 1e-6)
 CANON_AXES = "XYZABC"

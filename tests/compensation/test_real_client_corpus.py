@@ -32,7 +32,7 @@ DPKG = shutil.which("dpkg")
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(
     RS274 is None or DPKG is None, reason="LinuxCNC's rs274 (Debian's linuxcnc-uspace) is not installed")]
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 #: the share of the programs rs274 accepts that the product must compensate (measured: 180 of 188)
 ACCEPTED = 0.9
 #: the share of their moves it must compensate, as its reports count them (measured: 12,064 of

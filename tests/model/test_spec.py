@@ -193,7 +193,7 @@ terms = [
 
 # ---------------------------------------------------------------- the documented examples load
 
-DOC = Path(__file__).resolve().parents[1] / "docs" / "spec-format.md"
+DOC = Path(__file__).resolve().parents[2] / "docs" / "spec-format.md"
 
 
 def _toml_blocks() -> list[str]:

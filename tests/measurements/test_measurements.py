@@ -418,7 +418,7 @@ def test_the_documented_plausibility_limits_are_the_ones_applied():
 
     from volerr_pin.base.units import DEG, PLAUSIBLE
 
-    doc = (Path(__file__).resolve().parents[1] / "docs" / "measurements.md").read_text()
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "measurements.md").read_text()
     section = doc[doc.index("### Plausibility limits"):doc.index("## Point measurements")]
     stated = {"error_length": ("1 m (1e6 um)", 1.0), "error_angle": ("1 rad (206,265 arcsec)", 1.0),
               "position_length": ("1 km (1e6 mm)", 1e3), "position_angle": ("1e7 deg", 1e7 * DEG),

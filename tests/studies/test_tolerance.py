@@ -25,7 +25,7 @@ from volerr_pin.base.units import ARCSEC, UM
 from volerr_pin.model.workspace import grid
 
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "data" / "vmc500_tolerances.toml"
 
 

@@ -154,7 +154,7 @@ def _independent(targets, directions, values):
     return out
 
 
-REAL = Path(os.environ.get("VOLERR_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "real-data"))
+REAL = Path(os.environ.get("VOLERR_REAL_DATA", Path(__file__).resolve().parents[3] / "shared" / "real-data"))
 
 
 @pytest.mark.skipif(not (REAL / "iso230_2_runs").is_dir(), reason="real data not beside the repository")

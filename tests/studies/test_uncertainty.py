@@ -43,7 +43,7 @@ def engine(cluster):
 def arm():
     from pathlib import Path
 
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     return vp.load_machine(root / ARM, tool_frame="tool0", workpiece_frame="world")
 
 
@@ -384,7 +384,7 @@ def _cli(argv, capsys):
 def test_volerr_uncertainty_json_csv_and_recording(tmp_path, capsys, monkeypatch):
     from pathlib import Path
 
-    monkeypatch.chdir(Path(__file__).resolve().parent.parent)
+    monkeypatch.chdir(Path(__file__).resolve().parents[2])
     out, rrd = tmp_path / "field.csv", tmp_path / "u.rrd"
     code, text, err = _cli(["uncertainty", "vmc500", "--instrument-sigma", "1", "--campaign-points", "60",
                             "--samples", "4e2", "--grid", "3", "--compensation", "point", "--workers", "0",
@@ -426,7 +426,7 @@ def test_volerr_uncertainty_with_a_controller_s_tables(capsys):
 def test_volerr_uncertainty_from_an_identify_report_on_a_scheduler(cluster, tmp_path, capsys, monkeypatch):
     from pathlib import Path
 
-    monkeypatch.chdir(Path(__file__).resolve().parent.parent)
+    monkeypatch.chdir(Path(__file__).resolve().parents[2])
     code, text, err = _cli(["identify", "vmc500", "examples/data/vmc500_tracker.csv",
                             "examples/data/vmc500_x_positioning.csv", "--folds", "0", "--json"], capsys)
     assert code == 0, err

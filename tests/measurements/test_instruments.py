@@ -146,7 +146,7 @@ def test_every_built_in_kind_turns_itself_into_observations(machines, tmp_path):
     m = machines["vmc500"]
     files = ["vmc500_x_positioning.csv", "vmc500_ballbar_xy.csv"]
     data = [tracker_campaign(m, 20, seed=1, source="tracker.csv")]
-    data += [registry.read_any(Path(__file__).resolve().parents[1] / "examples" / "data" / f, m) for f in files]
+    data += [registry.read_any(Path(__file__).resolve().parents[2] / "examples" / "data" / f, m) for f in files]
     blocks = [d.observations(m, ObservationOptions()) for d in data]
     for d, b in zip(data, blocks):
         assert isinstance(d, Measurement)

@@ -23,7 +23,7 @@ One oracle holds for every command-line case, whatever wording the messages have
 
 The file was run against the code as it was before any fix of issue 22. To run it against
 another copy of the package, put that copy first on the path, e.g.
-``PYTHONPATH=<copy> python -P -m pytest tests/test_hostile.py -m "slow or not slow"``
+``PYTHONPATH=<copy> python -P -m pytest tests/cli/test_hostile.py -m "slow or not slow"``
 (``-P``: without it ``python -m`` puts the current folder, this checkout, first).
 """
 
@@ -57,7 +57,7 @@ from volerr_pin.model.machine import machines_dir
 
 from conftest import needs_device
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples" / "data"
 #: the folder that holds the package under test: subprocesses import the same copy
 PACKAGE_HOME = Path(vp.__file__).resolve().parents[1]

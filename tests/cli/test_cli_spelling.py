@@ -11,7 +11,7 @@ import pytest
 
 from volerr_pin.cli import build_parser, main
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
+DATA = Path(__file__).resolve().parents[2] / "examples" / "data"
 
 
 def _commands() -> dict[str, argparse.ArgumentParser]:

@@ -15,7 +15,7 @@ import volerr_pin as vp
 from volerr_pin.base import safeio
 from volerr_pin.cli import main
 
-DATA = Path(__file__).resolve().parents[1] / "examples" / "data"
+DATA = Path(__file__).resolve().parents[2] / "examples" / "data"
 
 
 def snapshot(folder: Path) -> dict[str, str]:

@@ -257,7 +257,7 @@ def test_library_errors_name_parameters_and_the_cli_its_options(tmp_path, capsys
     from volerr_pin.measurements import read_series
     from volerr_pin.applications.thermalfit import thermal_fit
 
-    data = Path(__file__).parents[1] / "examples" / "data" / "vmc500_spindle_thermal.csv"
+    data = Path(__file__).parents[2] / "examples" / "data" / "vmc500_spindle_thermal.csv"
     series = read_series([str(data)])
     target = list(series.columns)[-1]
     with pytest.raises(vp.InputError, match=r"^lag must be >= 0, got -1$") as err:
