@@ -8,6 +8,7 @@ Sizes are a review guideline, not a test.
 from __future__ import annotations
 
 import ast
+import importlib.util
 import re
 from pathlib import Path
 
@@ -16,7 +17,6 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "volerr_pin"
 LAYOUT = ROOT / "docs" / "layout.md"
-#: sizes over the limits that another issue is bringing down (issue 25: the NC program rewrite)
 def module_name(path: Path) -> str:
     """``identify.fit`` for volerr_pin/fit/identify/fit.py, ``identify`` for its __init__, ``__init__``
     for the package's own."""
@@ -243,3 +243,36 @@ def test_the_old_module_names_import_the_same_modules_and_warn():
     for old, new in [("machine", "model.machine"), ("gcode", "compensation.gcode"), ("compensate", "compensation"),
                      ("specio", "model.specio")]:
         assert f"DeprecationWarning: volerr_pin.{old} is volerr_pin.{new} now" in done.stderr
+
+
+def test_the_picture_is_what_the_tables_draw():
+    """docs/images/layers.svg, shown at the top of docs/layout.md, is drawn from the page's own
+    tables: a layer or a part added to them and not drawn again fails here."""
+    spec = importlib.util.spec_from_file_location("layers", ROOT / "docs" / "_ext" / "layers.py")
+    layers_ext = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(layers_ext)
+    text = LAYOUT.read_text()
+    drawn = layers_ext.svg(text)
+    assert (ROOT / "docs" / "images" / "layers.svg").read_text() == drawn, "draw it again: python docs/_ext/layers.py"
+    assert "](images/layers.svg)" in text
+    shown = set(re.findall(r'class="(?:name|part)">([^<]+)<', drawn))
+    for package, parts in package_order().items():   # every part of every top package is in the picture
+        if "." in package:
+            continue   # a sub-package is one part of its package (name/); its own parts are in the table
+        for part in parts:
+            if part != "__init__":
+                assert any(part in line.replace(",", " ").replace("/", " ").split() for line in shown), part
+
+
+def test_the_tests_mirror_the_packages():
+    """A test file sits in the folder of the package it tests (tests/fit/ for volerr_pin/fit/);
+    at the top are only the tests of the project as a whole (its layout, docstrings, README and
+    examples); every package has its folder."""
+    packages = {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").exists()}
+    tests = ROOT / "tests"
+    whole = {"test_layout.py", "test_docstrings.py", "test_readme.py", "test_examples.py"}
+    for path in tests.rglob("test_*.py"):
+        parts = path.relative_to(tests).parts
+        assert (len(parts) == 1 and parts[0] in whole) or (len(parts) == 2 and parts[0] in packages), \
+            f"tests/{'/'.join(parts)}: a test belongs in the folder of its package"
+    assert packages <= {p.name for p in tests.iterdir() if p.is_dir() and any(p.glob("test_*.py"))}

@@ -7,7 +7,7 @@ through :func:`volerr_pin.cli.main`, from the repository's root) into ``docs/_ge
 older than the package, the bundled machines or the sample data, so a change of the product
 shows in the next build. A command that fails stops the build.
 
-The pages show them as ``![...](../_generated/NAME.png)``; ``tests/test_docs.py`` holds that
+The pages show them as ``![...](../_generated/NAME.png)``; ``tests/test_readme.py`` holds that
 every such link names a picture of :data:`FIGURES`.
 """
 

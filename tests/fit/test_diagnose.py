@@ -353,3 +353,41 @@ def test_evidence_and_terms_of_rounds_and_components_that_do_not_exist(machines)
         evidence(result, -1)
     with pytest.raises(vp.InputError, match="component: 'EQQ' is not an error term of vmc500"):
         geometric_term(m, "EQQ")
+
+
+def test_an_effect_kind_registered_as_a_plug_in_is_offered_named_and_written(machines, monkeypatch):
+    """The loop asks the registry, not effect names: a new kind - a cutting load's deflection,
+    offered only through the spindle body's site, with coefficients of its own prefix - replaces
+    the catalogue's force deflection, is named for what it is and is written with its prefix,
+    while the loop itself is untouched."""
+    from volerr_pin.fit.diagnosis import EFFECTS, Candidate, EffectKind, effect_kind, register
+    from volerr_pin.model.spec import component_name
+
+    class CuttingLoad(EffectKind):
+        name, prefix = "cutting_load", "cut"
+
+        def through_site(self, offer, site, letter):
+            if site != "X":   # one site: a Cartesian machine's translation is the same through any
+                return []
+            return [Candidate(self.name, site, letter.lower(), component_name(letter, site),
+                              {"kind": "force_deflection", "force": "xyz"[i], "compliance_um_per_N": [0.0]},
+                              f"F{'xyz'[i]}") for i in offer.force_axes]
+
+        def describe(self, cand):
+            return f"cutting load along {cand.direction} from {cand.driver} ({cand.component})"
+
+    registry = {k: v for k, v in EFFECTS.items() if k != "force_deflection"}
+    monkeypatch.setattr("volerr_pin.fit.diagnosis.effects.EFFECTS", registry)
+    monkeypatch.setattr("volerr_pin.fit.diagnosis.candidates.EFFECTS", registry)
+    with pytest.raises(ValueError, match="a name of its own"):
+        register(type("Again", (EffectKind,), {"name": "backlash"}))
+    register(CuttingLoad)
+    assert isinstance(effect_kind("cutting_load"), CuttingLoad)
+    m = machines["vmc500"]
+    result = diagnose(m, [campaign(add_terms(m, HIDDEN["force"][0]), 300, NOISE, 8)], fixed=True)
+    first = result.effects[0]
+    # the hidden deflection sits on Z (EXZ); through X it is the same at the tool
+    assert (first.name, first.component, first.direction, first.driver) == ("cutting_load", "EXX", "x", "Fx")
+    assert first.label == "cutting load along x from Fx (EXX)"
+    assert first.names and all(n.startswith("EXX.cut.") for n in first.names)
+    assert not any(e.name == "force_deflection" for e in result.effects + result.possible)

@@ -192,6 +192,7 @@ def test_what_the_data_cannot_tell_from_geometry_is_said(machines, capsys):
 
     from volerr_pin.cli import main
     from volerr_pin.cli.diagnose import plan_argv
+    from volerr_pin.fit.diagnosis import Separation
 
     m = machines["cgm4000"]
     _, data = heldout_set(m, CGM["once_per_revolution"][0], 400, NOISE, 602)
@@ -205,7 +206,8 @@ def test_what_the_data_cannot_tell_from_geometry_is_said(machines, capsys):
     assert plan["instrument"] == "tracker" and plan["terms"] == ["EBB"] and set(plan["zone"]) == {"X", "Y", "Z", "A"}
     assert "B alone over its travel with the other axes held at X 2000 mm, Y 1250 mm, Z 300 mm, A -10 deg" \
         in undecided.note
-    argv = plan_argv("cgm4000", plan)
+    assert isinstance(undecided.details, Separation) and undecided.details.separate_by == plan
+    argv = plan_argv("cgm4000", undecided.details.separate_by)
     assert shlex.join(argv) == ("volerr plan cgm4000 --instrument tracker --budget 48 --zone X=2000 Y=1250 Z=300 "
                                 "A=-10 --terms EBB")
     assert main(argv[1:]) == 0
@@ -220,7 +222,7 @@ def test_five_axis_per_revolution_periods_stay_in_their_window(machines):
     3,000 rad), and the next change's spec refused that value: the diagnosis stopped with an
     error. Now every round's model holds at most one per-revolution term of an order per
     component, within its window, and the result names the error or nothing."""
-    from volerr_pin.fit.diagnosis.candidates import ROTARY_ORDERS
+    from volerr_pin.fit.diagnosis.effects import ROTARY_ORDERS
     from volerr_pin.fit.diagnosis.loop import PERIOD_WINDOW
     from volerr_pin.model.specio import replace_terms, term_tables
 
@@ -282,6 +284,6 @@ def test_real_spindle_sensors_are_one_thermal_finding(machines):
     result = diagnose(m, [PointMeasurements("spindle", q, values, cov, np.arange(n))])
     thermal = [e for e in result.effects if e.name == "thermal_drift"]
     assert len(thermal) == 1 and thermal[0].direction == "z", [e.label for e in result.effects]
-    assert thermal[0].details["sensors"] and thermal[0].details["time_check"] is not None
+    assert thermal[0].details.sensors and thermal[0].details.time_check is not None
     assert thermal[0].rms_after_um == pytest.approx(result.rms_after_um)
     assert result.rms_after_um < 0.5 * result.rms_before_um

@@ -58,7 +58,7 @@ def test_a_rotary_periodic_error_over_part_of_a_turn_needs_four_periods(machines
     another smooth shape of the axis' off-spec geometry, so only orders with MIN_PERIODS periods
     in the measured span are tried (the cause of a 4-per-revolution error of A invented beside a
     hidden backlash of B)."""
-    from volerr_pin.fit.diagnosis.candidates import MIN_PERIODS, ROTARY_ORDERS
+    from volerr_pin.fit.diagnosis.effects import MIN_PERIODS, ROTARY_ORDERS
 
     m = machines["cgm4000"]
     obs = build_observations(m, [campaign(m, 60, NOISE, 0)], sigma_um=NOISE)
@@ -124,12 +124,12 @@ def test_thermal_drift_from_two_sensors_is_one_finding(thermal_two_sensors):
     r = thermal_two_sensors
     assert [(e.name, e.direction) for e in r.effects] == [("thermal_drift", "z")]
     finding = r.effects[0]
-    assert sorted(finding.details["sensors"]) == ["column", "spindle"]
+    assert sorted(finding.details.sensors) == ["column", "spindle"]
     assert len(finding.members) == 2 and "multi-sensor linear model" in finding.label
     values = {n.split("k_")[-1]: p["value"] for n, p in finding.parameters.items()}
     assert values == pytest.approx({"spindle": 1.0, "column": 2.0}, abs=0.06)
-    assert finding.details["lag_s"] == 0.0  # no lag hidden, none kept
-    check = finding.details["time_check"]
+    assert finding.details.lag_s == 0.0  # no lag hidden, none kept
+    check = finding.details.time_check
     # fitted on the first 60 % of the run, the model predicts the rest near the noise; without it not
     assert check["rms_predicted_um"] < 1.3 * np.sqrt(3) * NOISE < check["rms_predicted_without_um"]
     # the headline is the final model's, and the finding's 'after' too
@@ -162,8 +162,8 @@ def test_a_lagged_sensor_is_found_with_its_lag(machines):
                       "coefficients_um_per_K": [3.0], "reference_degC": 21.0, "lag_s": 1800.0}}
     r = diagnose(m, [campaign(add_terms(m, lagged), 400, NOISE, 2)], max_effects=2)
     (finding,) = r.effects
-    assert finding.name == "thermal_drift" and finding.details["lag_s"] == 1800.0
-    assert min(r["rms_holdout_um"] for r in finding.details["lags_tried"]) == pytest.approx(r.rms_after_um)
+    assert finding.name == "thermal_drift" and finding.details.lag_s == 1800.0
+    assert min(r["rms_holdout_um"] for r in finding.details.lags_tried) == pytest.approx(r.rms_after_um)
 
 
 def test_a_floor_from_the_residual_far_above_the_stated_noise_is_not_reached(machines):

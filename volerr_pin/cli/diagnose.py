@@ -62,7 +62,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..fit.diagnosis import diagnose
+    from ..fit.diagnosis import Separation, ThermalModel, diagnose
+    from ..fit.diagnosis.effects import effect_kind
     from ..measurements import read_any
     from ..model.specio import write_spec
 
@@ -115,29 +116,17 @@ def run(args) -> int:
         out.print(escape(f"{e.label}:"))
         for name, p in e.parameters.items():
             u = "" if p["uncertainty"] is None else f" +- {p['uncertainty']:.3g}"
-            held = " (held: the revolution's)" if e.name == "periodic_rotary" and name.endswith(".period") else ""
-            out.print(escape(f"  {name} = {p['value']:.5g}{u} {p['unit']}{held}"))
-        if e.details.get("sensors") is not None:
-            if e.details["sensors"]:
-                lags = ", ".join(f"{x['lag_s']:g} s: {x['rms_holdout_um']:.3f}" for x in e.details["lags_tried"])
-                tried = f" (held-out RMS by lag: {lags} um)" if lags else " (no lag tried)"
-                out.print(escape(f"  sensors {', '.join(e.details['sensors'])}; lag {e.details['lag_s']:g} s{tried}"))
-            else:
-                out.print(escape("  driven by time alone (no temperature sensor chosen)"))
-            out.print(escape(f"  chosen by {e.details['selection']}"))
-            check = e.details.get("time_check")
-            if check:
-                out.print(escape(f"  check over time: fitted on the first {check['fit_share']:.0%} of the run "
-                                 f"({check['fit_points']} points), predicts the other {check['predicted_points']} "
-                                 f"with RMS {check['rms_predicted_um']:.3f} um (without the drift "
-                                 f"{check['rms_predicted_without_um']:.3f} um)"))
-        if e.details.get("kept_jointly"):
-            out.print(escape(f"  {e.details['kept_jointly']}"))
+            out.print(escape(f"  {name} = {p['value']:.5g}{u} {p['unit']}{effect_kind(e.name).parameter_note(name)}"))
+        if isinstance(e.details, ThermalModel):
+            for line in e.details.lines():
+                out.print(escape(line))
+        if e.kept_jointly:
+            out.print(escape(f"  {e.kept_jointly}"))
     for e in result.possible:
         head, _, why = e.note.partition(": ")
         out.print(escape(f"{head}: {e.label} ({why})"))
-        if e.details.get("separate_by"):
-            out.print(escape("  to plan it: " + shlex.join(plan_argv(args.machine, e.details["separate_by"]))))
+        if isinstance(e.details, Separation):
+            out.print(escape("  to plan it: " + shlex.join(plan_argv(args.machine, e.details.separate_by))))
     if result.under_modelled:
         out.print(escape(result.off_spec()["label"]) + " (raised; not physical effects): "
                   + escape(", ".join(f"{u.component} ({u.form_before} -> {u.form_after})" for u in result.under_modelled)))

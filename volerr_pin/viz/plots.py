@@ -255,7 +255,7 @@ def thermal_fit_png(result: dict, data, path: str | Path) -> dict:
 def diagnosis_png(diagnosis, path: str | Path) -> dict:
     """One page: held-out RMS per step against the noise floor, and for each accepted effect
     the residual against its driver before and after."""
-    from ..fit.diagnosis import drift_series, evidence
+    from ..fit.diagnosis import Role, drift_series, evidence
 
     n_eff = min(len(diagnosis.effects), 4)
     drifts = drift_series(diagnosis)[:2]
@@ -266,7 +266,7 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
     rms = [s.rms_holdout_um for s in diagnosis.steps]
     def short(step):
         a = step.accepted_all
-        if a[0].kind == "under_modelled":
+        if a[0].kind == Role.UNDER_MODELLED:
             return "+degree\n" + " ".join(r.component for r in a[:3]) + (" ..." if len(a) > 3 else "")
         e = a[0]
         return e.name + (f"\n{e.axis}" if e.axis else "") + (f" {e.direction}" if e.direction else "")

@@ -6,7 +6,7 @@ table of numbers: the targets are the written values filled forward from the pos
 the run, the travel is checked for the whole table at once, and the compensated lines are
 written from one template per shape of line (its letters and blanks) with the numbers put in.
 Everything done here is what the line-by-line reader and writer do for such lines, with the
-same arithmetic, so the output is the same byte for byte (``tests/test_nc_throughput.py``);
+same arithmetic, so the output is the same byte for byte (``tests/compensation/test_nc_throughput.py``);
 whatever this path cannot take (a move split into pieces, a number beyond range, a target
 outside the travel) goes back to the line-by-line path, which writes it or names the error.
 """

@@ -30,16 +30,21 @@ degree of an existing component explains as well as an effect does is reported a
 "geometric component X under-modelled (degree n -> m)" in :attr:`Diagnosis.under_modelled`,
 not as a physical effect. A periodic pitch must have a period in the ball-screw range
 (:data:`~volerr_pin.fit.diagnosis.candidates.PITCH_PERIOD_MM`) and at least
-:data:`~volerr_pin.fit.diagnosis.candidates.MIN_PERIODS` periods inside the measured
+:data:`~volerr_pin.fit.diagnosis.effects.MIN_PERIODS` periods inside the measured
 travel.
 
 Effects whose effect at the tool is the same wherever they sit (a drift in x through any
 axis of a Cartesian machine) are reported with ``axis`` None: the data cannot tell which.
 
+The catalogue effects are plug-ins (:mod:`~volerr_pin.fit.diagnosis.effects`): each kind is a
+class with its candidates, its coefficients' prefix, its label and the properties the loop asks
+about, found through a registry (:data:`EFFECTS`); no part of the loop asks for an effect by name.
+
 Parts, each importing only those listed before it:
 
 - :mod:`~volerr_pin.fit.diagnosis.results`: typed results (candidates, scores, changes, rounds, the
-  diagnosis and its JSON report);
+  diagnosis and its JSON report, each kind's details);
+- :mod:`~volerr_pin.fit.diagnosis.effects`: the catalogue effects, as plug-ins;
 - :mod:`~volerr_pin.fit.diagnosis.candidates`: what the model could be missing;
 - :mod:`~volerr_pin.fit.diagnosis.projector`: the round's base design and its basis, on which a
   candidate's joint fit and held-out RMS cost a few small products;
@@ -54,10 +59,11 @@ from .candidates import axis_directions, build_candidates, geometric_term, raise
 from .changes import raise_components
 from .loop import diagnose
 from .report import drift_series, driver_values, evidence, residual_analysis
+from .effects import EFFECTS, EffectKind, effect_kind, register
 from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Candidate, Change, Diagnosis, DriftSeries,
-                      Evidence, Raise, Score, Step)
+                      Evidence, Raise, Role, Score, Separation, Step, ThermalModel)
 
-__all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "Candidate", "Change", "Diagnosis", "DriftSeries",
-           "Evidence", "Raise", "Score", "Step", "axis_directions", "build_candidates", "diagnose", "drift_series",
-           "driver_values", "evidence", "geometric_term", "raise_components",
-           "raised_table", "residual_analysis"]
+__all__ = ["EFFECTS", "PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "Candidate", "Change", "Diagnosis",
+           "DriftSeries", "EffectKind", "Evidence", "Raise", "Role", "Score", "Separation", "Step", "ThermalModel",
+           "axis_directions", "build_candidates", "diagnose", "drift_series", "driver_values", "effect_kind",
+           "evidence", "geometric_term", "raise_components", "raised_table", "register", "residual_analysis"]

@@ -16,19 +16,18 @@ from ...model.machine import Machine
 from ...model.spec import component_name, parse_component_name
 from ...model.termkinds import GEOMETRIC
 from ...model.terms import Context, Covariates
-from .results import Candidate
+from .effects import EFFECTS, Offer, direction_of, effect_kind
+from .results import Candidate, Role
 
-__all__ = ["LETTERS", "MAX_DEGREE", "MAX_NODES", "MIN_PERIODS", "PITCH_PERIOD_MM", "RAISE_BY", "ROTARY_ORDERS",
-           "adequacy_candidates", "axis_directions", "build_candidates", "direction_of", "form_of",
+__all__ = ["LETTERS", "MAX_DEGREE", "MAX_NODES", "PITCH_PERIOD_MM", "RAISE_BY",
+           "adequacy_candidates", "axis_directions", "build_candidates", "form_of",
            "geometric_name", "geometric_term", "raised_table", "smoother_table"]
 
 LETTERS = "XYZABC"
 PITCH_PERIOD_MM = (1.0, 50.0)   # ball-screw leads
-MIN_PERIODS = 4                 # periods of a pitch error inside the measured travel
 MAX_DEGREE = 12                 # a polynomial component is not raised beyond this degree
 MAX_NODES = 65                  # nor a table beyond this many nodes
 RAISE_BY = (1, 2, 4)            # degrees a polynomial may gain in one round
-ROTARY_ORDERS = (1, 2, 3, 4, 6, 8)   # periods per revolution a rotary axis' periodic error is tried with
 
 
 # ----------------------------------------------------------------------------- candidates
@@ -75,22 +74,6 @@ def axis_directions(machine: Machine) -> dict[str, str]:
     return out
 
 
-def direction_of(letter: str) -> str:
-    """The report's direction of a component letter: "x", "y" or "z" (rotations: about that axis).
-
-    Parameters
-    ----------
-    letter : str
-        "X", "Y", "Z", "A", "B" or "C".
-
-    Returns
-    -------
-    str
-        "x", "y" or "z".
-    """
-    return letter.lower() if letter in "XYZ" else "xyz"["ABC".index(letter)]
-
-
 def geometric_name(direction: str, owner: str, location: bool, own: str | None, linear: bool) -> str:
     """The catalogue name of a geometric component.
 
@@ -134,73 +117,24 @@ def build_candidates(machine: Machine, obs: Observations) -> list[Candidate]:
     list of Candidate
         Effects, missing geometric components, then raised components, each labelled.
     """
-    cov = obs.covariates
     own = axis_directions(machine)
+    offer = Offer.of(machine, obs, own)
+    kinds = list(EFFECTS.values())
     out: list[Candidate] = []
-    sites = [a for a in machine.axes] + [b.name for b in machine.spec.bodies]
-    has_t = "t" in cov and np.ptp(cov["t"]) > 0
-    sensors = [s for s, v in (cov.get("temperatures") or {}).items() if np.ptp(v) > 0]
-    forces = cov.get("forces")
-    force_axes = [i for i in range(3) if forces is not None and np.ptp(forces[:, i]) > 0]
-    directions = cov.get("directions")
 
     def unit_of(direction):
         return ("um", "length") if direction in "XYZ" else ("arcsec", "angle")
 
-    # position-independent translations: drift and deflection, through every site
-    for site in sites:
+    # position-independent translations (a drift, a deflection), through every site
+    for site in [a for a in machine.axes] + [b.name for b in machine.spec.bodies]:
         for d in "XYZ":
-            comp = component_name(d, site)
-            if has_t:
-                out.append(Candidate("thermal_drift", site, d.lower(), comp,
-                                     {"kind": "thermal_drift", "driver": "time", "amplitudes_um": [0.0],
-                                      "time_constants_min": [60.0]}, "t"))
-            for s in sensors:
-                ref = float(np.mean(cov["temperatures"][s]))
-                out.append(Candidate("thermal_drift", site, d.lower(), comp,
-                                     {"kind": "thermal_drift", "driver": "temperature", "sensors": [s],
-                                      "coefficients_um_per_K": [0.0], "reference_degC": ref}, f"T_{s}"))
-            for i in force_axes:
-                out.append(Candidate("force_deflection", site, d.lower(), comp,
-                                     {"kind": "force_deflection", "force": "xyz"[i],
-                                      "compliance_um_per_N": [0.0]}, f"F{'xyz'[i]}"))
-    # axis-bound effects on the positioning component
-    for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):
-        letter = own.get(axis)
-        if letter is None:
-            continue
-        comp = component_name(letter, axis)
-        lo, hi = machine.travel[j]
-        if directions is not None and len(np.unique(directions[:, j])) == 2:
-            unit = "um" if kind == "linear" else "arcsec"
-            out.append(Candidate("backlash", axis, direction_of(letter), comp,
-                                 {"kind": "backlash", f"reversal_{unit}": 0.0}, f"dir_{axis}"))
-        if kind != "linear":
-            # an error that repeats n times per revolution: over a full turn it closes on itself,
-            # which no smooth function of the angle does; over part of a turn a period or two is
-            # just another smooth shape, as the axis' off-spec geometry (its raise) is, so there it
-            # needs MIN_PERIODS periods in the measured span, as a pitch error does
-            span = float(np.ptp(obs.q[:, j])) if obs.n_points else 0.0
-            periods = 1 if span >= 2 * np.pi * (1 - 1e-9) else MIN_PERIODS
-            for n in ROTARY_ORDERS:
-                if span >= periods * 2 * np.pi / n * (1 - 1e-9):
-                    out.append(Candidate("periodic_rotary", axis, direction_of(letter), comp,
-                                         {"kind": "periodic_pitch", "period_deg": 360.0 / n, "sine_arcsec": [0.0],
-                                          "cosine_arcsec": [0.0], "origin_deg": 0.0}, f"q_{axis}"))
-            continue
-        for s in sensors:
-            ref = float(np.mean(cov["temperatures"][s]))
-            out.append(Candidate("thermal_expansion", axis, letter.lower(), comp,
-                                 {"kind": "thermal_expansion", "driver": "temperature", "sensor": s,
-                                  "coefficient_ppm_per_K": 0.0, "reference_degC": ref,
-                                  "origin_mm": float(lo * 1e3)}, f"T_{s}"))
-        if has_t:
-            out.append(Candidate("thermal_expansion", axis, letter.lower(), comp,
-                                 {"kind": "thermal_expansion", "driver": "time", "strains_ppm": [0.0],
-                                  "time_constants_min": [60.0], "origin_mm": float(lo * 1e3)}, "t"))
-        out.append(Candidate("periodic_pitch", axis, letter.lower(), comp,
-                             {"kind": "periodic_pitch", "period_mm": 0.0, "sine_um": [0.0], "cosine_um": [0.0],
-                              "origin_mm": float(lo * 1e3)}, f"q_{axis}"))
+            for kind in kinds:
+                out += kind.through_site(offer, site, d)
+    # effects on an axis' own motion (its positioning component)
+    for j, axis in enumerate(machine.axes):
+        if axis in own:
+            for kind in kinds:
+                out += kind.on_axis(offer, j)
     # geometric terms the spec leaves out
     present = set(machine.components)
     for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):
@@ -211,19 +145,19 @@ def build_candidates(machine: Machine, obs: Observations) -> list[Candidate]:
                 name = geometric_name(d, axis, False, own.get(axis), kind == "linear")
                 # degrees: positioning 5 (interferometer tables bend), straightness 3, angular 2
                 coefs = [0.0] * (6 if name == "positioning" else 4 if d in "XYZ" else 3)
-                out.append(Candidate(name, axis, d.lower() if d in "XYZ" else "xyz"["ABC".index(d)], comp,
+                out.append(Candidate(name, axis, direction_of(d), comp,
                                      {"kind": "legendre", f"coefficients_{unit}": coefs}, f"q_{axis}",
-                                     kind="missing"))
+                                     kind=Role.MISSING))
         for d in ("ABC" if kind == "linear" else LETTERS):
             comp = component_name(d, axis, True)
             if comp not in present:
                 unit, _ = unit_of(d)
                 name = geometric_name(d, axis, True, own.get(axis), kind == "linear")
-                out.append(Candidate(name, axis, d.lower() if d in "XYZ" else "xyz"["ABC".index(d)], comp,
-                                     {"kind": "constant", f"value_{unit}": 0.0}, kind="missing"))
+                out.append(Candidate(name, axis, direction_of(d), comp,
+                                     {"kind": "constant", f"value_{unit}": 0.0}, kind=Role.MISSING))
     out += adequacy_candidates(machine, own)
     for c in out:
-        c.label = c.describe()
+        c.label = effect_kind(c.name).describe(c)
     return out
 
 
@@ -388,9 +322,8 @@ def adequacy_candidates(machine: Machine, own: dict[str, str]) -> list[Candidate
                 continue
             _, table, change = raised
             name = geometric_name(direction, owner, False, own.get(owner), machine.axis_kinds[j] == "linear")
-            out.append(Candidate(name, owner, direction.lower() if direction in "XYZ"
-                                 else "xyz"["ABC".index(direction)], comp.name, table, f"q_{owner}",
-                                 kind="raise", change=change, by=by))
+            out.append(Candidate(name, owner, direction_of(direction), comp.name, table, f"q_{owner}",
+                                 kind=Role.RAISE, change=change, by=by))
     return out
 
 

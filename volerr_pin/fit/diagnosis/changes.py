@@ -11,14 +11,10 @@ import numpy as np
 from ...model.machine import Machine
 from ...model.specio import add_terms, remove_components, replace_terms, term_tables
 from .candidates import geometric_term, raised_table
-from .results import SIGNIFICANCE, Change, Score
+from .effects import effect_kind
+from .results import SIGNIFICANCE, Change, Role, Score
 
-__all__ = ["PREFIX", "apply_changes", "raise_components", "remove_effect", "size_of", "tested_names", "trim_raises", "with_lag"]
-
-#: coefficient-name prefix of each catalogue effect's term (geometric terms: "geom")
-PREFIX = {"thermal_drift": "drift", "thermal_expansion": "expansion", "backlash": "reversal",
-          "force_deflection": "load", "periodic_pitch": "pitch", "periodic_rotary": "rotary"}
-
+__all__ = ["apply_changes", "raise_components", "remove_effect", "size_of", "tested_names", "trim_raises", "with_lag"]
 
 def _unique_prefix(machine: Machine, component: str, stem: str) -> str:
     used = {n.split(".")[1] for n in machine.parameter_names if n.startswith(component + ".")
@@ -108,14 +104,14 @@ def apply_changes(machine: Machine, batch: list[Score]) -> tuple[Machine, list[C
     changes : list of Change
         What was added, one per score.
     """
-    raises = [(s.candidate.component, s.candidate.by) for s in batch if s.candidate.kind == "raise"]
+    raises = [(s.candidate.component, s.candidate.by) for s in batch if s.candidate.kind == Role.RAISE]
     if raises:
         new = raise_components(machine, raises)
         records = []
         for score in batch:
             cand = score.candidate
             _, tspec = geometric_term(new, cand.component)
-            records.append(Change("under_modelled", cand.label, cand.name, cand.component, cand.axis, cand.direction,
+            records.append(Change(Role.UNDER_MODELLED, cand.label, cand.name, cand.component, cand.axis, cand.direction,
                                   cand.driver, score.p_value, score.bic_gain, by=cand.by,
                                   form_before=cand.change[0], form_after=cand.change[1],
                                   names=list(tspec.names(cand.component))))
@@ -123,12 +119,13 @@ def apply_changes(machine: Machine, batch: list[Score]) -> tuple[Machine, list[C
     (score,) = batch
     cand = score.candidate
     before = set(machine.parameter_names)
-    prefix = _unique_prefix(machine, cand.component, PREFIX.get(cand.name, "geom"))
+    stem = effect_kind(cand.name).prefix   # None: a geometric term ("geom" beside others, none alone)
+    prefix = _unique_prefix(machine, cand.component, stem or "geom")
     table_spec = _table_with(score.term, score.coefficients, prefix)
-    if not (cand.name in PREFIX or cand.component in machine.components):
+    if not (stem is not None or cand.component in machine.components):
         table_spec.pop("prefix", None)
     new = add_terms(machine, {cand.component: table_spec})
-    return new, [Change("effect", cand.label, cand.name, cand.component,
+    return new, [Change(Role.EFFECT, cand.label, cand.name, cand.component,
                         cand.axis if cand.axis in machine.axes else None, cand.direction, cand.driver,
                         score.p_value, score.bic_gain, names=[n for n in new.parameter_names if n not in before])]
 
@@ -197,7 +194,7 @@ def tested_names(machine: Machine, change: Change) -> list[str]:
     list of str
         Coefficient names.
     """
-    if change.kind != "under_modelled":
+    if change.kind != Role.UNDER_MODELLED:
         return change.names
     _, tspec = geometric_term(machine, change.component)
     if tspec.term.kind == "table":

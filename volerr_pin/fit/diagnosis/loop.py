@@ -29,8 +29,9 @@ from .candidates import build_candidates
 from .changes import apply_changes, remove_effect, size_of, tested_names, trim_raises, with_lag
 from .report import (components_per_point, effect_amplitude, floor_verdict, group_findings, noise_floor,
                      raised_summary, residual_analysis, twins_of, undecided_rotary)
-from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Change, Diagnosis, Step,
-                      one_blas_thread)
+from .effects import PeriodicRotary, effect_kind
+from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Change, Diagnosis, Role, Step,
+                      ThermalModel, one_blas_thread)
 from .projector import Columns, Projector, base_design
 from .scoring import not_repeating, score
 
@@ -220,7 +221,7 @@ class _Loop:
         if not accepted:
             return False
         for record in accepted:
-            (self.raised if record.kind == "under_modelled" else self.effects).append(record)
+            (self.raised if record.kind == Role.UNDER_MODELLED else self.effects).append(record)
         self.previous = accepted
         twins_of(accepted, passing, self.machine)
         return True
@@ -275,15 +276,15 @@ class _Loop:
         for best in candidates[:3]:
             batch = [best]
             weak = {}   # id -> (score, size): below SIGNIFICANCE in the last joint refit it took part in
-            if best.candidate.kind == "raise":
+            if best.candidate.kind == Role.RAISE:
                 # the other under-modelled components that pass on their own come along, except
                 # those a physical effect passing this round would sit on: it gets its round first
                 # (a raised EBB would swallow B's once-per-revolution error before it is tried)
                 taken = {best.candidate.component}
-                held = {s.candidate.component for s in passing if s.candidate.kind == "effect"}
+                held = {s.candidate.component for s in passing if s.candidate.kind == Role.EFFECT}
                 for s in passing:
                     c = s.candidate
-                    if c.kind == "raise" and c.component not in taken | held and s.bic_gain > 0:
+                    if c.kind == Role.RAISE and c.component not in taken | held and s.bic_gain > 0:
                         batch.append(s)
                         taken.add(c.component)
             accepted = False
@@ -299,7 +300,7 @@ class _Loop:
                 tested = [tested_names(new_fit, r) for r in records]
                 sizes = [size_of(res, t) if res is not None and t else math.inf for t in tested]
                 for k, (r, s) in enumerate(zip(records, batch)):
-                    note = _strayed_note(new_fit, r, s) if r.name == "periodic_rotary" else None
+                    note = _strayed_note(new_fit, r, s) if effect_kind(r.name).per_revolution else None
                     if note:   # a per-revolution error whose period leaves its window is not that error
                         sizes[k], s.note = 0.0, note
                 keep = [s for s, z in zip(batch, sizes) if z >= SIGNIFICANCE]
@@ -320,7 +321,7 @@ class _Loop:
                 continue
             for record, z, s in zip(records, sizes, batch):
                 record.rms_before_um, record.max_before_um, record.step = proj.cv_rms, proj.cv_max, number
-                if record.name == "periodic_rotary":
+                if effect_kind(record.name).per_revolution:
                     self.periods.update({n: math.radians(s.candidate.table["period_deg"])
                                          for n in record.names if n.endswith(".period")})
                 if np.isfinite(z):
@@ -396,9 +397,9 @@ class _Loop:
             without_rms = self.holdout_without([gone])
             if without_rms > with_rms * (1 + PRACTICAL_GAIN):
                 kept_jointly.add(gone.label)
-                gone.details = dict(gone.details, kept_jointly=(
+                gone.kept_jointly = (
                     f"below {SIGNIFICANCE:g} standard uncertainties alone (collinear with other terms), kept: "
-                    f"without it the held-out RMS rises from {with_rms:.3f} to {without_rms:.3f} um"))
+                    f"without it the held-out RMS rises from {with_rms:.3f} to {without_rms:.3f} um")
                 continue
             model, res, names = self.without([gone])
             self.effects.pop(i)
@@ -454,7 +455,7 @@ class _Loop:
             dropped += more
         thermal = {}
         for finding, members in group_findings(self.effects):
-            if finding.name == "thermal_drift" and "t" in obs.covariates and np.ptp(obs.covariates["t"]) > 0:
+            if effect_kind(finding.name).over_time and "t" in obs.covariates and np.ptp(obs.covariates["t"]) > 0:
                 final, thermal[members[0].label] = self._thermal(members, final)
         current = self.current
         raised = raised_summary(self.raised, self.base_machine, current)
@@ -480,7 +481,7 @@ class _Loop:
                 finding.rms_before_um = last_proj.cv_rms + (members[0].gain_um or 0.0)
                 finding.rms_after_um = last_proj.cv_rms
             if members[0].label in thermal:
-                finding.details = dict(finding.details, **thermal[members[0].label])
+                finding.details = thermal[members[0].label]
             findings.append(finding)
         return Diagnosis(current, self.base_machine, findings, self.steps, self.steps[0].rms_holdout_um,
                          last_proj.cv_rms, rms_fit, floor, source, reaches, self.alpha,
@@ -498,11 +499,11 @@ class _Loop:
         steps = "; ".join(f"{m.driver} (round {m.step + 1}, held-out RMS {m.rms_before_um:.3f} -> "
                           f"{m.rms_after_um:.3f} um)" for m in members
                           if m.rms_before_um is not None and m.rms_after_um is not None)
-        details = {"sensors": sensors, "drivers": [m.driver for m in members],
-                   "selection": ("stepwise forward selection on the held-out RMS: each round every sensor and "
-                                 "time were candidates; a term entered when it passed the F-test and lowered "
-                                 "the k-fold held-out RMS, collinear terms kept when removing one made the "
-                                 "held-out RMS worse: " + steps)}
+        details = ThermalModel(sensors, [m.driver for m in members],
+                               "stepwise forward selection on the held-out RMS: each round every sensor and time "
+                               "were candidates; a term entered when it passed the F-test and lowered the k-fold "
+                               "held-out RMS, collinear terms kept when removing one made the held-out RMS "
+                               "worse: " + steps)
         lag, tried = 0.0, {}
         if sensors:
             current = self.current
@@ -520,9 +521,9 @@ class _Loop:
             if best_rms < 0.99 * base_rms:
                 lag = best_lag
                 self.current, final, self.free_names = self._refit(with_lag(current, members, lag))
-        details["lag_s"] = lag
-        details["lags_tried"] = [{"lag_s": k, "rms_holdout_um": v} for k, v in tried.items()]
-        details["time_check"] = _time_check(self, members, final)
+        details.lag_s = lag
+        details.lags_tried = [{"lag_s": k, "rms_holdout_um": v} for k, v in tried.items()]
+        details.time_check = _time_check(self, members, final)
         return final, details
 
 
@@ -569,14 +570,14 @@ def _repeat_order(number: int, passing: list, proj: Projector, obs: Observations
     failing = set()
     for s in passing:
         c = s.candidate
-        if c.name == "periodic_rotary" and s.columns is not None:
+        if effect_kind(c.name).per_revolution and s.columns is not None:
             note = not_repeating(proj, obs, s.columns, obs.q[:, axis_index_of[c.axis]], c, number)
             if note:
                 s.note = note
                 failing.add(s.label)
     waiting = {s.candidate.component for s in passing if s.label in failing}
     allowed = [s for s in passing if s.label not in failing]
-    return [s for s in allowed if not (s.candidate.kind == "raise" and s.candidate.component in waiting)], allowed
+    return [s for s in allowed if not (s.candidate.kind == Role.RAISE and s.candidate.component in waiting)], allowed
 
 
 def _judged_trim(loop: _Loop, final) -> tuple | None:
@@ -603,9 +604,9 @@ def _offered(loop: _Loop) -> tuple[list, np.ndarray, list[str]]:
     and once ``max_effects`` effects are in only raises are."""
     accepted_orders = {(n.split(".")[0], round(2 * math.pi / p)) for n, p in loop.periods.items()}
     candidates = [c for c in build_candidates(loop.current, loop.obs) if not (
-        c.name == "periodic_rotary" and (c.component, round(360.0 / c.table["period_deg"])) in accepted_orders)]
+        effect_kind(c.name).per_revolution and (c.component, PeriodicRotary.order(c)) in accepted_orders)]
     if len(loop.effects) >= loop.max_effects:
-        candidates = [c for c in candidates if c.kind == "raise"]
+        candidates = [c for c in candidates if c.kind == Role.RAISE]
     missing_loc = {c.component: {"kind": "constant", "prefix": "probe",
                                  f"value_{'um' if c.component[1] in 'XYZ' else 'arcsec'}": 0.0}
                    for c in candidates if c.component not in loop.current.error_joints}

@@ -16,7 +16,9 @@ from ...model.machine import Machine
 from ...base.units import ARCSEC, AXIS_UNIT, UM_PER_M, axis_scale
 from .candidates import form_of
 from .projector import Projector
-from .results import STATED_NOISE_FACTOR, Change, Diagnosis, DriftSeries, Evidence, Raise, Score
+from .effects import effect_kind
+from .results import (STATED_NOISE_FACTOR, Change, Diagnosis, DriftSeries, Evidence, Raise, Role, Score, Separation,
+                      ThermalModel)
 
 __all__ = ["components_per_point", "drift_series", "driver_values", "effect_amplitude", "evidence", "floor_verdict",
            "group_findings", "stated_noise", "noise_floor", "raised_summary", "residual_analysis", "twins_of",
@@ -182,12 +184,12 @@ def twins_of(accepted: list[Change], passing: list[Score], machine: Machine) -> 
         The machine.
     """
     for record in accepted:
-        if record.kind != "effect":
+        if record.kind != Role.EFFECT:
             continue
         best = next(s for s in passing if s.candidate.label == record.label)
         cand = best.candidate
         twins = [s.candidate for s in passing if s is not best and s.candidate.name == cand.name
-                 and s.candidate.kind == "effect"
+                 and s.candidate.kind == Role.EFFECT
                  and s.candidate.driver == cand.driver and s.candidate.direction == cand.direction
                  and abs(s.bic_gain - best.bic_gain) <= 1e-4 * abs(best.bic_gain)]
         if twins:
@@ -421,7 +423,7 @@ def undecided_rotary(passing: list[Score], effects: list[Change], machine: Machi
     out = []
     for s in passing:
         c = s.candidate
-        if c is None or c.name != "periodic_rotary" or not s.note or c.label in found:
+        if c is None or not effect_kind(c.name).per_revolution or not s.note or c.label in found:
             continue
         j = machine.axes.index(c.axis)
         turns = float(np.ptp(obs.q[:, j])) / (2 * np.pi)
@@ -440,9 +442,8 @@ def undecided_rotary(passing: list[Score], effects: list[Change], machine: Machi
         if s.coefficients is not None and s.term is not None:
             local = list(s.term.term.local_names)
             amplitude = float(np.hypot(*(s.coefficients[local.index(k)] for k in ("s1", "c1")))) / ARCSEC
-        out.append(Change("effect", c.label, c.name, c.component, c.axis, c.direction, c.driver, s.p_value,
-                          s.bic_gain, step=number, note=note,
-                          details={"amplitude_arcsec": amplitude, "separate_by": plan}))
+        out.append(Change(Role.EFFECT, c.label, c.name, c.component, c.axis, c.direction, c.driver, s.p_value,
+                          s.bic_gain, step=number, note=note, details=Separation(amplitude, plan)))
     return out
 
 
@@ -463,13 +464,14 @@ def group_findings(effects: list[Change]) -> list[tuple[Change, list[Change]]]:
         order of their first round.
     """
     out: list[tuple[Change, list[Change]]] = []
-    thermal: dict[str, list[Change]] = {}
+    over_time: dict[tuple, list[Change]] = {}
     for e in effects:
-        if e.name == "thermal_drift" and e.kind == "effect":
-            if e.direction not in thermal:
-                thermal[e.direction] = []
-                out.append((None, thermal[e.direction]))  # placeholder, filled below
-            thermal[e.direction].append(e)
+        if effect_kind(e.name).over_time and e.kind == Role.EFFECT:
+            key = (e.name, e.direction)
+            if key not in over_time:
+                over_time[key] = []
+                out.append((None, over_time[key]))  # placeholder, filled below
+            over_time[key].append(e)
         else:
             out.append((e, [e]))
     result = []
@@ -489,14 +491,14 @@ def _grouped(members: list[Change]) -> Change:
     what += (" and time" if sensors else "time") if timed else ""
     sites = sorted({m.component for m in members})
     axes = {m.axis for m in members}
-    label = (f"thermal_drift in {first.direction} from {what} (a multi-sensor linear model; as "
+    label = (f"{first.name} in {first.direction} from {what} (a multi-sensor linear model; as "
              f"{', '.join(sites)})")
     params: dict = {}
     for m in members:
         params.update(m.parameters)
     same = sorted({c for m in members for c in m.same_at_tool_as})
     significance = [m.significance for m in members if m.significance is not None]
-    return Change("effect", label, "thermal_drift", first.component, axes.pop() if len(axes) == 1 else None,
+    return Change(Role.EFFECT, label, first.name, first.component, axes.pop() if len(axes) == 1 else None,
                   first.direction, first.driver, min(m.p_value for m in members),
                   sum(m.bic_gain for m in members), same, first.step, [n for m in members for n in m.names],
                   rms_before_um=first.rms_before_um, max_before_um=first.max_before_um,
@@ -540,7 +542,7 @@ def drift_series(diagnosis: Diagnosis) -> list[DriftSeries]:
         return []
     out = []
     for e in diagnosis.effects:
-        if e.name != "thermal_drift" or e.direction not in ("x", "y", "z"):
+        if not effect_kind(e.name).over_time or e.direction not in ("x", "y", "z"):
             continue
         k = "xyz".index(e.direction)
         rows = (obs.w[:, k] > 0.5) & ~obs.angular
@@ -555,9 +557,10 @@ def drift_series(diagnosis: Diagnosis) -> list[DriftSeries]:
             driver = name.split(".")[-1]
             key = f"T_{driver[2:]}" if driver.startswith("k_") else "t"
             shares[key] = shares.get(key, 0.0) + _contribution(machine, obs, [name])[rows_idx] * UM_PER_M
-        temps = {s: np.asarray(cov["temperatures"][s])[points] for s in e.details.get("sensors", [])
+        model_of = e.details if isinstance(e.details, ThermalModel) else None
+        temps = {s: np.asarray(cov["temperatures"][s])[points] for s in (model_of.sensors if model_of else [])
                  if s in (cov.get("temperatures") or {})}
-        check = e.details.get("time_check") or {}
+        check = (model_of.time_check if model_of else None) or {}
         out.append(DriftSeries(e.label, e.direction, cov["t"][points] / 3600.0,
                                (diagnosis.residual[rows_idx] + model) * UM_PER_M, model * UM_PER_M, shares, temps,
                                check.get("fit_until_h")))

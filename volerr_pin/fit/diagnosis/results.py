@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
+from enum import StrEnum
 
 import numpy as np
 
@@ -13,7 +14,8 @@ from ..identify import Observations
 from ...model.machine import Machine
 
 __all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR", "Candidate", "Change",
-           "Diagnosis", "DriftSeries", "Evidence", "Raise", "Score", "Step", "one_blas_thread"]
+           "Diagnosis", "DriftSeries", "Evidence", "Raise", "Role", "Score", "Separation", "Step", "ThermalModel",
+           "one_blas_thread"]
 
 
 @contextmanager
@@ -56,6 +58,20 @@ PRACTICAL_AMPLITUDE = 0.5
 STATED_NOISE_FACTOR = 2.0
 
 
+class Role(StrEnum):
+    """What a candidate or an accepted change is to the model (a string in reports).
+
+    ``EFFECT``: a catalogue effect (:mod:`~volerr_pin.fit.diagnosis.effects`); ``MISSING``: a
+    geometric component the spec leaves out; ``RAISE``: a candidate that makes an existing
+    component richer; ``UNDER_MODELLED``: such a raise, accepted.
+    """
+
+    EFFECT = "effect"
+    MISSING = "missing"
+    RAISE = "raise"
+    UNDER_MODELLED = "under_modelled"
+
+
 @dataclass
 class Candidate:
     """One thing the model could be missing: where it goes and how it reads.
@@ -76,9 +92,9 @@ class Candidate:
         The covariate that drives it ("t", "T_spindle", "Fx", "dir_X", "q_X").
     label : str
         What it is, in words (:meth:`describe`).
-    kind : str, default "effect"
-        "effect" (a catalogue effect), "missing" (a geometric component the spec leaves out) or
-        "raise" (an existing component with ``by`` degrees more / twice the nodes).
+    kind : Role, default Role.EFFECT
+        A catalogue effect, a geometric component the spec leaves out (``MISSING``) or an
+        existing component with ``by`` degrees more / twice the nodes (``RAISE``).
     change : tuple of str (2,), optional
         Raises: the component's form before and after ("degree 2", "degree 3").
     by : int, default 1
@@ -92,24 +108,21 @@ class Candidate:
     table: dict               # spec term table (zero-valued) for add_terms
     driver: str | None = None  # covariate that drives it ("t", "T_spindle", "Fx", "dir_X", "q_X")
     label: str = ""
-    kind: str = "effect"
+    kind: Role = Role.EFFECT
     change: tuple[str, str] | None = None
     by: int = 1
 
     def describe(self) -> str:
-        """The candidate in words, e.g. "backlash on X in x driven by dir_X (EXX)".
+        """The candidate in words, e.g. "backlash on X in x driven by dir_X (EXX)" (an effect
+        kind may say it otherwise: :meth:`~volerr_pin.fit.diagnosis.effects.EffectKind.describe`).
 
         Returns
         -------
         str
             The label.
         """
-        if self.kind == "raise":
+        if self.kind == Role.RAISE:
             return f"geometric component {self.component} under-modelled ({self.change[0]} -> {self.change[1]})"
-        if self.name == "periodic_rotary":
-            n = round(360.0 / self.table["period_deg"])
-            times = "once" if n == 1 else f"{n} times"
-            return f"periodic_rotary on {self.axis} about {self.direction}, {times} per revolution ({self.component})"
         where = f" on {self.axis}" if self.axis else ""
         d = f" in {self.direction}" if self.direction else ""
         by = f" driven by {self.driver}" if self.driver else ""
@@ -195,8 +208,8 @@ class Change:
 
     Attributes
     ----------
-    kind : str
-        "effect" or "under_modelled".
+    kind : Role
+        ``EFFECT`` (an effect or a missing component added) or ``UNDER_MODELLED``.
     label, name, component : str
         What was found, the catalogue name and the component error it is modelled as.
     axis, direction, driver : str or None
@@ -229,12 +242,15 @@ class Change:
         Held-out RMS before minus after it [um].
     members : list of str
         A finding grouped from several accepted terms (multi-sensor thermal drift): their labels.
-    details : dict
-        A grouped thermal drift: ``sensors``, ``drivers``, ``selection``, ``lag_s``,
-        ``lags_tried`` and ``time_check`` (docs/reports.md).
+    kept_jointly : str
+        Why an effect below significance alone stays (collinear terms share what they explain);
+        empty otherwise.
+    details : ThermalModel, Separation or None
+        What its kind reports besides: a thermal drift's model over time, or the measurement that
+        would separate a possible per-revolution error from the axis' geometry.
     """
 
-    kind: str
+    kind: Role
     label: str
     name: str
     component: str
@@ -259,7 +275,8 @@ class Change:
     amplitude_um: float | None = None
     gain_um: float | None = None
     members: list[str] = field(default_factory=list)
-    details: dict = field(default_factory=dict)
+    kept_jointly: str = ""
+    details: "ThermalModel | Separation | None" = None
 
     def to_dict(self) -> dict:
         """The change in the report (docs/reports.md).
@@ -273,23 +290,116 @@ class Change:
         out = {"label": self.label, "name": self.name, "component": self.component,
                "same_at_tool_as": list(self.same_at_tool_as), "direction": self.direction, "driver": self.driver,
                "p_value": self.p_value, "bic_gain": self.bic_gain, "kind": self.kind, "axis": self.axis}
-        if self.kind == "under_modelled":
+        if self.kind == Role.UNDER_MODELLED:
             out.update({"from": self.form_before, "to": self.form_after})
         out.update(rms_before_um=self.rms_before_um, max_before_um=self.max_before_um)
         if self.significance is not None:
             out["significance"] = self.significance
         out.update(rms_after_um=self.rms_after_um, max_after_um=self.max_after_um)
-        if self.kind == "effect":
+        if self.kind == Role.EFFECT:
             out.update(amplitude_um=self.amplitude_um, gain_um=self.gain_um)
-        if self.kind == "effect" and not self.note:  # a dropped effect has no final values
+        if self.kind == Role.EFFECT and not self.note:  # a dropped effect has no final values
             out["parameters"] = self.parameters
         if self.members:
             out["members"] = list(self.members)
-        if self.details:
-            out.update(self.details)
+        if self.kept_jointly:
+            out["kept_jointly"] = self.kept_jointly
+        if self.details is not None:
+            out.update(self.details.to_dict())
         if self.note:
             out["note"] = self.note
         return out
+
+
+@dataclass
+class ThermalModel:
+    """A thermal drift finding's model over time (the details of a
+    :attr:`~volerr_pin.fit.diagnosis.effects.EffectKind.over_time` kind).
+
+    Attributes
+    ----------
+    sensors : list of str
+        The temperature sensors it is driven by (empty: time alone).
+    drivers : list of str
+        Its terms' drivers, in the order they were accepted.
+    selection : str
+        How the sensors were chosen, round by round.
+    lag_s : float
+        The common lag of its temperature terms [s] (0: none kept).
+    lags_tried : list of dict
+        Each lag tried (``lag_s``) and the held-out RMS with it (``rms_holdout_um``).
+    time_check : dict or None
+        The final model fitted on the first part of the run, predicting the rest, with and
+        without the drift (docs/reports.md); None when the first part alone does not determine it.
+    """
+
+    sensors: list[str]
+    drivers: list
+    selection: str
+    lag_s: float = 0.0
+    lags_tried: list[dict] = field(default_factory=list)
+    time_check: dict | None = None
+
+    def to_dict(self) -> dict:
+        """Its fields in the finding's report (docs/reports.md).
+
+        Returns
+        -------
+        dict
+        """
+        return {"sensors": list(self.sensors), "drivers": list(self.drivers), "selection": self.selection,
+                "lag_s": self.lag_s, "lags_tried": list(self.lags_tried), "time_check": self.time_check}
+
+    def lines(self) -> list[str]:
+        """What the text report says under the finding.
+
+        Returns
+        -------
+        list of str
+        """
+        out = []
+        if self.sensors:
+            lags = ", ".join(f"{x['lag_s']:g} s: {x['rms_holdout_um']:.3f}" for x in self.lags_tried)
+            tried = f" (held-out RMS by lag: {lags} um)" if lags else " (no lag tried)"
+            out.append(f"  sensors {', '.join(self.sensors)}; lag {self.lag_s:g} s{tried}")
+        else:
+            out.append("  driven by time alone (no temperature sensor chosen)")
+        out.append(f"  chosen by {self.selection}")
+        check = self.time_check
+        if check:
+            out.append(f"  check over time: fitted on the first {check['fit_share']:.0%} of the run "
+                       f"({check['fit_points']} points), predicts the other {check['predicted_points']} "
+                       f"with RMS {check['rms_predicted_um']:.3f} um (without the drift "
+                       f"{check['rms_predicted_without_um']:.3f} um)")
+        return out
+
+
+@dataclass
+class Separation:
+    """A possible per-revolution error the data cannot tell from the axis' own geometry, and
+    the measurement that would (the details of a
+    :attr:`~volerr_pin.fit.diagnosis.effects.EffectKind.per_revolution` kind left undecided).
+
+    Attributes
+    ----------
+    amplitude_arcsec : float or None
+        The candidate's amplitude in its last round [arcsec].
+    separate_by : dict
+        The measurement, as :func:`volerr_pin.studies.plan.plan` plans it: ``instrument``,
+        ``budget``, ``zone`` (the other axes held, mm / deg) and ``terms``.
+    """
+
+    amplitude_arcsec: float | None
+    separate_by: dict
+
+    def to_dict(self) -> dict:
+        """Its fields in the report (docs/reports.md).
+
+        Returns
+        -------
+        dict
+        """
+        return {"amplitude_arcsec": self.amplitude_arcsec, "separate_by": self.separate_by}
 
 
 @dataclass

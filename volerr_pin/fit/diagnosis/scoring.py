@@ -17,9 +17,10 @@ from scipy.signal import lombscargle
 from ..identify import Observations
 from ...model.terms import Covariates
 from ...base.units import ARCSEC, UM_PER_M
-from .candidates import MIN_PERIODS, PITCH_PERIOD_MM, smoother_table
+from .candidates import PITCH_PERIOD_MM, smoother_table
+from .effects import MIN_PERIODS, effect_kind
 from .projector import Base, Columns, Projector
-from .results import Candidate, Score
+from .results import Candidate, Role, Score
 
 __all__ = ["PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "SURVIVES", "not_repeating",
            "periodogram_period", "repeat_check", "score", "table_interpolation"]
@@ -252,7 +253,7 @@ def table_interpolation(base: Base, proj: Projector, E: np.ndarray, joints: list
         return None
     table, how = smoother
     richer = Candidate(cand.name, cand.axis, cand.direction, cand.component, table,
-                       label=f"{cand.component} richer between its nodes", kind="raise")
+                       label=f"{cand.component} richer between its nodes", kind=Role.RAISE)
     C_table = columns(base.machine, E, joints, richer)[0]
     before = float(np.linalg.norm(gamma))
     after = float(np.linalg.norm(proj.fit(np.hstack([C_table, C]))[2][-C.shape[1]:]))
@@ -297,7 +298,8 @@ def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints:
     """
     n = len(base.r)
     searched = 1.0
-    if cand.name == "periodic_pitch" and cand.kind == "effect":
+    kind = effect_kind(cand.name)
+    if kind.periodogram and cand.kind == Role.EFFECT:
         found = periodogram_period(obs, base.r, columns.gain(E, joints, cand.component), axis_index_of[cand.axis])
         if found is None:
             return None
@@ -307,7 +309,7 @@ def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints:
     nonlinear = [tspec.term.local_names.index(k) for k in tspec.term.nonlinear]
     lin = [i for i in range(len(coefs)) if i not in nonlinear]
     full = np.array([np.nan])
-    if nonlinear and cand.name not in ("periodic_pitch", "periodic_rotary"):  # periods: periodogram, revolution
+    if nonlinear and not kind.period_given:  # a period from a periodogram or the revolution is not searched
         full = np.asarray(tspec.term.search_grid(tspec.term.local_names[nonlinear[0]], coefs, cov_obj))
     tried: dict = {}
 
@@ -340,7 +342,7 @@ def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints:
     values[lin] = gamma
     out = Score(cand.label, int(extra), p_value, float(bic_gain), None, (rss0 - rss1) / rss0 if rss0 > 0 else 0.0,
                 cand, tspec, values, C)
-    if cand.name == "periodic_pitch" and cand.kind == "effect":
+    if kind.periodogram and cand.kind == Role.EFFECT:
         note = table_interpolation(base, proj, E, joints, cand, C, gamma, columns)
         if note:   # the table's, not a screw's: its raise refines the table
             return Score(cand.label, 0, 1.0, 0.0, proj.cv_rms, 0.0, cand, note=note)
