@@ -29,7 +29,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 import volerr_pin as vp
-from volerr_pin.applications.gear import SEED004_GEAR, contact_springback, contribution_degrees, flank_deviations, unit_error_study
+from volerr_pin.applications.gear import REFERENCE_GEAR, contact_springback, contribution_degrees, flank_deviations, unit_error_study
 from volerr_pin.model.specio import remove_components, replace_terms, with_axis_errors
 from volerr_pin.base.units import UM
 
@@ -64,7 +64,7 @@ def seed004_machine():
 
 
 def unit_errors(machine) -> tuple[list, list]:
-    rows = unit_error_study(machine, SEED004_GEAR, tooth_numbers=[0])
+    rows = unit_error_study(machine, REFERENCE_GEAR, tooth_numbers=[0])
     return rows, contribution_degrees(rows, "right")
 
 
@@ -82,19 +82,19 @@ def force_deviations(machine) -> dict:
         for direction, um in moves.items():
             name = "EXA" if direction == "x" else "EYA"
             one = replace_terms(bare, {name: {"kind": "constant", "value_um": um}})
-            out[material, direction] = flank_deviations(one, SEED004_GEAR).values["right"]
+            out[material, direction] = flank_deviations(one, REFERENCE_GEAR).values["right"]
     # the torsion angle the paper computes but leaves out, as a turn of the wheel about its axis
     one = replace_terms(bare, {"ECA": {"kind": "constant", "value_deg": 0.497}})
-    out["lead", "torsion 0.497 deg"] = flank_deviations(one, SEED004_GEAR).values["right"]
+    out["lead", "torsion 0.497 deg"] = flank_deviations(one, REFERENCE_GEAR).values["right"]
     return out
 
 
 def springback_table() -> dict:
     force, length, paper = TABLE6[:, 1] * 1e3, TABLE6[:, 2] * 1e-3, TABLE6[:, 3]
-    assumed = contact_springback(force, length, SEED004_GEAR, **MATERIALS)
-    fit = least_squares(lambda p: contact_springback(force, length, SEED004_GEAR, modulus=np.exp(p[0]), **MATERIALS)
+    assumed = contact_springback(force, length, REFERENCE_GEAR, **MATERIALS)
+    fit = least_squares(lambda p: contact_springback(force, length, REFERENCE_GEAR, modulus=np.exp(p[0]), **MATERIALS)
                         .rebound / UM - paper, [np.log(assumed.modulus)])
-    fitted = contact_springback(force, length, SEED004_GEAR, modulus=float(np.exp(fit.x[0])), **MATERIALS)
+    fitted = contact_springback(force, length, REFERENCE_GEAR, modulus=float(np.exp(fit.x[0])), **MATERIALS)
     print(f"Seed 004 Table 6: contact springback [um]; E_c {assumed.modulus / 1e9:.1f} GPa from the assumed "
           f"constants, {fitted.modulus / 1e9:.1f} GPa fitted to the table")
     print(f"{'t s':>6s} {'F kN':>6s} {'l mm':>6s}   {'paper':>6s} {'E_c':>6s} {'fitted':>6s}")

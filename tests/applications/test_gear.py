@@ -11,13 +11,13 @@ from scipy.spatial.transform import Rotation
 import volerr_pin as vp
 from volerr_pin.cli import main
 from volerr_pin.base.errors import InputError
-from volerr_pin.applications.gear import (SEED004_GEAR, GearPair, contribution_degrees, deviations_by_source,
+from volerr_pin.applications.gear import (REFERENCE_GEAR, GearPair, contribution_degrees, deviations_by_source,
                              flank_deviations, unit_error_study)
 from volerr_pin.applications.gear.generation import flank_grid, mesh_of
 from volerr_pin.model.specio import remove_components, replace_terms, with_axis_errors
 from volerr_pin.base.units import ARCSEC, DEG, MM, UM
 
-G = SEED004_GEAR
+G = REFERENCE_GEAR
 
 
 @pytest.fixture(scope="module")
@@ -429,3 +429,12 @@ def test_more_bad_inputs(roller):
     with pytest.raises(InputError, match="broadcast"):
         from volerr_pin.applications.gear import contact_springback
         contact_springback([1e3, 2e3], [0.01, 0.02, 0.03], G, **STEEL)
+
+
+def test_the_reference_gear_keeps_its_old_name_one_release_with_a_warning():
+    import volerr_pin.applications.gear as gear
+
+    with pytest.warns(DeprecationWarning, match="SEED004_GEAR is REFERENCE_GEAR now"):
+        assert gear.SEED004_GEAR is gear.REFERENCE_GEAR
+    with pytest.raises(AttributeError):
+        gear.NO_SUCH_GEAR

@@ -393,6 +393,8 @@ def test_volerr_uncertainty_json_csv_and_recording(tmp_path, capsys, monkeypatch
     report = json.loads(text)
     assert report["samples"] == 400 and report["workers"] == 1 and report["interval_samples"] == 400
     assert report["engine"] == "this process"
+    # a count is n_parameters, as in every report; "parameters" always names coefficients
+    assert isinstance(report["n_parameters"], int) and "parameters" not in report
     assert set(report["map"]) >= {"max_error_um", "rms_error_um", "u_position_um", "agree", "points_disagreeing"}
     rows = out.read_text().splitlines()
     assert len(rows) == 1 + 2 * 27 and rows[0].startswith("field,x_mm,y_mm,z_mm,dx_um,")

@@ -1,4 +1,5 @@
-"""Seed 003's thermal methods: displacement-sensor formulas and grey prediction models.
+"""Thermal drift from displacement sensors, and grey prediction models (after the five-axis
+study, seed 003 in the docs' references).
 
 **Spindle 5-point method.** Sensors 1 and 3 read the x displacement of a test mandrel at
 two axial positions ``l1`` apart (sensor 1 the nearer to the tool point, at distance ``l``

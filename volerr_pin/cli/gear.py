@@ -6,25 +6,26 @@ import math
 import sys
 
 from ..base.errors import InputError
-from ..applications.gear import FLANKS, SEED004_GEAR, GearPair, contribution_degrees, deviations_by_source, unit_error_study
+from ..applications.gear import FLANKS, REFERENCE_GEAR, GearPair, contribution_degrees, deviations_by_source, unit_error_study
 from ..base.safeio import transaction
 from ..model.specio import with_axis_errors
 from ..base.units import DEG, MM
 from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of,
                      positive, table_console)
 
-DEFAULT = SEED004_GEAR
+DEFAULT = REFERENCE_GEAR
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("gear", help="gear flank deviations (profile, helix, pitch) per error source",
-                       description="Deviations of the spur gear a rolling machine generates: seed 004's total "
-                                   "profile, total helix and single pitch deviation (and ISO 1328-1's F_alpha, "
-                                   "F_beta, f_pt, F_p), for each error source of the machine alone and for all "
-                                   "together; or, with --unit-errors, seed 004's study of unit errors.")
+                       description="Deviations of the spur gear a rolling machine generates: the total profile, "
+                                   "total helix and single pitch deviation as the gear-rolling study defines "
+                                   "them (Ma et al. 2025; the docs' references) and ISO 1328-1's F_alpha, "
+                                   "F_beta, f_pt, F_p, for each error source of the machine alone and for all "
+                                   "together; or, with --unit-errors, each error of an axis alone at a unit value.")
     add_machine_args(p)
     add_state_arg(p)
-    g = p.add_argument_group("gear (default: seed 004's, Table 7)")
+    g = p.add_argument_group("gear (default: the gear-rolling study's spur gear, its Table 7)")
     g.add_argument("--module-mm", type=float, default=DEFAULT.module / MM, help="module (default 1.75)")
     g.add_argument("--pressure-angle-deg", type=float, default=DEFAULT.pressure_angle / DEG,
                    help="pressure angle (default 20)")
@@ -41,7 +42,7 @@ def add_parser(sub) -> None:
     p.add_argument("--tooth", type=int, nargs="+", help="evaluate these teeth only (default every tooth)")
     p.add_argument("--profile-points", type=positive, default=21, help="points over the profile (odd, default 21)")
     p.add_argument("--face-points", type=positive, default=11, help="points over the face width (odd, default 11)")
-    u = p.add_argument_group("seed 004's unit-error study")
+    u = p.add_argument_group("unit-error study (each error alone at a unit value)")
     u.add_argument("--unit-errors", action="store_true",
                    help="each of the six errors of each --axes alone at a unit value, instead of the spec's errors")
     u.add_argument("--axes", help="axes studied (default A,B)")
@@ -185,8 +186,8 @@ def _print(report: dict, flank: str) -> None:
                       _um(d["helix_um"]), _pct(c["helix"]), _um(d["pitch_um"]), _pct(c["pitch"]),
                       _um(d["F_alpha_um"]), _um(d["F_beta_um"]), _um(d["f_pt_um"]), _um(d["seam_um"]))
     console.print(table)
-    print("profile, helix: |largest +| + |largest -| normal deviation (seed 004); pitch: signed normal deviation "
-          "on the pitch circle at mid face; share: seed 004's contribution degree within "
+    print("profile, helix: |largest +| + |largest -| normal deviation; pitch: signed normal deviation "
+          "on the pitch circle at mid face; share: contribution degree (per-unit RMS over their sum) within "
           + ("the axis' translations or rotations" if unit else "the single sources")
           + "; F_alpha, F_beta (worst tooth), f_pt (worst pair of adjacent teeth): ISO 1328-1 over the whole "
             "active flank; seam: step between the teeth generated last and first, a turn apart.")

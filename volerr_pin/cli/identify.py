@@ -8,7 +8,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..base.safeio import transaction
-from .common import (FitProgress, add_json_arg, add_machine_args, add_out_arg, axis_components, axis_positions,
+from .common import (FitProgress, add_json_arg, add_machine_args, add_out_arg, axis_components, axis_config,
                      check_run_outputs, distinct_inputs, dumps, machine_of, table_console)
 from .tables import print_groups
 
@@ -52,7 +52,7 @@ def run(args) -> int:
         result = identify(machine, data, terms=args.terms, convention=args.convention,
                           folds=args.folds, holdout=args.holdout, seed=args.seed,
                           sigma_um=args.sigma_um, sigma_urad=args.sigma_urad, run_axis=args.axis,
-                          run_at=axis_positions(machine, args.at, "--at"), progress=progress)
+                          at=axis_config(machine, args.at, "--at"), progress=progress)
     report = result.to_dict()
     report["data"] = [str(p) for p in args.data]
     report["notes"] = notes

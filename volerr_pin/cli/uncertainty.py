@@ -213,7 +213,7 @@ def _field_csv(study) -> str:
 def _print(study, report: dict) -> None:
     console = table_console()
     console.print(f"[bold]{study.machine.name}[/bold]: uncertainty from {report['source']}; {report['samples']:,} draws "
-                  f"(seed {report['seed']}) on {report['engine']}; {report['parameters']} uncertain coefficients"
+                  f"(seed {report['seed']}) on {report['engine']}; {report['n_parameters']} uncertain coefficients"
                   + (f", {len(report['not_propagated'])} without uncertainty" if report["not_propagated"] else ""))
     for name in ("map", "compensation"):
         field = report[name]

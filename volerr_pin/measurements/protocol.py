@@ -43,7 +43,7 @@ class ObservationOptions:
     axis : str, optional
         The moving axis of measurements that do not say which axis moved (runs).
     at : dict of str to float, optional
-        Positions of the other axes [mm, deg] during measurements along one axis (runs); they
+        Positions of the other axes [m, rad] during measurements along one axis (runs); they
         override what the files say.
     """
 

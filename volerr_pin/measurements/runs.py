@@ -30,8 +30,9 @@ import numpy as np
 
 from ..base.errors import InputError
 from ..model.spec import parse_component_name
-from ..base.units import ANGLE, DEG, LENGTH, MM, PLAUSIBLE, axis_scale, describe_range, parse_number, shown
-from ..model.workspace import config_from_file
+from ..base.units import (ANGLE, DEG, LENGTH, MM, PLAUSIBLE, axis_scale, axis_values_to_si, describe_range, parse_number,
+                          shown)
+from ..model.workspace import default_config
 from .protocol import MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
 from .table import (DIRECTION_WORDS, META_RE, MeasurementError, Table, add_meta, axis_values, read_file,
                     read_table)
@@ -136,7 +137,8 @@ class Runs:
         kind = machine.axis_kinds[j]
         if (self.target_unit == "mm") != (kind == "linear"):
             raise InputError(f"{self.source}: targets in {self.target_unit} but axis {axis} is {kind}")
-        base = config_from_file(machine, {**self.at, **(options.at or {})}, f"{self.source}: '# at:'")
+        at = axis_values_to_si(machine.axes, machine.axis_kinds, self.at, f"{self.source}: '# at:'", machine.name)
+        base = default_config(machine, {**at, **(options.at or {})})
         q = np.tile(base, (len(self.target), 1))
         q[:, j] = self.target
         try:

@@ -600,7 +600,7 @@ class UncertaintyStudy:
         """
         return {"machine": self.machine.name, "source": self.covariance.source, "samples": self.samples,
                 "seed": self.seed, "workers": self.workers, "coverage": COVERAGE,
-                "interval_samples": self.map.interval_samples, "parameters": int(len(self.covariance.indices)),
+                "interval_samples": self.map.interval_samples, "n_parameters": int(len(self.covariance.indices)),
                 "not_propagated": list(self.covariance.not_propagated),
                 "map": self.map.to_dict(self.machine),
                 "compensation_method": self.compensation,

@@ -69,10 +69,21 @@ pair), :mod:`~volerr_pin.applications.gear.generation` (where and when each flan
 
 from .flanks import FlankDeviations, flank_deviations, pitch_positions
 from .generation import BYTES_PER_FLANK_POINT
-from .geometry import DEVIATIONS, FLANKS, SEED004_GEAR, GearPair
+from .geometry import DEVIATIONS, FLANKS, REFERENCE_GEAR, GearPair
 from .sources import SourceDeviations, contribution_degrees, deviations_by_source, unit_error_study
 from .springback import Springback, contact_springback
 
-__all__ = ["BYTES_PER_FLANK_POINT", "DEVIATIONS", "FLANKS", "SEED004_GEAR", "FlankDeviations", "GearPair",
+__all__ = ["BYTES_PER_FLANK_POINT", "DEVIATIONS", "FLANKS", "REFERENCE_GEAR", "FlankDeviations", "GearPair",
            "SourceDeviations", "Springback", "contact_springback", "contribution_degrees", "deviations_by_source",
            "flank_deviations", "pitch_positions", "unit_error_study"]
+
+
+def __getattr__(name):
+    # the reference gear's name until this release: one more release, with a warning
+    if name == "SEED004_GEAR":
+        import warnings
+
+        warnings.warn("volerr_pin.applications.gear.SEED004_GEAR is REFERENCE_GEAR now; the old name goes in the "
+                      "next release", DeprecationWarning, stacklevel=2)
+        return REFERENCE_GEAR
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

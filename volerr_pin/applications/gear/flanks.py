@@ -12,7 +12,7 @@ import numpy as np
 from ...model.machine import Machine
 from ...base.units import UM
 from .generation import Generation, generation_of
-from .geometry import FLANKS, SEED004_GEAR, GearPair
+from .geometry import FLANKS, REFERENCE_GEAR, GearPair
 
 __all__ = ["FlankDeviations", "each_flanks", "flank_deviations", "flanks_of", "pitch_positions"]
 
@@ -122,7 +122,7 @@ def _deviations(normal: np.ndarray, gear: GearPair, all_teeth: bool) -> dict:
     return out
 
 
-def flank_deviations(machine: Machine, gear: GearPair = SEED004_GEAR, *, spindles: Sequence[str] = ("B", "A"),
+def flank_deviations(machine: Machine, gear: GearPair = REFERENCE_GEAR, *, spindles: Sequence[str] = ("B", "A"),
                      at: Mapping | None = None, feed: str | None = None, profile_points: int = 21,
                      face_points: int = 11, tooth_numbers: Sequence[int] | None = None, theta=None,
                      **covariates) -> FlankDeviations:
@@ -133,7 +133,7 @@ def flank_deviations(machine: Machine, gear: GearPair = SEED004_GEAR, *, spindle
     machine : Machine
         A rolling machine: its tool frame is the wheel's pitch point, the workpiece frame's
         z axis is the gear axis.
-    gear : GearPair, default :data:`SEED004_GEAR`
+    gear : GearPair, default :data:`REFERENCE_GEAR`
         The gear and the wheel; its pitch radii must match the machine (tool point 40.25 mm
         from the workpiece axis and 112 mm from the wheel axis for seed 004).
     spindles : pair of str, default ("B", "A")

@@ -10,7 +10,7 @@ import numpy as np
 from ...base.errors import InputError
 from ...base.units import DEG, MM
 
-__all__ = ["DEVIATIONS", "FLANKS", "SEED004_GEAR", "GearPair"]
+__all__ = ["DEVIATIONS", "FLANKS", "REFERENCE_GEAR", "GearPair"]
 
 
 #: the two flanks of a tooth; +1: the clockwise side seen from +z (right), -1: the other
@@ -171,7 +171,8 @@ class GearPair:
                 "centre_distance_mm": self.centre_distance / MM}
 
 
-#: seed 004's gear (Table 7): module 1.75 mm, 20 deg, 46 teeth rolled by a 128-tooth wheel;
-#: the face width (not given in the paper) is its 20 mm contact line at the start of rolling
-SEED004_GEAR = GearPair(module=1.75 * MM, pressure_angle=20 * DEG, teeth=46, tool_teeth=128,
-                        face_width=20 * MM)
+#: the gear-rolling study's gear (seed 004, Table 7): module 1.75 mm, 20 deg, 46 teeth rolled by a
+#: 128-tooth wheel; the face width (not given in the paper) is its 20 mm contact line at the start
+#: of rolling
+REFERENCE_GEAR = GearPair(module=1.75 * MM, pressure_angle=20 * DEG, teeth=46, tool_teeth=128,
+                          face_width=20 * MM)

@@ -1,6 +1,6 @@
-"""Deviations per error source: each component of the machine alone and all together, seed
-004's unit-error study (each error of an axis alone at 1 mm or 1 deg), and seed 004's
-contribution degrees."""
+"""Deviations per error source: each component of the machine alone and all together, the
+unit-error study (each error of an axis alone at 1 mm or 1 deg), and contribution degrees
+(after the gear-rolling study, seed 004 in the docs' references)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from ...model.machine import Machine
 from ...model.spec import parse_component_name
 from ...base.units import DEG, MM
 from .flanks import FlankDeviations, each_flanks
-from .geometry import FLANKS, SEED004_GEAR, GearPair
+from .geometry import FLANKS, REFERENCE_GEAR, GearPair
 
 __all__ = ["SourceDeviations", "contribution_degrees", "deviations_by_source", "unit_error_study"]
 
@@ -78,7 +78,7 @@ def _label(name: str) -> str:
     return f"{kind}{'xyzxyz'['XYZABC'.index(direction)]}({owner})"
 
 
-def deviations_by_source(machine: Machine, gear: GearPair = SEED004_GEAR, *, components=None,
+def deviations_by_source(machine: Machine, gear: GearPair = REFERENCE_GEAR, *, components=None,
                          **options) -> list[SourceDeviations]:
     """The gear deviations of each error source of the machine alone, and of all together.
 
@@ -86,7 +86,7 @@ def deviations_by_source(machine: Machine, gear: GearPair = SEED004_GEAR, *, com
     ----------
     machine : Machine
         The rolling machine with its present errors.
-    gear : GearPair, default :data:`SEED004_GEAR`
+    gear : GearPair, default :data:`REFERENCE_GEAR`
         The gear.
     components : iterable of str, optional
         Component names to report (default every component with terms).
@@ -118,7 +118,7 @@ def deviations_by_source(machine: Machine, gear: GearPair = SEED004_GEAR, *, com
     return out
 
 
-def unit_error_study(machine: Machine, gear: GearPair = SEED004_GEAR, *, axes: Sequence[str] = ("A", "B"),
+def unit_error_study(machine: Machine, gear: GearPair = REFERENCE_GEAR, *, axes: Sequence[str] = ("A", "B"),
                      translation: float = 1 * MM, rotation: float = 1 * DEG,
                      **options) -> list[SourceDeviations]:
     """Seed 004's study: each of the six errors of each axis alone, at a unit value.
@@ -131,7 +131,7 @@ def unit_error_study(machine: Machine, gear: GearPair = SEED004_GEAR, *, axes: S
     ----------
     machine : Machine
         The rolling machine.
-    gear : GearPair, default :data:`SEED004_GEAR`
+    gear : GearPair, default :data:`REFERENCE_GEAR`
         The gear.
     axes : sequence of str, default ("A", "B")
         The axes whose errors are studied.

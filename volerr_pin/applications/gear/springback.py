@@ -1,5 +1,5 @@
-"""Seed 004's contact springback: the deformation of a finite line contact under the rolling force
-and the CEB model's critical deformation."""
+"""Contact springback: the deformation of a finite line contact under the rolling force and the
+CEB model's critical deformation (after the gear-rolling study, seed 004 in the docs' references)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 
 from ...base.errors import InputError
 from ...base.units import MM
-from .geometry import SEED004_GEAR, GearPair
+from .geometry import REFERENCE_GEAR, GearPair
 
 __all__ = ["Springback", "contact_springback"]
 
@@ -39,7 +39,7 @@ class Springback:
     modulus: float
 
 
-def contact_springback(force, length, gear: GearPair = SEED004_GEAR, *, e_tool: float, e_work: float,
+def contact_springback(force, length, gear: GearPair = REFERENCE_GEAR, *, e_tool: float, e_work: float,
                        nu_tool: float, nu_work: float, yield_strength: float, modulus: float | None = None,
                        roll: float = 0.0) -> Springback:
     """Seed 004's springback of the workpiece flank under the rolling force (its eqs. 49-51).
@@ -56,7 +56,7 @@ def contact_springback(force, length, gear: GearPair = SEED004_GEAR, *, e_tool: 
         Normal contact force ``F`` [N] (> 0).
     length : float or array_like
         Length of the contact line ``l`` [m] (> 0), broadcast with ``force``.
-    gear : GearPair, default :data:`SEED004_GEAR`
+    gear : GearPair, default :data:`REFERENCE_GEAR`
         Sets the radii of curvature: for involutes touching at ``roll`` on the line of action,
         ``R2 = r2 sin(alpha) + roll`` (workpiece) and ``R1 = r1 sin(alpha) - roll`` (wheel).
     e_tool, e_work : float

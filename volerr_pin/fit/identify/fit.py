@@ -26,8 +26,8 @@ __all__ = ["identify"]
 def identify(machine: Machine, data, *, terms=None, free=None, convention: str = "prior", folds: int = 5,
              holdout: float | None = None, seed: int = 0, max_iter: int = 50, tol: float = 1e-8,
              sigma_um: float = 1.0, sigma_urad: float = 1.0, run_axis: str | None = None,
-             run_at: dict | None = None, rtol: float = 1e-9, progress=None,
-             initialise: bool = True) -> Identification:
+             at: dict | None = None, rtol: float = 1e-9, progress=None,
+             initialise: bool = True, run_at: dict | None = None) -> Identification:
     """Fit the machine's coefficients to measurements.
 
     Parameters
@@ -63,8 +63,8 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         Standard deviation of rotation observations [urad] (weights); likewise.
     run_axis : str, optional
         Moving axis of runs that do not name it (see :func:`build_observations`).
-    run_at : dict, optional
-        Positions of the other axes during runs [mm, deg] (see :func:`build_observations`).
+    at : dict of str to float, optional
+        Positions of the other axes during runs [m, rad] (see :func:`build_observations`).
     rtol : float, default 1e-9
         Relative tolerance of the identifiability tests (:func:`~volerr_pin.fit.identifiability.analyse`).
     progress : callable(str, int), optional
@@ -73,6 +73,8 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         Start the non-linear coefficients (time constants, periods) from a grid search
         (default); False starts them from the machine's values, for callers that already
         have good ones.
+    run_at : dict, optional
+        Deprecated: ``at`` in mm / deg, as before this release (warns).
 
     Returns
     -------
@@ -110,7 +112,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     if rtol >= 1:
         raise InputError(f"rtol must be below 1, got {rtol}", parameters=("rtol",))
     obs = data if isinstance(data, Observations) else build_observations(
-        machine, data, sigma_um=sigma_um, sigma_urad=sigma_urad, run_axis=run_axis, run_at=run_at)
+        machine, data, sigma_um=sigma_um, sigma_urad=sigma_urad, run_axis=run_axis, at=at, run_at=run_at)
     if isinstance(data, Observations):
         measurement_sigma("sigma_um", sigma_um), measurement_sigma("sigma_urad", sigma_urad)
     check_observations(obs)

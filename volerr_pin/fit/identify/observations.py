@@ -21,7 +21,7 @@ from ...model.machine import Machine
 from ...measurements.protocol import Measurement, ObservationBlock, ObservationOptions
 from ...measurements.registry import read_any
 from ...model.terms import TemperatureHistory
-from ...base.units import UM_PER_M, URAD_PER_RAD
+from ...base.units import UM_PER_M, URAD_PER_RAD, axis_values_to_si
 
 __all__ = ["WEIGHTED_LIMIT", "Observations", "build_observations", "check_observations", "data_names",
            "point_squares", "residual_rms", "stack_blocks", "take_covariates"]
@@ -161,14 +161,14 @@ def take_covariates(cov: dict, idx) -> dict:
 
 
 def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_urad: float = 1.0,
-                       run_axis: str | None = None, run_at: dict[str, float] | None = None
-                       ) -> Observations:
+                       run_axis: str | None = None, at: dict[str, float] | None = None,
+                       run_at: dict[str, float] | None = None) -> Observations:
     """Turn measurements into observations: each measurement gives its own block (see
     :class:`~volerr_pin.measurements.protocol.Measurement`), stacked here.
 
     Point measurements observe each measured deviation direction. Runs: the moving axis is
     the run's (or ``run_axis``); the other axes stand at the run's ``# at:`` positions,
-    ``run_at`` (mm / deg), or mid travel (rotary axes at 0). A positioning run observes the
+    ``at`` (m / rad), or mid travel (rotary axes at 0). A positioning run observes the
     error along the axis' own motion; a component run the component's direction. Every run
     file gets an offset (the instrument zero); straightness runs also a slope (the reference
     line's alignment). A tracker file gets six nuisance terms (a small translation and
@@ -194,8 +194,10 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
         Standard deviation of rotation observations [urad].
     run_axis : str, optional
         Moving axis of runs that do not name it.
+    at : dict of str to float, optional
+        Positions of the other axes during runs [m, rad]; overrides the files' ``# at:``.
     run_at : dict of str to float, optional
-        Positions of the other axes during runs [mm, deg]; overrides the files' ``# at:``.
+        Deprecated: ``at`` in mm / deg, as before this release (warns).
 
     Returns
     -------
@@ -206,7 +208,8 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
     Raises
     ------
     InputError
-        If ``sigma_um`` or ``sigma_urad`` is not positive and finite, a run's axis is unknown
+        If ``sigma_um`` or ``sigma_urad`` is not positive and finite, ``at`` names an axis the
+        machine does not have or a value that is not finite, a run's axis is unknown
         or not given, its target unit does not fit the axis kind, its positions leave the
         travel, a component run belongs to another axis, an object is not a measurement,
         there are no observations, or a covariate the model reads is missing from some files.
@@ -220,7 +223,7 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
     """
     sigma_um = measurement_sigma("sigma_um", sigma_um)
     sigma_urad = measurement_sigma("sigma_urad", sigma_urad)
-    options = ObservationOptions(sigma_um, sigma_urad, run_axis, run_at)
+    options = ObservationOptions(sigma_um, sigma_urad, run_axis, _positions(machine, at, run_at))
     if isinstance(data, (Measurement, str, os.PathLike)):
         data = [data]  # one measurement object or file
     blocks = []
@@ -234,6 +237,30 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
                              "the paths of their files")
         blocks.append(item.observations(machine, options))
     return stack_blocks(blocks, machine)
+
+
+def _positions(machine: Machine, at, run_at) -> dict[str, float] | None:
+    """The other axes' positions during runs [m, rad], checked: ``at`` as given, or the
+    deprecated ``run_at`` [mm, deg] converted."""
+    if at is not None and run_at is not None:
+        raise InputError("give the runs' other axis positions once: at (m, rad), not also run_at",
+                         parameters=("at", "run_at"))
+    if run_at is not None:
+        warnings.warn("run_at (mm, deg) is at (m, rad) now; run_at goes in the next release",
+                      DeprecationWarning, stacklevel=3)
+        return axis_values_to_si(machine.axes, machine.axis_kinds, dict(run_at), "run_at", machine.name)
+    if at is None:
+        return None
+    out = {}
+    for name, value in dict(at).items():
+        if name not in machine.axes:
+            raise InputError(f"at names '{name}', not an axis of {machine.name} ({', '.join(machine.axes)})",
+                             parameters=("at",))
+        value = float(value)
+        if not np.isfinite(value):
+            raise InputError(f"at: {name} = {value} is not a finite position", parameters=("at",))
+        out[name] = value
+    return out
 
 
 def stack_blocks(blocks: list[ObservationBlock], machine: Machine) -> Observations:
