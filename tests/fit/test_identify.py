@@ -97,6 +97,40 @@ def test_min_norm_convention_fits_the_same_predictions(machines):
     assert b.to_dict()["rank"] == a.to_dict()["rank"] < b.to_dict()["n_parameters"]
 
 
+def test_the_report_carries_the_fits_covariance_and_uncertainty_propagates_it(machines, tmp_path):
+    """The report's correlations and uncertainties give back s^2 (J^T J)^-1 computed here from
+    the machine's own sensitivities at the fitted values (GUM 5.2); the reader of reports
+    propagates them, and a report without them is read with a warning."""
+    from volerr_pin.cli.common import dumps
+    from volerr_pin.studies.covariance import covariance_from_report
+
+    m = machines["vmc500"]
+    truth, _ = identifiable_truth(m, 300, seed=12)
+    data = tool_points(m, truth, 300, 0.3e-6, seed=12)
+    res = identify(m, [data], folds=0, sigma_um=0.3)
+    k = res.fitted
+    J = res.machine.sensitivity(data.q)[:, :3, :][:, :, k].reshape(-1, len(k)) / 0.3e-6
+    r = (data.values[:, :3] - res.machine.volumetric_error(data.q)[:, :3]).ravel() / 0.3e-6
+    s2 = r @ r / (len(r) - len(k))
+    expected = s2 * np.linalg.inv(J.T @ J)
+    report = res.to_dict()
+    corr = report["correlation"]
+    assert corr["parameters"] == [m.parameter_names[i] for i in k]
+    assert min(min(row) for row in corr["matrix"]) < -0.9   # a component's polynomial coefficients
+    path = tmp_path / "report.json"
+    path.write_text(dumps(report))
+    cov = covariance_from_report(m, path)
+    np.testing.assert_array_equal(cov.indices, k)
+    scale = np.sqrt(np.outer(np.diag(expected), np.diag(expected)))
+    np.testing.assert_allclose(cov.matrix / scale, expected / scale, rtol=0, atol=1e-6)
+    del report["correlation"]
+    path.write_text(dumps(report))
+    with pytest.warns(UserWarning, match=r"no correlations between its 44 coefficients' uncertainties; they are "
+                                         r"propagated as uncorrelated"):
+        plain = covariance_from_report(m, path)
+    np.testing.assert_allclose(plain.matrix, np.diag(np.diag(cov.matrix)), rtol=1e-12, atol=0)
+
+
 def test_written_spec_reproduces_the_fitted_predictions(machines, tmp_path):
     m = machines["cgm4000"]
     truth, _ = identifiable_truth(m, 500, seed=6)

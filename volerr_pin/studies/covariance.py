@@ -2,9 +2,10 @@
 
 - :func:`covariance_from_report`: the JSON report of ``volerr identify``: every
   fitted coefficient's value and standard uncertainty (held and fixed ones have none and
-  are not propagated). The report has no correlations today; when it carries a
-  ``correlation`` object (``{"parameters": [names], "matrix": [[...]]}``, correlation
-  coefficients) they are used, otherwise the coefficients are taken as uncorrelated.
+  are not propagated), and their correlations (``correlation``: ``{"parameters": [names],
+  "matrix": [[...]]}``), which the fit's covariance ``s^2 (J^T J)^-1`` carries: GUM 5.2 needs
+  them (the coefficients of one component's polynomial correlate up to -0.97). A report
+  without them (made before they were written) is propagated as uncorrelated, with a warning.
 - :func:`covariance_from_campaign`: the covariance a least-squares identification would
   have, from a stated campaign: the tool position measured in x, y and z at ``points``
   poses (Sobol' points over the travels) with an instrument of standard uncertainty
@@ -17,6 +18,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -109,6 +111,12 @@ def covariance_from_report(machine: Machine, path: str | Path) -> Covariance:
         number (a negative uncertainty), no uncertainty at all, or a correlation matrix that
         is not square, symmetric, within [-1, 1] with a unit diagonal and positive
         semi-definite.
+
+    Warns
+    -----
+    UserWarning
+        When the report gives no correlations (written before identify gave them): its
+        coefficients are propagated as uncorrelated.
     """
     path = Path(path)
     report = read_json(path, InputError, "identification report")
@@ -156,6 +164,11 @@ def covariance_from_report(machine: Machine, path: str | Path) -> Covariance:
     corr = report.get("correlation")
     if corr is not None:
         R = _correlation(path, corr, [names[k] for k in indices], machine)
+    elif len(indices) > 1:
+        warnings.warn(f"{path}: the report gives no correlations between its {len(indices)} coefficients' "
+                      "uncertainties; they are propagated as uncorrelated, which misstates every uncertainty "
+                      "that depends on several (GUM 5.2): identify again to get a report that has them",
+                      stacklevel=2)
     return Covariance(machine.with_theta(theta), indices, R * np.outer(D, D), f"identification report {path}",
                       tuple(names[k] for k in range(len(names)) if k not in set(indices.tolist())))
 

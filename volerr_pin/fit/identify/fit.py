@@ -141,10 +141,14 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     dof = len(r) - R.shape[1] if convention == "prior" else len(r) - analysis.rank
     residual_sigma = float(np.sqrt(r @ r / dof)) if dof > 0 else math.nan
     uncertainty = np.full(len(theta), np.nan)
+    covariance = None
     ill = ill_conditioned(analysis.singular_values, len(r))
     if convention == "prior" and dof > 0:
-        std, rank_deficient = standard_uncertainties(R, len(r), typical_sizes(machine, theta, free[kept_theta], n_nu))
+        std, rank_deficient, cov = standard_uncertainties(
+            R, len(r), typical_sizes(machine, theta, free[kept_theta], n_nu), covariance=True)
         uncertainty[free[kept_theta]] = std[n_nu:] * residual_sigma
+        # the machine's coefficients' block: the nuisance terms marginalised out
+        covariance = cov[n_nu:, n_nu:] * residual_sigma ** 2
         ill = ill or rank_deficient
     residual_si = r * obs.sigma
     fitted_machine = machine._with_theta(theta)
@@ -170,7 +174,8 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         fitted_machine, machine, free, analysis, fitted_idx, held_idx, uncertainty,
         dict(zip(obs.nuisance_names, (float(v) for v in nuisance))), rms_fit or 0.0, rms_fit_rot,
         rms_holdout, how, obs.n_points, len(obs.y), iterations, convention, residual_sigma, groups,
-        frozenset(n for n, angular in zip(obs.nuisance_names, obs.nuisance_angular) if angular), solver, ill)
+        frozenset(n for n, angular in zip(obs.nuisance_names, obs.nuisance_angular) if angular), solver, ill,
+        covariance)
 
 
 def _memory_needed(obs: Observations, folds: int) -> float:

@@ -65,6 +65,11 @@ class Identification:
         The column-scaled design is numerically rank-deficient or its condition number
         exceeds :data:`~volerr_pin.fit.identify.solver.CONDITION_LIMIT`: the fitted values along its weakest directions are
         rounding noise.
+    covariance : ndarray, shape (len(fitted), len(fitted)), or None
+        The covariance of the fitted coefficients, in the order of ``fitted`` (SI units of each
+        pair), ``s^2 (J^T J)^-1`` with the nuisance terms marginalised out; NaN in the rows of
+        coefficients not determined; None without it (min-norm convention, no degrees of
+        freedom).
     """
 
     machine: Machine                  # with the fitted coefficients
@@ -88,6 +93,7 @@ class Identification:
     angular_nuisance: frozenset = frozenset()
     solver: str = "converged"         # or "stalled", "iteration limit": see solve
     ill_conditioned: bool = False     # beyond what double precision resolves: see CONDITION_LIMIT
+    covariance: np.ndarray | None = None   # of the fitted coefficients, in the order of fitted
 
     @property
     def converged(self) -> bool:
@@ -115,7 +121,8 @@ class Identification:
             ``rms_fit_um``, ``rms_fit_urad``, ``rms_holdout_um``, ``holdout``,
             ``residual_sigma``, ``iterations``, ``nuisance`` (value in um or urad, with its
             ``unit``) and ``parameters``: per coefficient its ``value``, ``prior`` and
-            ``uncertainty`` in the spec's display unit, the ``unit`` and a ``status``.
+            ``uncertainty`` in the spec's display unit, the ``unit`` and a ``status``; and
+            ``correlation`` (:meth:`correlation`).
         """
         m, prior = self.machine, self.prior
         params = {}
@@ -148,7 +155,31 @@ class Identification:
                              "unit": "urad" if n in self.angular_nuisance else "um"}
                          for n, v in self.nuisance.items()},
             "parameters": params,
+            "correlation": self.correlation(),
         }
+
+    def correlation(self) -> dict | None:
+        """The correlations of the fitted coefficients that have an uncertainty, as the report
+        gives them: ``{"parameters": [names], "matrix": [[...]]}``
+        (:func:`~volerr_pin.studies.covariance.covariance_from_report` propagates them; GUM 5.2).
+
+        Returns
+        -------
+        dict or None
+            None when the fit gives no covariance (min-norm convention, no degrees of freedom,
+            a fit that did not converge) or no coefficient has an uncertainty.
+        """
+        if self.covariance is None or self.solver != "converged":
+            return None
+        u = np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
+        keep = np.flatnonzero(np.isfinite(u) & (u > 0))   # what the report's reader propagates
+        if not keep.size:
+            return None
+        C = self.covariance[np.ix_(keep, keep)]
+        matrix = np.clip(C / np.outer(u[keep], u[keep]), -1.0, 1.0)
+        np.fill_diagonal(matrix, 1.0)
+        return {"parameters": [self.machine.parameter_names[self.fitted[i]] for i in keep],
+                "matrix": matrix.tolist()}
 
 
 def _undetermined_limit(machine: Machine, k: int) -> float:

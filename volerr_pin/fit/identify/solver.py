@@ -213,11 +213,12 @@ def initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray,
     return theta
 
 
-def standard_uncertainties(R: np.ndarray, rows: int, typical: np.ndarray) -> tuple[np.ndarray, bool]:
+def standard_uncertainties(R: np.ndarray, rows: int, typical: np.ndarray, covariance: bool = False) -> tuple:
     """Standard uncertainties of the columns of a design from its triangular factor ``R``
     (unit weighted-residual scale), by the SVD of the column-scaled factor (the normal
     matrix would square its condition), and whether directions below rounding were cut: the
-    columns they involve are not determined (infinite uncertainty).
+    columns they involve are not determined (infinite uncertainty). With ``covariance``, also
+    their covariance ``(R^T R)^-1`` from the same SVD.
 
     Parameters
     ----------
@@ -228,6 +229,8 @@ def standard_uncertainties(R: np.ndarray, rows: int, typical: np.ndarray) -> tup
     typical : ndarray, shape (n,)
         Typical size of each column's coefficient (see
         :func:`~volerr_pin.fit.identify.design.typical_sizes`).
+    covariance : bool, default False
+        Return the covariance too.
 
     Returns
     -------
@@ -235,10 +238,13 @@ def standard_uncertainties(R: np.ndarray, rows: int, typical: np.ndarray) -> tup
         Standard uncertainties per unit weighted-residual scale (inf where not determined).
     cut : bool
         Whether directions below rounding were cut.
+    cov : ndarray, shape (n, n)
+        Only with ``covariance``: the covariance per unit weighted-residual scale (NaN in the
+        rows and columns of the columns not determined).
     """
     scale, Rs = column_scale(R, typical=typical)
     if Rs.size == 0:
-        return np.zeros(R.shape[1]), False
+        return (np.zeros(R.shape[1]), False) + ((np.zeros((R.shape[1],) * 2),) if covariance else ())
     _, s, Vt = np.linalg.svd(Rs, full_matrices=False)
     keep = s > s[0] * default_rcond(rows, Rs.shape[1]) if s.size and s[0] > 0 else np.zeros(s.size, bool)
     var = (Vt[keep] ** 2 / s[keep, None] ** 2).sum(axis=0)
@@ -248,7 +254,14 @@ def standard_uncertainties(R: np.ndarray, rows: int, typical: np.ndarray) -> tup
         basis = Vt[keep]
         undetermined = 1.0 - (basis ** 2).sum(axis=0) > 1e-12
     var[undetermined] = np.inf
-    return np.sqrt(var) / scale, bool(undetermined.any())
+    out = (np.sqrt(var) / scale, bool(undetermined.any()))
+    if not covariance:
+        return out
+    W = Vt[keep] / s[keep, None]
+    cov = (W.T @ W) / np.outer(scale, scale)
+    cov[undetermined, :] = np.nan
+    cov[:, undetermined] = np.nan
+    return out + (cov,)
 
 
 def ill_conditioned(singular_values: np.ndarray, rows: int) -> bool:
