@@ -292,7 +292,37 @@ def test_the_residual_of_a_compensation_is_the_error_at_its_commands(machines):
     # ... but the machine the commands go to is uncertain: the map's uncertainty stays
     np.testing.assert_allclose(residual.linear_u_position, point.map.linear_u_position, rtol=0.02)
     report = point.to_dict()
-    assert report["compensation_method"] == "point" and not report["compensation"]["max_error_um"]["agree"]
+    assert report["compensation_method"] == "point"
+    # a norm at zero has no derivative: no linear interval, the Monte Carlo result alone
+    for key in ("max_error_um", "rms_error_um"):
+        summary = report["compensation"][key]
+        assert summary["linear"] == {"applicable": False, "u": None, "low": None, "high": None}
+        assert summary["agree"] is None and summary["difference_low"] is None
+        mc = summary["monte_carlo"]
+        assert mc["mean"] < mc["upper"] < mc["high"]
+        assert report["map"][key]["linear"]["applicable"] and report["map"][key]["agree"] is not None
+
+
+def test_a_summary_s_linear_interval_applies_only_away_from_zero(machines):
+    """The scales behind the rule, computed here from the machine's own sensitivities: the
+    worst point's largest standard deviation, and that of all points' errors stacked over
+    sqrt(N); a summary within 1.96 of its scale of zero gets no linear interval."""
+    from volerr_pin.studies.uncertainty import linear_propagation
+
+    m = machines["vmc500"]
+    cov = covariance_from_campaign(m, 1e-6, points=60)
+    q = grid(m, 3)
+    points = make_points(cov.machine, q)
+    lin = linear_propagation(cov.machine, cov, points)
+    S = cov.machine.sensitivity(q, parameters=cov.indices)[:, :3, :]
+    C = np.einsum("nip,pq,njq->nij", S, cov.matrix, S)
+    assert lin.max_scale == pytest.approx(math.sqrt(np.linalg.eigvalsh(C[lin.worst])[-1]), rel=1e-9)
+    stacked = S.reshape(-1, S.shape[2]) @ cov.matrix @ S.reshape(-1, S.shape[2]).T
+    assert lin.rms_scale == pytest.approx(math.sqrt(np.linalg.eigvalsh(stacked)[-1] / len(q)), rel=1e-9)
+    draws = np.random.default_rng(0).normal(1e-6, 0.1e-6, 500)
+    near = compare_scalar(0.5e-6, 0.1e-6, draws, 3.0, scale=0.3e-6)   # 0.5 < 1.96 x 0.3
+    far = compare_scalar(1e-6, 0.1e-6, draws, 3.0, scale=0.3e-6)
+    assert (near.applicable, near.agree) == (False, None) and far.applicable and far.agree is not None
 
 
 def test_a_controller_s_tables_leave_the_residual_the_export_simulates(machines):
@@ -509,3 +539,32 @@ def test_the_studies_load_neither_pictures_nor_dask_until_asked():
             + "; print(*[m in sys.modules for m in ('rerun', 'matplotlib', 'distributed', 'SALib')])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False", "False", "False"]
+
+
+def test_the_text_report_says_what_its_table_means(capsys, tmp_path):
+    """Where the linear interval of a norm does not apply the table says so and the Monte Carlo
+    result is given in words with its one-sided bound; the per-point and summary verdicts are
+    one sentence; the position figure is called what it is; a coarse agreement test says how
+    coarse."""
+    args = ["uncertainty", "vmc500", "--instrument-sigma", "1", "--campaign-points", "60", "--samples", "400",
+            "--grid", "3", "--compensation", "point", "--workers", "0"]
+    code, text, err = _cli(args + ["--json"], capsys)
+    assert code == 0, err
+    report = json.loads(text)
+    png = tmp_path / "u.png"
+    code, text, err = _cli(args + ["--png", str(png)], capsys)
+    assert code == 0, err
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 30_000 and f"wrote {png}" in err
+    flat = " ".join(text.split())
+    comp = report["compensation"]["max_error_um"]
+    assert "n/a not applicable" in flat
+    assert (f"max |e| {comp['value']:.3f} um lies within the uncertainty of zero: a norm has no derivative there"
+            in flat)
+    assert f"by Monte Carlo it is {comp['monte_carlo']['mean']:.3f} +- {comp['monte_carlo']['u']:.3f} um, below " \
+           f"{comp['monte_carlo']['upper']:.3f} um with 95 % probability" in flat
+    assert "standard uncertainty of the position" not in flat
+    assert "position uncertainty sqrt(u_x^2 + u_y^2 + u_z^2) (the root of the trace" in flat
+    verdicts = [line for line in text.splitlines() if "Monte Carlo and linear propagation agree" in line]
+    assert len(verdicts) == 2 and all("everywhere" not in line for line in verdicts)
+    needed = max(report["map"][k]["draws_needed"] for k in ("max_error_um", "rms_error_um"))
+    assert needed > 400 and f"about {needed:,} draws would resolve delta" in flat

@@ -12,6 +12,7 @@ import sys
 
 from rich import box
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from ..compensation.export.registry import CONTROLLERS
@@ -151,6 +152,8 @@ def add_parser(sub) -> None:
     add_out_arg(p, "write every point's numbers (positions mm/deg, errors um)", suffixes=(".csv",), what="a table (CSV)",
                 metavar="FIELD.csv")
     p.add_argument("--rrd", metavar="FILE.rrd", help="write a Rerun recording of the uncertainty field")
+    p.add_argument("--png", metavar="FILE.png", help="write a picture: each field's largest error over the draws "
+                                                     "beside the linear interval, and every point's uncertainty both ways")
     add_json_arg(p)
     p.set_defaults(func=run)
 
@@ -161,7 +164,7 @@ def run(args) -> int:
     from ..studies.uncertainty import check_arguments, study_uncertainty
 
     machine = machine_of(args)
-    check_run_outputs({"out": args.out, "rrd": args.rrd}, [args.from_report], machine)
+    check_run_outputs({"out": args.out, "rrd": args.rrd, "png": args.png}, [args.from_report], machine)
     check_arguments(args.samples, args.seed, args.interval_samples)
     if args.from_report:
         covariance = covariance_from_report(machine, args.from_report)
@@ -187,11 +190,16 @@ def run(args) -> int:
 
             record_uncertainty(study, tx.path(args.rrd))
             report["rrd"] = args.rrd
+        if args.png:
+            from ..viz.studies import uncertainty_png
+
+            uncertainty_png(study, tx.path(args.png))
+            report["png"] = args.png
     if args.json:
         print(dumps(report))
         return 0
     _print(study, report)
-    for name in ("out", "rrd"):
+    for name in ("out", "rrd", "png"):
         if name in report:
             print(f"wrote {report[name]}", file=sys.stderr)
     return 0
@@ -224,21 +232,60 @@ def _print(study, report: dict) -> None:
         table = Table(box=box.SIMPLE, title=title)
         for col in ("", "estimate", "u linear", "95 % linear", "mean MC", "u MC", "95 % MC", "agree"):
             table.add_column(col, justify="right")
-        for key, label in (("max_error_um", "max |e|"), ("rms_error_um", "RMS |e|")):
+        summaries = (("max_error_um", "max |e|"), ("rms_error_um", "RMS |e|"))
+        for key, label in summaries:
             s = field[key]
             lin, mc = s["linear"], s["monte_carlo"]
-            table.add_row(label, f"{s['value']:.3f}", f"{lin['u']:.3f}", f"{lin['low']:.3f} .. {lin['high']:.3f}",
-                          f"{mc['mean']:.3f}", f"{mc['u']:.3f}", f"{mc['low']:.3f} .. {mc['high']:.3f}",
-                          "yes" if s["agree"] else "NO")
+            if lin["applicable"]:
+                linear = (f"{lin['u']:.3f}", f"{lin['low']:.3f} .. {lin['high']:.3f}", "yes" if s["agree"] else "NO")
+            else:
+                linear = ("n/a", "not applicable", "-")
+            table.add_row(label, f"{s['value']:.3f}", linear[0], linear[1], f"{mc['mean']:.3f}", f"{mc['u']:.3f}",
+                          f"{mc['low']:.3f} .. {mc['high']:.3f}", linear[2])
         console.print(table)
-        u = field["u_position_um"]
-        console.print(f"  standard uncertainty of the position: largest {u['monte_carlo_max']:.3f} um (linear "
-                      f"{u['linear_max']:.3f}), RMS {u['monte_carlo_rms']:.3f} um (linear {u['linear_rms']:.3f})")
-        worst = field["worst_disagreement"]
-        if worst is None:
-            console.print("  per point: Monte Carlo and linear propagation agree everywhere")
+        for line in _verdict(field, summaries, report["samples"]):
+            console.print(escape(line))
+
+
+def _verdict(field: dict, summaries, samples: int) -> list[str]:
+    """What the table says, in sentences: where a linear interval does not apply, whether the
+    two methods agree at the points and for the summaries, how fine that test is."""
+    out = []
+    off = [(label, field[key]) for key, label in summaries if not field[key]["linear"]["applicable"]]
+    on = [(label, field[key]) for key, label in summaries if field[key]["linear"]["applicable"]]
+    for label, s in off:
+        mc = s["monte_carlo"]
+        out.append(f"  {label} {s['value']:.3f} um lies within the uncertainty of zero: a norm has no derivative "
+                   "there (GUM 5.1.2, Supplement 1 5.8), so it has no linear interval; by Monte Carlo it is "
+                   f"{mc['mean']:.3f} +- {mc['u']:.3f} um, below {mc['upper']:.3f} um with 95 % probability")
+    u = field["u_position_um"]
+    out.append(f"  position uncertainty sqrt(u_x^2 + u_y^2 + u_z^2) (the root of the trace of each point's "
+               f"covariance): largest {u['monte_carlo_max']:.3f} um (linear {u['linear_max']:.3f}), RMS "
+               f"{u['monte_carlo_rms']:.3f} um (linear {u['linear_rms']:.3f})")
+    worst = field["worst_disagreement"]
+    differ = [label for label, s in on if not s["agree"]]
+    named = " and ".join(label for label, _ in on)
+    if worst is None:
+        if not on:
+            out.append("  Monte Carlo and linear propagation agree at every point's x, y and z")
+        elif not differ:
+            out.append(f"  Monte Carlo and linear propagation agree at every point's x, y and z and for the {named}")
         else:
-            console.print(f"  per point: they disagree at {field['points_disagreeing']} points; the most at "
-                          f"{', '.join(f'{v:g}' for v in worst['q'])}: u {worst['monte_carlo_u_um']:.3f} um (MC) "
-                          f"vs {worst['linear_u_um']:.3f} um (linear), mean shifted {worst['bias_um']:.3f} um "
-                          "(non-linear there: see docs/studies.md)")
+            out.append(f"  Monte Carlo and linear propagation agree at every point's x, y and z but not for the "
+                       f"{' and '.join(differ)}: a maximum or RMS of magnitudes is not linear in the errors, even "
+                       "where the errors are; use the Monte Carlo interval there")
+    else:
+        out.append(f"  per point: they disagree at {field['points_disagreeing']} points; the most at "
+                   f"{', '.join(f'{v:g}' for v in worst['q'])}: u {worst['monte_carlo_u_um']:.3f} um (MC) "
+                   f"vs {worst['linear_u_um']:.3f} um (linear), mean shifted {worst['bias_um']:.3f} um "
+                   "(non-linear there: see docs/studies.md)"
+                   + (f"; the {' and '.join(differ)} disagree too" if differ else ""))
+    coarse = [s for _, s in on if s["draws_needed"] > samples]
+    if coarse:
+        s = max(coarse, key=lambda s: s["draws_needed"])
+        known = max(s["tolerance_low"], s["tolerance_high"])
+        out.append(f"  agree: both ends of the two 95 % intervals within the larger of delta = {s['delta']:.2g} um (half a "
+                   "unit in u's second digit) and the Monte Carlo ends' sampling error (GUM S1 8); with "
+                   f"{samples:,} draws that is +-{known:.3f} um, and smaller differences go unseen (about "
+                   f"{s['draws_needed']:,} draws would resolve delta, GUM S1 7.9)")
+    return out

@@ -10,7 +10,11 @@ compensation's residual) has
   ``n = f / |f|`` (``u^2 = n^T S Sigma S^T n``; where ``f = 0`` the norm has no derivative and
   ``sqrt(trace)`` is given); the largest ``|f|`` over the points through the gradient at the
   worst point, and the RMS over points through ``sum_i f_i^T S_i / (N RMS)``; 95 % intervals
-  ``y +- 1.96 u``;
+  ``y +- 1.96 u``. A norm has no derivative at zero (GUM 5.1.2; Supplement 1, 5.8): where the
+  vector behind a summary is within 1.96 of its own largest standard deviation of zero
+  (``|f_worst| < 1.96 sqrt(lambda_max(C_worst))`` for the max; for the RMS the same of the
+  stacked errors of all points), the linear interval is not applicable and only the Monte
+  Carlo result is given (the compensated residual of an exact compensation is such a case);
 - **Monte Carlo** (GUM S1): ``theta`` drawn from ``N(theta, Sigma)``, the exact kinematics
   evaluated for every draw; per point the mean and standard deviation over all draws and
   the 2.5 / 97.5 % quantiles over the first ``interval_samples`` draws; for the max and RMS
@@ -156,8 +160,19 @@ class Scalar:
         Their standard errors [m].
     tolerance_low, tolerance_high : float
         What an endpoint may differ by and still agree [m].
-    agree : bool
-        Both endpoints of the linear interval within tolerance of the Monte Carlo ones.
+    agree : bool or None
+        Both endpoints of the linear interval within tolerance of the Monte Carlo ones; None
+        where the linear interval is not applicable.
+    applicable : bool
+        The linear propagation applies: the vector behind the norm is farther from zero than
+        1.96 of its largest standard deviation (``scale``).
+    mc_upper : float
+        Monte Carlo 95 % quantile, a one-sided 95 % upper bound [m].
+    delta : float
+        The numerical tolerance of the comparison (GUM S1 7.9.2: half a unit in the second
+        significant digit of u) [m].
+    draws : int
+        The Monte Carlo draws.
     """
 
     value: float
@@ -170,7 +185,21 @@ class Scalar:
     se_high: float
     tolerance_low: float
     tolerance_high: float
-    agree: bool
+    agree: bool | None
+    applicable: bool = True
+    mc_upper: float = math.nan
+    delta: float = 0.0
+    draws: int = 0
+
+    @property
+    def draws_needed(self) -> int:
+        """The draws at which both endpoints' sampling errors (times the test's ``z``) fall
+        within ``delta``, so that the comparison resolves the numerical tolerance itself (GUM S1
+        7.9); ``draws`` when they already do (int)."""
+        if self.delta <= 0 or self.draws <= 0:
+            return self.draws
+        worst = max(self.tolerance_low, self.tolerance_high) / self.delta
+        return max(self.draws, int(math.ceil(self.draws * worst**2)))
 
     @property
     def linear_low(self) -> float:
@@ -188,22 +217,26 @@ class Scalar:
         Returns
         -------
         dict
-            ``value``, ``linear`` {``u``, ``low``, ``high``}, ``monte_carlo`` {``mean``, ``u``,
-            ``low``, ``high``}, ``difference_low``, ``difference_high``, ``tolerance_low``,
-            ``tolerance_high``, ``agree``.
+            ``value``, ``linear`` {``applicable``, ``u``, ``low``, ``high`` (null where not
+            applicable)}, ``monte_carlo`` {``mean``, ``u``, ``low``, ``high``, ``upper``},
+            ``difference_low``, ``difference_high`` (null where not applicable),
+            ``tolerance_low``, ``tolerance_high``, ``delta``, ``draws_needed``, ``agree``.
         """
         f = UM_PER_M
+        on = self.applicable
         return {"value": self.value * f,
-                "linear": {"u": self.linear_u * f, "low": self.linear_low * f, "high": self.linear_high * f},
+                "linear": {"applicable": on, "u": self.linear_u * f if on else None,
+                           "low": self.linear_low * f if on else None, "high": self.linear_high * f if on else None},
                 "monte_carlo": {"mean": self.mc_mean * f, "u": self.mc_std * f, "low": self.mc_low * f,
-                                "high": self.mc_high * f},
-                "difference_low": abs(self.linear_low - self.mc_low) * f,
-                "difference_high": abs(self.linear_high - self.mc_high) * f,
+                                "high": self.mc_high * f, "upper": self.mc_upper * f},
+                "difference_low": abs(self.linear_low - self.mc_low) * f if on else None,
+                "difference_high": abs(self.linear_high - self.mc_high) * f if on else None,
                 "tolerance_low": self.tolerance_low * f, "tolerance_high": self.tolerance_high * f,
+                "delta": self.delta * f, "draws_needed": self.draws_needed,
                 "agree": self.agree}
 
 
-def compare_scalar(value: float, linear_u: float, draws: np.ndarray, z: float) -> Scalar:
+def compare_scalar(value: float, linear_u: float, draws: np.ndarray, z: float, scale: float = 0.0) -> Scalar:
     """Linear and Monte Carlo results of one summary side by side (GUM S1 section 8).
 
     Parameters
@@ -216,11 +249,14 @@ def compare_scalar(value: float, linear_u: float, draws: np.ndarray, z: float) -
         Its Monte Carlo values [m].
     z : float
         Standard errors an endpoint may differ by (see :func:`z_family`).
+    scale : float, default 0
+        The largest standard deviation of the vector behind the norm [m]: the linear interval
+        applies where ``value >= 1.96 scale``.
 
     Returns
     -------
     Scalar
-        Both results and whether they agree.
+        Both results and whether they agree (None where the linear interval does not apply).
     """
     x = np.sort(np.asarray(draws, dtype=float))
     lo, hi = (float(v) for v in np.quantile(x, [(1 - COVERAGE) / 2, (1 + COVERAGE) / 2]))
@@ -228,9 +264,12 @@ def compare_scalar(value: float, linear_u: float, draws: np.ndarray, z: float) -
     mc_std = float(x.std(ddof=1)) if len(x) > 1 else 0.0
     delta = float(numerical_tolerance(max(linear_u, mc_std)))
     tol_lo, tol_hi = max(delta, z * se_lo), max(delta, z * se_hi)
-    agree = (abs(value - K95 * linear_u - lo) <= tol_lo) and (abs(value + K95 * linear_u - hi) <= tol_hi)
+    applicable = bool(value >= K95 * scale)
+    agree = (bool((abs(value - K95 * linear_u - lo) <= tol_lo) and (abs(value + K95 * linear_u - hi) <= tol_hi))
+             if applicable else None)
+    upper = float(np.quantile(x, COVERAGE)) if len(x) else math.nan
     return Scalar(float(value), float(linear_u), float(x.mean()), mc_std, lo, hi, se_lo, se_hi, tol_lo, tol_hi,
-                  bool(agree))
+                  agree, applicable, upper, delta, len(x))
 
 
 @dataclass(frozen=True)
@@ -247,12 +286,18 @@ class Linear:
         Of the RMS of ``|f|`` over the points [m].
     worst : int
         The point of the largest ``|f|`` at the estimate.
+    max_scale, rms_scale : float
+        The largest standard deviation of the vector behind each summary [m]: the worst
+        point's ``f``, and the stacked ``f`` of all points over ``sqrt(N)`` (where the summary is
+        within 1.96 of it of zero, its linear interval does not apply).
     """
 
     u: np.ndarray
     max_u: float
     rms_u: float
     worst: int
+    max_scale: float = 0.0
+    rms_scale: float = 0.0
 
 
 def linear_propagation(machine: Machine, covariance: Covariance, points: Points, block: int = 2048) -> Linear:
@@ -281,6 +326,8 @@ def linear_propagation(machine: Machine, covariance: Covariance, points: Points,
     worst = int(np.argmax(norm))
     g_rms = np.zeros(len(covariance.indices))
     g_max = np.zeros(len(covariance.indices))
+    gram = np.zeros((len(covariance.indices),) * 2)   # sum of S_i^T S_i: the stacked errors' covariance
+    max_scale = 0.0
     for start in range(0, points.n, block):
         rows = slice(start, min(start + block, points.n))
         S = machine.sensitivity(points.q[rows], parameters=covariance.indices,
@@ -292,13 +339,19 @@ def linear_propagation(machine: Machine, covariance: Covariance, points: Points,
         along = np.einsum("ni,nij,nj->n", direction, C, direction)
         u[rows, 3] = np.sqrt(np.clip(np.where(nb > 0, along, np.einsum("nii->n", C)), 0.0, None))
         g_rms += np.einsum("ni,nip->p", f[rows], S)
+        gram += np.einsum("nip,niq->pq", S, S)
         if rows.start <= worst < rows.stop:
             k = worst - rows.start
             g_max = direction[k] @ S[k] if nb[k] > 0 else np.zeros(len(covariance.indices))
+            max_scale = math.sqrt(max(0.0, float(np.linalg.eigvalsh((C[k] + C[k].T) / 2)[-1])))
     rms = math.sqrt(float(np.mean(norm**2)))
     g_rms = g_rms / (points.n * rms) if rms > 0 else np.zeros_like(g_rms)
+    # the stacked errors' covariance S Sigma S^T shares its non-zero eigenvalues with L^T (sum S^T S) L
+    root = covariance.factor()[covariance.indices]
+    top = float(np.linalg.eigvalsh(root.T @ gram @ root)[-1]) if root.size else 0.0
     return Linear(u, math.sqrt(max(0.0, float(g_max @ Sigma @ g_max))),
-                  math.sqrt(max(0.0, float(g_rms @ Sigma @ g_rms))), worst)
+                  math.sqrt(max(0.0, float(g_rms @ Sigma @ g_rms))), worst, max_scale,
+                  math.sqrt(max(0.0, top) / points.n))
 
 
 @dataclass(frozen=True)
@@ -328,6 +381,8 @@ class FieldUncertainty:
         the tolerance.
     excess : ndarray, shape (N,)
         The largest difference over its tolerance at each point (above 1 where ``disagree``).
+    max_draws : ndarray, shape (samples,), or None
+        The largest ``|f|`` over the points in every Monte Carlo draw [m] (for pictures).
     """
 
     q: np.ndarray
@@ -341,6 +396,7 @@ class FieldUncertainty:
     rms: Scalar
     disagree: np.ndarray
     excess: np.ndarray
+    max_draws: np.ndarray | None = None
 
     @property
     def u_position(self) -> np.ndarray:
@@ -365,7 +421,8 @@ class FieldUncertainty:
         dict
             ``points``, ``max_error_um`` and ``rms_error_um`` (:meth:`Scalar.to_dict`),
             ``u_position_um`` {``linear_max``, ``linear_rms``, ``monte_carlo_max``,
-            ``monte_carlo_rms``}, ``points_disagreeing``, ``agree`` and ``worst_disagreement``
+            ``monte_carlo_rms``}, ``points_disagreeing``, ``agree`` (every point, and every
+            summary whose linear interval applies) and ``worst_disagreement``
             (null when every point agrees; else ``q``, ``linear_u_um``, ``monte_carlo_u_um``,
             ``bias_um``).
         """
@@ -383,7 +440,8 @@ class FieldUncertainty:
                                   "monte_carlo_max": float(mc.max() * f),
                                   "monte_carlo_rms": float(np.sqrt(np.mean(mc**2)) * f)},
                 "points_disagreeing": int(self.disagree.sum()),
-                "agree": bool(self.max.agree and self.rms.agree and not self.disagree.any()),
+                "agree": bool(all(s.agree for s in (self.max, self.rms) if s.applicable)
+                              and not self.disagree.any()),
                 "worst_disagreement": worst}
 
     def table(self, machine: Machine) -> tuple[list[str], np.ndarray]:
@@ -424,8 +482,8 @@ def _field(machine: Machine, covariance: Covariance, points: Points, q_desired: 
     z = z_family(4)
     est = points.reference
     rms_value = math.sqrt(float(np.mean(est[:, 3] ** 2)))
-    mx = compare_scalar(float(est[:, 3].max()), linear.max_u, mc.max, z)
-    rms = compare_scalar(rms_value, linear.rms_u, mc.rms, z)
+    mx = compare_scalar(float(est[:, 3].max()), linear.max_u, mc.max, z, linear.max_scale)
+    rms = compare_scalar(rms_value, linear.rms_u, mc.rms, z, linear.rms_scale)
     n = samples
     std = mc.std[:, :3]
     u_lin = linear.u[:, :3]
@@ -436,7 +494,7 @@ def _field(machine: Machine, covariance: Covariance, points: Points, q_desired: 
     tol_std = np.maximum(delta, zp * std / math.sqrt(2 * (n - 1)))
     excess = np.maximum(np.abs(mc.mean[:, :3] - est[:, :3]) / tol_mean, np.abs(std - u_lin) / tol_std).max(axis=1)
     return FieldUncertainty(q_desired, est, linear, mc.mean, mc.std, interval, interval_samples, mx, rms,
-                            excess > 1.0, excess)
+                            excess > 1.0, excess, np.asarray(mc.max, dtype=float))
 
 
 def point_compensation(machine: Machine, **options) -> Callable[[np.ndarray], np.ndarray]:

@@ -162,3 +162,61 @@ def max_error_png(max_um: np.ndarray, path: str | Path, target_um: float | None 
     fig.tight_layout()
     save(fig, path)
     return {"path": str(path), "samples": int(len(x)), "p95_um": p95, "probability_within_target": probability}
+
+
+def uncertainty_png(study, path: str | Path) -> dict:
+    """The picture of an uncertainty study: for each field (the map, a compensation's residual)
+    the distribution of its largest error over the draws beside the linear 95 % interval (or
+    the note that a norm near zero has none), and every point's position uncertainty by Monte
+    Carlo against the linear propagation.
+
+    Parameters
+    ----------
+    study : UncertaintyStudy
+        The study (:func:`volerr_pin.studies.uncertainty.study_uncertainty`).
+    path : str or Path
+        The picture (format from the suffix).
+
+    Returns
+    -------
+    dict
+        ``path`` and ``fields`` (the fields drawn).
+    """
+    import matplotlib.pyplot as plt
+
+    from .plots import save
+
+    fields = [("error map", study.map)] + ([(f"residual after {study.compensation} compensation", study.compensated)]
+                                           if study.compensated is not None else [])
+    fig, axes = plt.subplots(len(fields), 2, figsize=(11, 3.8 * len(fields)), squeeze=False)
+    for (name, field), (left, right) in zip(fields, axes):
+        s = field.max
+        x = field.max_draws * UM_PER_M if field.max_draws is not None else np.array([s.mc_mean * UM_PER_M])
+        left.hist(x, bins=min(80, max(10, int(np.sqrt(len(x))))), color="#4a7fb5", edgecolor="white", linewidth=0.3,
+                  label=f"Monte Carlo ({len(x):,} draws)")
+        left.axvspan(s.mc_low * UM_PER_M, s.mc_high * UM_PER_M, color="#4a7fb5", alpha=0.12, label="Monte Carlo 95 %")
+        left.axvline(s.value * UM_PER_M, color="#222222", linewidth=1.5, label=f"at the estimate {s.value * UM_PER_M:.3g} um")
+        if s.applicable:
+            left.axvline(s.linear_low * UM_PER_M, color="#c0392b", linestyle="--", label="linear 95 % (value -+ 1.96 u)")
+            left.axvline(s.linear_high * UM_PER_M, color="#c0392b", linestyle="--")
+        else:
+            left.text(0.98, 0.95, "no linear interval:\na norm near zero has\nno derivative (GUM 5.1.2)",
+                      transform=left.transAxes, ha="right", va="top", fontsize=8, color="#c0392b")
+        left.set_xlabel(f"{name}: largest position error over the {len(field.q)} points [um]")
+        left.set_ylabel("draws")
+        left.legend(loc="upper left", fontsize=7, framealpha=0.9)
+        mc, lin = field.u_position * UM_PER_M, field.linear_u_position * UM_PER_M
+        top = max(float(mc.max()), float(lin.max()), 1e-12) * 1.05
+        right.plot([0, top], [0, top], color="#999999", linewidth=1, label="equal")
+        right.scatter(lin, mc, s=9, color=np.where(field.disagree, "#c0392b", "#4a7fb5"),
+                      label=f"a point ({int(field.disagree.sum())} disagree, red)")
+        right.set_xlim(0, top)
+        right.set_ylim(0, top)
+        right.set_xlabel("position uncertainty, linear propagation [um]")
+        right.set_ylabel("position uncertainty, Monte Carlo [um]")
+        right.set_title("every point's sqrt(u_x^2 + u_y^2 + u_z^2), both ways", fontsize=9)
+        right.legend(loc="upper left", fontsize=7)
+    fig.suptitle(f"{study.machine.name}: uncertainty from {study.covariance.source}", fontsize=10)
+    fig.tight_layout()
+    save(fig, path)
+    return {"path": str(path), "fields": [name for name, _ in fields]}
