@@ -299,3 +299,38 @@ def test_one_and_two_local_worker_processes_give_the_same_report(tmp_path, capsy
     for r in reports:
         r.pop("workers"), r.pop("engine")
     assert reports[0] == reports[1] == reports[2]
+
+
+def test_the_text_report_warns_where_the_sobol_intervals_do_not_separate_and_says_why_a_bound_was_hit(capsys):
+    """The guide's own example (64 base samples): the intervals are wider than the indices, and
+    the text says so with the samples that would separate the largest; the table says it shows
+    12 of 21 components; a tolerance the re-allocation loosens to its bound says why."""
+    from volerr_pin.studies.sobol import SobolIndices
+
+    args = ["tolerance", "vmc500", "--tolerances", str(EXAMPLE), "--samples", "1e3", "--grid", "3",
+            "--target-um", "12", "--sobol-samples", "64", "--workers", "0"]
+    code, text, err = _cli(args + ["--json"], capsys)
+    assert code == 0, err
+    report = json.loads(text)
+    res = report["sobol_resolution"]
+    d = {r["component"]: r for r in report["drivers"]}
+    assert set(res["first_order_unresolved"]) == {n for n, r in d.items() if r["first_order"] <= r["first_order_conf"]}
+    assert set(res["total_unresolved"]) == {n for n, r in d.items() if r["total"] <= r["total_conf"]}
+    lead = max(d.values(), key=lambda r: r["first_order"])
+    assert res["samples"] == 64 and res["samples_needed"] >= 64 * (lead["first_order_conf"] / lead["first_order"]) ** 2
+    ecz = next(t for t in report["reallocation"]["tolerances"] if t["component"] == "ECZ")
+    assert ecz["after"] == pytest.approx(10 * ecz["before"]) and "it moves no point" in ecz["reason"]
+    code, text, err = _cli(args, capsys)
+    flat = " ".join(text.split())
+    assert "the 12 of 21 components with the largest total index, --json gives all" in flat
+    assert (f"warning: the first-order intervals of {sum(n in res['first_order_unresolved'] for n in list(d)[:12])} "
+            "of these 12 components include zero") in flat
+    assert f"about --sobol-samples {res['samples_needed']:,} would separate the largest" in flat
+    assert "ECZ 1 -> 10 arcsec: at the largest factor allowed (10 x): it moves no point" in flat
+    # the rule itself on made-up indices: an interval reaching zero is unresolved
+    s = SobolIndices(("a", "b"), np.array([0.5, 0.1]), np.array([0.6, 0.2]), np.array([0.1, 0.2]),
+                     np.array([0.1, 0.1]), 64, 16)
+    r = s.resolution()
+    assert (r["first_order_unresolved"], r["total_unresolved"], r["samples_needed"]) == (["b"], [], None)
+    s = SobolIndices(("a",), np.array([0.1]), np.array([0.5]), np.array([0.2]), np.array([0.1]), 48, 16)
+    assert s.resolution()["samples_needed"] == 128   # 16 x (0.2 / 0.1)^2 x 1.05 = 67.2 -> 128

@@ -119,6 +119,8 @@ def run(args) -> int:
                       seed=args.seed, compare=args.compare, repeats=args.repeats, criterion=args.criterion)
         units = result.units
         out = result.to_dict()
+        out["sigma_stated"] = args.sigma_um is not None
+        out["criterion"] = args.criterion
     out["time"] = kind.duration(machine, units, args.feed_mm_min, args.dwell_s) if units else None
     if units and (args.nc or args.out or args.template):
         title = f"volerr plan: {machine.name}, {kind.name}, {len(units)} {kind.unit}s"
@@ -156,9 +158,16 @@ def _print(out: dict) -> None:
     console.print(f"[bold]{out['machine']}[/bold]: {out['budget']} {out['instrument']} {out.get('unit', 'pose')}s "
                   f"planned{stops}")
     pred = out.get("predicted") or {}
+    if out.get("sigma_um") is not None and "after" not in out:
+        stated = "" if out.get("sigma_stated") else f" (the {out['instrument']}'s default; --sigma-um states yours)"
+        console.print(f"assumed: instrument noise {out['sigma_um']:g} um per observed value{stated}; the best "
+                      f"{out['budget']} of {out['candidates']:,} candidate {out.get('unit', 'pose')}s by criterion "
+                      f"{out.get('criterion', 'D')}")
     if pred.get("zone_rms_um") is not None:
         console.print(f"predicted uncertainty of the volumetric error over the zone: RMS {pred['zone_rms_um']:.3g} um, "
-                      f"largest {pred['zone_max_um']:.3g} um ({pred['n_identifiable']} coefficients identified)")
+                      f"largest {pred['zone_max_um']:.3g} um ({pred['n_identifiable']} coefficients identified), "
+                      f"for an error the model puts at RMS {pred['error_rms_um']:.3g} um, largest "
+                      f"{pred['error_max_um']:.3g} um there")
     if out.get("not_separable"):
         console.print("no plan with this instrument separates:")
         for g in out["not_separable"]:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import sys
 
 from rich import box
+from rich.markup import escape
 from rich.table import Table
 
 from ..base.safeio import transaction
@@ -84,6 +85,30 @@ def run(args) -> int:
     return 0
 
 
+#: rows of the Sobol' table in the text report
+TOP = 12
+
+
+def _resolution(resolution: dict, shown: list[dict]) -> list[str]:
+    """Warnings where the indices' intervals do not separate them from zero."""
+    names = {d["component"] for d in shown}
+    out = []
+    first = [n for n in resolution["first_order_unresolved"] if n in names]
+    total = [n for n in resolution["total_unresolved"] if n in names]
+    if first:
+        out.append(f"  warning: the first-order intervals of {len(first)} of these {len(shown)} components include "
+                   f"zero ({', '.join(first)}): at --sobol-samples {resolution['samples']} their first-order indices "
+                   "are noise (a negative one, or a total below its first-order one, is that noise)")
+        if resolution["samples_needed"]:
+            lead = max(shown, key=lambda d: d["first_order"])
+            out.append(f"  about --sobol-samples {resolution['samples_needed']:,} would separate the largest, "
+                       f"{lead['component']}'s ({lead['first_order']:.3f} +- {lead['first_order_conf']:.3f}), from zero")
+    if total:
+        out.append(f"  warning: the total-index intervals of {', '.join(total)} include zero: their order is not "
+                   "determined")
+    return out
+
+
 def _print(report: dict) -> None:
     console = table_console()
     mx, rms = report["max_error_um"], report["rms_error_um"]
@@ -97,13 +122,20 @@ def _print(report: dict) -> None:
         console.print(f"P(largest error <= {report['target_um']:g} um) = {report['probability_within_target']:.4f} "
                       f"(standard error {report['probability_se']:.4f})")
     if report["drivers"]:
-        table = Table(box=box.SIMPLE, title=f"what drives the largest error (Sobol' indices, {report['sobol_runs']:,} runs)")
+        drivers = report["drivers"]
+        shown = drivers[:TOP]
+        more = (f"; the {len(shown)} of {len(drivers)} components with the largest total index, --json gives all"
+                if len(drivers) > len(shown) else "")
+        table = Table(box=box.SIMPLE, title=f"what drives the largest error (Sobol' indices, 95 % intervals, "
+                                            f"{report['sobol_runs']:,} runs{more})")
         for col in ("component", "first order", "total"):
             table.add_column(col, justify="right")
-        for d in report["drivers"][:12]:
+        for d in shown:
             table.add_row(d["component"], f"{d['first_order']:.3f} +- {d['first_order_conf']:.3f}",
                           f"{d['total']:.3f} +- {d['total_conf']:.3f}")
         console.print(table)
+        for line in _resolution(report["sobol_resolution"], shown):
+            console.print(escape(line))
     r = report["reallocation"]
     if r is not None:
         table = Table(box=box.SIMPLE, title=f"least-cost tolerances for P >= {report['target_probability']:g} "
@@ -115,5 +147,8 @@ def _print(report: dict) -> None:
         for t in r["tolerances"]:
             table.add_row(t["component"], f"{t['before']:.3g}", f"{t['after']:.3g}", t["unit"], t["distribution"])
         console.print(table)
+        for t in r["tolerances"]:
+            if t["reason"]:
+                console.print(escape(f"  {t['component']} {t['before']:.3g} -> {t['after']:.3g} {t['unit']}: {t['reason']}"))
         console.print(f"re-simulated: P = {r['probability']:.4f} (95 % lower bound {r['probability_lower']:.4f}) over "
                       f"{r['samples']:,} fresh draws: " + ("meets the target" if r["met"] else "does NOT meet it"))

@@ -95,6 +95,9 @@ class Reallocation:
         Surrogate solutions tried.
     met : bool
         Whether ``probability_lower`` reaches the target probability.
+    reasons : tuple of str
+        Per component (the order of ``tolerances``), why it ends where it does when that is a
+        bound of the search rather than the target (empty otherwise).
     """
 
     tolerances: Tolerances
@@ -108,6 +111,7 @@ class Reallocation:
     seed: int
     rounds: int
     met: bool
+    reasons: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
         """The report fields.
@@ -118,15 +122,16 @@ class Reallocation:
             ``cost_model``, ``cost_before``, ``cost_after``, ``uniform_cost``, ``probability``,
             ``probability_lower``, ``samples``, ``seed``, ``rounds``, ``met`` and
             ``tolerances``: per component ``component``, ``unit``, ``before``, ``after``,
-            ``distribution``.
+            ``distribution`` and ``reason`` (why a bound, not the target, set it; empty otherwise).
         """
+        reasons = self.reasons or ("",) * len(self.before.entries)
         return {"cost_model": "sum of cost * tolerance_before / tolerance",
                 "cost_before": self.cost_before, "cost_after": self.cost_after, "uniform_cost": self.uniform_cost,
                 "probability": self.probability, "probability_lower": self.probability_lower,
                 "samples": self.samples, "seed": self.seed, "rounds": self.rounds, "met": self.met,
                 "tolerances": [{"component": a.component, "unit": a.unit, "before": a.value / a.factor,
-                                "after": b.value / b.factor, "distribution": b.distribution.name}
-                               for a, b in zip(self.before.entries, self.tolerances.entries)]}
+                                "after": b.value / b.factor, "distribution": b.distribution.name, "reason": why}
+                               for a, b, why in zip(self.before.entries, self.tolerances.entries, reasons)]}
 
 
 class _Surrogate:
@@ -276,4 +281,23 @@ def reallocate(machine: Machine, tolerances: Tolerances, index: np.ndarray, poin
     met_count = int(np.sum(mc.max <= target))
     return Reallocation(suggested, tolerances, float(np.sum(w)), float(np.sum(w * t0 / scale[active])),
                         uniform, met_count / samples, lower_bound(met_count, samples), samples, verify_seed, round_,
-                        lower_bound(met_count, samples) >= probability)
+                        lower_bound(met_count, samples) >= probability, _reasons(len(values), active, x, C, lo, hi))
+
+
+def _reasons(n: int, active: np.ndarray, x: np.ndarray, C: np.ndarray, lo: float, hi: float) -> tuple[str, ...]:
+    """Why each component ends at a bound of the search (log factors ``x`` on the active ones,
+    ``C`` their sensitivities at the candidate points)."""
+    out = ["no tolerance: not re-allocated"] * n
+    reach = np.abs(C).max(axis=(0, 1)) if C.size else np.zeros(len(active))
+    for j, k in enumerate(active):
+        factor = math.exp(x[j])
+        if factor >= hi * (1 - 1e-6):
+            out[k] = (f"at the largest factor allowed ({hi:g} x): it moves no point where the largest error "
+                      "occurs, so the target does not limit it" if reach[j] <= 1e-12 * max(reach.max(), 1e-300) else
+                      f"at the largest factor allowed ({hi:g} x): its part in the largest error is small enough "
+                      "that this bound, not the target, stops it")
+        elif factor <= lo * (1 + 1e-6):
+            out[k] = f"at the smallest factor allowed ({lo:g} x): the target needs it as tight as the search may go"
+        else:
+            out[k] = ""
+    return tuple(out)

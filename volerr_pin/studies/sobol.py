@@ -9,6 +9,8 @@ repeat it less well.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 from typing import Callable
 
@@ -33,6 +35,8 @@ class SobolIndices:
         Half-widths of their 95 % bootstrap intervals.
     runs : int
         Model runs, ``N (D + 2)``.
+    base : int
+        The base samples ``N`` (0 where not known).
     """
 
     names: tuple[str, ...]
@@ -41,6 +45,36 @@ class SobolIndices:
     first_order_conf: np.ndarray
     total_conf: np.ndarray
     runs: int
+    base: int = 0
+
+    def resolution(self, top: int | None = None) -> dict:
+        """Which indices their 95 % intervals separate from zero, and the base samples that
+        would separate the rest (an interval's half-width falls as ``1 / sqrt(N)``).
+
+        Parameters
+        ----------
+        top : int, optional
+            Look at the inputs with the ``top`` largest total indices only (default all).
+
+        Returns
+        -------
+        dict
+            ``first_order_unresolved`` and ``total_unresolved`` (the inputs whose interval
+            includes zero; estimates below zero, and totals below their first-order index, are
+            such noise), ``samples_needed`` (the power of 2 at which the interval of the input
+            with the largest first-order estimate would clear zero; None when it already does
+            or no estimate is above zero) and ``samples``.
+        """
+        order = np.argsort(-self.total, kind="stable")[:top]
+        s1, c1, st, ct = self.first_order[order], self.first_order_conf[order], self.total[order], self.total_conf[order]
+        names = [self.names[i] for i in order]
+        needed = None
+        lead = int(np.argmax(s1)) if len(s1) else 0
+        if len(s1) and s1[lead] > 0 and c1[lead] >= s1[lead] and self.base:
+            needed = int(2 ** math.ceil(math.log2(self.base * (c1[lead] / s1[lead]) ** 2 * 1.05)))
+        return {"first_order_unresolved": [n for n, v, c in zip(names, s1, c1) if v - c <= 0],
+                "total_unresolved": [n for n, v, c in zip(names, st, ct) if v - c <= 0],
+                "samples_needed": needed, "samples": self.base}
 
     def rows(self) -> list[dict]:
         """One row per input, largest total index first.
@@ -118,4 +152,4 @@ def sobol_indices(problem: dict, model: Callable[[np.ndarray], np.ndarray], n: i
     result = sobol.analyze(problem, Y, calc_second_order=False, num_resamples=200, conf_level=0.95,
                            seed=bootstrap_seed, print_to_console=False)
     return SobolIndices(tuple(problem["names"]), np.asarray(result["S1"]), np.asarray(result["ST"]),
-                        np.asarray(result["S1_conf"]), np.asarray(result["ST_conf"]), int(len(X)))
+                        np.asarray(result["S1_conf"]), np.asarray(result["ST_conf"]), int(len(X)), int(n))

@@ -115,7 +115,8 @@ class ToleranceStudy:
             ``std``, ``p95``}, ``target_um``, ``probability_within_target`` and its
             ``probability_se``, ``target_probability``, ``drivers`` (``component``,
             ``first_order``, ``total``, ``first_order_conf``, ``total_conf``), ``sobol_runs``,
-            ``tolerances`` and ``reallocation``.
+            ``sobol_resolution`` (:meth:`~volerr_pin.studies.sobol.SobolIndices.resolution`; null
+            without indices), ``tolerances`` and ``reallocation``.
         """
         mx, rms = self.run.max * UM_PER_M, self.run.rms * UM_PER_M
         p = self.probability
@@ -132,6 +133,7 @@ class ToleranceStudy:
                 "target_probability": self.target_probability,
                 "drivers": [] if self.sobol is None else self.sobol.rows(),
                 "sobol_runs": 0 if self.sobol is None else self.sobol.runs,
+                "sobol_resolution": None if self.sobol is None else self.sobol.resolution(),
                 "tolerances": self.tolerances.to_dict(),
                 "reallocation": None if self.reallocation is None else self.reallocation.to_dict()}
 

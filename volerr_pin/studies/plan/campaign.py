@@ -185,7 +185,8 @@ class Plan:
         Predicted standard uncertainty of every identifiable coefficient [SI].
     zone_um : dict
         ``zone_rms_um`` and ``zone_max_um``: predicted uncertainty of the volumetric error
-        over the zone [um].
+        over the zone [um]; ``error_rms_um`` and ``error_max_um``: the error the model
+        predicts there, which the campaign is meant to resolve [um].
     candidates : int
         Number of candidate units the plan chose from.
     comparison : dict
@@ -231,6 +232,21 @@ class Plan:
             "not_separable": [g.to_dict() for g in self.not_separable],
             "comparison": self.comparison, "notes": list(self.notes),
         }
+
+
+#: a plan resolves the error it is meant to when its predicted uncertainty over the zone is at most
+#: this share of the error there (three standard uncertainties, the significance the fits ask for)
+RESOLVES = 1.0 / 3.0
+
+
+def _weak(zone_um: dict) -> str | None:
+    """Why a plan cannot resolve the error it is meant to (None when it can)."""
+    u, e = zone_um["zone_rms_um"], zone_um["error_rms_um"]
+    if u is None or e <= 0 or u <= RESOLVES * e:
+        return None
+    return (f"weak plan: its predicted uncertainty over the zone (RMS {u:.3g} um) is {u / e:.0%} of the error the "
+            f"model predicts there (RMS {e:.3g} um); a plan resolves it at a third of it or less (three standard "
+            "uncertainties): raise the budget, or use an instrument with less noise")
 
 
 def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=None, candidates: int = 1024,
@@ -314,7 +330,13 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
         notes.append(f"{budget} {instrument.unit}s leave {len(lost)} of the {len(names)} coefficients the candidates "
                      f"identify undetermined ({', '.join(lost[:5])}{', ...' if len(lost) > 5 else ''}): raise the "
                      "budget")
-    result = Plan(machine, instrument, setup, units, names, list(analysis.groups), std, zone_summary(mine["zone"]),
+    zone_um = zone_summary(mine["zone"])
+    error = np.linalg.norm(machine.volumetric_error(zone_q)[:, :3], axis=1) * UM_PER_M
+    zone_um.update(error_rms_um=float(np.sqrt(np.mean(error ** 2))), error_max_um=float(error.max()))
+    weak = _weak(zone_um)
+    if weak:
+        notes.append(weak)
+    result = Plan(machine, instrument, setup, units, names, list(analysis.groups), std, zone_um,
                   len(pool), notes=notes)
     if compare:
         result.comparison = _compare(machine, instrument, setup, design, columns, units, budget, free, zone_q,
