@@ -159,6 +159,25 @@ def test_plan_beats_grid_and_random_predicted_and_simulated(vmc500):
     assert grid["not_identified"] or grid["ratios"]["predicted_zone_rms"] < 1.0
 
 
+def test_a_design_that_leaves_coefficients_undetermined_is_no_yardstick(vmc500, capsys):
+    """30 tracker poses on a grid leave 11 of the plan's coefficients undetermined: no ratio
+    is given for it (a ratio against a map it does not determine reads as a 1,600-fold win),
+    the reason is, and its simulation holds those coefficients at their priors as identify
+    would."""
+    p = plan(vmc500, instrument("tracker"), 30, compare=True, repeats=1)
+    grid = p.comparison["grid"]
+    assert len(grid["not_identified"]) == 11 and grid["zone_rms_um"] is None
+    assert [grid["ratios"][k] for k in ("predicted_zone_rms", "simulated_zone_rms", "predicted_std_geomean",
+                                        "simulated_std_geomean")] == [None] * 4
+    assert 0 < grid["ratios"]["predicted_lower_share"] <= 1
+    assert grid["not_comparable"] == "the grid leaves 11 of the plan's 38 coefficients undetermined"
+    assert grid["simulated_std_geomean"] is None and grid["simulated_zone_rms_um"] > 0
+    assert p.comparison["random"]["ratios"]["predicted_zone_rms"] < 1 and "not_comparable" not in p.comparison["random"]
+    assert main(["plan", "vmc500", "--instrument", "tracker", "--budget", "30", "--compare", "--repeats", "1"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "plan / grid: not comparable: the grid leaves 11 of the plan's 38 coefficients undetermined" in text
+
+
 # ------------------------------------------------------------------ files
 
 def _fill(machine, path, out, kind):

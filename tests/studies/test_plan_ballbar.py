@@ -214,8 +214,11 @@ def test_plan_beats_random_circles_predicted_and_simulated(vmc500):
     c = p.comparison
     assert c["plan"]["not_identified"] == []
     r = c["random"]["ratios"]
-    assert r["predicted_std_geomean"] < 1.0 and r["simulated_std_geomean"] < 1.0
-    assert r["predicted_zone_rms"] is None or r["predicted_zone_rms"] < 1.0
+    if c["random"].get("not_comparable"):   # random circles that leave coefficients undetermined
+        assert c["random"]["not_identified"] and c["random"]["not_comparable"]
+    else:
+        assert r["predicted_std_geomean"] < 1.0 and r["simulated_std_geomean"] < 1.0
+        assert r["predicted_zone_rms"] is None or r["predicted_zone_rms"] < 1.0
 
 
 def test_simulated_campaigns_find_the_predicted_uncertainty(vmc500, planned):

@@ -176,6 +176,10 @@ def _print(out: dict) -> None:
         if label == "plan":
             continue
         r = c["ratios"]
+        if c.get("not_comparable"):
+            console.print(escape(f"plan / {label}: not comparable: {c['not_comparable']} (its simulated map error, "
+                                 f"fitting what it can: {c['simulated_zone_rms_um']:.4g} um RMS)"))
+            continue
         console.print(f"plan / {label}: predicted zone RMS ratio {r['predicted_zone_rms']}, simulated "
                       f"{r['simulated_zone_rms']}; not identified by the {label}: {len(c['not_identified'])}")
     if "after" in out:
