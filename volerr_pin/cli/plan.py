@@ -163,7 +163,14 @@ def _print(out: dict) -> None:
         console.print(f"assumed: instrument noise {out['sigma_um']:g} um per observed value{stated}; the best "
                       f"{out['budget']} of {out['candidates']:,} candidate {out.get('unit', 'pose')}s by criterion "
                       f"{out.get('criterion', 'D')}")
-    if pred.get("zone_rms_um") is not None:
+    if pred.get("determinable_rms_um") is not None:
+        console.print(f"predicted uncertainty of what a {out['instrument']} determines over the zone (the volumetric "
+                      f"error less its best rigid fit): RMS {pred['determinable_rms_um']:.3g} um, largest "
+                      f"{pred['determinable_max_um']:.3g} um ({pred['n_identifiable']} coefficients identified), for "
+                      f"such an error of RMS {pred['determinable_error_rms_um']:.3g} um there")
+        console.print(f"a rigid motion of the whole map is what the {out['instrument']}'s registration leaves open: "
+                      f"RMS {pred['rigid_rms_um']:.3g} um ({pred['zone_rms_um']:.3g} um with it, in quadrature)")
+    elif pred.get("zone_rms_um") is not None:
         console.print(f"predicted uncertainty of the volumetric error over the zone: RMS {pred['zone_rms_um']:.3g} um, "
                       f"largest {pred['zone_max_um']:.3g} um ({pred['n_identifiable']} coefficients identified), "
                       f"for an error the model puts at RMS {pred['error_rms_um']:.3g} um, largest "

@@ -23,7 +23,7 @@ from ...base.errors import InputError
 from ...fit.identify import parameter_units
 from ...base.safeio import require_memory
 from ...base.units import UM_PER_M, axis_scales
-from .assess import predicted, simulated, zone_summary
+from .assess import predicted, rigid_projector, simulated, without_rigid, zone_summary
 from .design import UnitDesign, d_optimal, unit_design
 from .poses import pose_candidates
 from .protocol import Setup
@@ -239,14 +239,14 @@ class Plan:
 RESOLVES = 1.0 / 3.0
 
 
-def _weak(zone_um: dict) -> str | None:
-    """Why a plan cannot resolve the error it is meant to (None when it can)."""
-    u, e = zone_um["zone_rms_um"], zone_um["error_rms_um"]
+def _weak(u: float | None, e: float, what: str = "") -> str | None:
+    """Why a plan cannot resolve the error it is meant to (None when it can): its predicted
+    uncertainty ``u`` against the error ``e`` (RMS over the zone [um]) of the map ``what`` says."""
     if u is None or e <= 0 or u <= RESOLVES * e:
         return None
     return (f"weak plan: its predicted uncertainty over the zone (RMS {u:.3g} um) is {u / e:.0%} of the error the "
-            f"model predicts there (RMS {e:.3g} um); a plan resolves it at a third of it or less (three standard "
-            "uncertainties): raise the budget, or use an instrument with less noise")
+            f"model predicts there{what} (RMS {e:.3g} um); a plan resolves it at a third of it or less (three "
+            "standard uncertainties): raise the budget, or use an instrument with less noise")
 
 
 def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=None, candidates: int = 1024,
@@ -311,11 +311,16 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
     columns = np.array(analysis.kept, dtype=int)
     zone_q = pose_candidates(setup.zone, machine.axis_kinds, zone_points, "sobol", seed + 1)
     S_zone = machine.sensitivity(zone_q, parameters=free, first_order=True)[:, :3, :]
+    # an instrument that registers itself (a tracker) cannot determine a rigid motion of the whole
+    # map: what it determines, and what the plan optimises and compares, is the map less that
+    P = rigid_projector(machine.tool_poses(zone_q, nominal=True)[1]) if getattr(instrument, "registers", False) \
+        else None
+    S_fit = S_zone if P is None else without_rigid(S_zone, P)
     weight = None
     if criterion == "I":
         weight = np.zeros((len(zone_q), 3, len(columns)))
         theta = columns >= design.n_global
-        weight[:, :, theta] = S_zone[:, :, columns[theta] - design.n_global]
+        weight[:, :, theta] = S_fit[:, :, columns[theta] - design.n_global]
     chosen = d_optimal(design, columns, budget, zone=weight)
     mine = predicted(design, chosen, columns, S_zone)
     units = [pool[u] for u in chosen]
@@ -331,22 +336,32 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
                      f"identify undetermined ({', '.join(lost[:5])}{', ...' if len(lost) > 5 else ''}): raise the "
                      "budget")
     zone_um = zone_summary(mine["zone"])
-    error = np.linalg.norm(machine.volumetric_error(zone_q)[:, :3], axis=1) * UM_PER_M
+    e = machine.volumetric_error(zone_q)[:, :3]
+    error = np.linalg.norm(e, axis=1) * UM_PER_M
     zone_um.update(error_rms_um=float(np.sqrt(np.mean(error ** 2))), error_max_um=float(error.max()))
-    weak = _weak(zone_um)
+    u, e_rms, what = zone_um["zone_rms_um"], zone_um["error_rms_um"], ""
+    if P is not None:
+        det = zone_summary(predicted(design, chosen, columns, S_fit)["zone"])
+        e_det = np.linalg.norm(without_rigid(e, P), axis=1) * UM_PER_M
+        u, e_rms, what = det["zone_rms_um"], float(np.sqrt(np.mean(e_det ** 2))), " less its best rigid fit"
+        zone_um.update(determinable_rms_um=u, determinable_max_um=det["zone_max_um"], determinable_error_rms_um=e_rms,
+                       rigid_rms_um=(None if u is None or zone_um["zone_rms_um"] is None else
+                                     float(np.sqrt(max(0.0, zone_um["zone_rms_um"] ** 2 - u ** 2)))))
+    weak = _weak(u, e_rms, what)
     if weak:
         notes.append(weak)
     result = Plan(machine, instrument, setup, units, names, list(analysis.groups), std, zone_um,
                   len(pool), notes=notes)
     if compare:
         result.comparison = _compare(machine, instrument, setup, design, columns, units, budget, free, zone_q,
-                                     S_zone, repeats, seed)
+                                     S_fit, repeats, seed, P)
     return result
 
 
 def _compare(machine, instrument, setup, design: UnitDesign, columns, units, budget, free, zone_q, S_zone,
-             repeats, seed) -> dict:
-    """Predicted and simulated figures of the plan, a grid and random units of the same count."""
+             repeats, seed, projector=None) -> dict:
+    """Predicted and simulated figures of the plan, a grid and random units of the same count
+    (of the map less its best rigid fit where ``projector`` is given)."""
     theta_mask = columns >= design.n_global
     identified = design.free[columns[theta_mask] - design.n_global]
     out = {}
@@ -363,7 +378,7 @@ def _compare(machine, instrument, setup, design: UnitDesign, columns, units, bud
         # a coefficient this design does not determine is held at its prior, as identify holds what
         # its data cannot tell (fitting it anyway gives any value: 1.7 mm +- 3.8 mm on a 4-level grid)
         kept = np.array([design.names[design.n_global + i] not in lost for i in columns[theta_mask] - design.n_global])
-        s = simulated(machine, instrument, setup, chosen, identified[kept], zone_q, repeats, seed + 100)
+        s = simulated(machine, instrument, setup, chosen, identified[kept], zone_q, repeats, seed + 100, projector)
         sim = np.full(len(identified), np.inf)
         sim[kept] = s["std"]
         std_p = p["std"][theta_mask]

@@ -64,6 +64,10 @@ class Instrument(Protocol):
         What one unit of measurement is, in words ("pose").
     default_sigma_um : float
         Standard uncertainty of one observed value stated for the instrument [um].
+    registers : bool
+        Its own placement is fitted with the machine (a tracker's three shifts and rotations):
+        a rigid motion of the whole error map is then not determined by any campaign, and the
+        plan's headline is the map less its best rigid fit. Optional (default False).
     """
 
     name: str

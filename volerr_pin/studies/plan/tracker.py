@@ -79,11 +79,15 @@ class Tracker(StopsProgram, OneFileOfPoses):
         "pose".
     default_sigma_um : float
         5 um per coordinate: a tracker's typical uncertainty at a few metres, as a default.
+    registers : bool
+        True: the tracker's placement is fitted, so a rigid motion of the whole map is not
+        determined (:attr:`~volerr_pin.studies.plan.protocol.Instrument.registers`).
     """
 
     name: str = "tracker"
     unit: str = "pose"
     default_sigma_um: float = 5.0
+    registers: bool = True
 
     def candidates(self, machine, setup: Setup, count: int, layout: str, seed: int) -> list:
         """Poses of the layout over the zone, those out of the tracker's sight left out.
