@@ -506,3 +506,33 @@ def test_a_trackers_headline_is_what_it_determines_and_simulated_campaigns_find_
     whole = simulated(truth, inst, setup, p.units, free, zone_q, 8, 11, None, prior=zero)["zone_rms"] * 1e6
     assert 0.75 < det / z["determinable_rms_um"] < 1.33, (det, z["determinable_rms_um"])
     assert whole > 1.2 * z["zone_rms_um"]
+
+
+def test_the_plan_is_compared_with_the_median_of_many_random_sets(vmc500, capsys):
+    """One random set is one draw: the comparison's random entry is the median of 21 draws by
+    predicted zone uncertainty (recomputed here from the same seeds), and the spread is
+    reported."""
+    from volerr_pin.studies.plan.assess import predicted, rigid_projector, without_rigid, zone_summary
+    from volerr_pin.studies.plan.campaign import RANDOM_SETS, free_coefficients
+    from volerr_pin.studies.plan.design import unit_design
+
+    inst = instrument("tracker")
+    setup = make_setup(vmc500, inst)
+    p = plan(vmc500, inst, 30, setup, candidates=256, compare=True, repeats=1, seed=2)
+    sets = p.comparison["random"]["sets"]
+    free = free_coefficients(vmc500, None)
+    pool_design = unit_design(vmc500, inst, setup, inst.candidates(vmc500, setup, 256, "sobol", 2), free)
+    columns = np.array(pool_design.analyse().kept, dtype=int)
+    zone_q = pose_candidates(setup.zone, vmc500.axis_kinds, 512, "sobol", 3)
+    S = without_rigid(vmc500.sensitivity(zone_q, parameters=free, first_order=True)[:, :3, :],
+                      rigid_projector(vmc500.tool_poses(zone_q, nominal=True)[1]))
+    zones = []
+    for k in range(RANDOM_SETS):
+        units = inst.candidates(vmc500, setup, 30, "random", 2 + 7 + k)
+        d = unit_design(vmc500, inst, setup, units, free)
+        zones.append(zone_summary(predicted(d, np.arange(d.n_units), columns, S)["zone"])["zone_rms_um"])
+    determined = sorted(z for z in zones if z is not None)
+    assert sets["count"] == RANDOM_SETS and sets["not_determining"] == RANDOM_SETS - len(determined)
+    assert sets["predicted_zone_rms_um"]["median"] == pytest.approx(np.median(determined), rel=1e-9)
+    assert p.comparison["random"]["zone_rms_um"] == pytest.approx(zones[sets["median_seed"] - 9], rel=1e-9)
+    assert sets["plan_over_p10"] == pytest.approx(p.comparison["plan"]["zone_rms_um"] / np.quantile(determined, 0.1))

@@ -187,8 +187,17 @@ def _print(out: dict) -> None:
             console.print(escape(f"plan / {label}: not comparable: {c['not_comparable']} (its simulated map error, "
                                  f"fitting what it can: {c['simulated_zone_rms_um']:.4g} um RMS)"))
             continue
-        console.print(f"plan / {label}: predicted zone RMS ratio {r['predicted_zone_rms']}, simulated "
+        which = f" (the median of {c['sets']['count']} random sets)" if "sets" in c else ""
+        console.print(f"plan / {label}{which}: predicted zone RMS ratio {r['predicted_zone_rms']}, simulated "
                       f"{r['simulated_zone_rms']}; not identified by the {label}: {len(c['not_identified'])}")
+    sets = ((out.get("comparison") or {}).get("random") or {}).get("sets")
+    if sets and sets["predicted_zone_rms_um"]:
+        z = sets["predicted_zone_rms_um"]
+        console.print(f"random sets: predicted zone RMS {z['p10']:.3g} um (best tenth), {z['median']:.3g} (median), "
+                      f"{z['p90']:.3g} (worst tenth) over {sets['count']} sets"
+                      + (f", {sets['not_determining']} leaving coefficients undetermined" if sets["not_determining"]
+                         else "")
+                      + f"; the plan is {sets['plan_over_p10']:.2f} of the best tenth's")
     if "after" in out:
         a = out["after"]
         console.print(f"after the diagnosis: {a['extra']} extra {out['unit']}s; separated in simulation: "

@@ -234,6 +234,8 @@ class Plan:
         }
 
 
+#: random designs drawn to compare a plan with: the median one is simulated, the spread reported
+RANDOM_SETS = 21
 #: a plan resolves the error it is meant to when its predicted uncertainty over the zone is at most
 #: this share of the error there (three standard uncertainties, the significance the fits ask for)
 RESOLVES = 1.0 / 3.0
@@ -364,16 +366,27 @@ def _compare(machine, instrument, setup, design: UnitDesign, columns, units, bud
     (of the map less its best rigid fit where ``projector`` is given)."""
     theta_mask = columns >= design.n_global
     identified = design.free[columns[theta_mask] - design.n_global]
-    out = {}
-    for label, layout in (("plan", None), ("grid", "grid"), ("random", "random")):
-        chosen = units if layout is None else instrument.candidates(machine, setup, budget, layout, seed + 7)
+
+    def assess(chosen):
         own = unit_design(machine, instrument, setup, chosen, design.free)
         own = UnitDesign(own.rows, own.starts, design.names, design.n_global, design.free, design.typical) \
             if own.n_global == design.n_global else own
-        cols = columns if own.n_global == design.n_global else None
-        if cols is None:   # fewer shared nuisance columns (cannot happen for one tracker file)
+        if own.n_global != design.n_global:   # fewer shared nuisance columns (cannot happen for one tracker file)
             raise InputError("the comparison designs differ in their nuisance terms")
-        p = predicted(own, np.arange(own.n_units), cols, S_zone)
+        return predicted(own, np.arange(own.n_units), columns, S_zone)
+
+    # random units are one draw of many: the plan is compared with the median of RANDOM_SETS draws
+    # (ranked by predicted zone uncertainty, a draw that leaves coefficients undetermined last),
+    # and the spread of the draws is reported
+    draws = [instrument.candidates(machine, setup, budget, "random", seed + 7 + k) for k in range(RANDOM_SETS)]
+    zones = [zone_summary(assess(d)["zone"])["zone_rms_um"] for d in draws]
+    rank = sorted(range(RANDOM_SETS), key=lambda k: (zones[k] is None, zones[k] or 0.0, k))
+    median = rank[RANDOM_SETS // 2]
+    determined = np.array([z for z in zones if z is not None])
+    out = {}
+    for label, chosen in (("plan", units), ("grid", instrument.candidates(machine, setup, budget, "grid", seed + 7)),
+                          ("random", draws[median])):
+        p = assess(chosen)
         lost = [n for n in p["lost"] if n in design.names[design.n_global:]]
         # a coefficient this design does not determine is held at its prior, as identify holds what
         # its data cannot tell (fitting it anyway gives any value: 1.7 mm +- 3.8 mm on a 4-level grid)
@@ -404,6 +417,13 @@ def _compare(machine, instrument, setup, design: UnitDesign, columns, units, bud
                                             f"{len(identified)} coefficients undetermined")
     for v in out.values():
         v.pop("_std"), v.pop("_sim")
+    plan_zone = out["plan"]["zone_rms_um"]
+    out["random"]["sets"] = {
+        "count": RANDOM_SETS, "median_seed": seed + 7 + median, "not_determining": int(RANDOM_SETS - len(determined)),
+        "predicted_zone_rms_um": ({"p10": float(np.quantile(determined, 0.1)), "median": float(np.median(determined)),
+                                   "p90": float(np.quantile(determined, 0.9))} if len(determined) else None),
+        "plan_over_p10": (_ratio(plan_zone, float(np.quantile(determined, 0.1))) if len(determined) else None),
+        "plan_over_p90": (_ratio(plan_zone, float(np.quantile(determined, 0.9))) if len(determined) else None)}
     return out
 
 
