@@ -536,3 +536,26 @@ def test_the_plan_is_compared_with_the_median_of_many_random_sets(vmc500, capsys
     assert sets["predicted_zone_rms_um"]["median"] == pytest.approx(np.median(determined), rel=1e-9)
     assert p.comparison["random"]["zone_rms_um"] == pytest.approx(zones[sets["median_seed"] - 9], rel=1e-9)
     assert sets["plan_over_p10"] == pytest.approx(p.comparison["plan"]["zone_rms_um"] / np.quantile(determined, 0.1))
+
+
+def test_a_coefficient_that_stands_for_a_combination_is_marked(vmc500):
+    """Off from a zero prior by 20 um or arcsec-sized values everywhere, the coefficients a
+    tracker cannot separate from others held at their priors carry those others' errors: the
+    ones the plan marks (stands_for) reach several of their predicted uncertainties, the
+    unmarked stay within two."""
+    from volerr_pin.studies.plan.assess import simulated
+
+    inst = instrument("tracker")
+    setup = make_setup(vmc500, inst)
+    p = plan(vmc500, inst, 40, setup, candidates=512)
+    marked = p.stands_for()
+    assert marked["EXX.n0"] == ["EXX.n10"]       # the table's last node, held: its first ones absorb it
+    assert all(set(held).isdisjoint(p.identifiable) for held in marked.values())
+    zone_q = pose_candidates(setup.zone, vmc500.axis_kinds, 512, "sobol", 1)
+    truth = vmc500._with_theta(vmc500.theta + np.random.default_rng(5).normal(0.0, 1.0, len(vmc500.theta)) * 20e-6)
+    free = np.array([vmc500.parameter_names.index(n) for n in p.identifiable])
+    s = simulated(truth, inst, setup, p.units, free, zone_q, 8, 11, prior=np.zeros(len(vmc500.theta)))
+    ratio = dict(zip(p.identifiable, s["std"] / np.array([p.std[n] for n in p.identifiable])))
+    assert max(ratio[n] for n in marked) > 4
+    assert max(v for n, v in ratio.items() if n not in marked) < 2.5
+    assert p.to_dict()["predicted"]["coefficients"]["EXX.n0"]["stands_for"] == ["EXX.n10"]

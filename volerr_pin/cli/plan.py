@@ -175,6 +175,11 @@ def _print(out: dict) -> None:
                       f"largest {pred['zone_max_um']:.3g} um ({pred['n_identifiable']} coefficients identified), "
                       f"for an error the model puts at RMS {pred['error_rms_um']:.3g} um, largest "
                       f"{pred['error_max_um']:.3g} um there")
+    combined = [n for n, c in (pred.get("coefficients") or {}).items() if c.get("stands_for")]
+    if combined:
+        console.print(escape(f"{len(combined)} of the identified coefficients stand for a combination with coefficients "
+                             "held at their priors (their predicted uncertainty is the combination's; JSON: "
+                             f"stands_for): {', '.join(combined[:8])}{', ...' if len(combined) > 8 else ''}"))
     if out.get("not_separable"):
         console.print("no plan with this instrument separates:")
         for g in out["not_separable"]:

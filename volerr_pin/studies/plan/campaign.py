@@ -207,6 +207,30 @@ class Plan:
     comparison: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
 
+    def stands_for(self) -> dict[str, list[str]]:
+        """The identified coefficients that stand for a combination: each with the coefficients
+        of its inseparable group (:attr:`not_separable`) that are held at their priors. Its
+        estimate absorbs their errors, so its predicted uncertainty is the combination's, and it
+        holds for the coefficient itself only when those sit at their priors.
+
+        Returns
+        -------
+        dict of str to list of str
+            Identified coefficient -> the held coefficients it stands for with.
+        """
+        identified = set(self.identifiable)
+        machine_names = set(self.machine.parameter_names)
+        out: dict[str, list[str]] = {}
+        for group in self.not_separable:
+            if group.kind == "zero":
+                continue
+            held = [n for n in group.parameters if n in machine_names and n not in identified]
+            for name in group.parameters:
+                if name in identified and held:
+                    out.setdefault(name, [])
+                    out[name] += [h for h in held if h not in out[name]]
+        return out
+
     def to_dict(self) -> dict:
         """The JSON report (docs/reports.md, ``volerr plan``).
 
@@ -221,9 +245,12 @@ class Plan:
         scale = axis_scales(self.machine.axis_kinds)
         visits = self.instrument.visits(self.machine, self.units)
         coefficients = {}
+        stands_for = self.stands_for()
         for name, value in self.std.items():
             factor, unit = units.get(name, (1.0, "SI"))
             coefficients[name] = {"std": value / factor, "unit": unit}
+            if name in stands_for:
+                coefficients[name]["stands_for"] = stands_for[name]
         return {
             "machine": self.machine.name, "instrument": self.instrument.name, "budget": len(self.units),
             "unit": self.instrument.unit, "sigma_um": self.setup.sigma * UM_PER_M, "candidates": self.candidates,
