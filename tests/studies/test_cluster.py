@@ -81,3 +81,36 @@ def test_a_study_on_a_cluster_the_user_started_gives_the_embedded_numbers(extern
     there = _report(field + ["--scheduler", external_cluster], capsys)
     here = _report(field + ["--workers", "0"], capsys)
     assert {k: v for k, v in there.items() if k not in WHERE} == {k: v for k, v in here.items() if k not in WHERE}
+
+
+def _slow_square(offset, x):
+    import time
+
+    time.sleep(0.02)
+    return offset + x * x
+
+
+def test_a_cluster_gets_pieces_of_work_worth_sending_and_folds_them_in_order(cluster):
+    """Dask's cost per task is milliseconds: consecutive tasks travel together once a piece's
+    time is measured (to about TASK_SECONDS each), the last pieces stay small enough to balance
+    the workers, and the results come back in task order, as in one process."""
+    from distributed import Client
+
+    from volerr_pin.studies.engine import DaskEngine, InProcess
+
+    tasks = [(k,) for k in range(200)]
+    with Client(cluster) as client:
+        engine = DaskEngine(client, "test cluster")
+        pieces = []
+        submit = client.submit
+
+        def counting(fn, *args, **kwargs):
+            pieces.append(len(args[-1]))
+            return submit(fn, *args, **kwargs)
+
+        client.submit = counting
+        done = []
+        got = list(engine.map(_slow_square, (1000,), tasks, progress=done.append))
+    assert got == list(InProcess().map(_slow_square, (1000,), tasks)) == [1000 + k * k for k in range(200)]
+    assert sum(pieces) == 200 and len(pieces) < 60 and max(pieces) > 10   # 20 ms tasks: about 25 a piece
+    assert pieces[-1] <= 200 // 4 and done[-1] == 200 and done == sorted(done)

@@ -218,6 +218,12 @@ class InProcess:
         """Nothing to close (the same interface as :class:`DaskEngine`)."""
 
 
+#: what one submitted piece of work should take on a worker [s]: Dask's own cost per task is
+#: milliseconds (scheduling, moving arguments and results), so consecutive tasks are sent
+#: together until a piece holds about this much work, measured on the pieces already done
+TASK_SECONDS = 0.5
+
+
 def _on_worker(fn, *args):
     """Run a task on a Dask worker: the worker's processes are the parallelism, so numba's
     kernels take one thread (no oversubscription); the results do not depend on it."""
@@ -226,6 +232,17 @@ def _on_worker(fn, *args):
     if numba.get_num_threads() != 1:
         numba.set_num_threads(1)
     return fn(*args)
+
+
+def _batch_on_worker(fn, n_shared: int, *args):
+    """Consecutive tasks on a worker, in order: ``args`` is the shared values then the list of
+    the tasks' own arguments. Returns the seconds they took and their results."""
+    import time
+
+    shared, tasks = args[:n_shared], args[n_shared]
+    start = time.perf_counter()
+    results = [_on_worker(fn, *shared, *task) for task in tasks]
+    return time.perf_counter() - start, results
 
 
 class DaskEngine:
@@ -282,32 +299,44 @@ class DaskEngine:
         scattered = [self.client.scatter([s], broadcast=True, hash=False)[0] for s in shared]
         order: dict = {}
         pending: dict = {}
-        waiting: dict[int, Any] = {}
+        waiting: dict[int, list] = {}
         running = as_completed()
         submitted = next_out = finished = 0
+        size = 1                 # tasks per piece: one until a piece's time is known
+        in_flight = 0            # pieces submitted and not yet folded
 
         def top_up():
-            nonlocal submitted
-            while submitted < len(tasks) and submitted - next_out < self.window:
-                future = self.client.submit(_on_worker, fn, *scattered, *tasks[submitted], pure=False)
-                order[future.key] = submitted
+            nonlocal submitted, in_flight
+            while submitted < len(tasks) and in_flight < self.window:
+                # never fewer pieces left than two per worker: the last ones balance the load
+                left = len(tasks) - submitted
+                take = max(1, min(size, left // (2 * self.workers) or 1))
+                piece = tasks[submitted:submitted + take]
+                future = self.client.submit(_batch_on_worker, fn, len(scattered), *scattered, piece, pure=False)
+                order[future.key] = (submitted, len(piece))
                 pending[future.key] = future
                 running.add(future)
-                submitted += 1
+                submitted += len(piece)
+                in_flight += 1
 
         try:
             top_up()
             for future in running:
-                index = order.pop(future.key)
+                index, count = order.pop(future.key)
                 pending.pop(future.key, None)
-                waiting[index] = future.result()  # re-raises the task's own exception
+                seconds, results = future.result()  # re-raises the task's own exception
                 future.release()
-                finished += 1
+                in_flight -= 1
+                if count:   # tasks per piece for about TASK_SECONDS, from this piece's measured time
+                    size = max(1, min(4096, int(TASK_SECONDS / max(seconds / count, 1e-6))))
+                waiting[index] = results
+                finished += count
                 if progress is not None:
                     progress(finished)
                 while next_out in waiting:
-                    yield waiting.pop(next_out)
-                    next_out += 1
+                    part = waiting.pop(next_out)
+                    yield from part
+                    next_out += len(part)
                 top_up()
         finally:
             for future in pending.values():
