@@ -484,7 +484,7 @@ def test_a_trackers_headline_is_what_it_determines_and_simulated_campaigns_find_
     machine whose every coefficient is off from a prior of zero (those the tracker cannot
     separate included) find that figure; the whole map's error exceeds the prediction by the
     rigid part. The split is exact: total^2 = determinable^2 + rigid^2."""
-    from volerr_pin.studies.plan.assess import rigid_projector, simulated, without_rigid
+    from volerr_pin.studies.plan.assess import rigid_basis, simulated, without_rigid
 
     inst = instrument("tracker")
     setup = make_setup(vmc500, inst)
@@ -493,7 +493,7 @@ def test_a_trackers_headline_is_what_it_determines_and_simulated_campaigns_find_
     assert z["zone_rms_um"] ** 2 == pytest.approx(z["determinable_rms_um"] ** 2 + z["rigid_rms_um"] ** 2, rel=1e-9)
     assert z["determinable_rms_um"] < 0.7 * z["zone_rms_um"]
     zone_q = pose_candidates(setup.zone, vmc500.axis_kinds, 512, "sobol", 1)
-    P = rigid_projector(vmc500.tool_poses(zone_q, nominal=True)[1])
+    P = rigid_basis(vmc500.tool_poses(zone_q, nominal=True)[1])
     rigid = np.random.default_rng(3).normal(size=(1, 6))
     field = np.zeros((len(zone_q), 3))
     field[:] = rigid[0, :3]
@@ -512,7 +512,7 @@ def test_the_plan_is_compared_with_the_median_of_many_random_sets(vmc500, capsys
     """One random set is one draw: the comparison's random entry is the median of 21 draws by
     predicted zone uncertainty (recomputed here from the same seeds), and the spread is
     reported."""
-    from volerr_pin.studies.plan.assess import predicted, rigid_projector, without_rigid, zone_summary
+    from volerr_pin.studies.plan.assess import predicted, rigid_basis, without_rigid, zone_summary
     from volerr_pin.studies.plan.campaign import RANDOM_SETS, free_coefficients
     from volerr_pin.studies.plan.design import unit_design
 
@@ -525,7 +525,7 @@ def test_the_plan_is_compared_with_the_median_of_many_random_sets(vmc500, capsys
     columns = np.array(pool_design.analyse().kept, dtype=int)
     zone_q = pose_candidates(setup.zone, vmc500.axis_kinds, 512, "sobol", 3)
     S = without_rigid(vmc500.sensitivity(zone_q, parameters=free, first_order=True)[:, :3, :],
-                      rigid_projector(vmc500.tool_poses(zone_q, nominal=True)[1]))
+                      rigid_basis(vmc500.tool_poses(zone_q, nominal=True)[1]))
     zones = []
     for k in range(RANDOM_SETS):
         units = inst.candidates(vmc500, setup, 30, "random", 2 + 7 + k)

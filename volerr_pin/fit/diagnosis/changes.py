@@ -16,6 +16,7 @@ from .results import SIGNIFICANCE, Change, Role, Score
 
 __all__ = ["apply_changes", "raise_components", "remove_effect", "size_of", "tested_names", "trim_raises", "with_lag"]
 
+
 def _unique_prefix(machine: Machine, component: str, stem: str) -> str:
     used = {n.split(".")[1] for n in machine.parameter_names if n.startswith(component + ".")
             and n.count(".") == 2}

@@ -24,8 +24,9 @@ from ...model.machine import Machine
 from ...model.spec import component_name
 from .results import Candidate
 
-__all__ = ["EFFECTS", "Backlash", "EffectKind", "ForceDeflection", "Geometric", "Offer", "PeriodicPitch",
-           "PeriodicRotary", "ThermalDrift", "ThermalExpansion", "direction_of", "effect_kind", "register"]
+__all__ = ["EFFECTS", "MIN_PERIODS", "ROTARY_ORDERS", "Backlash", "EffectKind", "ForceDeflection", "Geometric", "Offer",
+           "PeriodicPitch", "PeriodicRotary", "ThermalDrift", "ThermalExpansion", "direction_of", "effect_kind",
+           "register"]
 
 #: a rotary axis' periodic error is tried with these numbers of periods per revolution
 ROTARY_ORDERS = (1, 2, 3, 4, 6, 8)

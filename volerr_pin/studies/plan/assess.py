@@ -29,13 +29,12 @@ from ...measurements.protocol import ObservationOptions
 from ...base.units import UM_PER_M
 from .design import UnitDesign
 
-__all__ = ["predicted", "rigid_projector", "simulated", "without_rigid", "zone_summary"]
+__all__ = ["predicted", "rigid_basis", "simulated", "without_rigid", "zone_summary"]
 
 
-def rigid_projector(points: np.ndarray) -> np.ndarray:
-    """The projector that removes the best rigid motion (three translations, three small
-    rotations) from a displacement field at ``points``: ``I - B (B^T B)^-1 B^T`` on the stacked
-    x, y, z of every point.
+def rigid_basis(points: np.ndarray) -> np.ndarray:
+    """An orthonormal basis of the rigid motions (three translations, three small rotations)
+    of a displacement field at ``points``, on the stacked x, y, z of every point.
 
     Parameters
     ----------
@@ -44,7 +43,7 @@ def rigid_projector(points: np.ndarray) -> np.ndarray:
 
     Returns
     -------
-    ndarray, shape (3 Z, 3 Z)
+    ndarray, shape (3 Z, 6)
     """
     p = points - points.mean(axis=0)
     B = np.zeros((len(p), 3, 6))
@@ -53,26 +52,27 @@ def rigid_projector(points: np.ndarray) -> np.ndarray:
     B[:, 0, 4], B[:, 0, 5] = z, -y      # omega x p
     B[:, 1, 3], B[:, 1, 5] = -z, x
     B[:, 2, 3], B[:, 2, 4] = y, -x
-    B = B.reshape(-1, 6)
-    return np.eye(len(B)) - B @ np.linalg.pinv(B)
+    return np.linalg.qr(B.reshape(-1, 6))[0]
 
 
-def without_rigid(field: np.ndarray, projector: np.ndarray) -> np.ndarray:
-    """A field (Z, 3, ...) less its best rigid motion (:func:`rigid_projector`), same shape.
+def without_rigid(field: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """A field (Z, 3, ...) less its best rigid motion (the least-squares fit on
+    :func:`rigid_basis`), same shape.
 
     Parameters
     ----------
     field : ndarray, shape (Z, 3) or (Z, 3, F)
-        Displacements (or their sensitivities) at the projector's points.
-    projector : ndarray, shape (3 Z, 3 Z)
-        From :func:`rigid_projector`.
+        Displacements (or their sensitivities) at the basis' points.
+    basis : ndarray, shape (3 Z, 6)
+        From :func:`rigid_basis`.
 
     Returns
     -------
     ndarray
         The same shape.
     """
-    return (projector @ field.reshape(projector.shape[0], -1)).reshape(field.shape)
+    f = field.reshape(basis.shape[0], -1)
+    return (f - basis @ (basis.T @ f)).reshape(field.shape)
 
 
 def predicted(design: UnitDesign, units: np.ndarray, columns: np.ndarray, S_zone: np.ndarray) -> dict:
@@ -120,7 +120,7 @@ def predicted(design: UnitDesign, units: np.ndarray, columns: np.ndarray, S_zone
 
 
 def simulated(machine, instrument, setup, units: list, free: np.ndarray, zone_q: np.ndarray, repeats: int,
-              seed: int, projector: np.ndarray | None = None, prior: np.ndarray | None = None) -> dict:
+              seed: int, rigid: np.ndarray | None = None, prior: np.ndarray | None = None) -> dict:
     """Uncertainties found by simulating a campaign and identifying from it (module docstring).
 
     Parameters
@@ -141,8 +141,8 @@ def simulated(machine, instrument, setup, units: list, free: np.ndarray, zone_q:
         Simulated campaigns (noise seeds ``seed``, ``seed + 1``, ...).
     seed : int
         First seed.
-    projector : ndarray, shape (3 Z, 3 Z), optional
-        Measure the zone's error less its best rigid motion (:func:`rigid_projector`).
+    rigid : ndarray, shape (3 Z, 6), optional
+        Measure the zone's error less its best rigid motion (:func:`rigid_basis`).
     prior : ndarray, shape (P,), optional
         The coefficients the fits start from and hold what they cannot determine at (default:
         the truth with the identified ones at zero).
@@ -160,8 +160,11 @@ def simulated(machine, instrument, setup, units: list, free: np.ndarray, zone_q:
                        machine)
     error = machine.volumetric_error(obs.q, **obs.covariates)
     truth_rows, _ = rows_of(obs.w, obs.point, error, np.zeros((obs.n_points, 6, 0)))
-    theta0 = machine.theta.copy() if prior is None else np.array(prior, dtype=float)
-    theta0[free] = 0.0 if prior is None else theta0[free]
+    if prior is None:
+        theta0 = machine.theta.copy()
+        theta0[free] = 0.0
+    else:
+        theta0 = np.array(prior, dtype=float)
     prior = machine._with_theta(theta0)   # a simulation: no spec limit applies
     e_zone = machine.volumetric_error(zone_q)[:, :3]
     errors, zone_sq, held = [], [], set()
@@ -176,7 +179,7 @@ def simulated(machine, instrument, setup, units: list, free: np.ndarray, zone_q:
         held.update(machine.parameter_names[k] for k in fit.held)
         errors.append(fit.machine.theta[free] - machine.theta[free])
         d = fit.machine.volumetric_error(zone_q)[:, :3] - e_zone
-        zone_sq.append(np.sum((d if projector is None else without_rigid(d, projector)) ** 2, axis=1))
+        zone_sq.append(np.sum((d if rigid is None else without_rigid(d, rigid)) ** 2, axis=1))
     errors = np.array(errors)
     return {"std": np.sqrt(np.mean(errors ** 2, axis=0)), "zone_rms": float(np.sqrt(np.mean(zone_sq))),
             "held": sorted(held)}

@@ -23,7 +23,7 @@ from ...base.errors import InputError
 from ...fit.identify import parameter_units
 from ...base.safeio import require_memory
 from ...base.units import UM_PER_M, axis_scales
-from .assess import predicted, rigid_projector, simulated, without_rigid, zone_summary
+from .assess import predicted, rigid_basis, simulated, without_rigid, zone_summary
 from .design import UnitDesign, d_optimal, unit_design
 from .poses import pose_candidates
 from .protocol import Setup
@@ -342,8 +342,7 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
     S_zone = machine.sensitivity(zone_q, parameters=free, first_order=True)[:, :3, :]
     # an instrument that registers itself (a tracker) cannot determine a rigid motion of the whole
     # map: what it determines, and what the plan optimises and compares, is the map less that
-    P = rigid_projector(machine.tool_poses(zone_q, nominal=True)[1]) if getattr(instrument, "registers", False) \
-        else None
+    P = rigid_basis(machine.tool_poses(zone_q, nominal=True)[1]) if getattr(instrument, "registers", False) else None
     S_fit = S_zone if P is None else without_rigid(S_zone, P)
     weight = None
     if criterion == "I":
@@ -388,9 +387,9 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
 
 
 def _compare(machine, instrument, setup, design: UnitDesign, columns, units, budget, free, zone_q, S_zone,
-             repeats, seed, projector=None) -> dict:
+             repeats, seed, rigid=None) -> dict:
     """Predicted and simulated figures of the plan, a grid and random units of the same count
-    (of the map less its best rigid fit where ``projector`` is given)."""
+    (of the map less its best rigid fit where ``rigid``, the basis of rigid motions, is given)."""
     theta_mask = columns >= design.n_global
     identified = design.free[columns[theta_mask] - design.n_global]
 
@@ -406,19 +405,20 @@ def _compare(machine, instrument, setup, design: UnitDesign, columns, units, bud
     # (ranked by predicted zone uncertainty, a draw that leaves coefficients undetermined last),
     # and the spread of the draws is reported
     draws = [instrument.candidates(machine, setup, budget, "random", seed + 7 + k) for k in range(RANDOM_SETS)]
-    zones = [zone_summary(assess(d)["zone"])["zone_rms_um"] for d in draws]
+    assessed = [assess(d) for d in draws]
+    zones = [zone_summary(a["zone"])["zone_rms_um"] for a in assessed]
     rank = sorted(range(RANDOM_SETS), key=lambda k: (zones[k] is None, zones[k] or 0.0, k))
     median = rank[RANDOM_SETS // 2]
     determined = np.array([z for z in zones if z is not None])
+    grid = instrument.candidates(machine, setup, budget, "grid", seed + 7)
     out = {}
-    for label, chosen in (("plan", units), ("grid", instrument.candidates(machine, setup, budget, "grid", seed + 7)),
-                          ("random", draws[median])):
-        p = assess(chosen)
+    for label, chosen, p in (("plan", units, assess(units)), ("grid", grid, assess(grid)),
+                             ("random", draws[median], assessed[median])):
         lost = [n for n in p["lost"] if n in design.names[design.n_global:]]
         # a coefficient this design does not determine is held at its prior, as identify holds what
         # its data cannot tell (fitting it anyway gives any value: 1.7 mm +- 3.8 mm on a 4-level grid)
         kept = np.array([design.names[design.n_global + i] not in lost for i in columns[theta_mask] - design.n_global])
-        s = simulated(machine, instrument, setup, chosen, identified[kept], zone_q, repeats, seed + 100, projector)
+        s = simulated(machine, instrument, setup, chosen, identified[kept], zone_q, repeats, seed + 100, rigid)
         sim = np.full(len(identified), np.inf)
         sim[kept] = s["std"]
         std_p = p["std"][theta_mask]
@@ -427,30 +427,32 @@ def _compare(machine, instrument, setup, design: UnitDesign, columns, units, bud
                       "simulated_std_geomean": _geomean(sim), "_std": std_p, "_sim": sim}
     for label in ("grid", "random"):
         ref, mine = out[label], out["plan"]
+        # a design that does not determine what the plan does is no yardstick of the map: no ratio
+        # of map or mean figures (against nothing they read as a thousand-fold win), the reason
+        comparable = not ref["not_identified"]
+
+        def ratio(key):
+            return _ratio(mine[key], ref[key]) if comparable else None
+
         out[label]["ratios"] = {
-            "predicted_zone_rms": _ratio(mine["zone_rms_um"], ref["zone_rms_um"]),
-            "simulated_zone_rms": _ratio(mine["simulated_zone_rms_um"], ref["simulated_zone_rms_um"]),
-            "predicted_std_geomean": _ratio(mine["std_geomean"], ref["std_geomean"]),
-            "simulated_std_geomean": _ratio(mine["simulated_std_geomean"], ref["simulated_std_geomean"]),
+            "predicted_zone_rms": ratio("zone_rms_um"), "simulated_zone_rms": ratio("simulated_zone_rms_um"),
+            "predicted_std_geomean": ratio("std_geomean"), "simulated_std_geomean": ratio("simulated_std_geomean"),
             "predicted_lower_share": float(np.mean(mine["_std"] < ref["_std"])),
             "simulated_lower_share": float(np.mean(mine["_sim"] < ref["_sim"])),
         }
-        if ref["not_identified"]:
-            # a design that does not determine what the plan does is no yardstick of the map: no
-            # ratio of map or mean figures (against nothing they read as a thousand-fold win), the reason
-            out[label]["ratios"].update(predicted_zone_rms=None, simulated_zone_rms=None, predicted_std_geomean=None,
-                                        simulated_std_geomean=None)
+        if not comparable:
             out[label]["not_comparable"] = (f"the {label} leaves {len(ref['not_identified'])} of the plan's "
                                             f"{len(identified)} coefficients undetermined")
     for v in out.values():
         v.pop("_std"), v.pop("_sim")
     plan_zone = out["plan"]["zone_rms_um"]
+    spread = ({"p10": float(np.quantile(determined, 0.1)), "median": float(np.median(determined)),
+               "p90": float(np.quantile(determined, 0.9))} if len(determined) else None)
     out["random"]["sets"] = {
         "count": RANDOM_SETS, "median_seed": seed + 7 + median, "not_determining": int(RANDOM_SETS - len(determined)),
-        "predicted_zone_rms_um": ({"p10": float(np.quantile(determined, 0.1)), "median": float(np.median(determined)),
-                                   "p90": float(np.quantile(determined, 0.9))} if len(determined) else None),
-        "plan_over_p10": (_ratio(plan_zone, float(np.quantile(determined, 0.1))) if len(determined) else None),
-        "plan_over_p90": (_ratio(plan_zone, float(np.quantile(determined, 0.9))) if len(determined) else None)}
+        "predicted_zone_rms_um": spread,
+        "plan_over_p10": _ratio(plan_zone, spread["p10"]) if spread else None,
+        "plan_over_p90": _ratio(plan_zone, spread["p90"]) if spread else None}
     return out
 
 
