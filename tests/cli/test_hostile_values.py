@@ -317,3 +317,35 @@ def test_ctrl_c_during_a_study_on_dask_workers_is_one_line(tmp_path):
     time.sleep(2)
     with pytest.raises(ProcessLookupError):   # nothing of its process group is left
         os.killpg(proc.pid, 0)
+
+
+def test_a_signal_whose_exception_a_callback_swallows_still_stops_the_run(tmp_path, capsys, monkeypatch):
+    """A signal handler can run inside a weakref callback (an import's module-lock callback, as
+    CI once caught), where Python prints and ignores the exception it raises: the run went on
+    and wrote its outputs with status 0. The stop is raised again before anything is renamed
+    into place: status 143, one line, nothing written, no traceback."""
+    import signal
+    import weakref
+
+    import volerr_pin.cli as cli
+    import volerr_pin.cli.urdf as urdf_cli
+
+    out = tmp_path / "m.urdf"
+    real = urdf_cli.run
+
+    def run_with_a_swallowed_stop(args):
+        class Thing:
+            pass
+
+        thing = Thing()
+        ref = weakref.ref(thing, lambda _: cli._stop(signal.SIGTERM, None))   # noqa: F841 - kept alive
+        del thing   # the callback runs here, and its exception is ignored
+        return real(args)
+
+    monkeypatch.setattr(urdf_cli, "run", run_with_a_swallowed_stop)
+    assert cli.main(["urdf", "vmc500", "-o", str(out)]) == 143
+    err = capsys.readouterr().err
+    assert err == "volerr: error: stopped by SIGTERM; the outputs are left as they were\n", err
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.setattr(urdf_cli, "run", real)
+    assert cli.main(["urdf", "vmc500", "-o", str(out)]) == 0 and out.exists()   # the next run is not stopped

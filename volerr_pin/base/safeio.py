@@ -217,6 +217,13 @@ def _fsync_folder(folder: Path) -> None:
             os.close(fd)
 
 
+#: checks every commit makes before it renames anything: one that raises refuses the commit (and
+#: the transaction removes its temporary files). The command line adds one that raises a
+#: termination signal whose exception a callback swallowed (Python ignores exceptions raised in
+#: weakref callbacks, where a signal handler may happen to run).
+COMMIT_CHECKS: list = []
+
+
 class Transaction:
     """Outputs of one run, written to temporary files beside their targets and renamed over
     them together when the run succeeds (:func:`transaction`).
@@ -325,7 +332,10 @@ class Transaction:
         return value
 
     def commit(self) -> None:
-        """Flush every temporary file to disk and rename it over its target."""
+        """Flush every temporary file to disk and rename it over its target (after
+        :data:`COMMIT_CHECKS`)."""
+        for check in COMMIT_CHECKS:
+            check()
         for tmp, target, _ in self._pending:
             with open(tmp, "rb+") as fh:
                 os.fsync(fh.fileno())

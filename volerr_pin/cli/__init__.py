@@ -18,6 +18,7 @@ import threading
 import warnings
 
 from .. import __version__
+from ..base import safeio
 from ..base.errors import VolerrError
 from . import (ballbar, compensate, demo, dh, diagnose, errormap, field, gear, identify, info, iso230, rank,
                thermal_fit, urdf)
@@ -58,8 +59,29 @@ class Stopped(BaseException):
         self.signum = signum
 
 
+#: termination signals received in this run (a handler's exception can be swallowed: see
+#: :data:`volerr_pin.base.safeio.COMMIT_CHECKS`)
+_RECEIVED: list[int] = []
+
+
 def _stop(signum, frame) -> None:
+    _RECEIVED.append(signum)
     raise Stopped(signum)
+
+
+def _refuse_after_stop() -> None:
+    """A commit after a termination signal whose exception was swallowed: raise it again."""
+    if _RECEIVED:
+        raise Stopped(_RECEIVED[0])
+
+
+def _quiet_stop(hook):
+    """An unraisable-exception hook that stays silent about a swallowed :class:`Stopped`
+    (it is raised again before anything is written, and at the end)."""
+    def quiet(unraisable):
+        if not isinstance(unraisable.exc_value, Stopped):
+            hook(unraisable)
+    return quiet
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -67,15 +89,23 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     previous = {}
+    hook = sys.unraisablehook
     if threading.current_thread() is threading.main_thread():
         for signum in (signal.SIGTERM, signal.SIGHUP):
             previous[signum] = signal.signal(signum, _stop)
+        _RECEIVED.clear()
+        safeio.COMMIT_CHECKS.append(_refuse_after_stop)
+        sys.unraisablehook = _quiet_stop(hook)
     try:
         with warnings.catch_warnings():
             # the library's warnings are notes for the user: one line each, no source location
             warnings.showwarning = _note
             check_out_name(args)
-            return args.func(args)
+            status = args.func(args)
+        if _RECEIVED:   # a stop whose exception was swallowed after the last commit
+            print(f"volerr: error: stopped by {signal.Signals(_RECEIVED[0]).name} as the run ended", file=sys.stderr)
+            return 128 + _RECEIVED[0]
+        return status
     except VolerrError as err:
         print(f"volerr: error: {in_cli_words(err)}", file=sys.stderr)
         return 2
@@ -93,3 +123,6 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+        if previous:
+            safeio.COMMIT_CHECKS.remove(_refuse_after_stop)
+            sys.unraisablehook = hook
