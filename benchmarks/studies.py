@@ -35,7 +35,7 @@ import volerr_pin as vp  # noqa: E402
 from volerr_pin.studies.engine import available_cores, local_cluster  # noqa: E402
 from volerr_pin.studies.evaluator import Evaluator  # noqa: E402
 from volerr_pin.studies.montecarlo import grid_points, make_points, run_monte_carlo  # noqa: E402
-from volerr_pin.studies.tolerance import tolerance_machine, tolerance_source  # noqa: E402
+from volerr_pin.studies.tolerance import tolerance_source  # noqa: E402
 from volerr_pin.studies.tolerances import read_tolerance_file  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -71,10 +71,9 @@ def bench_cluster(grid: int, samples: int, workers_list=(1, 2), repeat: int = 3)
     is shared, and interleaving exposes both to the same load."""
     machine = vp.load_machine("vmc500")
     tol = read_tolerance_file(TOLERANCES, machine)
-    constant, index = tolerance_machine(machine)
+    constant, source = tolerance_source(machine, tol, 0)
     q = grid_points(constant, grid)
     points = make_points(constant, q)
-    source = tolerance_source(tol, index, len(constant.parameter_names), 0)
     engines, start, warm = {}, {}, {}
     try:
         for workers in workers_list:

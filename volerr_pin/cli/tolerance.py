@@ -109,6 +109,20 @@ def _resolution(resolution: dict, shown: list[dict]) -> list[str]:
     return out
 
 
+def _shape_lines(report: dict) -> list[str]:
+    """What each tolerance was taken to mean, by shape, and what was left out."""
+    groups: dict[tuple[str, str], list[str]] = {}
+    for s in report["shapes"]:
+        groups.setdefault((s["shape"], s["excludes"]), []).append(s["component"])
+    out = ["each tolerance bounds what ISO 230 means by it (the range of the error over the travel, or a constant):"]
+    for (shape, excludes), names in groups.items():
+        out.append(f"  {shape} ({', '.join(names)})" + (f": less {excludes}" if excludes else ""))
+    if report["left_out"]:
+        out.append(f"  left out, a work offset removes them (the same translation at every point): "
+                   f"{', '.join(r['component'] for r in report['left_out'])}")
+    return out
+
+
 def _print(report: dict) -> None:
     console = table_console()
     mx, rms = report["max_error_um"], report["rms_error_um"]
@@ -118,6 +132,8 @@ def _print(report: dict) -> None:
                   f"p50 {mx['p50']:.3f}, p95 {mx['p95']:.3f}, p99 {mx['p99']:.3f} um")
     console.print(f"RMS position error over the grid: mean {rms['mean']:.3f} um, std {rms['std']:.3f}, "
                   f"p95 {rms['p95']:.3f} um")
+    for line in _shape_lines(report):
+        console.print(escape(line))
     if report["target_um"] is not None:
         console.print(f"P(largest error <= {report['target_um']:g} um) = {report['probability_within_target']:.4f} "
                       f"(standard error {report['probability_se']:.4f})")
@@ -147,8 +163,12 @@ def _print(report: dict) -> None:
         for t in r["tolerances"]:
             table.add_row(t["component"], f"{t['before']:.3g}", f"{t['after']:.3g}", t["unit"], t["distribution"])
         console.print(table)
+        kept = [t["component"] for t in r["tolerances"] if t["reason"].startswith("not re-allocated")]
         for t in r["tolerances"]:
-            if t["reason"]:
+            if t["reason"] and t["component"] not in kept:
                 console.print(escape(f"  {t['component']} {t['before']:.3g} -> {t['after']:.3g} {t['unit']}: {t['reason']}"))
+        for reason in dict.fromkeys(t["reason"] for t in r["tolerances"] if t["component"] in kept):
+            names = [t["component"] for t in r["tolerances"] if t["reason"] == reason]
+            console.print(escape(f"  {', '.join(names)}: {reason}"))
         console.print(f"re-simulated: P = {r['probability']:.4f} (95 % lower bound {r['probability_lower']:.4f}) over "
                       f"{r['samples']:,} fresh draws: " + ("meets the target" if r["met"] else "does NOT meet it"))

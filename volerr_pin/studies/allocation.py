@@ -35,7 +35,8 @@ from scipy.stats import beta
 from ..base.errors import InputError
 from ..model.machine import Machine
 from .engine import Engine, InProcess, plan_chunks
-from .montecarlo import SAMPLE_CHUNK, MonteCarlo, Points, ToleranceSource, run_monte_carlo
+from .montecarlo import SAMPLE_CHUNK, MonteCarlo, Points, run_monte_carlo
+from .shapes import LEFT_OUT, ShapedSource
 from .tolerances import Tolerances
 
 __all__ = ["Reallocation", "lower_bound", "reallocate"]
@@ -44,7 +45,7 @@ __all__ = ["Reallocation", "lower_bound", "reallocate"]
 CONFIDENCE = 0.95
 #: smoothing of the surrogate probability, as a fraction of the target
 BANDWIDTH = 0.02
-#: largest (draws x candidate points) the surrogate holds
+#: largest draws x candidate points x (components / 4) the surrogate holds (3 x 4 doubles each: at most 192 MB)
 SURROGATE_SIZE = 2_000_000
 
 
@@ -135,15 +136,21 @@ class Reallocation:
 
 
 class _Surrogate:
-    """``Y_s(t) = max_k |C_k (t * xi_s)|`` and the smoothed probability of ``Y <= T``."""
+    """``Y_s(t) = max_k |C_k (t[owner] * xi_s)|`` and the smoothed probability of ``Y <= T``
+    (``owner``: the component, among the active ones, of each coefficient column of ``C``).
 
-    def __init__(self, C: np.ndarray, xi: np.ndarray, t0: np.ndarray, target: float):
-        self.C, self.xi, self.t0, self.target = C, xi, t0, target
+    Each component's part at unit tolerance, ``B[s, k, :, d] = C_k[:, cols_d] xi_s[cols_d]``,
+    is summed once, so that every evaluation is ``F = B t`` over components, not coefficients."""
+
+    def __init__(self, C: np.ndarray, xi: np.ndarray, t0: np.ndarray, target: float, owner: np.ndarray):
+        self.t0, self.target = t0, target
         self.h = BANDWIDTH * target
+        self.B = np.stack([np.einsum("kcp,sp->skc", C[:, :, owner == d], xi[:, owner == d])
+                           for d in range(len(t0))], axis=-1)
 
     def worst(self, x: np.ndarray):
         t = self.t0 * np.exp(x)
-        F = np.einsum("kcd,sd->skc", self.C, self.xi * t)
+        F = self.B @ t
         n2 = np.einsum("skc,skc->sk", F, F)
         j = np.argmax(n2, axis=1)
         rows = np.arange(len(j))
@@ -156,7 +163,7 @@ class _Surrogate:
     def gradient(self, x: np.ndarray) -> np.ndarray:
         t, f, j, Y = self.worst(x)
         direction = f / np.maximum(Y, 1e-300)[:, None]
-        dY = np.einsum("sc,scd->sd", direction, self.C[j]) * self.xi * t   # d Y / d log t
+        dY = np.einsum("sc,scd->sd", direction, self.B[np.arange(len(j)), j]) * t   # d Y / d log t
         z = (self.target - Y) / self.h
         weight = np.exp(-0.5 * z * z) / math.sqrt(2 * math.pi) / self.h
         return -np.mean(weight[:, None] * dY, axis=0)
@@ -187,24 +194,22 @@ def _solve(s: _Surrogate, w: np.ndarray, p: float, lo: float, hi: float) -> tupl
     return x, uniform
 
 
-def reallocate(machine: Machine, tolerances: Tolerances, index: np.ndarray, points: Points, source: ToleranceSource,
+def reallocate(machine: Machine, tolerances: Tolerances, points: Points, source: ShapedSource,
                target: float, probability: float, first: MonteCarlo, *, samples: int, seed: int,
                engine: Engine | None = None, bounds: tuple[float, float] = (0.1, 10.0), rounds: int = 5,
-               surrogate_samples: int = 10_000, progress=None) -> Reallocation:
+               surrogate_samples: int = 10_000, progress=None, left_out=()) -> Reallocation:
     """Least-cost tolerances meeting ``P(max error <= target) >= probability``, re-simulated.
 
     Parameters
     ----------
     machine : Machine
-        The tolerance machine (one constant coefficient per component, all zero).
+        The study's machine (every component as its shape, all zero).
     tolerances : Tolerances
         The present tolerances.
-    index : ndarray of int, shape (n_components,)
-        The coefficient of each component (into the machine's theta).
     points : Points
         The grid.
-    source : ToleranceSource
-        The study's draws (its distributions; the standard variables are reused).
+    source : ShapedSource
+        The study's draws (its shapes and distributions; the standard values are reused).
     target : float
         Largest admissible position error [m] (> 0).
     probability : float
@@ -225,6 +230,8 @@ def reallocate(machine: Machine, tolerances: Tolerances, index: np.ndarray, poin
         Draws in the surrogate (fewer when there are many candidate points).
     progress : callable(stage, done, total), optional
         Called as re-simulation tasks finish.
+    left_out : sequence of int, default ()
+        Components a work offset removes: not drawn, and kept at their tolerance.
 
     Returns
     -------
@@ -246,11 +253,14 @@ def reallocate(machine: Machine, tolerances: Tolerances, index: np.ndarray, poin
         raise InputError(f"bounds must satisfy 0 < lower <= 1 <= upper, got {bounds!r}", parameters=("bounds",))
     engine = engine or InProcess()
     values = tolerances.values
-    active = np.flatnonzero(values > 0)
+    skip = np.zeros(len(values), dtype=bool)
+    skip[list(left_out)] = True
+    active = np.flatnonzero((values > 0) & ~skip)
     if not active.size:
         raise InputError("no component has a tolerance above zero: nothing to re-allocate")
     t0, w = values[active], tolerances.costs[active]
-    cols = index[active]
+    cols = np.concatenate([source.columns[k] for k in active])
+    owner = np.concatenate([np.full(len(source.columns[k]), j) for j, k in enumerate(active)])
     candidates = set(int(k) for k in np.unique(first.argmax))
     n_s = min(samples, surrogate_samples)
     xi = np.concatenate([source.standard(k, a, b) for k, a, b in plan_chunks(n_s, SAMPLE_CHUNK)])[:, cols]
@@ -260,16 +270,15 @@ def reallocate(machine: Machine, tolerances: Tolerances, index: np.ndarray, poin
     for round_ in range(1, rounds + 1):
         cand = np.array(sorted(candidates))
         C = machine.sensitivity(points.q[cand], first_order=True, extrapolate=points.extrapolate)[:, :3, cols]
-        keep = max(1, min(n_s, SURROGATE_SIZE // len(cand)))
-        surrogate = _Surrogate(C, xi[:keep], t0, target)
+        keep = max(1, min(n_s, SURROGATE_SIZE // (len(cand) * max(1, len(active) // 4))))
+        surrogate = _Surrogate(C, xi[:keep], t0, target, owner)
         x, uniform = _solve(surrogate, w, goal, lo, hi)
-        scale = np.zeros(len(values))
+        scale = np.where(skip, values, 0.0)
         scale[active] = t0 * np.exp(x)
-        full = np.zeros(source.parameters)
-        full[index] = scale
+        drawn = np.where(skip, 0.0, scale)
         verify_seed = int(np.random.SeedSequence([seed, 1, round_]).generate_state(1)[0])
         report = (lambda done, total: progress(f"re-allocation, check {round_}", done, total)) if progress else None
-        mc = run_monte_carlo(machine, source.with_scale(full, verify_seed), points, samples, engine=engine,
+        mc = run_monte_carlo(machine, source.with_tolerance(drawn, verify_seed), points, samples, engine=engine,
                              per_point=False, progress=report)
         met_count = int(np.sum(mc.max <= target))
         low = lower_bound(met_count, samples)
@@ -281,14 +290,18 @@ def reallocate(machine: Machine, tolerances: Tolerances, index: np.ndarray, poin
     met_count = int(np.sum(mc.max <= target))
     return Reallocation(suggested, tolerances, float(np.sum(w)), float(np.sum(w * t0 / scale[active])),
                         uniform, met_count / samples, lower_bound(met_count, samples), samples, verify_seed, round_,
-                        lower_bound(met_count, samples) >= probability, _reasons(len(values), active, x, C, lo, hi))
+                        lower_bound(met_count, samples) >= probability,
+                        _reasons(len(values), active, x, C, owner, lo, hi, skip))
 
 
-def _reasons(n: int, active: np.ndarray, x: np.ndarray, C: np.ndarray, lo: float, hi: float) -> tuple[str, ...]:
+def _reasons(n: int, active: np.ndarray, x: np.ndarray, C: np.ndarray, owner: np.ndarray, lo: float, hi: float,
+             skip: np.ndarray) -> tuple[str, ...]:
     """Why each component ends at a bound of the search (log factors ``x`` on the active ones,
-    ``C`` their sensitivities at the candidate points)."""
-    out = ["no tolerance: not re-allocated"] * n
-    reach = np.abs(C).max(axis=(0, 1)) if C.size else np.zeros(len(active))
+    ``C`` their coefficients' sensitivities at the candidate points, ``owner`` the active
+    component of each column; ``skip`` the components left out)."""
+    out = [f"not re-allocated: {LEFT_OUT}" if skip[k] else "no tolerance: not re-allocated" for k in range(n)]
+    column = np.abs(C).max(axis=(0, 1)) if C.size else np.zeros(len(owner))
+    reach = np.array([column[owner == j].max(initial=0.0) for j in range(len(active))])
     for j, k in enumerate(active):
         factor = math.exp(x[j])
         if factor >= hi * (1 - 1e-6):

@@ -34,12 +34,11 @@ import numpy as np
 from ..base.errors import InputError
 from ..model.machine import Machine
 from ..base.safeio import require_memory
-from .distributions import Distribution
 from .evaluator import CALL_POINTS, evaluator_of
 from .engine import Engine, InProcess, PortableMachine, chunk_rng, plan_chunks, tasks_of
 
 __all__ = ["MonteCarlo", "NormalSource", "POINT_BLOCK", "Points", "QUANTILE_TASK_BYTES", "RowsSource",
-           "SAMPLE_CHUNK", "ThetaSource", "ToleranceSource", "grid_points", "make_points", "point_quantiles", "run_monte_carlo"]
+           "SAMPLE_CHUNK", "ThetaSource", "grid_points", "make_points", "point_quantiles", "run_monte_carlo"]
 
 #: samples per task: what the random streams are cut by (results depend on it, not on workers)
 SAMPLE_CHUNK = 256
@@ -118,85 +117,6 @@ class NormalSource:
         """
         z = chunk_rng(self.seed, chunk).standard_normal((stop - start, self.factor.shape[1]))
         return self.mean + z @ self.factor.T
-
-
-@dataclass(frozen=True)
-class ToleranceSource:
-    """Coefficients drawn within tolerances: ``theta_j = scale_j * xi_j``, ``xi_j`` the standard
-    variable of the j-th distribution.
-
-    Attributes
-    ----------
-    scale : ndarray, shape (P,)
-        Tolerances [SI]; 0 keeps a coefficient at 0.
-    distributions : tuple of Distribution
-        One per coefficient.
-    seed : int
-        The study's seed.
-    """
-
-    scale: np.ndarray
-    distributions: tuple[Distribution, ...]
-    seed: int
-
-    @property
-    def parameters(self) -> int:
-        """Length of the coefficient vector (int)."""
-        return len(self.scale)
-
-    def standard(self, chunk: int, start: int, stop: int) -> np.ndarray:
-        """The standard variables ``xi`` of chunk ``chunk``.
-
-        Parameters
-        ----------
-        chunk : int
-            Chunk index.
-        start, stop : int
-            Sample range of the chunk.
-
-        Returns
-        -------
-        ndarray, shape (stop - start, P)
-            Standard variables (dimensionless).
-        """
-        u = chunk_rng(self.seed, chunk).random((stop - start, len(self.scale)))
-        return np.column_stack([d.standard(u[:, j]) for j, d in enumerate(self.distributions)]) \
-            if len(self.scale) else u
-
-    def rows(self, chunk: int, start: int, stop: int) -> np.ndarray:
-        """Draws of chunk ``chunk``.
-
-        Parameters
-        ----------
-        chunk : int
-            Chunk index.
-        start, stop : int
-            Sample range of the chunk.
-
-        Returns
-        -------
-        ndarray, shape (stop - start, P)
-            Coefficient vectors [SI].
-        """
-        return self.standard(chunk, start, stop) * self.scale
-
-    def with_scale(self, scale, seed: int | None = None) -> "ToleranceSource":
-        """The same distributions with other tolerances (and seed).
-
-        Parameters
-        ----------
-        scale : array_like, shape (P,)
-            Tolerances [SI].
-        seed : int, optional
-            Seed (default: unchanged).
-
-        Returns
-        -------
-        ToleranceSource
-            The new source.
-        """
-        return ToleranceSource(np.asarray(scale, dtype=float), self.distributions,
-                               self.seed if seed is None else seed)
 
 
 @dataclass(frozen=True)

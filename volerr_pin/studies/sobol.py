@@ -120,11 +120,13 @@ def sobol_indices(problem: dict, model: Callable[[np.ndarray], np.ndarray], n: i
     ----------
     problem : dict
         SALib's problem: ``num_vars`` D, ``names``, ``bounds``, ``dists`` (``unif`` with
-        [low, high], ``norm`` with [mean, standard deviation]).
+        [low, high], ``norm`` with [mean, standard deviation]) and optionally ``groups`` (one
+        name per input; the indices are then those of the groups, in order of first
+        appearance, and the runs ``N (G + 2)`` for G groups).
     model : callable
         Maps the design, shape (runs, D), to the output, shape (runs,).
     n : int, default 512
-        Base samples N, a power of 2; the model runs ``N (D + 2)`` times.
+        Base samples N, a power of 2; the model runs ``N (D + 2)`` times (``N (G + 2)`` with groups).
     seed : int, default 0
         Seed of the design and the bootstrap.
 
@@ -151,5 +153,6 @@ def sobol_indices(problem: dict, model: Callable[[np.ndarray], np.ndarray], n: i
     bootstrap_seed = int(np.random.SeedSequence(int(seed)).generate_state(1)[0]) | 1
     result = sobol.analyze(problem, Y, calc_second_order=False, num_resamples=200, conf_level=0.95,
                            seed=bootstrap_seed, print_to_console=False)
-    return SobolIndices(tuple(problem["names"]), np.asarray(result["S1"]), np.asarray(result["ST"]),
+    names = tuple(dict.fromkeys(problem["groups"])) if problem.get("groups") else tuple(problem["names"])
+    return SobolIndices(names, np.asarray(result["S1"]), np.asarray(result["ST"]),
                         np.asarray(result["S1_conf"]), np.asarray(result["ST_conf"]), int(len(X)), int(n))

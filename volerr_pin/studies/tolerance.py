@@ -1,9 +1,12 @@
 """Tolerance studies: which component tolerances a machine can afford.
 
-Every component error is drawn within its tolerance (:mod:`.tolerances`), as one value over
-its axis' travel (a constant, as ``volerr rank`` sizes tolerances: an offset for a
-translation, a tilt for an angle, whose Abbe arm varies over the workspace). The machine's
-own terms are replaced by these constants. For every draw the exact volumetric error is
+Every component error is drawn within its tolerance (:mod:`.tolerances`) as the shape the
+standard means by it (:mod:`.shapes`): a positioning error or a straightness deviation along
+the travel, less the offset (and, for straightness, the slope) they exclude; an angular
+deviation less its offset; a rotary axis' error motions over its angle; a squareness or other
+location error as the constant it is. What a work offset removes is left out: a component
+whose effect is the same translation everywhere is not drawn. The machine's own terms are
+replaced by these shapes. For every draw the exact volumetric error is
 evaluated at every grid point; the study reports the distribution of the largest and of the
 RMS position error over the grid, the probability that the largest stays within a target
 ``T``, the components that drive it (Sobol' first-order and total indices of the largest
@@ -20,41 +23,16 @@ import numpy as np
 
 from ..base.errors import InputError
 from ..model.machine import Machine
-from ..model.spec import parse_component_name
-from ..model.specio import replace_terms
 from ..base.safeio import require_memory
 from ..base.units import UM_PER_M
 from .allocation import Reallocation, reallocate
 from .engine import Engine, InProcess
-from .montecarlo import MonteCarlo, RowsSource, ToleranceSource, make_points, run_monte_carlo
+from .montecarlo import MonteCarlo, make_points, run_monte_carlo
+from .shapes import LEFT_OUT, Shape, ShapedSource, shape_machine, shapes_of, work_offset_components
 from .sobol import SobolIndices, sobol_indices
 from .tolerances import Tolerances
 
-__all__ = ["ToleranceStudy", "check_arguments", "study_tolerances", "tolerance_machine", "tolerance_source"]
-
-
-def tolerance_machine(machine: Machine) -> tuple[Machine, np.ndarray]:
-    """The machine with every component replaced by one constant (zero) coefficient.
-
-    Parameters
-    ----------
-    machine : Machine
-        The machine (its state is kept).
-
-    Returns
-    -------
-    machine : Machine
-        The new machine.
-    index : ndarray of int, shape (n_components,)
-        The coefficient of each of ``machine.components`` in the new machine's theta.
-    """
-    tables = {c: {"kind": "constant", ("value_arcsec" if parse_component_name(c)[0] in "ABC" else "value_um"): 0.0}
-              for c in machine.components}
-    constant = replace_terms(machine, tables)
-    names = constant.parameter_names
-    owner = [n.split(".", 1)[0] for n in names]
-    index = np.array([owner.index(c) for c in machine.components], dtype=int)
-    return constant, index
+__all__ = ["DesignSource", "ToleranceStudy", "check_arguments", "study_tolerances", "tolerance_source"]
 
 
 @dataclass(frozen=True)
@@ -85,6 +63,10 @@ class ToleranceStudy:
         Drivers of the largest error (None when not asked for).
     reallocation : Reallocation or None
         The suggestion (None without a target, or when not asked for).
+    shapes : tuple of Shape
+        How each component was drawn.
+    left_out : tuple of str
+        The components not drawn: a work offset removes them.
     """
 
     machine: str
@@ -98,6 +80,8 @@ class ToleranceStudy:
     target_probability: float
     sobol: SobolIndices | None
     reallocation: Reallocation | None
+    shapes: tuple[Shape, ...] = ()
+    left_out: tuple[str, ...] = ()
 
     @property
     def probability(self) -> float | None:
@@ -116,7 +100,9 @@ class ToleranceStudy:
             ``probability_se``, ``target_probability``, ``drivers`` (``component``,
             ``first_order``, ``total``, ``first_order_conf``, ``total_conf``), ``sobol_runs``,
             ``sobol_resolution`` (:meth:`~volerr_pin.studies.sobol.SobolIndices.resolution`; null
-            without indices), ``tolerances`` and ``reallocation``.
+            without indices), ``tolerances``, ``reallocation``, ``shapes`` (per component
+            ``component``, ``shape``, ``excludes``, ``basis``) and ``left_out`` (per component
+            left out, ``component`` and ``reason``).
         """
         mx, rms = self.run.max * UM_PER_M, self.run.rms * UM_PER_M
         p = self.probability
@@ -135,36 +121,36 @@ class ToleranceStudy:
                 "sobol_runs": 0 if self.sobol is None else self.sobol.runs,
                 "sobol_resolution": None if self.sobol is None else self.sobol.resolution(),
                 "tolerances": self.tolerances.to_dict(),
-                "reallocation": None if self.reallocation is None else self.reallocation.to_dict()}
+                "reallocation": None if self.reallocation is None else self.reallocation.to_dict(),
+                "shapes": [{"component": s.component, "shape": s.name, "excludes": s.excluded, "basis": s.basis}
+                           for s in self.shapes],
+                "left_out": [{"component": c, "reason": LEFT_OUT} for c in self.left_out]}
 
 
-def tolerance_source(tolerances: Tolerances, index: np.ndarray, n_params: int, seed: int) -> ToleranceSource:
-    """The draws of a tolerance study: each component's coefficient within its tolerance.
+def tolerance_source(machine: Machine, tolerances: Tolerances, seed: int) -> tuple[Machine, ShapedSource]:
+    """The study's machine and its draws: every component as its shape (:mod:`.shapes`), within
+    its tolerance.
 
     Parameters
     ----------
+    machine : Machine
+        The machine (its state is kept; its own error values are not used).
     tolerances : Tolerances
         One per component.
-    index : ndarray of int, shape (n_components,)
-        The coefficient of each component (from :func:`tolerance_machine`).
-    n_params : int
-        Coefficients of the tolerance machine.
     seed : int
         The study's seed.
 
     Returns
     -------
-    ToleranceSource
-        Scales and distributions per coefficient.
+    machine : Machine
+        The machine with every component's terms replaced by its shape's, all zero.
+    source : ShapedSource
+        The draws.
     """
-    from .distributions import DISTRIBUTIONS
-
-    scale = np.zeros(n_params)
-    dists = [DISTRIBUTIONS["uniform"]] * n_params
-    for e, k in zip(tolerances.entries, index):
-        scale[k] = e.value
-        dists[k] = e.distribution
-    return ToleranceSource(scale, tuple(dists), seed)
+    shapes = shapes_of(machine)
+    shaped, columns = shape_machine(machine, shapes)
+    return shaped, ShapedSource(shapes, columns, tolerances.values, tuple(e.distribution for e in tolerances.entries),
+                                len(shaped.parameter_names), int(seed))
 
 
 def check_arguments(samples, seed, target=None, target_probability: float = 0.95, sobol_samples=None
@@ -260,36 +246,75 @@ def study_tolerances(machine: Machine, tolerances: Tolerances, q: np.ndarray, *,
         raise InputError(f"tolerances: {tolerances.source} gives the components {', '.join(tolerances.components)}, "
                          f"not those of {machine.name}", parameters=("tolerances",))
     engine = engine or InProcess()
-    constant, index = tolerance_machine(machine)
-    points = make_points(constant, q)
-    source = tolerance_source(tolerances, index, len(constant.parameter_names), int(seed))
+    shaped, source = tolerance_source(machine, tolerances, int(seed))
+    points = make_points(shaped, q)
+    left_out = work_offset_components(shaped, source.columns, points.q, source.shapes)
+    drawn = tolerances.values.copy()
+    drawn[left_out] = 0.0
+    source = source.with_tolerance(drawn)
     stage = (lambda name: (lambda done, total: progress(name, done, total))) if progress else (lambda name: None)
-    run = run_monte_carlo(constant, source, points, samples, engine=engine, per_point=False,
+    run = run_monte_carlo(shaped, source, points, samples, engine=engine, per_point=False,
                           progress=stage("Monte Carlo"))
     indices = None
-    active = [k for k, e in enumerate(tolerances.entries) if e.value > 0]
+    active = [k for k in range(len(drawn)) if drawn[k] > 0]
     if sobol_samples and active:
+        problem = source.design_problem(active, [tolerances.entries[k].component for k in active])
         runs = sobol_samples * (len(active) + 2)
-        require_memory(runs * (len(active) + len(constant.parameter_names) + 4) * 8.0,
-                       f"a Sobol' design of {runs:,} runs", ("sobol_samples",))
-        problem = {"num_vars": len(active), "names": [tolerances.entries[k].component for k in active],
-                   "bounds": [], "dists": []}
-        for k in active:
-            e = tolerances.entries[k]
-            name, bound = e.distribution.salib(e.value)
-            problem["dists"].append(name)
-            problem["bounds"].append(bound)
+        require_memory(runs * (problem["num_vars"] + 4) * 8.0, f"a Sobol' design of {runs:,} runs",
+                       ("sobol_samples",))
 
         def model(X: np.ndarray) -> np.ndarray:
-            rows = np.zeros((len(X), len(constant.parameter_names)))
-            rows[:, index[active]] = X
-            return run_monte_carlo(constant, RowsSource(rows), points, len(X), engine=engine, per_point=False,
-                                   progress=stage("Sobol' indices")).max
+            return run_monte_carlo(shaped, DesignSource(source, X, tuple(active)), points, len(X), engine=engine,
+                                   per_point=False, progress=stage("Sobol' indices")).max
 
         indices = sobol_indices(problem, model, sobol_samples, seed)
     suggestion = None
     if reallocation and target is not None and active:
-        suggestion = reallocate(constant, tolerances, index, points, source, target, target_probability, run,
-                                samples=samples, seed=int(seed), engine=engine, progress=progress)
+        suggestion = reallocate(shaped, tolerances, points, source, target, target_probability, run,
+                                samples=samples, seed=int(seed), engine=engine, progress=progress,
+                                left_out=left_out)
     return ToleranceStudy(machine.name, tolerances, points.n, samples, int(seed), engine.workers, run, target,
-                          target_probability, indices, suggestion)
+                          target_probability, indices, suggestion, source.shapes,
+                          tuple(tolerances.entries[k].component for k in left_out))
+
+
+@dataclass(frozen=True)
+class DesignSource:
+    """The coefficient vectors of a design (Saltelli's), made where they are evaluated: only the
+    design's inputs travel (a few numbers per component and run), not the vectors.
+
+    Attributes
+    ----------
+    source : ShapedSource
+        The study's shapes.
+    design : ndarray, shape (runs, inputs)
+        Per active component its magnitude, then its shape's uniform numbers.
+    active : tuple of int
+        The components the design varies.
+    """
+
+    source: ShapedSource
+    design: np.ndarray
+    active: tuple[int, ...]
+
+    @property
+    def parameters(self) -> int:
+        """Length of the coefficient vector (int)."""
+        return self.source.parameters
+
+    def rows(self, chunk: int, start: int, stop: int) -> np.ndarray:
+        """Coefficient vectors of runs ``start`` to ``stop`` (ThetaSource).
+
+        Parameters
+        ----------
+        chunk : int
+            Chunk index (unused).
+        start, stop : int
+            Run range.
+
+        Returns
+        -------
+        ndarray, shape (stop - start, P)
+            Coefficient vectors [SI].
+        """
+        return self.source.design_rows(self.design[start:stop], self.active)
