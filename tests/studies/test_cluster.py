@@ -12,6 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from volerr_pin.cli import main
@@ -114,3 +115,42 @@ def test_a_cluster_gets_pieces_of_work_worth_sending_and_folds_them_in_order(clu
     assert got == list(InProcess().map(_slow_square, (1000,), tasks)) == [1000 + k * k for k in range(200)]
     assert sum(pieces) == 200 and len(pieces) < 60 and max(pieces) > 10   # 20 ms tasks: about 25 a piece
     assert pieces[-1] <= 200 // 4 and done[-1] == 200 and done == sorted(done)
+
+
+def test_a_study_sends_its_machine_and_points_to_the_workers_once(cluster, machines, tmp_path):
+    """A tolerance study with its Sobol' design and re-allocation maps several runs; what names
+    its content (the machine, the points) is scattered once and kept, the runs' own sources are
+    scattered with their run and released after it; the numbers are those of one process."""
+    from distributed import Client
+
+    from volerr_pin.model.workspace import grid
+    from volerr_pin.studies.engine import DaskEngine
+    from volerr_pin.studies.tolerance import study_tolerances
+    from volerr_pin.studies.tolerances import read_tolerance_file
+
+    m = machines["vmc500"]
+    path = tmp_path / "tol.toml"
+    path.write_text("EXX_um = 5\nEC0Y_arcsec = 3\ndefault_um = 1\ndefault_arcsec = 1\n")
+    tol = read_tolerance_file(path, m)
+    kwargs = dict(samples=600, seed=3, target=6e-6, sobol_samples=8)
+    with Client(cluster) as client:
+        engine = DaskEngine(client, "test cluster")
+        sent = []
+        scatter = client.scatter
+
+        def counting(data, **kwargs):
+            sent.append(type(data[0]).__name__)
+            return scatter(data, **kwargs)
+
+        client.scatter = counting
+        on_cluster = study_tolerances(m, tol, grid(m, 3), engine=engine, **kwargs)
+        kept = len(engine._kept)
+        engine.close()
+    here = study_tolerances(m, tol, grid(m, 3), **kwargs)
+    runs = 2 + on_cluster.reallocation.rounds            # Monte Carlo, Sobol', re-simulations
+    assert sent.count("PortableMachine") == 1 and sent.count("Points") == 1 and kept == 2
+    assert sent.count("ShapedSource") == 1 + on_cluster.reallocation.rounds and sent.count("DesignSource") == 1
+    assert len(sent) == 2 + runs
+    np.testing.assert_array_equal(on_cluster.run.max, here.run.max)
+    assert on_cluster.to_dict()["drivers"] == here.to_dict()["drivers"]
+    assert on_cluster.reallocation.to_dict() == here.reallocation.to_dict()

@@ -10,8 +10,10 @@ back the results in that order, so a study gives the same numbers on 1 or N work
   :func:`local_cluster` of worker processes on the loopback (the command line's default,
   sized to this machine's cores), or :func:`connect` to a scheduler. At most
   ``window`` tasks are in flight or waiting to be folded, so the memory of a run stays
-  bounded however many tasks it has. Objects every task needs (the machine, the points)
-  are scattered to the workers once per map.
+  bounded however many tasks it has. Objects every task needs are scattered to the workers
+  once; those that name their content (``scatter_key``: the machine, the points) stay there
+  for the engine's later maps, so a study of several runs (Monte Carlo, Sobol' design,
+  re-simulations) sends its machine and points once.
 
 Machines cross process boundaries as :class:`PortableMachine`: the spec, the URDF text,
 the coefficients and the state (about 10 kB; a machine is rebuilt on a worker in 20-60 ms,
@@ -107,6 +109,11 @@ class PortableMachine:
         self._state = machine.state
         self.key = hashlib.sha1(pickle.dumps((self._spec, self._urdf, self._theta, sorted(self._state)))
                                 + repr(self._state).encode()).hexdigest()
+
+    @property
+    def scatter_key(self) -> str:
+        """Names the content: an engine keeps it on its workers under this key (str)."""
+        return "machine-" + self.key
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
@@ -259,6 +266,14 @@ class DaskEngine:
         at least 4): what bounds the memory held for results.
     owned : tuple, optional
         Objects to close with the engine (the client and the local cluster it made).
+
+    Attributes
+    ----------
+    busy_seconds : float
+        The time the workers spent in tasks, summed over the pieces of every map so far (what
+        the cost model in docs/studies.md calls the parallel work).
+    pieces : int
+        Pieces of work sent so far.
     """
 
     def __init__(self, client, where: str, window: int | None = None, owned: tuple = ()):
@@ -270,6 +285,25 @@ class DaskEngine:
         threads = sum(int(w.get("nthreads", 1)) for w in workers.values()) or 1
         self.window = int(window) if window else max(4, 4 * threads)
         self._owned = owned
+        self.busy_seconds = 0.0
+        self.pieces = 0
+        self._kept: dict = {}    # scatter_key -> future of what stays on the workers
+
+    #: objects an engine keeps on its workers between maps, at most
+    KEEP = 8
+
+    def _scatter(self, value):
+        """A future of ``value`` on every worker, and whether it is this map's alone."""
+        key = getattr(value, "scatter_key", None)
+        if key is not None and key in self._kept:
+            return self._kept[key], False
+        future = self.client.scatter([value], broadcast=True, hash=False)[0]
+        if key is None:
+            return future, True
+        while len(self._kept) >= self.KEEP:
+            self._kept.pop(next(iter(self._kept))).release()
+        self._kept[key] = future
+        return future, False
 
     def map(self, fn, shared, tasks, progress=None):
         """``fn(*shared, *task)`` for every task on the cluster, yielded in task order (see
@@ -296,7 +330,8 @@ class DaskEngine:
         tasks = list(tasks)
         if not tasks:
             return
-        scattered = [self.client.scatter([s], broadcast=True, hash=False)[0] for s in shared]
+        sent = [self._scatter(s) for s in shared]
+        scattered = [future for future, _ in sent]
         order: dict = {}
         pending: dict = {}
         waiting: dict[int, list] = {}
@@ -327,6 +362,8 @@ class DaskEngine:
                 seconds, results = future.result()  # re-raises the task's own exception
                 future.release()
                 in_flight -= 1
+                self.busy_seconds += seconds
+                self.pieces += 1
                 if count:   # tasks per piece for about TASK_SECONDS, from this piece's measured time
                     size = max(1, min(4096, int(TASK_SECONDS / max(seconds / count, 1e-6))))
                 waiting[index] = results
@@ -341,11 +378,16 @@ class DaskEngine:
         finally:
             for future in pending.values():
                 future.cancel()
-            for s in scattered:
-                s.release()
+            for future, own in sent:
+                if own:
+                    future.release()
 
     def close(self) -> None:
         """Close the client and, for a local cluster, the cluster and its workers."""
+        for future in self._kept.values():
+            with contextlib.suppress(Exception):
+                future.release()
+        self._kept.clear()
         for thing in self._owned:
             with contextlib.suppress(Exception):
                 thing.close()

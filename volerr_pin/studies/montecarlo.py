@@ -180,6 +180,14 @@ class Points:
     key: str = ""
 
     @property
+    def scatter_key(self) -> str:
+        """Names the whole content (positions, offsets, reference): an engine keeps the points on
+        its workers under it (str)."""
+        digest = hashlib.sha1(self.key.encode() + np.ascontiguousarray(self.offset).tobytes()
+                              + np.ascontiguousarray(self.reference).tobytes()).hexdigest()
+        return "points-" + digest
+
+    @property
     def n(self) -> int:
         """Number of points (int)."""
         return len(self.q)

@@ -53,6 +53,8 @@ __all__ = ["LEFT_OUT", "NODE_STEP", "Shape", "ShapedSource", "legendre_range", "
 NODE_STEP = math.radians(10.0)
 #: uniform numbers a shape takes per draw besides its magnitude (mix and two phases)
 SHAPE_INPUTS = 3
+#: points whose sensitivities :func:`work_offset_components` holds at a time
+SENSITIVITY_BLOCK = 512
 #: why a component is left out of a study
 LEFT_OUT = "a work offset removes what it does, the same translation at every point"
 
@@ -307,14 +309,17 @@ def work_offset_components(machine: Machine, columns, q: np.ndarray, shapes) -> 
     constant = [k for k, s in enumerate(shapes) if s.family == "constant"]
     if not constant or len(q) < 2:
         return []
-    S = machine.sensitivity(q, first_order=True)[:, :3, :]
-    out = []
-    for k in constant:
-        col = S[:, :, columns[k][0]]
-        size = np.abs(col).max()
-        if size > 0 and np.abs(col - col[:1]).max() <= 1e-9 * size:
-            out.append(k)
-    return out
+    cols = [int(columns[k][0]) for k in constant]
+    first = None
+    size = np.zeros(len(cols))
+    spread = np.zeros(len(cols))
+    for start in range(0, len(q), SENSITIVITY_BLOCK):   # the sensitivities of a block at a time
+        S = machine.sensitivity(q[start:start + SENSITIVITY_BLOCK], first_order=True)[:, :3, cols]
+        if first is None:
+            first = S[:1]
+        size = np.maximum(size, np.abs(S).max(axis=(0, 1)))
+        spread = np.maximum(spread, np.abs(S - first).max(axis=(0, 1)))
+    return [k for k, a, b in zip(constant, size, spread) if a > 0 and b <= 1e-9 * a]
 
 
 @dataclass(frozen=True)
