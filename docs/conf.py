@@ -52,6 +52,23 @@ numpydoc_show_class_members = False  # autodoc documents the members in full
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
 
-html_theme = "alabaster"
+# pydata-sphinx-theme: the look and navigation of NumPy, SciPy and pandas, which our readers
+# already know (sections in the top bar, the section's pages on the left, the page's
+# headings on the right, search, light and dark); its content column is widened (_static)
+# so that the reports' wide tables and the multi-panel pictures keep their size
+html_theme = "pydata_sphinx_theme"
 html_title = "volerr_pin"
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+html_css_files = ["wide.css"]
+html_theme_options = {
+    "navbar_align": "left",
+    "show_toc_level": 2,
+    "navigation_depth": 2,
+    "show_prev_next": True,
+    "header_links_before_dropdown": 6,
+    "secondary_sidebar_items": ["page-toc"],
+    "footer_start": ["copyright"],
+    "footer_end": [],
+}
+html_sidebars = {"**": ["sidebar-nav-bs"]}
+html_show_sourcelink = False

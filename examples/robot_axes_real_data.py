@@ -17,7 +17,9 @@ reflectors on its tool, and identifies every joint's constant errors from all 36
 through the tracker model.
 
 Run it with ``python examples/robot_axes_real_data.py``; set ``VOLERR_REAL_DATA`` if the data
-are not at ``shared/real-data`` beside the repository.
+are not at ``shared/real-data`` beside the repository. Source:
+github.com/RABKKK/LaserTrackerPoseData4KinIdent (no licence stated, so not in this repository;
+docs/real-data.md gives the layout).
 """
 
 from __future__ import annotations
@@ -60,7 +62,9 @@ def sweeps(table: np.ndarray) -> list[tuple[int, np.ndarray, np.ndarray]]:
 def main() -> dict | None:
     path = data_file()
     if path is None:
-        print("real data not found: set VOLERR_REAL_DATA or put shared/real-data beside the repository")
+        print("real data not found: this example needs laser_tracker_robot_rabkkk/N1N2N3Jval.csv from its public "
+              "source (docs/real-data.md says where and how to lay it out), in the folder named by VOLERR_REAL_DATA "
+              "or in shared/real-data beside the repository")
         return None
     table = np.loadtxt(path)
     axes = {}

@@ -1,11 +1,14 @@
 """Thermal models on real measurements from other groups (read in place, never copied).
 
-Looks for the data in ``$VOLERR_REAL_DATA`` or in ``shared/real-data`` beside the repository:
+Looks for the data in ``$VOLERR_REAL_DATA`` or in ``shared/real-data`` beside the repository;
+docs/real-data.md gives their public sources (no licence is stated, so they are not in this
+repository) and the layout:
 
-- ``sjtu_spindle_thermal``: a motorised spindle over 78 h at 1 min, thermal elongation
+- ``sjtu_spindle_thermal`` (R. Du, github.com/ruoheng-du/thermal-expansion-error-prediction):
+  a motorised spindle over 78 h at 1 min, thermal elongation
   ``delta L`` [um] and 16 temperatures. The published one-step-ahead linear model
   ``delta_L(t) ~ 1 + T0..T15(t-1) + delta_L(t-1)`` has residual SE 0.125 um and R^2 0.9987.
-- ``gooddash_thermal_batches``: five batches of 22 temperature rises and a thermal error;
+- ``gooddash_thermal_batches`` (github.com/GOODDASH/soft_py): five batches of 22 temperature rises and a thermal error;
   fit on four batches, predict the fifth.
 
 Run it with ``python examples/thermal_real_data.py``.
@@ -74,7 +77,9 @@ def batches(root: Path) -> dict:
 def main() -> int:
     root = data_dir()
     if root is None:
-        print("real data not found: set VOLERR_REAL_DATA or put shared/real-data beside the repository")
+        print("real data not found: this example needs sjtu_spindle_thermal/spindle_thermal_original.csv and "
+              "gooddash_thermal_batches/data_ex1.csv ... data_ex5.csv from their public sources (docs/real-data.md says where and how to lay them out), in the folder named by VOLERR_REAL_DATA "
+              "or in shared/real-data beside the repository")
         return 0
     spindle(root)
     batches(root)

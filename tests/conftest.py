@@ -13,6 +13,23 @@ import volerr_pin as vp
 ALL_MACHINES = ["vmc500", "vmc700", "lathe_2axis", "cgm4000", "gear_roller", "ur5"]
 
 
+@pytest.fixture(scope="session", autouse=True)
+def nothing_written_where_pytest_runs():
+    """Tests write only into temporary folders: a run from a clone (the README's command) must
+    leave its folder as it found it, and never replace a user's file there (the Quick start's
+    volerr_demo.rrd was overwritten by a demo test once)."""
+    here = os.getcwd()
+
+    def listing():   # every entry's name; a file's time too (folders change as caches fill them)
+        return {(e.name, e.stat().st_mtime_ns if e.is_file() else 0) for e in os.scandir(here)
+                if not e.name.startswith(".")}
+
+    before = listing()
+    yield
+    changed = sorted(name for name, _ in listing() ^ before)
+    assert not changed, f"tests wrote into the folder pytest runs in ({here}): {', '.join(sorted(set(changed)))}"
+
+
 def needs_device(path: str):
     """Skip a case built on the system's character device ``path`` (``/dev/zero``, ``/dev/full``)
     where it is not one: some sandboxes make these plain files, and the case would test nothing."""

@@ -182,10 +182,17 @@ def test_links_in_the_docs_resolve():
             if "://" in target:
                 continue
             path = (page.parent / target).resolve()
-            if path.parent == (DOCS / "_generated").resolve():
+            if path.parent == (DOCS / "images" / "guide").resolve():
                 assert path.name in drawn, f"{_name(page)}: picture {target} is not drawn by the docs build"
-            else:
-                assert path.exists(), f"{_name(page)}: link to missing {target}"
+            assert path.exists(), f"{_name(page)}: link to missing {target}"
+
+
+def test_the_guides_pictures_are_committed_where_the_pages_link_them():
+    """The guide's pictures show on the repository's web view too: each one the docs build draws
+    is in the repository, at the path the pages link."""
+    for name in _ext("figures").FIGURES:
+        png = DOCS / "images" / "guide" / name
+        assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", png
 
 
 INLINE = re.compile(r"(?<!`)`([^`\n]+)`(?!`)")

@@ -2,13 +2,15 @@
 
 Each picture is what a reader gets from the command beside it in the guide, run on the sample
 data of ``examples/data/``: the build runs the commands of :data:`FIGURES` (in this process,
-through :func:`volerr_pin.cli.main`, from the repository's root) into ``docs/_generated/``
-(ignored by git), before the pages are read. A picture is drawn again when it is missing or
-older than the package, the bundled machines or the sample data, so a change of the product
-shows in the next build. A command that fails stops the build.
+through :func:`volerr_pin.cli.main`, from the repository's root) into ``docs/images/guide/``,
+before the pages are read. A picture is drawn again when it is missing or older than the
+package, the bundled machines or the sample data, so a change of the product shows in the next
+build. A command that fails stops the build.
 
-The pages show them as ``![...](../_generated/NAME.png)``; ``tests/test_readme.py`` holds that
-every such link names a picture of :data:`FIGURES`.
+The pictures are committed, so that the pages show them where Markdown is read as it is (the
+repository's web view) as well as on the site: ``![...](../images/guide/NAME.png)``.
+``tests/test_readme.py`` holds that every such link names a picture of :data:`FIGURES` and
+that every picture of :data:`FIGURES` is there.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-OUT = ROOT / "docs" / "_generated"
+OUT = ROOT / "docs" / "images" / "guide"
 
 #: picture name -> the ``volerr`` arguments that draw it ({png}: the picture, {tmp}: a scratch folder)
 FIGURES: dict[str, list[str]] = {

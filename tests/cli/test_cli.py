@@ -8,6 +8,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+import volerr_pin as vp
 from volerr_pin.cli import main
 
 
@@ -50,13 +51,15 @@ def test_bad_machine_exits_2_with_one_line(capsys):
     assert captured.err.count("\n") == 1 and "nonexistent_machine" in captured.err
 
 
-def test_demo_prints_summary(capsys):
+def test_demo_prints_summary(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)       # the default recording lands here, never in the user's folder
     assert main(["demo", "--grid", "3"]) == 0
     out = capsys.readouterr().out
     assert "vmc500" in out and "volumetric error over 27 workspace points" in out
 
 
-def test_demo_json(capsys):
+def test_demo_json(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
     assert main(["demo", "--grid", "3", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["summary"]["points"] == 27
@@ -232,10 +235,10 @@ def test_covariates_in_some_files_only(tmp_path, capsys):
     assert main(["identify", "vmc500", str(points), str(run), "--folds", "0", "--json"]) == 0
     captured = capsys.readouterr()
     assert json.loads(captured.out)["n_points"] == 71
-    assert "note: covariate 't' is in some measurement files but not in others" in captured.err
+    assert "note: the time column t is in some measurement files but not in others" in captured.err
     _, spec = _thermal_spec(tmp_path)
     assert main(["identify", str(spec), str(points), str(run), "--folds", "0"]) == 2
-    assert "covariate 't' is in some measurement files but not in others" in capsys.readouterr().err
+    assert "the time column t is in some measurement files but not in others" in capsys.readouterr().err
 
 
 def test_json_reports_are_strict_json():
@@ -310,3 +313,46 @@ def test_state_the_machine_does_not_read_is_noted(tmp_path, capsys):
                  "--json"]) == 0
     assert "does not read sensor 'colum', which change nothing (temperature sensors it reads: bed, column, " \
            "spindle)" in capsys.readouterr().err
+
+
+def test_rank_says_what_state_it_ranked_in_and_where_backlash_sits(tmp_path, capsys):
+    """A backlash term without directions is at its mean (the spec format's d = 0): rank says so
+    in its header and on stderr, and echoes the state; with directions it does neither."""
+    from volerr_pin.model.specio import add_terms, write_spec
+
+    spec = tmp_path / "backlash.toml"
+    write_spec(add_terms(vp.load_machine("vmc500"), {"EXX": {"kind": "backlash", "reversal_um": 4.0}}), spec)
+    assert main(["rank", str(spec), "--top", "3", "--points", "64"]) == 0
+    out, err = capsys.readouterr()
+    assert "backlash at its mean: no directions in --state" in out and "half-way between" in err
+    assert main(["rank", str(spec), "--top", "3", "--points", "64", "--state", "directions=1,-1,1"]) == 0
+    out, err = capsys.readouterr()
+    assert "state directions=1,-1,1)" in " ".join(out.split()) and "backlash" not in err
+
+
+def test_demo_on_a_machine_without_error_values_says_so(tmp_path, capsys):
+    """A bare URDF gets zero-valued terms: the demo says the field is zero and why the shares are."""
+    from pathlib import Path
+
+    urdf = Path(__file__).resolve().parents[2] / "examples" / "data" / "two_link_arm.urdf"
+    assert main(["demo", "--machine", str(urdf), "--tool-frame", "tool0", "--workpiece-frame", "world",
+                 "--grid", "3", "--out", str(tmp_path / "d.rrd")]) == 0
+    out, err = capsys.readouterr()
+    assert "has no error values: every error term is zero" in err
+    assert "no error values: the ranking below lists the terms, every one with a zero share" in out
+
+
+def test_info_shows_where_a_written_specs_values_came_from(tmp_path, capsys):
+    from pathlib import Path
+
+    data = Path(__file__).resolve().parents[2] / "examples" / "data" / "vmc500_tracker.csv"
+    out = tmp_path / "identified.toml"
+    assert main(["identify", "vmc500", str(data), "-o", str(out), "--json"]) == 0
+    capsys.readouterr()
+    assert main(["info", str(out), "--json"]) == 0
+    provenance = json.loads(capsys.readouterr().out)["provenance"]
+    assert provenance["derived_from"].endswith("errors.toml") and provenance["n_points"] == 300
+    assert main(["info", str(out)]) == 0
+    assert "provenance: written " in capsys.readouterr().out
+    assert main(["info", "vmc500", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["provenance"] is None

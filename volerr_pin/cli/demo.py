@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import sys
+
+import numpy as np
+
 from ..model.describe import machine_info
 from ..fit.ranking import rank
 from ..base.safeio import transaction
@@ -47,6 +51,11 @@ def run(args) -> int:
     console = table_console()
     print_info(console, info)
     print_summary(console, summary, machine.axes)
+    if not np.any(machine.theta):
+        print(f"volerr: note: {machine.name} has no error values: every error term is zero (a bare URDF gets "
+              "zero-valued terms), so the field is zero and the ranking has no shares; give a spec with values "
+              "(docs/spec-format.md) to see its errors", file=sys.stderr)
+        console.print("no error values: the ranking below lists the terms, every one with a zero share")
     print_ranking(console, ranking, f"top {args.top} error sources at the tool "
                                      f"({ranking['points']} Sobol' points; share of all terms)")
     c = compensation

@@ -110,7 +110,8 @@ def run(args) -> int:
         twins = e.same_at_tool_as
         site = e.component + (f" (the same at the tool as {', '.join(twins)})" if twins else "")
         table.add_row(str(i), e.name, e.axis or "-", e.direction or "-", escape(e.driver or "-"), escape(site),
-                      f"{e.rms_before_um:.3f} -> {e.rms_after_um:.3f}", f"{e.p_value:.2g}")
+                      f"{e.rms_before_um:.3f} -> {e.rms_after_um:.3f}",
+                      f"{e.p_value:.2g}" if e.p_value > 0 else "< 1e-300")
     out.print(table)
     for e in result.effects:
         out.print(escape(f"{e.label}:"))

@@ -53,6 +53,12 @@ def run(args) -> int:
     else:
         console = table_console()
         what = "tolerances" if tolerances else "current error values"
+        if args.state:
+            what += ", state " + " ".join(args.state)
+        if "directions" in machine.covariates_used and "directions" not in machine.state:
+            what += "; backlash at its mean: no directions in --state"
+            print("volerr: note: no directions in --state: backlash terms are taken at their mean, half-way "
+                  "between the two approach directions (add directions=+1,-1,... to rank one side)", file=sys.stderr)
         print_ranking(console, result, f"{machine.name}: tool-point error by {args.by} "
                                         f"({args.points} points, direction {args.direction}, {what})")
         from ..fit.identify import parameter_units

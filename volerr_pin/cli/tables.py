@@ -17,6 +17,12 @@ def print_info(console: Console, info: dict) -> None:
                      " (a bare URDF: no error terms until a spec gives them)" if not info.get("components") else ""))
     if info["source"]:
         console.print(f"source: {escape(info['source'])}")
+    provenance = info.get("provenance")
+    if provenance:
+        flat = "; ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in provenance.items()
+                         if not isinstance(v, (dict, list)))
+        console.print(escape(f"provenance: {flat}" + ("; --json gives the rest" if any(
+            isinstance(v, (dict, list)) for v in provenance.values()) else "")))
     console.print(f"tool frame '{info['tool_frame']}', workpiece frame '{info['workpiece_frame']}'")
     chains = info["chains"]
     console.print(f"tool chain: bed - {' - '.join(chains['tool']) or '(no axis)'} - tool;  "

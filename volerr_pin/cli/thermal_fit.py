@@ -56,9 +56,13 @@ def run(args) -> int:
                          f"{len(result['sensors'])} sensor(s); {result['n_fit']} fitted rows"))
     console.print(f"R^2 {result['r2']:.5f}, residual standard error {result['residual_se']:.4g} "
                   "(unit of the target)")
+    coefficients = result.get("coefficients") or {}
+    if coefficients:
+        console.print(escape("fitted model: " + ", ".join(f"{name} {value:+.5g}" for name, value in coefficients.items())
+                             + " (the constant in the target's unit, the others per unit of their column)"))
     if result["n_holdout"]:
-        where = "the test file(s)" if test is not None else "the last rows"
-        console.print(f"held out: {result['n_holdout']} rows of {where}, RMSE {result['rmse_holdout']:.4g}")
+        where = "of the test file(s)" if test is not None else f"the last {args.holdout * 100:g} % of the file"
+        console.print(f"held out: {result['n_holdout']} rows, {where}; RMSE {result['rmse_holdout']:.4g}")
     table = Table(box=box.SIMPLE, title="most informative sensors (greedy forward selection)")
     table.add_column("#", justify="right")
     table.add_column("sensor")

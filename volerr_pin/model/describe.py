@@ -32,7 +32,8 @@ def machine_info(machine: Machine) -> dict:
         ``joint``, ``kind``, ``unit``, ``travel``, ``chain``, ``sign``, ``errors_frame``),
         ``bodies``, ``chains``, ``terms_by_kind``, ``components`` (per component ``name``,
         ``owner``, ``kinds``, ``unit``, ``min``, ``max``, ``parameters``), ``ranges_of``,
-        ``n_error_joints`` and ``n_parameters``.
+        ``n_error_joints``, ``n_parameters`` and ``provenance`` (the spec's ``[provenance]``
+        table: where a written spec's values came from; None when it has none).
     """
     spec = machine.spec
     chains = machine.chains
@@ -98,6 +99,7 @@ def machine_info(machine: Machine) -> dict:
         "terms_by_kind": by_kind,
         "components": components,
         "ranges_of": ranges_of,
+        "provenance": (spec.extra or {}).get("provenance"),
         "n_error_joints": len(machine.error_joints),
         "n_parameters": len(machine.parameter_names),
     }

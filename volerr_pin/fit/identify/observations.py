@@ -329,6 +329,12 @@ def _stacked_poses(blocks: list[ObservationBlock], q: np.ndarray, starts: np.nda
     return pose
 
 
+#: what the files call each covariate (the measurement files' columns, docs/measurements.md)
+COLUMNS_OF = {"t": "the time column t is", "temperatures": "the temperature columns T_<sensor> are",
+              "forces": "the force columns Fx, Fy, Fz are", "directions": "the direction columns dir_<axis> are",
+              "series": "the series column is"}
+
+
 def _merge_covariates(parts: list[dict], sizes: list[int], machine: Machine) -> dict:
     """Stack per-file covariates; a covariate the model reads must be in every file or in none
     (directions default to +1 where a file does not give them); one it does not read and only
@@ -342,11 +348,12 @@ def _merge_covariates(parts: list[dict], sizes: list[int], machine: Machine) -> 
             continue
         missing = [i for i, p in enumerate(parts) if key not in p]
         if missing:
+            name = COLUMNS_OF.get(key, f"covariate '{key}' is")
             if key in machine.covariates_used:
-                raise InputError(f"covariate '{key}' is in some measurement files but not in others "
+                raise InputError(f"{name} in some measurement files but not in others "
                                  f"(missing from {len(missing)} of {len(parts)}); the model of "
                                  f"{machine.name} needs it at every point")
-            warnings.warn(f"covariate '{key}' is in some measurement files but not in others; "
+            warnings.warn(f"{name} in some measurement files but not in others; "
                           f"{machine.name}'s model does not read it, so it is not used", stacklevel=5)
             continue
         if key == "temperatures":
