@@ -356,3 +356,21 @@ def test_info_shows_where_a_written_specs_values_came_from(tmp_path, capsys):
     assert "provenance: written " in capsys.readouterr().out
     assert main(["info", "vmc500", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["provenance"] is None
+
+
+def test_field_png_slices_the_plane_asked_for(tmp_path, capsys):
+    """--slice picks the picture's plane; --config places the axes it does not span (and says so
+    when it names one the slice spans); a slice of a rotary or unknown axis is refused."""
+    png = tmp_path / "xz.png"
+    assert main(["field", "vmc500", "--out", str(tmp_path / "f.rrd"), "--png", str(png), "--slice", "X", "Z",
+                 "--config", "X=400", "Y=100", "--grid", "3", "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert png.stat().st_size > 10_000 and json.loads(out)["png"] == str(png)
+    assert "--config X: the --png slice spans X and Z over their whole travel" in err
+    for argv, message in ((["--slice", "X", "Q", "--png", str(tmp_path / "q.png")], "'Q' is not an axis of vmc500"),
+                          (["--slice", "X", "Z"], "give --png too")):
+        assert main(["field", "vmc500", "--out", str(tmp_path / "g.rrd"), *argv]) == 2
+        assert message in capsys.readouterr().err
+    assert main(["field", "cgm4000", "--out", str(tmp_path / "h.rrd"), "--png", str(tmp_path / "h.png"),
+                 "--slice", "X", "A"]) == 2
+    assert "A is a rotary axis" in capsys.readouterr().err

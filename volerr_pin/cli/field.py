@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 from ..base.errors import InputError
 from ..fit.ranking import rank
 from ..base.safeio import transaction
@@ -21,7 +23,10 @@ def add_parser(sub) -> None:
     p.add_argument("--scale", type=float, help="arrow magnification (default: a round factor "
                                                "making the largest arrow ~8 %% of the workspace)")
     p.add_argument("--config", nargs="+", metavar="AXIS=VALUE",
-                   help="axis positions for the machine and the fixed axes (mm, deg)")
+                   help="axis positions (mm, deg) of the machine drawn in the recording, and of the axes the "
+                        "--png slice does not span (default mid travel)")
+    p.add_argument("--slice", nargs=2, metavar="AXIS",
+                   help="the two linear axes the --png slice spans (default the first two, e.g. X Y)")
     p.add_argument("--sweep-steps", type=int, default=24,
                    help="steps of the rotary-axis sweep (0: none; default 24)")
     p.add_argument("--png", help="also write a static picture of an error-field slice")
@@ -32,12 +37,31 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
+def _plane(machine, names, png) -> tuple[str, str] | None:
+    """The two linear axes of ``--slice``, checked (None for the default)."""
+    if names is None:
+        return None
+    if not png:
+        raise InputError("--slice: it chooses the plane of the --png picture; give --png too", parameters=("slice",))
+    kinds = dict(zip(machine.axes, machine.axis_kinds))
+    for name in names:
+        if name not in kinds:
+            raise InputError(f"--slice: {name!r} is not an axis of {machine.name} (axes: {', '.join(machine.axes)})",
+                             parameters=("slice",))
+        if kinds[name] != "linear":
+            raise InputError(f"--slice: {name} is a rotary axis; a slice spans two linear axes", parameters=("slice",))
+    if names[0] == names[1]:
+        raise InputError(f"--slice: give two different axes, got {names[0]} twice", parameters=("slice",))
+    return tuple(names)
+
+
 def run(args) -> int:
     from ..viz.recording import record_field
 
     machine = machine_of(args)
     check_run_outputs({"out": args.out, "png": args.png}, machine=machine)
     config = axis_config(machine, args.config, "--config")
+    plane = _plane(machine, args.slice, args.png)
     if args.scale is not None and not args.scale > 0:
         raise InputError(f"--scale must be positive, got {args.scale}")
     ranking = rank(machine, sample(machine, 1024)).to_dict(top=15)
@@ -48,9 +72,16 @@ def run(args) -> int:
         if args.png:
             from ..viz.plots import field_slice_png
 
-            field_slice_png(machine, tx.path(args.png), config)
+            field_slice_png(machine, tx.path(args.png), config, plane=plane)
             summary["png"] = args.png
         summary = tx.final(summary)
+    if args.png and config:
+        spanned = plane or tuple(a for a, k in zip(machine.axes, machine.axis_kinds) if k == "linear")[:2]
+        inside = [a for a in config if a in spanned]
+        if inside:
+            print(f"volerr: note: --config {', '.join(inside)}: the --png slice spans "
+                  f"{' and '.join(spanned)} over their whole travel; --config places the recording's machine "
+                  "and the axes the slice does not span", file=sys.stderr)
     if args.json:
         print(dumps(summary))
     else:

@@ -64,12 +64,15 @@ def save(fig, path: str | Path) -> None:
 
 
 def field_slice_png(machine: Machine, path: str | Path, config: dict[str, float] | None = None,
-                    resolution: int = 25) -> dict:
-    """Error field on a plane: the first two linear axes on a ``resolution`` grid (other axes
-    at ``config``); background |error|, arrows the in-plane error. Machines with fewer than
-    two linear axes show a scatter of sampled tool points instead."""
+                    resolution: int = 25, plane: tuple[str, str] | None = None) -> dict:
+    """Error field on a plane: two linear axes (``plane``, default the first two) on a
+    ``resolution`` grid, the other axes at ``config`` (default mid travel); background |error|,
+    arrows the in-plane error. Machines with fewer than two linear axes show a scatter of
+    sampled tool points instead."""
     base = default_config(machine, config)
     linear = [j for j, k in enumerate(machine.axis_kinds) if k == "linear"]
+    if plane is not None:
+        linear = [machine.axes.index(a) for a in plane] + [j for j in linear if machine.axes[j] not in plane]
     if len(linear) >= 2:
         a_ax, b_ax = linear[:2]
         u = np.linspace(*machine.travel[a_ax], resolution)
