@@ -275,9 +275,17 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
         return e.name + (f"\n{e.axis}" if e.axis else "") + (f" {e.direction}" if e.direction else "")
 
     labels = ["base"] + [short(s) for s in diagnosis.steps if s.accepted_all]
-    ax.bar(range(len(rms)), rms, color="#4a6fb4")
+    # a round whose effect the diagnosis dropped later (replaced, or no longer significant after
+    # a refit): its bar is hatched and says so
+    gone = {getattr(e, "step", None) for e in diagnosis.dropped} - {e.step for e in diagnosis.effects}
+    dropped = [i > 0 and diagnosis.steps[i - 1].number in gone for i in range(len(rms))]   # bar i: round i - 1
+    bars = ax.bar(range(len(rms)), rms, color=["#b8c6e0" if d else "#4a6fb4" for d in dropped])
+    for bar, d in zip(bars, dropped):
+        if d:
+            bar.set_hatch("//")
+    labels = [label + ("\n(dropped later)" if d else "") for label, d in zip(labels, dropped)]
     ax.axhline(diagnosis.noise_floor_um, color="#c0392b", ls="--", label=f"noise floor {'<= ' if diagnosis.noise_floor_upper_bound else ''}{diagnosis.noise_floor_um:.2f} um")
-    ax.set_xticks(range(len(rms)), labels[:len(rms)], fontsize=7)
+    ax.set_xticks(range(len(rms)), labels[:len(rms)], fontsize=7, rotation=30, ha="right", rotation_mode="anchor")
     ax.set_ylabel("held-out RMS [um]")
     ax.set_title("held-out RMS after each step", fontsize=10)
     ax.legend(fontsize=8)
@@ -339,6 +347,17 @@ def _drift_panels(fig, left, right, series) -> None:
     a.legend(fontsize=7)
     a.grid(alpha=0.3)
     b = fig.add_subplot(right)
+    if len(series.contributions_um) <= 1 and not series.temperatures:
+        # one driver: its share is the model itself (left); show what the model leaves instead
+        b.scatter(series.t_h, np.asarray(series.measured_um) - np.asarray(series.model_um), s=5, color="#888888",
+                  alpha=0.6)
+        b.axhline(0.0, color="#c0392b", lw=0.8)
+        b.set_xlabel("time [h]", fontsize=8)
+        b.set_ylabel("measured - model [um]", fontsize=8)
+        b.set_title(f"what the model leaves over time (one driver: {', '.join(series.contributions_um) or '-'})",
+                    fontsize=8)
+        b.grid(alpha=0.3)
+        return
     for name, values in series.contributions_um.items():
         b.plot(series.t_h, values, lw=1.0, label=f"share of {name} [um]")
     b.set_xlabel("time [h]", fontsize=8)

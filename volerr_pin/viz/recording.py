@@ -262,9 +262,9 @@ def log_ranking(rec: rr.RecordingStream, ranking: dict, prefix: str = "sensitivi
     rows = ranking["ranking"]
     rec.log(f"{prefix}/ranking", rr.BarChart(np.array([r["rms_um"] for r in rows]),
                                              color=[64, 110, 180]), static=True)
-    lines = ["| # | term | axis | RMS um | max um | share |", "|---|---|---|---|---|---|"]
+    lines = ["| # | term | axis | RMS um | max um | share of all terms |", "|---|---|---|---|---|---|"]
     lines += [f"| {i} | {r['parameter']} | {r['axis']} | {r['rms_um']:.3f} | {r['max_um']:.3f} | "
-              f"{100 * r['share']:.1f} % |" for i, r in enumerate(rows)]
+              f"{100 * r.get('share_of_all', r['share']):.1f} % |" for i, r in enumerate(rows)]
     rec.log(f"{prefix}/table", rr.TextDocument(
         f"Bars, left to right (index 0 first), RMS tool-point error per term over "
         f"{ranking['points']} points:\n\n" + "\n".join(lines), media_type=rr.MediaType.MARKDOWN),
