@@ -65,7 +65,8 @@ def export_png(result: ExportResult, path: str | Path) -> dict:
     ax.set_xlabel("tool-point position error [um] (below 0.001 drawn at 0.001)")
     ax.set_ylabel("share of points")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7, loc="upper left")
+    # below the axes: the curves fill the upper part of the plot, where a legend inside would cover them
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=1, frameon=False)
     ax.set_title(f"{len(q)} points over the zone", fontsize=10)
     units = ["mm" if k == "linear" else "deg" for k in machine.axis_kinds]
     top = max(float(norms["uncompensated"].max()), 1e-9)            # one colour scale for both maps
@@ -76,7 +77,8 @@ def export_png(result: ExportResult, path: str | Path) -> dict:
         panel.set_xlabel(f"{machine.axes[0]} [{units[0]}]")
         if q.shape[1] > 1:
             panel.set_ylabel(f"{machine.axes[1]} [{units[1]}]")
-        panel.set_title(f"{title}: |error| (max {values.max():.3g} um)", fontsize=10)
+        flat = (f", all {machine.axes[2]} seen from above" if q.shape[1] > 2 else "")
+        panel.set_title(f"{title}: |error| (max {values.max():.3g} um){flat}", fontsize=10)
         fig.colorbar(image, ax=panel, label="um")
     fig.suptitle(f"{machine.name}: {result.controller.title}, {result.kind} tables", fontsize=11)
     save(fig, path)

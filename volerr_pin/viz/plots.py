@@ -216,7 +216,10 @@ def ballbar_png(run, result: dict, path: str | Path, title: str = "") -> dict:
             a, v = run.angle[mask][order], about[mask][order]
             ax.plot(np.append(a, a[0]), np.append(v, v[0]), color=colour, lw=1.0, label=label)
     ax.plot(np.linspace(0, 2 * np.pi, 361), np.zeros(361), color="grey", lw=0.6, ls=":")
-    ax.set_rlabel_position(90)
+    ax.set_rlabel_position(112.5)   # between the 90 and 135 deg spokes, where traces cross least
+    ax.tick_params(axis="y", labelsize=7, colors="#555555")
+    for label in ax.get_yticklabels():
+        label.set_bbox({"facecolor": "white", "edgecolor": "none", "alpha": 0.7, "pad": 0.5})
     ax.set_xlabel(f"{run.plane[0]} ->, {run.plane[1]} ^ ; radial: deviation from the least-squares circle [um]",
                   fontsize=8)
     keys = [("G", "G (both)"), ("G_ccw", "G ccw"), ("G_cw", "G cw"), ("H", "H"), ("F_max", "F max"),
@@ -409,17 +412,22 @@ def gear_png(deviations, path: str | Path, title: str = "") -> dict:
     diameter = 2 * deviations.radius * 1e3
     face = deviations.face * 1e3
     fig, axes = plt.subplots(1, 3, figsize=(13.0, 4.2), dpi=120, constrained_layout=True)
-    limit = float(np.abs(normal).max()) or 1.0
     worst_teeth = []
+    # a flank's mean deviation is its position (the pitch panel shows it); the maps show the
+    # form about it, so that profile and helix deviations are not drowned by the offset
+    worst = [int(np.argmax(np.abs(normal[index]).max(axis=(1, 2)))) for index in range(len(FLANKS))]
+    forms = [normal[index, k] - normal[index, k].mean() for index, k in enumerate(worst)]
+    limit = max(float(np.abs(f).max()) for f in forms) or 1.0
     for index, flank in enumerate(FLANKS):
-        k = int(np.argmax(np.abs(normal[index]).max(axis=(1, 2))))
+        k = worst[index]
         worst_teeth.append(int(deviations.teeth[k]))
-        image = axes[index].pcolormesh(face, diameter, normal[index, k], cmap="RdBu_r", vmin=-limit, vmax=limit,
+        image = axes[index].pcolormesh(face, diameter, forms[index], cmap="RdBu_r", vmin=-limit, vmax=limit,
                                        shading="gouraud")
         axes[index].set_xlabel("face position from mid face [mm]")
         axes[index].set_ylabel("diameter [mm]")
-        axes[index].set_title(f"{flank} flank, tooth {deviations.teeth[k]} (worst)", fontsize=10)
-    fig.colorbar(image, ax=axes[:2], label="normal deviation [um] (+: more material)")
+        axes[index].set_title(f"{flank} flank, tooth {deviations.teeth[k]} (worst), mean {normal[index, k].mean():+.2f} um",
+                              fontsize=10)
+    fig.colorbar(image, ax=axes[:2], label="form: deviation less the mean [um] (+: material)")
     positions = pitch_positions(normal, deviations.gear)           # um, teeth in ascending order
     for index, flank in enumerate(FLANKS):
         axes[2].plot(deviations.teeth, positions[index], marker="o", ms=3, label=f"{flank} flank")
