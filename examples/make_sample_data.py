@@ -110,9 +110,9 @@ def spindle_thermal(out: Path) -> None:
     temps = [bearing, housing, column, ambient] + [rng.normal(0.0, 0.05, len(t)) for _ in range(4)]
     temps = [x + n for x, n in zip(temps[:4], temps[4:])]
     lines = ["# spindle z drift (um, measured against a test mandrel) and four temperatures (degC)",
-             "# every 5 minutes; simulated by examples/make_sample_data.py",
-             "T_bearing,T_housing,T_column,T_ambient,dz_um"]
-    lines += [",".join(f"{v:.3f}" for v in row) for row in zip(*temps, dz)]
+             "# every 5 minutes (t in s); simulated by examples/make_sample_data.py",
+             "t,T_bearing,T_housing,T_column,T_ambient,dz_um"]
+    lines += [f"{time:.0f}," + ",".join(f"{v:.3f}" for v in row) for time, *row in zip(t, *temps, dz)]
     out.write_text("\n".join(lines) + "\n")
 
 

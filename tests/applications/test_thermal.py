@@ -323,3 +323,34 @@ def test_a_temperature_column_in_kelvin_or_fahrenheit_is_converted_to_degC(machi
     fit = identify(model, [read], sigma_um=NOISE)
     k = fit.machine.theta[fit.machine.parameter_names.index("EZZ.h.k_spindle")]
     assert k == pytest.approx(-0.7015e-6, rel=0.01), k
+
+
+def test_a_time_column_is_the_clock_not_a_sensor(tmp_path):
+    """The sample file's t [s] is each row's time: not a sensor unless named, and the picture's x axis."""
+    from pathlib import Path
+
+    from volerr_pin.applications.thermalfit import thermal_fit
+    from volerr_pin.measurements import read_series
+    from volerr_pin.viz.plots import thermal_fit_png
+
+    data = read_series(Path(__file__).resolve().parents[2] / "examples" / "data" / "vmc500_spindle_thermal.csv")
+    assert "t" in data.columns
+    r = thermal_fit(data, "dz_um", lag=0, holdout=0.25)
+    assert r["sensors"] == ["T_bearing", "T_housing", "T_column", "T_ambient"]
+    assert "t" in thermal_fit(data, "dz_um", ["t", "T_housing"], lag=0)["sensors"]   # named: a sensor after all
+    import matplotlib.pyplot as plt
+
+    seen = {}
+    save = plt.Figure.savefig
+
+    def spy(fig, *args, **kwargs):
+        seen["xlabel"] = fig.axes[0].get_xlabel()
+        seen["xmax"] = fig.axes[0].get_xlim()[1]
+        return save(fig, *args, **kwargs)
+
+    plt.Figure.savefig = spy
+    try:
+        thermal_fit_png(r, data, tmp_path / "t.png")
+    finally:
+        plt.Figure.savefig = save
+    assert seen["xlabel"] == "time [h] (column t)" and 8.0 <= seen["xmax"] < 9.0    # eight hours

@@ -23,6 +23,10 @@ linear combination of a constant and the sensors before it (to 1e-6 of its varia
 no coefficient of its own: it is refused when asked for by name, and left out with a note
 (``left_out``: sensor and reason) when the sensors are every other column. A constant target
 has nothing to model and is refused.
+
+A column named ``t`` or ``t_s`` is the time of each row in seconds (the measurement files'
+convention, docs/measurements.md): it is not a sensor unless named as one, and the picture
+draws over it.
 """
 
 from __future__ import annotations
@@ -69,6 +73,10 @@ def _stats(y, yhat, p):
     n = len(y)
     return {"r2": 1.0 - rss / tss if tss > 0 else math.nan,
             "residual_se": math.sqrt(rss / (n - p)) if n > p else math.nan}
+
+
+#: columns that hold each row's time [s], not a sensor
+TIME_COLUMNS = ("t", "t_s")
 
 
 def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, method: str = "linear",
@@ -133,7 +141,8 @@ def thermal_fit(data: SeriesData, target: str, sensors=None, *, lag: int = 1, me
     if isinstance(sensors, str):  # one name, not its letters
         sensors = [sensors]
     named = bool(sensors)
-    sensors = [c for c in data.columns if c != target] if not sensors else list(sensors)
+    sensors = ([c for c in data.columns if c != target and c not in TIME_COLUMNS] if not sensors
+               else list(sensors))
     unknown = [s for s in sensors if s not in data.columns]
     if unknown:
         raise InputError(f"sensors: no column(s) {', '.join(map(str, unknown))}", parameters=("sensors",))

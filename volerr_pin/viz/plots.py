@@ -235,20 +235,29 @@ def ballbar_png(run, result: dict, path: str | Path, title: str = "") -> dict:
 
 def thermal_fit_png(result: dict, data, path: str | Path) -> dict:
     """Measured and modelled target over the rows, the held-out part shaded."""
+    from ..applications.thermalfit import TIME_COLUMNS
+
     fitted = np.asarray(result["fitted"])
     held = np.asarray(result.get("predicted_holdout") or [])
     fig, ax = plt.subplots(figsize=(9.0, 4.5), dpi=120, constrained_layout=True)
+    time = next((c for c in TIME_COLUMNS if data is not None and c in data.columns), None)
+    if time is not None:   # the file's own clock, in hours
+        at = np.asarray(data.columns[time], dtype=float) / 3600.0
+        xlabel = f"time [h] (column {time})"
+    else:
+        at = np.arange(len(data.batch) if data is not None else len(fitted) + len(held), dtype=float)
+        xlabel = "row (time order: the file has no time column t)"
     if data is not None:
         y = data.columns[result["target"]]
-        ax.plot(np.arange(len(y)), y, color="black", lw=0.8, label="measured")
+        ax.plot(at[:len(y)], y, color="black", lw=0.8, label="measured")
     start = result["n_fit"] and (len(data.batch) - len(held) - len(fitted) if data is not None else 0)
-    x_fit = np.arange(start, start + len(fitted))
+    x_fit = at[start:start + len(fitted)]
     ax.plot(x_fit, fitted, color="#1f6fb2", lw=0.9, label=f"model (R^2 {result['r2']:.4f})")
     if len(held):
-        x_held = np.arange(x_fit[-1] + 1, x_fit[-1] + 1 + len(held))
+        x_held = at[start + len(fitted):start + len(fitted) + len(held)]
         ax.plot(x_held, held, color="#c0392b", lw=0.9, label=f"held out (RMSE {result['rmse_holdout']:.3g})")
         ax.axvspan(x_held[0], x_held[-1], color="#c0392b", alpha=0.08)
-    ax.set_xlabel("row (time order)")
+    ax.set_xlabel(xlabel)
     ax.set_ylabel(result["target"])
     lag = f", lag {result['lag']}" if result.get("lag") is not None else ""
     ax.set_title(f"thermal-fit: {result['method']}{lag}, {len(result['sensors'])} sensors", fontsize=10)
