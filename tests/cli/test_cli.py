@@ -374,3 +374,23 @@ def test_field_png_slices_the_plane_asked_for(tmp_path, capsys):
     assert main(["field", "cgm4000", "--out", str(tmp_path / "h.rrd"), "--png", str(tmp_path / "h.png"),
                  "--slice", "X", "A"]) == 2
     assert "A is a rotary axis" in capsys.readouterr().err
+
+
+def test_identifiability_factors_in_display_units_follow_the_group_kind():
+    """A collinear group says A_k = f A_0, a combination sum w_k A_k = 0: in display units the first
+    scales by u_k / u_0, the second by u_0 / u_k. A drift's time constant (per s) collinear with an
+    offset (per m), 8.2e-10 m per s, is 0.049 um per minute, not 1.4e-17."""
+    import io
+
+    from rich.console import Console
+
+    from volerr_pin.cli.tables import print_groups
+
+    units = {"EZX.c0": (1e-6, "um"), "EZX.tau1": (60.0, "min"), "EYX.c1": (1e-6, "um")}
+    out = io.StringIO()
+    print_groups(Console(file=out, width=200), [
+        {"kind": "collinear", "parameters": ["EZX.c0", "EZX.tau1"], "factors": [1.0, 8.2e-10]},
+        {"kind": "combination", "parameters": ["EZX.tau1", "EYX.c1"], "factors": [1.0, -2e-9]}], units=units)
+    text = out.getvalue()
+    assert "+1 EZX.c0, +0.0492 EZX.tau1" in text          # 8.2e-10 m/s x 60 s/min / 1e-6 m/um
+    assert "+1 EZX.tau1, -0.12 EYX.c1" in text             # -2e-9 x 60 s/min / 1e-6 m/um, unchanged by this fix

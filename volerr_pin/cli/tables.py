@@ -88,9 +88,12 @@ def print_groups(console: Console, groups: list[dict], header: bool = True, unit
         factors = list(g["factors"])
         si = ""
         if units and all(p in units for p in g["parameters"]):
-            # A_dep = sum f_k A_k per SI unit  ->  per display unit: f_k * u_dep / u_k
-            u_dep = units[g["parameters"][0]][0]
-            factors = [f * u_dep / units[p][0] for p, f in zip(g["parameters"], factors)]
+            # a column per display unit is its column per SI unit times u (SI per display unit):
+            # a combination (sum w_k A_k = 0) takes w_k u_0 / u_k; a collinear group
+            # (A_k = f_k A_0) takes f_k u_k / u_0
+            u0 = units[g["parameters"][0]][0]
+            factors = [f * (units[p][0] / u0 if g["kind"] == "collinear" else u0 / units[p][0])
+                       for p, f in zip(g["parameters"], factors)]
         elif units:
             si = " (factors in SI units: instrument terms have no spec unit)"
         pairs = list(zip(g["parameters"], factors))
