@@ -3,13 +3,14 @@
 from importlib import import_module as _import_module
 
 from .base.errors import InputError, SpecError, URDFError, VolerrError
-from .model.machine import Machine, bundled_machines, load_machine
 
 __version__ = "0.1.0"
 
-#: names imported when first used (PEP 562): the diagnosis loads the fitting machinery, which
-#: ``import volerr_pin`` (and every command's start) would otherwise pay for
-_LAZY = {"diagnose": ".fit.diagnosis"}
+#: names imported when first used (PEP 562): the model loads Pinocchio, SciPy and Numba, and the
+#: diagnosis the fitting machinery, which ``import volerr_pin`` (and every command's start,
+#: ``volerr --help`` and shell completion included) would otherwise pay for
+_LAZY = {"diagnose": ".fit.diagnosis", "Machine": ".model.machine", "bundled_machines": ".model.machine",
+         "load_machine": ".model.machine"}
 
 __all__ = ["InputError", "Machine", "SpecError", "URDFError", "VolerrError", "bundled_machines", "diagnose",
            "load_machine", "__version__"]

@@ -151,6 +151,20 @@ def test_unknown_machine_name_lists_the_bundled_ones():
         vp.load_machine("vmc999")
 
 
+@pytest.mark.parametrize("typo, meant", [("vmc50", "vmc500"), ("cgm400", "cgm4000"), ("gear_rolle", "gear_roller"),
+                                         ("lathe_2axes", "lathe_2axis")])
+def test_a_misspelt_machine_name_is_suggested(typo, meant):
+    with pytest.raises(vp.SpecError, match=rf"; did you mean {meant}\?$"):
+        vp.load_machine(typo)
+
+
+@pytest.mark.parametrize("name", ["vmc999", "robot", "x"])
+def test_a_name_like_none_gets_no_suggestion(name):
+    with pytest.raises(vp.SpecError) as err:
+        vp.load_machine(name)
+    assert "did you mean" not in str(err.value)
+
+
 def test_every_bundled_machine_is_listed():
     assert set(vp.bundled_machines()) == {"vmc500", "vmc700", "lathe_2axis", "cgm4000",
                                          "gear_roller", "ur5"}

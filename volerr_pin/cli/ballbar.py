@@ -12,8 +12,13 @@ from ..base.safeio import transaction
 from .common import add_json_arg, add_png_arg, check_run_outputs, dumps, note_unused, table_console
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "ballbar"
+HELP = "ISO 230-4 circular test: circular deviation, hysteresis, radial deviation"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("ballbar", help="ISO 230-4 circular test: circular deviation, hysteresis, radial deviation")
+    p = sub.add_parser(COMMAND, help=HELP)
     p.add_argument("file", help="ballbar file: angle_deg, deviation_um[, direction] with '# plane:' and "
                                 "'# radius:' header lines")
     add_json_arg(p)

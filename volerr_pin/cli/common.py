@@ -11,15 +11,17 @@ import re
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from rich.console import Console
 
 from ..base.errors import InputError, VolerrError
-from ..model.machine import Machine, load_machine
 from ..base.safeio import check_outputs, same_file
-from ..model.spec import parse_component_name
 from ..base.units import axis_values_to_si, parse_axis_values
+
+if TYPE_CHECKING:   # the model loads Pinocchio, SciPy and Numba: imported where a command runs, not to parse
+    from ..model.machine import Machine
 
 DEFAULT_MACHINE = "vmc500"
 
@@ -229,14 +231,26 @@ def add_machine_args(parser: argparse.ArgumentParser, positional: bool = True) -
     """The machine (positional, or ``--machine`` with the default machine) and the frames of a
     bare URDF."""
     if positional:
-        parser.add_argument("machine", help="bundled machine name, machine folder, spec (.toml) or URDF")
+        action = parser.add_argument("machine", help="bundled machine name, machine folder, spec (.toml) or URDF")
     else:
-        parser.add_argument("--machine", default=DEFAULT_MACHINE, help=f"machine (default {DEFAULT_MACHINE})")
+        action = parser.add_argument("--machine", default=DEFAULT_MACHINE, help=f"machine (default {DEFAULT_MACHINE})")
+    action.completer = complete_machine
     parser.add_argument("--tool-frame", help="tool frame (bare URDF only)")
     parser.add_argument("--workpiece-frame", help="workpiece frame (bare URDF only)")
     parser.add_argument("--package-dir", action="append", metavar="DIR",
                         help="folder holding the packages that package:// meshes name (repeatable); meshes are read "
                              "only from there and from the URDF's own folder")
+
+
+def complete_machine(prefix: str, **kwargs) -> list[str]:
+    """Shell completion of a machine: the bundled machines' names, then folders, specs and URDFs
+    (argcomplete calls it with the word typed so far)."""
+    from argcomplete.completers import FilesCompleter
+
+    from ..model.catalog import bundled_machines
+
+    names = [n for n in bundled_machines() if n.startswith(prefix)]
+    return names + list(FilesCompleter(("toml", "urdf"))(prefix, **kwargs))
 
 
 def add_state_arg(parser: argparse.ArgumentParser) -> None:
@@ -251,6 +265,8 @@ def add_json_arg(parser, help: str = "print one JSON object") -> None:
 
 def machine_of(args) -> Machine:
     """The machine the options name, held in the ``--state`` given (when the command has one)."""
+    from ..model.machine import load_machine   # the model (Pinocchio, SciPy, Numba): only when a command runs
+
     machine = load_machine(args.machine, tool_frame=args.tool_frame, workpiece_frame=args.workpiece_frame,
                            package_dirs=args.package_dir or ())
     return with_state(machine, getattr(args, "state", None))
@@ -303,5 +319,7 @@ def axis_config(machine: Machine, items: list[str] | None, option: str) -> dict[
 
 def axis_components(machine: Machine) -> set[str]:
     """Names of the component errors of the machine's axes (not location errors)."""
+    from ..model.spec import parse_component_name
+
     return {c for c in machine.components
             if not parse_component_name(c)[1] and parse_component_name(c)[2] in machine.axes}

@@ -12,8 +12,13 @@ from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg,
                      machine_of)
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "compensate"
+HELP = "compensated NC program"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("compensate", help="compensated NC program")
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
     add_state_arg(p)
     p.add_argument("program", help="NC program (ISO 6983 / RS-274)")

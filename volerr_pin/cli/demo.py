@@ -6,17 +6,19 @@ import sys
 
 import numpy as np
 
-from ..model.describe import machine_info
-from ..fit.ranking import rank
 from ..base.safeio import transaction
-from ..model.workspace import error_summary, grid, sample
 from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, check_run_outputs, dumps, machine_of,
                      table_console)
 from .tables import print_info, print_ranking, print_recording, print_summary
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "demo"
+HELP = "the main job on the default machine"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("demo", help="the main job on the default machine")
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p, positional=False)
     p.add_argument("--grid", type=int, default=11, help="grid points per axis (default 11)")
     p.add_argument("--top", type=int, default=5, help="ranking rows to show (default 5)")
@@ -28,6 +30,10 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    from ..fit.ranking import rank
+    from ..model.describe import machine_info
+    from ..model.workspace import error_summary, grid, sample
+
     machine = machine_of(args)
     check_run_outputs({"out": args.out}, machine=machine)
     info = machine_info(machine)

@@ -9,8 +9,13 @@ from ..base.safeio import write_text
 from .common import add_out_arg, check_run_outputs
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "dh"
+HELP = "a URDF from a Denavit-Hartenberg table (standard or modified)"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("dh", help="a URDF from a Denavit-Hartenberg table (standard or modified)")
+    p = sub.add_parser(COMMAND, help=HELP)
     p.add_argument("table", help="DH table: joint,type,a_mm,alpha_deg,d_mm,theta_deg,lower,upper "
                                  "with '# convention:' and '# tool:' header lines")
     add_out_arg(p, "URDF file to write", suffixes=(".urdf", ".xml"), what="a URDF", required=True, old=("--output",))

@@ -34,8 +34,13 @@ def plan_argv(machine: str, separate_by: dict) -> list[str]:
             str(separate_by["budget"]), *(["--zone", *zone] if zone else []), "--terms", *separate_by["terms"]]
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "diagnose"
+HELP = "find, name and add the missing effect"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("diagnose", help="find, name and add the missing effect")
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
     p.add_argument("data", nargs="+", help="point measurements (CSV) with any covariate columns")
     p.add_argument("--fixed", action="store_true", help="keep the spec's geometric values (do not refit them)")

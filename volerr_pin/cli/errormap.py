@@ -12,8 +12,13 @@ from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config,
                      positive, table_console)
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "errormap"
+HELP = "error map accuracy per element order; compensation tables"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("errormap", help="error map accuracy per element order; compensation tables")
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
     add_state_arg(p)
     p.add_argument("--elements", type=positive, nargs="+", default=[4], metavar="N",

@@ -13,11 +13,16 @@ from .common import (FitProgress, add_json_arg, add_machine_args, add_out_arg, a
                      machine_of, positive, table_console)
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "export"
+HELP = "compensation tables a controller loads, with the residual it leaves"
+
+
 def add_parser(sub) -> None:
     from ..compensation.export import CONTROLLERS
 
     kinds = "; ".join(f"{name}: {', '.join(f.kinds)}" for name, f in CONTROLLERS.items())
-    p = sub.add_parser("export", help="compensation tables a controller loads, with the residual it leaves")
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
     add_state_arg(p)
     p.add_argument("--controller", required=True, choices=list(CONTROLLERS), help="the controller whose files to write")

@@ -5,16 +5,19 @@ from __future__ import annotations
 import sys
 
 from ..base.errors import InputError
-from ..fit.ranking import rank
 from ..base.safeio import transaction
-from ..model.workspace import sample
 from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, axis_config, check_run_outputs, dumps,
                      machine_of, positive)
 from .tables import print_recording
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "field"
+HELP = "Rerun recording of the error field"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("field", help="Rerun recording of the error field")
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
     add_state_arg(p)
     add_out_arg(p, "recording file (.rrd)", suffixes=(".rrd",), what="a Rerun recording", required=True)
@@ -56,6 +59,9 @@ def _plane(machine, names, png) -> tuple[str, str] | None:
 
 
 def run(args) -> int:
+    from ..fit.ranking import rank
+    from ..model.workspace import sample
+
     from ..viz.recording import record_field
 
     machine = machine_of(args)

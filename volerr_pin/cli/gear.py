@@ -6,9 +6,8 @@ import math
 import sys
 
 from ..base.errors import InputError
-from ..applications.gear import FLANKS, REFERENCE_GEAR, GearPair, contribution_degrees, deviations_by_source, unit_error_study
+from ..applications.gear.geometry import FLANKS, REFERENCE_GEAR, GearPair
 from ..base.safeio import transaction
-from ..model.specio import with_axis_errors
 from ..base.units import DEG, MM
 from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of,
                      positive, table_console)
@@ -16,8 +15,13 @@ from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config,
 DEFAULT = REFERENCE_GEAR
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "gear"
+HELP = "gear flank deviations (profile, helix, pitch) per error source"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("gear", help="gear flank deviations (profile, helix, pitch) per error source",
+    p = sub.add_parser(COMMAND, help=HELP,
                        description="Deviations of the spur gear a rolling machine generates: the total profile, "
                                    "total helix and single pitch deviation as the gear-rolling study defines "
                                    "them (Ma et al. 2025; the docs' references) and ISO 1328-1's F_alpha, "
@@ -91,6 +95,9 @@ def _references(machine, items: list[str] | None) -> dict[str, dict]:
 
 
 def run(args) -> int:
+    from ..applications.gear import contribution_degrees, deviations_by_source, unit_error_study
+    from ..model.specio import with_axis_errors
+
     machine = machine_of(args)
     check_run_outputs({"png": args.png, "rrd": args.rrd}, machine=machine)
     gear = GearPair(module=args.module_mm * MM, pressure_angle=args.pressure_angle_deg * DEG, teeth=args.teeth,

@@ -13,8 +13,13 @@ from .common import (FitProgress, add_json_arg, add_machine_args, add_out_arg, a
 from .tables import print_groups
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "identify"
+HELP = "fit error terms to measurements"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("identify", help="fit error terms to measurements")
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
     p.add_argument("data", nargs="+", help="measurement files (points, positioning or component runs)")
     p.add_argument("--terms", nargs="+", metavar="TERM", help="components to fit (default: all)")

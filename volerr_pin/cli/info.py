@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
-from ..model.describe import machine_info
 from .common import add_json_arg, add_machine_args, add_state_arg, dumps, machine_of, table_console
 from .tables import print_info
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "info"
+HELP = "axes, chains, error terms by kind, travels"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("info", help="axes, chains, error terms by kind, travels")
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
     add_json_arg(p)
     add_state_arg(p)
@@ -16,6 +20,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    from ..model.describe import machine_info
+
     machine = machine_of(args)
     info = machine_info(machine)
     if args.json:

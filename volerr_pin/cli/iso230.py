@@ -13,8 +13,13 @@ from ..base.safeio import transaction
 from .common import add_json_arg, add_png_arg, check_run_outputs, dumps, note_unused, table_console
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "iso230-2"
+HELP = "ISO 230-2 evaluation of positioning runs"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("iso230-2", help="ISO 230-2 evaluation of positioning runs")
+    p = sub.add_parser(COMMAND, help=HELP)
     p.add_argument("runs", help="CSV: target_mm,cycle,direction,deviation_um (or _deg / _arcsec)")
     add_png_arg(p, "write the standard's picture (PNG)", old=("--plot",))
     add_json_arg(p)

@@ -26,10 +26,15 @@ def _triple(text: str) -> tuple[float, float, float]:
     return values
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "plan"
+HELP = "plan a measurement campaign: poses, predicted uncertainties, NC program"
+
+
 def add_parser(sub) -> None:
     from ..studies.plan import INSTRUMENTS
 
-    p = sub.add_parser("plan", help="plan a measurement campaign: poses, predicted uncertainties, NC program")
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
     p.add_argument("--instrument", required=True, choices=sorted(INSTRUMENTS), help="the instrument")
     p.add_argument("--budget", type=int, required=True,

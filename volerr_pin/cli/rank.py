@@ -4,15 +4,19 @@ from __future__ import annotations
 
 import sys
 
-from ..fit.ranking import rank, read_tolerances, tool_identifiability
 from ..base.safeio import transaction
 from .common import (add_json_arg, add_machine_args, add_state_arg, check_run_outputs, dumps, machine_of, positive,
                      table_console)
 from .tables import print_groups, print_ranking
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "rank"
+HELP = "sensitivity ranking of the error sources"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("rank", help="sensitivity ranking of the error sources")
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
     add_state_arg(p)
     p.add_argument("--points", type=positive, default=2048, help="workspace points (Sobol', default 2048)")
@@ -31,6 +35,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    from ..fit.ranking import rank, read_tolerances, tool_identifiability
+
     machine = machine_of(args)
     check_run_outputs({"png": args.png}, [args.tolerances], machine)
     tolerances = read_tolerances(args.tolerances, machine) if args.tolerances else None

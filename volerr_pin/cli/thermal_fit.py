@@ -12,8 +12,13 @@ from ..base.safeio import transaction
 from .common import add_json_arg, add_png_arg, check_run_outputs, dumps, table_console
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "thermal-fit"
+HELP = "thermal drift model from sensor data"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("thermal-fit", help="thermal drift model from sensor data")
+    p = sub.add_parser(COMMAND, help=HELP)
     p.add_argument("data", nargs="+", help="CSV files (one per experiment/batch), numeric columns")
     p.add_argument("--target", required=True, help="column to model (e.g. a thermal error)")
     p.add_argument("--sensors", nargs="+", help="columns to use (default: every other column)")

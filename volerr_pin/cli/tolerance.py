@@ -17,8 +17,13 @@ from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg,
 from .uncertainty import StudyProgress, add_study_args, count, engine_of, positive_float, probability
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "tolerance"
+HELP = "Monte Carlo tolerance study: max error distribution, drivers, re-allocation"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("tolerance", help="Monte Carlo tolerance study: max error distribution, drivers, re-allocation")
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
     add_state_arg(p)
     p.add_argument("--tolerances", required=True, metavar="FILE",

@@ -15,7 +15,6 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from ..compensation.export.registry import CONTROLLERS
 from ..base.safeio import transaction
 from ..base.units import UM
 from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, check_run_outputs, dumps, machine_of,
@@ -130,8 +129,15 @@ class StudyProgress:
 # ------------------------------------------------------------------ the command
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "uncertainty"
+HELP = "uncertainty of the error map and of a compensation (linear and Monte Carlo)"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("uncertainty", help="uncertainty of the error map and of a compensation (linear and Monte Carlo)")
+    from ..compensation.export.registry import CONTROLLERS
+
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
     add_state_arg(p)
     source = p.add_mutually_exclusive_group(required=True)

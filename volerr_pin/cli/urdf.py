@@ -8,8 +8,13 @@ from ..base.safeio import write_text
 from .common import add_machine_args, add_out_arg, check_run_outputs, machine_of
 
 
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "urdf"
+HELP = "the URDF with error joints injected"
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("urdf", help="the URDF with error joints injected")
+    p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
     add_out_arg(p, "file to write (default: stdout)", suffixes=(".urdf", ".xml"), what="a URDF", old=("--output",))
     p.set_defaults(func=run)

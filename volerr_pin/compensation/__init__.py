@@ -9,12 +9,25 @@ pieces), :mod:`.lines` and :mod:`.splitter` (splitting straight moves and arcs),
 (:class:`PathCompensator`).
 """
 
-from .arcs import Arc, arc_from_center
-from .moves import ARC, LINE, POINT, MoveBatch, PieceSet
-from .path import BatchResult, PathCompensation, PathCompensator, Piece
-from .points import PointCompensation, compensate_points, evaluate_compensation
-from .programming import PROGRAMMINGS, Programming, programming_for
+from importlib import import_module as _import_module
+
+#: names imported from their module when first used (PEP 562): these load the machine model
+#: (Pinocchio, SciPy, Numba), which the command line's parser, reading only the controllers'
+#: names from :mod:`.export`, would otherwise pay for at every start
+_LAZY = {"Arc": ".arcs", "arc_from_center": ".arcs", "ARC": ".moves", "LINE": ".moves", "POINT": ".moves",
+         "MoveBatch": ".moves", "PieceSet": ".moves", "BatchResult": ".path", "PathCompensation": ".path",
+         "PathCompensator": ".path", "Piece": ".path", "PointCompensation": ".points",
+         "compensate_points": ".points", "evaluate_compensation": ".points", "PROGRAMMINGS": ".programming",
+         "Programming": ".programming", "programming_for": ".programming"}
 
 __all__ = ["ARC", "Arc", "BatchResult", "LINE", "MoveBatch", "POINT", "PROGRAMMINGS", "PathCompensation",
            "PathCompensator", "Piece", "PieceSet", "PointCompensation", "Programming", "arc_from_center",
            "compensate_points", "evaluate_compensation", "programming_for"]
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(_import_module(_LAZY[name], __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -9,6 +9,7 @@ batched free functions of :mod:`volerr_pin.model.evaluate` on the assembled mode
 
 from __future__ import annotations
 
+import difflib
 import os
 from pathlib import Path
 from typing import Mapping
@@ -24,44 +25,9 @@ from ..base.errors import InputError, SpecError
 from .spec import MachineSpec, load_spec, spec_from_urdf
 from .terms import Covariates
 from .urdf import URDF, load_urdf, package_folders
+from .catalog import SPEC_FILE, bundled_machines, machines_dir
 
 __all__ = ["SPEC_FILE", "Machine", "bundled_machines", "load_machine", "machines_dir"]
-
-SPEC_FILE = "errors.toml"
-
-
-def machines_dir() -> Path:
-    """Folder of the bundled machines (``VOLERR_MACHINES`` overrides it).
-
-    Returns
-    -------
-    Path
-        The ``VOLERR_MACHINES`` environment variable when it is set (whether or not the folder
-        exists); otherwise the first existing folder of ``machines/`` beside the package and
-        ``machines/`` inside it; otherwise ``machines/`` beside the package.
-    """
-    env = os.environ.get("VOLERR_MACHINES")
-    if env:
-        return Path(env)
-    here = Path(__file__).resolve().parents[1]   # the package (this module is in its model/)
-    for candidate in (here.parent / "machines", here / "machines"):
-        if candidate.is_dir():
-            return candidate
-    return here.parent / "machines"
-
-
-def bundled_machines() -> list[str]:
-    """Names of the machines shipped with volerr_pin.
-
-    Returns
-    -------
-    list of str
-        Sorted names of the sub-folders of :func:`machines_dir` that hold an ``errors.toml``;
-        empty when that folder does not exist.
-    """
-    root = machines_dir()
-    return sorted(p.name for p in root.iterdir() if (p / SPEC_FILE).is_file()) if root.is_dir() else []
-
 
 class Machine:
     """A machine tool (or robot) with error joints on every axis.
@@ -940,9 +906,11 @@ def load_machine(machine: str | os.PathLike, *, tool_frame: str | None = None,
     elif (machines_dir() / text / SPEC_FILE).is_file() and os.sep not in text:
         spec_path = machines_dir() / text / SPEC_FILE
     else:
-        known = ", ".join(bundled_machines())
-        raise SpecError(f"'{text}' is neither a bundled machine ({known}) nor a machine folder, "
-                        "spec (.toml) or URDF file")
+        names = bundled_machines()
+        close = difflib.get_close_matches(text, names, n=1, cutoff=0.75)
+        hint = f"; did you mean {close[0]}?" if close else ""
+        raise SpecError(f"'{text}' is neither a bundled machine ({', '.join(names)}) nor a machine folder, "
+                        f"spec (.toml) or URDF file{hint}")
     if not spec_path.is_file():
         raise SpecError(f"{spec_path}: no such spec file")
     spec, urdf = load_spec(spec_path)

@@ -67,11 +67,17 @@ pair), :mod:`~volerr_pin.applications.gear.generation` (where and when each flan
 :mod:`~volerr_pin.applications.gear.springback`.
 """
 
-from .flanks import FlankDeviations, flank_deviations, pitch_positions
-from .generation import BYTES_PER_FLANK_POINT
+from importlib import import_module as _import_module
+
 from .geometry import DEVIATIONS, FLANKS, REFERENCE_GEAR, GearPair
-from .sources import SourceDeviations, contribution_degrees, deviations_by_source, unit_error_study
-from .springback import Springback, contact_springback
+
+#: names imported from their part when first used (PEP 562): the generation loads the machine
+#: model (Pinocchio, SciPy, Numba), which the command line's parser, needing only the gear's
+#: geometry, would otherwise pay for at every start
+_LAZY = {"FlankDeviations": ".flanks", "flank_deviations": ".flanks", "pitch_positions": ".flanks",
+         "BYTES_PER_FLANK_POINT": ".generation", "SourceDeviations": ".sources", "contribution_degrees": ".sources",
+         "deviations_by_source": ".sources", "unit_error_study": ".sources", "Springback": ".springback",
+         "contact_springback": ".springback"}
 
 __all__ = ["BYTES_PER_FLANK_POINT", "DEVIATIONS", "FLANKS", "REFERENCE_GEAR", "FlankDeviations", "GearPair",
            "SourceDeviations", "Springback", "contact_springback", "contribution_degrees", "deviations_by_source",
@@ -79,6 +85,10 @@ __all__ = ["BYTES_PER_FLANK_POINT", "DEVIATIONS", "FLANKS", "REFERENCE_GEAR", "F
 
 
 def __getattr__(name):
+    if name in _LAZY:
+        value = getattr(_import_module(_LAZY[name], __name__), name)
+        globals()[name] = value
+        return value
     # the reference gear's name until this release: one more release, with a warning
     if name == "SEED004_GEAR":
         import warnings
