@@ -7,7 +7,8 @@ Build it from the repository's root (``pip install -e ".[docs]"`` first)::
 The pages are the Markdown files of ``docs/`` (read by myst-parser, so they stay readable on
 a forge too); the API reference is generated from the numpydoc docstrings (autodoc +
 autosummary + numpydoc); the pictures of the guide are written during the build by the
-product's own PNG writers (``_ext/figures.py``).
+product's own PNG writers (``_ext/figures.py``); the gallery runs every example and shows
+the pictures it writes (sphinx-gallery, ``_ext/gallery.py``).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ extensions = [
     "docstrings",
     "apipages",
     "figures",
+    "sphinx_gallery.gen_gallery",
 ]
 
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}  # the API pages are .rst
@@ -72,3 +74,21 @@ html_theme_options = {
 }
 html_sidebars = {"**": ["sidebar-nav-bs"]}
 html_show_sourcelink = False
+
+# The gallery of examples (sphinx-gallery): every example runs once, in a folder of its own
+# (_ext/gallery.py), and its pictures and output are shown above its code. The two on other
+# groups' data are shown without running; the sample-data writer is left out.
+sphinx_gallery_conf = {
+    "examples_dirs": "../examples",
+    "gallery_dirs": "gallery",
+    "filename_pattern": r"/(?!.*_real_data\.py$)",
+    "ignore_pattern": r"make_sample_data\.py$",
+    "within_subsection_order": "FileNameSortKey",
+    "image_scrapers": ("gallery.pictures",),
+    "reset_argv": "gallery.argv",
+    "abort_on_example_error": True,
+    "download_all_examples": False,
+    "write_computation_times": False,
+    "show_memory": False,
+    "remove_config_comments": True,
+}

@@ -1,4 +1,7 @@
-"""A ballbar (ISO 230-4) round trip on vmc500: known errors in, circles simulated, errors out.
+"""Ballbar round trip on vmc500 (ISO 230-4)
+========================================
+
+Known errors in, circles simulated, errors out.
 
 The story: a vmc500 has, beyond its spec, 4 um of backlash in X and 2 um in Y, a
 squareness of X and Y 8 arcsec off the spec's, and a Y scale 12 um/m long. A ballbar of

@@ -1,4 +1,7 @@
-"""Predicted effect of compensation on every bundled machine (seed 002's evaluation).
+"""Compensation on every bundled machine (seed 002)
+================================================
+
+Predicted effect of compensation on every bundled machine (seed 002's evaluation).
 
 For each machine: exact point compensation over a space-filling workspace sample (max and
 RMS tool position error before and after, % reduction, how many points would need commands

@@ -1,4 +1,7 @@
-"""Seed 004's no-load / load experiment on gear_roller, diagnosed automatically.
+"""Seed 004's load experiment, diagnosed
+=====================================
+
+Seed 004's no-load / load experiment on gear_roller, diagnosed automatically.
 
 Seed 004 isolates the force-induced error of the rolling-wheel spindle by running the same
 rolling program twice, without and with a workpiece, and subtracting: 5.0 um measured in x

@@ -1,4 +1,7 @@
-"""Compensation tables for every controller and every kind of table, on the three machines of
+"""Controller tables, and what each leaves
+=======================================
+
+Compensation tables for every controller and every kind of table, on the three machines of
 the papers, and the error each leaves as its controller applies it.
 
     python examples/export_tables.py OUT_FOLDER [--points N]
@@ -13,7 +16,6 @@ point compensation. The tables of docs/guide/compensate.md come from this script
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import volerr_pin as vp
@@ -53,9 +55,8 @@ def main(folder: str | Path, machines=MACHINES, points: int = 4096) -> dict[str,
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description="Controller tables for every controller, and what each leaves")
     parser.add_argument("folder")
     parser.add_argument("--points", type=int, default=4096)
     args = parser.parse_args()
     main(args.folder, points=args.points)
-    sys.exit(0)

@@ -1,4 +1,7 @@
-"""Seed 004's gear deviations from machine errors, side by side with the paper (Tables 2-5, section 4.2).
+"""Gear flank deviations beside seed 004's tables
+==============================================
+
+Seed 004's gear deviations from machine errors, side by side with the paper (Tables 2-5, section 4.2).
 
 The gear is the paper's (Table 7): module 1.75 mm, 20 deg, 46 teeth, rolled by a 128-tooth
 wheel; 20 mm face width (the paper's contact line length at the start of rolling). The

@@ -1,4 +1,7 @@
-"""Seed 000's cold-start scenario on lathe_2axis, recorded in Rerun on a ``time`` timeline.
+"""A lathe's cold start (seed 000)
+===============================
+
+Seed 000's cold-start scenario on lathe_2axis, recorded in Rerun on a ``time`` timeline.
 
 Seed 000 runs its turning centre through a 20-hour load cycle and finds the resultant
 volumetric error near 65 um at cold start, settling near 10 um after about two hours. Here
@@ -7,7 +10,8 @@ behaviour: an axial and a radial offset at cold start that settle to small warm 
 time constants of 30 and 40 minutes (``thermal_drift`` driven by time: the cold-start offset
 as a constant plus a saturating term towards the warm value). The example
 
-- prints the resultant error at the reference point over the cycle,
+- prints the resultant error at the reference point over the cycle, and draws it beside the
+  recording (``OUTPUT.png``: the resultant and its components over the 20 hours),
 - writes a Rerun recording: the machine, the error field over the (Z, X) travel on the
   ``time`` timeline (one frame every 10 minutes), and the resultant and component errors at
   the reference point as bulk time series (``send_columns``).
@@ -22,10 +26,12 @@ import sys
 import tempfile
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 import rerun.blueprint as rrb
 
 import volerr_pin as vp
+from volerr_pin.viz.plots import save
 from volerr_pin.viz.recording import log_field, log_machine, log_time_series, new_recording, streaming
 from volerr_pin.model.specio import add_terms
 from volerr_pin.model.workspace import evaluate_field, field_grid
@@ -51,6 +57,24 @@ def cold_start_machine() -> vp.Machine:
     return add_terms(machine, tables)
 
 
+def cold_start_png(t: np.ndarray, resultant: np.ndarray, error: np.ndarray, path: Path) -> None:
+    """The error at the reference point over the cycle: the resultant and its x and z parts."""
+    hours = t / 3600.0
+    fig, ax = plt.subplots(figsize=(8.0, 4.0), dpi=120, constrained_layout=True)
+    ax.plot(hours, resultant, color="black", lw=1.6, label="resultant")
+    ax.plot(hours, error[:, 2], color="#1f6fb2", lw=1.0, label="dz (axial)")
+    ax.plot(hours, error[:, 0], color="#c0392b", lw=1.0, label="dx (radial)")
+    ax.axhline(0.0, color="grey", lw=0.5)
+    ax.set_xlabel("time since cold start [h]")
+    ax.set_ylabel("error at the reference point [um]")
+    ax.set_title(f"lathe_2axis cold start at Z {REFERENCE_MM[0]:g}, X {REFERENCE_MM[1]:g} mm: "
+                 f"{resultant[0]:.0f} um cold, {resultant[-1]:.0f} um warm", fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    save(fig, path)   # through a temporary file beside it
+    print(f"wrote {path}")
+
+
 def main(out: Path) -> dict:
     out.parent.mkdir(parents=True, exist_ok=True)
     machine = cold_start_machine()
@@ -62,6 +86,8 @@ def main(out: Path) -> dict:
         k = int(round(hours * 60))
         print(f"t = {hours:4.1f} h: resultant error {resultant[k]:5.1f} um "
               f"(dx {error[k, 0]:+.1f}, dy {error[k, 1]:+.1f}, dz {error[k, 2]:+.1f})")
+
+    cold_start_png(t, resultant, error, out.with_suffix(".png"))
 
     rec = new_recording("volerr_pin_lathe_cold_start")
     blueprint = rrb.Blueprint(

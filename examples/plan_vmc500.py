@@ -1,4 +1,7 @@
-"""Plan a tracker campaign on vmc500, run it in simulation, and settle what a diagnosis left open.
+"""Planning a tracker campaign on vmc500
+=====================================
+
+Plan a tracker campaign on vmc500, run it in simulation, and settle what a diagnosis left open.
 
 The story: a calibration engineer has a laser tracker (5 um per coordinate) and two
 reflectors on the spindle, one at the tool point and one 100 mm off it along x. The example
@@ -57,6 +60,7 @@ def fill(machine, template: Path, out: Path, noise_um: float, seed: int) -> None
 
 def main(out_dir: Path) -> dict:
     out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
     m = vp.load_machine("vmc500")
     tracker = instrument("tracker")
     setup = make_setup(m, tracker, targets=TARGETS_M)

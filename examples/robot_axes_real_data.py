@@ -1,4 +1,7 @@
-"""Circle-point analysis of a real industrial robot from laser-tracker data (read in place).
+"""Robot axes from real laser-tracker data
+=======================================
+
+Circle-point analysis of a real industrial robot from laser-tracker data (read in place).
 
 The data (Boby and Klimchik, RCIM 2021; beside the repository, never copied): a laser
 tracker measured three reflectors (SMRs) on the end effector of a large 6-axis arm

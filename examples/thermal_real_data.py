@@ -1,4 +1,7 @@
-"""Thermal models on real measurements from other groups (read in place, never copied).
+"""Thermal models on real measurements
+===================================
+
+Thermal models on real measurements from other groups (read in place, never copied).
 
 Looks for the data in ``$VOLERR_REAL_DATA`` or in ``shared/real-data`` beside the repository;
 docs/real-data.md gives their public sources (no licence is stated, so they are not in this

@@ -30,11 +30,11 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 DOCS = ROOT / "docs"
-GUIDE = sorted((DOCS / "guide").glob("*.md"))
+GUIDE = sorted(p for p in (DOCS / "guide").glob("*.md") if p.name != "index.md")   # index.md: the pages' list
 PAGES = [README, DOCS / "index.md", *GUIDE, DOCS / "benchmarks.md"]
 FENCE = re.compile(r"^```(\w*)\n(.*?)^```\s*$", re.M | re.S)
 SETUP = ("python -m venv", "pip ", ". .venv/bin/activate", "pytest", "sphinx-build")
-SKIP_DIRS = {"_build", "_generated"}
+SKIP_DIRS = {"_build", "_generated", "gallery"}   # built by the docs build, not written
 
 
 def _ext(name: str):
@@ -310,8 +310,16 @@ def test_site_builds(tmp_path):
                           cwd=ROOT, capture_output=True, text=True, timeout=1800,
                           env={**os.environ, "MPLBACKEND": "Agg"})
     assert done.returncode == 0, done.stderr[-5000:]
-    for page in ["index.html", "guide/diagnose.html", "api/index.html"]:
+    for page in ["index.html", "guide/diagnose.html", "api/index.html", "gallery/index.html"]:
         assert (tmp_path / "html" / page).exists()
+    # the gallery: every example but the sample-data writer; those that draw show their pictures
+    shown = {p.stem for p in (tmp_path / "html" / "gallery").glob("*.html")} - {"index"}
+    assert shown == {p.stem for p in (ROOT / "examples").glob("*.py")} - {"make_sample_data"}
+    for name in ("ballbar_round_trip", "diagnose_vmc500", "lathe_cold_start", "seed001_z_axis"):
+        page = (tmp_path / "html" / "gallery" / f"{name}.html").read_text()
+        assert f"sphx_glr_{name}_001.png" in page, name
+    real = (tmp_path / "html" / "gallery" / "thermal_real_data.html").read_text()
+    assert "sphx_glr_thermal_real_data_001.png" not in real   # shown, not run: its data is not in the repository
 
 
 def _keys(value, out: set) -> set:
@@ -358,3 +366,32 @@ def test_every_report_field_is_documented(argv, tmp_path, capsys, monkeypatch):
     fields = _keys(json.loads(capsys.readouterr().out), set())
     documented = set(re.findall(r"`([a-z][a-z0-9_]*)`", (ROOT / "docs" / "reports.md").read_text()))
     assert fields and not fields - documented, f"undocumented in docs/reports.md: {sorted(fields - documented)}"
+
+
+def test_the_gallery_runs_each_example_in_a_folder_of_its_own_and_shows_what_it_drew(tmp_path):
+    """The gallery's command line and image scraper (docs/_ext/gallery.py), with sphinx-gallery's
+    block variables: each run gets a fresh folder (a file in it for the cold start), and the
+    scraper shows the PNG files written since the last block, in the order they were written."""
+    pytest.importorskip("sphinx_gallery")
+    gallery = _ext("gallery")
+    src = str(ROOT / "examples" / "ballbar_round_trip.py")
+    (folder,) = gallery.argv({}, {"src_file": src})
+    assert Path(folder).name == "ballbar_round_trip" and not Path(folder).exists()
+    assert Path(gallery.argv({}, {"src_file": str(ROOT / "examples" / "lathe_cold_start.py")})[0]).name \
+        == "lathe_cold_start.rrd"
+    targets = iter(tmp_path / f"sphx_glr_ballbar_round_trip_{k:03d}.png" for k in range(1, 9))
+    block_vars = {"src_file": src, "image_path_iterator": targets}
+    conf = {"src_dir": str(tmp_path)}
+    assert gallery.pictures(None, block_vars, conf) == ""            # nothing written yet
+    Path(folder).mkdir(parents=True)
+    (Path(folder) / "b.png").write_bytes(b"first")
+    os.utime(Path(folder) / "b.png", ns=(1, 1))
+    (Path(folder) / "a.png").write_bytes(b"second")
+    (Path(folder) / "data.csv").write_text("not a picture")
+    shown = gallery.pictures(None, block_vars, conf)
+    assert shown.count("image-sg::") == 2 and shown.index("_001.png") < shown.index("_002.png")
+    assert (tmp_path / "sphx_glr_ballbar_round_trip_001.png").read_bytes() == b"first"   # written first
+    assert (tmp_path / "sphx_glr_ballbar_round_trip_002.png").read_bytes() == b"second"
+    assert gallery.pictures(None, block_vars, conf) == ""            # each shown once
+    gallery.argv({}, {"src_file": src})                               # a new run starts afresh
+    assert not Path(folder).exists()
