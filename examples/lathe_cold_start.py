@@ -32,9 +32,10 @@ import rerun.blueprint as rrb
 
 import volerr_pin as vp
 from volerr_pin.viz.plots import save
-from volerr_pin.viz.recording import log_field, log_machine, log_time_series, new_recording, streaming
+from volerr_pin.viz.recording import (eye_on, log_field, log_machine, log_time_series, new_recording, opened_paused,
+                                      streaming, whole_range)
 from volerr_pin.model.specio import add_terms
-from volerr_pin.model.workspace import evaluate_field, field_grid
+from volerr_pin.model.workspace import default_config, evaluate_field, field_grid
 
 HOURS = 20.0
 REFERENCE_MM = (-250.0, 100.0)  # Z, X: mid-length of a part, 100 mm radius
@@ -90,16 +91,20 @@ def main(out: Path) -> dict:
     cold_start_png(t, resultant, error, out.with_suffix(".png"))
 
     rec = new_recording("volerr_pin_lathe_cold_start")
+    q = field_grid(machine, [9, 5])
+    # opens paused at t = 0 (cold), the field framed from outside the machine, the whole 20 hours plotted
     blueprint = rrb.Blueprint(
-        rrb.Horizontal(rrb.Spatial3DView(origin="/", contents=["machine/**", "field/**"],
-                                         name="machine and error field"),
-                       rrb.TimeSeriesView(origin="thermal", name="error at the reference point [um]"),
+        rrb.Horizontal(rrb.Spatial3DView(origin="/", contents=["+ machine/**", "+ field/**", "- field/components/**"],
+                                         name="machine and error field at the time cursor",
+                                         eye_controls=eye_on(machine, default_config(machine),
+                                                             machine.tool_poses(q, nominal=True)[1])),
+                       rrb.TimeSeriesView(origin="thermal", name="error at the reference point [um], 20 h",
+                                          **whole_range("time")),
                        column_shares=[3, 2]),
-        rrb.TimePanel(state="expanded"))
+        opened_paused(timeline="time", state="expanded"))
     with streaming(rec, out, blueprint):   # a temporary file beside out, renamed on success
         log_machine(rec, machine, np.array(REFERENCE_MM) * 1e-3)
         log_time_series(rec, t, {"resultant_um": resultant, "dx_um": error[:, 0], "dz_um": error[:, 2]})
-        q = field_grid(machine, [9, 5])
         frames = t[::10]
         peak = max(np.linalg.norm(machine.volumetric_error(q, t=np.full(len(q), s))[:, :3], axis=1).max()
                    for s in frames[:3]) * 1e6

@@ -50,10 +50,10 @@ def test_export_cli_writes_tables_report_and_pictures(cli_run):
     assert report["residual_max_um"] < report["naive_residual_max_um"] < report["uncompensated_max_um"] * 1.5
     assert report["exact_residual_max_um"] < 1e-3 and report["read_back"] is True
     assert mpimg.imread(folder / "e.png").shape[2] in (3, 4)
-    # the recording: one step per stage, arrows = error x scale on the same points
-    arrows = chunks(folder / "e.rrd", "/export/error")
-    vectors = [np.asarray(row, dtype=float).reshape(-1, 3)
-               for b in arrows for row in b.column("Arrows3D:vectors").to_pylist()]
+    # the recording: one static entity (and view) per stage, arrows = error x scale on the same points
+    stages = ["1_uncompensated", "2_naive_tables", "3_written_tables", "4_exact_compensation"]
+    vectors = [np.asarray(row, dtype=float).reshape(-1, 3) for stage in stages
+               for b in chunks(folder / "e.rrd", f"/export/{stage}/error") for row in b.column("Arrows3D:vectors").to_pylist()]
     assert len(vectors) == 4 and vectors[0].shape == (512, 3)
     rms = [np.sqrt(np.mean(np.sum(v ** 2, axis=1))) for v in vectors]
     assert rms[2] < rms[0] / 3 and rms[3] < rms[2] / 100                  # written tables shrink the arrows

@@ -52,9 +52,10 @@ def test_field_recording_holds_the_volumetric_error(machines, tmp_path):
     reader = rr.chunk.RrdReader(str(path))
     blueprint = reader.blueprints()
     assert len(blueprint) == 1
-    views = {c.entity_path for c in reader.stream(store=blueprint[0]) if c.entity_path.startswith("/view/")
-             and not c.entity_path.endswith("ViewContents")}
-    assert len(views) == 3  # 3D view, ranking bar chart, ranking table
+    views = {c.entity_path for c in reader.stream(store=blueprint[0]) if c.entity_path.count("/") == 2
+             and c.entity_path.startswith("/view/")}
+    assert len(views) == 3  # 3D view, ranking bars with names, ranking table
+    assert chunks(path, "/sensitivity/bars")   # the bars with names, a picture
 
 
 @pytest.mark.filterwarnings("error:RRD file has no footer")
@@ -110,7 +111,7 @@ def test_time_series_go_in_bulk_on_the_time_timeline(tmp_path):
     drift = 10 * (1 - np.exp(-t / 900.0))
     log_time_series(rec, t, {"spindle_z_um": drift})
     rec.flush()
-    batches = chunks(path, "/thermal/spindle_z_um")
+    batches = [b for b in chunks(path, "/thermal/spindle_z_um") if "Scalars:scalars" in b.schema.names]
     assert len(batches) == 1 and batches[0].num_rows == len(t)
     np.testing.assert_allclose([v[0] for v in batches[0].column("Scalars:scalars").to_pylist()], drift)
     assert "time" in batches[0].schema.names
@@ -196,14 +197,22 @@ def test_gear_recording_holds_the_normal_deviations(machines, tmp_path):
     summary = record_gear(rows, path, scale=2000.0)
     assert summary == {"path": str(path), "sources": 3, "points": 2 * 46 * 5 * 3, "scale": 2000.0}
     points = chunks(path, "/gear/flanks")
-    values = column(points, "normal_deviation_um")
+    steps = [b for b in points if "normal_deviation_um" in b.schema.names]
+    values = column(steps, "normal_deviation_um")
     assert len(values) == 3                                            # one step per source
-    for row, logged in zip(rows, values):
+    # the row of all sources together opens the recording (step 0); then the sources as given
+    assert [row.source for row in rows] == ["EXA", "ECB", "all"]
+    assert [s for b in steps for s in b.column("error_source").to_pylist()] == [["all"], ["EXA"], ["ECB"]]
+    opened = [rows[2], rows[0], rows[1]]
+    for row, logged in zip(opened, values):
         np.testing.assert_allclose(logged, row.deviations.normal.reshape(-1) * 1e6, rtol=1e-12)
-    positions = np.array(column(points, "Points3D:positions")[0]).reshape(-1, 3)
+    static = [b for b in points if "Points3D:positions" in b.schema.names]   # positions once, not per step
+    assert len(static) == 1 and not any("Points3D:positions" in b.schema.names for b in steps)
+    positions = np.array(column(static, "Points3D:positions")[0]).reshape(-1, 3)
     np.testing.assert_allclose(positions, rows[0].deviations.points.reshape(-1, 3), atol=1e-7)
-    arrows = np.array(column(chunks(path, "/gear/deviation"), "Arrows3D:vectors")[2]).reshape(-1, 3)
-    expected = rows[2].deviations.normals.reshape(-1, 3) * rows[2].deviations.normal.reshape(-1, 1) * 2000.0
+    vectors = [b for b in chunks(path, "/gear/deviation") if "source" in b.schema.names]
+    arrows = np.array(column(vectors, "Arrows3D:vectors")[2]).reshape(-1, 3)   # step 2: ECB
+    expected = rows[1].deviations.normals.reshape(-1, 3) * rows[1].deviations.normal.reshape(-1, 1) * 2000.0
     np.testing.assert_allclose(arrows, expected, rtol=1e-6, atol=1e-9)
 
 

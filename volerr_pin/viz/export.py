@@ -5,8 +5,8 @@ tables (:class:`volerr_pin.compensation.export.ExportResult`).
   naive tables, the written tables as the controller applies them, exact compensation) and
   maps of the error before and after over the first two axes.
 - :func:`record_export`: a Rerun recording of the evaluation points in the workpiece frame,
-  one step of the ``stage`` timeline per case, with the error vectors magnified by a stated
-  factor and coloured on one scale, and the summary as text.
+  one 3D view per case on the machine, with the error vectors magnified by a stated factor and
+  coloured on one scale with its key, and the summary as text.
 """
 
 from __future__ import annotations
@@ -20,9 +20,9 @@ import rerun.blueprint as rrb
 from ..compensation.export import ExportResult
 from ..base.safeio import check_outputs
 from ..base.units import UM_PER_M
-from ..model.workspace import nice_scale, to_engineering
+from ..model.workspace import default_config, nice_scale, to_engineering
 from .plots import plt, save
-from .recording import colours, new_recording, streaming
+from .recording import colours, eye_on, log_legend, log_machine, new_recording, opened_paused, streaming
 
 __all__ = ["export_png", "record_export"]
 
@@ -86,7 +86,12 @@ def export_png(result: ExportResult, path: str | Path) -> dict:
 
 
 def record_export(result: ExportResult, path: str | Path, scale: float | None = None) -> dict:
-    """The error vectors at the evaluation points before and after, one stage per step.
+    """The error vectors at the evaluation points before and after, one 3D view per stage.
+
+    The recording opens on four views side by side (uncompensated, naive tables, the written
+    tables as the controller applies them, exact compensation), each named with its largest and
+    RMS error, on the machine and with one colour key: every stage is static data, so no time
+    cursor decides what shows.
 
     Parameters
     ----------
@@ -112,26 +117,36 @@ def record_export(result: ExportResult, path: str | Path, scale: float | None = 
     extent = float(np.ptp(where, axis=0).max()) or 1.0
     scale = scale or nice_scale(peak, extent)
     radius = max(extent / 400.0, 2e-4)
-    rec = new_recording("volerr_pin_export")
-    blueprint = rrb.Blueprint(
-        rrb.Horizontal(rrb.Spatial3DView(origin="/", contents=["export/**"], name="tool-point error"),
-                       rrb.TextDocumentView(origin="summary", name="summary"), column_shares=[3, 1]),
-        rrb.TimePanel(state="expanded"))
+    base = default_config(machine)
+    eye = eye_on(machine, base, where)
     s = result.summaries
+    keys = dict(zip((label for label, _ in STAGES), ("uncompensated", "naive", "residual", "exact")))
+    entity = {label: f"export/{k}_{label.replace(' ', '_')}" for k, (label, _) in enumerate(STAGES, start=1)}
+    views = [rrb.Spatial3DView(origin="/", contents=["machine/**", f"{entity[label]}/**", "export/legend/**"],
+                               name=f"{k}. {label}: max {s[keys[label]].max_um:.2f} um, RMS {s[keys[label]].rms_um:.2f} um",
+                               eye_controls=eye)
+             for k, (label, _) in enumerate(STAGES, start=1)]
+    blueprint = rrb.Blueprint(
+        rrb.Horizontal(rrb.Grid(*views, grid_columns=2), rrb.TextDocumentView(origin="summary", name="summary"),
+                       column_shares=[4, 1]),
+        opened_paused(), rrb.SelectionPanel(state="collapsed"), rrb.BlueprintPanel(state="collapsed"))
     lines = [f"# {machine.name}: {result.controller.title}", "", f"kind: {result.kind}; arrows x{scale:g}; colour: "
-             f"|error| 0 .. {peak:.3g} um (viridis, one scale for every stage)", "",
-             "| stage | max um | RMS um |", "|---|---|---|"]
-    for (label, _), key in zip(STAGES, ("uncompensated", "naive", "residual", "exact")):
-        lines.append(f"| {label} | {s[key].max_um:.4g} | {s[key].rms_um:.4g} |")
+             f"|error| 0 .. {peak:.2f} um (viridis, one scale for every stage; the key beside the points)", "",
+             "| stage | max um | RMS um |", "|---|--:|--:|"]
+    for label, _ in STAGES:
+        lines.append(f"| {label} | {s[keys[label]].max_um:.3f} | {s[keys[label]].rms_um:.3f} |")
+    lines += ["", f"{len(where):,} evaluation points, in the workpiece frame; the machine at mid travel."]
+    frame = rr.CoordinateFrame(machine.workpiece_frame)
+    rec = new_recording("volerr_pin_export")
     with streaming(rec, path, blueprint):
+        log_machine(rec, machine, base)
         rec.log("summary", rr.TextDocument("\n".join(lines), media_type=rr.MediaType.MARKDOWN), static=True)
-        for step, (label, field) in enumerate(STAGES):
-            rec.set_time("stage", sequence=step)
+        log_legend(rec, "export/legend", frame, where, 0.0, peak)
+        for label, field in STAGES:
             vectors = getattr(result, field)
             colors = colours(norms[label], 0.0, peak)
-            rec.log("export/points", rr.Points3D(where, colors=colors, radii=radius),
-                    rr.AnyValues(error_um=norms[label]))
-            rec.log("export/error", rr.Arrows3D(origins=where, vectors=vectors * scale, colors=colors,
-                                                radii=radius / 3))
-            rec.log("export/stage", rr.TextLog(f"{label}: max {norms[label].max():.4g} um"))
+            rec.log(f"{entity[label]}/points", frame, rr.Points3D(where, colors=colors, radii=radius),
+                    rr.AnyValues(error_um=norms[label]), static=True)
+            rec.log(f"{entity[label]}/error", frame, rr.Arrows3D(origins=where, vectors=vectors * scale,
+                                                                 colors=colors, radii=radius / 3), static=True)
     return {"path": str(path), "points": int(len(where)), "scale": scale, "stages": [label for label, _ in STAGES]}

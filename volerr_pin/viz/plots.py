@@ -131,12 +131,19 @@ def field_slice_png(machine: Machine, path: str | Path, config: dict[str, float]
 
 def ranking_png(ranking: dict, path: str | Path, top: int = 15) -> dict:
     """Horizontal bars of the RMS tool-point error per term, the maximum as a tick, shares."""
+    fig = ranking_figure(ranking, top)
+    save(fig, path)
+    return {"path": str(path), "rows": min(top, len(ranking["ranking"]))}
+
+
+def ranking_figure(ranking: dict, top: int = 15, size: tuple[float, float] | None = None):
+    """The figure of :func:`ranking_png` (the recordings show it too: its bars carry names)."""
     rows = ranking["ranking"][:top]
     names = [r["parameter"] for r in rows][::-1]
     rms = np.array([r["rms_um"] for r in rows])[::-1]
     peak = np.array([r["max_um"] for r in rows])[::-1]
     share = np.array([r.get("share_of_all", r["share"]) for r in rows])[::-1]
-    fig, ax = plt.subplots(figsize=(8.0, 0.38 * len(rows) + 1.6), dpi=120, constrained_layout=True)
+    fig, ax = plt.subplots(figsize=size or (8.0, 0.38 * len(rows) + 1.6), dpi=120, constrained_layout=True)
     yy = np.arange(len(rows))
     ax.barh(yy, rms, color="#4a6fb4", label="RMS over the workspace")
     ax.scatter(peak, yy, marker="|", s=180, color="#c0392b", label="maximum", zorder=3)
@@ -145,15 +152,15 @@ def ranking_png(ranking: dict, path: str | Path, top: int = 15) -> dict:
                 fontsize=8)
     ax.set_yticks(yy, names)
     ax.set_xlabel("tool-point error caused by the term [um]")
-    ax.set_xlim(0, max(peak.max(), rms.max()) * 1.2 if len(rows) else 1)
+    top = max(peak.max(), rms.max()) if len(rows) else 0.0
+    ax.set_xlim(0, top * 1.2 if top > 0 else 1.0)   # every term zero (a bare URDF): an axis of 1 um
     basis = ranking.get("basis", "current values")
     ax.set_title(f"{ranking['machine']}: error sources at the tool ({basis}, "
                  f"{ranking['points']} points, direction {ranking.get('direction', 'all')})\n"
                  "labels: share of the mean squared tool error", fontsize=10)
     ax.legend(loc="lower right", fontsize=8)
     ax.grid(axis="x", alpha=0.3)
-    save(fig, path)
-    return {"path": str(path), "rows": len(rows)}
+    return fig
 
 
 def _nice(value: float) -> float:
@@ -270,6 +277,12 @@ def thermal_fit_png(result: dict, data, path: str | Path) -> dict:
 def diagnosis_png(diagnosis, path: str | Path) -> dict:
     """One page: held-out RMS per step against the noise floor, and for each accepted effect
     the residual against its driver before and after."""
+    save(diagnosis_figure(diagnosis), path)
+    return {"path": str(path)}
+
+
+def diagnosis_figure(diagnosis):
+    """The figure of :func:`diagnosis_png` (the diagnosis' recording shows it too)."""
     from ..fit.diagnosis import Role, drift_series, evidence
 
     n_eff = min(len(diagnosis.effects), 4)
@@ -340,8 +353,7 @@ def diagnosis_png(diagnosis, path: str | Path) -> dict:
         a.grid(alpha=0.3)
     for k, series in enumerate(drifts):
         _drift_panels(fig, grid[1 + (n_eff + 1) // 2 + k, 0], grid[1 + (n_eff + 1) // 2 + k, 1], series)
-    save(fig, path)
-    return {"path": str(path)}
+    return fig
 
 
 def _drift_panels(fig, left, right, series) -> None:

@@ -54,17 +54,28 @@ def new_recording(app_id: str = "volerr_pin", recording_id: str | None = None) -
     return rr.RecordingStream(app_id, recording_id=recording_id)
 
 
-def default_blueprint(time_series: bool = False, sweep: bool = False) -> rrb.Blueprint:
-    """3D view of machine and field, beside the ranking (and the time series, if any)."""
-    side = [rrb.BarChartView(origin="sensitivity/ranking", name="error sources (RMS um at the tool)"),
+def default_blueprint(time_series: bool = False, sweep: bool = False, eye: rrb.EyeControls3D | None = None,
+                      sweep_timeline: str = "sweep") -> rrb.Blueprint:
+    """3D view of machine and field, beside the ranking (and the time series, if any).
+
+    The per-component fields (``field/components``) are left out of the 3D view (three colour
+    schemes on the same dots); the blueprint panel adds them back. The recording opens paused,
+    with ``eye`` as the 3D camera when given."""
+    side = [rrb.Spatial2DView(origin="sensitivity/bars", name="error sources at the tool (named bars)"),
             rrb.TextDocumentView(origin="sensitivity/table", name="ranking")]
     if time_series:
-        side.append(rrb.TimeSeriesView(origin="thermal", name="time-dependent errors"))
-    main = rrb.Spatial3DView(origin="/", contents=["machine/**", "field/**"],
-                             name="machine and error field")
+        side.append(rrb.TimeSeriesView(origin="thermal", name="time-dependent errors", **whole_range("time")))
+    if sweep:
+        side.append(rrb.TextDocumentView(origin="field/sweep_angles", name="sweep: step and angles"))
+    shares = [3, 2] + [2] * (len(side) - 2)   # the named bars need the height
+    main = rrb.Spatial3DView(origin="/", contents=["+ machine/**", "+ field/**", "- field/components/**",
+                                                   "- field/about"],
+                             name="machine and error field", eye_controls=eye)
     return rrb.Blueprint(
-        rrb.Horizontal(main, rrb.Vertical(*side), column_shares=[3, 2]),
-        rrb.TimePanel(state="expanded" if (time_series or sweep) else "collapsed"),
+        rrb.Horizontal(main, rrb.Vertical(*side, row_shares=shares), column_shares=[3, 2]),
+        opened_paused(timeline=sweep_timeline if sweep else ("time" if time_series else None),
+                      state="expanded" if (time_series or sweep) else "collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
     )
 
 
@@ -211,6 +222,103 @@ def colours(values: np.ndarray, lo: float, hi: float, cmap: str = "viridis") -> 
     return (rgba[:, :3] * 255).astype(np.uint8)
 
 
+def _workpiece_placement(machine: Machine, q: np.ndarray):
+    """Pinocchio's data of the nominal machine (every error joint at zero: no state needed) at NC
+    positions ``q`` (SI), and the workpiece frame's placement in the root."""
+    import pinocchio as pin
+
+    from ..model.assembly import axis_values
+    from ..model.kinematics import pinocchio_configuration
+
+    model = machine.model
+    data = model.createData()
+    values = axis_values(machine.assembly, np.asarray(q, float)[None, :])
+    pin.framesForwardKinematics(model, data, pinocchio_configuration(model, values.T)[0])
+    return data, data.oMf[model.getFrameId(machine.workpiece_frame)]
+
+
+def world_points(machine: Machine, q: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """Points given in the workpiece frame, in the URDF's root frame (the 3D views' space) with
+    the machine at NC positions ``q`` (SI): where a camera must look to see them."""
+    _, placement = _workpiece_placement(machine, q)
+    return np.asarray(positions, float) @ placement.rotation.T + placement.translation
+
+
+def eye_on(machine: Machine, q: np.ndarray, positions: np.ndarray, distance: float = 1.6) -> rrb.EyeControls3D:
+    """A 3D view's camera that frames ``positions`` (workpiece frame) from outside the machine.
+
+    It looks at their box's centre from ``distance`` times the box's diagonal, z up: horizontally
+    from the mean of the machine's joint origins towards the points (the side the work zone
+    opens to, away from the bulk of the machine), turned 30 degrees for a three-quarter view,
+    and 30 degrees above; a machine whose joints gather on the points is seen from -y."""
+    data, placement = _workpiece_placement(machine, q)
+    points = np.asarray(positions, float).reshape(-1, 3) @ placement.rotation.T + placement.translation
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    centre = (lo + hi) / 2.0
+    diagonal = max(float(np.linalg.norm(hi - lo)), 0.05)
+    body = np.mean([m.translation for m in data.oMi[1:]] or [centre], axis=0)
+    away = (centre - body)[:2]
+    if np.linalg.norm(away) < 0.05 * diagonal:
+        away = np.array([0.0, -1.0])
+    away = away / np.linalg.norm(away)
+    turn = np.radians(30.0)
+    away = np.array([away[0] * np.cos(turn) - away[1] * np.sin(turn), away[0] * np.sin(turn) + away[1] * np.cos(turn)])
+    direction = np.r_[away * np.cos(np.radians(30.0)), np.sin(np.radians(30.0))]
+    return rrb.EyeControls3D(kind="Orbital", position=centre + direction * distance * diagonal,
+                             look_target=centre, eye_up=[0.0, 0.0, 1.0])
+
+
+def log_legend(rec: rr.RecordingStream, entity: str, frame, positions: np.ndarray, lo: float, hi: float,
+               cmap: str = "viridis", unit: str = "um", title: str = "|error|", static: bool = True) -> None:
+    """A colour key beside ``positions`` (the field's points, in ``frame``, or None for the
+    entity's own space): a column of
+    coloured dots from ``lo`` to ``hi`` on ``entity``, and its dark labels on ``entity/labels``
+    (a label takes its point's colour, and yellow text is unreadable on the viewer's light grey)."""
+    lo_corner, hi_corner = positions.min(axis=0), positions.max(axis=0)
+    extent = max(float(np.ptp(positions, axis=0).max()) if len(positions) > 1 else 0.1, 0.05)
+    radius = max(extent / 300.0, 1e-4)
+    levels = np.linspace(lo, hi, 11)
+    where = np.c_[np.full(11, hi_corner[0] + 0.15 * extent), np.full(11, lo_corner[1]),
+                  np.linspace(lo_corner[2], lo_corner[2] + 0.6 * extent, 11)]
+    placed = () if frame is None else (frame,)   # None: in the entity's own space
+    rec.log(entity, *placed, rr.Points3D(where, colors=colours(levels, lo, hi, cmap), radii=radius * 4), static=static)
+    ends = [0, 5, 10]
+    labels = [f"{title} {levels[k]:.2f} {unit}" if k == 10 else f"{levels[k]:.2f} {unit}" for k in ends]
+    rec.log(f"{entity}/labels", *placed, rr.Points3D(where[ends] + [0.06 * extent, 0.0, 0.0], radii=radius / 4,
+                                                   colors=[40, 40, 40], labels=labels, show_labels=True),
+            static=static)
+
+
+def figure_image(fig) -> rr.EncodedImage:
+    """A matplotlib figure as an image for a 2D view (PNG in memory; the figure is closed): for
+    plots Rerun has no view of its own for, such as bars with names."""
+    import io
+
+    import matplotlib.pyplot as plt
+
+    buffer = io.BytesIO()
+    try:
+        fig.savefig(buffer, format="png")
+    finally:
+        plt.close(fig)
+    return rr.EncodedImage(contents=buffer.getvalue(), media_type="image/png")
+
+
+def opened_paused(timeline: str | None = None, state: str = "collapsed") -> rrb.TimePanel:
+    """The time panel of a recording that opens still: paused (the viewer would play a
+    timeline from its start at 1x), on ``timeline`` if given."""
+    return rrb.TimePanel(state=state, timeline=timeline, play_state="paused")
+
+
+def whole_range(timeline: str) -> dict:
+    """A time series view's arguments that show ``timeline`` end to end, wherever the time
+    cursor is (by default it shows 30 s either side of the cursor): its data's range and its
+    x axis' range. ``rrb.TimeSeriesView(..., **whole_range("time"))``."""
+    everything = rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite())
+    return {"time_ranges": rrb.VisibleTimeRange(timeline, range=everything),
+            "axis_x": rrb.TimeAxis(view_range=everything)}
+
+
 def log_field(rec: rr.RecordingStream, machine: Machine, field: FieldData, prefix: str = "field",
               static: bool = True, legend: bool = True, colour_max: float | None = None) -> None:
     """Points coloured by |error| (0 .. ``colour_max`` um, default the field's maximum), arrows
@@ -236,49 +344,62 @@ def log_field(rec: rr.RecordingStream, machine: Machine, field: FieldData, prefi
                 rr.Points3D(field.positions, colors=colours(e_um[:, i], -bound, bound, "RdBu_r"),
                             radii=radius),
                 rr.AnyValues(**{f"{name}_um": e_um[:, i]}), static=static)
+    if legend and not norm.any():   # said on screen, where the user looks: a uniform field explains nothing
+        centre = (field.positions.min(axis=0) + field.positions.max(axis=0)) / 2.0 if len(norm) else np.zeros(3)
+        rec.log(f"{prefix}/nothing", frame, rr.Points3D(centre[None, :], radii=radius / 4, colors=[40, 40, 40],
+                                                        labels=[f"{machine.name}: every error is zero here "
+                                                                "(no error terms with values)"], show_labels=True),
+                static=static)
     if legend:
-        lo_corner = field.positions.min(axis=0)
-        hi_corner = field.positions.max(axis=0)
-        offset = 0.15 * max(extent, 0.05)
-        levels = np.linspace(0.0, hi, 11)
-        where = np.c_[np.full(11, hi_corner[0] + offset), np.full(11, lo_corner[1]),
-                      np.linspace(lo_corner[2], lo_corner[2] + max(extent, 0.05) * 0.6, 11)]
-        labels = [f"{v:.2f} um" if k % 5 == 0 else "" for k, v in enumerate(levels)]
-        rec.log(f"{prefix}/legend", frame,
-                rr.Points3D(where, colors=colours(levels, 0.0, hi), radii=radius * 4, labels=labels,
-                            show_labels=True), static=static)
+        log_legend(rec, f"{prefix}/legend", frame, field.positions, 0.0, hi,
+                   title="|error|" if colour_max is None else "|error| (peak of all steps)", static=static)
         rec.log(f"{prefix}/about", rr.TextDocument(
             f"# Volumetric error field of {machine.name}\n\n"
             f"{len(field.q)} points; colour: |error| from 0 to {hi:.2f} um (viridis; legend beside the "
             f"field); arrows: error vectors magnified **{field.scale:g} times**; "
-            f"`components/dx|dy|dz`: signed components, blue -{bound:.2f} .. red +{bound:.2f} um. "
+            f"`components/dx|dy|dz` (left out of the 3D view; the blueprint panel adds them): signed "
+            f"components, blue -{bound:.2f} .. red +{bound:.2f} um. "
             "Select a point to read dx_um, dy_um, dz_um and norm_um.\n\n"
             "Error = actual minus nominal tool point relative to the workpiece, in the workpiece "
             "frame.", media_type=rr.MediaType.MARKDOWN), static=True)
 
 
 def log_ranking(rec: rr.RecordingStream, ranking: dict, prefix: str = "sensitivity") -> None:
-    """The ranking (from :func:`volerr_pin.fit.ranking.rank`.to_dict()) as a bar chart and a table."""
+    """The ranking (from :func:`volerr_pin.fit.ranking.rank`.to_dict()) as bars with names (a
+    picture on ``bars``: Rerun's bar charts take no names), a table, and the values as a bar
+    chart (``ranking``) for other views."""
+    from .plots import ranking_figure
+
     rows = ranking["ranking"]
     rec.log(f"{prefix}/ranking", rr.BarChart(np.array([r["rms_um"] for r in rows]),
                                              color=[64, 110, 180]), static=True)
+    rec.log(f"{prefix}/bars", figure_image(ranking_figure(ranking, top=min(len(rows), 15), size=(7.0, 6.0))),
+            static=True)
     lines = ["| # | term | axis | RMS um | max um | share of all terms |", "|---|---|---|---|---|---|"]
     lines += [f"| {i} | {r['parameter']} | {r['axis']} | {r['rms_um']:.3f} | {r['max_um']:.3f} | "
               f"{100 * r.get('share_of_all', r['share']):.1f} % |" for i, r in enumerate(rows)]
     rec.log(f"{prefix}/table", rr.TextDocument(
-        f"Bars, left to right (index 0 first), RMS tool-point error per term over "
-        f"{ranking['points']} points:\n\n" + "\n".join(lines), media_type=rr.MediaType.MARKDOWN),
+        f"RMS and largest tool-point error per term over {ranking['points']} points:\n\n" + "\n".join(lines),
+        media_type=rr.MediaType.MARKDOWN),
         static=True)
+
+
+#: colours of the series of one time series view, in order (matplotlib's tab10: told apart at a glance)
+SERIES_COLOURS = [[31, 119, 180], [214, 39, 40], [44, 160, 44], [255, 127, 14], [148, 103, 189], [140, 86, 75],
+                  [227, 119, 194], [127, 127, 127], [188, 189, 34], [23, 190, 207]]
 
 
 def log_time_series(rec: rr.RecordingStream, t: np.ndarray, series: dict[str, np.ndarray],
                     prefix: str = "thermal", timeline: str = "time") -> None:
-    """Bulk time series: one ``send_columns`` call per series on the ``time`` timeline [s]."""
+    """Bulk time series: one ``send_columns`` call per series on the ``time`` timeline [s], each
+    named and in its own colour (:data:`SERIES_COLOURS`, in the order given)."""
     t = np.asarray(t, dtype=float)
-    for name, values in series.items():
+    for k, (name, values) in enumerate(series.items()):
         values = np.asarray(values, dtype=float)
         if values.shape != t.shape:
             raise InputError(f"series '{name}' has shape {values.shape}; time has {t.shape}")
+        rec.log(f"{prefix}/{name}", rr.SeriesLines(colors=SERIES_COLOURS[k % len(SERIES_COLOURS)], names=name),
+                static=True)
         rec.send_columns(f"{prefix}/{name}", indexes=[rr.TimeColumn(timeline, duration=t)],
                          columns=rr.Scalars.columns(scalars=values))
 
@@ -349,7 +470,8 @@ def record_field(machine: Machine, path: str | Path | None = None, *, counts=Non
                        ("counts", "sweep_steps") if sweeping else ("counts",))
     q = field_grid(machine, counts, config)
     rec = new_recording()
-    blueprint = default_blueprint(sweep=bool(sweeping))
+    eye = eye_on(machine, base, machine.tool_poses(q, nominal=True)[1])
+    blueprint = default_blueprint(sweep=bool(sweeping), eye=eye)
     with streaming(rec, path, blueprint, spawn, connect):
         log_machine(rec, machine, base, moving=sweeping, package_dirs=package_dirs)
         if sweeping:
@@ -415,15 +537,30 @@ def log_rotary_sweep(rec: rr.RecordingStream, machine: Machine, q: np.ndarray, b
         log_field(rec, machine, FieldData(f.q, f.positions, f.error, scale), prefix=prefix,
                   static=False, legend=step == 0, colour_max=peak)
         log_joint_transforms(rec, machine, shown, static=False, axes=axes)
-        state = ", ".join(f"{a} = {np.degrees(v):.1f} deg" for a, v in zip(axes, row))
-        rec.log(f"{prefix}/sweep_state", rr.TextLog(state))
     rec.reset_time()
+    lines = [f"The `sweep` timeline turns {', '.join(axes)} through {'their' if len(axes) > 1 else 'its'} travel "
+             f"in {steps} steps; the colour key's top is the peak over all steps, {peak:.2f} um.", "",
+             "| step | " + " | ".join(f"{a} deg" for a in axes) + " | max um |",
+             "|--:|" + "--:|" * len(axes) + "--:|"]
+    for step, (row, f) in enumerate(zip(angles, fields)):
+        top = float(np.linalg.norm(f.error[:, :3], axis=1).max()) * UM_PER_M
+        lines.append(f"| {step} | " + " | ".join(f"{np.degrees(v):.1f}" for v in row) + f" | {top:.2f} |")
+    rec.log(f"{prefix}/sweep_angles", rr.TextDocument("\n".join(lines), media_type=rr.MediaType.MARKDOWN),
+            static=True)
     return scale
 
 
 def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, package_dirs=None) -> dict:
-    """The residual field at each step of a diagnosis (``step`` timeline) and, for each
-    accepted effect, the residual against its driver before and after (2D view).
+    """The residual field at each step of a diagnosis, the diagnosis at a glance, its drift over
+    time and its steps.
+
+    It opens, paused, on two 3D views: the residual of the model as given and after the last
+    step (static data, named with the held-out RMS; every step's residual is recorded on
+    ``residuals/step_<k>``), the picture
+    of :func:`volerr_pin.viz.plots.diagnosis_png` (held-out RMS per step against the noise floor,
+    each effect's residual against its driver before and after, with axes and labels), the
+    drift's measured and model values over the whole ``time`` timeline when a drift was found,
+    and the steps as a table.
 
     Parameters
     ----------
@@ -446,7 +583,8 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, pa
     InputError
         If ``path`` cannot be written.
     """
-    from ..fit.diagnosis import drift_series, evidence
+    from ..fit.diagnosis import drift_series
+    from .plots import diagnosis_figure
 
     check_outputs({"path": path})
     machine = diagnosis.machine
@@ -462,56 +600,62 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, pa
     peak = max(float(np.linalg.norm(v, axis=1).max()) for v in per_step) * UM_PER_M
     extent = float(np.ptp(positions, axis=0).max()) if len(positions) > 1 else 0.1
     scale = scale or nice_scale(peak, extent)
-    radius = max(extent / 300.0, 1e-4)
-    rec = new_recording("volerr_pin_diagnose")
+    radius = max(extent / 150.0, 1e-4)
+    base = default_config(machine)
+    eye = eye_on(machine, base, positions)
+    drifts = drift_series(diagnosis)
+
+    def title(number, step):
+        added = "; ".join(a.label for a in step.accepted_all) if step.accepted else ""
+        what = "the model as given" if number == 0 else f"after step {number}"
+        return f"{number}. residual, {what}: held-out RMS {step.rms_holdout_um:.2f} um" + (
+            f" (next: {added})" if added and len(added) < 60 else "")
+
+    shown = sorted({0, len(diagnosis.steps) - 1})   # before and after; every step is in residuals/step_<k>
+    views = [rrb.Spatial3DView(origin="/", contents=["machine/**", f"residuals/step_{k}/**", "residuals/legend/**"],
+                               name=title(k, diagnosis.steps[k]), eye_controls=eye) for k in shown]
+    side = [rrb.Spatial2DView(origin="summary/picture", name="the diagnosis at a glance")]
+    if drifts:
+        side.append(rrb.TimeSeriesView(origin="thermal", name="drift over time: measured and model (um)",
+                                       **whole_range("time")))
+    side.append(rrb.TextDocumentView(origin="summary/steps", name="steps"))
     blueprint = rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Spatial3DView(origin="/", contents=["machine/**", "residuals/**"], name="residual field"),
-            rrb.Vertical(rrb.Spatial2DView(origin="evidence", name="residual vs driver (um)"),
-                         rrb.TimeSeriesView(origin="thermal", name="thermal drift: measured and model (um)"),
-                         rrb.TextLogView(origin="steps", name="steps")),
-            column_shares=[3, 2]),
-        rrb.TimePanel(state="expanded"))
+        rrb.Horizontal(rrb.Vertical(*views),
+                       rrb.Vertical(*side, row_shares=[3] + [2] * (len(side) - 1)), column_shares=[3, 2]),
+        opened_paused(timeline="time" if drifts else None), rrb.SelectionPanel(state="collapsed"),
+        rrb.BlueprintPanel(state="collapsed"))
     frame = rr.CoordinateFrame(machine.workpiece_frame)
+    rec = new_recording("volerr_pin_diagnose")
     with streaming(rec, path, blueprint):
-        log_machine(rec, machine, default_config(machine), package_dirs=package_dirs)
-        for number, (step, vec) in enumerate(zip(diagnosis.steps, per_step)):
-            rec.set_time("step", sequence=number)
+        log_machine(rec, machine, base, package_dirs=package_dirs)
+        log_legend(rec, "residuals/legend", frame, positions, 0.0, peak, title="|residual|")
+        for number, vec in enumerate(per_step):
             norm = np.linalg.norm(vec, axis=1) * UM_PER_M
-            rec.log("residuals/points", frame, rr.Points3D(positions, colors=colours(norm, 0.0, peak),
-                                                           radii=radius), rr.AnyValues(residual_um=norm))
-            rec.log("residuals/arrows", frame, rr.Arrows3D(origins=positions, vectors=vec * scale,
-                                                            colors=colours(norm, 0.0, peak), radii=radius / 2))
-            text = (f"step {number}: held-out RMS {step.rms_holdout_um:.3f} um; "
-                    + (f"added {'; '.join(a.label for a in step.accepted_all)}" if step.accepted
-                       else "no candidate is significant"))
-            rec.log("steps", rr.TextLog(text))
-            if step.accepted is not None:
-                ev = evidence(diagnosis, number)
-                if ev is not None:
-                    span = float(np.ptp(ev.x)) or 1.0
-                    x = (ev.x - ev.x.min()) / span * 100.0
-                    rec.log("evidence/before", rr.Points2D(np.c_[x, -ev.before_um * 10], radii=0.6,
-                                                            colors=[200, 60, 50]))
-                    rec.log("evidence/after", rr.Points2D(np.c_[x, -ev.after_um * 10], radii=0.6,
-                                                           colors=[40, 110, 190]))
-                    rec.log("evidence/label", rr.TextLog(
-                        f"{ev.label}: residual d{ev.direction} (red before, blue after, x10 um) vs "
-                        f"{ev.x_label} (0-100 % of its range)"))
-        rec.reset_time()
-        for k, series in enumerate(drift_series(diagnosis)):  # on the `time` timeline [s]
+            rec.log(f"residuals/step_{number}/points", frame,
+                    rr.Points3D(positions, colors=colours(norm, 0.0, peak), radii=radius),
+                    rr.AnyValues(residual_um=norm), static=True)
+            rec.log(f"residuals/step_{number}/arrows", frame,
+                    rr.Arrows3D(origins=positions, vectors=vec * scale, colors=colours(norm, 0.0, peak),
+                                radii=radius / 2), static=True)
+        rec.log("summary/picture", figure_image(diagnosis_figure(diagnosis)), static=True)
+        lines = [f"Residual = measured minus model, arrows x{scale:g}, colour 0 .. {peak:.2f} um (one scale for "
+                 "every step; the key beside the points). The views show the first and the last step; every "
+                 "step's residual is `residuals/step_<k>` (drag it into a view from the streams).", "",
+                 "| step | held-out RMS um | added next |", "|--:|--:|---|"]
+        for number, step in enumerate(diagnosis.steps):
+            added = "; ".join(a.label for a in step.accepted_all) if step.accepted else "nothing significant"
+            lines.append(f"| {number} | {step.rms_holdout_um:.3f} | {added} |")
+        rec.log("summary/steps", rr.TextDocument("\n".join(lines), media_type=rr.MediaType.MARKDOWN), static=True)
+        for series in drifts:  # on the `time` timeline [s]
             t = series.t_h * 3600.0
             keep = np.r_[True, np.diff(t) > 0]  # one value per instant
             log_time_series(rec, t[keep], {"measured_um": series.measured_um[keep],
                                            "model_um": series.model_um[keep],
-                                           **{f"share_{n}_um": v[keep] for n, v in series.contributions_um.items()},
-                                           **{f"T_{n}_degC": v[keep] for n, v in series.temperatures.items()}},
+                                           **{f"share_{n}_um": v[keep] for n, v in series.contributions_um.items()}},
                             prefix=f"thermal/d{series.direction}")
+            log_time_series(rec, t[keep], {f"T_{n}_degC": v[keep] for n, v in series.temperatures.items()},
+                            prefix=f"temperatures/d{series.direction}")
             rec.log(f"thermal/d{series.direction}/about", rr.TextDocument(series.label), static=True)
-        rec.log("residuals/about", rr.TextDocument(
-            f"Residual (measured minus model) at each step of the diagnosis, arrows x{scale:g}; "
-            "the `step` timeline walks through the accepted effects.", media_type=rr.MediaType.MARKDOWN),
-            static=True)
     return {"path": str(path), "steps": len(diagnosis.steps), "scale": scale,
             "bytes": Path(path).stat().st_size}
 
@@ -521,13 +665,16 @@ def record_gear(rows, path: str | Path, scale: float | None = None) -> dict:
 
     ``rows`` are :class:`volerr_pin.applications.gear.SourceDeviations` (a source alone, or all together):
     each step shows every evaluated flank point in the workpiece frame coloured by its normal
-    deviation (red: more material, blue: less; one colour scale over all steps, in
-    ``normal_deviation_um``) and arrows along the normals of length deviation x ``scale``.
+    deviation (red: more material, blue: less; one colour scale over all steps, with its key, in
+    ``normal_deviation_um``) and arrows along the normals of length deviation x ``scale``. The
+    row of all sources together, when there is one, is step 0, where the recording opens
+    (paused); a table names every step's source and its deviations. The points' positions are
+    logged once: each step carries only its colours and arrow lengths.
 
     Parameters
     ----------
     rows : sequence of volerr_pin.applications.gear.SourceDeviations
-        The sources, in the order of the steps.
+        The sources, in the order of the steps (the row of all sources goes first).
     path : str or Path
         The ``.rrd`` file, written through a temporary file renamed over it once complete.
     scale : float, optional
@@ -546,6 +693,7 @@ def record_gear(rows, path: str | Path, scale: float | None = None) -> dict:
     if not rows:
         raise InputError("record_gear needs at least one source", parameters=("rows",))
     check_outputs({"path": path})
+    rows = sorted(rows, key=lambda r: r.source != "all")   # stable: all sources first, then as given
     first = rows[0].deviations
     points = first.points.reshape(-1, 3)
     normals = first.normals.reshape(-1, 3)
@@ -553,23 +701,36 @@ def record_gear(rows, path: str | Path, scale: float | None = None) -> dict:
     extent = float(np.ptp(points, axis=0).max())
     scale = scale or nice_scale(peak, extent)
     radius = max(extent / 600.0, 2e-5)
-    rec = new_recording("volerr_pin_gear")
+    centre = (points.min(axis=0) + points.max(axis=0)) / 2.0
+    diagonal = max(float(np.linalg.norm(np.ptp(points, axis=0))), 1e-3)
+    above = np.array([0.5, -0.7, 0.9]) / np.linalg.norm([0.5, -0.7, 0.9])   # the gear's axis is z: from above, aside
+    eye = rrb.EyeControls3D(kind="Orbital", position=centre + above * 1.4 * diagonal, look_target=centre,
+                            eye_up=[0.0, 0.0, 1.0])
     blueprint = rrb.Blueprint(
-        rrb.Horizontal(rrb.Spatial3DView(origin="/", contents=["gear/**"], name="flanks"),
-                       rrb.TextLogView(origin="sources", name="sources"), column_shares=[3, 1]),
-        rrb.TimePanel(state="expanded"))
+        rrb.Horizontal(rrb.Spatial3DView(origin="/", contents=["gear/**"], name="flanks: normal deviation at the "
+                                         "time cursor's source (red: more material)", eye_controls=eye),
+                       rrb.TextDocumentView(origin="sources", name="sources: step, deviations"), column_shares=[3, 2]),
+        opened_paused(timeline="source", state="expanded"), rrb.SelectionPanel(state="collapsed"))
+    lines = [f"Step of the `source` timeline, the error source (alone), and the right flank's deviations of the worst "
+             f"tooth [um]; arrows x{scale:g}, colour -{peak:.2f} .. +{peak:.2f} um (one scale for every step).", "",
+             "| step | source | value | profile | helix | pitch |", "|--:|---|---|--:|--:|--:|"]
+    for number, row in enumerate(rows):
+        right = row.deviations.values["right"]
+        lines.append(f"| {number} | {row.source} ({row.label}) | {row.value} | {right['profile'] * UM_PER_M:.3f} | "
+                     f"{right['helix'] * UM_PER_M:.3f} | {right['pitch'] * UM_PER_M:.3f} |")
+    rec = new_recording("volerr_pin_gear")
     with streaming(rec, path, blueprint):
+        rec.log("gear/flanks", rr.Points3D(points, radii=radius), static=True)
+        rec.log("gear/deviation", rr.Arrows3D(origins=points, vectors=np.zeros_like(points), radii=radius / 2),
+                static=True)
+        log_legend(rec, "gear/legend", None, points, -peak, peak, cmap="RdBu_r",
+                   title="normal deviation")
+        rec.log("sources", rr.TextDocument("\n".join(lines), media_type=rr.MediaType.MARKDOWN), static=True)
         for number, row in enumerate(rows):
             rec.set_time("source", sequence=number)
             dn = row.deviations.normal.reshape(-1)
             colors = colours(dn * UM_PER_M, -peak, peak, "RdBu_r")
-            rec.log("gear/flanks", rr.Points3D(points, colors=colors, radii=radius),
-                    rr.AnyValues(normal_deviation_um=dn * UM_PER_M))
-            rec.log("gear/deviation", rr.Arrows3D(origins=points, vectors=normals * (dn * scale)[:, None],
-                                                  colors=colors, radii=radius / 2))
-            right = row.deviations.values["right"]
-            rec.log("sources", rr.TextLog(
-                f"{row.source} ({row.label}, {row.value}): profile {right['profile'] * UM_PER_M:.3f} um, "
-                f"helix {right['helix'] * UM_PER_M:.3f} um, pitch {right['pitch'] * UM_PER_M:.3f} um (right flank); "
-                f"arrows x{scale:g}"))
+            rec.log("gear/flanks", rr.Points3D.from_fields(colors=colors),
+                    rr.AnyValues(normal_deviation_um=dn * UM_PER_M, error_source=row.source))
+            rec.log("gear/deviation", rr.Arrows3D.from_fields(vectors=normals * (dn * scale)[:, None], colors=colors))
     return {"path": str(path), "sources": len(rows), "points": int(points.shape[0]), "scale": scale}

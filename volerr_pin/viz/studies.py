@@ -45,7 +45,7 @@ def log_uncertainty_field(rec, machine, field, prefix: str = "uncertainty/map") 
     """
     import rerun as rr
 
-    from .recording import colours
+    from .recording import colours, log_legend
 
     _, positions = machine.tool_poses(field.q, nominal=True)
     u_mc = field.u_position * UM_PER_M
@@ -63,21 +63,14 @@ def log_uncertainty_field(rec, machine, field, prefix: str = "uncertainty/map") 
     bad = np.flatnonzero(field.disagree)
     rec.log(f"{prefix}/disagree", frame, rr.Points3D(positions[bad], colors=[220, 40, 40], radii=radius * 1.6),
             rr.AnyValues(u_um=u_mc[bad], u_linear_um=u_lin[bad]), static=True)
-    lo_corner, hi_corner = positions.min(axis=0), positions.max(axis=0)
-    levels = np.linspace(0.0, hi, 11)
-    span = max(extent, 0.05)
-    where = np.c_[np.full(11, hi_corner[0] + 0.15 * span), np.full(11, lo_corner[1]),
-                  np.linspace(lo_corner[2], lo_corner[2] + 0.6 * span, 11)]
-    rec.log(f"{prefix}/legend", frame,
-            rr.Points3D(where, colors=colours(levels, 0.0, hi), radii=radius * 2,
-                        labels=[f"{v:.3g} um" if k % 5 == 0 else "" for k, v in enumerate(levels)], show_labels=True),
-            static=True)
+    log_legend(rec, f"{prefix}/legend", frame, positions, 0.0, hi, title="u")
     rec.log(f"{prefix}/about", rr.TextDocument(
         f"# Standard uncertainty of the position error ({prefix.rsplit('/', 1)[-1]})\n\n"
         f"{len(positions)} points; colour: standard uncertainty sqrt(u_x^2 + u_y^2 + u_z^2), 0 to {hi:.3g} um "
-        "(viridis): `points` from Monte Carlo, `linear` from S Sigma S^T. Red `disagree`: points where the two "
-        f"methods differ beyond tolerance ({len(bad)}). Select a point for u_um, u_linear_um, error_um and the "
-        "95 % interval of |e| (low_um, high_um).", media_type=rr.MediaType.MARKDOWN), static=True)
+        "(viridis; the key beside the points): the points are Monte Carlo's, and `linear` (S Sigma S^T, on the "
+        "same points; left out of the views, the blueprint panel adds it) is the check. Red `disagree`: points "
+        f"where the two methods differ beyond tolerance ({len(bad)}). Select a point for u_um, u_linear_um, "
+        "error_um and the 95 % interval of |e| (low_um, high_um).", media_type=rr.MediaType.MARKDOWN), static=True)
     return {"points": int(len(positions)), "u_max_um": hi, "disagreeing": int(len(bad))}
 
 
@@ -100,7 +93,7 @@ def record_uncertainty(study, path: str | Path, package_dirs=None) -> dict:
     """
     import rerun.blueprint as rrb
 
-    from .recording import log_machine, new_recording, streaming
+    from .recording import eye_on, log_machine, new_recording, opened_paused, streaming
 
     check_outputs({"path": path})
     machine = study.machine
@@ -108,13 +101,22 @@ def record_uncertainty(study, path: str | Path, package_dirs=None) -> dict:
     if study.compensated is not None:
         fields["compensation"] = study.compensated
     rec = new_recording("volerr_pin_uncertainty")
-    views = [rrb.Spatial3DView(origin="/", contents=["machine/**", f"uncertainty/{name}/**"],
-                               name=f"standard uncertainty: {name}") for name in fields]
-    blueprint = rrb.Blueprint(rrb.Horizontal(*views, rrb.TextDocumentView(origin="uncertainty/map/about",
-                                                                          name="about")),
-                              rrb.TimePanel(state="collapsed"))
+    base = default_config(machine)
+    eye = eye_on(machine, base, machine.tool_poses(study.map.q, nominal=True)[1])   # one camera: views compare
+    what = {"map": "of the error map (what the machine does)",
+            "compensation": f"of the residual after {study.compensation} compensation"}
+    views = [rrb.Spatial3DView(origin="/", contents=["+ machine/**", f"+ uncertainty/{name}/**",
+                                                     f"- uncertainty/{name}/linear", f"- uncertainty/{name}/about"],
+                               name=f"standard uncertainty {what.get(name, name)}: up to "
+                                    f"{float(field.u_position.max()) * UM_PER_M:.2f} um", eye_controls=eye)
+             for name, field in fields.items()]
+    about = rrb.Vertical(*[rrb.TextDocumentView(origin=f"uncertainty/{name}/about", name=f"about: {name}")
+                           for name in fields])
+    blueprint = rrb.Blueprint(rrb.Horizontal(rrb.Vertical(*views) if len(views) > 1 else views[0], about,
+                                             column_shares=[3, 2]),
+                              opened_paused(), rrb.SelectionPanel(state="collapsed"))
     with streaming(rec, path, blueprint):
-        log_machine(rec, machine, default_config(machine), package_dirs=package_dirs)
+        log_machine(rec, machine, base, package_dirs=package_dirs)
         for name, field in fields.items():
             log_uncertainty_field(rec, machine, field, f"uncertainty/{name}")
     return {"path": str(path), "fields": list(fields), "points": int(len(study.map.q)),
