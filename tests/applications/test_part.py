@@ -1,0 +1,136 @@
+"""The part a program cuts: the deviation normal to the path, and a circle as a CMM measures it.
+
+Checked against closed forms (a squareness error cuts a circle of radius R as an ellipse
+whose out-of-roundness about the least-squares circle is R |S|; a positioning error linear in
+X scales the diameter along X), against an independent evaluation (the plain batch
+evaluator on the nominal circle, the radial component and a first-harmonic fit), and against
+the sampling tolerance it states.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import single
+from volerr_pin.applications.part import circle_features, deviation_along, fit_circle, normal_part
+from volerr_pin.base.errors import InputError
+from volerr_pin.compensation.gcode import interpret
+
+ARCSEC = np.pi / 180 / 3600
+CIRCLE = "G17 G90 G21\nG0 X150 Y200 Z100\nG1 X150 Y200 Z100 F500\nG2 X150 Y200 I100 J0\nM30\n"   # R 100 about (250, 200)
+
+
+def _circle(machine, program=CIRCLE, **options):
+    segments = interpret(machine, program)
+    deviation = deviation_along(machine, segments, **options)
+    (feature,) = circle_features(machine, segments)
+    return feature, deviation
+
+
+def test_a_squareness_error_cuts_an_ellipse_of_out_of_roundness_r_s(machines):
+    m = machines["vmc500"]
+    for arcsec in (4.0, -10.0):
+        s = arcsec * ARCSEC
+        feature, _ = _circle(m.with_theta(single(m, "EC0Y", s)))
+        assert feature.circularity_um == pytest.approx(0.1 * abs(s) * 1e6, rel=1e-3)   # R |S|, to first order
+        assert abs(feature.diameter_error_um) < 1e-3 * feature.circularity_um
+        assert feature.lines == (4,) and feature.radius == pytest.approx(0.1, abs=1e-12)
+
+
+def _linear_exx(machine, slope):
+    """Coefficients with only a positioning error of X, ``slope`` x (its table's nodes on a line)."""
+    theta = np.zeros(len(machine.parameter_names))
+    nodes = [n for n in machine.parameter_names if n.startswith("EXX.n")]
+    for k, name in enumerate(nodes):
+        theta[machine.parameter_names.index(name)] = slope * machine.travel[0, 1] * k / (len(nodes) - 1)
+    return theta
+
+
+def test_a_positioning_error_linear_in_x_scales_the_diameter_along_x(machines):
+    """e_x = c x: the radial deviation is c (x0 + R cos a) cos a, so the least-squares circle
+    grows by c R / 2 (diameter error c R) and the rest, c R cos(2a) / 2, is out of roundness c R."""
+    m = machines["vmc500"]
+    c = 20e-6   # 20 um/m
+    linear = m.with_theta(_linear_exx(m, c))
+    x = np.array([[0.1, 0.2, 0.1], [0.3, 0.2, 0.1]])
+    err = linear.volumetric_error(x)[:, 0]
+    slope = (err[1] - err[0]) / 0.2
+    feature, _ = _circle(linear)
+    assert feature.diameter_error_um == pytest.approx(slope * 0.1 * 1e6, rel=2e-3)
+    assert feature.circularity_um == pytest.approx(abs(slope) * 0.1 * 1e6, rel=2e-3)
+
+
+def test_the_circle_agrees_with_an_independent_evaluation(machines):
+    """The bundled vmc500 with every error: the plain batch evaluator at 3,600 points of the
+    nominal circle, the radial component, and its least-squares circle to first order (the
+    mean and the first harmonics removed) give the same circularity and diameter error."""
+    m = machines["vmc500"]
+    feature, _ = _circle(m)
+    a = np.linspace(0.0, 2 * np.pi, 3600, endpoint=False)
+    q = np.c_[0.25 + 0.1 * np.cos(a), 0.2 + 0.1 * np.sin(a), np.full_like(a, 0.1)]
+    radial = np.sum(m.volumetric_error(q)[:, :2] * np.c_[np.cos(a), np.sin(a)], axis=1) * 1e6
+    basis = np.c_[np.ones_like(a), np.cos(a), np.sin(a)]
+    coefficients, *_ = np.linalg.lstsq(basis, radial, rcond=None)
+    rest = radial - basis @ coefficients
+    assert feature.circularity_um == pytest.approx(float(np.ptp(rest)), rel=0.02)
+    assert feature.diameter_error_um == pytest.approx(2 * coefficients[0], rel=0.02, abs=0.01)
+    assert feature.centre_error_um == pytest.approx(float(np.hypot(*coefficients[1:])), rel=0.02, abs=0.01)
+
+
+def test_what_moves_along_the_path_is_not_cut(machines):
+    """A line along X on a machine with only a positioning error of X: the error is all along
+    the path, and the cut deviates by nothing."""
+    m = machines["vmc500"]
+    along = m.with_theta(_linear_exx(m, 20e-6))
+    segments = interpret(along, "G90 G21\nG0 X50 Y100 Z100\nG1 X450 F500\nM30\n")
+    deviation = deviation_along(along, segments)
+    assert np.abs(deviation.error[:, 0]).max() > 5e-6
+    assert np.abs(deviation.normal).max() < 1e-12
+    assert deviation.per_block() == {3: pytest.approx(0.0, abs=1e-6)}
+    np.testing.assert_allclose(deviation.tangent[:, 0], 1.0)
+
+
+def test_the_samples_meet_the_stated_tolerance(machines):
+    """Between any two neighbouring samples, the deviation interpolated linearly is within the
+    tolerance of the model, checked at points the sampling never evaluated."""
+    m = machines["vmc500"]
+    tolerance = 0.002e-6
+    segments = interpret(m, CIRCLE)
+    deviation = deviation_along(m, segments, tolerance=tolerance)
+    arc = [s for s in segments if s.kind == "arc"][0]
+    rows = deviation.move == 1
+    k, normal = deviation.fraction[rows], deviation.normal[rows]
+    probe = np.random.default_rng(3).random(500)
+    q = arc.arc.point(probe)
+    from volerr_pin.applications.part import _evaluate
+    exact = _evaluate(m, arc, probe)[4]
+    interpolated = np.c_[[np.interp(probe, k, normal[:, i]) for i in range(3)]].T
+    assert np.abs(exact - interpolated).max() <= 1.5 * tolerance
+    assert q.shape == (500, 3)
+
+
+def test_normal_part_and_the_circle_fit():
+    t = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    e = np.array([[2.0, 3.0, 4.0], [1.0, 1.0, 1.0]])
+    np.testing.assert_allclose(normal_part(e, t), [[0.0, 3.0, 4.0], [1.0, 1.0, 1.0]])
+    a = np.linspace(0, 2 * np.pi, 50, endpoint=False)
+    centre, radius = fit_circle(np.c_[1.0 + 2.0 * np.cos(a), -3.0 + 2.0 * np.sin(a)])
+    np.testing.assert_allclose(centre, [1.0, -3.0], atol=1e-12)
+    assert radius == pytest.approx(2.0, abs=1e-12)
+    with pytest.raises(InputError, match="fit_circle needs"):
+        fit_circle(np.zeros((2, 2)))
+
+
+def test_bad_tolerance_and_a_program_without_cuts_are_refused(machines):
+    m = machines["vmc500"]
+    with pytest.raises(InputError, match="tolerance must be a positive"):
+        deviation_along(m, interpret(m, CIRCLE), tolerance=0.0)
+    with pytest.raises(InputError, match="no cutting move"):
+        deviation_along(m, interpret(m, "G90 G0 X10 Y10 Z10\nM30\n"))
+
+
+def test_a_move_out_of_the_travel_is_refused_with_its_line(machines):
+    m = machines["vmc500"]
+    with pytest.raises(InputError, match=r"line 3: the move takes X to -50.0000 mm, outside its travel 0 .. 500 mm"):
+        deviation_along(m, interpret(m, "G90 G21\nG0 X50 Y100 Z100\nG1 X-50 F500\nM30\n"))
