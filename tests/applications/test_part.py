@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from conftest import single
-from volerr_pin.applications.part import circle_features, deviation_along, fit_circle, normal_part
+from volerr_pin.applications.part import (circle_features, deviation_along, feature_ranking, fit_circle, normal_part,
+                                          side_features)
 from volerr_pin.base.errors import InputError
 from volerr_pin.compensation.gcode import interpret
 
@@ -134,3 +135,78 @@ def test_a_move_out_of_the_travel_is_refused_with_its_line(machines):
     m = machines["vmc500"]
     with pytest.raises(InputError, match=r"line 3: the move takes X to -50.0000 mm, outside its travel 0 .. 500 mm"):
         deviation_along(m, interpret(m, "G90 G21\nG0 X50 Y100 Z100\nG1 X-50 F500\nM30\n"))
+
+
+SQUARE = ("G17 G90 G21\nG0 X150 Y100 Z100\nG1 X350 F500\nG1 Y300\nG1 X150\nG1 Y100\nG0 Z150\n"
+          "G0 X150 Y200 Z100\nG2 X150 Y200 I100 J0\nM30\n")   # a 200 mm square, then the circle
+
+
+def test_a_squareness_error_is_the_squareness_of_the_sides_and_nothing_else(machines):
+    """Only a squareness S of X and Y: each side perpendicular to a datum side is out of square
+    by L |S| (L = 200 mm), parallel sides stay parallel, every side straight."""
+    m = machines["vmc500"]
+    s = 6.0 * ARCSEC
+    square = m.with_theta(single(m, "EC0Y", s))
+    sides, pairs = side_features(square, interpret(square, SQUARE))
+    assert [f.lines for f in sides] == [(3,), (4,), (5,), (6,)]
+    assert max(f.straightness_um for f in sides) < 1e-6
+    kinds = {(p.lines, p.kind): p.value_um for p in pairs}
+    assert set(kinds) == {((3, 4), "squareness"), ((3, 5), "parallelism"), ((3, 6), "squareness"),
+                          ((4, 5), "squareness"), ((4, 6), "parallelism"), ((5, 6), "squareness")}
+    for (lines, kind), value in kinds.items():
+        expected = 0.2 * s * 1e6 if kind == "squareness" else 0.0
+        assert value == pytest.approx(expected, rel=1e-4, abs=1e-6), (lines, kind)
+
+
+def test_straightness_agrees_with_an_independent_evaluation(machines):
+    """vmc500's spec: a side along X keeps the error across it, e_y; the batch evaluator at
+    2,001 points of the side less its least-squares line gives the same straightness."""
+    m = machines["vmc500"]
+    sides, _ = side_features(m, interpret(m, SQUARE))
+    x = np.linspace(0.15, 0.35, 2001)
+    q = np.c_[x, np.full_like(x, 0.1), np.full_like(x, 0.1)]
+    across = m.volumetric_error(q)[:, 1] * 1e6
+    rest = across - np.polyval(np.polyfit(x, across, 1), x)
+    assert sides[0].straightness_um == pytest.approx(float(np.ptp(rest)), rel=1e-3)
+
+
+@pytest.mark.parametrize("which", ["circle", "side", "squareness", "parallelism"])
+def test_the_feature_ranking_matches_finite_differences(machines, which):
+    """Each component's profile from the exact sensitivities against the difference of the
+    errors with and without that component (the batch evaluator, no derivative): the same
+    ranges and shares."""
+    m = machines["vmc500"]
+    segments = interpret(m, SQUARE)
+    sides, pairs = side_features(m, segments)
+    feature = {"circle": circle_features(m, segments)[0], "side": sides[0],
+               "squareness": next(p for p in pairs if p.kind == "squareness"),
+               "parallelism": next(p for p in pairs if p.kind == "parallelism")}[which]
+    exact = {r["component"]: r for r in feature_ranking(m, feature, sides, segments=segments)}
+    columns = {}
+    for term in m.assembly.term_info():
+        columns.setdefault(term["component"], []).extend(m.parameter_names.index(n) for n in term["parameters"])
+
+    def without(component):
+        theta = m.theta.copy()
+        theta[columns[component]] = 0.0
+        return m.with_theta(theta)
+
+    import volerr_pin.applications.part as part
+
+    original = part._contributions
+
+    def by_differences(machine, q, tangent, plane):
+        full = machine.volumetric_error(q)[:, :3]
+        return {c: part.normal_part(full - without(c).volumetric_error(q)[:, :3], tangent)[:, list(plane)]
+                for c in columns}
+
+    part._contributions = by_differences
+    try:
+        differences = {r["component"]: r for r in feature_ranking(m, feature, sides, segments=segments)}
+    finally:
+        part._contributions = original
+    assert list(exact)[:3] == list(differences)[:3]
+    for component, row in exact.items():
+        assert row["share"] == pytest.approx(differences[component]["share"], abs=2e-3), component
+        assert row["alone_um"] == pytest.approx(differences[component]["alone_um"], rel=1e-2, abs=1e-3), component
+    assert sum(r["share"] for r in exact.values()) == pytest.approx(1.0)

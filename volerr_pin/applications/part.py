@@ -37,7 +37,8 @@ from ..base.errors import InputError
 from ..base.units import UM_PER_M
 from ..model.machine import Machine
 
-__all__ = ["PathDeviation", "CircleFeature", "deviation_along", "fit_circle", "circle_features", "normal_part"]
+__all__ = ["PathDeviation", "CircleFeature", "LineFeature", "PairFeature", "deviation_along", "fit_circle",
+           "fit_line", "circle_features", "side_features", "feature_ranking", "normal_part"]
 
 #: the parameter step, as a fraction of a move, of the nominal tangent's finite difference
 TANGENT_STEP = 1e-6
@@ -357,3 +358,290 @@ def _centre_in_frame(machine: Machine, segment) -> np.ndarray:
     q = segment.arc.start.copy()
     q[i], q[j] = segment.arc.center
     return _tool_points(machine, q[None, :])[0, [i, j]]
+
+
+def fit_line(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The least-squares line through points of a plane (orthogonal distances).
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 2)
+        Points [m], N >= 2, not all equal.
+
+    Returns
+    -------
+    centre : ndarray, shape (2,)
+        The points' centroid, on the line.
+    direction : ndarray, shape (2,)
+        Unit direction of the line.
+    normal : ndarray, shape (2,)
+        Unit normal (the direction turned +90 degrees).
+    """
+    points = np.asarray(points, dtype=float)
+    centre = points.mean(axis=0)
+    _, _, vt = np.linalg.svd(points - centre, full_matrices=False)
+    direction = vt[0]
+    return centre, direction, np.array([-direction[1], direction[0]])
+
+
+@dataclass(frozen=True)
+class LineFeature:
+    """A straight side of the program (a cutting line in the contour plane), as a CMM reports it.
+
+    Attributes
+    ----------
+    lines : tuple of int
+        The block it comes from.
+    plane : tuple of int
+        The workpiece-frame coordinates of the contour plane.
+    start, end : ndarray, shape (2,)
+        Nominal ends in the plane [m].
+    straightness_um : float
+        ISO 12780: the range of the side's deviation about its least-squares line [um].
+    contour : int
+        Index of the contour (a run of cutting moves between rapids) it belongs to.
+    """
+
+    lines: tuple[int, ...]
+    plane: tuple[int, int]
+    start: np.ndarray
+    end: np.ndarray
+    straightness_um: float
+    contour: int
+    points: np.ndarray
+    measured: np.ndarray
+    q: np.ndarray
+    tangent: np.ndarray
+
+    @property
+    def length(self) -> float:
+        return float(np.linalg.norm(self.end - self.start))
+
+    @property
+    def direction(self) -> np.ndarray:
+        return (self.end - self.start) / self.length
+
+    def to_dict(self) -> dict:
+        """The feature in the report's terms (ISO name, um)."""
+        return {"kind": "straightness", "name": "straightness of a side (ISO 12780, least squares)",
+                "lines": list(self.lines), "plane": "xyz"[self.plane[0]] + "xyz"[self.plane[1]],
+                "start_mm": (self.start * 1e3).tolist(), "end_mm": (self.end * 1e3).tolist(),
+                "length_mm": self.length * 1e3, "straightness_um": self.straightness_um}
+
+
+@dataclass(frozen=True)
+class PairFeature:
+    """Squareness or parallelism of one side to another of the same contour (ISO 1101).
+
+    The datum is the first side's least-squares line; the value is the width of the zone,
+    perpendicular to (squareness) or parallel to (parallelism) the datum, that holds every
+    point of the second side [um].
+
+    Attributes
+    ----------
+    kind : str
+        "squareness" or "parallelism".
+    datum, toleranced : int
+        Indices of the two sides in :func:`side_features`' list.
+    lines : tuple of int
+        The blocks of the datum and of the toleranced side.
+    value_um : float
+        The zone's width [um].
+    """
+
+    kind: str
+    datum: int
+    toleranced: int
+    lines: tuple[int, ...]
+    value_um: float
+
+    def to_dict(self) -> dict:
+        """The feature in the report's terms (ISO name, um)."""
+        return {"kind": self.kind, "name": f"{self.kind} of a side to a datum side (ISO 1101)",
+                "lines": list(self.lines), "datum_line": self.lines[0], f"{self.kind}_um": self.value_um}
+
+
+def _contours(segments) -> list[list]:
+    """The program's cutting moves grouped in contours: runs between rapids."""
+    runs, current = [], []
+    for segment in segments:
+        if segment.kind == "rapid":
+            if current:
+                runs.append(current)
+            current = []
+        elif segment.kind in ("line", "arc"):
+            current.append(segment)
+    if current:
+        runs.append(current)
+    return runs
+
+
+def side_features(machine: Machine, segments, plane: tuple[int, int] = (0, 1), min_length: float = 5e-3,
+                  points_per_mm: float = 2.0) -> tuple[list[LineFeature], list[PairFeature]]:
+    """The straight sides of a program and the squareness and parallelism of each pair of
+    sides of one contour, measured on the predicted part.
+
+    A side is a cutting line in the contour plane (its third coordinate constant) at least
+    ``min_length`` long, measured at ``points_per_mm`` points per millimetre (at least 50).
+    Pairs are taken within a contour (a run of cutting moves between rapids), the earlier side
+    the datum: perpendicular sides give squareness, parallel ones parallelism; sides at other
+    angles give neither.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine (see :func:`circle_features` for the coordinates).
+    segments : sequence of Segment
+        The program's moves.
+    plane : tuple of int, default (0, 1)
+        The contour plane's coordinates (0, 1: xy).
+    min_length : float, default 5e-3
+        The shortest side measured [m].
+    points_per_mm : float, default 2.0
+        Measured points per millimetre of a side.
+
+    Returns
+    -------
+    sides : list of LineFeature
+    pairs : list of PairFeature
+    """
+    i, j = plane
+    third = ({0, 1, 2} - {i, j}).pop()
+    sides: list[LineFeature] = []
+    for number, contour in enumerate(_contours(segments)):
+        for segment in contour:
+            if segment.kind != "line":
+                continue
+            ends = _tool_points(machine, np.vstack([segment.start, segment.end]))
+            length = float(np.linalg.norm(ends[1, [i, j]] - ends[0, [i, j]]))
+            if length < min_length or abs(ends[1, third] - ends[0, third]) > 1e-9:
+                continue
+            n = max(50, int(np.ceil(length * 1e3 * points_per_mm)) + 1)
+            k = np.linspace(0.0, 1.0, n)
+            _check_travel(machine, segment, _positions(segment, k))
+            q, point, tangent, _, normal = _evaluate(machine, segment, k)
+            measured = point[:, [i, j]] + normal[:, [i, j]]
+            centre, _, across = fit_line(measured)
+            sides.append(LineFeature(
+                lines=(segment.line,), plane=plane, start=ends[0, [i, j]], end=ends[1, [i, j]],
+                straightness_um=float(np.ptp((measured - centre) @ across) * UM_PER_M), contour=number,
+                points=point, measured=measured, q=q, tangent=tangent))
+    pairs = []
+    for a, datum in enumerate(sides):
+        for b in range(a + 1, len(sides)):
+            other = sides[b]
+            if other.contour != datum.contour:
+                continue
+            cross = datum.direction[0] * other.direction[1] - datum.direction[1] * other.direction[0]
+            if abs(cross) < 1e-9:
+                kind = "parallelism"
+            elif abs(datum.direction @ other.direction) < 1e-9:
+                kind = "squareness"
+            else:
+                continue
+            centre, along, across = fit_line(datum.measured)
+            zone = (other.measured - centre) @ (across if kind == "parallelism" else along)
+            pairs.append(PairFeature(kind=kind, datum=a, toleranced=b, lines=datum.lines + other.lines,
+                                     value_um=float(np.ptp(zone) * UM_PER_M)))
+    return sides, pairs
+
+
+def _component_columns(machine: Machine) -> dict[str, list[int]]:
+    """Each component's coefficient columns, in the machine's order."""
+    out: dict[str, list[int]] = {}
+    for term in machine.assembly.term_info():
+        out.setdefault(term["component"], []).extend(machine.parameter_names.index(n) for n in term["parameters"])
+    return out
+
+
+def _contributions(machine: Machine, q: np.ndarray, tangent: np.ndarray, plane) -> dict[str, np.ndarray]:
+    """Each component's first-order part of the normal deviation at ``q``, in the plane
+    (M, 2) [m]: its coefficients times the exact sensitivities."""
+    sensitivity = machine.sensitivity(q)[:, :3, :]
+    theta = machine.theta
+    out = {}
+    for component, cols in _component_columns(machine).items():
+        part = sensitivity[:, :, cols] @ theta[cols]
+        out[component] = normal_part(part, tangent)[:, list(plane)]
+    return out
+
+
+def _without(values: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """``values`` less their least-squares fit on the columns of ``basis``."""
+    coefficients, *_ = np.linalg.lstsq(basis, values, rcond=None)
+    return values - basis @ coefficients
+
+
+def _rows(profiles: dict[str, np.ndarray]) -> list[dict]:
+    energy = {c: float(np.sum(p ** 2)) for c, p in profiles.items()}
+    total = sum(energy.values()) or 1.0
+    rows = [{"component": c, "alone_um": float(np.ptp(p) * UM_PER_M), "share": energy[c] / total}
+            for c, p in profiles.items()]
+    return sorted(rows, key=lambda r: -r["share"])
+
+
+def feature_ranking(machine: Machine, feature, sides: list[LineFeature] | None = None,
+                    points_per_turn: int = 3600, segments=None) -> list[dict]:
+    """Which error sources decide a feature: per component, the feature's profile it causes
+    alone (to first order, from the exact sensitivities) and its share.
+
+    The profile is what the feature's value is the range of: a circle's radial deviation less
+    its least-squares circle, a side's deviation across it less its least-squares line, a pair's
+    zone coordinate with the datum's least-squares line. Per component, ``alone_um`` is the
+    range of its own profile (the feature if it acted alone) and ``share`` its share of the sum
+    of the profiles' squares, as ``rank``'s share is of the tool point's mean square.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    feature : CircleFeature, LineFeature or PairFeature
+        The feature.
+    sides : list of LineFeature, optional
+        The sides, for a :class:`PairFeature`.
+    points_per_turn : int, default 3600
+        For a circle: as in :func:`circle_features`.
+    segments : sequence of Segment, optional
+        For a circle: the program's moves.
+
+    Returns
+    -------
+    list of dict
+        ``component``, ``alone_um``, ``share``; largest share first.
+    """
+    if isinstance(feature, CircleFeature):
+        run = next(r for r in _full_circles(segments) if tuple(dict.fromkeys(s.line for s in r)) == feature.lines)
+        q, tangent, point = [], [], []
+        for segment in run:
+            n = max(3, int(round(points_per_turn * abs(segment.arc.sweep) / (2 * np.pi))))
+            values = _evaluate(machine, segment, np.arange(n) / n)
+            q.append(values[0]), point.append(values[1]), tangent.append(values[2])
+        q, point, tangent = np.concatenate(q), np.concatenate(point), np.concatenate(tangent)
+        around = point[:, list(feature.plane)] - feature.centre
+        radial = around / np.linalg.norm(around, axis=1)[:, None]
+        angle = np.arctan2(around[:, 1], around[:, 0])
+        basis = np.c_[np.ones_like(angle), np.cos(angle), np.sin(angle)]
+        parts = _contributions(machine, q, tangent, feature.plane)
+        return _rows({c: _without(np.sum(p * radial, axis=1), basis) for c, p in parts.items()})
+    if isinstance(feature, LineFeature):
+        along = (feature.points[:, list(feature.plane)] - feature.start) @ feature.direction
+        across = np.array([-feature.direction[1], feature.direction[0]])
+        basis = np.c_[np.ones_like(along), along]
+        parts = _contributions(machine, feature.q, feature.tangent, feature.plane)
+        return _rows({c: _without(p @ across, basis) for c, p in parts.items()})
+    datum, other = sides[feature.datum], sides[feature.toleranced]
+    u0 = datum.direction
+    n0 = np.array([-u0[1], u0[0]])
+    s = (datum.points[:, list(datum.plane)] - datum.start) @ u0
+    s_other = other.points[:, list(other.plane)] - datum.start
+    datum_parts = _contributions(machine, datum.q, datum.tangent, datum.plane)
+    other_parts = _contributions(machine, other.q, other.tangent, other.plane)
+    profiles = {}
+    for c in datum_parts:
+        slope = np.polyfit(s, datum_parts[c] @ n0, 1)[0]   # the datum line's turn, to first order
+        if feature.kind == "parallelism":
+            value = other_parts[c] @ n0 - slope * (s_other @ u0)
+        else:
+            value = other_parts[c] @ u0 + slope * (s_other @ n0)
+        profiles[c] = value - value.mean()
+    return _rows(profiles)
