@@ -179,6 +179,13 @@ ARM = """\
 """
 
 
+def test_piece(path: Path) -> None:
+    """The contouring test piece for vmc500, as ``volerr testpiece vmc500`` writes it."""
+    from volerr_pin.applications.part import contouring_test_piece
+
+    path.write_text(contouring_test_piece(vp.load_machine("vmc500")))
+
+
 def main(out: Path = HERE / "data") -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     truth = true_vmc500()
@@ -189,6 +196,7 @@ def main(out: Path = HERE / "data") -> list[Path]:
                         ("vmc500_spindle_thermal.csv", spindle_thermal),
                         ("vmc500_tolerances.toml", lambda p: p.write_text(TOLERANCES)),
                         ("part.nc", lambda p: p.write_text(PROGRAM)),
+                        ("vmc500_testpiece.nc", test_piece),
                         ("two_link_arm.urdf", lambda p: p.write_text(ARM))):
         write(out / name)
         written.append(out / name)

@@ -351,6 +351,7 @@ REPORTS = [
     ["demo", "--grid", "3", "--out", "{tmp}/demo.rrd", "--json"],
     ["field", "cgm4000", "--grid", "3", "3", "3", "--sweep-steps", "2", "--out", "{tmp}/f.rrd", "--json"],
     ["plan", "vmc500", "--instrument", "probe", "--budget", "8", "--candidates", "64", "--json"],
+    ["predict", "vmc700", "examples/data/part.nc", "--png", "{tmp}/part.png", "--json"],
     pytest.param(["diagnose", "vmc500", "examples/data/vmc500_tracker.csv", "--json"], marks=pytest.mark.slow),
 ]
 

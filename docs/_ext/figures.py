@@ -39,6 +39,7 @@ FIGURES: dict[str, list[str]] = {
                               "--tol-um", "1", "--png", "{png}"],
     "export_vmc500.png": ["export", "vmc500", "--controller", "linuxcnc", "-o", "{tmp}/comp", "--png", "{png}"],
     "gear_roller_flanks.png": ["gear", "gear_roller", "--png", "{png}"],
+    "part_vmc500.png": ["predict", "vmc500", "examples/data/vmc500_testpiece.nc", "--png", "{png}"],
     "uncertainty_vmc500.png": ["uncertainty", "vmc500", "--instrument-sigma", "1", "--samples", "2000", "--grid", "5",
                                "--compensation", "point", "--workers", "0", "--png", "{png}"],
 }

@@ -13,8 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import single
-from volerr_pin.applications.part import (circle_features, deviation_along, feature_ranking, fit_circle, normal_part,
-                                          side_features)
+from volerr_pin.applications.part import deviation_along, feature_ranking, fit_circle, measure, normal_part
 from volerr_pin.base.errors import InputError
 from volerr_pin.compensation.gcode import interpret
 
@@ -25,7 +24,7 @@ CIRCLE = "G17 G90 G21\nG0 X150 Y200 Z100\nG1 X150 Y200 Z100 F500\nG2 X150 Y200 I
 def _circle(machine, program=CIRCLE, **options):
     segments = interpret(machine, program)
     deviation = deviation_along(machine, segments, **options)
-    (feature,) = circle_features(machine, segments)
+    (feature,), _, _ = measure(machine, segments)
     return feature, deviation
 
 
@@ -147,14 +146,16 @@ def test_a_squareness_error_is_the_squareness_of_the_sides_and_nothing_else(mach
     m = machines["vmc500"]
     s = 6.0 * ARCSEC
     square = m.with_theta(single(m, "EC0Y", s))
-    sides, pairs = side_features(square, interpret(square, SQUARE))
+    _, sides, pairs = measure(square, interpret(square, SQUARE))
     assert [f.lines for f in sides] == [(3,), (4,), (5,), (6,)]
     assert max(f.straightness_um for f in sides) < 1e-6
     kinds = {(p.lines, p.kind): p.value_um for p in pairs}
     assert set(kinds) == {((3, 4), "squareness"), ((3, 5), "parallelism"), ((3, 6), "squareness"),
                           ((4, 5), "squareness"), ((4, 6), "parallelism"), ((5, 6), "squareness")}
+    spans = {f.lines[0]: float(np.ptp(f.along())) for f in sides}   # the measured part of each side
+    assert min(spans.values()) > 0.199
     for (lines, kind), value in kinds.items():
-        expected = 0.2 * s * 1e6 if kind == "squareness" else 0.0
+        expected = spans[lines[1]] * s * 1e6 if kind == "squareness" else 0.0
         assert value == pytest.approx(expected, rel=1e-4, abs=1e-6), (lines, kind)
 
 
@@ -162,8 +163,9 @@ def test_straightness_agrees_with_an_independent_evaluation(machines):
     """vmc500's spec: a side along X keeps the error across it, e_y; the batch evaluator at
     2,001 points of the side less its least-squares line gives the same straightness."""
     m = machines["vmc500"]
-    sides, _ = side_features(m, interpret(m, SQUARE))
-    x = np.linspace(0.15, 0.35, 2001)
+    _, sides, _ = measure(m, interpret(m, SQUARE))
+    along = sides[0].along()
+    x = np.linspace(0.15 + along.min(), 0.15 + along.max(), 2001)   # where the side was measured
     q = np.c_[x, np.full_like(x, 0.1), np.full_like(x, 0.1)]
     across = m.volumetric_error(q)[:, 1] * 1e6
     rest = across - np.polyval(np.polyfit(x, across, 1), x)
@@ -177,11 +179,11 @@ def test_the_feature_ranking_matches_finite_differences(machines, which):
     ranges and shares."""
     m = machines["vmc500"]
     segments = interpret(m, SQUARE)
-    sides, pairs = side_features(m, segments)
-    feature = {"circle": circle_features(m, segments)[0], "side": sides[0],
+    circles, sides, pairs = measure(m, segments)
+    feature = {"circle": circles[0], "side": sides[0],
                "squareness": next(p for p in pairs if p.kind == "squareness"),
                "parallelism": next(p for p in pairs if p.kind == "parallelism")}[which]
-    exact = {r["component"]: r for r in feature_ranking(m, feature, sides, segments=segments)}
+    exact = {r["component"]: r for r in feature_ranking(m, feature)}
     columns = {}
     for term in m.assembly.term_info():
         columns.setdefault(term["component"], []).extend(m.parameter_names.index(n) for n in term["parameters"])
@@ -195,14 +197,13 @@ def test_the_feature_ranking_matches_finite_differences(machines, which):
 
     original = part._contributions
 
-    def by_differences(machine, q, tangent, plane):
+    def by_differences(machine, q, plane):
         full = machine.volumetric_error(q)[:, :3]
-        return {c: part.normal_part(full - without(c).volumetric_error(q)[:, :3], tangent)[:, list(plane)]
-                for c in columns}
+        return {c: (full - without(c).volumetric_error(q)[:, :3])[:, list(plane)] for c in columns}
 
     part._contributions = by_differences
     try:
-        differences = {r["component"]: r for r in feature_ranking(m, feature, sides, segments=segments)}
+        differences = {r["component"]: r for r in feature_ranking(m, feature)}
     finally:
         part._contributions = original
     assert list(exact)[:3] == list(differences)[:3]

@@ -37,8 +37,9 @@ from ..base.errors import InputError
 from ..base.units import UM_PER_M
 from ..model.machine import Machine
 
-__all__ = ["PathDeviation", "CircleFeature", "LineFeature", "PairFeature", "deviation_along", "fit_circle",
-           "fit_line", "circle_features", "side_features", "feature_ranking", "normal_part"]
+__all__ = ["PathDeviation", "Cut", "CircleFeature", "LineFeature", "PairFeature", "PartPrediction", "deviation_along",
+           "cut_of", "fit_circle", "fit_line", "measure", "feature_ranking", "normal_part", "predict",
+           "contouring_test_piece"]
 
 #: the parameter step, as a fraction of a move, of the nominal tangent's finite difference
 TANGENT_STEP = 1e-6
@@ -236,13 +237,55 @@ def fit_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 @dataclass(frozen=True)
+class Cut:
+    """The surface a program cuts: samples of every cutting move, where the tool actually is.
+
+    Attributes
+    ----------
+    move : ndarray, shape (M,)
+        Index of the sample's move among the program's cutting moves.
+    q : ndarray, shape (M, n_axes)
+        Axis positions [m, rad].
+    nominal, actual : ndarray, shape (M, 3)
+        The tool point in the workpiece frame as programmed and as the machine puts it [m].
+    """
+
+    move: np.ndarray
+    q: np.ndarray
+    nominal: np.ndarray
+    actual: np.ndarray
+
+
+def cut_of(machine: Machine, segments, spacing: float = 0.25e-3) -> Cut:
+    """Samples of the cutting moves at most ``spacing`` apart along the nominal tool path (at
+    least 3 per move; a move's end is the next one's start, so ends are not sampled twice)."""
+    cutting = [s for s in segments if s.kind in ("line", "arc")]
+    move, qs = [], []
+    for index, segment in enumerate(cutting):
+        ends = _tool_points(machine, _positions(segment, np.array([0.0, 0.5, 1.0])))
+        if segment.kind == "arc":
+            length = abs(segment.arc.sweep) * max(segment.arc.radius, 1e-9)
+        else:
+            length = float(np.linalg.norm(ends[2] - ends[0]))
+        n = max(3, int(np.ceil(length / spacing)))
+        k = np.arange(n) / n
+        q = _positions(segment, k)
+        _check_travel(machine, segment, q)
+        qs.append(q)
+        move.append(np.full(n, index))
+    q = np.concatenate(qs)
+    nominal = _tool_points(machine, q)
+    return Cut(np.concatenate(move), q, nominal, nominal + machine.volumetric_error(q)[:, :3])
+
+
+@dataclass(frozen=True)
 class CircleFeature:
     """A full circle of the program, as a CMM reports it.
 
     Attributes
     ----------
     lines : tuple of int
-        The blocks it comes from.
+        The blocks it comes from (of the reference program, when one is given).
     plane : tuple of int
         The workpiece-frame coordinates of its plane (0, 1: xy).
     centre : ndarray, shape (2,)
@@ -250,17 +293,17 @@ class CircleFeature:
     radius : float
         Nominal radius [m].
     circularity_um, diameter_error_um, centre_error_um : float
-        Roundness deviation about the least-squares circle, fitted minus nominal diameter, and
-        the distance of the fitted centre from the nominal one [um].
+        Roundness deviation about the least-squares circle (ISO 12181-1), fitted minus nominal
+        diameter, and the distance of the fitted centre from the nominal one [um].
     fitted_centre : ndarray, shape (2,)
         Least-squares centre [m].
     angle : ndarray, shape (M,)
-        Angle of each sample about the nominal centre [rad].
+        Angle of each measured point about the nominal centre [rad].
     radial_um : ndarray, shape (M,)
         Each measured point's distance from the least-squares centre minus the least-squares
         radius [um].
-    turn : float
-        The angle the arcs turn through [rad] (a whole turn or more).
+    q : ndarray, shape (M, n_axes)
+        Axis positions of the measured points [m, rad].
     """
 
     lines: tuple[int, ...]
@@ -273,7 +316,7 @@ class CircleFeature:
     fitted_centre: np.ndarray
     angle: np.ndarray
     radial_um: np.ndarray
-    turn: float
+    q: np.ndarray
 
     def to_dict(self) -> dict:
         """The feature in the report's terms (ISO name, um)."""
@@ -283,81 +326,106 @@ class CircleFeature:
                 "circularity_um": self.circularity_um, "diameter_error_um": self.diameter_error_um,
                 "centre_error_um": self.centre_error_um}
 
-
-def _full_circles(segments) -> list[list]:
-    """Runs of consecutive arcs of one plane, centre and radius turning at least a whole turn."""
-    runs, current = [], []
-
-    def same(a, b):
-        return (a.plane == b.plane and np.allclose(a.center, b.center, atol=1e-9)
-                and abs(a.radius - b.radius) <= 1e-9)
-
-    for segment in [s for s in segments if s.kind in ("line", "arc")] + [None]:
-        arc = getattr(segment, "arc", None) if segment is not None else None
-        if arc is not None and segment.kind == "arc" and (not current or same(current[-1].arc, arc)):
-            current.append(segment)
-            continue
-        if current and abs(sum(s.arc.sweep for s in current)) >= 2 * np.pi - 1e-9:
-            runs.append(current)
-        current = [segment] if arc is not None and segment.kind == "arc" else []
-    return runs
+    def profiles(self, parts: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Each source's radial deviation (in-plane errors ``parts`` at the measured points)
+        less its least-squares circle, to first order."""
+        radial = np.c_[np.cos(self.angle), np.sin(self.angle)]
+        basis = np.c_[np.ones_like(self.angle), radial]
+        return {c: _without(np.sum(p * radial, axis=1), basis) for c, p in parts.items()}
 
 
-def circle_features(machine: Machine, segments, points_per_turn: int = 3600) -> list[CircleFeature]:
-    """The full circles of a program, measured on the predicted part.
+@dataclass(frozen=True)
+class LineFeature:
+    """A straight side of the program (a cutting line in the contour plane), as a CMM reports it.
 
-    Each circle is measured at ``points_per_turn`` points evenly spread over its turn (as a
-    CMM scans it; the path's own samples are spaced for its tolerance, not for a fit).
-
-    Parameters
+    Attributes
     ----------
-    machine : Machine
-        The machine. The arcs' plane coordinates are axis positions; the circle is measured in
-        the same coordinates of the workpiece frame, which a machine whose linear axes are the
-        frame's x, y, z (every bundled 3- and 5-axis machining centre) follows.
-    segments : sequence of Segment
-        The program's moves (:func:`volerr_pin.compensation.gcode.interpret`).
-    points_per_turn : int, default 3600
-        Measured points per whole turn.
-
-    Returns
-    -------
-    list of CircleFeature
-        One per run of arcs of one centre and radius turning a whole turn, in program order.
+    lines : tuple of int
+        The block it comes from (of the reference program, when one is given).
+    plane : tuple of int
+        The workpiece-frame coordinates of the contour plane.
+    start, end : ndarray, shape (2,)
+        Nominal ends in the plane [m].
+    straightness_um : float
+        ISO 12780: the range of the side's deviation about its least-squares line [um].
+    contour : int
+        Index of the contour (a run of cutting moves between rapids) it belongs to.
+    measured : ndarray, shape (M, 2)
+        The measured points in the plane [m].
+    q : ndarray, shape (M, n_axes)
+        Their axis positions [m, rad].
     """
-    out = []
-    for run in _full_circles(segments):
-        turn = sum(abs(s.arc.sweep) for s in run)
-        nominal, cut = [], []
-        for segment in run:
-            n = max(3, int(round(points_per_turn * abs(segment.arc.sweep) / (2 * np.pi))))
-            k = np.arange(n) / n   # the end is the next arc's start (or the first point again)
-            _, point, _, _, normal = _evaluate(machine, segment, k)
-            i, j, _ = segment.arc.plane
-            nominal.append(point[:, [i, j]])
-            cut.append(point[:, [i, j]] + normal[:, [i, j]])
-        nominal, cut = np.concatenate(nominal), np.concatenate(cut)
-        i, j, _ = run[0].arc.plane
-        centre_nominal = _centre_in_frame(machine, run[0])
-        centre, radius = fit_circle(cut)
-        radial = np.linalg.norm(cut - centre, axis=1) - radius
-        around = nominal - centre_nominal
-        nominal_radius = float(np.median(np.linalg.norm(around, axis=1)))
-        out.append(CircleFeature(
-            lines=tuple(dict.fromkeys(s.line for s in run)), plane=(i, j), centre=centre_nominal,
-            radius=nominal_radius, circularity_um=float(np.ptp(radial) * UM_PER_M),
-            diameter_error_um=float(2 * (radius - nominal_radius) * UM_PER_M),
-            centre_error_um=float(np.linalg.norm(centre - centre_nominal) * UM_PER_M), fitted_centre=centre,
-            angle=np.arctan2(around[:, 1], around[:, 0]), radial_um=radial * UM_PER_M, turn=float(turn)))
-    return out
+
+    lines: tuple[int, ...]
+    plane: tuple[int, int]
+    start: np.ndarray
+    end: np.ndarray
+    straightness_um: float
+    contour: int
+    measured: np.ndarray
+    q: np.ndarray
+
+    @property
+    def length(self) -> float:
+        return float(np.linalg.norm(self.end - self.start))
+
+    @property
+    def direction(self) -> np.ndarray:
+        return (self.end - self.start) / self.length
+
+    @property
+    def across(self) -> np.ndarray:
+        return np.array([-self.direction[1], self.direction[0]])
+
+    def along(self) -> np.ndarray:
+        """Each measured point's distance from the nominal start along the side [m]."""
+        return (self.measured - self.start) @ self.direction
+
+    def to_dict(self) -> dict:
+        """The feature in the report's terms (ISO name, um)."""
+        return {"kind": "straightness", "name": "straightness of a side (ISO 12780, least squares)",
+                "lines": list(self.lines), "plane": "xyz"[self.plane[0]] + "xyz"[self.plane[1]],
+                "start_mm": (self.start * 1e3).tolist(), "end_mm": (self.end * 1e3).tolist(),
+                "length_mm": self.length * 1e3, "straightness_um": self.straightness_um}
+
+    def profiles(self, parts: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Each source's deviation across the side less its least-squares line, to first order."""
+        along = self.along()
+        basis = np.c_[np.ones_like(along), along]
+        return {c: _without(p @ self.across, basis) for c, p in parts.items()}
 
 
-def _centre_in_frame(machine: Machine, segment) -> np.ndarray:
-    """The arc's centre as a nominal tool point in the workpiece frame, in its plane."""
-    i, j, _ = segment.arc.plane
-    q = segment.arc.start.copy()
-    q[i], q[j] = segment.arc.center
-    return _tool_points(machine, q[None, :])[0, [i, j]]
+@dataclass(frozen=True)
+class PairFeature:
+    """Squareness or parallelism of one side to another of the same contour (ISO 1101).
+
+    The datum is the first side's least-squares line; the value is the width of the zone,
+    perpendicular to (squareness) or parallel to (parallelism) the datum, that holds every
+    measured point of the second side [um].
+
+    Attributes
+    ----------
+    kind : str
+        "squareness" or "parallelism".
+    datum, toleranced : LineFeature
+        The two sides.
+    value_um : float
+        The zone's width [um].
+    """
+
+    kind: str
+    datum: LineFeature
+    toleranced: LineFeature
+    value_um: float
+
+    @property
+    def lines(self) -> tuple[int, ...]:
+        return self.datum.lines + self.toleranced.lines
+
+    def to_dict(self) -> dict:
+        """The feature in the report's terms (ISO name, um)."""
+        return {"kind": self.kind, "name": f"{self.kind} of a side to a datum side (ISO 1101)",
+                "lines": list(self.lines), "datum_line": self.datum.lines[0], f"{self.kind}_um": self.value_um}
 
 
 def fit_line(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -384,83 +452,6 @@ def fit_line(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return centre, direction, np.array([-direction[1], direction[0]])
 
 
-@dataclass(frozen=True)
-class LineFeature:
-    """A straight side of the program (a cutting line in the contour plane), as a CMM reports it.
-
-    Attributes
-    ----------
-    lines : tuple of int
-        The block it comes from.
-    plane : tuple of int
-        The workpiece-frame coordinates of the contour plane.
-    start, end : ndarray, shape (2,)
-        Nominal ends in the plane [m].
-    straightness_um : float
-        ISO 12780: the range of the side's deviation about its least-squares line [um].
-    contour : int
-        Index of the contour (a run of cutting moves between rapids) it belongs to.
-    """
-
-    lines: tuple[int, ...]
-    plane: tuple[int, int]
-    start: np.ndarray
-    end: np.ndarray
-    straightness_um: float
-    contour: int
-    points: np.ndarray
-    measured: np.ndarray
-    q: np.ndarray
-    tangent: np.ndarray
-
-    @property
-    def length(self) -> float:
-        return float(np.linalg.norm(self.end - self.start))
-
-    @property
-    def direction(self) -> np.ndarray:
-        return (self.end - self.start) / self.length
-
-    def to_dict(self) -> dict:
-        """The feature in the report's terms (ISO name, um)."""
-        return {"kind": "straightness", "name": "straightness of a side (ISO 12780, least squares)",
-                "lines": list(self.lines), "plane": "xyz"[self.plane[0]] + "xyz"[self.plane[1]],
-                "start_mm": (self.start * 1e3).tolist(), "end_mm": (self.end * 1e3).tolist(),
-                "length_mm": self.length * 1e3, "straightness_um": self.straightness_um}
-
-
-@dataclass(frozen=True)
-class PairFeature:
-    """Squareness or parallelism of one side to another of the same contour (ISO 1101).
-
-    The datum is the first side's least-squares line; the value is the width of the zone,
-    perpendicular to (squareness) or parallel to (parallelism) the datum, that holds every
-    point of the second side [um].
-
-    Attributes
-    ----------
-    kind : str
-        "squareness" or "parallelism".
-    datum, toleranced : int
-        Indices of the two sides in :func:`side_features`' list.
-    lines : tuple of int
-        The blocks of the datum and of the toleranced side.
-    value_um : float
-        The zone's width [um].
-    """
-
-    kind: str
-    datum: int
-    toleranced: int
-    lines: tuple[int, ...]
-    value_um: float
-
-    def to_dict(self) -> dict:
-        """The feature in the report's terms (ISO name, um)."""
-        return {"kind": self.kind, "name": f"{self.kind} of a side to a datum side (ISO 1101)",
-                "lines": list(self.lines), "datum_line": self.lines[0], f"{self.kind}_um": self.value_um}
-
-
 def _contours(segments) -> list[list]:
     """The program's cutting moves grouped in contours: runs between rapids."""
     runs, current = [], []
@@ -476,38 +467,22 @@ def _contours(segments) -> list[list]:
     return runs
 
 
-def side_features(machine: Machine, segments, plane: tuple[int, int] = (0, 1), min_length: float = 5e-3,
-                  points_per_mm: float = 2.0) -> tuple[list[LineFeature], list[PairFeature]]:
-    """The straight sides of a program and the squareness and parallelism of each pair of
-    sides of one contour, measured on the predicted part.
-
-    A side is a cutting line in the contour plane (its third coordinate constant) at least
-    ``min_length`` long, measured at ``points_per_mm`` points per millimetre (at least 50).
-    Pairs are taken within a contour (a run of cutting moves between rapids), the earlier side
-    the datum: perpendicular sides give squareness, parallel ones parallelism; sides at other
-    angles give neither.
-
-    Parameters
-    ----------
-    machine : Machine
-        The machine (see :func:`circle_features` for the coordinates).
-    segments : sequence of Segment
-        The program's moves.
-    plane : tuple of int, default (0, 1)
-        The contour plane's coordinates (0, 1: xy).
-    min_length : float, default 5e-3
-        The shortest side measured [m].
-    points_per_mm : float, default 2.0
-        Measured points per millimetre of a side.
-
-    Returns
-    -------
-    sides : list of LineFeature
-    pairs : list of PairFeature
-    """
+def _reference_features(machine: Machine, segments, plane: tuple[int, int], min_length: float):
+    """The circles and sides a program defines: (circles, sides) as dicts of their nominal
+    geometry in the workpiece frame and the indices of their moves among the cutting moves."""
     i, j = plane
     third = ({0, 1, 2} - {i, j}).pop()
-    sides: list[LineFeature] = []
+    cutting = [s for s in segments if s.kind in ("line", "arc")]
+    circles = []
+    for run in _full_circles(segments):
+        if tuple(run[0].arc.plane[:2]) != plane:
+            continue
+        centre = _centre_in_frame(machine, run[0])
+        start = _tool_points(machine, run[0].arc.start[None, :])[0]
+        circles.append({"lines": tuple(dict.fromkeys(s.line for s in run)), "centre": centre,
+                        "radius": float(np.linalg.norm(start[[i, j]] - centre)), "height": float(start[third]),
+                        "moves": [cutting.index(s) for s in run]})
+    sides = []
     for number, contour in enumerate(_contours(segments)):
         for segment in contour:
             if segment.kind != "line":
@@ -516,20 +491,101 @@ def side_features(machine: Machine, segments, plane: tuple[int, int] = (0, 1), m
             length = float(np.linalg.norm(ends[1, [i, j]] - ends[0, [i, j]]))
             if length < min_length or abs(ends[1, third] - ends[0, third]) > 1e-9:
                 continue
-            n = max(50, int(np.ceil(length * 1e3 * points_per_mm)) + 1)
-            k = np.linspace(0.0, 1.0, n)
-            _check_travel(machine, segment, _positions(segment, k))
-            q, point, tangent, _, normal = _evaluate(machine, segment, k)
-            measured = point[:, [i, j]] + normal[:, [i, j]]
-            centre, _, across = fit_line(measured)
-            sides.append(LineFeature(
-                lines=(segment.line,), plane=plane, start=ends[0, [i, j]], end=ends[1, [i, j]],
-                straightness_um=float(np.ptp((measured - centre) @ across) * UM_PER_M), contour=number,
-                points=point, measured=measured, q=q, tangent=tangent))
+            sides.append({"lines": (segment.line,), "start": ends[0, [i, j]], "end": ends[1, [i, j]],
+                          "height": float(ends[0, third]), "contour": number, "moves": [cutting.index(segment)]})
+    return circles, sides
+
+
+def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int] = (0, 1),
+            min_length: float = 5e-3, spacing: float = 0.25e-3, capture: float = 0.2e-3):
+    """The features a CMM reports of the part a program cuts.
+
+    The features are those of ``reference`` (default: the program itself): each full circle
+    (arcs of one centre and radius in the contour plane turning a whole turn) and each
+    straight side (a cutting line in the plane at least ``min_length`` long), and within a
+    contour (cutting moves between rapids) each pair of perpendicular or parallel sides, the
+    earlier the datum. They are measured on the cut: the program's cutting moves sampled at most
+    ``spacing`` apart, where the tool actually is. A sample measures a feature of its own move;
+    with a reference (a compensated program against the program it was made from), a sample
+    measures the feature it lies within ``capture`` of (in the plane and in height; a side's
+    ends, 1 % of its length, left out).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine, in the state to predict. The moves' plane coordinates are axis positions;
+        features are measured in the same coordinates of the workpiece frame, which a machine
+        whose linear axes are the frame's x, y, z (every bundled machining centre) follows.
+    segments : sequence of Segment
+        The program's moves (:func:`volerr_pin.compensation.gcode.interpret`).
+    reference : sequence of Segment, optional
+        The moves of the program that defines the features.
+    plane : tuple of int, default (0, 1)
+        The contour plane's coordinates (0, 1: xy).
+    min_length : float, default 5e-3
+        The shortest side measured [m].
+    spacing : float, default 0.25e-3
+        The largest distance between measured points along a move [m].
+    capture : float, default 0.2e-3
+        With a reference: how far from a feature a sample may lie and still measure it [m].
+
+    Returns
+    -------
+    circles : list of CircleFeature
+    sides : list of LineFeature
+    pairs : list of PairFeature
+
+    Raises
+    ------
+    InputError
+        If a move leaves the travel (naming its line).
+    """
+    i, j = plane
+    third = ({0, 1, 2} - {i, j}).pop()
+    cut = cut_of(machine, segments, spacing)
+    circles_ref, sides_ref = _reference_features(machine, reference if reference is not None else segments,
+                                                 plane, min_length)
+    flat, height = cut.actual[:, [i, j]], cut.actual[:, third]
+    circles = []
+    for ref in circles_ref:
+        if reference is None:
+            rows = np.isin(cut.move, ref["moves"])
+        else:
+            rows = ((np.abs(height - ref["height"]) <= capture)
+                    & (np.abs(np.linalg.norm(flat - ref["centre"], axis=1) - ref["radius"]) <= capture))
+        if rows.sum() < 3:
+            continue
+        points = flat[rows]
+        centre, radius = fit_circle(points)
+        around = cut.nominal[rows][:, [i, j]] - ref["centre"] if reference is None else points - ref["centre"]
+        radial = np.linalg.norm(points - centre, axis=1) - radius
+        circles.append(CircleFeature(
+            lines=ref["lines"], plane=plane, centre=ref["centre"], radius=ref["radius"],
+            circularity_um=float(np.ptp(radial) * UM_PER_M),
+            diameter_error_um=float(2 * (radius - ref["radius"]) * UM_PER_M),
+            centre_error_um=float(np.linalg.norm(centre - ref["centre"]) * UM_PER_M), fitted_centre=centre,
+            angle=np.arctan2(around[:, 1], around[:, 0]), radial_um=radial * UM_PER_M, q=cut.q[rows]))
+    sides = []
+    for ref in sides_ref:
+        length = float(np.linalg.norm(ref["end"] - ref["start"]))
+        direction = (ref["end"] - ref["start"]) / length
+        if reference is None:
+            rows = np.isin(cut.move, ref["moves"])
+        else:
+            along = (flat - ref["start"]) @ direction
+            across = (flat - ref["start"]) @ np.array([-direction[1], direction[0]])
+            rows = ((np.abs(height - ref["height"]) <= capture) & (np.abs(across) <= capture)
+                    & (along >= 0.01 * length) & (along <= 0.99 * length))
+        if rows.sum() < 3:
+            continue
+        points = flat[rows]
+        centre, _, normal = fit_line(points)
+        sides.append(LineFeature(lines=ref["lines"], plane=plane, start=ref["start"], end=ref["end"],
+                                 straightness_um=float(np.ptp((points - centre) @ normal) * UM_PER_M),
+                                 contour=ref["contour"], measured=points, q=cut.q[rows]))
     pairs = []
     for a, datum in enumerate(sides):
-        for b in range(a + 1, len(sides)):
-            other = sides[b]
+        for other in sides[a + 1:]:
             if other.contour != datum.contour:
                 continue
             cross = datum.direction[0] * other.direction[1] - datum.direction[1] * other.direction[0]
@@ -541,9 +597,35 @@ def side_features(machine: Machine, segments, plane: tuple[int, int] = (0, 1), m
                 continue
             centre, along, across = fit_line(datum.measured)
             zone = (other.measured - centre) @ (across if kind == "parallelism" else along)
-            pairs.append(PairFeature(kind=kind, datum=a, toleranced=b, lines=datum.lines + other.lines,
-                                     value_um=float(np.ptp(zone) * UM_PER_M)))
-    return sides, pairs
+            pairs.append(PairFeature(kind=kind, datum=datum, toleranced=other, value_um=float(np.ptp(zone) * UM_PER_M)))
+    return circles, sides, pairs
+
+
+def _full_circles(segments) -> list[list]:
+    """Runs of consecutive arcs of one plane, centre and radius turning at least a whole turn."""
+    runs, current = [], []
+
+    def same(a, b):
+        return (a.plane == b.plane and np.allclose(a.center, b.center, atol=1e-9)
+                and abs(a.radius - b.radius) <= 1e-9)
+
+    for segment in [s for s in segments if s.kind in ("line", "arc")] + [None]:
+        arc = getattr(segment, "arc", None) if segment is not None else None
+        if arc is not None and segment.kind == "arc" and (not current or same(current[-1].arc, arc)):
+            current.append(segment)
+            continue
+        if current and abs(sum(s.arc.sweep for s in current)) >= 2 * np.pi - 1e-9:
+            runs.append(current)
+        current = [segment] if arc is not None and segment.kind == "arc" else []
+    return runs
+
+
+def _centre_in_frame(machine: Machine, segment) -> np.ndarray:
+    """The arc's centre as a nominal tool point in the workpiece frame, in its plane."""
+    i, j, _ = segment.arc.plane
+    q = segment.arc.start.copy()
+    q[i], q[j] = segment.arc.center
+    return _tool_points(machine, q[None, :])[0, [i, j]]
 
 
 def _component_columns(machine: Machine) -> dict[str, list[int]]:
@@ -554,16 +636,13 @@ def _component_columns(machine: Machine) -> dict[str, list[int]]:
     return out
 
 
-def _contributions(machine: Machine, q: np.ndarray, tangent: np.ndarray, plane) -> dict[str, np.ndarray]:
-    """Each component's first-order part of the normal deviation at ``q``, in the plane
+def _contributions(machine: Machine, q: np.ndarray, plane) -> dict[str, np.ndarray]:
+    """Each component's first-order part of the tool point's error at ``q``, in the plane
     (M, 2) [m]: its coefficients times the exact sensitivities."""
     sensitivity = machine.sensitivity(q)[:, :3, :]
     theta = machine.theta
-    out = {}
-    for component, cols in _component_columns(machine).items():
-        part = sensitivity[:, :, cols] @ theta[cols]
-        out[component] = normal_part(part, tangent)[:, list(plane)]
-    return out
+    return {component: (sensitivity[:, :, cols] @ theta[cols])[:, list(plane)]
+            for component, cols in _component_columns(machine).items()}
 
 
 def _without(values: np.ndarray, basis: np.ndarray) -> np.ndarray:
@@ -580,8 +659,7 @@ def _rows(profiles: dict[str, np.ndarray]) -> list[dict]:
     return sorted(rows, key=lambda r: -r["share"])
 
 
-def feature_ranking(machine: Machine, feature, sides: list[LineFeature] | None = None,
-                    points_per_turn: int = 3600, segments=None) -> list[dict]:
+def feature_ranking(machine: Machine, feature) -> list[dict]:
     """Which error sources decide a feature: per component, the feature's profile it causes
     alone (to first order, from the exact sensitivities) and its share.
 
@@ -594,54 +672,177 @@ def feature_ranking(machine: Machine, feature, sides: list[LineFeature] | None =
     Parameters
     ----------
     machine : Machine
-        The machine.
+        The machine the feature was measured on.
     feature : CircleFeature, LineFeature or PairFeature
-        The feature.
-    sides : list of LineFeature, optional
-        The sides, for a :class:`PairFeature`.
-    points_per_turn : int, default 3600
-        For a circle: as in :func:`circle_features`.
-    segments : sequence of Segment, optional
-        For a circle: the program's moves.
+        The feature (:func:`measure`).
 
     Returns
     -------
     list of dict
         ``component``, ``alone_um``, ``share``; largest share first.
     """
-    if isinstance(feature, CircleFeature):
-        run = next(r for r in _full_circles(segments) if tuple(dict.fromkeys(s.line for s in r)) == feature.lines)
-        q, tangent, point = [], [], []
-        for segment in run:
-            n = max(3, int(round(points_per_turn * abs(segment.arc.sweep) / (2 * np.pi))))
-            values = _evaluate(machine, segment, np.arange(n) / n)
-            q.append(values[0]), point.append(values[1]), tangent.append(values[2])
-        q, point, tangent = np.concatenate(q), np.concatenate(point), np.concatenate(tangent)
-        around = point[:, list(feature.plane)] - feature.centre
-        radial = around / np.linalg.norm(around, axis=1)[:, None]
-        angle = np.arctan2(around[:, 1], around[:, 0])
-        basis = np.c_[np.ones_like(angle), np.cos(angle), np.sin(angle)]
-        parts = _contributions(machine, q, tangent, feature.plane)
-        return _rows({c: _without(np.sum(p * radial, axis=1), basis) for c, p in parts.items()})
-    if isinstance(feature, LineFeature):
-        along = (feature.points[:, list(feature.plane)] - feature.start) @ feature.direction
-        across = np.array([-feature.direction[1], feature.direction[0]])
-        basis = np.c_[np.ones_like(along), along]
-        parts = _contributions(machine, feature.q, feature.tangent, feature.plane)
-        return _rows({c: _without(p @ across, basis) for c, p in parts.items()})
-    datum, other = sides[feature.datum], sides[feature.toleranced]
-    u0 = datum.direction
-    n0 = np.array([-u0[1], u0[0]])
-    s = (datum.points[:, list(datum.plane)] - datum.start) @ u0
-    s_other = other.points[:, list(other.plane)] - datum.start
-    datum_parts = _contributions(machine, datum.q, datum.tangent, datum.plane)
-    other_parts = _contributions(machine, other.q, other.tangent, other.plane)
+    if isinstance(feature, (CircleFeature, LineFeature)):
+        return _rows(feature.profiles(_contributions(machine, feature.q, feature.plane)))
+    datum, other = feature.datum, feature.toleranced
+    u0, n0 = datum.direction, datum.across
+    s = datum.along()
+    relative = other.measured - datum.start
+    datum_parts = _contributions(machine, datum.q, datum.plane)
+    other_parts = _contributions(machine, other.q, other.plane)
     profiles = {}
     for c in datum_parts:
         slope = np.polyfit(s, datum_parts[c] @ n0, 1)[0]   # the datum line's turn, to first order
         if feature.kind == "parallelism":
-            value = other_parts[c] @ n0 - slope * (s_other @ u0)
+            value = other_parts[c] @ n0 - slope * (relative @ u0)
         else:
-            value = other_parts[c] @ u0 + slope * (s_other @ n0)
+            value = other_parts[c] @ u0 + slope * (relative @ n0)
         profiles[c] = value - value.mean()
     return _rows(profiles)
+
+
+@dataclass
+class PartPrediction:
+    """What a program cuts on a machine: the deviation along the path and the features.
+
+    Attributes
+    ----------
+    machine : Machine
+    source : str
+        The program's name.
+    reference : str or None
+        The name of the program that defines the features, when not the program itself.
+    deviation : PathDeviation
+        Along the program's own path (normal to it).
+    circles, sides, pairs : list
+        The features (:func:`measure`).
+    rankings : list of list of dict
+        Per feature (circles, sides, pairs in that order), :func:`feature_ranking`; empty with
+        a reference, where what is left is the compensation's, not an error source's.
+    """
+
+    machine: Machine
+    source: str
+    reference: str | None
+    deviation: PathDeviation
+    circles: list
+    sides: list
+    pairs: list
+    rankings: list
+
+    @property
+    def features(self) -> list:
+        return [*self.circles, *self.sides, *self.pairs]
+
+    def to_dict(self, top: int = 5) -> dict:
+        """The report: the largest deviation and its block, every block's, and the features
+        with the ``top`` error sources of each (JSON: ``features``)."""
+        blocks = self.deviation.per_block()
+        worst = max(blocks, key=blocks.get)
+        features = []
+        for feature, ranking in zip(self.features, self.rankings):
+            row = feature.to_dict()
+            row["sources"] = ranking[:top]
+            features.append(row)
+        return {"machine": self.machine.name, "program": self.source, "reference": self.reference,
+                "state": self.machine.state, "tolerance_um": self.deviation.tolerance * UM_PER_M,
+                "samples": int(len(self.deviation.line)), "max_um": self.deviation.max_um, "max_line": int(worst),
+                "blocks": [{"line": int(line), "max_um": value} for line, value in blocks.items()],
+                "features": features}
+
+
+def predict(machine: Machine, text: str, source: str = "<program>", *, reference: str | None = None,
+            reference_source: str = "<reference>", tolerance: float = 0.01e-6, start=None, origin=None,
+            plane: tuple[int, int] = (0, 1)) -> PartPrediction:
+    """Predict the part a program cuts: the deviation along its path and its features with the
+    error sources that decide them.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine, in the state to predict (:meth:`Machine.with_state`).
+    text : str
+        The program (read as ``compensate`` reads it).
+    source : str, default "<program>"
+        Its name, for messages and the report.
+    reference : str, optional
+        The program that defines the part (for a compensated program: the program it was
+        made from): its features are measured on the cut of ``text`` (:func:`measure`).
+    reference_source : str, default "<reference>"
+        Its name.
+    tolerance : float, default 0.01e-6
+        Sampling tolerance of the path [m] (:func:`deviation_along`).
+    start, origin : array_like, optional
+        Where the axes stand when it starts, and the program zero [m, rad]
+        (:func:`volerr_pin.compensation.gcode.interpret`).
+    plane : tuple of int, default (0, 1)
+        The contour plane of the features.
+
+    Returns
+    -------
+    PartPrediction
+    """
+    from ..compensation.gcode import interpret
+
+    segments = interpret(machine, text, source, start=start, origin=origin)
+    defining = None if reference is None else interpret(machine, reference, reference_source, start=start,
+                                                         origin=origin)
+    deviation = deviation_along(machine, segments, tolerance)
+    circles, sides, pairs = measure(machine, segments, defining, plane=plane)
+    # with a reference (a compensated program), what is left is the compensation's (its tolerance,
+    # the written numbers' rounding), not an error source's: the sources' profiles cancel
+    rankings = [feature_ranking(machine, f) if reference is None else [] for f in [*circles, *sides, *pairs]]
+    return PartPrediction(machine, source, None if reference is None else reference_source, deviation, circles,
+                          sides, pairs, rankings)
+
+
+def contouring_test_piece(machine: Machine, size: float | None = None, feed: float = 500.0) -> str:
+    """A program of the contouring test piece's finishing contours, in the form of ISO 10791-7's:
+    a square, a diamond (the square turned 45 degrees, inside it) and a circle (inside the
+    diamond), each a closed contour at one height, in the middle of the machine's travel.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine: its first three axes must be linear X, Y, Z (the rotary ones, if any, stay
+        at 0 or mid travel).
+    size : float, optional
+        The square's side [m]; default 160 mm, or less to keep 20 % of the smaller of the X and
+        Y travels on either side.
+    feed : float, default 500
+        Feed rate [mm/min].
+
+    Returns
+    -------
+    str
+        The program (G17 G90 G21, mm), its contours separated by rapids, the size stated in a
+        comment.
+
+    Raises
+    ------
+    InputError
+        If the machine has no linear X, Y and Z, or the square does not fit its travel.
+    """
+    axes = machine.axes
+    if axes[:3] != ("X", "Y", "Z") or any(k != "linear" for k in machine.axis_kinds[:3]):
+        raise InputError(f"{machine.name}: the contouring test piece needs linear X, Y, Z as the first axes, "
+                         f"got {', '.join(axes)}", parameters=("machine",))
+    travel = machine.travel[:3] * 1e3
+    span = min(travel[0, 1] - travel[0, 0], travel[1, 1] - travel[1, 0])
+    side = size * 1e3 if size is not None else min(160.0, np.floor(0.6 * span / 10.0) * 10.0)
+    if not (np.isfinite(side) and side > 0) or side > span:
+        raise InputError(f"the square's side {side:g} mm does not fit {machine.name}'s travel ({span:g} mm across)",
+                         parameters=("size",))
+    cx, cy, z = (travel[:, 0] + travel[:, 1]) / 2.0
+    half, tip, radius = side / 2.0, 0.45 * side, 0.3 * side
+    others = "".join(f" {a}{(0.0 if 0.0 >= lo and 0.0 <= hi else (lo + hi) / 2):.4f}"
+                     for a, (lo, hi) in zip(axes[3:], np.degrees(machine.travel[3:]) if len(axes) > 3 else []))
+    lines = [f"(contouring test piece for {machine.name}: square {side:g} mm, diamond {2 * tip:g} mm across, "
+             f"circle {2 * radius:g} mm, at Z {z:g})", "G17 G90 G21", f"G0 Z{z + 50:.4f}{others}",
+             "(square)", f"G0 X{cx - half:.4f} Y{cy - half:.4f}", f"G0 Z{z:.4f}",
+             f"G1 X{cx + half:.4f} F{feed:g}", f"G1 Y{cy + half:.4f}", f"G1 X{cx - half:.4f}", f"G1 Y{cy - half:.4f}",
+             f"G0 Z{z + 50:.4f}", "(diamond)", f"G0 X{cx:.4f} Y{cy - tip:.4f}", f"G0 Z{z:.4f}",
+             f"G1 X{cx + tip:.4f} Y{cy:.4f} F{feed:g}", f"G1 X{cx:.4f} Y{cy + tip:.4f}", f"G1 X{cx - tip:.4f} Y{cy:.4f}",
+             f"G1 X{cx:.4f} Y{cy - tip:.4f}", f"G0 Z{z + 50:.4f}",
+             "(circle)", f"G0 X{cx - radius:.4f} Y{cy:.4f}", f"G0 Z{z:.4f}",
+             f"G2 X{cx - radius:.4f} Y{cy:.4f} I{radius:.4f} J0 F{feed:g}", f"G0 Z{z + 50:.4f}", "M30"]
+    return "\n".join(lines) + "\n"

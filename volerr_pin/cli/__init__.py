@@ -32,6 +32,7 @@ from . import (ballbar, compensate, demo, dh, diagnose, errormap, field, gear, i
 from . import tolerance, uncertainty
 from . import export
 from . import plan
+from . import predict, testpiece
 from .common import check_out_name, in_cli_words
 
 #: one module per command, in the order ``volerr --help`` lists them
@@ -39,6 +40,7 @@ COMMANDS = (demo, field, rank, iso230, identify, thermal_fit, diagnose, compensa
             gear, dh, info, urdf)
 COMMANDS += (uncertainty, tolerance)
 COMMANDS += (plan,)
+COMMANDS += (predict, testpiece)
 
 __all__ = ["build_parser", "main"]
 

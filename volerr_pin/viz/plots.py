@@ -461,3 +461,56 @@ def gear_png(deviations, path: str | Path, title: str = "") -> dict:
         fig.suptitle(title, fontsize=11)
     save(fig, path)
     return {"path": str(path), "worst_teeth": worst_teeth}
+
+
+def part_png(prediction, path: str | Path, factor: float | None = None) -> dict:
+    """The predicted part: left, the programmed contours seen along the contour plane's normal,
+    each sample moved by its normal deviation magnified ``factor`` times and coloured by its
+    size; right, each full circle's deviation about its least-squares circle as a CMM prints
+    it (polar, the nominal circle as reference, deviations magnified)."""
+    from ..model.workspace import nice_scale
+
+    deviation = prediction.deviation
+    size = np.linalg.norm(deviation.normal, axis=1) * 1e6
+    i, j = prediction.features[0].plane if prediction.features else (0, 1)
+    points = deviation.point[:, [i, j]] * 1e3
+    extent = float(np.ptp(points, axis=0).max()) or 1.0
+    factor = factor or nice_scale(float(size.max()) or 1.0, extent * 1e-3)
+    moved = points + deviation.normal[:, [i, j]] * 1e3 * factor
+    circles = prediction.circles
+    fig = plt.figure(figsize=(12.0 if circles else 7.5, 6.0), dpi=110, constrained_layout=True)
+    from matplotlib.collections import LineCollection
+
+    ax = fig.add_subplot(1, 2 if circles else 1, 1)
+    pieces, values = [], []
+    for move in np.unique(deviation.move):
+        rows = np.flatnonzero(deviation.move == move)
+        ax.plot(points[rows, 0], points[rows, 1], color="#bbbbbb", lw=0.8)
+        pieces += [moved[[a, b]] for a, b in zip(rows[:-1], rows[1:])]
+        values += [(size[a] + size[b]) / 2 for a, b in zip(rows[:-1], rows[1:])]
+    shown = LineCollection(pieces, array=np.asarray(values), cmap="viridis", linewidths=2.0)
+    ax.add_collection(shown)
+    ax.autoscale()
+    fig.colorbar(shown, ax=ax, label="deviation normal to the path [um]")
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"{'xyz'[i]} [mm]")
+    ax.set_ylabel(f"{'xyz'[j]} [mm]")
+    ax.set_title(f"{prediction.machine.name}: {Path(prediction.source).name}, deviation x{factor:g} "
+                 f"(grey: programmed; largest {deviation.max_um:.2f} um)", fontsize=9)
+    for k, circle in enumerate(circles[:1]):
+        polar = fig.add_subplot(1, 2, 2, projection="polar")
+        order = np.argsort(circle.angle)
+        reference = circle.radius * 1e3   # mm
+        magnify = nice_scale(float(np.abs(circle.radial_um).max()) or 1e-3, 0.15 * reference * 1e-3 / 0.08)
+        polar.plot(circle.angle[order], reference + circle.radial_um[order] * 1e-3 * magnify, color="#c0392b",
+                   lw=1.0, label="measured about the least-squares circle")
+        polar.plot(np.linspace(0, 2 * np.pi, 361), np.full(361, reference), color="#888888", lw=0.6,
+                   label="least-squares circle")
+        polar.set_ylim(0, reference * 1.3)
+        polar.set_yticklabels([])
+        polar.set_title(f"circle of line {circle.lines[0]}: roundness {circle.circularity_um:.2f} um, diameter "
+                        f"error {circle.diameter_error_um:+.2f} um, centre {circle.centre_error_um:.2f} um\n"
+                        f"(deviation x{magnify:g})", fontsize=9, pad=18)
+        polar.legend(loc="lower center", bbox_to_anchor=(0.5, -0.16), fontsize=7, ncol=2)
+    save(fig, path)
+    return {"path": str(path), "factor": factor}

@@ -1,0 +1,67 @@
+"""volerr testpiece and volerr predict, end to end: the test piece predicted, compensated, and
+the compensated program predicted against the part it was made for."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from volerr_pin.cli import main
+
+
+def _json(capsys, argv) -> dict:
+    assert main(argv) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_the_test_piece_predicted_compensated_and_predicted_again(tmp_path, capsys):
+    piece, compensated, png = tmp_path / "tp.nc", tmp_path / "tp_comp.nc", tmp_path / "part.png"
+    assert main(["testpiece", "vmc500", "-o", str(piece)]) == 0
+    assert "square 160 mm" in capsys.readouterr().err
+    before = _json(capsys, ["predict", "vmc500", str(piece), "--png", str(png), "--json"])
+    kinds = [f["kind"] for f in before["features"]]
+    assert kinds.count("circle") == 1 and kinds.count("straightness") == 8
+    assert kinds.count("squareness") == 8 and kinds.count("parallelism") == 4
+    circle = before["features"][0]
+    assert circle["diameter_mm"] == pytest.approx(96.0) and circle["circularity_um"] > 1.0
+    assert {s["component"] for s in circle["sources"]} & {"EC0Y", "EXX"}
+    assert before["max_um"] == max(b["max_um"] for b in before["blocks"])
+    assert png.read_bytes()[:4] == b"\x89PNG" and before["png"]["path"] == str(png)
+    assert main(["compensate", "vmc500", str(piece), "-o", str(compensated), "--tol-um", "0.1",
+                 "--start", "X=250", "Y=200", "Z=250", "--json"]) == 0
+    capsys.readouterr()
+    after = _json(capsys, ["predict", "vmc500", str(compensated), "--reference", str(piece), "--json"])
+    assert after["reference"] == str(piece)
+    assert [f["lines"] for f in after["features"]] == [f["lines"] for f in before["features"]]
+    for b, a in zip(before["features"], after["features"]):
+        key = next(k for k in a if k.endswith("_um") and k not in ("diameter_error_um", "centre_error_um"))
+        # compensated to 0.1 um, written to 4 decimals (up to 0.087 um more): what is left
+        assert a[key] < 0.25, (a["kind"], a["lines"], a[key])
+    assert after["features"][0]["circularity_um"] < before["features"][0]["circularity_um"] / 5
+
+
+def test_predict_prints_the_features_and_their_sources(tmp_path, capsys):
+    piece = tmp_path / "tp.nc"
+    assert main(["testpiece", "cgm4000", "-o", str(piece), "--size", "100"]) == 0
+    assert main(["predict", "cgm4000", str(piece), "--top", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "largest deviation normal to the programmed path" in out
+    assert "squareness" in out and "roundness" in out and "EC0Y" in out
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["testpiece", "vmc500", "--size", "900"], "the square's side 900 mm does not fit vmc500's travel"),
+    (["testpiece", "lathe_2axis"], "needs linear X, Y, Z"),
+])
+def test_testpiece_refusals(tmp_path, capsys, argv, message):
+    assert main([*argv, "-o", str(tmp_path / "x.nc")]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "x.nc").exists()
+
+
+def test_predict_refuses_a_move_out_of_the_travel_naming_its_line(tmp_path, capsys):
+    program = tmp_path / "far.nc"
+    program.write_text("G90 G21\nG0 X50 Y100 Z100\nG1 X700 F500\nM30\n")
+    assert main(["predict", "vmc500", str(program)]) == 2
+    assert "line 3: the move takes X to 700.0000 mm, outside its travel 0 .. 500 mm" in capsys.readouterr().err

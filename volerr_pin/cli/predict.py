@@ -1,0 +1,96 @@
+"""volerr predict: the part a program cuts, its features, and the error sources deciding each."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rich import box
+from rich.markup import escape
+from rich.table import Table
+
+from ..base.safeio import transaction
+from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of,
+                     positive, table_console)
+
+
+#: the command's name, and its line in ``volerr --help`` (read without building its parser)
+COMMAND = "predict"
+HELP = "the part a program cuts: deviation along the path, CMM features, their error sources"
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(COMMAND, help=HELP)
+    add_machine_args(p)
+    add_state_arg(p)
+    p.add_argument("program", help="NC program (ISO 6983 / RS-274), read as compensate reads it")
+    p.add_argument("--reference", metavar="PROGRAM",
+                   help="the program that defines the part, for a compensated program: its circles and sides are "
+                        "measured on what the given program cuts")
+    p.add_argument("--tol-um", type=float, default=0.01,
+                   help="sampling tolerance of the path: the deviation between samples, interpolated, is within it "
+                        "of the model (default 0.01)")
+    p.add_argument("--origin", nargs="+", metavar="AXIS=VALUE",
+                   help="program coordinates of the program zero (the work offset, G54 ...; mm, deg)")
+    p.add_argument("--start", nargs="+", metavar="AXIS=VALUE",
+                   help="where axes stand when the program starts (mm, deg)")
+    p.add_argument("--top", type=positive, default=3, help="error sources shown per feature (default 3)")
+    p.add_argument("--png", help="draw the part: the path moved by its deviation, and the circle as a CMM prints it")
+    add_json_arg(p)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..applications.part import predict
+    from ..compensation.gcode import ProgramFile
+
+    machine = machine_of(args)
+    path = Path(args.program)
+    inputs = [path] + ([Path(args.reference)] if args.reference else [])
+    check_run_outputs({"png": args.png}, inputs, machine)
+    text = "".join(body + ending for body, ending in ProgramFile(path).lines())
+    reference = ("".join(body + ending for body, ending in ProgramFile(args.reference).lines())
+                 if args.reference else None)
+    offset = axis_config(machine, args.origin, "--origin")
+    origin = [offset.get(axis, 0.0) for axis in machine.axes] if offset else None
+    stands = axis_config(machine, args.start, "--start")
+    start = [stands.get(axis, float("nan")) for axis in machine.axes] if stands else None
+    prediction = predict(machine, text, str(path), reference=reference, reference_source=args.reference or "",
+                         tolerance=args.tol_um * 1e-6, start=start, origin=origin)
+    report = prediction.to_dict(top=args.top)
+    if args.png:
+        from ..viz.plots import part_png
+
+        with transaction() as tx:
+            report["png"] = {"path": str(args.png), "factor": part_png(prediction, tx.path(args.png))["factor"]}
+    if args.json:
+        print(dumps(report))
+        return 0
+    console = table_console()
+    state = ", ".join(f"{k}={v}" for k, v in report["state"].items()) if report["state"] else "no state"
+    console.print(escape(f"{machine.name}: {path} ({state}); {report['samples']:,} samples along the cutting moves, "
+                         f"to {report['tolerance_um']:g} um"
+                         + (f"; the part as {args.reference} defines it" if args.reference else "")))
+    console.print(escape(f"largest deviation normal to the programmed path: {report['max_um']:.3f} um, line "
+                         f"{report['max_line']}" + (" (the given program's path: a compensated program is offset from "
+                                                     "the part on purpose; the features measure the part)"
+                                                     if args.reference else "")))
+    table = Table(box=box.SIMPLE, title="features as a CMM reports them (um)")
+    columns = ("feature", "lines", "value") + (() if args.reference else ("decided by (share; alone)",))
+    for column in columns:
+        table.add_column(column)
+    for feature in report["features"]:
+        if feature["kind"] == "circle":
+            value = (f"roundness {feature['circularity_um']:.3f}, diameter {feature['diameter_error_um']:+.3f}, "
+                     f"centre {feature['centre_error_um']:.3f}")
+        else:
+            value = f"{feature[feature['kind'] + '_um']:.3f}"
+        sources = "; ".join(f"{s['component']} {100 * s['share']:.0f} % ({s['alone_um']:.2f})" for s in feature["sources"])
+        table.add_row(feature["kind"], ",".join(map(str, feature["lines"])), value,
+                      *(() if args.reference else (escape(sources),)))
+    console.print(table)
+    if args.reference:
+        console.print("what is left is the compensation's (its tolerance, the written numbers' rounding), not an "
+                      "error source's: no sources are ranked")
+    if args.png:
+        console.print(f"wrote {args.png} (deviation x{report['png']['factor']:g})")
+    return 0
