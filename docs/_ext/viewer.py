@@ -45,6 +45,7 @@ RECORDINGS: dict[str, tuple[list[list[str]], str]] = {
     "lathe_cold_start": ([[sys.executable, "examples/lathe_cold_start.py", "lathe_cold_start.rrd"]],
                          "lathe_cold_start.rrd"),
     "gear": ([["volerr", "gear", "gear_roller", "--rrd", "gear_flanks.rrd"]], "gear_flanks.rrd"),
+    "predict": ([["volerr", "predict", "vmc500", "examples/data/vmc500_testpiece.nc", "--rrd", "part.rrd"]], "part.rrd"),
     "uncertainty": ([["volerr", "uncertainty", "vmc500", "--instrument-sigma", "1", "--samples", "200", "--compensation", "point",
                       "--grid", "5", "--workers", "0", "--rrd", "uncertainty.rrd"]], "uncertainty.rrd"),
 }

@@ -24,7 +24,7 @@ spec = importlib.util.spec_from_file_location("_docs_ext_viewer", ROOT / "docs" 
 viewer = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(viewer)
 
-FAST = ["demo", "bare_urdf", "export", "gear"]
+FAST = ["demo", "bare_urdf", "export", "gear", "predict"]
 SLOW = [name for name in viewer.RECORDINGS if name not in FAST]
 
 

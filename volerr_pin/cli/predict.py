@@ -35,6 +35,7 @@ def add_parser(sub) -> None:
                    help="where axes stand when the program starts (mm, deg)")
     p.add_argument("--top", type=positive, default=3, help="error sources shown per feature (default 3)")
     p.add_argument("--png", help="draw the part: the path moved by its deviation, and the circle as a CMM prints it")
+    p.add_argument("--rrd", metavar="FILE.rrd", help="record the part in 3D for Rerun: the path, the cut, the features")
     add_json_arg(p)
     p.set_defaults(func=run)
 
@@ -46,7 +47,7 @@ def run(args) -> int:
     machine = machine_of(args)
     path = Path(args.program)
     inputs = [path] + ([Path(args.reference)] if args.reference else [])
-    check_run_outputs({"png": args.png}, inputs, machine)
+    check_run_outputs({"png": args.png, "rrd": args.rrd}, inputs, machine)
     text = "".join(body + ending for body, ending in ProgramFile(path).lines())
     reference = ("".join(body + ending for body, ending in ProgramFile(args.reference).lines())
                  if args.reference else None)
@@ -57,11 +58,15 @@ def run(args) -> int:
     prediction = predict(machine, text, str(path), reference=reference, reference_source=args.reference or "",
                          tolerance=args.tol_um * 1e-6, start=start, origin=origin)
     report = prediction.to_dict(top=args.top)
-    if args.png:
-        from ..viz.plots import part_png
+    with transaction() as tx:   # the picture and the recording are both written, or neither
+        if args.png:
+            from ..viz.plots import part_png
 
-        with transaction() as tx:
             report["png"] = {"path": str(args.png), "factor": part_png(prediction, tx.path(args.png))["factor"]}
+        if args.rrd:
+            from ..viz.recording import record_part
+
+            report["rrd"] = {"path": str(args.rrd), "factor": record_part(prediction, tx.path(args.rrd))["factor"]}
     if args.json:
         print(dumps(report))
         return 0
@@ -91,6 +96,8 @@ def run(args) -> int:
     if args.reference:
         console.print("what is left is the compensation's (its tolerance, the written numbers' rounding), not an "
                       "error source's: no sources are ranked")
-    if args.png:
-        console.print(f"wrote {args.png} (deviation x{report['png']['factor']:g})")
+    for key in ("png", "rrd"):
+        if getattr(args, key):
+            console.print(f"wrote {getattr(args, key)} (deviation x{report[key]['factor']:g})"
+                          + (f"; open it with: rerun {args.rrd}" if key == "rrd" else ""))
     return 0

@@ -244,13 +244,14 @@ def world_points(machine: Machine, q: np.ndarray, positions: np.ndarray) -> np.n
     return np.asarray(positions, float) @ placement.rotation.T + placement.translation
 
 
-def eye_on(machine: Machine, q: np.ndarray, positions: np.ndarray, distance: float = 1.6) -> rrb.EyeControls3D:
+def eye_on(machine: Machine, q: np.ndarray, positions: np.ndarray, distance: float = 1.6,
+           elevation: float = 30.0) -> rrb.EyeControls3D:
     """A 3D view's camera that frames ``positions`` (workpiece frame) from outside the machine.
 
     It looks at their box's centre from ``distance`` times the box's diagonal, z up: horizontally
     from the mean of the machine's joint origins towards the points (the side the work zone
     opens to, away from the bulk of the machine), turned 30 degrees for a three-quarter view,
-    and 30 degrees above; a machine whose joints gather on the points is seen from -y."""
+    and ``elevation`` degrees above; a machine whose joints gather on the points is seen from -y."""
     data, placement = _workpiece_placement(machine, q)
     points = np.asarray(positions, float).reshape(-1, 3) @ placement.rotation.T + placement.translation
     lo, hi = points.min(axis=0), points.max(axis=0)
@@ -263,7 +264,7 @@ def eye_on(machine: Machine, q: np.ndarray, positions: np.ndarray, distance: flo
     away = away / np.linalg.norm(away)
     turn = np.radians(30.0)
     away = np.array([away[0] * np.cos(turn) - away[1] * np.sin(turn), away[0] * np.sin(turn) + away[1] * np.cos(turn)])
-    direction = np.r_[away * np.cos(np.radians(30.0)), np.sin(np.radians(30.0))]
+    direction = np.r_[away * np.cos(np.radians(elevation)), np.sin(np.radians(elevation))]
     return rrb.EyeControls3D(kind="Orbital", position=centre + direction * distance * diagonal,
                              look_target=centre, eye_up=[0.0, 0.0, 1.0])
 
@@ -734,3 +735,68 @@ def record_gear(rows, path: str | Path, scale: float | None = None) -> dict:
                     rr.AnyValues(normal_deviation_um=dn * UM_PER_M, error_source=row.source))
             rec.log("gear/deviation", rr.Arrows3D.from_fields(vectors=normals * (dn * scale)[:, None], colors=colors))
     return {"path": str(path), "sources": len(rows), "points": int(points.shape[0]), "scale": scale}
+
+
+def record_part(prediction, path: str | Path, factor: float | None = None) -> dict:
+    """The predicted part in 3D: the programmed path, the cut (the path moved by its deviation
+    normal to it, magnified ``factor`` times, coloured by its size, with a key) on the machine,
+    and the features as a table.
+
+    Parameters
+    ----------
+    prediction : volerr_pin.applications.part.PartPrediction
+        The prediction.
+    path : str or Path
+        The ``.rrd`` file, written through a temporary file renamed over it once complete.
+    factor : float, optional
+        Magnification of the drawn deviation (default: a round factor, the largest about 8 % of
+        the path's extent).
+
+    Returns
+    -------
+    dict
+        ``path``, ``samples``, ``factor``, ``bytes``.
+    """
+    check_outputs({"path": path})
+    machine = prediction.machine
+    deviation = prediction.deviation
+    size = np.linalg.norm(deviation.normal, axis=1) * UM_PER_M
+    extent = float(np.ptp(deviation.point, axis=0).max()) if len(deviation.point) > 1 else 0.1
+    factor = factor or nice_scale(float(size.max()) or 1.0, extent)
+    base = default_config(machine)
+    eye = eye_on(machine, base, deviation.point, distance=1.3, elevation=55.0)   # a flat part: from above
+    frame = rr.CoordinateFrame(machine.workpiece_frame)
+    programmed, cut, colours_of = [], [], []
+    for move in np.unique(deviation.move):
+        rows = np.flatnonzero(deviation.move == move)
+        programmed.append(deviation.point[rows])
+        cut.append(deviation.point[rows] + deviation.normal[rows] * factor)
+        colours_of.append(colours(size[rows], 0.0, float(size.max()) or 1.0)[len(rows) // 2])
+    lines = [f"# {machine.name}: {Path(prediction.source).name}", "",
+             f"The cut: the programmed path (grey) moved by its deviation normal to the path, **x{factor:g}**, "
+             f"coloured by its size 0 .. {size.max():.2f} um (key beside the path); largest {deviation.max_um:.3f} um.",
+             "", "| feature | lines | value um | first source |", "|---|---|--:|---|"]
+    for feature, ranking in zip(prediction.features, prediction.rankings):
+        row = feature.to_dict()
+        value = row.get("circularity_um", row.get(f"{row['kind']}_um"))
+        first = f"{ranking[0]['component']} {100 * ranking[0]['share']:.0f} %" if ranking else ""
+        lines.append(f"| {row['kind']} | {','.join(map(str, row['lines']))} | {value:.3f} | {first} |")
+    blueprint = rrb.Blueprint(
+        rrb.Horizontal(rrb.Spatial3DView(origin="/", contents=["machine/**", "part/**"],
+                                         name=f"the cut, deviation x{factor:g}", eye_controls=eye),
+                       rrb.TextDocumentView(origin="features", name="features (um)"), column_shares=[3, 2]),
+        opened_paused(), rrb.SelectionPanel(state="collapsed"))
+    rec = new_recording("volerr_pin_predict")
+    with streaming(rec, path, blueprint):
+        log_machine(rec, machine, base)
+        rec.log("part/programmed", frame, rr.LineStrips3D(programmed, colors=[150, 150, 150], radii=extent / 2000),
+                static=True)
+        rec.log("part/cut", frame, rr.LineStrips3D(cut, colors=np.array(colours_of), radii=extent / 400), static=True)
+        rec.log("part/samples", frame, rr.Points3D(deviation.point + deviation.normal * factor,
+                                                   colors=colours(size, 0.0, float(size.max()) or 1.0),
+                                                   radii=extent / 500),
+                rr.AnyValues(deviation_um=size, line=deviation.line), static=True)
+        log_legend(rec, "part/legend", frame, deviation.point, 0.0, float(size.max()) or 1.0,
+                   title="normal deviation")
+        rec.log("features", rr.TextDocument("\n".join(lines), media_type=rr.MediaType.MARKDOWN), static=True)
+    return {"path": str(path), "samples": int(len(size)), "factor": factor, "bytes": Path(path).stat().st_size}
