@@ -45,7 +45,8 @@ def test_lathe_cold_start_example(tmp_path):
     times = [v for b in arrows for v in b.column("time").to_pylist()]
     assert len(times) == result["frames"] == 121
     series = [c.to_record_batch() for c in reader.stream() if c.entity_path == "/thermal/resultant_um"]
-    assert sum(b.num_rows for b in series) == len(t)
+    assert sum(b.num_rows for b in series if "Scalars:scalars" in b.schema.names) == len(t)   # the values, in bulk
+    assert (result["path"].with_suffix(".png")).read_bytes()[:4] == b"\x89PNG"      # the curve, drawn beside it
 
 
 @pytest.mark.slow

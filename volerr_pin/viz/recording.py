@@ -791,10 +791,10 @@ def record_part(prediction, path: str | Path, factor: float | None = None) -> di
         log_machine(rec, machine, base)
         rec.log("part/programmed", frame, rr.LineStrips3D(programmed, colors=[150, 150, 150], radii=extent / 2000),
                 static=True)
-        rec.log("part/cut", frame, rr.LineStrips3D(cut, colors=np.array(colours_of), radii=extent / 400), static=True)
+        rec.log("part/cut", frame, rr.LineStrips3D(cut, colors=np.array(colours_of), radii=extent / 150), static=True)
         rec.log("part/samples", frame, rr.Points3D(deviation.point + deviation.normal * factor,
                                                    colors=colours(size, 0.0, float(size.max()) or 1.0),
-                                                   radii=extent / 500),
+                                                   radii=extent / 120),
                 rr.AnyValues(deviation_um=size, line=deviation.line), static=True)
         log_legend(rec, "part/legend", frame, deviation.point, 0.0, float(size.max()) or 1.0,
                    title="normal deviation")
