@@ -105,11 +105,8 @@ def _needs_browser():
         pytest.skip("no rerun command")
 
 
-@pytest.fixture(scope="module")
-def machine_alone(tmp_path_factory) -> tuple[set[int], int]:
-    """The control: vmc500 alone, without data, in the viewer. Its colours (each seen on 3 pixels
-    or more), and how many of its own pixels are in rarer colours (the noise of the check)."""
-    _needs_browser()
+def _machine_alone_screenshot(folder: Path) -> Path:
+    """vmc500 alone, without data, opened in the viewer: its screenshot."""
     import rerun.blueprint as rrb
 
     import volerr_pin as vp
@@ -117,12 +114,20 @@ def machine_alone(tmp_path_factory) -> tuple[set[int], int]:
     from volerr_pin.viz.recording import log_machine, new_recording, streaming
 
     machine = vp.load_machine("vmc500")
-    folder = tmp_path_factory.mktemp("machine_alone")
     path, shot = folder / "machine.rrd", folder / "machine.png"
     rec = new_recording()
     with streaming(rec, path, rrb.Blueprint(rrb.Spatial3DView(origin="/", name="the machine alone"))):
         log_machine(rec, machine, default_config(machine))
     viewer.screenshot(path, shot)
+    return shot
+
+
+@pytest.fixture(scope="module")
+def machine_alone(tmp_path_factory) -> tuple[set[int], int]:
+    """The control: vmc500 alone, without data, in the viewer. Its colours (each seen on 3 pixels
+    or more), and how many of its own pixels are in rarer colours (the noise of the check)."""
+    _needs_browser()
+    shot = _machine_alone_screenshot(tmp_path_factory.mktemp("machine_alone"))
     colour, chroma = _colours(shot)
     values, counts = np.unique(colour[chroma > 30], return_counts=True)
     control = set(values[counts >= 3].tolist())
@@ -161,16 +166,4 @@ def test_the_committed_screenshots_pass_the_check(machine_alone):
 @pytest.mark.slow
 def test_the_check_fails_on_the_machine_alone(machine_alone, tmp_path):
     """The check can fail: a second screenshot of the machine alone is not taken for data."""
-    import rerun.blueprint as rrb
-
-    import volerr_pin as vp
-    from volerr_pin.model.workspace import default_config
-    from volerr_pin.viz.recording import log_machine, new_recording, streaming
-
-    machine = vp.load_machine("vmc500")
-    path, shot = tmp_path / "machine.rrd", tmp_path / "machine.png"
-    rec = new_recording()
-    with streaming(rec, path, rrb.Blueprint(rrb.Spatial3DView(origin="/", name="the machine alone"))):
-        log_machine(rec, machine, default_config(machine))
-    viewer.screenshot(path, shot)
-    assert not _enough(_data_pixels(shot, machine_alone[0]), machine_alone)
+    assert not _enough(_data_pixels(_machine_alone_screenshot(tmp_path), machine_alone[0]), machine_alone)

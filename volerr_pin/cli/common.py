@@ -317,6 +317,25 @@ def axis_config(machine: Machine, items: list[str] | None, option: str) -> dict[
                              option, machine.name)
 
 
+def add_program_position_args(parser: argparse.ArgumentParser) -> None:
+    """``--origin`` and ``--start`` of a command that reads an NC program."""
+    parser.add_argument("--origin", nargs="+", metavar="AXIS=VALUE",
+                        help="program coordinates of the program zero (the work offset, G54 ...; mm, deg)")
+    parser.add_argument("--start", nargs="+", metavar="AXIS=VALUE",
+                        help="where axes stand when the program starts (mm, deg): moves from them are read whole "
+                             "(a 2-D program never writes Z: give Z=...); axes not named are not known until "
+                             "programmed")
+
+
+def program_positions(machine: Machine, args) -> tuple[list[float] | None, list[float] | None]:
+    """``(start, origin)`` of :func:`add_program_position_args` as the NC reader takes them [m, rad]:
+    axes not named in ``--start`` unknown (NaN), in ``--origin`` at 0; None when not given."""
+    stands = axis_config(machine, args.start, "--start")
+    offset = axis_config(machine, args.origin, "--origin")
+    return ([stands.get(axis, float("nan")) for axis in machine.axes] if stands else None,
+            [offset.get(axis, 0.0) for axis in machine.axes] if offset else None)
+
+
 def axis_components(machine: Machine) -> set[str]:
     """Names of the component errors of the machine's axes (not location errors)."""
     from ..model.spec import parse_component_name

@@ -8,8 +8,8 @@ from pathlib import Path
 from rich.console import Console
 
 from ..base.safeio import transaction
-from .common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, axis_config, check_run_outputs, dumps,
-                     machine_of)
+from .common import (add_json_arg, add_machine_args, add_out_arg, add_program_position_args, add_state_arg,
+                     check_run_outputs, dumps, machine_of, program_positions)
 
 
 #: the command's name, and its line in ``volerr --help`` (read without building its parser)
@@ -42,11 +42,7 @@ def add_parser(sub) -> None:
     p.add_argument("--method", choices=["newton", "recursive"], default="newton",
                    help="point compensation scheme (default newton)")
     p.add_argument("--png", help="also draw the error along each move before and after (PNG)")
-    p.add_argument("--origin", nargs="+", metavar="AXIS=VALUE",
-                   help="program coordinates of the program zero (the work offset, G54 ...; mm, deg)")
-    p.add_argument("--start", nargs="+", metavar="AXIS=VALUE",
-                   help="where axes stand when the program starts (mm, deg): moves from them are compensated whole "
-                        "(a 2-D program never writes Z: give Z=...); axes not named are not known until programmed")
+    add_program_position_args(p)
     p.add_argument("--most-blocks", type=int, default=None, metavar="N",
                    help="the most blocks a program whose loops and subroutine calls are followed may run "
                         "(default: a million); a program that would run more is refused, naming the loop")
@@ -64,10 +60,7 @@ def run(args: argparse.Namespace) -> int:
     path = Path(args.program)
     check_run_outputs({"out": args.out, "report": args.report, "png": args.png}, [path], machine)
     source = ProgramFile(path)  # a regular file; read as UTF-8 line by line
-    offset = axis_config(machine, args.origin, "--origin")
-    origin = [offset.get(axis, 0.0) for axis in machine.axes] if offset else None
-    stands = axis_config(machine, args.start, "--start")
-    start = [stands.get(axis, float("nan")) for axis in machine.axes] if stands else None
+    start, origin = program_positions(machine, args)
     program = Program(machine, tol_um=args.tol_um, tol_urad=args.tol_urad, strict=args.strict,
                       pass_through=True if args.pass_through else None, start=start,
                       method=args.method, source=str(path), origin=origin, programming=args.programming,

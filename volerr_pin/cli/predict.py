@@ -9,8 +9,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..base.safeio import transaction
-from .common import (add_json_arg, add_machine_args, add_state_arg, axis_config, check_run_outputs, dumps, machine_of,
-                     positive, table_console)
+from .common import (add_json_arg, add_machine_args, add_program_position_args, add_state_arg, check_run_outputs, dumps,
+                     machine_of, positive, program_positions, table_console)
 
 
 #: the command's name, and its line in ``volerr --help`` (read without building its parser)
@@ -29,10 +29,7 @@ def add_parser(sub) -> None:
     p.add_argument("--tol-um", type=float, default=0.01,
                    help="sampling tolerance of the path: the deviation between samples, interpolated, is within it "
                         "of the model (default 0.01)")
-    p.add_argument("--origin", nargs="+", metavar="AXIS=VALUE",
-                   help="program coordinates of the program zero (the work offset, G54 ...; mm, deg)")
-    p.add_argument("--start", nargs="+", metavar="AXIS=VALUE",
-                   help="where axes stand when the program starts (mm, deg)")
+    add_program_position_args(p)
     p.add_argument("--top", type=positive, default=3, help="error sources shown per feature (default 3)")
     p.add_argument("--png", help="draw the part: the path moved by its deviation, and the circle as a CMM prints it")
     p.add_argument("--rrd", metavar="FILE.rrd", help="record the part in 3D for Rerun: the path, the cut, the features")
@@ -51,10 +48,7 @@ def run(args) -> int:
     text = "".join(body + ending for body, ending in ProgramFile(path).lines())
     reference = ("".join(body + ending for body, ending in ProgramFile(args.reference).lines())
                  if args.reference else None)
-    offset = axis_config(machine, args.origin, "--origin")
-    origin = [offset.get(axis, 0.0) for axis in machine.axes] if offset else None
-    stands = axis_config(machine, args.start, "--start")
-    start = [stands.get(axis, float("nan")) for axis in machine.axes] if stands else None
+    start, origin = program_positions(machine, args)
     prediction = predict(machine, text, str(path), reference=reference, reference_source=args.reference or "",
                          tolerance=args.tol_um * 1e-6, start=start, origin=origin)
     report = prediction.to_dict(top=args.top)
