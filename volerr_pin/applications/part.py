@@ -106,41 +106,93 @@ def _tool_points(machine: Machine, q: np.ndarray) -> np.ndarray:
     return machine.tool_poses(q, nominal=True, extrapolate=True)[1]   # tangent steps may touch the ends
 
 
-def _evaluate(machine: Machine, segment, k: np.ndarray):
-    q = _positions(segment, k)
-    point = _tool_points(machine, q)
-    ahead = np.clip(k + TANGENT_STEP, 0.0, 1.0)
-    behind = np.clip(k - TANGENT_STEP, 0.0, 1.0)
-    step = _tool_points(machine, _positions(segment, ahead)) - _tool_points(machine, _positions(segment, behind))
-    length = np.linalg.norm(step, axis=1)
-    moving = length > 1e-12 * max(1.0, float(np.abs(point).max(initial=0.0)))
-    tangent = np.zeros_like(step)
-    tangent[moving] = step[moving] / length[moving, None]
-    error = machine.volumetric_error(q)[:, :3]
-    return q, point, tangent, error, normal_part(error, tangent)
+class _Moves:
+    """A program's cutting moves (lines and arcs; rapids cut nothing), whose positions at any
+    fractions are asked for in one batch: program coordinates along each move (straight, or on
+    its arc), turned into axis positions (tool-tip programming through the nominal machine, as
+    the controller does)."""
+
+    def __init__(self, machine: Machine, segments):
+        self.machine = machine
+        self.segments = [s for s in segments if s.kind in ("line", "arc")]
+        if not self.segments:
+            raise InputError("the program has no cutting move (lines or arcs)", parameters=("segments",))
+        self.start = np.array([s.start for s in self.segments], dtype=float)
+        self.end = np.array([s.end for s in self.segments], dtype=float)
+        self.line = np.array([s.line for s in self.segments])
+        self.arc = np.array([s.kind == "arc" for s in self.segments])
+        self.tool_tip = np.array([s.programming == "tool-tip" for s in self.segments])
+        self._tip = None
+
+    def __len__(self) -> int:
+        return len(self.segments)
+
+    def words(self, move: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """Program coordinates of moves ``move`` at fractions ``k`` (both (M,))."""
+        out = self.start[move] + k[:, None] * (self.end[move] - self.start[move])
+        for index in np.unique(move[self.arc[move]]):
+            rows = move == index
+            out[rows] = self.segments[index].arc.point(k[rows])
+        return out
+
+    def axes(self, move: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """Axis positions of moves ``move`` at fractions ``k`` [m, rad]."""
+        out = self.words(move, k)
+        tip = self.tool_tip[move]
+        if tip.any():
+            if self._tip is None:
+                from ..compensation.programming import programming_for
+
+                self._tip = programming_for("tool-tip", self.machine)
+            out[tip] = self._tip.to_axes(out[tip])
+        return out
+
+    def check_travel(self, move: np.ndarray, q: np.ndarray) -> None:
+        """A move that leaves the travel is refused, naming its line: the model is not
+        extrapolated into a part."""
+        machine = self.machine
+        outside = machine.outside_travel(q)
+        if outside.any():
+            row, axis = np.argwhere(outside)[0]
+            unit, scale = ("deg", 180.0 / np.pi) if machine.axis_kinds[axis] == "rotary" else ("mm", 1e3)
+            low, high = machine.travel[axis] * scale
+            raise InputError(f"line {self.line[move[row]]}: the move takes {machine.axes[axis]} to "
+                             f"{q[row, axis] * scale:.4f} {unit}, outside its travel {low:g} .. {high:g} {unit}",
+                             parameters=("segments",))
+
+    def evaluate(self, move: np.ndarray, k: np.ndarray):
+        """At moves ``move``, fractions ``k``: axis positions, nominal tool point, unit tangent
+        of the nominal path (a central difference in the fraction; zero where the tool point
+        does not move), the error and its part normal to the path."""
+        q = self.axes(move, k)
+        self.check_travel(move, q)
+        point = _tool_points(self.machine, q)
+        ahead = self.axes(move, np.clip(k + TANGENT_STEP, 0.0, 1.0))
+        behind = self.axes(move, np.clip(k - TANGENT_STEP, 0.0, 1.0))
+        step = _tool_points(self.machine, ahead) - _tool_points(self.machine, behind)
+        length = np.linalg.norm(step, axis=1)
+        moving = length > 1e-12 * max(1.0, float(np.abs(point).max(initial=0.0)))
+        tangent = np.zeros_like(step)
+        tangent[moving] = step[moving] / length[moving, None]
+        error = self.machine.volumetric_error(q)[:, :3]
+        return q, point, tangent, error, normal_part(error, tangent)
 
 
-def _check_travel(machine: Machine, segment, q: np.ndarray) -> None:
-    """A move that leaves the travel is refused, naming its line: the model is not extrapolated
-    into a part."""
-    outside = machine.outside_travel(q)
-    if outside.any():
-        row, axis = np.argwhere(outside)[0]
-        unit, scale = ("deg", 180.0 / np.pi) if machine.axis_kinds[axis] == "rotary" else ("mm", 1e3)
-        low, high = machine.travel[axis] * scale
-        raise InputError(f"line {segment.line}: the move takes {machine.axes[axis]} to {q[row, axis] * scale:.4f} "
-                         f"{unit}, outside its travel {low:g} .. {high:g} {unit}", parameters=("segments",))
-
-
-def _positions(segment, k: np.ndarray) -> np.ndarray:
-    if segment.kind == "arc":
-        return segment.arc.point(k)
-    return segment.start + np.outer(k, segment.end - segment.start)
+def _interleave(old: np.ndarray, mid: np.ndarray) -> np.ndarray:
+    """``old`` (n, ...) with ``mid`` (n - 1, ...) between its rows."""
+    out = np.empty((2 * len(old) - 1,) + old.shape[1:], dtype=old.dtype)
+    out[0::2], out[1::2] = old, mid
+    return out
 
 
 def deviation_along(machine: Machine, segments, tolerance: float = 0.01e-6, *,
                     max_points: int = 2_000_000) -> PathDeviation:
     """The deviation of the tool from the programmed path along the cutting moves.
+
+    Every move starts with 3 samples; the midpoints between neighbours are evaluated (all the
+    moves' in one batch) and, where the normal deviation interpolated linearly between the
+    neighbours is further than ``tolerance`` from the model's, they join the samples and the
+    new midpoints are evaluated, until every move meets it.
 
     Parameters
     ----------
@@ -148,11 +200,10 @@ def deviation_along(machine: Machine, segments, tolerance: float = 0.01e-6, *,
         The machine, in the state to predict (:meth:`Machine.with_state`: the part cold or
         warm, under load, with the axes' directions).
     segments : sequence of volerr_pin.compensation.gcode.Segment
-        The program's moves (:func:`volerr_pin.compensation.gcode.interpret`); rapids are
-        left out, as they cut nothing.
+        The program's moves (:func:`volerr_pin.compensation.gcode.interpret`), in axes or
+        tool-tip programming; rapids are left out, as they cut nothing.
     tolerance : float, default 0.01e-6
-        Sampling tolerance [m]: each move's samples are doubled until the normal deviation,
-        interpolated linearly between neighbours, is within it of the model at every midpoint.
+        Sampling tolerance [m].
     max_points : int, default 2,000,000
         The most samples in all; more is refused, naming ``tolerance``.
 
@@ -163,42 +214,44 @@ def deviation_along(machine: Machine, segments, tolerance: float = 0.01e-6, *,
     Raises
     ------
     InputError
-        If ``tolerance`` is not a positive number, a move is not in axes programming or leaves
-        the travel (naming its line), or the samples would exceed ``max_points``.
+        If ``tolerance`` is not a positive number, the program has no cutting move, a move
+        leaves the travel (naming its line), or the samples would exceed ``max_points``.
     """
     if not (isinstance(tolerance, (int, float)) and np.isfinite(tolerance) and tolerance > 0):
         raise InputError(f"tolerance must be a positive number of metres, got {tolerance!r}", parameters=("tolerance",))
-    cutting = [s for s in segments if s.kind in ("line", "arc")]
-    parts = {name: [] for name in ("line", "move", "fraction", "q", "point", "tangent", "error", "normal")}
-    total = 0
-    for index, segment in enumerate(cutting):
-        if segment.programming != "axes":
-            raise InputError(f"line {segment.line}: the part is predicted for programs in axes programming; this "
-                             "move is in tool-tip programming", parameters=("segments",))
-        n = 3
-        while True:
-            k = np.linspace(0.0, 1.0, n)
-            _check_travel(machine, segment, _positions(segment, k))
-            values = _evaluate(machine, segment, k)
-            mid = (k[:-1] + k[1:]) / 2.0
-            at_mid = _evaluate(machine, segment, mid)[4]
-            between = (values[4][:-1] + values[4][1:]) / 2.0
-            if float(np.abs(at_mid - between).max(initial=0.0)) <= tolerance:
-                break
-            if total + 2 * n > max_points:
-                raise InputError(f"line {segment.line}: sampling the path to {tolerance * UM_PER_M:g} um takes more "
+    moves = _Moves(machine, segments)
+    n = len(moves)
+    names = ("q", "point", "tangent", "error", "normal")
+    first = np.repeat(np.arange(n), 3)
+    k0 = np.tile([0.0, 0.5, 1.0], n)
+    values = moves.evaluate(first, k0)
+    fraction = [k0[3 * m:3 * m + 3] for m in range(n)]
+    kept = [{name: v[3 * m:3 * m + 3] for name, v in zip(names, values)} for m in range(n)]
+    pending = list(range(n))
+    total = 3 * n
+    while pending:
+        sizes = np.array([len(fraction[m]) - 1 for m in pending])
+        which = np.repeat(pending, sizes)
+        mid_k = np.concatenate([(fraction[m][:-1] + fraction[m][1:]) / 2.0 for m in pending])
+        mid = moves.evaluate(which, mid_k)
+        bounds = np.concatenate([[0], np.cumsum(sizes)])
+        still = []
+        for m, a, b in zip(pending, bounds[:-1], bounds[1:]):
+            normal = kept[m]["normal"]
+            if float(np.abs(mid[4][a:b] - (normal[:-1] + normal[1:]) / 2.0).max(initial=0.0)) <= tolerance:
+                continue
+            total += b - a
+            if total + 2 * (b - a) > max_points:
+                raise InputError(f"line {moves.line[m]}: sampling the path to {tolerance * UM_PER_M:g} um takes more "
                                  f"than {max_points:,} points; give a larger tolerance", parameters=("tolerance",))
-            n = 2 * n - 1
-        total += n
-        for name, value in zip(("q", "point", "tangent", "error", "normal"), values):
-            parts[name].append(value)
-        parts["line"].append(np.full(n, segment.line))
-        parts["move"].append(np.full(n, index))
-        parts["fraction"].append(k)
-    if not cutting:
-        raise InputError("the program has no cutting move (lines or arcs)", parameters=("segments",))
-    joined = {name: np.concatenate(values) for name, values in parts.items()}
-    return PathDeviation(tolerance=float(tolerance), **joined)
+            fraction[m] = _interleave(fraction[m], mid_k[a:b])
+            kept[m] = {name: _interleave(kept[m][name], v[a:b]) for name, v in zip(names, mid)}
+            still.append(m)
+        pending = still
+    joined = {name: np.concatenate([kept[m][name] for m in range(n)]) for name in names}
+    counts = [len(f) for f in fraction]
+    return PathDeviation(line=np.repeat(moves.line, counts), move=np.repeat(np.arange(n), counts),
+                         fraction=np.concatenate(fraction), tolerance=float(tolerance), **joined)
 
 
 def fit_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
@@ -259,23 +312,21 @@ class Cut:
 def cut_of(machine: Machine, segments, spacing: float = 0.25e-3) -> Cut:
     """Samples of the cutting moves at most ``spacing`` apart along the nominal tool path (at
     least 3 per move; a move's end is the next one's start, so ends are not sampled twice)."""
-    cutting = [s for s in segments if s.kind in ("line", "arc")]
-    move, qs = [], []
-    for index, segment in enumerate(cutting):
-        ends = _tool_points(machine, _positions(segment, np.array([0.0, 0.5, 1.0])))
-        if segment.kind == "arc":
-            length = abs(segment.arc.sweep) * max(segment.arc.radius, 1e-9)
-        else:
-            length = float(np.linalg.norm(ends[2] - ends[0]))
-        n = max(3, int(np.ceil(length / spacing)))
-        k = np.arange(n) / n
-        q = _positions(segment, k)
-        _check_travel(machine, segment, q)
-        qs.append(q)
-        move.append(np.full(n, index))
-    q = np.concatenate(qs)
+    moves = _Moves(machine, segments)
+    n = len(moves)
+    index = np.arange(n)
+    ends = _tool_points(machine, moves.axes(np.repeat(index, 2), np.tile([0.0, 1.0], n))).reshape(n, 2, 3)
+    length = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
+    for m in np.flatnonzero(moves.arc):
+        arc = moves.segments[m].arc
+        length[m] = abs(arc.sweep) * max(arc.radius, 1e-9)
+    counts = np.maximum(3, np.ceil(length / spacing).astype(int))
+    move = np.repeat(index, counts)
+    k = (np.arange(len(move)) - np.repeat(np.cumsum(counts) - counts, counts)) / np.repeat(counts, counts)
+    q = moves.axes(move, k)
+    moves.check_travel(move, q)
     nominal = _tool_points(machine, q)
-    return Cut(np.concatenate(move), q, nominal, nominal + machine.volumetric_error(q)[:, :3])
+    return Cut(move, q, nominal, nominal + machine.volumetric_error(q)[:, :3])
 
 
 @dataclass(frozen=True)
@@ -452,18 +503,41 @@ def fit_line(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return centre, direction, np.array([-direction[1], direction[0]])
 
 
-def _contours(segments) -> list[list]:
-    """The program's cutting moves grouped in contours: runs between rapids."""
-    runs, current = [], []
+def _contours(segments) -> list[list[int]]:
+    """The program's cutting moves grouped in contours (runs between rapids), as indices among
+    its cutting moves."""
+    runs, current, index = [], [], 0
     for segment in segments:
         if segment.kind == "rapid":
             if current:
                 runs.append(current)
             current = []
         elif segment.kind in ("line", "arc"):
-            current.append(segment)
+            current.append(index)
+            index += 1
     if current:
         runs.append(current)
+    return runs
+
+
+def _full_circles(moves: _Moves, contours: list[list[int]]) -> list[list[int]]:
+    """Runs of consecutive arcs of one contour, plane, centre and radius turning at least a
+    whole turn (indices among the cutting moves)."""
+    def same(a, b):
+        return (a.plane == b.plane and np.allclose(a.center, b.center, atol=1e-9)
+                and abs(a.radius - b.radius) <= 1e-9)
+
+    runs = []
+    for contour in contours:
+        current: list[int] = []
+        for m in contour + [None]:
+            arc = moves.segments[m].arc if m is not None and moves.arc[m] else None
+            if arc is not None and (not current or same(moves.segments[current[-1]].arc, arc)):
+                current.append(m)
+                continue
+            if current and abs(sum(moves.segments[c].arc.sweep for c in current)) >= 2 * np.pi - 1e-9:
+                runs.append(current)
+            current = [m] if arc is not None else []
     return runs
 
 
@@ -472,27 +546,37 @@ def _reference_features(machine: Machine, segments, plane: tuple[int, int], min_
     geometry in the workpiece frame and the indices of their moves among the cutting moves."""
     i, j = plane
     third = ({0, 1, 2} - {i, j}).pop()
-    cutting = [s for s in segments if s.kind in ("line", "arc")]
+    moves = _Moves(machine, segments)
+    contours = _contours(segments)
     circles = []
-    for run in _full_circles(segments):
-        if tuple(run[0].arc.plane[:2]) != plane:
+    for run in _full_circles(moves, contours):
+        arc = moves.segments[run[0]].arc
+        if tuple(arc.plane[:2]) != plane:
             continue
-        centre = _centre_in_frame(machine, run[0])
-        start = _tool_points(machine, run[0].arc.start[None, :])[0]
-        circles.append({"lines": tuple(dict.fromkeys(s.line for s in run)), "centre": centre,
+        start = _tool_points(machine, moves.axes(np.array([run[0]]), np.zeros(1)))[0]
+        if moves.tool_tip[run[0]]:   # the words are the tool tip's coordinates
+            centre = np.asarray(arc.center, dtype=float)
+        else:                        # the centre's axis positions, as a tool point
+            q = arc.start.copy()
+            q[i], q[j] = arc.center
+            centre = _tool_points(machine, q[None, :])[0, [i, j]]
+        circles.append({"lines": tuple(dict.fromkeys(int(moves.line[m]) for m in run)), "centre": centre,
                         "radius": float(np.linalg.norm(start[[i, j]] - centre)), "height": float(start[third]),
-                        "moves": [cutting.index(s) for s in run]})
+                        "moves": run})
+    lines = np.flatnonzero(~moves.arc)
+    ends = _tool_points(machine, moves.axes(np.repeat(lines, 2), np.tile([0.0, 1.0], len(lines)))).reshape(-1, 2, 3)
+    end_of = dict(zip(lines.tolist(), ends))
     sides = []
-    for number, contour in enumerate(_contours(segments)):
-        for segment in contour:
-            if segment.kind != "line":
+    for number, contour in enumerate(contours):
+        for m in contour:
+            if m not in end_of:
                 continue
-            ends = _tool_points(machine, np.vstack([segment.start, segment.end]))
+            ends = end_of[m]
             length = float(np.linalg.norm(ends[1, [i, j]] - ends[0, [i, j]]))
             if length < min_length or abs(ends[1, third] - ends[0, third]) > 1e-9:
                 continue
-            sides.append({"lines": (segment.line,), "start": ends[0, [i, j]], "end": ends[1, [i, j]],
-                          "height": float(ends[0, third]), "contour": number, "moves": [cutting.index(segment)]})
+            sides.append({"lines": (int(moves.line[m]),), "start": ends[0, [i, j]], "end": ends[1, [i, j]],
+                          "height": float(ends[0, third]), "contour": number, "moves": [m]})
     return circles, sides
 
 
@@ -599,33 +683,6 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
             zone = (other.measured - centre) @ (across if kind == "parallelism" else along)
             pairs.append(PairFeature(kind=kind, datum=datum, toleranced=other, value_um=float(np.ptp(zone) * UM_PER_M)))
     return circles, sides, pairs
-
-
-def _full_circles(segments) -> list[list]:
-    """Runs of consecutive arcs of one plane, centre and radius turning at least a whole turn."""
-    runs, current = [], []
-
-    def same(a, b):
-        return (a.plane == b.plane and np.allclose(a.center, b.center, atol=1e-9)
-                and abs(a.radius - b.radius) <= 1e-9)
-
-    for segment in [s for s in segments if s.kind in ("line", "arc")] + [None]:
-        arc = getattr(segment, "arc", None) if segment is not None else None
-        if arc is not None and segment.kind == "arc" and (not current or same(current[-1].arc, arc)):
-            current.append(segment)
-            continue
-        if current and abs(sum(s.arc.sweep for s in current)) >= 2 * np.pi - 1e-9:
-            runs.append(current)
-        current = [segment] if arc is not None and segment.kind == "arc" else []
-    return runs
-
-
-def _centre_in_frame(machine: Machine, segment) -> np.ndarray:
-    """The arc's centre as a nominal tool point in the workpiece frame, in its plane."""
-    i, j, _ = segment.arc.plane
-    q = segment.arc.start.copy()
-    q[i], q[j] = segment.arc.center
-    return _tool_points(machine, q[None, :])[0, [i, j]]
 
 
 def _component_columns(machine: Machine) -> dict[str, list[int]]:
