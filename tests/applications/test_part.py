@@ -24,7 +24,7 @@ CIRCLE = "G17 G90 G21\nG0 X150 Y200 Z100\nG1 X150 Y200 Z100 F500\nG2 X150 Y200 I
 def _circle(machine, program=CIRCLE, **options):
     segments = interpret(machine, program)
     deviation = deviation_along(machine, segments, **options)
-    (feature,), _, _ = measure(machine, segments)
+    (feature,), _, _, _ = measure(machine, segments)
     return feature, deviation
 
 
@@ -146,7 +146,7 @@ def test_a_squareness_error_is_the_squareness_of_the_sides_and_nothing_else(mach
     m = machines["vmc500"]
     s = 6.0 * ARCSEC
     square = m.with_theta(single(m, "EC0Y", s))
-    _, sides, pairs = measure(square, interpret(square, SQUARE))
+    _, sides, pairs, _ = measure(square, interpret(square, SQUARE))
     assert [f.lines for f in sides] == [(3,), (4,), (5,), (6,)]
     assert max(f.straightness_um for f in sides) < 1e-6
     kinds = {(p.lines, p.kind): p.value_um for p in pairs}
@@ -163,7 +163,7 @@ def test_straightness_agrees_with_an_independent_evaluation(machines):
     """vmc500's spec: a side along X keeps the error across it, e_y; the batch evaluator at
     2,001 points of the side less its least-squares line gives the same straightness."""
     m = machines["vmc500"]
-    _, sides, _ = measure(m, interpret(m, SQUARE))
+    _, sides, _, _ = measure(m, interpret(m, SQUARE))
     along = sides[0].along()
     x = np.linspace(0.15 + along.min(), 0.15 + along.max(), 2001)   # where the side was measured
     q = np.c_[x, np.full_like(x, 0.1), np.full_like(x, 0.1)]
@@ -179,7 +179,7 @@ def test_the_feature_ranking_matches_finite_differences(machines, which):
     ranges and shares."""
     m = machines["vmc500"]
     segments = interpret(m, SQUARE)
-    circles, sides, pairs = measure(m, segments)
+    circles, sides, pairs, _ = measure(m, segments)
     feature = {"circle": circles[0], "side": sides[0],
                "squareness": next(p for p in pairs if p.kind == "squareness"),
                "parallelism": next(p for p in pairs if p.kind == "parallelism")}[which]
@@ -197,9 +197,9 @@ def test_the_feature_ranking_matches_finite_differences(machines, which):
 
     original = part._contributions
 
-    def by_differences(machine, q, plane):
-        full = machine.volumetric_error(q)[:, :3]
-        return {c: (full - without(c).volumetric_error(q)[:, :3])[:, list(plane)] for c in columns}
+    def by_differences(machine, q):
+        full = machine.volumetric_error(q)
+        return {c: full - without(c).volumetric_error(q) for c in columns}
 
     part._contributions = by_differences
     try:
@@ -211,3 +211,30 @@ def test_the_feature_ranking_matches_finite_differences(machines, which):
         assert row["share"] == pytest.approx(differences[component]["share"], abs=2e-3), component
         assert row["alone_um"] == pytest.approx(differences[component]["alone_um"], rel=1e-2, abs=1e-3), component
     assert sum(r["share"] for r in exact.values()) == pytest.approx(1.0)
+
+
+def test_a_tool_tip_program_is_followed_where_the_controller_puts_the_axes(machines):
+    """The same cut written in tool-tip programming (G43.4: X, Y, Z the tool tip) and in axes
+    programming (the axis positions the controller would take): the same deviation. With the
+    head tilted the two differ by the head's offset, which the tool-tip words leave out."""
+    from volerr_pin.compensation.programming import programming_for
+
+    m = machines["cgm4000"]
+    tip = programming_for("tool-tip", m)
+    words = np.array([[1900e-3, 1200e-3, 250e-3, np.radians(20.0), np.radians(30.0)],
+                      [2100e-3, 1300e-3, 260e-3, np.radians(20.0), np.radians(30.0)]])
+    q = tip.to_axes(words)
+    assert np.abs(q[:, :3] - words[:, :3]).max() > 10e-3   # the head's offset
+
+    def program(rows, g43):
+        def block(code, r):
+            return f"{code} X{r[0] * 1e3:.6f} Y{r[1] * 1e3:.6f} Z{r[2] * 1e3:.6f} A{np.degrees(r[3]):.6f} B{np.degrees(r[4]):.6f}"
+        return "\n".join(["G90 G21", *(["G43.4 H1"] if g43 else []), block("G0", rows[0]), block("G1", rows[1]) + " F500",
+                          "M30"])
+
+    by_tip = deviation_along(m, interpret(m, program(words, True)))
+    by_axes = deviation_along(m, interpret(m, program(q, False)))
+    np.testing.assert_allclose(by_tip.q, by_axes.q, atol=1e-9)
+    np.testing.assert_allclose(by_tip.normal, by_axes.normal, atol=1e-12)
+    np.testing.assert_allclose(by_tip.point, np.outer(1 - by_tip.fraction, words[0, :3])
+                               + np.outer(by_tip.fraction, words[1, :3]), atol=1e-9)   # the tip goes straight

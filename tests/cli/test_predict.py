@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from volerr_pin.cli import main
@@ -25,19 +26,19 @@ def test_the_test_piece_predicted_compensated_and_predicted_again(tmp_path, caps
     assert kinds.count("squareness") == 8 and kinds.count("parallelism") == 4
     circle = before["features"][0]
     assert circle["diameter_mm"] == pytest.approx(96.0) and circle["circularity_um"] > 1.0
-    assert {s["component"] for s in circle["sources"]} & {"EC0Y", "EXX"}
-    assert before["max_um"] == max(b["max_um"] for b in before["blocks"])
+    assert {s["component"] for s in circle["drivers"]} & {"EC0Y", "EXX"}
+    assert before["max_normal_deviation_um"] == max(b["max_um"] for b in before["blocks"])
     assert png.read_bytes()[:4] == b"\x89PNG" and before["png"]["path"] == str(png)
     assert main(["compensate", "vmc500", str(piece), "-o", str(compensated), "--tol-um", "0.1",
                  "--start", "X=250", "Y=200", "Z=250", "--json"]) == 0
     capsys.readouterr()
     after = _json(capsys, ["predict", "vmc500", str(compensated), "--reference", str(piece), "--json"])
     assert after["reference"] == str(piece)
-    assert [f["lines"] for f in after["features"]] == [f["lines"] for f in before["features"]]
+    assert [f["blocks"] for f in after["features"]] == [f["blocks"] for f in before["features"]]
     for b, a in zip(before["features"], after["features"]):
         key = next(k for k in a if k.endswith("_um") and k not in ("diameter_error_um", "centre_error_um"))
         # compensated to 0.1 um, written to 4 decimals (up to 0.087 um more): what is left
-        assert a[key] < 0.25, (a["kind"], a["lines"], a[key])
+        assert a[key] < 0.25, (a["kind"], a["blocks"], a[key])
     assert after["features"][0]["circularity_um"] < before["features"][0]["circularity_um"] / 5
 
 
@@ -50,9 +51,31 @@ def test_predict_prints_the_features_and_their_sources(tmp_path, capsys):
     assert "squareness" in out and "roundness" in out and "EC0Y" in out
 
 
+def test_the_cone_frustum_of_a_five_axis_machine(tmp_path, capsys):
+    piece = tmp_path / "cone.nc"
+    assert main(["testpiece", "cgm4000", "--kind", "cone-frustum", "-o", str(piece)]) == 0
+    err = capsys.readouterr().err
+    assert "NAS 979" in err and "--tool-diameter 20 --cone-heights 2,10,18" in err
+    assert "G43.4" in piece.read_text()
+    report = _json(capsys, ["predict", "cgm4000", str(piece), "--tool-diameter", "20", "--cone-heights", "2,10,18",
+                            "--json"])
+    cones = [f for f in report["features"] if f["kind"] == "cone"]
+    assert [c["height_mm"] for c in cones] == [2.0, 10.0, 18.0] and len(report["features"]) == 3
+    assert cones[0]["diameter_mm"] == pytest.approx(80 - 4 * np.tan(np.radians(15)), abs=1e-3)   # chords: 0.1 um in
+    assert cones[0]["form"] == "boss" and cones[0]["half_angle_deg"] == pytest.approx(15.0, abs=1e-4)
+    for cone in cones:
+        assert cone["circularity_um"] > 1.0 and cone["drivers"] and len(cone["blocks"]) == 1440
+    # without the cutter's diameter: the cone the tool's axis sweeps, 20 / cos(15 deg) mm wider, and a note
+    assert main(["predict", "cgm4000", str(piece), "--top", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "cone at 0 mm" in out and "give the cutter's --tool-diameter" in out
+
+
 @pytest.mark.parametrize("argv, message", [
     (["testpiece", "vmc500", "--size", "900"], "the square's side 900 mm does not fit vmc500's travel"),
     (["testpiece", "lathe_2axis"], "needs linear X, Y, Z"),
+    (["testpiece", "vmc500", "--kind", "cone-frustum"], "needs a five-axis machine"),
+    (["testpiece", "cgm4000", "--kind", "cone-frustum", "--size", "0"], "--size (the base diameter) must be"),
 ])
 def test_testpiece_refusals(tmp_path, capsys, argv, message):
     assert main([*argv, "-o", str(tmp_path / "x.nc")]) == 2

@@ -29,7 +29,8 @@ Conventions: positions in m, deviations in um in the reports; programs in axes p
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -37,7 +38,7 @@ from ..base.errors import InputError
 from ..base.units import UM_PER_M
 from ..model.machine import Machine
 
-__all__ = ["PathDeviation", "Cut", "CircleFeature", "LineFeature", "PairFeature", "PartPrediction", "deviation_along",
+__all__ = ["PathDeviation", "Cut", "Features", "CircleFeature", "LineFeature", "PairFeature", "PartPrediction", "deviation_along",
            "cut_of", "fit_circle", "fit_line", "measure", "feature_ranking", "normal_part", "predict",
            "contouring_test_piece"]
 
@@ -372,7 +373,7 @@ class CircleFeature:
     def to_dict(self) -> dict:
         """The feature in the report's terms (ISO name, um)."""
         return {"kind": "circle", "name": "roundness, diameter and centre of a circle (ISO 12181-1, least squares)",
-                "lines": list(self.lines), "plane": "xyz"[self.plane[0]] + "xyz"[self.plane[1]],
+                "blocks": list(self.lines), "plane": "xyz"[self.plane[0]] + "xyz"[self.plane[1]],
                 "centre_mm": (self.centre * 1e3).tolist(), "diameter_mm": 2e3 * self.radius,
                 "circularity_um": self.circularity_um, "diameter_error_um": self.diameter_error_um,
                 "centre_error_um": self.centre_error_um}
@@ -435,7 +436,7 @@ class LineFeature:
     def to_dict(self) -> dict:
         """The feature in the report's terms (ISO name, um)."""
         return {"kind": "straightness", "name": "straightness of a side (ISO 12780, least squares)",
-                "lines": list(self.lines), "plane": "xyz"[self.plane[0]] + "xyz"[self.plane[1]],
+                "blocks": list(self.lines), "plane": "xyz"[self.plane[0]] + "xyz"[self.plane[1]],
                 "start_mm": (self.start * 1e3).tolist(), "end_mm": (self.end * 1e3).tolist(),
                 "length_mm": self.length * 1e3, "straightness_um": self.straightness_um}
 
@@ -476,7 +477,7 @@ class PairFeature:
     def to_dict(self) -> dict:
         """The feature in the report's terms (ISO name, um)."""
         return {"kind": self.kind, "name": f"{self.kind} of a side to a datum side (ISO 1101)",
-                "lines": list(self.lines), "datum_line": self.datum.lines[0], f"{self.kind}_um": self.value_um}
+                "blocks": list(self.lines), "datum_line": self.datum.lines[0], f"{self.kind}_um": self.value_um}
 
 
 def fit_line(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -580,19 +581,32 @@ def _reference_features(machine: Machine, segments, plane: tuple[int, int], min_
     return circles, sides
 
 
+class Features(NamedTuple):
+    """The features of a part (:func:`measure`)."""
+
+    circles: list
+    sides: list
+    pairs: list
+    cones: list
+
+
 def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int] = (0, 1),
-            min_length: float = 5e-3, spacing: float = 0.25e-3, capture: float = 0.2e-3):
+            min_length: float = 5e-3, spacing: float = 0.25e-3, capture: float = 0.2e-3,
+            tool_diameter: float = 0.0, cone_heights=(0.0,)) -> Features:
     """The features a CMM reports of the part a program cuts.
 
     The features are those of ``reference`` (default: the program itself): each full circle
     (arcs of one centre and radius in the contour plane turning a whole turn) and each
-    straight side (a cutting line in the plane at least ``min_length`` long), and within a
-    contour (cutting moves between rapids) each pair of perpendicular or parallel sides, the
-    earlier the datum. They are measured on the cut: the program's cutting moves sampled at most
-    ``spacing`` apart, where the tool actually is. A sample measures a feature of its own move;
-    with a reference (a compensated program against the program it was made from), a sample
-    measures the feature it lies within ``capture`` of (in the plane and in height; a side's
-    ends, 1 % of its length, left out).
+    straight side (a cutting line in the plane at least ``min_length`` long), within a contour
+    (cutting moves between rapids) each pair of perpendicular or parallel sides, the earlier
+    the datum, and each contour that cuts a cone with the tool's flank (five-axis,
+    :func:`volerr_pin.applications.cone.find_cones`), in sections at ``cone_heights``. They are
+    measured on the cut: the program's cutting moves sampled at most ``spacing`` apart, where
+    the tool actually is. A sample measures a feature of its own move; with a reference (a
+    compensated program against the program it was made from), a sample measures the feature
+    it lies within ``capture`` of (in the plane and in height; a side's ends, 1 % of its
+    length, left out; a cone: its tool point within ``capture`` of the circle the reference's
+    tool points go round).
 
     Parameters
     ----------
@@ -612,17 +626,22 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
         The largest distance between measured points along a move [m].
     capture : float, default 0.2e-3
         With a reference: how far from a feature a sample may lie and still measure it [m].
+    tool_diameter : float, default 0
+        The tool's diameter [m]: a cone cut by the flank is offset by its radius from the
+        tool's axis.
+    cone_heights : sequence of float, default (0,)
+        A cone's sections: heights along its axis above the plane the tool's end cuts in [m].
 
     Returns
     -------
-    circles : list of CircleFeature
-    sides : list of LineFeature
-    pairs : list of PairFeature
+    Features
+        ``circles`` (CircleFeature), ``sides`` (LineFeature), ``pairs`` (PairFeature),
+        ``cones`` (ConeSection, each cone's at every height).
 
     Raises
     ------
     InputError
-        If a move leaves the travel (naming its line).
+        If a move leaves the travel (naming its line), or a cone has no section at a height.
     """
     i, j = plane
     third = ({0, 1, 2} - {i, j}).pop()
@@ -682,7 +701,18 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
             centre, along, across = fit_line(datum.measured)
             zone = (other.measured - centre) @ (across if kind == "parallelism" else along)
             pairs.append(PairFeature(kind=kind, datum=datum, toleranced=other, value_um=float(np.ptp(zone) * UM_PER_M)))
-    return circles, sides, pairs
+    from .cone import find_cones, measure_cones
+
+    defining = reference if reference is not None else segments
+    defining_cut = cut if reference is None else cut_of(machine, reference, spacing)
+    cones = find_cones(machine, _Moves(machine, defining), _contours(defining), defining_cut,
+                       tool_diameter / 2.0)
+    if reference is None:
+        rows = [np.isin(cut.move, cone.moves) for cone in cones]
+    else:
+        rows = [cone.near_tips(cut.nominal, capture) for cone in cones]
+    sections = measure_cones(machine, cones, cut, cone_heights, rows)
+    return Features(circles, sides, pairs, sections)
 
 
 def _component_columns(machine: Machine) -> dict[str, list[int]]:
@@ -693,13 +723,16 @@ def _component_columns(machine: Machine) -> dict[str, list[int]]:
     return out
 
 
-def _contributions(machine: Machine, q: np.ndarray, plane) -> dict[str, np.ndarray]:
-    """Each component's first-order part of the tool point's error at ``q``, in the plane
-    (M, 2) [m]: its coefficients times the exact sensitivities."""
-    sensitivity = machine.sensitivity(q)[:, :3, :]
+def _contributions(machine: Machine, q: np.ndarray) -> dict[str, np.ndarray]:
+    """Each component's first-order part of the tool's pose error at ``q`` (M, 6: dx, dy, dz
+    [m], rx, ry, rz [rad]): its coefficients times the exact sensitivities."""
+    sensitivity = machine.sensitivity(q)[:, :6, :]
     theta = machine.theta
-    return {component: (sensitivity[:, :, cols] @ theta[cols])[:, list(plane)]
-            for component, cols in _component_columns(machine).items()}
+    return {component: sensitivity[:, :, cols] @ theta[cols] for component, cols in _component_columns(machine).items()}
+
+
+def _in_plane(parts: dict[str, np.ndarray], plane) -> dict[str, np.ndarray]:
+    return {c: p[:, list(plane)] for c, p in parts.items()}
 
 
 def _without(values: np.ndarray, basis: np.ndarray) -> np.ndarray:
@@ -722,7 +755,9 @@ def feature_ranking(machine: Machine, feature) -> list[dict]:
 
     The profile is what the feature's value is the range of: a circle's radial deviation less
     its least-squares circle, a side's deviation across it less its least-squares line, a pair's
-    zone coordinate with the datum's least-squares line. Per component, ``alone_um`` is the
+    zone coordinate with the datum's least-squares line, a cone's section's radial deviation
+    (from the error of the tool's position and orientation at the cutting point) less its
+    least-squares circle. Per component, ``alone_um`` is the
     range of its own profile (the feature if it acted alone) and ``share`` its share of the sum
     of the profiles' squares, as ``rank``'s share is of the tool point's mean square.
 
@@ -730,7 +765,7 @@ def feature_ranking(machine: Machine, feature) -> list[dict]:
     ----------
     machine : Machine
         The machine the feature was measured on.
-    feature : CircleFeature, LineFeature or PairFeature
+    feature : CircleFeature, LineFeature, PairFeature or ConeSection
         The feature (:func:`measure`).
 
     Returns
@@ -738,14 +773,18 @@ def feature_ranking(machine: Machine, feature) -> list[dict]:
     list of dict
         ``component``, ``alone_um``, ``share``; largest share first.
     """
+    from .cone import ConeSection
+
+    if isinstance(feature, ConeSection):
+        return _rows(feature.profiles(_contributions(machine, feature.q)))
     if isinstance(feature, (CircleFeature, LineFeature)):
-        return _rows(feature.profiles(_contributions(machine, feature.q, feature.plane)))
+        return _rows(feature.profiles(_in_plane(_contributions(machine, feature.q), feature.plane)))
     datum, other = feature.datum, feature.toleranced
     u0, n0 = datum.direction, datum.across
     s = datum.along()
     relative = other.measured - datum.start
-    datum_parts = _contributions(machine, datum.q, datum.plane)
-    other_parts = _contributions(machine, other.q, other.plane)
+    datum_parts = _in_plane(_contributions(machine, datum.q), datum.plane)
+    other_parts = _in_plane(_contributions(machine, other.q), other.plane)
     profiles = {}
     for c in datum_parts:
         slope = np.polyfit(s, datum_parts[c] @ n0, 1)[0]   # the datum line's turn, to first order
@@ -770,10 +809,11 @@ class PartPrediction:
         The name of the program that defines the features, when not the program itself.
     deviation : PathDeviation
         Along the program's own path (normal to it).
-    circles, sides, pairs : list
+    circles, sides, pairs, cones : list
         The features (:func:`measure`).
     rankings : list of list of dict
-        Per feature (circles, sides, pairs in that order), :func:`feature_ranking`; empty with
+        Per feature (circles, sides, pairs, cones' sections in that order),
+        :func:`feature_ranking`; empty with
         a reference, where what is left is the compensation's, not an error source's.
     """
 
@@ -785,31 +825,33 @@ class PartPrediction:
     sides: list
     pairs: list
     rankings: list
+    cones: list = field(default_factory=list)
 
     @property
     def features(self) -> list:
-        return [*self.circles, *self.sides, *self.pairs]
+        return [*self.circles, *self.sides, *self.pairs, *self.cones]
 
     def to_dict(self, top: int = 5) -> dict:
         """The report: the largest deviation and its block, every block's, and the features
-        with the ``top`` error sources of each (JSON: ``features``)."""
+        with the ``top`` error sources of each, its ``drivers`` (JSON: ``features``)."""
         blocks = self.deviation.per_block()
         worst = max(blocks, key=blocks.get)
         features = []
         for feature, ranking in zip(self.features, self.rankings):
             row = feature.to_dict()
-            row["sources"] = ranking[:top]
+            row["drivers"] = ranking[:top]
             features.append(row)
         return {"machine": self.machine.name, "program": self.source, "reference": self.reference,
                 "state": self.machine.state, "tolerance_um": self.deviation.tolerance * UM_PER_M,
-                "samples": int(len(self.deviation.line)), "max_um": self.deviation.max_um, "max_line": int(worst),
+                "samples": int(len(self.deviation.line)), "max_normal_deviation_um": self.deviation.max_um,
+                "max_line": int(worst),
                 "blocks": [{"line": int(line), "max_um": value} for line, value in blocks.items()],
                 "features": features}
 
 
 def predict(machine: Machine, text: str, source: str = "<program>", *, reference: str | None = None,
             reference_source: str = "<reference>", tolerance: float = 0.01e-6, start=None, origin=None,
-            plane: tuple[int, int] = (0, 1)) -> PartPrediction:
+            plane: tuple[int, int] = (0, 1), tool_diameter: float = 0.0, cone_heights=(0.0,)) -> PartPrediction:
     """Predict the part a program cuts: the deviation along its path and its features with the
     error sources that decide them.
 
@@ -833,6 +875,11 @@ def predict(machine: Machine, text: str, source: str = "<program>", *, reference
         (:func:`volerr_pin.compensation.gcode.interpret`).
     plane : tuple of int, default (0, 1)
         The contour plane of the features.
+    tool_diameter : float, default 0
+        The tool's diameter [m]: a cone cut by the tool's flank is offset by its radius from
+        the tool's axis (0: the cone the tool's axis sweeps).
+    cone_heights : sequence of float, default (0,)
+        A cone's sections: heights along its axis above the plane the tool's end cuts in [m].
 
     Returns
     -------
@@ -844,12 +891,13 @@ def predict(machine: Machine, text: str, source: str = "<program>", *, reference
     defining = None if reference is None else interpret(machine, reference, reference_source, start=start,
                                                          origin=origin)
     deviation = deviation_along(machine, segments, tolerance)
-    circles, sides, pairs = measure(machine, segments, defining, plane=plane)
+    found = measure(machine, segments, defining, plane=plane, tool_diameter=tool_diameter, cone_heights=cone_heights)
     # with a reference (a compensated program), what is left is the compensation's (its tolerance,
     # the written numbers' rounding), not an error source's: the sources' profiles cancel
-    rankings = [feature_ranking(machine, f) if reference is None else [] for f in [*circles, *sides, *pairs]]
-    return PartPrediction(machine, source, None if reference is None else reference_source, deviation, circles,
-                          sides, pairs, rankings)
+    rankings = [feature_ranking(machine, f) if reference is None else [] for f in [*found.circles, *found.sides,
+                                                                                   *found.pairs, *found.cones]]
+    return PartPrediction(machine, source, None if reference is None else reference_source, deviation, found.circles,
+                          found.sides, found.pairs, rankings, found.cones)
 
 
 def contouring_test_piece(machine: Machine, size: float | None = None, feed: float = 500.0) -> str:

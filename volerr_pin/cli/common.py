@@ -227,6 +227,22 @@ def positive(text: str) -> int:
     return value
 
 
+def millimetres(text: str) -> float:
+    """argparse type: a finite length in mm, not negative."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a length in mm, got {text!r}") from None
+    if not math.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"expected a finite length in mm, not negative, got {text!r}")
+    return value
+
+
+def millimetre_list(text: str) -> tuple[float, ...]:
+    """argparse type: 'A,B,...' lengths in mm, not negative."""
+    return tuple(millimetres(v) for v in text.split(","))
+
+
 def add_machine_args(parser: argparse.ArgumentParser, positional: bool = True) -> None:
     """The machine (positional, or ``--machine`` with the default machine) and the frames of a
     bare URDF."""

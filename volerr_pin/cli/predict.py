@@ -10,7 +10,7 @@ from rich.table import Table
 
 from ..base.safeio import transaction
 from .common import (add_json_arg, add_machine_args, add_program_position_args, add_state_arg, check_run_outputs, dumps,
-                     machine_of, positive, program_positions, table_console)
+                     machine_of, millimetre_list, millimetres, positive, program_positions, table_console)
 
 
 #: the command's name, and its line in ``volerr --help`` (read without building its parser)
@@ -30,6 +30,12 @@ def add_parser(sub) -> None:
                    help="sampling tolerance of the path: the deviation between samples, interpolated, is within it "
                         "of the model (default 0.01)")
     add_program_position_args(p)
+    p.add_argument("--tool-diameter", type=millimetres, default=0.0, metavar="MM",
+                   help="the cutter's diameter: a cone cut by its flank lies its radius from the tool's axis "
+                        "(default 0: the cone the tool's axis sweeps)")
+    p.add_argument("--cone-heights", type=millimetre_list, default=(0.0,), metavar="MM,MM,...",
+                   help="where a cone is measured: heights along its axis above the plane the tool's end cuts in "
+                        "(default 0)")
     p.add_argument("--top", type=positive, default=3, help="error sources shown per feature (default 3)")
     p.add_argument("--png", help="draw the part: the path moved by its deviation, and the circle as a CMM prints it")
     p.add_argument("--rrd", metavar="FILE.rrd", help="record the part in 3D for Rerun: the path, the cut, the features")
@@ -50,7 +56,8 @@ def run(args) -> int:
                  if args.reference else None)
     start, origin = program_positions(machine, args)
     prediction = predict(machine, text, str(path), reference=reference, reference_source=args.reference or "",
-                         tolerance=args.tol_um * 1e-6, start=start, origin=origin)
+                         tolerance=args.tol_um * 1e-6, start=start, origin=origin,
+                         tool_diameter=args.tool_diameter * 1e-3, cone_heights=[h * 1e-3 for h in args.cone_heights])
     report = prediction.to_dict(top=args.top)
     with transaction() as tx:   # the picture and the recording are both written, or neither
         if args.png:
@@ -69,24 +76,31 @@ def run(args) -> int:
     console.print(escape(f"{machine.name}: {path} ({state}); {report['samples']:,} samples along the cutting moves, "
                          f"to {report['tolerance_um']:g} um"
                          + (f"; the part as {args.reference} defines it" if args.reference else "")))
-    console.print(escape(f"largest deviation normal to the programmed path: {report['max_um']:.3f} um, line "
+    console.print(escape(f"largest deviation normal to the programmed path: {report['max_normal_deviation_um']:.3f} um, line "
                          f"{report['max_line']}" + (" (the given program's path: a compensated program is offset from "
                                                      "the part on purpose; the features measure the part)"
                                                      if args.reference else "")))
     table = Table(box=box.SIMPLE, title="features as a CMM reports them (um)")
-    columns = ("feature", "lines", "value") + (() if args.reference else ("decided by (share; alone)",))
+    columns = ("feature", "blocks", "value") + (() if args.reference else ("decided by (share; alone)",))
     for column in columns:
         table.add_column(column)
     for feature in report["features"]:
-        if feature["kind"] == "circle":
+        kind = feature["kind"]
+        if kind in ("circle", "cone"):
             value = (f"roundness {feature['circularity_um']:.3f}, diameter {feature['diameter_error_um']:+.3f}, "
                      f"centre {feature['centre_error_um']:.3f}")
+            if kind == "cone":
+                kind = f"cone at {feature['height_mm']:g} mm ({feature['diameter_mm']:.3f} mm)"
         else:
-            value = f"{feature[feature['kind'] + '_um']:.3f}"
-        sources = "; ".join(f"{s['component']} {100 * s['share']:.0f} % ({s['alone_um']:.2f})" for s in feature["sources"])
-        table.add_row(feature["kind"], ",".join(map(str, feature["lines"])), value,
+            value = f"{feature[kind + '_um']:.3f}"
+        sources = "; ".join(f"{s['component']} {100 * s['share']:.0f} % ({s['alone_um']:.2f})" for s in feature["drivers"])
+        blocks = feature["blocks"]
+        lines = ",".join(map(str, blocks)) if len(blocks) <= 4 else f"{blocks[0]}..{blocks[-1]}"
+        table.add_row(kind, lines, value,
                       *(() if args.reference else (escape(sources),)))
     console.print(table)
+    if prediction.cones and not args.tool_diameter:
+        console.print("the cones are those the tool's axis sweeps: give the cutter's --tool-diameter for the part's")
     if args.reference:
         console.print("what is left is the compensation's (its tolerance, the written numbers' rounding), not an "
                       "error source's: no sources are ranked")

@@ -1,11 +1,11 @@
-"""volerr testpiece: the contouring test piece as a program, for a machine's travel."""
+"""volerr testpiece: a test piece (contouring, cone frustum) as a program, for a machine's travel."""
 
 from __future__ import annotations
 
 import sys
 
 from ..base.safeio import write_text
-from .common import add_machine_args, add_out_arg, check_run_outputs, machine_of
+from .common import add_machine_args, add_out_arg, check_run_outputs, machine_of, millimetres
 
 
 #: the command's name, and its line in ``volerr --help`` (read without building its parser)
@@ -16,21 +16,33 @@ HELP = "a test piece as an NC program, to predict like any program"
 def add_parser(sub) -> None:
     p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
-    p.add_argument("--kind", choices=["contouring"], default="contouring",
-                   help="contouring: square, diamond and circle in the form of ISO 10791-7's contouring test piece")
-    p.add_argument("--size", type=float, metavar="MM",
-                   help="the square's side (default 160, or less to fit the X and Y travel)")
+    p.add_argument("--kind", choices=["contouring", "cone-frustum"], default="contouring",
+                   help="contouring: square, diamond and circle in the form of ISO 10791-7's contouring test piece; "
+                        "cone-frustum: the cone of NAS 979 (ISO 10791-7:2020), cut by the tool's flank on a "
+                        "five-axis machine in tool-tip programming")
+    p.add_argument("--size", type=millimetres, metavar="MM",
+                   help="contouring: the square's side (default 160, or less to fit the X and Y travel); "
+                        "cone-frustum: the base diameter (default 80)")
+    p.add_argument("--tool-diameter", type=millimetres, default=20.0, metavar="MM",
+                   help="cone-frustum: the end mill's diameter (default 20)")
     p.add_argument("--feed", type=float, default=500.0, help="feed rate, mm/min (default 500)")
     add_out_arg(p, "program to write", what="an NC program", required=True)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from ..applications.part import contouring_test_piece
-
     machine = machine_of(args)
     check_run_outputs({"out": args.out}, machine=machine)
-    text = contouring_test_piece(machine, None if args.size is None else args.size * 1e-3, feed=args.feed)
+    size = None if args.size is None else args.size * 1e-3
+    if args.kind == "cone-frustum":
+        from ..applications.cone import cone_frustum_test_piece
+
+        text = cone_frustum_test_piece(machine, size, tool_diameter=args.tool_diameter * 1e-3, feed=args.feed)
+    else:
+        from ..applications.part import contouring_test_piece
+
+        text = contouring_test_piece(machine, size, feed=args.feed)
     write_text(args.out, text)
-    print(f"wrote {args.out}: {text.splitlines()[0].strip('()')}", file=sys.stderr)
+    comments = [line.strip("()") for line in text.splitlines()[:2] if line.startswith("(")]
+    print(f"wrote {args.out}: " + "; ".join(comments), file=sys.stderr)
     return 0

@@ -775,12 +775,12 @@ def record_part(prediction, path: str | Path, factor: float | None = None) -> di
     lines = [f"# {machine.name}: {Path(prediction.source).name}", "",
              f"The cut: the programmed path (grey) moved by its deviation normal to the path, **x{factor:g}**, "
              f"coloured by its size 0 .. {size.max():.2f} um (key beside the path); largest {deviation.max_um:.3f} um.",
-             "", "| feature | lines | value um | first source |", "|---|---|--:|---|"]
+             "", "| feature | blocks | value um | first source |", "|---|---|--:|---|"]
     for feature, ranking in zip(prediction.features, prediction.rankings):
         row = feature.to_dict()
         value = row.get("circularity_um", row.get(f"{row['kind']}_um"))
         first = f"{ranking[0]['component']} {100 * ranking[0]['share']:.0f} %" if ranking else ""
-        lines.append(f"| {row['kind']} | {','.join(map(str, row['lines']))} | {value:.3f} | {first} |")
+        lines.append(f"| {row['kind']} | {','.join(map(str, row['blocks']))} | {value:.3f} | {first} |")
     blueprint = rrb.Blueprint(
         rrb.Horizontal(rrb.Spatial3DView(origin="/", contents=["machine/**", "part/**"],
                                          name=f"the cut, deviation x{factor:g}", eye_controls=eye),
