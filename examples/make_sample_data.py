@@ -186,6 +186,14 @@ def test_piece(path: Path) -> None:
     path.write_text(contouring_test_piece(vp.load_machine("vmc500")))
 
 
+def cone_frustum(path: Path) -> None:
+    """The cone frustum test piece for cgm4000, as ``volerr testpiece cgm4000 --kind cone-frustum``
+    writes it."""
+    from volerr_pin.applications.cone import cone_frustum_test_piece
+
+    path.write_text(cone_frustum_test_piece(vp.load_machine("cgm4000")))
+
+
 def main(out: Path = HERE / "data") -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     truth = true_vmc500()
@@ -197,6 +205,7 @@ def main(out: Path = HERE / "data") -> list[Path]:
                         ("vmc500_tolerances.toml", lambda p: p.write_text(TOLERANCES)),
                         ("part.nc", lambda p: p.write_text(PROGRAM)),
                         ("vmc500_testpiece.nc", test_piece),
+                        ("cgm4000_cone.nc", cone_frustum),
                         ("two_link_arm.urdf", lambda p: p.write_text(ARM))):
         write(out / name)
         written.append(out / name)

@@ -352,11 +352,12 @@ REPORTS = [
     ["field", "cgm4000", "--grid", "3", "3", "3", "--sweep-steps", "2", "--out", "{tmp}/f.rrd", "--json"],
     ["plan", "vmc500", "--instrument", "probe", "--budget", "8", "--candidates", "64", "--json"],
     ["predict", "vmc700", "examples/data/part.nc", "--png", "{tmp}/part.png", "--json"],
+    ["predict", "cgm4000", "examples/data/cgm4000_cone.nc", "--tool-diameter", "20", "--json"],
     pytest.param(["diagnose", "vmc500", "examples/data/vmc500_tracker.csv", "--json"], marks=pytest.mark.slow),
 ]
 
 
-@pytest.mark.parametrize("argv", REPORTS, ids=[(a.values[0] if hasattr(a, "values") else a)[0] for a in REPORTS])
+@pytest.mark.parametrize("argv", REPORTS, ids=[" ".join((a.values[0] if hasattr(a, "values") else a)[:2]) for a in REPORTS])
 def test_every_report_field_is_documented(argv, tmp_path, capsys, monkeypatch):
     import json
 

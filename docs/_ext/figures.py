@@ -40,6 +40,8 @@ FIGURES: dict[str, list[str]] = {
     "export_vmc500.png": ["export", "vmc500", "--controller", "linuxcnc", "-o", "{tmp}/comp", "--png", "{png}"],
     "gear_roller_flanks.png": ["gear", "gear_roller", "--png", "{png}"],
     "part_vmc500.png": ["predict", "vmc500", "examples/data/vmc500_testpiece.nc", "--png", "{png}"],
+    "part_cgm4000_cone.png": ["predict", "cgm4000", "examples/data/cgm4000_cone.nc", "--tool-diameter", "20",
+                              "--cone-heights", "2,10,18", "--png", "{png}"],
     "uncertainty_vmc500.png": ["uncertainty", "vmc500", "--instrument-sigma", "1", "--samples", "2000", "--grid", "5",
                                "--compensation", "point", "--workers", "0", "--png", "{png}"],
 }

@@ -46,6 +46,8 @@ RECORDINGS: dict[str, tuple[list[list[str]], str]] = {
                          "lathe_cold_start.rrd"),
     "gear": ([["volerr", "gear", "gear_roller", "--rrd", "gear_flanks.rrd"]], "gear_flanks.rrd"),
     "predict": ([["volerr", "predict", "vmc500", "examples/data/vmc500_testpiece.nc", "--rrd", "part.rrd"]], "part.rrd"),
+    "predict_cone": ([["volerr", "predict", "cgm4000", "examples/data/cgm4000_cone.nc", "--tool-diameter", "20",
+                       "--cone-heights", "2,10,18", "--rrd", "cone.rrd"]], "cone.rrd"),
     "uncertainty": ([["volerr", "uncertainty", "vmc500", "--instrument-sigma", "1", "--samples", "200", "--compensation", "point",
                       "--grid", "5", "--workers", "0", "--rrd", "uncertainty.rrd"]], "uncertainty.rrd"),
 }

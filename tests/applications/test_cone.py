@@ -56,7 +56,7 @@ class Displaced:
 
 def test_the_test_piece_is_the_cone_it_says(piece):
     m, text, segments, cut, cones = piece
-    assert text.splitlines()[1] == "(predict it with: --tool-diameter 20 --cone-heights 2,10,18)"
+    assert text.splitlines()[1] == "(measure it with the cutter's diameter 20 mm, at heights 2, 10, 18 mm)"
     (cone,) = cones
     assert cone.boss and cone.half_angle == pytest.approx(np.radians(15.0), abs=1e-6)
     np.testing.assert_allclose(cone.axis, [np.sin(np.radians(10)), 0.0, np.cos(np.radians(10))], atol=1e-7)

@@ -40,8 +40,9 @@ import numpy as np
 from ..base.errors import InputError
 from ..base.units import UM_PER_M
 from ..model.machine import Machine
+from .cmm import fit_circle
 
-__all__ = ["Cone", "ConeSection", "find_cones", "measure_cones", "cone_frustum_test_piece"]
+__all__ = ["Cone", "ConeSection", "find_cones", "measure_cones", "cone_frustum_test_piece", "section_heights"]
 
 #: how far the programmed tool axes of a cone may pass from its apex, and how much their angle
 #: with its axis may differ [m, cos]: the program's words are rounded (0.1 um, 1e-4 deg)
@@ -335,8 +336,6 @@ def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=N
             rho = np.linalg.norm(radial, axis=1) + kappa * np.tan(cone.half_angle) * (target - along)
             angle = np.arctan2(radial @ basis[1], radial @ basis[0])
             points = rho[:, None] * np.c_[np.cos(angle), np.sin(angle)]
-            from .part import fit_circle
-
             centre, fitted = fit_circle(points)
             deviation = np.linalg.norm(points - centre, axis=1) - fitted
             unit = np.cos(angle)[:, None] * basis[0] + np.sin(angle)[:, None] * basis[1]
@@ -387,6 +386,16 @@ def _orient(machine: Machine, rotary: list[int], base: np.ndarray, targets: np.n
     return out
 
 
+#: the test piece's height, and its sections' heights, as fractions of its base diameter and height
+HEIGHT = 0.25
+SECTIONS = (0.1, 0.5, 0.9)
+
+
+def section_heights(size: float = 80e-3) -> list[float]:
+    """Where the test piece of base diameter ``size`` [m] is measured: heights above its base [m]."""
+    return [f * HEIGHT * size for f in SECTIONS]
+
+
 def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_diameter: float = 20e-3,
                             feed: float = 500.0, steps: int = 1440, form: str = "boss") -> str:
     """A program of the cone frustum test piece's finishing cut, in the form of NAS 979 (ISO
@@ -419,8 +428,8 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
     Returns
     -------
     str
-        The program; its first comment gives the geometry, its second the ``predict`` options
-        that measure it at three heights.
+        The program; its first comment gives the geometry, its second the cutter's diameter and
+        the three heights to measure it at (:func:`section_heights`).
 
     Raises
     ------
@@ -444,7 +453,7 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
         raise InputError(f"tool_diameter must be a length from 0 to the base diameter ({diameter * 1e3:g} mm), got "
                          f"{tool_diameter * 1e3:g} mm", parameters=("tool_diameter",))
     alpha, tilt = np.radians(15.0), np.radians(10.0)
-    height = diameter / 4.0
+    height = diameter * HEIGHT
     base = np.where(np.array(machine.axis_kinds) == "rotary", 0.0, machine.mid_travel)
     for k in rotary:
         lo, hi = machine.travel[k]
@@ -473,7 +482,7 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
         raise InputError(f"{machine.name}: the cone frustum of size {diameter * 1e3:g} mm (base diameter) takes "
                          f"{machine.axes[axis_index]} outside its travel", parameters=("size",))
     names = [machine.axes[k] for k in rotary]
-    heights = ",".join(f"{f * height * 1e3:g}" for f in (0.1, 0.5, 0.9))
+    heights = ", ".join(f"{h * 1e3:g}" for h in section_heights(diameter))
 
     def block(row, code):
         def word(value):
@@ -488,7 +497,7 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
             if form == "boss" else f"conical bore for {machine.name}: bottom {diameter * 1e3:g} mm across")
     lines = [f"({what}, {height * 1e3:g} mm high, half-angle 15 deg, axis tilted 10 deg towards +X; flank cut by a "
              f"{tool_diameter * 1e3:g} mm end mill, tool tip programmed)",
-             f"(predict it with: --tool-diameter {tool_diameter * 1e3:g} --cone-heights {heights})",
+             f"(measure it with the cutter's diameter {tool_diameter * 1e3:g} mm, at heights {heights} mm)",
              "G17 G90 G21", "G43.4 H1", block(clear, "G0"), block(words[0], "G1") + f" F{feed:g}"]
     lines += [block(row, "G1") for row in words[1:]]
     lines += [block(clear, "G0"), "G49", "M30"]

@@ -37,6 +37,8 @@ import numpy as np
 from ..base.errors import InputError
 from ..base.units import UM_PER_M
 from ..model.machine import Machine
+from .cone import ConeSection, find_cones, measure_cones
+from .cmm import fit_circle, fit_line
 
 __all__ = ["PathDeviation", "Cut", "Features", "CircleFeature", "LineFeature", "PairFeature", "PartPrediction", "deviation_along",
            "cut_of", "fit_circle", "fit_line", "measure", "feature_ranking", "normal_part", "predict",
@@ -255,41 +257,6 @@ def deviation_along(machine: Machine, segments, tolerance: float = 0.01e-6, *,
                          fraction=np.concatenate(fraction), tolerance=float(tolerance), **joined)
 
 
-def fit_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
-    """The least-squares circle through points of a plane (Gauss-Newton on the geometric
-    distances, from the algebraic fit).
-
-    Parameters
-    ----------
-    points : ndarray, shape (N, 2)
-        Points [m], N >= 3, not on one line.
-
-    Returns
-    -------
-    centre : ndarray, shape (2,)
-    radius : float
-        The circle minimising the sum of squared distances of the points from it.
-    """
-    points = np.asarray(points, dtype=float)
-    if points.ndim != 2 or points.shape[1] != 2 or len(points) < 3:
-        raise InputError(f"fit_circle needs (N >= 3, 2) points, got shape {points.shape}", parameters=("points",))
-    shift = points.mean(axis=0)
-    x = points - shift
-    design = np.c_[2 * x, np.ones(len(x))]
-    solution, *_ = np.linalg.lstsq(design, np.sum(x ** 2, axis=1), rcond=None)
-    centre = solution[:2]
-    radius = float(np.sqrt(solution[2] + centre @ centre))
-    for _ in range(50):
-        offset = x - centre
-        r = np.linalg.norm(offset, axis=1)
-        jacobian = np.c_[-offset / r[:, None], -np.ones(len(x))]
-        step, *_ = np.linalg.lstsq(jacobian, -(r - radius), rcond=None)
-        centre, radius = centre + step[:2], radius + float(step[2])
-        if np.abs(step).max() < 1e-15 * max(1.0, radius):
-            break
-    return centre + shift, radius
-
-
 @dataclass(frozen=True)
 class Cut:
     """The surface a program cuts: samples of every cutting move, where the tool actually is.
@@ -478,30 +445,6 @@ class PairFeature:
         """The feature in the report's terms (ISO name, um)."""
         return {"kind": self.kind, "name": f"{self.kind} of a side to a datum side (ISO 1101)",
                 "blocks": list(self.lines), "datum_line": self.datum.lines[0], f"{self.kind}_um": self.value_um}
-
-
-def fit_line(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The least-squares line through points of a plane (orthogonal distances).
-
-    Parameters
-    ----------
-    points : ndarray, shape (N, 2)
-        Points [m], N >= 2, not all equal.
-
-    Returns
-    -------
-    centre : ndarray, shape (2,)
-        The points' centroid, on the line.
-    direction : ndarray, shape (2,)
-        Unit direction of the line.
-    normal : ndarray, shape (2,)
-        Unit normal (the direction turned +90 degrees).
-    """
-    points = np.asarray(points, dtype=float)
-    centre = points.mean(axis=0)
-    _, _, vt = np.linalg.svd(points - centre, full_matrices=False)
-    direction = vt[0]
-    return centre, direction, np.array([-direction[1], direction[0]])
 
 
 def _contours(segments) -> list[list[int]]:
@@ -701,8 +644,6 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
             centre, along, across = fit_line(datum.measured)
             zone = (other.measured - centre) @ (across if kind == "parallelism" else along)
             pairs.append(PairFeature(kind=kind, datum=datum, toleranced=other, value_um=float(np.ptp(zone) * UM_PER_M)))
-    from .cone import find_cones, measure_cones
-
     defining = reference if reference is not None else segments
     defining_cut = cut if reference is None else cut_of(machine, reference, spacing)
     cones = find_cones(machine, _Moves(machine, defining), _contours(defining), defining_cut,
@@ -773,8 +714,6 @@ def feature_ranking(machine: Machine, feature) -> list[dict]:
     list of dict
         ``component``, ``alone_um``, ``share``; largest share first.
     """
-    from .cone import ConeSection
-
     if isinstance(feature, ConeSection):
         return _rows(feature.profiles(_contributions(machine, feature.q)))
     if isinstance(feature, (CircleFeature, LineFeature)):

@@ -34,15 +34,17 @@ def run(args) -> int:
     machine = machine_of(args)
     check_run_outputs({"out": args.out}, machine=machine)
     size = None if args.size is None else args.size * 1e-3
+    advice = ""
     if args.kind == "cone-frustum":
-        from ..applications.cone import cone_frustum_test_piece
+        from ..applications.cone import cone_frustum_test_piece, section_heights
 
         text = cone_frustum_test_piece(machine, size, tool_diameter=args.tool_diameter * 1e-3, feed=args.feed)
+        heights = ",".join(f"{h * 1e3:g}" for h in (section_heights(size) if size else section_heights()))
+        advice = f"\npredict it with: --tool-diameter {args.tool_diameter:g} --cone-heights {heights}"
     else:
         from ..applications.part import contouring_test_piece
 
         text = contouring_test_piece(machine, size, feed=args.feed)
     write_text(args.out, text)
-    comments = [line.strip("()") for line in text.splitlines()[:2] if line.startswith("(")]
-    print(f"wrote {args.out}: " + "; ".join(comments), file=sys.stderr)
+    print(f"wrote {args.out}: {text.splitlines()[0].strip('()')}{advice}", file=sys.stderr)
     return 0

@@ -472,16 +472,16 @@ def part_png(prediction, path: str | Path, factor: float | None = None) -> dict:
 
     deviation = prediction.deviation
     size = np.linalg.norm(deviation.normal, axis=1) * 1e6
-    i, j = prediction.features[0].plane if prediction.features else (0, 1)
+    i, j = next((f.plane for f in prediction.features if hasattr(f, "plane")), (0, 1))
     points = deviation.point[:, [i, j]] * 1e3
     extent = float(np.ptp(points, axis=0).max()) or 1.0
     factor = factor or nice_scale(float(size.max()) or 1.0, extent * 1e-3)
     moved = points + deviation.normal[:, [i, j]] * 1e3 * factor
-    circles = prediction.circles
-    fig = plt.figure(figsize=(12.0 if circles else 7.5, 6.0), dpi=110, constrained_layout=True)
+    rounds = prediction.circles[:1] or prediction.cones   # the first circle, or every cone's sections
+    fig = plt.figure(figsize=(12.0 if rounds else 7.5, 6.0), dpi=110, constrained_layout=True)
     from matplotlib.collections import LineCollection
 
-    ax = fig.add_subplot(1, 2 if circles else 1, 1)
+    ax = fig.add_subplot(1, 2 if rounds else 1, 1)
     pieces, values = [], []
     for move in np.unique(deviation.move):
         rows = np.flatnonzero(deviation.move == move)
@@ -497,20 +497,41 @@ def part_png(prediction, path: str | Path, factor: float | None = None) -> dict:
     ax.set_ylabel(f"{'xyz'[j]} [mm]")
     ax.set_title(f"{prediction.machine.name}: {Path(prediction.source).name}, deviation x{factor:g} "
                  f"(grey: programmed; largest {deviation.max_um:.2f} um)", fontsize=9)
-    for k, circle in enumerate(circles[:1]):
+    if rounds:
         polar = fig.add_subplot(1, 2, 2, projection="polar")
-        order = np.argsort(circle.angle)
-        reference = circle.radius * 1e3   # mm
-        magnify = nice_scale(float(np.abs(circle.radial_um).max()) or 1e-3, 0.15 * reference * 1e-3 / 0.08)
-        polar.plot(circle.angle[order], reference + circle.radial_um[order] * 1e-3 * magnify, color="#c0392b",
-                   lw=1.0, label="measured about the least-squares circle")
-        polar.plot(np.linspace(0, 2 * np.pi, 361), np.full(361, reference), color="#888888", lw=0.6,
-                   label="least-squares circle")
-        polar.set_ylim(0, reference * 1.3)
+        outer = max(f.radius for f in rounds) * 1e3   # mm
+        magnify = nice_scale(max(float(np.abs(f.radial_um).max()) for f in rounds) or 1e-3, 0.15 * outer * 1e-3 / 0.08)
+        titles = []
+        # a cone's sections on base circles of their own, the lowest (widest) outside, as a CMM's
+        # chart draws several profiles; a circle on its own radius
+        spread = np.linspace(0.95, 0.45, len(rounds)) if len(rounds) > 1 else np.ones(1)
+        if len(rounds) > 1:
+            magnify = nice_scale(max(float(np.abs(f.radial_um).max()) for f in rounds) or 1e-3,
+                                 0.1 * outer * 1e-3 / 0.08)
+        for k, feature in enumerate(rounds):
+            order = np.argsort(feature.angle)
+            reference = feature.radius * 1e3 if len(rounds) == 1 else outer * spread[k]
+            cone = getattr(feature, "cone", None)
+            label = "measured about the least-squares circle" if cone is None else f"at {feature.height * 1e3:g} mm"
+            polar.plot(feature.angle[order], reference + feature.radial_um[order] * 1e-3 * magnify,
+                       color=f"C{k}" if cone is not None else "#c0392b", lw=1.0,
+                       label=label)
+            polar.plot(np.linspace(0, 2 * np.pi, 361), np.full(361, reference), color="#888888", lw=0.6,
+                       label="least-squares circle" if k == 0 else None)
+            if cone is None:
+                titles.append(f"circle of line {feature.lines[0]}: roundness {feature.circularity_um:.2f} um, "
+                              f"diameter error {feature.diameter_error_um:+.2f} um, centre {feature.centre_error_um:.2f} um")
+            else:
+                titles.append(f"at {feature.height * 1e3:g} mm: roundness {feature.circularity_um:.2f}, diameter "
+                              f"{feature.diameter_error_um:+.2f}, centre {feature.centre_error_um:.2f} um")
+        if prediction.cones and not prediction.circles:
+            cone = rounds[0].cone
+            titles.insert(0, f"cone of lines {cone.lines[0]}..{cone.lines[-1]} ({'boss' if cone.boss else 'bore'}), "
+                             "seen along its axis" + ("\neach section on a base circle of its own"
+                                                      if len(rounds) > 1 else ""))
+        polar.set_ylim(0, outer * 1.3)
         polar.set_yticklabels([])
-        polar.set_title(f"circle of line {circle.lines[0]}: roundness {circle.circularity_um:.2f} um, diameter "
-                        f"error {circle.diameter_error_um:+.2f} um, centre {circle.centre_error_um:.2f} um\n"
-                        f"(deviation x{magnify:g})", fontsize=9, pad=18)
-        polar.legend(loc="lower center", bbox_to_anchor=(0.5, -0.16), fontsize=7, ncol=2)
+        polar.set_title("\n".join(titles) + f"\n(deviation x{magnify:g})", fontsize=9, pad=18)
+        polar.legend(loc="lower center", bbox_to_anchor=(0.5, -0.16), fontsize=7, ncol=min(4, len(rounds) + 1))
     save(fig, path)
     return {"path": str(path), "factor": factor}

@@ -740,7 +740,8 @@ def record_gear(rows, path: str | Path, scale: float | None = None) -> dict:
 def record_part(prediction, path: str | Path, factor: float | None = None) -> dict:
     """The predicted part in 3D: the programmed path, the cut (the path moved by its deviation
     normal to it, magnified ``factor`` times, coloured by its size, with a key) on the machine,
-    and the features as a table.
+    each cone's sections where they are (their form about the least-squares circle magnified
+    as much), and the features as a table.
 
     Parameters
     ----------
@@ -780,7 +781,10 @@ def record_part(prediction, path: str | Path, factor: float | None = None) -> di
         row = feature.to_dict()
         value = row.get("circularity_um", row.get(f"{row['kind']}_um"))
         first = f"{ranking[0]['component']} {100 * ranking[0]['share']:.0f} %" if ranking else ""
-        lines.append(f"| {row['kind']} | {','.join(map(str, row['blocks']))} | {value:.3f} | {first} |")
+        blocks = row["blocks"]
+        named = ",".join(map(str, blocks)) if len(blocks) <= 4 else f"{blocks[0]}..{blocks[-1]}"
+        kind = row["kind"] if row["kind"] != "cone" else f"cone at {row['height_mm']:g} mm"
+        lines.append(f"| {kind} | {named} | {value:.3f} | {first} |")
     blueprint = rrb.Blueprint(
         rrb.Horizontal(rrb.Spatial3DView(origin="/", contents=["machine/**", "part/**"],
                                          name=f"the cut, deviation x{factor:g}", eye_controls=eye),
@@ -798,5 +802,14 @@ def record_part(prediction, path: str | Path, factor: float | None = None) -> di
                 rr.AnyValues(deviation_um=size, line=deviation.line), static=True)
         log_legend(rec, "part/legend", frame, deviation.point, 0.0, float(size.max()) or 1.0,
                    title="normal deviation")
+        for k, section in enumerate(prediction.cones):   # each cone's sections where they are, form magnified
+            cone = section.cone
+            order = np.argsort(section.angle)
+            around = np.c_[np.cos(section.angle[order]), np.sin(section.angle[order])] @ cone.basis()
+            level = cone.apex + (cone.bottom + section.height) * cone.axis
+            ring = level + (section.radius + section.radial_um[order] / UM_PER_M * factor)[:, None] * around
+            rec.log(f"part/cone/section_{k}", frame,
+                    rr.LineStrips3D([np.vstack([ring, ring[:1]])], colors=SERIES_COLOURS[k % len(SERIES_COLOURS)],
+                                    radii=extent / 400, labels=[f"{section.height * 1e3:g} mm"]), static=True)
         rec.log("features", rr.TextDocument("\n".join(lines), media_type=rr.MediaType.MARKDOWN), static=True)
     return {"path": str(path), "samples": int(len(size)), "factor": factor, "bytes": Path(path).stat().st_size}
