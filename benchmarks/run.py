@@ -19,7 +19,7 @@
 
 5. The benchmarks of the other parts, each a script of its own in this folder that also runs
    alone (``SECTIONS``): controller exports, uncertainty and tolerance studies, measurement
-   planning, NC programs, diagnosis threads. Each gives
+   planning, NC programs, diagnosis threads, predicted parts. Each gives
    ``section(quick) -> str``, its Markdown, appended under its own heading.
 
 Every loop is checked against the batch result before it is timed; the loops get their
@@ -358,7 +358,8 @@ def bench_scaling(sizes):
 # ------------------------------------------------------------------ report
 SECTIONS = {"export": "Controller exports", "studies": "Uncertainty and tolerance studies",
             "plan": "Measurement planning", "nc": "NC programs (volerr compensate)",
-            "diagnose": "Diagnosis: its own threads against a one-thread environment"}
+            "diagnose": "Diagnosis: its own threads against a one-thread environment",
+            "predict": "Predicted parts (volerr predict)"}
 
 
 def run_section(name: str, quick: bool) -> str:

@@ -197,9 +197,9 @@ def test_the_feature_ranking_matches_finite_differences(machines, which):
 
     original = part._contributions
 
-    def by_differences(machine, q):
-        full = machine.volumetric_error(q)
-        return {c: full - without(c).volumetric_error(q) for c in columns}
+    def by_differences(machine, q, covariates=None):
+        full = machine.volumetric_error(q, **(covariates or {}))
+        return {c: full - without(c).volumetric_error(q, **(covariates or {})) for c in columns}
 
     part._contributions = by_differences
     try:
@@ -238,3 +238,33 @@ def test_a_tool_tip_program_is_followed_where_the_controller_puts_the_axes(machi
     np.testing.assert_allclose(by_tip.normal, by_axes.normal, atol=1e-12)
     np.testing.assert_allclose(by_tip.point, np.outer(1 - by_tip.fraction, words[0, :3])
                                + np.outer(by_tip.fraction, words[1, :3]), atol=1e-9)   # the tip goes straight
+
+
+def test_a_backlash_on_x_cuts_steps_of_its_reversal_where_x_turns(machines):
+    """Backlash b on X is (b/2) d, d the direction X moves in. Going round a circle X turns at
+    its ends (angles 0 and 180 deg), so the radial deviation (b/2) d(theta) cos(theta) steps by
+    b there; it has no first harmonic (the least-squares circle is the nominal one) and spans b.
+    The directions come from the path, as the controller's."""
+    from volerr_pin.model.specio import add_terms
+
+    m = machines["vmc500"]
+    bare = m.with_theta(np.zeros_like(m.theta))
+    loose = add_terms(bare, {"EXX": {"kind": "backlash", "prefix": "rev", "reversal_um": 3.0}})
+    theta = np.zeros_like(loose.theta)
+    theta[loose.parameter_names.index(next(n for n in loose.parameter_names if "rev" in n))] = 3e-6
+    loose = loose.with_theta(theta)
+    feature, deviation = _circle(loose)
+    assert feature.circularity_um == pytest.approx(3.0, abs=0.02)
+    assert abs(feature.diameter_error_um) < 0.02 and feature.centre_error_um < 0.02
+    # the steps are where X turns
+    order = np.argsort(feature.angle)
+    jumps = np.abs(np.diff(feature.radial_um[order]))
+    assert np.sort(jumps)[-2:] == pytest.approx([3.0, 3.0], abs=0.05)
+    turns = np.sort(np.abs(np.degrees(feature.angle[order][np.argsort(jumps)[-2:]])))
+    np.testing.assert_allclose(turns, [0.0, 180.0], atol=1.0)
+    assert feature_ranking(loose, feature)[0]["component"] == "EXX"
+    # without the path's directions the backlash would be its mean, nothing: the state's directions
+    # only say how the axes arrived before the program
+    assert deviation.max_um == pytest.approx(1.5, abs=0.01)
+    arrived = loose.with_state(directions=[-1, 1, 1])
+    assert _circle(arrived)[0].circularity_um == pytest.approx(3.0, abs=0.02)

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..base.chunks import in_chunks
 from ..base.errors import InputError
 from ..base.units import UM_PER_M
 from ..model.machine import Machine
@@ -132,6 +133,8 @@ class ConeSection:
         radius [um].
     q : ndarray, shape (M, n_axes)
         Axis positions of the measured points [m, rad].
+    covariates : dict
+        Their covariates the path sets (the axes' directions, for a machine that reads them).
     arm : ndarray, shape (M, 3)
         The measured points' offsets from the tool point, nominal, workpiece frame [m].
     direction : ndarray, shape (M, 3)
@@ -148,6 +151,7 @@ class ConeSection:
     angle: np.ndarray
     radial_um: np.ndarray
     q: np.ndarray
+    covariates: dict
     arm: np.ndarray
     direction: np.ndarray
 
@@ -186,12 +190,14 @@ def _fit(tips: np.ndarray, axes: np.ndarray):
     spread = np.ptp(axes, axis=0).max()
     if spread < 1e-6:
         return None
-    projector = np.eye(3)[None] - axes[:, :, None] * axes[:, None, :]
-    normal = projector.sum(axis=0)
+    # the point nearest every line in the least-squares sense: sum (I - w w^T) (x - T) = 0
+    normal = len(axes) * np.eye(3) - axes.T @ axes
     if np.linalg.cond(normal) > 1e8:
         return None
-    apex = np.linalg.solve(normal, np.einsum("nij,nj->i", projector, tips))
-    off = np.linalg.norm(np.einsum("nij,nj->ni", projector, apex - tips), axis=1)
+    along = np.sum(axes * tips, axis=1)
+    apex = np.linalg.solve(normal, tips.sum(axis=0) - axes.T @ along)
+    d = apex - tips
+    off = np.linalg.norm(d - np.sum(d * axes, axis=1)[:, None] * axes, axis=1)
     if off.max() > APEX_TOLERANCE:
         return None
     _, vectors = np.linalg.eigh(np.cov((axes - axes.mean(axis=0)).T))
@@ -233,10 +239,16 @@ def find_cones(machine: Machine, moves, contours: list[list[int]], cut, tool_rad
         round the cone's axis (no gap above 10 degrees).
     """
     cones = []
-    R_all, tips_all = machine.tool_poses(cut.q, nominal=True, extrapolate=True)
+    R_all, tips_all = in_chunks(machine.tool_poses, cut.q, nominal=True, extrapolate=True)
+    # the moves that turn the tool (a lead-in or lead-out at a fixed orientation cuts no cone): the
+    # range of the tool axis over each move's samples (the cut's samples run move by move)
+    axes_all = R_all[:, :, 2]
+    starts = np.flatnonzero(np.r_[True, np.diff(cut.move) != 0])
+    spread = (np.maximum.reduceat(axes_all, starts) - np.minimum.reduceat(axes_all, starts)).max(axis=1)
+    turns = np.zeros(int(cut.move.max()) + 1, dtype=bool)
+    turns[cut.move[starts]] = spread > 1e-9
     for contour in contours:
-        # the moves that turn the tool: a lead-in or lead-out at a fixed orientation cuts no cone
-        turning = [m for m in contour if np.ptp(R_all[cut.move == m][:, :, 2], axis=0).max() > 1e-9]
+        turning = [m for m in contour if turns[m]]
         rows = np.isin(cut.move, turning)
         if rows.sum() < 8:
             continue
@@ -308,11 +320,12 @@ def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=N
     """
     sections = []
     for number, cone in enumerate(cones):
-        q = cut.q[np.isin(cut.move, cone.moves) if rows is None else rows[number]]
+        taken = np.isin(cut.move, cone.moves) if rows is None else rows[number]
+        q, covariates = cut.q[taken], cut.at(taken)
         if len(q) < 3:
             continue
         R, tips = machine.tool_poses(q, nominal=True, extrapolate=True)
-        R_act, p_act = machine.tool_poses(q, extrapolate=True)
+        R_act, p_act = machine.tool_poses(q, extrapolate=True, **covariates)
         w = R[:, :, 2]
         sign = 1.0 if cone.boss else -1.0
         contact = tips - sign * cone.tool_radius * _away(tips, w, cone.apex, cone.axis)
@@ -345,7 +358,7 @@ def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=N
                 circularity_um=float(np.ptp(deviation) * UM_PER_M),
                 diameter_error_um=float(2 * (fitted - nominal_radius) * UM_PER_M),
                 centre_error_um=float(np.linalg.norm(centre) * UM_PER_M), fitted_centre=centre, angle=angle,
-                radial_um=deviation * UM_PER_M, q=q, arm=arm,
+                radial_um=deviation * UM_PER_M, q=q, covariates=covariates, arm=arm,
                 direction=unit - kappa * np.tan(cone.half_angle) * cone.axis))
     return sections
 

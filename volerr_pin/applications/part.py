@@ -23,8 +23,13 @@ points in the circle's plane, the least-squares circle through them, the circula
 distance from its centre), the diameter error (twice the fitted minus the nominal radius) and
 the centre error (the distance of the fitted centre from the nominal one).
 
-Conventions: positions in m, deviations in um in the reports; programs in axes programming
-(axis positions), as ``compensate`` reads them.
+The path sets what the machine's state cannot: for a machine whose errors depend on the axes'
+directions (backlash), each axis' direction at each sample is the sign of its commanded motion
+into the sample, kept while the axis stands still, rapids included, as a controller takes it;
+the state's ``directions`` only say how the axes arrived before the program.
+
+Conventions: positions in m, deviations in um in the reports; programs in axes or tool-tip
+programming, as ``compensate`` reads them.
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ from ..base.errors import InputError
 from ..base.units import UM_PER_M
 from ..model.machine import Machine
 from .cone import ConeSection, find_cones, measure_cones
+from ..base.chunks import CHUNK, in_chunks
 from .cmm import fit_circle, fit_line
 
 __all__ = ["PathDeviation", "Cut", "Features", "CircleFeature", "LineFeature", "PairFeature", "PartPrediction", "deviation_along",
@@ -106,7 +112,8 @@ class PathDeviation:
 
 
 def _tool_points(machine: Machine, q: np.ndarray) -> np.ndarray:
-    return machine.tool_poses(q, nominal=True, extrapolate=True)[1]   # tangent steps may touch the ends
+    # tangent steps may touch the ends of the travel
+    return in_chunks(machine.tool_poses, q, nominal=True, extrapolate=True)[1]
 
 
 class _Moves:
@@ -117,7 +124,10 @@ class _Moves:
 
     def __init__(self, machine: Machine, segments):
         self.machine = machine
+        segments = list(segments)
         self.segments = [s for s in segments if s.kind in ("line", "arc")]
+        self.rapids = [(n, s) for n, s in enumerate(segments) if s.kind == "rapid"]
+        self.order = np.array([n for n, s in enumerate(segments) if s.kind in ("line", "arc")])   # place in the program
         if not self.segments:
             raise InputError("the program has no cutting move (lines or arcs)", parameters=("segments",))
         self.start = np.array([s.start for s in self.segments], dtype=float)
@@ -126,6 +136,8 @@ class _Moves:
         self.arc = np.array([s.kind == "arc" for s in self.segments])
         self.tool_tip = np.array([s.programming == "tool-tip" for s in self.segments])
         self._tip = None
+        self.uses_directions = "directions" in machine.covariates_used
+        self._carry = None
 
     def __len__(self) -> int:
         return len(self.segments)
@@ -143,12 +155,15 @@ class _Moves:
         out = self.words(move, k)
         tip = self.tool_tip[move]
         if tip.any():
-            if self._tip is None:
-                from ..compensation.programming import programming_for
-
-                self._tip = programming_for("tool-tip", self.machine)
-            out[tip] = self._tip.to_axes(out[tip])
+            out[tip] = in_chunks(self._tool_tip_mode().to_axes, out[tip], chunk=CHUNK // 4)   # 4 poses a point
         return out
+
+    def _tool_tip_mode(self):
+        if self._tip is None:
+            from ..compensation.programming import programming_for
+
+            self._tip = programming_for("tool-tip", self.machine)
+        return self._tip
 
     def check_travel(self, move: np.ndarray, q: np.ndarray) -> None:
         """A move that leaves the travel is refused, naming its line: the model is not
@@ -177,8 +192,47 @@ class _Moves:
         moving = length > 1e-12 * max(1.0, float(np.abs(point).max(initial=0.0)))
         tangent = np.zeros_like(step)
         tangent[moving] = step[moving] / length[moving, None]
-        error = self.machine.volumetric_error(q)[:, :3]
+        error = in_chunks(self.machine.volumetric_error, q, self.covariates(move, q, behind))[:, :3]
         return q, point, tangent, error, normal_part(error, tangent)
+
+    def _carry_in(self) -> np.ndarray:
+        """Each axis' direction as each move starts (n_moves, n_axes): the sign of its last motion
+        before it, rapids included; before the program, the machine state's directions (+1
+        without)."""
+        if self._carry is None:
+            n, index = len(self), np.arange(len(self))
+            total = max(int(self.order.max()) if n else -1, max((r for r, _ in self.rapids), default=-1)) + 1
+            last = np.zeros((total, self.start.shape[1]))
+            last[self.order] = _signs(self.axes(index, np.ones(n)) - self.axes(index, np.full(n, 1.0 - TANGENT_STEP)))
+            for row, rapid in self.rapids:   # straight in axis positions; a start not known moves nothing
+                ends = np.vstack([rapid.start, rapid.end]).astype(float)
+                if rapid.programming == "tool-tip" and np.isfinite(ends).all():
+                    ends = self._tool_tip_mode().to_axes(ends)
+                last[row] = np.nan_to_num(_signs(ends[1] - ends[0]))
+            start = self.machine.state.get("directions")
+            start = np.ones(last.shape[1]) if start is None else np.sign(np.asarray(start, dtype=float))
+            # forward fill: an axis standing still keeps the direction it had
+            seen = np.where(last != 0, np.arange(total)[:, None], -1)
+            latest = np.maximum.accumulate(seen, axis=0)
+            filled = np.where(latest >= 0, np.take_along_axis(last, np.maximum(latest, 0), axis=0), start)
+            before = self.order - 1
+            self._carry = np.where((before >= 0)[:, None], filled[np.maximum(before, 0)], start)
+        return self._carry
+
+    def covariates(self, move: np.ndarray, q: np.ndarray, behind: np.ndarray) -> dict:
+        """The covariates the path itself sets: for a machine whose errors depend on the axes'
+        directions (backlash), each axis' direction at each point as a controller takes it (the
+        sign of the commanded motion into the point, ``q - behind``; the direction it had while
+        it stands still)."""
+        if not self.uses_directions:
+            return {}
+        signs = _signs(q - behind)
+        return {"directions": np.where(signs != 0, signs, self._carry_in()[move])}
+
+
+def _signs(step: np.ndarray) -> np.ndarray:
+    """Signs of axis steps, rounding below 1e-13 (m or rad: an axis that stands still) to 0."""
+    return np.where(np.abs(step) > 1e-13, np.sign(step), 0.0)
 
 
 def _interleave(old: np.ndarray, mid: np.ndarray) -> np.ndarray:
@@ -269,12 +323,20 @@ class Cut:
         Axis positions [m, rad].
     nominal, actual : ndarray, shape (M, 3)
         The tool point in the workpiece frame as programmed and as the machine puts it [m].
+    covariates : dict
+        Per sample, the covariates the path sets (``directions``, for a machine that reads
+        them), given to the model with the machine's state.
     """
 
     move: np.ndarray
     q: np.ndarray
     nominal: np.ndarray
     actual: np.ndarray
+    covariates: dict = field(default_factory=dict)
+
+    def at(self, rows) -> dict:
+        """The covariates of samples ``rows``."""
+        return {name: value[rows] for name, value in self.covariates.items()}
 
 
 def cut_of(machine: Machine, segments, spacing: float = 0.25e-3) -> Cut:
@@ -294,7 +356,8 @@ def cut_of(machine: Machine, segments, spacing: float = 0.25e-3) -> Cut:
     q = moves.axes(move, k)
     moves.check_travel(move, q)
     nominal = _tool_points(machine, q)
-    return Cut(move, q, nominal, nominal + machine.volumetric_error(q)[:, :3])
+    covariates = moves.covariates(move, q, moves.axes(move, np.clip(k - TANGENT_STEP, 0.0, 1.0)))
+    return Cut(move, q, nominal, nominal + in_chunks(machine.volumetric_error, q, covariates)[:, :3], covariates)
 
 
 @dataclass(frozen=True)
@@ -323,6 +386,8 @@ class CircleFeature:
         radius [um].
     q : ndarray, shape (M, n_axes)
         Axis positions of the measured points [m, rad].
+    covariates : dict
+        Their covariates the path sets (the axes' directions, for a machine that reads them).
     """
 
     lines: tuple[int, ...]
@@ -336,6 +401,7 @@ class CircleFeature:
     angle: np.ndarray
     radial_um: np.ndarray
     q: np.ndarray
+    covariates: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The feature in the report's terms (ISO name, um)."""
@@ -373,6 +439,8 @@ class LineFeature:
         The measured points in the plane [m].
     q : ndarray, shape (M, n_axes)
         Their axis positions [m, rad].
+    covariates : dict
+        Their covariates the path sets (the axes' directions, for a machine that reads them).
     """
 
     lines: tuple[int, ...]
@@ -383,6 +451,7 @@ class LineFeature:
     contour: int
     measured: np.ndarray
     q: np.ndarray
+    covariates: dict = field(default_factory=dict)
 
     @property
     def length(self) -> float:
@@ -610,7 +679,8 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
             circularity_um=float(np.ptp(radial) * UM_PER_M),
             diameter_error_um=float(2 * (radius - ref["radius"]) * UM_PER_M),
             centre_error_um=float(np.linalg.norm(centre - ref["centre"]) * UM_PER_M), fitted_centre=centre,
-            angle=np.arctan2(around[:, 1], around[:, 0]), radial_um=radial * UM_PER_M, q=cut.q[rows]))
+            angle=np.arctan2(around[:, 1], around[:, 0]), radial_um=radial * UM_PER_M, q=cut.q[rows],
+            covariates=cut.at(rows)))
     sides = []
     for ref in sides_ref:
         length = float(np.linalg.norm(ref["end"] - ref["start"]))
@@ -628,7 +698,8 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
         centre, _, normal = fit_line(points)
         sides.append(LineFeature(lines=ref["lines"], plane=plane, start=ref["start"], end=ref["end"],
                                  straightness_um=float(np.ptp((points - centre) @ normal) * UM_PER_M),
-                                 contour=ref["contour"], measured=points, q=cut.q[rows]))
+                                 contour=ref["contour"], measured=points, q=cut.q[rows],
+                                 covariates=cut.at(rows)))
     pairs = []
     for a, datum in enumerate(sides):
         for other in sides[a + 1:]:
@@ -664,10 +735,10 @@ def _component_columns(machine: Machine) -> dict[str, list[int]]:
     return out
 
 
-def _contributions(machine: Machine, q: np.ndarray) -> dict[str, np.ndarray]:
+def _contributions(machine: Machine, q: np.ndarray, covariates: dict | None = None) -> dict[str, np.ndarray]:
     """Each component's first-order part of the tool's pose error at ``q`` (M, 6: dx, dy, dz
     [m], rx, ry, rz [rad]): its coefficients times the exact sensitivities."""
-    sensitivity = machine.sensitivity(q)[:, :6, :]
+    sensitivity = machine.sensitivity(q, **(covariates or {}))[:, :6, :]
     theta = machine.theta
     return {component: sensitivity[:, :, cols] @ theta[cols] for component, cols in _component_columns(machine).items()}
 
@@ -690,7 +761,7 @@ def _rows(profiles: dict[str, np.ndarray]) -> list[dict]:
     return sorted(rows, key=lambda r: -r["share"])
 
 
-def feature_ranking(machine: Machine, feature) -> list[dict]:
+def feature_ranking(machine: Machine, feature, *, cache: dict | None = None) -> list[dict]:
     """Which error sources decide a feature: per component, the feature's profile it causes
     alone (to first order, from the exact sensitivities) and its share.
 
@@ -708,22 +779,31 @@ def feature_ranking(machine: Machine, feature) -> list[dict]:
         The machine the feature was measured on.
     feature : CircleFeature, LineFeature, PairFeature or ConeSection
         The feature (:func:`measure`).
+    cache : dict, optional
+        Each side's sources, kept between calls (a side is in its own straightness and in
+        every pair it belongs to): pass the same dict for the features of one measurement.
 
     Returns
     -------
     list of dict
         ``component``, ``alone_um``, ``share``; largest share first.
     """
+    def parts(f):
+        if cache is None:
+            return _in_plane(_contributions(machine, f.q, f.covariates), f.plane)
+        if id(f) not in cache:   # f kept beside: its id stays its own
+            cache[id(f)] = (f, _in_plane(_contributions(machine, f.q, f.covariates), f.plane))
+        return cache[id(f)][1]
+
     if isinstance(feature, ConeSection):
-        return _rows(feature.profiles(_contributions(machine, feature.q)))
+        return _rows(feature.profiles(_contributions(machine, feature.q, feature.covariates)))
     if isinstance(feature, (CircleFeature, LineFeature)):
-        return _rows(feature.profiles(_in_plane(_contributions(machine, feature.q), feature.plane)))
+        return _rows(feature.profiles(parts(feature)))
     datum, other = feature.datum, feature.toleranced
     u0, n0 = datum.direction, datum.across
     s = datum.along()
     relative = other.measured - datum.start
-    datum_parts = _in_plane(_contributions(machine, datum.q), datum.plane)
-    other_parts = _in_plane(_contributions(machine, other.q), other.plane)
+    datum_parts, other_parts = parts(datum), parts(other)
     profiles = {}
     for c in datum_parts:
         slope = np.polyfit(s, datum_parts[c] @ n0, 1)[0]   # the datum line's turn, to first order
@@ -833,8 +913,9 @@ def predict(machine: Machine, text: str, source: str = "<program>", *, reference
     found = measure(machine, segments, defining, plane=plane, tool_diameter=tool_diameter, cone_heights=cone_heights)
     # with a reference (a compensated program), what is left is the compensation's (its tolerance,
     # the written numbers' rounding), not an error source's: the sources' profiles cancel
-    rankings = [feature_ranking(machine, f) if reference is None else [] for f in [*found.circles, *found.sides,
-                                                                                   *found.pairs, *found.cones]]
+    cache: dict = {}
+    rankings = [feature_ranking(machine, f, cache=cache) if reference is None else []
+                for f in [*found.circles, *found.sides, *found.pairs, *found.cones]]
     return PartPrediction(machine, source, None if reference is None else reference_source, deviation, found.circles,
                           found.sides, found.pairs, rankings, found.cones)
 

@@ -237,13 +237,6 @@ def _workpiece_placement(machine: Machine, q: np.ndarray):
     return data, data.oMf[model.getFrameId(machine.workpiece_frame)]
 
 
-def world_points(machine: Machine, q: np.ndarray, positions: np.ndarray) -> np.ndarray:
-    """Points given in the workpiece frame, in the URDF's root frame (the 3D views' space) with
-    the machine at NC positions ``q`` (SI): where a camera must look to see them."""
-    _, placement = _workpiece_placement(machine, q)
-    return np.asarray(positions, float) @ placement.rotation.T + placement.translation
-
-
 def eye_on(machine: Machine, q: np.ndarray, positions: np.ndarray, distance: float = 1.6,
            elevation: float = 30.0) -> rrb.EyeControls3D:
     """A 3D view's camera that frames ``positions`` (workpiece frame) from outside the machine.
