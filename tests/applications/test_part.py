@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import single
-from volerr_pin.applications.part import deviation_along, feature_ranking, fit_circle, measure, normal_part
+from volerr_pin.applications.part import deviation_along, feature_ranking, fit_circle, measure, normal_part, predict
 from volerr_pin.base.errors import InputError
 from volerr_pin.compensation.gcode import interpret
 
@@ -268,3 +268,26 @@ def test_a_backlash_on_x_cuts_steps_of_its_reversal_where_x_turns(machines):
     assert deviation.max_um == pytest.approx(1.5, abs=0.01)
     arrived = loose.with_state(directions=[-1, 1, 1])
     assert _circle(arrived)[0].circularity_um == pytest.approx(3.0, abs=0.02)
+
+
+def test_a_lathes_profile_is_measured_in_its_xz_plane(machines):
+    """lathe_2axis (axes Z, X): the contour plane found is xz, and a full circle of the profile
+    (G18, I and K) agrees with the batch evaluator on the nominal circle, its radial component
+    in xz less its mean and first harmonics."""
+    m = machines["lathe_2axis"]
+    program = "G18 G90 G21\nG0 X60 Z-10\nG1 X60 Z-200 F100\nG1 X100 Z-200\nG0 X80 Z-350\nG1 X80 Z-350\n" \
+              "G2 X80 Z-350 I0 K20\nM30\n"
+    part = predict(m, program)
+    (circle,) = part.circles
+    assert circle.plane == (0, 2) and [s.plane for s in part.sides] == [(0, 2), (0, 2)]
+    np.testing.assert_allclose(circle.centre, [0.08, -0.33], atol=1e-12)
+    assert circle.radius == pytest.approx(0.02, abs=1e-12)
+    a = np.linspace(0.0, 2 * np.pi, 3600, endpoint=False)
+    q = np.c_[-0.33 + 0.02 * np.sin(a), 0.08 + 0.02 * np.cos(a)]   # axes Z, X: x = X, z = Z
+    radial = np.sum(m.volumetric_error(q)[:, [0, 2]] * np.c_[np.cos(a), np.sin(a)], axis=1) * 1e6
+    basis = np.c_[np.ones_like(a), np.cos(a), np.sin(a)]
+    coefficients, *_ = np.linalg.lstsq(basis, radial, rcond=None)
+    assert circle.circularity_um == pytest.approx(float(np.ptp(radial - basis @ coefficients)), rel=0.02)
+    assert circle.diameter_error_um == pytest.approx(2 * coefficients[0], rel=0.02, abs=0.01)
+    assert circle.centre_error_um == pytest.approx(float(np.hypot(*coefficients[1:])), rel=0.02, abs=0.01)
+    assert part.sides[1].straightness_um >= 0 and len(part.pairs) == 1 and part.pairs[0].kind == "squareness"

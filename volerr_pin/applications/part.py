@@ -47,7 +47,7 @@ from ..base.chunks import CHUNK, in_chunks
 from .cmm import fit_circle, fit_line
 
 __all__ = ["PathDeviation", "Cut", "Features", "CircleFeature", "LineFeature", "PairFeature", "PartPrediction", "deviation_along",
-           "cut_of", "fit_circle", "fit_line", "measure", "feature_ranking", "normal_part", "predict",
+           "cut_of", "contour_plane", "fit_circle", "fit_line", "measure", "feature_ranking", "normal_part", "predict",
            "contouring_test_piece"]
 
 #: the parameter step, as a fraction of a move, of the nominal tangent's finite difference
@@ -564,14 +564,16 @@ def _reference_features(machine: Machine, segments, plane: tuple[int, int], min_
     circles = []
     for run in _full_circles(moves, contours):
         arc = moves.segments[run[0]].arc
-        if tuple(arc.plane[:2]) != plane:
+        letters = [machine.axes[a] for a in arc.plane[:2]]   # the arc's plane, by the axes' letters
+        if not all(letter in "XYZ" for letter in letters) or {"XYZ".index(c) for c in letters} != {i, j}:
             continue
         start = _tool_points(machine, moves.axes(np.array([run[0]]), np.zeros(1)))[0]
         if moves.tool_tip[run[0]]:   # the words are the tool tip's coordinates
-            centre = np.asarray(arc.center, dtype=float)
+            at = dict(zip(("XYZ".index(c) for c in letters), np.asarray(arc.center, dtype=float)))
+            centre = np.array([at[i], at[j]])
         else:                        # the centre's axis positions, as a tool point
             q = arc.start.copy()
-            q[i], q[j] = arc.center
+            q[list(arc.plane[:2])] = arc.center
             centre = _tool_points(machine, q[None, :])[0, [i, j]]
         circles.append({"lines": tuple(dict.fromkeys(int(moves.line[m]) for m in run)), "centre": centre,
                         "radius": float(np.linalg.norm(start[[i, j]] - centre)), "height": float(start[third]),
@@ -593,6 +595,14 @@ def _reference_features(machine: Machine, segments, plane: tuple[int, int], min_
     return circles, sides
 
 
+def contour_plane(points: np.ndarray) -> tuple[int, int]:
+    """The plane of a part's contours: the two workpiece-frame coordinates the points (N, 3)
+    spread over most (xy for a milled contour, xz for a lathe's profile), in the order x, y, z."""
+    spread = np.ptp(np.asarray(points, dtype=float).reshape(-1, 3), axis=0)
+    i, j = sorted(np.argsort(-spread, kind="stable")[:2].tolist())
+    return int(i), int(j)
+
+
 class Features(NamedTuple):
     """The features of a part (:func:`measure`)."""
 
@@ -602,7 +612,7 @@ class Features(NamedTuple):
     cones: list
 
 
-def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int] = (0, 1),
+def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int] | None = None,
             min_length: float = 5e-3, spacing: float = 0.25e-3, capture: float = 0.2e-3,
             tool_diameter: float = 0.0, cone_heights=(0.0,)) -> Features:
     """The features a CMM reports of the part a program cuts.
@@ -630,8 +640,9 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
         The program's moves (:func:`volerr_pin.compensation.gcode.interpret`).
     reference : sequence of Segment, optional
         The moves of the program that defines the features.
-    plane : tuple of int, default (0, 1)
-        The contour plane's coordinates (0, 1: xy).
+    plane : tuple of int, optional
+        The contour plane's coordinates in the workpiece frame (0, 1: xy; 0, 2: xz, a lathe's).
+        Default: the two the cutting moves' tool points spread over most (:func:`contour_plane`).
     min_length : float, default 5e-3
         The shortest side measured [m].
     spacing : float, default 0.25e-3
@@ -655,9 +666,10 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
     InputError
         If a move leaves the travel (naming its line), or a cone has no section at a height.
     """
+    cut = cut_of(machine, segments, spacing)
+    plane = contour_plane(cut.nominal) if plane is None else tuple(plane)
     i, j = plane
     third = ({0, 1, 2} - {i, j}).pop()
-    cut = cut_of(machine, segments, spacing)
     circles_ref, sides_ref = _reference_features(machine, reference if reference is not None else segments,
                                                  plane, min_length)
     flat, height = cut.actual[:, [i, j]], cut.actual[:, third]
@@ -870,7 +882,7 @@ class PartPrediction:
 
 def predict(machine: Machine, text: str, source: str = "<program>", *, reference: str | None = None,
             reference_source: str = "<reference>", tolerance: float = 0.01e-6, start=None, origin=None,
-            plane: tuple[int, int] = (0, 1), tool_diameter: float = 0.0, cone_heights=(0.0,)) -> PartPrediction:
+            plane: tuple[int, int] | None = None, tool_diameter: float = 0.0, cone_heights=(0.0,)) -> PartPrediction:
     """Predict the part a program cuts: the deviation along its path and its features with the
     error sources that decide them.
 
@@ -892,8 +904,8 @@ def predict(machine: Machine, text: str, source: str = "<program>", *, reference
     start, origin : array_like, optional
         Where the axes stand when it starts, and the program zero [m, rad]
         (:func:`volerr_pin.compensation.gcode.interpret`).
-    plane : tuple of int, default (0, 1)
-        The contour plane of the features.
+    plane : tuple of int, optional
+        The contour plane of the features (default: :func:`contour_plane` of the cut).
     tool_diameter : float, default 0
         The tool's diameter [m]: a cone cut by the tool's flank is offset by its radius from
         the tool's axis (0: the cone the tool's axis sweeps).

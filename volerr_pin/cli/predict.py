@@ -30,6 +30,9 @@ def add_parser(sub) -> None:
                    help="sampling tolerance of the path: the deviation between samples, interpolated, is within it "
                         "of the model (default 0.01)")
     add_program_position_args(p)
+    p.add_argument("--plane", choices=["xy", "xz", "yz"],
+                   help="the contour plane circles and sides are measured in (default: the two directions the "
+                        "cutting moves spread over most: xy for a milled contour, xz for a lathe's profile)")
     p.add_argument("--tool-diameter", type=millimetres, default=0.0, metavar="MM",
                    help="the cutter's diameter: a cone cut by its flank lies its radius from the tool's axis "
                         "(default 0: the cone the tool's axis sweeps)")
@@ -57,6 +60,7 @@ def run(args) -> int:
     start, origin = program_positions(machine, args)
     prediction = predict(machine, text, str(path), reference=reference, reference_source=args.reference or "",
                          tolerance=args.tol_um * 1e-6, start=start, origin=origin,
+                         plane=None if args.plane is None else tuple("xyz".index(c) for c in args.plane),
                          tool_diameter=args.tool_diameter * 1e-3, cone_heights=[h * 1e-3 for h in args.cone_heights])
     report = prediction.to_dict(top=args.top)
     with transaction() as tx:   # the picture and the recording are both written, or neither
