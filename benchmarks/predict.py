@@ -38,30 +38,6 @@ KINDS = ("short", "5axis-tip")
 SIZES = (1_000, 10_000, 100_000, 990_000)   # the NC reader follows at most 1,000,000 blocks of a program
 QUICK_SIZES = (1_000, 10_000)
 
-CHILD = """
-import json, resource, sys, time, io, contextlib
-from volerr_pin.cli import main
-def peak_mb():
-    try:
-        with open('/proc/self/status') as f:
-            for line in f:
-                if line.startswith('VmHWM:'):
-                    return float(line.split()[1]) / 1024
-    except OSError:
-        pass
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-out = io.StringIO()
-t0 = time.perf_counter()
-with contextlib.redirect_stdout(out):
-    code = main(sys.argv[1:])
-seconds = time.perf_counter() - t0
-report = json.loads(out.getvalue()) if code == 0 else None
-print(json.dumps({"code": code, "seconds": seconds, "samples": report and report["samples"],
-                  "features": report and len(report["features"]),
-                  "max_um": report and report["max_normal_deviation_um"], "peak_rss_mb": peak_mb()}))
-"""
-
-
 def _nc():
     """``benchmarks/nc.py``, for its program generator."""
     spec = importlib.util.spec_from_file_location("_bench_nc", Path(__file__).with_name("nc.py"))
@@ -71,16 +47,20 @@ def _nc():
 
 
 def _child(argv: list[str]) -> dict:
+    """``volerr ARGV --json`` in a process of its own (``benchmarks/nc.py``'s child): its time,
+    peak memory and the report's figures."""
     env = dict(os.environ)
     for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         env.setdefault(name, "1")
-    proc = subprocess.run([sys.executable, "-c", CHILD, *argv], capture_output=True, text=True, env=env)
+    proc = subprocess.run([sys.executable, "-c", _nc().CHILD, *argv], capture_output=True, text=True, env=env)
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(argv)}: {proc.stderr.strip()[-500:]}")
     child = json.loads(proc.stdout.strip().splitlines()[-1])
     if child["code"] != 0:
         raise RuntimeError(f"{' '.join(argv)}: exit {child['code']}: {proc.stderr.strip()[-500:]}")
-    return child
+    report = child["report"]
+    return {"seconds": child["seconds"], "peak_rss_mb": child["peak_rss_mb"], "samples": report["samples"],
+            "features": len(report["features"]), "max_um": report["max_normal_deviation_um"]}
 
 
 def programs(sizes, kinds) -> list[dict]:

@@ -39,9 +39,8 @@ import numpy as np
 
 from ..base.chunks import in_chunks
 from ..base.errors import InputError
-from ..base.units import UM_PER_M
 from ..model.machine import Machine
-from .cmm import fit_circle
+from .cmm import RoundFeature, measure_round
 
 __all__ = ["Cone", "ConeSection", "find_cones", "measure_cones", "cone_frustum_test_piece", "section_heights"]
 
@@ -109,32 +108,17 @@ class Cone:
         return np.vstack([e1, np.cross(self.axis, e1)])
 
 
-@dataclass(frozen=True)
-class ConeSection:
-    """A section of a cone at a height, as a CMM reports it.
+@dataclass(frozen=True, kw_only=True)
+class ConeSection(RoundFeature):
+    """A section of a cone at a height, as a CMM reports it (the fields of
+    :class:`~volerr_pin.applications.cmm.RoundFeature`, in the section's coordinates
+    :meth:`Cone.basis` about the nominal axis, and these).
 
     Attributes
     ----------
     cone : Cone
     height : float
         Above the plane the tool's end cuts in, along the axis [m].
-    radius : float
-        Nominal radius of the section [m].
-    circularity_um, diameter_error_um, centre_error_um : float
-        Roundness about the least-squares circle (ISO 12181-1), fitted minus nominal diameter,
-        distance of the fitted centre from the nominal axis [um].
-    fitted_centre : ndarray, shape (2,)
-        The least-squares centre in the section's coordinates (:meth:`Cone.basis`, from the
-        nominal axis) [m].
-    angle : ndarray, shape (M,)
-        Angle of each measured point about the axis, in :meth:`Cone.basis` [rad].
-    radial_um : ndarray, shape (M,)
-        Each measured point's distance from the least-squares centre less the least-squares
-        radius [um].
-    q : ndarray, shape (M, n_axes)
-        Axis positions of the measured points [m, rad].
-    covariates : dict
-        Their covariates the path sets (the axes' directions, for a machine that reads them).
     arm : ndarray, shape (M, 3)
         The measured points' offsets from the tool point, nominal, workpiece frame [m].
     direction : ndarray, shape (M, 3)
@@ -143,15 +127,6 @@ class ConeSection:
 
     cone: Cone
     height: float
-    radius: float
-    circularity_um: float
-    diameter_error_um: float
-    centre_error_um: float
-    fitted_centre: np.ndarray
-    angle: np.ndarray
-    radial_um: np.ndarray
-    q: np.ndarray
-    covariates: dict
     arm: np.ndarray
     direction: np.ndarray
 
@@ -175,13 +150,8 @@ class ConeSection:
         """Each source's radial deviation in the section (``parts``: its first-order pose error
         (M, 6) at the measured points: dx, dy, dz, rx, ry, rz) less its least-squares circle."""
         moment = np.cross(self.arm, self.direction)
-        basis = np.c_[np.ones_like(self.angle), np.cos(self.angle), np.sin(self.angle)]
-        out = {}
-        for c, p in parts.items():
-            radial = np.sum(p[:, :3] * self.direction, axis=1) + np.sum(p[:, 3:] * moment, axis=1)
-            coefficients, *_ = np.linalg.lstsq(basis, radial, rcond=None)
-            out[c] = radial - basis @ coefficients
-        return out
+        return {c: self.less_circle(np.sum(p[:, :3] * self.direction, axis=1) + np.sum(p[:, 3:] * moment, axis=1))
+                for c, p in parts.items()}
 
 
 def _fit(tips: np.ndarray, axes: np.ndarray):
@@ -349,16 +319,10 @@ def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=N
             rho = np.linalg.norm(radial, axis=1) + kappa * np.tan(cone.half_angle) * (target - along)
             angle = np.arctan2(radial @ basis[1], radial @ basis[0])
             points = rho[:, None] * np.c_[np.cos(angle), np.sin(angle)]
-            centre, fitted = fit_circle(points)
-            deviation = np.linalg.norm(points - centre, axis=1) - fitted
             unit = np.cos(angle)[:, None] * basis[0] + np.sin(angle)[:, None] * basis[1]
-            nominal_radius = cone.radius_at(height)
             sections.append(ConeSection(
-                cone=cone, height=float(height), radius=nominal_radius,
-                circularity_um=float(np.ptp(deviation) * UM_PER_M),
-                diameter_error_um=float(2 * (fitted - nominal_radius) * UM_PER_M),
-                centre_error_um=float(np.linalg.norm(centre) * UM_PER_M), fitted_centre=centre, angle=angle,
-                radial_um=deviation * UM_PER_M, q=q, covariates=covariates, arm=arm,
+                cone=cone, height=float(height), **measure_round(points, np.zeros(2), cone.radius_at(height)),
+                angle=angle, q=q, covariates=covariates, arm=arm,
                 direction=unit - kappa * np.tan(cone.half_angle) * cone.axis))
     return sections
 

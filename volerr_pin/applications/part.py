@@ -44,7 +44,7 @@ from ..base.units import UM_PER_M
 from ..model.machine import Machine
 from .cone import ConeSection, find_cones, measure_cones
 from ..base.chunks import CHUNK, in_chunks
-from .cmm import fit_circle, fit_line
+from .cmm import RoundFeature, fit_circle, fit_line, measure_round
 
 __all__ = ["PathDeviation", "Cut", "Features", "CircleFeature", "LineFeature", "PairFeature", "PartPrediction", "deviation_along",
            "cut_of", "contour_plane", "fit_circle", "fit_line", "measure", "feature_ranking", "normal_part", "predict",
@@ -360,9 +360,10 @@ def cut_of(machine: Machine, segments, spacing: float = 0.25e-3) -> Cut:
     return Cut(move, q, nominal, nominal + in_chunks(machine.volumetric_error, q, covariates)[:, :3], covariates)
 
 
-@dataclass(frozen=True)
-class CircleFeature:
-    """A full circle of the program, as a CMM reports it.
+@dataclass(frozen=True, kw_only=True)
+class CircleFeature(RoundFeature):
+    """A full circle of the program, as a CMM reports it (the fields of
+    :class:`~volerr_pin.applications.cmm.RoundFeature`, in the contour plane, and these).
 
     Attributes
     ----------
@@ -372,36 +373,11 @@ class CircleFeature:
         The workpiece-frame coordinates of its plane (0, 1: xy).
     centre : ndarray, shape (2,)
         Nominal centre in the plane [m].
-    radius : float
-        Nominal radius [m].
-    circularity_um, diameter_error_um, centre_error_um : float
-        Roundness deviation about the least-squares circle (ISO 12181-1), fitted minus nominal
-        diameter, and the distance of the fitted centre from the nominal one [um].
-    fitted_centre : ndarray, shape (2,)
-        Least-squares centre [m].
-    angle : ndarray, shape (M,)
-        Angle of each measured point about the nominal centre [rad].
-    radial_um : ndarray, shape (M,)
-        Each measured point's distance from the least-squares centre minus the least-squares
-        radius [um].
-    q : ndarray, shape (M, n_axes)
-        Axis positions of the measured points [m, rad].
-    covariates : dict
-        Their covariates the path sets (the axes' directions, for a machine that reads them).
     """
 
     lines: tuple[int, ...]
     plane: tuple[int, int]
     centre: np.ndarray
-    radius: float
-    circularity_um: float
-    diameter_error_um: float
-    centre_error_um: float
-    fitted_centre: np.ndarray
-    angle: np.ndarray
-    radial_um: np.ndarray
-    q: np.ndarray
-    covariates: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The feature in the report's terms (ISO name, um)."""
@@ -415,8 +391,7 @@ class CircleFeature:
         """Each source's radial deviation (in-plane errors ``parts`` at the measured points)
         less its least-squares circle, to first order."""
         radial = np.c_[np.cos(self.angle), np.sin(self.angle)]
-        basis = np.c_[np.ones_like(self.angle), radial]
-        return {c: _without(np.sum(p * radial, axis=1), basis) for c, p in parts.items()}
+        return {c: self.less_circle(np.sum(p * radial, axis=1)) for c, p in parts.items()}
 
 
 @dataclass(frozen=True)
@@ -683,16 +658,10 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
         if rows.sum() < 3:
             continue
         points = flat[rows]
-        centre, radius = fit_circle(points)
         around = cut.nominal[rows][:, [i, j]] - ref["centre"] if reference is None else points - ref["centre"]
-        radial = np.linalg.norm(points - centre, axis=1) - radius
         circles.append(CircleFeature(
-            lines=ref["lines"], plane=plane, centre=ref["centre"], radius=ref["radius"],
-            circularity_um=float(np.ptp(radial) * UM_PER_M),
-            diameter_error_um=float(2 * (radius - ref["radius"]) * UM_PER_M),
-            centre_error_um=float(np.linalg.norm(centre - ref["centre"]) * UM_PER_M), fitted_centre=centre,
-            angle=np.arctan2(around[:, 1], around[:, 0]), radial_um=radial * UM_PER_M, q=cut.q[rows],
-            covariates=cut.at(rows)))
+            lines=ref["lines"], plane=plane, centre=ref["centre"], **measure_round(points, ref["centre"], ref["radius"]),
+            angle=np.arctan2(around[:, 1], around[:, 0]), q=cut.q[rows], covariates=cut.at(rows)))
     sides = []
     for ref in sides_ref:
         length = float(np.linalg.norm(ref["end"] - ref["start"]))
