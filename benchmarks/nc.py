@@ -146,6 +146,22 @@ def write_program(path: Path, kind: str, blocks: int, seed: int = 0) -> None:
         fh.write("M30\n%\n")
 
 
+def run_command(argv: list[str]) -> dict:
+    """``volerr ARGV`` (ending in ``--json``) in a process of its own (:data:`CHILD`, BLAS on one
+    thread): ``code``, ``seconds``, ``report`` and ``peak_rss_mb``."""
+    env = dict(os.environ)
+    for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        env.setdefault(name, "1")
+    env.setdefault("NUMBA_NUM_THREADS", "2")
+    proc = subprocess.run([sys.executable, "-c", CHILD, *argv], capture_output=True, text=True, env=env)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(argv)}: {proc.stderr.strip()[-500:]}")
+    child = json.loads(proc.stdout.strip().splitlines()[-1])
+    if child["code"] != 0:
+        raise RuntimeError(f"{' '.join(argv)}: exit {child['code']}: {proc.stderr.strip()[-500:]}")
+    return child
+
+
 def measure(kind: str, blocks: int, folder: Path) -> dict:
     """Compensate one generated program in a subprocess: its time, peak memory and report."""
     src = folder / f"{kind}_{blocks}.nc"
@@ -154,16 +170,7 @@ def measure(kind: str, blocks: int, folder: Path) -> dict:
     argv = ["compensate", MACHINE[kind], str(src), "-o", str(out), "--tol-um", "1", "--json"]
     if kind == "5axis-tip":
         argv += ["--programming", "tool-tip"]
-    env = dict(os.environ)
-    for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        env.setdefault(name, "1")
-    env.setdefault("NUMBA_NUM_THREADS", "2")
-    proc = subprocess.run([sys.executable, "-c", CHILD, *argv], capture_output=True, text=True, env=env)
-    if proc.returncode != 0:
-        raise RuntimeError(f"{kind} {blocks}: {proc.stderr.strip()[-500:]}")
-    child = json.loads(proc.stdout.strip().splitlines()[-1])
-    if child["code"] != 0:
-        raise RuntimeError(f"{kind} {blocks}: exit {child['code']}: {proc.stderr.strip()[-500:]}")
+    child = run_command(argv)
     report = child["report"]
     src.unlink()
     out.unlink()

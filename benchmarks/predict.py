@@ -23,10 +23,8 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import json
 import os
 import platform
-import subprocess
 import sys
 import tempfile
 import time
@@ -47,17 +45,9 @@ def _nc():
 
 
 def _child(argv: list[str]) -> dict:
-    """``volerr ARGV --json`` in a process of its own (``benchmarks/nc.py``'s child): its time,
-    peak memory and the report's figures."""
-    env = dict(os.environ)
-    for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        env.setdefault(name, "1")
-    proc = subprocess.run([sys.executable, "-c", _nc().CHILD, *argv], capture_output=True, text=True, env=env)
-    if proc.returncode != 0:
-        raise RuntimeError(f"{' '.join(argv)}: {proc.stderr.strip()[-500:]}")
-    child = json.loads(proc.stdout.strip().splitlines()[-1])
-    if child["code"] != 0:
-        raise RuntimeError(f"{' '.join(argv)}: exit {child['code']}: {proc.stderr.strip()[-500:]}")
+    """``volerr ARGV`` in a process of its own (``benchmarks/nc.py``'s): its time, peak memory and
+    the report's figures."""
+    child = _nc().run_command(argv)
     report = child["report"]
     return {"seconds": child["seconds"], "peak_rss_mb": child["peak_rss_mb"], "samples": report["samples"],
             "features": len(report["features"]), "max_um": report["max_normal_deviation_um"]}
