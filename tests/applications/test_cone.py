@@ -129,8 +129,18 @@ def test_a_tilt_of_the_tool_moves_the_sections_apart_with_height(piece):
     np.testing.assert_allclose(moved, expected, atol=0.01 * np.linalg.norm(expected))
 
 
-def test_sections_agree_with_pinocchio_and_the_cylinder_cut_by_the_plane(piece):
-    m, _, _, cut, cones = piece
+@pytest.mark.parametrize("form", ["boss", "bore"])
+def test_sections_agree_with_pinocchio_and_the_cylinder_cut_by_the_plane(piece, form):
+    """The tool's cylinder cut by the section's plane is an ellipse whose point nearest the
+    cone's axis (a boss: the tool outside) or farthest from it (a bore) lies r / cos(beta) from
+    where the tool's axis meets the plane, beta the angle of the tool's axis to the cone's."""
+    m = piece[0]
+    if form == "boss":
+        _, _, _, cut, cones = piece
+    else:
+        segments = interpret(m, cone_frustum_test_piece(m, form="bore", tool_diameter=10e-3))
+        cut = cut_of(m, segments)
+        cones = find_cones(m, _Moves(m, segments), _contours(segments), cut, 5e-3)
     (cone,) = cones
     height = 10e-3
     (section,) = measure_cones(m, cones, cut, [height])
@@ -146,7 +156,8 @@ def test_sections_agree_with_pinocchio_and_the_cylinder_cut_by_the_plane(piece):
         meet = tip + s * w - cone.apex
         radial = meet - (meet @ cone.axis) * cone.axis
         beta = np.arccos(w @ cone.axis)
-        rho = np.linalg.norm(radial) - cone.tool_radius / np.cos(beta)   # the cylinder's ellipse, nearest point
+        side = 1.0 if cone.boss else -1.0   # the ellipse's point nearest the axis, or farthest from it
+        rho = np.linalg.norm(radial) - side * cone.tool_radius / np.cos(beta)
         angle = np.arctan2(radial @ basis[1], radial @ basis[0])
         points.append(rho * np.array([np.cos(angle), np.sin(angle)]))
     from volerr_pin.applications.part import fit_circle
@@ -227,3 +238,20 @@ def test_three_axis_programs_and_sections_out_of_the_cone_are_refused_or_absent(
 
     assert predict(m, contouring_test_piece(m)).cones == []
     assert isinstance(cones[0], Cone)
+
+
+@pytest.mark.parametrize("shift_mm", [0.3, 2.0])
+def test_a_cut_that_strays_from_the_reference_cone_is_named_not_measured(machines, shift_mm):
+    """With a reference, a cone is measured on the samples whose tool point lies within the
+    capture (0.2 mm) of the reference's: a program shifted further than that does not go all
+    round the cone (0.3 mm: a part of it; 2 mm: none), and the note says so instead of a
+    section of a part of a circle."""
+    import re
+
+    m = machines["cgm4000"]
+    original = cone_frustum_test_piece(m)
+    shifted = re.sub(r"X(\d+\.\d+)", lambda g: f"X{float(g.group(1)) + shift_mm:.4f}", original)
+    part = predict(m, shifted, reference=original, tool_diameter=20e-3, cone_heights=HEIGHTS)
+    assert part.cones == []
+    (note,) = part.notes
+    assert note.startswith("the cone of lines 7..1446 is not measured: the cut has") and "not all round it" in note

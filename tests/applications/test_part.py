@@ -24,7 +24,7 @@ CIRCLE = "G17 G90 G21\nG0 X150 Y200 Z100\nG1 X150 Y200 Z100 F500\nG2 X150 Y200 I
 def _circle(machine, program=CIRCLE, **options):
     segments = interpret(machine, program)
     deviation = deviation_along(machine, segments, **options)
-    (feature,), _, _, _ = measure(machine, segments)
+    (feature,), _, _, _, _ = measure(machine, segments)
     return feature, deviation
 
 
@@ -146,7 +146,7 @@ def test_a_squareness_error_is_the_squareness_of_the_sides_and_nothing_else(mach
     m = machines["vmc500"]
     s = 6.0 * ARCSEC
     square = m.with_theta(single(m, "EC0Y", s))
-    _, sides, pairs, _ = measure(square, interpret(square, SQUARE))
+    _, sides, pairs, _, _ = measure(square, interpret(square, SQUARE))
     assert [f.lines for f in sides] == [(3,), (4,), (5,), (6,)]
     assert max(f.straightness_um for f in sides) < 1e-6
     kinds = {(p.lines, p.kind): p.value_um for p in pairs}
@@ -163,7 +163,7 @@ def test_straightness_agrees_with_an_independent_evaluation(machines):
     """vmc500's spec: a side along X keeps the error across it, e_y; the batch evaluator at
     2,001 points of the side less its least-squares line gives the same straightness."""
     m = machines["vmc500"]
-    _, sides, _, _ = measure(m, interpret(m, SQUARE))
+    _, sides, _, _, _ = measure(m, interpret(m, SQUARE))
     along = sides[0].along()
     x = np.linspace(0.15 + along.min(), 0.15 + along.max(), 2001)   # where the side was measured
     q = np.c_[x, np.full_like(x, 0.1), np.full_like(x, 0.1)]
@@ -179,7 +179,7 @@ def test_the_feature_ranking_matches_finite_differences(machines, which):
     ranges and shares."""
     m = machines["vmc500"]
     segments = interpret(m, SQUARE)
-    circles, sides, pairs, _ = measure(m, segments)
+    circles, sides, pairs, _, _ = measure(m, segments)
     feature = {"circle": circles[0], "side": sides[0],
                "squareness": next(p for p in pairs if p.kind == "squareness"),
                "parallelism": next(p for p in pairs if p.kind == "parallelism")}[which]
@@ -258,7 +258,8 @@ def test_a_backlash_on_x_cuts_steps_of_its_reversal_where_x_turns(machines):
     assert abs(feature.diameter_error_um) < 0.02 and feature.centre_error_um < 0.02
     # the steps are where X turns
     order = np.argsort(feature.angle)
-    jumps = np.abs(np.diff(feature.radial_um[order]))
+    round_ = feature.radial_um[order]
+    jumps = np.abs(np.diff(np.r_[round_, round_[:1]]))   # round the circle, across +-180 deg too
     assert np.sort(jumps)[-2:] == pytest.approx([3.0, 3.0], abs=0.05)
     turns = np.sort(np.abs(np.degrees(feature.angle[order][np.argsort(jumps)[-2:]])))
     np.testing.assert_allclose(turns, [0.0, 180.0], atol=1.0)
@@ -290,4 +291,87 @@ def test_a_lathes_profile_is_measured_in_its_xz_plane(machines):
     assert circle.circularity_um == pytest.approx(float(np.ptp(radial - basis @ coefficients)), rel=0.02)
     assert circle.diameter_error_um == pytest.approx(2 * coefficients[0], rel=0.02, abs=0.01)
     assert circle.centre_error_um == pytest.approx(float(np.hypot(*coefficients[1:])), rel=0.02, abs=0.01)
-    assert part.sides[1].straightness_um >= 0 and len(part.pairs) == 1 and part.pairs[0].kind == "squareness"
+    # the side along X at Z -200: its deviation across it (z) less its least-squares line
+    x = np.linspace(0.06, 0.1, 1000)
+    across = m.volumetric_error(np.c_[np.full_like(x, -0.2), x])[:, 2] * 1e6
+    rest = across - np.polyval(np.polyfit(x, across, 1), x)
+    assert part.sides[1].straightness_um == pytest.approx(float(np.ptp(rest)), rel=0.02)
+    assert len(part.pairs) == 1 and part.pairs[0].kind == "squareness"
+
+
+def test_backlash_reversals_inside_arcs_and_between_lines_are_sampled(machines):
+    """Backlash b on Y. A circle starting at 30 deg: Y turns inside the arc (at 90 and 270 deg),
+    where the deviation steps; the sampling leaves each step between two samples a hair apart
+    and meets the tolerance everywhere else. A zig-zag of lines: Y turns where the second line
+    starts, each line keeps its own direction, and the step is between them."""
+    from volerr_pin.model.specio import add_terms
+
+    m = machines["vmc500"]
+    bare = m.with_theta(np.zeros_like(m.theta))
+    loose = add_terms(bare, {"EYY": {"kind": "backlash", "prefix": "rev", "reversal_um": 3.0}})
+    theta = np.zeros_like(loose.theta)
+    theta[[i for i, n in enumerate(loose.parameter_names) if "rev" in n]] = 3e-6
+    loose = loose.with_theta(theta)
+    c, s = 0.1 * np.cos(np.radians(30)), 0.1 * np.sin(np.radians(30))
+    start = f"X{(0.25 + c) * 1e3:.6f} Y{(0.2 + s) * 1e3:.6f}"
+    program = (f"G17 G90 G21\nG0 {start} Z100\nG1 {start} Z100 F500\n"
+               f"G3 {start} I{-c * 1e3:.6f} J{-s * 1e3:.6f}\nM30\n")
+    deviation = deviation_along(loose, interpret(loose, program))
+    arc = deviation.move == 1
+    y_error = deviation.error[arc, 1] * 1e6
+    steps = np.flatnonzero(np.abs(np.diff(y_error)) > 1.0)
+    assert len(steps) == 2 and np.allclose(np.abs(np.diff(y_error))[steps], 3.0, atol=1e-6)
+    gaps = np.diff(deviation.fraction[arc])[steps]
+    assert gaps.max() < 1e-8   # the steps are pinned between two samples a hair apart
+    angles = np.degrees(np.arctan2(deviation.point[arc][steps, 1] - 0.2, deviation.point[arc][steps, 0] - 0.25))
+    # where Y turns, to the 1e-6 of the move its direction is read over (3.6e-4 deg)
+    np.testing.assert_allclose(np.sort(angles), [-90.0, 90.0], atol=1e-3)
+    assert len(deviation.line) < 2_000   # elsewhere the tolerance is met with a few samples
+
+    zigzag = "G17 G90 G21\nG0 X150 Y100 Z100\nG1 X350 Y150 F500\nG1 X150 Y100\nM30\n"
+    lines = deviation_along(loose, interpret(loose, zigzag))
+    ends = lines.error[:, 1] * 1e6
+    first, second = lines.move == 0, lines.move == 1
+    np.testing.assert_allclose(ends[first], 1.5, atol=1e-9)    # Y up: +b/2 all along, its end included
+    np.testing.assert_allclose(ends[second], -1.5, atol=1e-9)  # Y down from its start
+    assert first.sum() == 3 and second.sum() == 3
+
+
+@pytest.mark.parametrize("plunge, plane", [(100, (0, 1)), (150, (0, 1)), (None, (0, 2))])
+def test_the_contour_plane_is_where_the_cutting_length_is(machines, plunge, plane):
+    """A 40 mm circle after a plunge along z is measured in xy however deep the plunge (a move
+    along one axis counts half in each of its two planes); a profile of lines along X and Z (a
+    lathe's, here on vmc500) is measured in xz."""
+    m = machines["vmc500"]
+    if plunge is not None:
+        program = f"G17 G90 G21\nG0 X150 Y200 Z{100 + plunge}\nG1 Z100 F500\nG2 X150 Y200 I20 J0\nM30\n"
+    else:
+        program = "G18 G90 G21\nG0 X150 Y200 Z300\nG1 Z150 F500\nG1 X200\nG1 Z100\nG1 X250\nM30\n"
+    part = predict(m, program)
+    assert {f.plane for f in [*part.circles, *part.sides]} == {plane} and part.notes == []
+    if plunge is not None:
+        assert [c.lines for c in part.circles] == [(4,)]
+    else:
+        assert [s.lines for s in part.sides] == [(3,), (4,), (5,), (6,)]
+
+
+def test_a_circle_outside_the_contour_plane_is_named_not_dropped(machines):
+    m = machines["vmc500"]
+    program = "G17 G90 G21\nG0 X150 Y200 Z110\nG1 Z100 F500\nG2 X150 Y200 I20 J0\nG18 G2 X150 Z100 I5 K0\nM30\n"
+    part = predict(m, program)
+    assert [c.lines for c in part.circles] == [(4,)] and part.circles[0].plane == (0, 1)
+    assert part.notes == ["the full circle of line 5 lies in the xz plane, not in the contour plane xy: it is "
+                          "measured in a prediction of that plane"]
+    assert part.to_dict()["notes"] == part.notes
+    assert predict(m, program, plane=(0, 2)).circles[0].lines == (5,)
+
+
+def test_a_move_that_turns_a_rotary_axis_is_sampled_along_its_curve(machines):
+    """G1 B180 on cgm4000 with A at 30 deg: the tool point goes round a half circle, not along
+    its chord (which would give 3 samples a half turn apart)."""
+    from volerr_pin.applications.part import cut_of
+
+    m = machines["cgm4000"]
+    cut = cut_of(m, interpret(m, "G90 G21\nG0 X2000 Y1250 Z300 A30 B0\nG1 B180 F500\nM30\n"))
+    spacing = np.linalg.norm(np.diff(cut.nominal, axis=0), axis=1)
+    assert spacing.max() <= 0.25e-3 * 1.002 and len(cut.move) > 3000

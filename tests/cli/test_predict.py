@@ -65,10 +65,15 @@ def test_the_cone_frustum_of_a_five_axis_machine(tmp_path, capsys):
     assert cones[0]["form"] == "boss" and cones[0]["half_angle_deg"] == pytest.approx(15.0, abs=1e-4)
     for cone in cones:
         assert cone["circularity_um"] > 1.0 and cone["drivers"] and len(cone["blocks"]) == 1440
-    # without the cutter's diameter: the cone the tool's axis sweeps, 20 / cos(15 deg) mm wider, and a note
+    # without the cutter's diameter: the cone the tool's axis sweeps, and a note
     assert main(["predict", "cgm4000", str(piece), "--top", "1"]) == 0
     out = capsys.readouterr().out
     assert "cone at 0 mm" in out and "give the cutter's --tool-diameter" in out
+    # the tool tips go round 80 + 2 r cos(15 deg) across (less 0.1 um: the chords)
+    import re
+
+    across = float(re.search(r"cone at 0 mm \(([\d.]+) mm\)", out).group(1))
+    assert across == pytest.approx(80 + 20 * np.cos(np.radians(15)), abs=1.5e-3)
 
 
 @pytest.mark.parametrize("argv, message", [

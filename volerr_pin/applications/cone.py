@@ -263,7 +263,8 @@ def _away(points: np.ndarray, w: np.ndarray, apex: np.ndarray, axis: np.ndarray)
     return m / np.linalg.norm(m, axis=1)[:, None]
 
 
-def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=None) -> list[ConeSection]:
+def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=None,
+                  notes: list | None = None) -> list[ConeSection]:
     """Each cone's sections at ``cone_heights``, measured on the cut (:class:`ConeSection`).
 
     Parameters
@@ -278,6 +279,10 @@ def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=N
         Heights above the plane the tool's end cuts in, along the cone's axis [m].
     rows : list of ndarray of bool, optional
         Per cone, the samples of the cut that measure it (default: those of its moves).
+    notes : list, optional
+        Where to say why a cone is not measured: its samples do not go all round it (a gap
+        above 10 degrees, or fewer than 3 samples; a compensated program whose cut strays more
+        than the capture from its reference's cone).
 
     Returns
     -------
@@ -288,26 +293,33 @@ def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=N
     InputError
         If a height is negative or not below a boss's apex (naming ``cone_heights``).
     """
-    sections = []
-    for number, cone in enumerate(cones):
-        taken = np.isin(cut.move, cone.moves) if rows is None else rows[number]
-        q, covariates = cut.q[taken], cut.at(taken)
-        if len(q) < 3:
-            continue
-        R, tips = machine.tool_poses(q, nominal=True, extrapolate=True)
-        R_act, p_act = machine.tool_poses(q, extrapolate=True, **covariates)
-        w = R[:, :, 2]
-        sign = 1.0 if cone.boss else -1.0
-        contact = tips - sign * cone.tool_radius * _away(tips, w, cone.apex, cone.axis)
-        basis = cone.basis()
+    for cone in cones:
         for height in cone_heights:
-            target = cone.bottom + height
-            if height < 0 or (cone.boss and target >= 0.0):
+            if height < 0 or (cone.boss and cone.bottom + height >= 0.0):
                 raise InputError(f"the cone of lines {cone.lines[0]}..{cone.lines[-1]} has no section at "
                                  f"{height * 1e3:g} mm: cone_heights run from 0 (where the tool's end cuts) to "
                                  f"{-cone.bottom * 1e3:.4g} mm (its apex)" if cone.boss else
                                  f"the cone of lines {cone.lines[0]}..{cone.lines[-1]} has no section at a negative "
                                  f"height ({height * 1e3:g} mm) of cone_heights", parameters=("cone_heights",))
+    sections = []
+    for number, cone in enumerate(cones):
+        taken = np.isin(cut.move, cone.moves) if rows is None else rows[number]
+        q, covariates = cut.q[taken], cut.at(taken)
+        R, tips = machine.tool_poses(q, nominal=True, extrapolate=True)
+        basis = cone.basis()
+        around = np.sort(_around(tips, cone.apex, cone.axis, basis)) if len(q) else np.zeros(0)
+        gap = float(np.degrees(np.diff(np.r_[around, around[:1] + 2 * np.pi]).max())) if len(q) else 360.0
+        if len(q) < 3 or gap > 10.0:
+            if notes is not None:
+                notes.append(f"the cone of lines {cone.lines[0]}..{cone.lines[-1]} is not measured: the cut has "
+                             f"{len(q):,} points on it, not all round it (a gap of {gap:.1f} deg)")
+            continue
+        R_act, p_act = machine.tool_poses(q, extrapolate=True, **covariates)
+        w = R[:, :, 2]
+        sign = 1.0 if cone.boss else -1.0
+        contact = tips - sign * cone.tool_radius * _away(tips, w, cone.apex, cone.axis)
+        for height in cone_heights:
+            target = cone.bottom + height
             s = (target - (contact - cone.apex) @ cone.axis) / (w @ cone.axis)
             nominal = contact + s[:, None] * w
             arm = nominal - tips
@@ -456,6 +468,9 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
     outside = machine.outside_travel(q)
     if outside.any():
         axis_index = int(np.argwhere(outside)[0][1])
+        if machine.axis_kinds[axis_index] == "rotary":   # the angles are the piece's, whatever its size
+            raise InputError(f"{machine.name}: the cone frustum's tool axis, up to 25 deg from its Z, takes "
+                             f"{machine.axes[axis_index]} outside its travel")
         raise InputError(f"{machine.name}: the cone frustum of size {diameter * 1e3:g} mm (base diameter) takes "
                          f"{machine.axes[axis_index]} outside its travel", parameters=("size",))
     names = [machine.axes[k] for k in rotary]

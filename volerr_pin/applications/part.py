@@ -134,6 +134,12 @@ class _Moves:
         self.end = np.array([s.end for s in self.segments], dtype=float)
         self.line = np.array([s.line for s in self.segments])
         self.arc = np.array([s.kind == "arc" for s in self.segments])
+        # every arc's circle, to place points on all of them at once
+        arcs = [s.arc if s.kind == "arc" else None for s in self.segments]
+        self._plane = np.array([a.plane[:2] if a is not None else (0, 0) for a in arcs], dtype=int)
+        self._circle = np.array([(a.center[0], a.center[1], a.radius,
+                                  a.radius if a.end_radius is None else a.end_radius, a.start_angle, a.sweep)
+                                 if a is not None else (0.0,) * 6 for a in arcs], dtype=float)
         self.tool_tip = np.array([s.programming == "tool-tip" for s in self.segments])
         self._tip = None
         self.uses_directions = "directions" in machine.covariates_used
@@ -145,9 +151,14 @@ class _Moves:
     def words(self, move: np.ndarray, k: np.ndarray) -> np.ndarray:
         """Program coordinates of moves ``move`` at fractions ``k`` (both (M,))."""
         out = self.start[move] + k[:, None] * (self.end[move] - self.start[move])
-        for index in np.unique(move[self.arc[move]]):
-            rows = move == index
-            out[rows] = self.segments[index].arc.point(k[rows])
+        rows = np.flatnonzero(self.arc[move])
+        if len(rows):   # as Arc.point: the radius runs from the start's to the end's over the sweep
+            on = move[rows]
+            cx, cy, r0, r1, a0, sweep = self._circle[on].T
+            angle = a0 + k[rows] * sweep
+            radius = r0 + k[rows] * (r1 - r0)
+            out[rows, self._plane[on, 0]] = cx + radius * np.cos(angle)
+            out[rows, self._plane[on, 1]] = cy + radius * np.sin(angle)
         return out
 
     def axes(self, move: np.ndarray, k: np.ndarray) -> np.ndarray:
@@ -192,8 +203,21 @@ class _Moves:
         moving = length > 1e-12 * max(1.0, float(np.abs(point).max(initial=0.0)))
         tangent = np.zeros_like(step)
         tangent[moving] = step[moving] / length[moving, None]
-        error = in_chunks(self.machine.volumetric_error, q, self.covariates(move, q, behind))[:, :3]
+        error = in_chunks(self.machine.volumetric_error, q, self.covariates(move, k, q))[:, :3]
         return q, point, tangent, error, normal_part(error, tangent)
+
+    def _motion(self, move: np.ndarray, k: np.ndarray, q: np.ndarray, toward: float) -> np.ndarray:
+        """Signs of each axis' motion within the move next to fraction ``k``: over the step
+        ``TANGENT_STEP`` before ``k`` (``toward`` -1) or after it (+1), or, where an axis barely
+        moves there (at the top of an arc), over a thousandth of the move; 0 where it stands."""
+        signs = np.zeros_like(q)
+        for step in (TANGENT_STEP, 1e-3):
+            other = self.axes(move, np.clip(k + toward * step, 0.0, 1.0))
+            found = _signs(toward * (other - q))
+            signs = np.where(signs != 0, signs, found)
+            if (signs != 0).all():
+                break
+        return signs
 
     def _carry_in(self) -> np.ndarray:
         """Each axis' direction as each move starts (n_moves, n_axes): the sign of its last motion
@@ -203,7 +227,7 @@ class _Moves:
             n, index = len(self), np.arange(len(self))
             total = max(int(self.order.max()) if n else -1, max((r for r, _ in self.rapids), default=-1)) + 1
             last = np.zeros((total, self.start.shape[1]))
-            last[self.order] = _signs(self.axes(index, np.ones(n)) - self.axes(index, np.full(n, 1.0 - TANGENT_STEP)))
+            last[self.order] = self._motion(index, np.ones(n), self.axes(index, np.ones(n)), -1.0)
             for row, rapid in self.rapids:   # straight in axis positions; a start not known moves nothing
                 ends = np.vstack([rapid.start, rapid.end]).astype(float)
                 if rapid.programming == "tool-tip" and np.isfinite(ends).all():
@@ -219,14 +243,19 @@ class _Moves:
             self._carry = np.where((before >= 0)[:, None], filled[np.maximum(before, 0)], start)
         return self._carry
 
-    def covariates(self, move: np.ndarray, q: np.ndarray, behind: np.ndarray) -> dict:
+    def covariates(self, move: np.ndarray, k: np.ndarray, q: np.ndarray) -> dict:
         """The covariates the path itself sets: for a machine whose errors depend on the axes'
-        directions (backlash), each axis' direction at each point as a controller takes it (the
-        sign of the commanded motion into the point, ``q - behind``; the direction it had while
-        it stands still)."""
+        directions (backlash), each axis' direction at each point of a move as a controller
+        takes it: the sign of the move's motion into the point (at the move's start, of its
+        first motion: the move is followed in its own directions, and a reversal at its start
+        steps the path between the move before and it); while the axis stands still, the
+        direction it had."""
         if not self.uses_directions:
             return {}
-        signs = _signs(q - behind)
+        signs = self._motion(move, k, q, -1.0)
+        first = k <= 0.0
+        if first.any():
+            signs[first] = self._motion(move[first], k[first], q[first], 1.0)
         return {"directions": np.where(signs != 0, signs, self._carry_in()[move])}
 
 
@@ -235,27 +264,28 @@ def _signs(step: np.ndarray) -> np.ndarray:
     return np.where(np.abs(step) > 1e-13, np.sign(step), 0.0)
 
 
-def _interleave(old: np.ndarray, mid: np.ndarray) -> np.ndarray:
-    """``old`` (n, ...) with ``mid`` (n - 1, ...) between its rows."""
-    out = np.empty((2 * len(old) - 1,) + old.shape[1:], dtype=old.dtype)
-    out[0::2], out[1::2] = old, mid
-    return out
+#: the shortest interval between samples, as a fraction of a move: where the deviation steps (an
+#: axis with backlash reversing inside an arc) no number of samples meets the tolerance, and the
+#: step is left between two samples this close
+SHORTEST = 2.0 ** -30
 
 
 def deviation_along(machine: Machine, segments, tolerance: float = 0.01e-6, *,
                     max_points: int = 2_000_000) -> PathDeviation:
     """The deviation of the tool from the programmed path along the cutting moves.
 
-    Every move starts with 3 samples; the midpoints between neighbours are evaluated (all the
-    moves' in one batch) and, where the normal deviation interpolated linearly between the
-    neighbours is further than ``tolerance`` from the model's, they join the samples and the
-    new midpoints are evaluated, until every move meets it.
+    Every move starts with 3 samples. The midpoint of every interval still open is evaluated
+    (all the moves' in one batch); where the normal deviation interpolated linearly between the
+    interval's ends is further than ``tolerance`` from the model's, the midpoint joins the
+    samples and the two halves stay open, else the interval is closed; until none is open. An
+    interval shorter than :data:`SHORTEST` of its move is closed as it is: a step of the
+    deviation (an axis with backlash reversing inside an arc) stays between its two samples.
 
     Parameters
     ----------
     machine : Machine
         The machine, in the state to predict (:meth:`Machine.with_state`: the part cold or
-        warm, under load, with the axes' directions).
+        warm, under load).
     segments : sequence of volerr_pin.compensation.gcode.Segment
         The program's moves (:func:`volerr_pin.compensation.gcode.interpret`), in axes or
         tool-tip programming; rapids are left out, as they cut nothing.
@@ -284,27 +314,50 @@ def deviation_along(machine: Machine, segments, tolerance: float = 0.01e-6, *,
     values = moves.evaluate(first, k0)
     fraction = [k0[3 * m:3 * m + 3] for m in range(n)]
     kept = [{name: v[3 * m:3 * m + 3] for name, v in zip(names, values)} for m in range(n)]
-    pending = list(range(n))
+    open_: dict[int, np.ndarray] = {}   # per move still refined, which of its intervals are open
     total = 3 * n
-    while pending:
-        sizes = np.array([len(fraction[m]) - 1 for m in pending])
-        which = np.repeat(pending, sizes)
-        mid_k = np.concatenate([(fraction[m][:-1] + fraction[m][1:]) / 2.0 for m in pending])
+
+    def refine(m: int, w: np.ndarray, mid_k: np.ndarray, mid: tuple) -> None:
+        """Move ``m``'s open intervals ``w`` against their midpoints ``mid`` (at ``mid_k``)."""
+        nonlocal total
+        normal = kept[m]["normal"]
+        split = np.abs(mid[4] - (normal[w] + normal[w + 1]) / 2.0).max(axis=1) > tolerance
+        if not split.any():
+            open_.pop(m, None)
+            return
+        at = w[split]
+        total += len(at)
+        if total > max_points:
+            raise InputError(f"line {moves.line[m]}: sampling the path to {tolerance * UM_PER_M:g} um takes more "
+                             f"than {max_points:,} points; give a larger tolerance", parameters=("tolerance",))
+        fraction[m] = np.insert(fraction[m], at + 1, mid_k[split])
+        kept[m] = {name: np.insert(kept[m][name], at + 1, v[split], axis=0) for name, v in zip(names, mid)}
+        # the halves of a split interval stay open, unless they are as short as sampling goes
+        halves = np.zeros(len(normal) - 1, dtype=bool)
+        halves[at] = True
+        still = np.repeat(halves, 1 + halves) & (np.diff(fraction[m]) > SHORTEST)
+        if still.any():
+            open_[m] = still
+        else:
+            open_.pop(m, None)
+
+    # the first round for every move at once: most moves meet the tolerance with their 3 samples
+    mid_k = np.tile([0.25, 0.75], n)
+    mid = moves.evaluate(np.repeat(np.arange(n), 2), mid_k)
+    normal = values[4].reshape(n, 3, 3)
+    off = np.abs(mid[4].reshape(n, 2, 3) - (normal[:, :-1] + normal[:, 1:]) / 2.0).max(axis=2)
+    for m in np.flatnonzero((off > tolerance).any(axis=1)).tolist():
+        rows = slice(2 * m, 2 * m + 2)
+        refine(m, np.arange(2), mid_k[rows], tuple(v[rows] for v in mid))
+    while open_:
+        pending = list(open_)
+        where = [np.flatnonzero(open_[m]) for m in pending]
+        which = np.repeat(pending, [len(w) for w in where])
+        mid_k = np.concatenate([(fraction[m][w] + fraction[m][w + 1]) / 2.0 for m, w in zip(pending, where)])
         mid = moves.evaluate(which, mid_k)
-        bounds = np.concatenate([[0], np.cumsum(sizes)])
-        still = []
-        for m, a, b in zip(pending, bounds[:-1], bounds[1:]):
-            normal = kept[m]["normal"]
-            if float(np.abs(mid[4][a:b] - (normal[:-1] + normal[1:]) / 2.0).max(initial=0.0)) <= tolerance:
-                continue
-            total += b - a
-            if total + 2 * (b - a) > max_points:
-                raise InputError(f"line {moves.line[m]}: sampling the path to {tolerance * UM_PER_M:g} um takes more "
-                                 f"than {max_points:,} points; give a larger tolerance", parameters=("tolerance",))
-            fraction[m] = _interleave(fraction[m], mid_k[a:b])
-            kept[m] = {name: _interleave(kept[m][name], v[a:b]) for name, v in zip(names, mid)}
-            still.append(m)
-        pending = still
+        bounds = np.concatenate([[0], np.cumsum([len(w) for w in where])])
+        for m, w, a, b in zip(pending, where, bounds[:-1], bounds[1:]):
+            refine(m, w, mid_k[a:b], tuple(v[a:b] for v in mid))
     joined = {name: np.concatenate([kept[m][name] for m in range(n)]) for name in names}
     counts = [len(f) for f in fraction]
     return PathDeviation(line=np.repeat(moves.line, counts), move=np.repeat(np.arange(n), counts),
@@ -341,12 +394,23 @@ class Cut:
 
 def cut_of(machine: Machine, segments, spacing: float = 0.25e-3) -> Cut:
     """Samples of the cutting moves at most ``spacing`` apart along the nominal tool path (at
-    least 3 per move; a move's end is the next one's start, so ends are not sampled twice)."""
+    least 3 per move; a move's end is the next one's start, so ends are not sampled twice). A
+    move that turns a rotary axis in axes programming curves: its length is taken from 16
+    chords, short of the curve's by up to 0.2 % (a half turn), and its samples as much further
+    apart."""
     moves = _Moves(machine, segments)
     n = len(moves)
     index = np.arange(n)
     ends = _tool_points(machine, moves.axes(np.repeat(index, 2), np.tile([0.0, 1.0], n))).reshape(n, 2, 3)
     length = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
+    # a move that turns a rotary axis in axes programming takes the tool point along a curve: its
+    # length from 16 chords (a tool-tip move's tip goes straight, an arc's length is its own)
+    rotary = np.array(machine.axis_kinds) == "rotary"
+    curved = np.flatnonzero(~moves.arc & ~moves.tool_tip & (moves.start[:, rotary] != moves.end[:, rotary]).any(axis=1))
+    if len(curved):
+        k = np.linspace(0.0, 1.0, 17)
+        points = _tool_points(machine, moves.axes(np.repeat(curved, 17), np.tile(k, len(curved)))).reshape(-1, 17, 3)
+        length[curved] = np.linalg.norm(np.diff(points, axis=1), axis=2).sum(axis=1)
     for m in np.flatnonzero(moves.arc):
         arc = moves.segments[m].arc
         length[m] = abs(arc.sweep) * max(arc.radius, 1e-9)
@@ -356,7 +420,7 @@ def cut_of(machine: Machine, segments, spacing: float = 0.25e-3) -> Cut:
     q = moves.axes(move, k)
     moves.check_travel(move, q)
     nominal = _tool_points(machine, q)
-    covariates = moves.covariates(move, q, moves.axes(move, np.clip(k - TANGENT_STEP, 0.0, 1.0)))
+    covariates = moves.covariates(move, k, q)
     return Cut(move, q, nominal, nominal + in_chunks(machine.volumetric_error, q, covariates)[:, :3], covariates)
 
 
@@ -529,9 +593,10 @@ def _full_circles(moves: _Moves, contours: list[list[int]]) -> list[list[int]]:
     return runs
 
 
-def _reference_features(machine: Machine, segments, plane: tuple[int, int], min_length: float):
+def _reference_features(machine: Machine, segments, plane: tuple[int, int], min_length: float, notes: list):
     """The circles and sides a program defines: (circles, sides) as dicts of their nominal
-    geometry in the workpiece frame and the indices of their moves among the cutting moves."""
+    geometry in the workpiece frame and the indices of their moves among the cutting moves; a
+    full circle in another plane is named in ``notes``."""
     i, j = plane
     third = ({0, 1, 2} - {i, j}).pop()
     moves = _Moves(machine, segments)
@@ -541,6 +606,9 @@ def _reference_features(machine: Machine, segments, plane: tuple[int, int], min_
         arc = moves.segments[run[0]].arc
         letters = [machine.axes[a] for a in arc.plane[:2]]   # the arc's plane, by the axes' letters
         if not all(letter in "XYZ" for letter in letters) or {"XYZ".index(c) for c in letters} != {i, j}:
+            other = "".join(sorted(c.lower() for c in letters))
+            notes.append(f"the full circle of line {moves.line[run[0]]} lies in the {other} plane, not in the "
+                         f"contour plane {'xyz'[i] + 'xyz'[j]}: it is measured in a prediction of that plane")
             continue
         start = _tool_points(machine, moves.axes(np.array([run[0]]), np.zeros(1)))[0]
         if moves.tool_tip[run[0]]:   # the words are the tool tip's coordinates
@@ -570,21 +638,37 @@ def _reference_features(machine: Machine, segments, plane: tuple[int, int], min_
     return circles, sides
 
 
-def contour_plane(points: np.ndarray) -> tuple[int, int]:
-    """The plane of a part's contours: the two workpiece-frame coordinates the points (N, 3)
-    spread over most (xy for a milled contour, xz for a lathe's profile), in the order x, y, z."""
-    spread = np.ptp(np.asarray(points, dtype=float).reshape(-1, 3), axis=0)
-    i, j = sorted(np.argsort(-spread, kind="stable")[:2].tolist())
+def contour_plane(cut: Cut) -> tuple[int, int]:
+    """The plane of a part's contours: the workpiece-frame plane (two coordinates, in the order
+    x, y, z) that holds the most cutting length: a move counts in the plane it lies in (its
+    third coordinate constant), half in each of two when it runs along one axis (a plunge along
+    z lies in xz and yz, a side along x in xy and xz); xy for a milled contour, xz for a lathe's
+    profile; ties go to xy, then xz. A cut whose moves mostly lie in no
+    such plane (five-axis moves, a cone's turn) takes the two coordinates it spreads over most."""
+    starts = np.flatnonzero(np.r_[True, np.diff(cut.move) != 0])
+    spread = np.maximum.reduceat(cut.nominal, starts) - np.minimum.reduceat(cut.nominal, starts)
+    steps = np.linalg.norm(np.diff(cut.nominal, axis=0), axis=1)
+    steps[np.diff(cut.move) != 0] = 0.0   # no length between moves
+    length = np.add.reduceat(np.r_[steps, 0.0], starts)
+    inside = spread <= 1e-9                       # per move, the coordinates it keeps constant
+    share = length / np.maximum(inside.sum(axis=1), 1)   # a move along one axis lies in two planes: half each
+    held = [float(share[inside[:, c]].sum()) for c in (2, 1, 0)]   # normal z, y, x
+    if float(length[inside.any(axis=1)].sum()) >= 0.5 * float(length.sum()) and max(held) > 0:
+        normal = (2, 1, 0)[int(np.argmax(held))]
+        i, j = sorted({0, 1, 2} - {normal})
+        return int(i), int(j)
+    i, j = sorted(np.argsort(-np.ptp(cut.nominal, axis=0), kind="stable")[:2].tolist())
     return int(i), int(j)
 
 
 class Features(NamedTuple):
-    """The features of a part (:func:`measure`)."""
+    """The features of a part (:func:`measure`), and ``notes`` on those not measured."""
 
     circles: list
     sides: list
     pairs: list
     cones: list
+    notes: list
 
 
 def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int] | None = None,
@@ -617,7 +701,7 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
         The moves of the program that defines the features.
     plane : tuple of int, optional
         The contour plane's coordinates in the workpiece frame (0, 1: xy; 0, 2: xz, a lathe's).
-        Default: the two the cutting moves' tool points spread over most (:func:`contour_plane`).
+        Default: the plane that holds the most cutting length (:func:`contour_plane`).
     min_length : float, default 5e-3
         The shortest side measured [m].
     spacing : float, default 0.25e-3
@@ -634,7 +718,9 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
     -------
     Features
         ``circles`` (CircleFeature), ``sides`` (LineFeature), ``pairs`` (PairFeature),
-        ``cones`` (ConeSection, each cone's at every height).
+        ``cones`` (ConeSection, each cone's at every height), and ``notes``: why a feature the
+        program defines is not measured (a full circle in another plane; a cone the cut does
+        not go all round).
 
     Raises
     ------
@@ -642,11 +728,12 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
         If a move leaves the travel (naming its line), or a cone has no section at a height.
     """
     cut = cut_of(machine, segments, spacing)
-    plane = contour_plane(cut.nominal) if plane is None else tuple(plane)
+    plane = contour_plane(cut) if plane is None else tuple(plane)
     i, j = plane
     third = ({0, 1, 2} - {i, j}).pop()
+    notes: list[str] = []
     circles_ref, sides_ref = _reference_features(machine, reference if reference is not None else segments,
-                                                 plane, min_length)
+                                                 plane, min_length, notes)
     flat, height = cut.actual[:, [i, j]], cut.actual[:, third]
     circles = []
     for ref in circles_ref:
@@ -704,8 +791,8 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
         rows = [np.isin(cut.move, cone.moves) for cone in cones]
     else:
         rows = [cone.near_tips(cut.nominal, capture) for cone in cones]
-    sections = measure_cones(machine, cones, cut, cone_heights, rows)
-    return Features(circles, sides, pairs, sections)
+    sections = measure_cones(machine, cones, cut, cone_heights, rows, notes)
+    return Features(circles, sides, pairs, sections, notes)
 
 
 def _component_columns(machine: Machine) -> dict[str, list[int]]:
@@ -811,6 +898,8 @@ class PartPrediction:
         Along the program's own path (normal to it).
     circles, sides, pairs, cones : list
         The features (:func:`measure`).
+    notes : list of str
+        Why a feature the program defines is not measured.
     rankings : list of list of dict
         Per feature (circles, sides, pairs, cones' sections in that order),
         :func:`feature_ranking`; empty with
@@ -826,6 +915,7 @@ class PartPrediction:
     pairs: list
     rankings: list
     cones: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
 
     @property
     def features(self) -> list:
@@ -846,7 +936,7 @@ class PartPrediction:
                 "samples": int(len(self.deviation.line)), "max_normal_deviation_um": self.deviation.max_um,
                 "max_line": int(worst),
                 "blocks": [{"line": int(line), "max_um": value} for line, value in blocks.items()],
-                "features": features}
+                "features": features, "notes": list(self.notes)}
 
 
 def predict(machine: Machine, text: str, source: str = "<program>", *, reference: str | None = None,
@@ -898,7 +988,7 @@ def predict(machine: Machine, text: str, source: str = "<program>", *, reference
     rankings = [feature_ranking(machine, f, cache=cache) if reference is None else []
                 for f in [*found.circles, *found.sides, *found.pairs, *found.cones]]
     return PartPrediction(machine, source, None if reference is None else reference_source, deviation, found.circles,
-                          found.sides, found.pairs, rankings, found.cones)
+                          found.sides, found.pairs, rankings, found.cones, found.notes)
 
 
 def contouring_test_piece(machine: Machine, size: float | None = None, feed: float = 500.0) -> str:

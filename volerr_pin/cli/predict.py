@@ -31,8 +31,8 @@ def add_parser(sub) -> None:
                         "of the model (default 0.01)")
     add_program_position_args(p)
     p.add_argument("--plane", choices=["xy", "xz", "yz"],
-                   help="the contour plane circles and sides are measured in (default: the two directions the "
-                        "cutting moves spread over most: xy for a milled contour, xz for a lathe's profile)")
+                   help="the contour plane circles and sides are measured in (default: the plane that holds the most "
+                        "cutting length: xy for a milled contour, xz for a lathe's profile)")
     p.add_argument("--tool-diameter", type=millimetres, default=0.0, metavar="MM",
                    help="the cutter's diameter: a cone cut by its flank lies its radius from the tool's axis "
                         "(default 0: the cone the tool's axis sweeps)")
@@ -103,6 +103,8 @@ def run(args) -> int:
         table.add_row(kind, lines, value,
                       *(() if args.reference else (escape(sources),)))
     console.print(table)
+    for note in report["notes"]:
+        console.print(escape(f"note: {note}"))
     if prediction.cones and not args.tool_diameter:
         console.print("the cones are those the tool's axis sweeps: give the cutter's --tool-diameter for the part's")
     if args.reference:
