@@ -375,3 +375,23 @@ def test_a_move_that_turns_a_rotary_axis_is_sampled_along_its_curve(machines):
     cut = cut_of(m, interpret(m, "G90 G21\nG0 X2000 Y1250 Z300 A30 B0\nG1 B180 F500\nM30\n"))
     spacing = np.linalg.norm(np.diff(cut.nominal, axis=0), axis=1)
     assert spacing.max() <= 0.25e-3 * 1.002 and len(cut.move) > 3000
+
+
+def test_pairs_are_corners_and_opposite_sides_so_a_long_contour_stays_linear(machines):
+    """A zig-zag of 40 passes (one contour): each pass is parallel to the pass before, and the
+    short steps between them are no sides; 39 parallelism pairs, each to the previous pass (all
+    pairs of 40 sides would be 780). A square: its four corners and two pairs of opposite
+    sides."""
+    m = machines["vmc500"]
+    lines = ["G17 G90 G21", "G0 X100 Y100 Z100", "G1 X100 Y100 F500"]
+    for k in range(40):
+        lines += [f"G1 X{200 if k % 2 == 0 else 100} Y{100 + 2 * k}", f"G1 Y{102 + 2 * k}"]
+    part = predict(m, "\n".join(lines) + "\nM30\n")
+    assert len(part.sides) == 40 and len(part.pairs) == 39
+    assert all(p.kind == "parallelism" and p.datum.lines[0] + 2 == p.toleranced.lines[0] for p in part.pairs)
+    _, sides, pairs, _, _ = measure(m, interpret(m, SQUARE))
+    corners = {(p.datum.lines[0], p.toleranced.lines[0]) for p in pairs if p.kind == "squareness"}
+    opposite = {(p.datum.lines[0], p.toleranced.lines[0]) for p in pairs if p.kind == "parallelism"}
+    first = sides[0].lines[0]
+    assert corners == {(first, first + 1), (first + 1, first + 2), (first + 2, first + 3), (first, first + 3)}
+    assert opposite == {(first, first + 2), (first + 1, first + 3)}

@@ -661,6 +661,68 @@ def contour_plane(cut: Cut) -> tuple[int, int]:
     return int(i), int(j)
 
 
+def _move_rows(move: np.ndarray, moves: list[int]) -> np.ndarray:
+    """The rows of samples (``move``: each sample's move, in order) of ``moves``."""
+    if max(moves) - min(moves) + 1 == len(moves):   # a run of moves: one range of rows
+        return np.arange(np.searchsorted(move, min(moves), "left"), np.searchsorted(move, max(moves), "right"))
+    return np.flatnonzero(np.isin(move, moves))
+
+
+class _Near:
+    """Samples near a feature (a k-d tree of the plane's points, so that a feature looks at its
+    neighbourhood only)."""
+
+    def __init__(self, flat: np.ndarray, height: np.ndarray):
+        from scipy.spatial import cKDTree
+
+        self.tree, self.height = cKDTree(flat), height
+
+    def along(self, path: np.ndarray, capture: float, level: float) -> np.ndarray:
+        """The samples within about ``capture`` of a path (P, 2) in the plane, its points at most
+        ``capture`` apart (a ball of 1.2 ``capture`` at each), and of ``level`` in height."""
+        hits = self.tree.query_ball_point(path, 1.2 * capture)
+        rows = np.unique(np.concatenate([np.asarray(h, dtype=int) for h in hits] + [np.zeros(0, dtype=int)]))
+        return rows[np.abs(self.height[rows] - level) <= capture]
+
+
+def _on_segment(start: np.ndarray, end: np.ndarray, step: float) -> np.ndarray:
+    """Points of a segment at most ``step`` apart, its ends included."""
+    n = max(2, int(np.ceil(np.linalg.norm(end - start) / step)) + 1)
+    return start + np.outer(np.linspace(0.0, 1.0, n), end - start)
+
+
+def _pairs(sides: list) -> list[tuple]:
+    """The pairs of sides a CMM report gives, within a contour, in its order: each side's
+    squareness to the side before it when the two are perpendicular (a corner; the last side to
+    the first too, closing the contour), and its parallelism to the nearest earlier side
+    parallel to it (the opposite side). A square gives its four corners and two pairs of
+    opposite sides; a contour of n sides at most 2 n pairs."""
+    out = []
+    by_contour: dict[int, list] = {}
+    for side in sides:
+        by_contour.setdefault(side.contour, []).append(side)
+
+    def kind_of(a, b):
+        cross = a.direction[0] * b.direction[1] - a.direction[1] * b.direction[0]
+        if abs(cross) < 1e-9:
+            return "parallelism"
+        return "squareness" if abs(a.direction @ b.direction) < 1e-9 else None
+
+    for run in by_contour.values():
+        last_of: dict[float, object] = {}   # the latest side of each direction (mod 180 deg)
+        for k, side in enumerate(run):
+            if k and kind_of(run[k - 1], side) == "squareness":
+                out.append((run[k - 1], side, "squareness"))
+            key = round(float(np.arctan2(side.direction[1], side.direction[0]) % np.pi), 9) % round(np.pi, 9)
+            if key in last_of:
+                out.append((last_of[key], side, "parallelism"))
+            last_of[key] = side
+        if len(run) > 2 and kind_of(run[0], run[-1]) == "squareness" and np.allclose(run[-1].end, run[0].start,
+                                                                                     atol=1e-9):
+            out.append((run[0], run[-1], "squareness"))
+    return out
+
+
 class Features(NamedTuple):
     """The features of a part (:func:`measure`), and ``notes`` on those not measured."""
 
@@ -679,8 +741,8 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
     The features are those of ``reference`` (default: the program itself): each full circle
     (arcs of one centre and radius in the contour plane turning a whole turn) and each
     straight side (a cutting line in the plane at least ``min_length`` long), within a contour
-    (cutting moves between rapids) each pair of perpendicular or parallel sides, the earlier
-    the datum, and each contour that cuts a cone with the tool's flank (five-axis,
+    (cutting moves between rapids) its corners' squareness and its opposite sides' parallelism
+    (the earlier side the datum), and each contour that cuts a cone with the tool's flank (five-axis,
     :func:`volerr_pin.applications.cone.find_cones`), in sections at ``cone_heights``. They are
     measured on the cut: the program's cutting moves sampled at most ``spacing`` apart, where
     the tool actually is. A sample measures a feature of its own move; with a reference (a
@@ -735,14 +797,16 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
     circles_ref, sides_ref = _reference_features(machine, reference if reference is not None else segments,
                                                  plane, min_length, notes)
     flat, height = cut.actual[:, [i, j]], cut.actual[:, third]
+    near = _Near(flat, height) if reference is not None else None
     circles = []
     for ref in circles_ref:
         if reference is None:
-            rows = np.isin(cut.move, ref["moves"])
+            rows = _move_rows(cut.move, ref["moves"])
         else:
-            rows = ((np.abs(height - ref["height"]) <= capture)
-                    & (np.abs(np.linalg.norm(flat - ref["centre"], axis=1) - ref["radius"]) <= capture))
-        if rows.sum() < 3:
+            turn = np.linspace(0.0, 2 * np.pi, max(8, int(np.ceil(2 * np.pi * ref["radius"] / capture)) + 1))
+            rows = near.along(ref["centre"] + ref["radius"] * np.c_[np.cos(turn), np.sin(turn)], capture, ref["height"])
+            rows = rows[np.abs(np.linalg.norm(flat[rows] - ref["centre"], axis=1) - ref["radius"]) <= capture]
+        if len(rows) < 3:
             continue
         points = flat[rows]
         around = cut.nominal[rows][:, [i, j]] - ref["centre"] if reference is None else points - ref["centre"]
@@ -754,13 +818,13 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
         length = float(np.linalg.norm(ref["end"] - ref["start"]))
         direction = (ref["end"] - ref["start"]) / length
         if reference is None:
-            rows = np.isin(cut.move, ref["moves"])
+            rows = _move_rows(cut.move, ref["moves"])
         else:
-            along = (flat - ref["start"]) @ direction
-            across = (flat - ref["start"]) @ np.array([-direction[1], direction[0]])
-            rows = ((np.abs(height - ref["height"]) <= capture) & (np.abs(across) <= capture)
-                    & (along >= 0.01 * length) & (along <= 0.99 * length))
-        if rows.sum() < 3:
+            rows = near.along(_on_segment(ref["start"], ref["end"], capture), capture, ref["height"])
+            along = (flat[rows] - ref["start"]) @ direction
+            across = (flat[rows] - ref["start"]) @ np.array([-direction[1], direction[0]])
+            rows = rows[(np.abs(across) <= capture) & (along >= 0.01 * length) & (along <= 0.99 * length)]
+        if len(rows) < 3:
             continue
         points = flat[rows]
         centre, _, normal = fit_line(points)
@@ -769,20 +833,10 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
                                  contour=ref["contour"], measured=points, q=cut.q[rows],
                                  covariates=cut.at(rows)))
     pairs = []
-    for a, datum in enumerate(sides):
-        for other in sides[a + 1:]:
-            if other.contour != datum.contour:
-                continue
-            cross = datum.direction[0] * other.direction[1] - datum.direction[1] * other.direction[0]
-            if abs(cross) < 1e-9:
-                kind = "parallelism"
-            elif abs(datum.direction @ other.direction) < 1e-9:
-                kind = "squareness"
-            else:
-                continue
-            centre, along, across = fit_line(datum.measured)
-            zone = (other.measured - centre) @ (across if kind == "parallelism" else along)
-            pairs.append(PairFeature(kind=kind, datum=datum, toleranced=other, value_um=float(np.ptp(zone) * UM_PER_M)))
+    for datum, other, kind in _pairs(sides):
+        centre, along, across = fit_line(datum.measured)
+        zone = (other.measured - centre) @ (across if kind == "parallelism" else along)
+        pairs.append(PairFeature(kind=kind, datum=datum, toleranced=other, value_um=float(np.ptp(zone) * UM_PER_M)))
     defining = reference if reference is not None else segments
     defining_cut = cut if reference is None else cut_of(machine, reference, spacing)
     cones = find_cones(machine, _Moves(machine, defining), _contours(defining), defining_cut,
