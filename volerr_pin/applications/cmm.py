@@ -109,8 +109,8 @@ class RoundFeature:
     covariates: dict = field(default_factory=dict)
 
     def less_circle(self, radial: np.ndarray) -> np.ndarray:
-        """A radial profile (M,) at the measured points less its least-squares circle, to first
-        order (its mean and first harmonics in :attr:`angle`)."""
+        """A radial profile (M,) at the measured points, or several as columns (M, C), less its
+        least-squares circle, to first order (its mean and first harmonics in :attr:`angle`)."""
         basis = np.c_[np.ones_like(self.angle), np.cos(self.angle), np.sin(self.angle)]
         coefficients, *_ = np.linalg.lstsq(basis, radial, rcond=None)
         return radial - basis @ coefficients

@@ -150,8 +150,9 @@ class ConeSection(RoundFeature):
         """Each source's radial deviation in the section (``parts``: its first-order pose error
         (M, 6) at the measured points: dx, dy, dz, rx, ry, rz) less its least-squares circle."""
         moment = np.cross(self.arm, self.direction)
-        return {c: self.less_circle(np.sum(p[:, :3] * self.direction, axis=1) + np.sum(p[:, 3:] * moment, axis=1))
-                for c, p in parts.items()}
+        radial = np.stack([np.sum(p[:, :3] * self.direction, axis=1) + np.sum(p[:, 3:] * moment, axis=1)
+                           for p in parts.values()], axis=1)
+        return dict(zip(parts, self.less_circle(radial).T))
 
 
 def _fit(tips: np.ndarray, axes: np.ndarray):
@@ -203,26 +204,28 @@ def find_cones(machine: Machine, moves, contours: list[list[int]], cut, tool_rad
     Returns
     -------
     list of Cone
-        A contour is a cone's when the tool axes of its moves that turn the tool (leads in and
-        out at a fixed orientation are left out) are, at every sample, generators of one cone
+        A contour is a cone's when the tool axes of its moves that turn the tool (that move a
+        rotary axis; leads in and out at a fixed orientation are left out) are, at every sample, generators of one cone
         (within :data:`APEX_TOLERANCE` and :data:`ANGLE_TOLERANCE`) and its tool points go
         round the cone's axis (no gap above 10 degrees).
     """
     cones = []
-    R_all, tips_all = in_chunks(machine.tool_poses, cut.q, nominal=True, extrapolate=True)
-    # the moves that turn the tool (a lead-in or lead-out at a fixed orientation cuts no cone): the
-    # range of the tool axis over each move's samples (the cut's samples run move by move)
-    axes_all = R_all[:, :, 2]
+    rotary = np.array(machine.axis_kinds) == "rotary"
+    if not rotary.any():
+        return cones   # the tool axis never turns
+    # the moves that turn the tool (a lead-in or lead-out at a fixed orientation cuts no cone): those
+    # whose rotary axes move over their samples (the cut's samples run move by move)
     starts = np.flatnonzero(np.r_[True, np.diff(cut.move) != 0])
-    spread = (np.maximum.reduceat(axes_all, starts) - np.minimum.reduceat(axes_all, starts)).max(axis=1)
+    turned = cut.q[:, rotary]
+    spread = (np.maximum.reduceat(turned, starts) - np.minimum.reduceat(turned, starts)).max(axis=1)
     turns = np.zeros(int(cut.move.max()) + 1, dtype=bool)
-    turns[cut.move[starts]] = spread > 1e-9
+    turns[cut.move[starts]] = spread > 1e-12
     for contour in contours:
         turning = [m for m in contour if turns[m]]
-        rows = np.isin(cut.move, turning)
-        if rows.sum() < 8:
+        rows = cut.rows(turning)
+        if len(rows) < 8:
             continue
-        R, tips = R_all[rows], tips_all[rows]
+        R, tips = in_chunks(machine.tool_poses, cut.q[rows], nominal=True, extrapolate=True)
         w = R[:, :, 2]
         contour = turning
         fitted = _fit(tips, w)
@@ -277,8 +280,9 @@ def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=N
         The cut's samples (nominal axis positions).
     cone_heights : sequence of float
         Heights above the plane the tool's end cuts in, along the cone's axis [m].
-    rows : list of ndarray of bool, optional
-        Per cone, the samples of the cut that measure it (default: those of its moves).
+    rows : list of ndarray, optional
+        Per cone, the samples of the cut that measure it, as a mask or as rows (default: those
+        of its moves).
     notes : list, optional
         Where to say why a cone is not measured: its samples do not go all round it (a gap
         above 10 degrees, or fewer than 3 samples; a compensated program whose cut strays more
@@ -303,7 +307,7 @@ def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=N
                                  f"height ({height * 1e3:g} mm) of cone_heights", parameters=("cone_heights",))
     sections = []
     for number, cone in enumerate(cones):
-        taken = np.isin(cut.move, cone.moves) if rows is None else rows[number]
+        taken = cut.rows(cone.moves) if rows is None else rows[number]
         q, covariates = cut.q[taken], cut.at(taken)
         R, tips = machine.tool_poses(q, nominal=True, extrapolate=True)
         basis = cone.basis()

@@ -46,7 +46,7 @@ from .cone import ConeSection, find_cones, measure_cones
 from ..base.chunks import CHUNK, in_chunks
 from .cmm import RoundFeature, fit_circle, fit_line, measure_round
 
-__all__ = ["PathDeviation", "Cut", "Features", "CircleFeature", "LineFeature", "PairFeature", "PartPrediction", "deviation_along",
+__all__ = ["PathDeviation", "Cut", "Features", "CircleFeature", "LineFeature", "PairFeature", "PartPrediction", "blocks_text", "deviation_along",
            "cut_of", "contour_plane", "fit_circle", "fit_line", "measure", "feature_ranking", "normal_part", "predict",
            "contouring_test_piece"]
 
@@ -105,6 +105,10 @@ class PathDeviation:
             out[line] = max(out.get(line, 0.0), value)
         return out
 
+    def runs(self) -> list[np.ndarray]:
+        """Each move's rows, in order (the samples run move by move)."""
+        return np.split(np.arange(len(self.move)), np.flatnonzero(np.diff(self.move)) + 1)
+
     @property
     def max_um(self) -> float:
         """The largest normal deviation over the path [um]."""
@@ -141,12 +145,18 @@ class _Moves:
                                   a.radius if a.end_radius is None else a.end_radius, a.start_angle, a.sweep)
                                  if a is not None else (0.0,) * 6 for a in arcs], dtype=float)
         self.tool_tip = np.array([s.programming == "tool-tip" for s in self.segments])
+        self.contours = _contours(segments)
         self._tip = None
         self.uses_directions = "directions" in machine.covariates_used
         self._carry = None
 
     def __len__(self) -> int:
         return len(self.segments)
+
+    @classmethod
+    def of(cls, machine: Machine, segments) -> "_Moves":
+        """``segments`` as moves: a program's moves are read once however many steps ask."""
+        return segments if isinstance(segments, cls) else cls(machine, segments)
 
     def words(self, move: np.ndarray, k: np.ndarray) -> np.ndarray:
         """Program coordinates of moves ``move`` at fractions ``k`` (both (M,))."""
@@ -306,7 +316,7 @@ def deviation_along(machine: Machine, segments, tolerance: float = 0.01e-6, *,
     """
     if not (isinstance(tolerance, (int, float)) and np.isfinite(tolerance) and tolerance > 0):
         raise InputError(f"tolerance must be a positive number of metres, got {tolerance!r}", parameters=("tolerance",))
-    moves = _Moves(machine, segments)
+    moves = _Moves.of(machine, segments)
     n = len(moves)
     names = ("q", "point", "tangent", "error", "normal")
     first = np.repeat(np.arange(n), 3)
@@ -391,6 +401,15 @@ class Cut:
         """The covariates of samples ``rows``."""
         return {name: value[rows] for name, value in self.covariates.items()}
 
+    def rows(self, moves: list[int]) -> np.ndarray:
+        """The rows of the samples of ``moves`` (the samples run move by move)."""
+        if not len(moves):
+            return np.zeros(0, dtype=int)
+        if max(moves) - min(moves) + 1 == len(moves):   # a run of moves: one range of rows
+            return np.arange(np.searchsorted(self.move, min(moves), "left"),
+                             np.searchsorted(self.move, max(moves), "right"))
+        return np.flatnonzero(np.isin(self.move, moves))
+
 
 def cut_of(machine: Machine, segments, spacing: float = 0.25e-3) -> Cut:
     """Samples of the cutting moves at most ``spacing`` apart along the nominal tool path (at
@@ -398,7 +417,7 @@ def cut_of(machine: Machine, segments, spacing: float = 0.25e-3) -> Cut:
     move that turns a rotary axis in axes programming curves: its length is taken from 16
     chords, short of the curve's by up to 0.2 % (a half turn), and its samples as much further
     apart."""
-    moves = _Moves(machine, segments)
+    moves = _Moves.of(machine, segments)
     n = len(moves)
     index = np.arange(n)
     ends = _tool_points(machine, moves.axes(np.repeat(index, 2), np.tile([0.0, 1.0], n))).reshape(n, 2, 3)
@@ -455,7 +474,8 @@ class CircleFeature(RoundFeature):
         """Each source's radial deviation (in-plane errors ``parts`` at the measured points)
         less its least-squares circle, to first order."""
         radial = np.c_[np.cos(self.angle), np.sin(self.angle)]
-        return {c: self.less_circle(np.sum(p * radial, axis=1)) for c, p in parts.items()}
+        profiles = self.less_circle(np.stack([np.sum(p * radial, axis=1) for p in parts.values()], axis=1))
+        return dict(zip(parts, profiles.T))
 
 
 @dataclass(frozen=True)
@@ -519,7 +539,7 @@ class LineFeature:
         """Each source's deviation across the side less its least-squares line, to first order."""
         along = self.along()
         basis = np.c_[np.ones_like(along), along]
-        return {c: _without(p @ self.across, basis) for c, p in parts.items()}
+        return dict(zip(parts, _without(np.stack([p @ self.across for p in parts.values()], axis=1), basis).T))
 
 
 @dataclass(frozen=True)
@@ -599,8 +619,8 @@ def _reference_features(machine: Machine, segments, plane: tuple[int, int], min_
     full circle in another plane is named in ``notes``."""
     i, j = plane
     third = ({0, 1, 2} - {i, j}).pop()
-    moves = _Moves(machine, segments)
-    contours = _contours(segments)
+    moves = _Moves.of(machine, segments)
+    contours = moves.contours
     circles = []
     for run in _full_circles(moves, contours):
         arc = moves.segments[run[0]].arc
@@ -659,13 +679,6 @@ def contour_plane(cut: Cut) -> tuple[int, int]:
         return int(i), int(j)
     i, j = sorted(np.argsort(-np.ptp(cut.nominal, axis=0), kind="stable")[:2].tolist())
     return int(i), int(j)
-
-
-def _move_rows(move: np.ndarray, moves: list[int]) -> np.ndarray:
-    """The rows of samples (``move``: each sample's move, in order) of ``moves``."""
-    if max(moves) - min(moves) + 1 == len(moves):   # a run of moves: one range of rows
-        return np.arange(np.searchsorted(move, min(moves), "left"), np.searchsorted(move, max(moves), "right"))
-    return np.flatnonzero(np.isin(move, moves))
 
 
 class _Near:
@@ -789,6 +802,8 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
     InputError
         If a move leaves the travel (naming its line), or a cone has no section at a height.
     """
+    segments = _Moves.of(machine, segments)
+    reference = None if reference is None else _Moves.of(machine, reference)
     cut = cut_of(machine, segments, spacing)
     plane = contour_plane(cut) if plane is None else tuple(plane)
     i, j = plane
@@ -801,7 +816,7 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
     circles = []
     for ref in circles_ref:
         if reference is None:
-            rows = _move_rows(cut.move, ref["moves"])
+            rows = cut.rows(ref["moves"])
         else:
             turn = np.linspace(0.0, 2 * np.pi, max(8, int(np.ceil(2 * np.pi * ref["radius"] / capture)) + 1))
             rows = near.along(ref["centre"] + ref["radius"] * np.c_[np.cos(turn), np.sin(turn)], capture, ref["height"])
@@ -818,7 +833,7 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
         length = float(np.linalg.norm(ref["end"] - ref["start"]))
         direction = (ref["end"] - ref["start"]) / length
         if reference is None:
-            rows = _move_rows(cut.move, ref["moves"])
+            rows = cut.rows(ref["moves"])
         else:
             rows = near.along(_on_segment(ref["start"], ref["end"], capture), capture, ref["height"])
             along = (flat[rows] - ref["start"]) @ direction
@@ -837,12 +852,11 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
         centre, along, across = fit_line(datum.measured)
         zone = (other.measured - centre) @ (across if kind == "parallelism" else along)
         pairs.append(PairFeature(kind=kind, datum=datum, toleranced=other, value_um=float(np.ptp(zone) * UM_PER_M)))
-    defining = reference if reference is not None else segments
-    defining_cut = cut if reference is None else cut_of(machine, reference, spacing)
-    cones = find_cones(machine, _Moves(machine, defining), _contours(defining), defining_cut,
-                       tool_diameter / 2.0)
+    defining = _Moves.of(machine, reference if reference is not None else segments)
+    defining_cut = cut if reference is None else cut_of(machine, defining, spacing)
+    cones = find_cones(machine, defining, defining.contours, defining_cut, tool_diameter / 2.0)
     if reference is None:
-        rows = [np.isin(cut.move, cone.moves) for cone in cones]
+        rows = [cut.rows(cone.moves) for cone in cones]
     else:
         rows = [cone.near_tips(cut.nominal, capture) for cone in cones]
     sections = measure_cones(machine, cones, cut, cone_heights, rows, notes)
@@ -902,7 +916,7 @@ def feature_ranking(machine: Machine, feature, *, cache: dict | None = None) -> 
     feature : CircleFeature, LineFeature, PairFeature or ConeSection
         The feature (:func:`measure`).
     cache : dict, optional
-        Each side's sources, kept between calls (a side is in its own straightness and in
+        Each feature's sources, kept between calls (a side is in its own straightness and in
         every pair it belongs to): pass the same dict for the features of one measurement.
 
     Returns
@@ -910,31 +924,35 @@ def feature_ranking(machine: Machine, feature, *, cache: dict | None = None) -> 
     list of dict
         ``component``, ``alone_um``, ``share``; largest share first.
     """
-    def parts(f):
-        if cache is None:
-            return _in_plane(_contributions(machine, f.q, f.covariates), f.plane)
-        if id(f) not in cache:   # f kept beside: its id stays its own
-            cache[id(f)] = (f, _in_plane(_contributions(machine, f.q, f.covariates), f.plane))
+    def parts(f):   # in its plane for a circle or a side; the whole pose error for a cone's section
+        if cache is None or id(f) not in cache:
+            found = _contributions(machine, f.q, f.covariates)
+            found = found if isinstance(f, ConeSection) else _in_plane(found, f.plane)
+            if cache is None:
+                return found
+            cache[id(f)] = (f, found)   # f kept beside: its id stays its own
         return cache[id(f)][1]
 
-    if isinstance(feature, ConeSection):
-        return _rows(feature.profiles(_contributions(machine, feature.q, feature.covariates)))
-    if isinstance(feature, (CircleFeature, LineFeature)):
+    if isinstance(feature, (CircleFeature, LineFeature, ConeSection)):
         return _rows(feature.profiles(parts(feature)))
     datum, other = feature.datum, feature.toleranced
     u0, n0 = datum.direction, datum.across
     s = datum.along()
     relative = other.measured - datum.start
     datum_parts, other_parts = parts(datum), parts(other)
-    profiles = {}
-    for c in datum_parts:
-        slope = np.polyfit(s, datum_parts[c] @ n0, 1)[0]   # the datum line's turn, to first order
-        if feature.kind == "parallelism":
-            value = other_parts[c] @ n0 - slope * (relative @ u0)
-        else:
-            value = other_parts[c] @ u0 + slope * (relative @ n0)
-        profiles[c] = value - value.mean()
-    return _rows(profiles)
+    # per component (columns), the datum line's turn to first order, and the zone coordinate
+    slope = np.polyfit(s, np.stack([p @ n0 for p in datum_parts.values()], axis=1), 1)[0]
+    if feature.kind == "parallelism":
+        value = np.stack([p @ n0 for p in other_parts.values()], axis=1) - np.outer(relative @ u0, slope)
+    else:
+        value = np.stack([p @ u0 for p in other_parts.values()], axis=1) + np.outer(relative @ n0, slope)
+    value -= value.mean(axis=0)
+    return _rows(dict(zip(other_parts, value.T)))
+
+
+def blocks_text(blocks: list[int]) -> str:
+    """A feature's block lines for a table: all of up to four, else the first and the last."""
+    return ",".join(map(str, blocks)) if len(blocks) <= 4 else f"{blocks[0]}..{blocks[-1]}"
 
 
 @dataclass
@@ -1031,7 +1049,7 @@ def predict(machine: Machine, text: str, source: str = "<program>", *, reference
     """
     from ..compensation.gcode import interpret
 
-    segments = interpret(machine, text, source, start=start, origin=origin)
+    segments = _Moves(machine, interpret(machine, text, source, start=start, origin=origin))
     defining = None if reference is None else interpret(machine, reference, reference_source, start=start,
                                                          origin=origin)
     deviation = deviation_along(machine, segments, tolerance)

@@ -47,7 +47,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..applications.part import predict
+    from ..applications.part import blocks_text, predict
     from ..compensation.gcode import ProgramFile
 
     machine = machine_of(args)
@@ -98,9 +98,7 @@ def run(args) -> int:
         else:
             value = f"{feature[kind + '_um']:.3f}"
         sources = "; ".join(f"{s['component']} {100 * s['share']:.0f} % ({s['alone_um']:.2f})" for s in feature["drivers"])
-        blocks = feature["blocks"]
-        lines = ",".join(map(str, blocks)) if len(blocks) <= 4 else f"{blocks[0]}..{blocks[-1]}"
-        table.add_row(kind, lines, value,
+        table.add_row(kind, blocks_text(feature["blocks"]), value,
                       *(() if args.reference else (escape(sources),)))
     console.print(table)
     for note in report["notes"]:

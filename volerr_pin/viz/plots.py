@@ -482,13 +482,10 @@ def part_png(prediction, path: str | Path, factor: float | None = None) -> dict:
     from matplotlib.collections import LineCollection
 
     ax = fig.add_subplot(1, 2 if rounds else 1, 1)
-    pieces, values = [], []
-    for move in np.unique(deviation.move):
-        rows = np.flatnonzero(deviation.move == move)
-        ax.plot(points[rows, 0], points[rows, 1], color="#bbbbbb", lw=0.8)
-        pieces += [moved[[a, b]] for a, b in zip(rows[:-1], rows[1:])]
-        values += [(size[a] + size[b]) / 2 for a, b in zip(rows[:-1], rows[1:])]
-    shown = LineCollection(pieces, array=np.asarray(values), cmap="viridis", linewidths=2.0)
+    ax.add_collection(LineCollection([points[rows] for rows in deviation.runs()], colors="#bbbbbb", linewidths=0.8))
+    within = np.flatnonzero(deviation.move[1:] == deviation.move[:-1])   # neighbours on one move
+    pieces = np.stack([moved[within], moved[within + 1]], axis=1)
+    shown = LineCollection(pieces, array=(size[within] + size[within + 1]) / 2, cmap="viridis", linewidths=2.0)
     ax.add_collection(shown)
     ax.autoscale()
     fig.colorbar(shown, ax=ax, label="deviation normal to the path [um]")
@@ -500,14 +497,12 @@ def part_png(prediction, path: str | Path, factor: float | None = None) -> dict:
     if rounds:
         polar = fig.add_subplot(1, 2, 2, projection="polar")
         outer = max(f.radius for f in rounds) * 1e3   # mm
-        magnify = nice_scale(max(float(np.abs(f.radial_um).max()) for f in rounds) or 1e-3, 0.15 * outer * 1e-3 / 0.08)
-        titles = []
         # a cone's sections on base circles of their own, the lowest (widest) outside, as a CMM's
-        # chart draws several profiles; a circle on its own radius
+        # chart draws several profiles, with less room for each; a circle on its own radius
         spread = np.linspace(0.95, 0.45, len(rounds)) if len(rounds) > 1 else np.ones(1)
-        if len(rounds) > 1:
-            magnify = nice_scale(max(float(np.abs(f.radial_um).max()) for f in rounds) or 1e-3,
-                                 0.1 * outer * 1e-3 / 0.08)
+        room = 0.1 if len(rounds) > 1 else 0.15
+        magnify = nice_scale(max(float(np.abs(f.radial_um).max()) for f in rounds) or 1e-3, room * outer * 1e-3 / 0.08)
+        titles = []
         for k, feature in enumerate(rounds):
             order = np.argsort(feature.angle)
             reference = feature.radius * 1e3 if len(rounds) == 1 else outer * spread[k]

@@ -751,6 +751,8 @@ def record_part(prediction, path: str | Path, factor: float | None = None) -> di
     dict
         ``path``, ``samples``, ``factor``, ``bytes``.
     """
+    from ..applications.part import blocks_text
+
     check_outputs({"path": path})
     machine = prediction.machine
     deviation = prediction.deviation
@@ -760,12 +762,10 @@ def record_part(prediction, path: str | Path, factor: float | None = None) -> di
     base = default_config(machine)
     eye = eye_on(machine, base, deviation.point, distance=1.3, elevation=55.0)   # a flat part: from above
     frame = rr.CoordinateFrame(machine.workpiece_frame)
-    programmed, cut, colours_of = [], [], []
-    for move in np.unique(deviation.move):
-        rows = np.flatnonzero(deviation.move == move)
-        programmed.append(deviation.point[rows])
-        cut.append(deviation.point[rows] + deviation.normal[rows] * factor)
-        colours_of.append(colours(size[rows], 0.0, float(size.max()) or 1.0)[len(rows) // 2])
+    runs = deviation.runs()
+    programmed = [deviation.point[rows] for rows in runs]
+    cut = [deviation.point[rows] + deviation.normal[rows] * factor for rows in runs]
+    colours_of = colours(size[[rows[len(rows) // 2] for rows in runs]], 0.0, float(size.max()) or 1.0)
     lines = [f"# {machine.name}: {Path(prediction.source).name}", "",
              f"The cut: the programmed path (grey) moved by its deviation normal to the path, **x{factor:g}**, "
              f"coloured by its size 0 .. {size.max():.2f} um (key beside the path); largest {deviation.max_um:.3f} um.",
@@ -774,10 +774,8 @@ def record_part(prediction, path: str | Path, factor: float | None = None) -> di
         row = feature.to_dict()
         value = row.get("circularity_um", row.get(f"{row['kind']}_um"))
         first = f"{ranking[0]['component']} {100 * ranking[0]['share']:.0f} %" if ranking else ""
-        blocks = row["blocks"]
-        named = ",".join(map(str, blocks)) if len(blocks) <= 4 else f"{blocks[0]}..{blocks[-1]}"
         kind = row["kind"] if row["kind"] != "cone" else f"cone at {row['height_mm']:g} mm"
-        lines.append(f"| {kind} | {named} | {value:.3f} | {first} |")
+        lines.append(f"| {kind} | {blocks_text(row['blocks'])} | {value:.3f} | {first} |")
     blueprint = rrb.Blueprint(
         rrb.Horizontal(rrb.Spatial3DView(origin="/", contents=["machine/**", "part/**"],
                                          name=f"the cut, deviation x{factor:g}", eye_controls=eye),
@@ -788,7 +786,7 @@ def record_part(prediction, path: str | Path, factor: float | None = None) -> di
         log_machine(rec, machine, base)
         rec.log("part/programmed", frame, rr.LineStrips3D(programmed, colors=[150, 150, 150], radii=extent / 2000),
                 static=True)
-        rec.log("part/cut", frame, rr.LineStrips3D(cut, colors=np.array(colours_of), radii=extent / 150), static=True)
+        rec.log("part/cut", frame, rr.LineStrips3D(cut, colors=colours_of, radii=extent / 150), static=True)
         rec.log("part/samples", frame, rr.Points3D(deviation.point + deviation.normal * factor,
                                                    colors=colours(size, 0.0, float(size.max()) or 1.0),
                                                    radii=extent / 120),
