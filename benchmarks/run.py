@@ -45,9 +45,9 @@ import numpy as np
 import pinocchio as pin
 
 import volerr_pin as vp
-from volerr_pin.model import kinematics as K
-from volerr_pin.model.assembly import parameter_jacobian
-from volerr_pin.model.workspace import sample
+from volerr_pin.model import _kinematics as K
+from volerr_pin.model import parameter_jacobian
+from volerr_pin.model import sample
 
 
 def best_of(fn, repeat=3):
@@ -272,7 +272,7 @@ import json, sys, time
 import volerr_pin as vp
 from volerr_pin.fit.diagnosis import diagnose
 from volerr_pin.measurements.simulate import campaign, off_model_geometry
-from volerr_pin.model.specio import add_terms
+from volerr_pin.model import add_terms
 
 n, style = int(sys.argv[1]), sys.argv[2]
 m = vp.load_machine("vmc500")

@@ -32,7 +32,7 @@ from volerr_pin.measurements.ballbar import evaluate_circular, read_ballbar
 from volerr_pin.fit.identify import identify
 from volerr_pin.viz.plots import ballbar_png
 from volerr_pin.measurements.simulate import ballbar_run, write_ballbar
-from volerr_pin.model.specio import add_terms
+from volerr_pin.model import add_terms
 
 CENTRE = {"X": 250.0, "Y": 200.0, "Z": 200.0}
 TRUTH = {"EXX.rev.b": 4.0, "EYY.rev.b": 2.0, "EC0Y.c0": None, "EYY.scale.c1": 12.0 * 0.2}  # um, um, arcsec, um

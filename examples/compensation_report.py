@@ -20,7 +20,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 import volerr_pin as vp
 from volerr_pin.compensation import PathCompensator, arc_from_center, evaluate_compensation
-from volerr_pin.model.workspace import sample
+from volerr_pin.model import sample
 
 
 def machine_row(name: str, points: int = 512, moves: int = 8, seed: int = 0, advance=lambda: None) -> dict:

@@ -24,7 +24,7 @@ from pathlib import Path
 import volerr_pin as vp
 from volerr_pin.cli import main as cli
 from volerr_pin.measurements.simulate import campaign, write_points
-from volerr_pin.model.specio import add_terms
+from volerr_pin.model import add_terms
 
 HIDDEN = {"EZZ": {"kind": "thermal_drift", "driver": "temperature", "prefix": "growth",
                   "sensors": ["spindle"], "coefficients_um_per_K": [0.6], "reference_degC": 22.0}}

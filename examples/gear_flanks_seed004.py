@@ -33,7 +33,7 @@ from scipy.optimize import least_squares
 
 import volerr_pin as vp
 from volerr_pin.applications.gear import REFERENCE_GEAR, contact_springback, contribution_degrees, flank_deviations, unit_error_study
-from volerr_pin.model.specio import remove_components, replace_terms, with_axis_errors
+from volerr_pin.model import replace_terms
 from volerr_pin.base.units import UM
 
 # seed 004, Tables 2 and 4: total profile, total helix, single pitch deviation [mm]
@@ -62,8 +62,8 @@ GEAR_MID_FACE_ON_B = (0.0, 0.0, 0.05)   # the workpiece frame's origin, 50 mm ab
 
 def seed004_machine():
     machine = vp.load_machine("gear_roller")
-    return with_axis_errors(machine, {"A": {"frame": "moving"},
-                                      "B": {"frame": "moving", "reference": GEAR_MID_FACE_ON_B}})
+    spec = machine.spec.with_axis("A", frame="moving").with_axis("B", frame="moving", reference=GEAR_MID_FACE_ON_B)
+    return machine.with_spec(spec)
 
 
 def unit_errors(machine) -> tuple[list, list]:
@@ -79,7 +79,7 @@ def paper_shares_from_table4(source: str) -> tuple[float, ...]:
 
 
 def force_deviations(machine) -> dict:
-    bare = remove_components(machine, machine.components)
+    bare = machine.with_spec(machine.spec.without(*machine.components))
     out = {}
     for material, moves in FORCES.items():
         for direction, um in moves.items():

@@ -44,7 +44,7 @@ import numpy as np
 
 import volerr_pin as vp
 from volerr_pin.measurements.simulate import ballbar_run, campaign, off_model_geometry, write_ballbar, write_points
-from volerr_pin.model.specio import add_terms
+from volerr_pin.model import add_terms
 
 HERE = Path(__file__).resolve().parent
 HIDDEN = {"EXX": {"kind": "backlash", "prefix": "rev", "reversal_um": 3.0},

@@ -30,7 +30,7 @@ import volerr_pin as vp
 from volerr_pin.fit.identify import identify
 from volerr_pin.applications.iso230 import evaluate_runs
 from volerr_pin.measurements import Runs, read_runs
-from volerr_pin.model.specio import legendre_terms, replace_terms, write_spec
+from volerr_pin.model import legendre_terms, replace_terms, write_spec
 from volerr_pin.viz.plots import iso230_png
 
 # this file's folder: the docs' gallery (sphinx-gallery) runs the examples without __file__, naming the file in argv[0]

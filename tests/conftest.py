@@ -65,7 +65,7 @@ def random_q(machine, n, seed=0):
 def single(machine, component, value):
     """theta with one component error equal to the constant ``value`` (SI), all else zero."""
     theta = np.zeros(len(machine.parameter_names))
-    for term in machine.assembly.term_info():
+    for term in machine.model.term_info():
         if term["component"] != component:
             continue
         for name in term["parameters"]:

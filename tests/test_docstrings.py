@@ -13,13 +13,13 @@ import textwrap
 
 import pytest
 
-MODULES = ("model.machine", "model.assembly", "model.state", "model.inputs", "model.evaluate", "model.kinematics", "model.workspace", "fit.ranking", "fit.identify.observations", "fit.identify.design",
+MODULES = ("model._machine", "model._model", "model._checks", "model._algorithms", "model._kinematics", "model._workspace", "model._spec", "fit.ranking", "fit.identify.observations", "fit.identify.design",
            "fit.identify.solver", "fit.identify.crossval", "fit.identify.result", "fit.identify.fit", "fit.diagnosis.results",
            "fit.diagnosis.candidates", "fit.diagnosis.scoring", "fit.diagnosis.changes", "fit.diagnosis.report", "fit.diagnosis.loop", "base.checks", "compensation.points", "compensation.errormap",
            "applications.thermal", "applications.thermalfit", "measurements.table", "measurements.columns", "measurements.protocol",
            "measurements.points", "measurements.runs", "measurements.tracker", "measurements.ballbar",
            "measurements.series", "measurements.registry", "applications.axisfit", "applications.dh", "applications.iso230",
-           "measurements.simulate", "model.specio", "fit.identifiability", "model.describe", "model.urdf", "applications.gear.geometry", "applications.gear.generation", "applications.gear.flanks", "applications.gear.sources",
+           "measurements.simulate", "model._specio", "fit.identifiability", "model._describe", "model._urdf", "applications.gear.geometry", "applications.gear.generation", "applications.gear.flanks", "applications.gear.sources",
            "applications.gear.springback", "base.safeio", "compensation.export.run",
            "compensation.export.fit", "compensation.export.simulate", "compensation.export.tables", "compensation.export.zone", "compensation.export.registry",
            "compensation.gcode.lexer", "compensation.gcode.modal", "compensation.gcode.rewrite")

@@ -117,7 +117,7 @@ def test_the_layout_table_is_read():
     table, order = layers(), package_order()
     assert table["cli/"] == 6 and table["base/"] == 0 and table["measurements/"] == 2 and table["__init__"] == 4
     assert order["measurements"]["registry"] > order["measurements"]["points"] > order["measurements"]["table"]
-    assert order["model"]["machine"] > order["model"]["evaluate"] > order["model"]["assembly"]
+    assert order["model"]["_machine"] > order["model"]["_algorithms"] > order["model"]["_model"]
     assert order["fit"]["diagnosis"] > order["fit"]["identify"] and "lexer" in order["compensation.gcode"]
 
 
@@ -230,7 +230,7 @@ def test_the_old_module_names_import_the_same_modules_and_warn():
     import sys
 
     code = ("import warnings; warnings.simplefilter('always')\n"
-            "import volerr_pin.machine as a, volerr_pin.model.machine as b\n"
+            "import volerr_pin.machine as a, volerr_pin.model._machine as b\n"
             "from volerr_pin.gcode.lexer import Block\n"
             "import volerr_pin.compensation.gcode.lexer as L, volerr_pin.compensate as c, volerr_pin.compensation as C\n"
             "import volerr_pin as vp\n"
@@ -238,7 +238,7 @@ def test_the_old_module_names_import_the_same_modules_and_warn():
             "      sorted(n for n in sys.modules if n.startswith('volerr_pin.gcode')))\n").replace("import warnings;",
                                                                                                 "import sys, warnings;")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert done.stdout.split("\n")[0] == ("True True True True volerr_pin.model.machine "
+    assert done.stdout.split("\n")[0] == ("True True True True volerr_pin.model._machine "
                                           "['volerr_pin.gcode', 'volerr_pin.gcode.lexer']")
     for old, new in [("machine", "model.machine"), ("gcode", "compensation.gcode"), ("compensate", "compensation"),
                      ("specio", "model.specio")]:

@@ -9,8 +9,8 @@ __version__ = "0.1.0"
 #: names imported when first used (PEP 562): the model loads Pinocchio, SciPy and Numba, and the
 #: diagnosis the fitting machinery, which ``import volerr_pin`` (and every command's start,
 #: ``volerr --help`` and shell completion included) would otherwise pay for
-_LAZY = {"diagnose": ".fit.diagnosis", "Machine": ".model.machine", "bundled_machines": ".model.machine",
-         "load_machine": ".model.machine"}
+_LAZY = {"diagnose": ".fit.diagnosis", "Machine": ".model", "bundled_machines": ".model",
+         "load_machine": ".model"}
 
 __all__ = ["InputError", "Machine", "SpecError", "URDFError", "VolerrError", "bundled_machines", "diagnose",
            "load_machine", "__version__"]

@@ -19,7 +19,7 @@ from volerr_pin.applications.cone import Cone, cone_frustum_test_piece, find_con
 from volerr_pin.applications.part import _contours, _Moves, cut_of, feature_ranking, measure, predict
 from volerr_pin.base.errors import InputError
 from volerr_pin.compensation.gcode import interpret
-from volerr_pin.model import kinematics as K
+from volerr_pin.model import _kinematics as K
 
 HEIGHTS = (0.0, 10e-3, 18e-3)
 
@@ -150,7 +150,7 @@ def test_sections_agree_with_pinocchio_and_the_cylinder_cut_by_the_plane(piece, 
     level = cone.bottom + height
     points = []
     for k in range(len(q)):
-        pose = K.relative_pose_pinocchio(m.model, m.tool_frame, m.workpiece_frame, actual[k])
+        pose = K.relative_pose_pinocchio(m.model.pinocchio, m.tool_frame, m.workpiece_frame, actual[k])
         w, tip = pose.rotation[:, 2], pose.translation
         s = (level - (tip - cone.apex) @ cone.axis) / (w @ cone.axis)   # the tool's axis meets the plane
         meet = tip + s * w - cone.apex
@@ -178,7 +178,7 @@ def test_the_ranking_matches_each_source_acting_alone(piece):
     (section,) = measure_cones(m, cones, cut, [10e-3])
     ranking = feature_ranking(m, section)
     columns = {}
-    for term in m.assembly.term_info():
+    for term in m.model.term_info():
         columns.setdefault(term["component"], []).extend(m.parameter_names.index(n) for n in term["parameters"])
     perfect = measure_cones(Displaced(m), cones, cut, [10e-3])[0].radial_um
     alone = {}

@@ -14,7 +14,7 @@ from volerr_pin.base.errors import InputError
 from volerr_pin.applications.gear import (REFERENCE_GEAR, GearPair, contribution_degrees, deviations_by_source,
                              flank_deviations, unit_error_study)
 from volerr_pin.applications.gear.generation import flank_grid, mesh_of
-from volerr_pin.model.specio import remove_components, replace_terms, with_axis_errors
+from volerr_pin.model import replace_terms
 from volerr_pin.base.units import ARCSEC, DEG, MM, UM
 
 G = REFERENCE_GEAR
@@ -27,7 +27,15 @@ def roller():
 
 @pytest.fixture(scope="module")
 def bare(roller):
-    return remove_components(roller, roller.components)
+    return roller.with_spec(roller.spec.without(*roller.components))
+
+
+def with_axis_errors(machine, axes: dict):
+    """The machine with its axes' errors placed as ``axes`` says ({axis: {"frame", "reference"}})."""
+    spec = machine.spec
+    for axis, change in axes.items():
+        spec = spec.with_axis(axis, **change)
+    return machine.with_spec(spec)
 
 
 def only(bare, tables):
@@ -271,9 +279,9 @@ def test_inputs_are_checked(roller):
     with pytest.raises(InputError, match="have no terms"):
         deviations_by_source(roller, components=["EQQ"])
     with pytest.raises(InputError, match="not among the axes"):
-        with_axis_errors(roller, {"W": {"frame": "moving"}})
+        roller.spec.with_axis("W", frame="moving")
     with pytest.raises(InputError, match="frame must be"):
-        with_axis_errors(roller, {"A": {"frame": "rotating"}})
+        roller.spec.with_axis("A", frame="rotating")
 
 
 def test_cli_gear_json(capsys):
@@ -367,7 +375,7 @@ def test_through_rolling_carries_feed_axis_errors_into_the_helix(bare):
 def test_state_reaches_every_source(roller):
     """A time-driven term needs the machine's state in every single-source row, not only in
     'all' (the rebuilt single-source machines keep the state)."""
-    from volerr_pin.model.specio import add_terms
+    from volerr_pin.model import add_terms
 
     warm = add_terms(roller, {"EXA": {"kind": "thermal_drift", "driver": "time", "amplitudes_um": [4.0],
                                       "time_constants_min": [30.0]}}).with_state(t=3600.0)
@@ -416,12 +424,10 @@ def test_more_bad_inputs(roller):
     GearPair(module=np.float32(1e-3), pressure_angle=20 * DEG, teeth=46, tool_teeth=128, face_width=np.float64(0.02))
     with pytest.raises(InputError, match="module must be a positive number, got -1 mm"):
         GearPair(module=-1e-3, pressure_angle=20 * DEG, teeth=46, tool_teeth=128, face_width=0.02)
-    with pytest.raises(InputError, match=r"must be a dict"):
-        with_axis_errors(roller, {"A": "moving"})
-    with pytest.raises(InputError, match="unknown keys"):
-        with_axis_errors(roller, {"A": {"frames": "moving"}})
     with pytest.raises(InputError, match="three finite numbers"):
-        with_axis_errors(roller, {"A": {"reference": "abc"}})
+        roller.spec.with_axis("A", reference="abc")
+    with pytest.raises(InputError, match="three finite numbers"):
+        roller.spec.with_axis("A", reference=(0.0, float("nan"), 0.0))
     with pytest.raises(InputError, match="rotation must be positive, got -2 deg"):
         unit_error_study(roller, rotation=-2 * DEG)
     with pytest.raises(InputError, match=r"\(Y=0, Z=-5, A=0, B=0; mm, deg\)"):

@@ -185,7 +185,7 @@ def test_the_feature_ranking_matches_finite_differences(machines, which):
                "parallelism": next(p for p in pairs if p.kind == "parallelism")}[which]
     exact = {r["component"]: r for r in feature_ranking(m, feature)}
     columns = {}
-    for term in m.assembly.term_info():
+    for term in m.model.term_info():
         columns.setdefault(term["component"], []).extend(m.parameter_names.index(n) for n in term["parameters"])
 
     def without(component):
@@ -245,7 +245,7 @@ def test_a_backlash_on_x_cuts_steps_of_its_reversal_where_x_turns(machines):
     its ends (angles 0 and 180 deg), so the radial deviation (b/2) d(theta) cos(theta) steps by
     b there; it has no first harmonic (the least-squares circle is the nominal one) and spans b.
     The directions come from the path, as the controller's."""
-    from volerr_pin.model.specio import add_terms
+    from volerr_pin.model import add_terms
 
     m = machines["vmc500"]
     bare = m.with_theta(np.zeros_like(m.theta))
@@ -304,7 +304,7 @@ def test_backlash_reversals_inside_arcs_and_between_lines_are_sampled(machines):
     where the deviation steps; the sampling leaves each step between two samples a hair apart
     and meets the tolerance everywhere else. A zig-zag of lines: Y turns where the second line
     starts, each line keeps its own direction, and the step is between them."""
-    from volerr_pin.model.specio import add_terms
+    from volerr_pin.model import add_terms
 
     m = machines["vmc500"]
     bare = m.with_theta(np.zeros_like(m.theta))

@@ -11,6 +11,7 @@ NOISE = 0.3
 import pytest
 
 from volerr_pin.cli import main
+from volerr_pin.model import check_covariates
 from volerr_pin.applications.thermal import GM11, GM1N, feed_axis_six_point, spindle_five_point
 from volerr_pin.measurements import SeriesData, read_series
 from volerr_pin.applications.thermalfit import thermal_fit
@@ -260,7 +261,7 @@ def test_a_lag_reads_each_file_along_its_own_record(machines):
     from volerr_pin.fit.identify import build_observations, identify
     from volerr_pin.fit.identify.observations import take_covariates
     from volerr_pin.measurements.simulate import campaign
-    from volerr_pin.model.specio import add_terms
+    from volerr_pin.model import add_terms
 
     m = machines["vmc500"]
     term = {"kind": "thermal_drift", "driver": "temperature", "prefix": "h", "sensors": ["spindle"],
@@ -276,12 +277,12 @@ def test_a_lag_reads_each_file_along_its_own_record(machines):
             seed).normal(0.0, NOISE * 1e-6, (150, 3))
         days.append(day)
     obs = build_observations(model, days, sigma_um=NOISE)
-    lagged = model.check_covariates(obs.n_points, obs.covariates).temperatures["spindle@600s"]
+    lagged = check_covariates(model.model, obs.n_points, obs.covariates).temperatures["spindle@600s"]
     for k, day in enumerate(days):
-        alone = model.check_covariates(150, day.covariates).temperatures["spindle@600s"]
+        alone = check_covariates(model.model, 150, day.covariates).temperatures["spindle@600s"]
         np.testing.assert_array_equal(lagged[150 * k:150 * (k + 1)], alone)
     some = np.arange(0, obs.n_points, 7)
-    part = model.check_covariates(some.size, take_covariates(obs.covariates, some)).temperatures["spindle@600s"]
+    part = check_covariates(model.model, some.size, take_covariates(obs.covariates, some)).temperatures["spindle@600s"]
     np.testing.assert_array_equal(part, lagged[some])
     k = identify(model, days, sigma_um=NOISE)
     assert k.machine.theta[k.machine.parameter_names.index("EZZ.h.k_spindle")] == pytest.approx(2e-6, rel=0.02)
@@ -297,7 +298,7 @@ def test_a_temperature_column_in_kelvin_or_fahrenheit_is_converted_to_degC(machi
     from volerr_pin.fit.identify import identify
     from volerr_pin.measurements import read_points
     from volerr_pin.measurements.simulate import campaign, write_points
-    from volerr_pin.model.specio import add_terms
+    from volerr_pin.model import add_terms
 
     m = machines["vmc500"]
     term = {"kind": "thermal_drift", "driver": "temperature", "prefix": "h", "sensors": ["spindle"],

@@ -223,7 +223,7 @@ def test_identify_refuses_to_replace_the_machines_own_spec(work, capsys):
 
 
 def test_write_spec_refuses_the_machines_own_files(tmp_path):
-    from volerr_pin.model.specio import write_spec
+    from volerr_pin.model import write_spec
 
     shutil.copytree(Path(vp.load_machine("vmc500").spec.source).parent, tmp_path / "m")
     machine = vp.load_machine(tmp_path / "m")

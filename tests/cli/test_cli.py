@@ -151,7 +151,7 @@ def test_compensate_png(tmp_path, capsys):
 def _thermal_spec(tmp_path):
     """vmc500 with a 6 um thermal drift along z with a 50 min time constant."""
     import volerr_pin as vp
-    from volerr_pin.model.specio import add_terms, write_spec
+    from volerr_pin.model import add_terms, write_spec
 
     m = add_terms(vp.load_machine("vmc500"), {
         "EZZ": {"kind": "thermal_drift", "driver": "time", "prefix": "h", "amplitudes_um": [6.0],
@@ -189,7 +189,7 @@ def test_state_drives_time_dependent_terms(tmp_path, capsys):
 def test_with_state_fills_missing_covariates_only():
     import numpy as np
     import volerr_pin as vp
-    from volerr_pin.model.specio import add_terms
+    from volerr_pin.model import add_terms
 
     m = add_terms(vp.load_machine("vmc500"), {
         "EZZ": {"kind": "thermal_drift", "driver": "time", "prefix": "h", "amplitudes_um": [6.0],
@@ -294,7 +294,7 @@ def test_library_errors_name_parameters_and_the_cli_its_options(tmp_path, capsys
 
 def test_state_the_machine_does_not_read_is_noted(tmp_path, capsys):
     import volerr_pin as vp
-    from volerr_pin.model.specio import replace_terms, write_spec
+    from volerr_pin.model import replace_terms, write_spec
 
     assert vp.load_machine("vmc500").sensors == ()
     assert main(["rank", "vmc500", "--points", "16", "--state", "nosuch=25", "t=3", "--json"]) == 0
@@ -318,7 +318,7 @@ def test_state_the_machine_does_not_read_is_noted(tmp_path, capsys):
 def test_rank_says_what_state_it_ranked_in_and_where_backlash_sits(tmp_path, capsys):
     """A backlash term without directions is at its mean (the spec format's d = 0): rank says so
     in its header and on stderr, and echoes the state; with directions it does neither."""
-    from volerr_pin.model.specio import add_terms, write_spec
+    from volerr_pin.model import add_terms, write_spec
 
     spec = tmp_path / "backlash.toml"
     write_spec(add_terms(vp.load_machine("vmc500"), {"EXX": {"kind": "backlash", "reversal_um": 4.0}}), spec)

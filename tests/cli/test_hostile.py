@@ -50,10 +50,10 @@ import volerr_pin as vp
 from volerr_pin.applications import dh, iso230, thermalfit
 from volerr_pin.compensation import errormap
 from volerr_pin import measurements
-from volerr_pin.model import workspace
+from volerr_pin import model as workspace
 from volerr_pin.cli import main
 from volerr_pin.compensation import compensate_points
-from volerr_pin.model.machine import machines_dir
+from volerr_pin.model import machines_dir
 
 from conftest import needs_device
 

@@ -139,7 +139,7 @@ def test_with_theta_refuses_what_a_spec_would_refuse(machines):
         m.with_theta(theta)
     theta[0] = 0.999  # 999 mm: absurd for a machine, but within what a spec may state
     assert m.with_theta(theta).theta[0] == 0.999
-    from volerr_pin.model.specio import add_terms
+    from volerr_pin.model import add_terms
 
     p = add_terms(m, {"EXX": {"kind": "periodic_pitch", "prefix": "h", "period_mm": 5.0, "sine_um": [1.0],
                               "cosine_um": [0.0]}})
@@ -277,8 +277,8 @@ def test_the_memory_a_large_table_takes_is_what_its_reading_was_sized_for(machin
     reading one (traced) stays within the size it is checked against."""
     import tracemalloc
 
-    from volerr_pin.model.specio import add_terms
-    from volerr_pin.model.terms import TABLE_BYTES_PER_NODE_PAIR
+    from volerr_pin.model import add_terms
+    from volerr_pin.model._terms import TABLE_BYTES_PER_NODE_PAIR
 
     n = 1200
     term = {"kind": "table", "prefix": "t", "interpolation": "cubic", "positions_mm": list(np.linspace(0, 500, n)),

@@ -13,7 +13,7 @@ import volerr_pin as vp
 from volerr_pin.base.errors import InputError, SpecError
 from volerr_pin.compensation.export import CONTROLLERS, export_tables, parse_zone
 from volerr_pin.compensation.export.siemens import Siemens840D
-from volerr_pin.model.specio import add_terms, remove_components, replace_terms
+from volerr_pin.model import add_terms, replace_terms
 
 SCALE_UM_PER_MM = 0.02                                 # EXX = 20 um/m x X
 
@@ -21,7 +21,7 @@ SCALE_UM_PER_MM = 0.02                                 # EXX = 20 um/m x X
 def scale_error_machine(backlash_um: float = 0.0):
     """vmc500 with one error: X's positioning error 20 um/m x X (plus a backlash of X)."""
     m = vp.load_machine("vmc500")
-    m = remove_components(m, [c for c in m.components if c != "EXX"])
+    m = m.with_spec(m.spec.without(*(c for c in m.components if c != "EXX")))
     m = replace_terms(m, {"EXX": {"kind": "monomial", "over": "position", "position_unit": "mm",
                                   "coefficients_um": [0.0, SCALE_UM_PER_MM]}})
     if backlash_um:
@@ -325,7 +325,7 @@ def test_too_many_points_are_refused(machines, controller, nodes, match):
 
 def test_values_beyond_a_format_are_refused():
     m = vp.load_machine("vmc500")
-    m = replace_terms(remove_components(m, [c for c in m.components if c != "EXX"]),
+    m = replace_terms(m.with_spec(m.spec.without(*(c for c in m.components if c != "EXX"))),
                       {"EXX": {"kind": "monomial", "over": "position", "position_unit": "mm",
                                "coefficients_um": [0.0, 10.0]}})
     with pytest.raises(InputError, match="beyond the lists' 32767"):          # 5 mm of error in 0.1 um units

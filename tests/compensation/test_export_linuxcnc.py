@@ -25,7 +25,7 @@ import volerr_pin as vp
 from volerr_pin.base.errors import InputError
 from volerr_pin.compensation.export import Zone, export_tables
 from volerr_pin.compensation.export.linuxcnc import LinuxCNC
-from volerr_pin.model.specio import add_terms, remove_components, replace_terms
+from volerr_pin.model import add_terms, replace_terms
 
 LINELEN = 255
 EMCMOT_COMP_SIZE = 256
@@ -195,7 +195,7 @@ def test_trims_are_corrections_and_reversal_goes_into_the_columns():
     """X of vmc500 with only a scale error of 20 um/m and a 3 um backlash: the forward trim is
     -20 um/m x X - 1.5 um, the reverse trim -20 um/m x X + 1.5 um (backlash: +b/2 moving +)."""
     m = vp.load_machine("vmc500")
-    m = remove_components(m, [c for c in m.components if c != "EXX"])
+    m = m.with_spec(m.spec.without(*(c for c in m.components if c != "EXX")))
     m = replace_terms(m, {"EXX": {"kind": "monomial", "over": "position", "position_unit": "mm",
                                   "coefficients_um": [0.0, 0.02]}})
     m = add_terms(m, {"EXX": {"kind": "backlash", "prefix": "rev", "reversal_um": 3.0}})

@@ -13,7 +13,7 @@ from volerr_pin.compensation.export.fit import fit
 from volerr_pin.compensation.export.simulate import exact_setpoints, residuals, tip_jacobian, tool_tips
 from volerr_pin.compensation.export.tables import SetpointTables, Table, interpolation_weights, quantised
 from volerr_pin.compensation.export.zone import Points, motion_directions
-from volerr_pin.model.specio import remove_components, replace_terms
+from volerr_pin.model import replace_terms
 
 
 def test_linear_weights_interpolate_and_hold_the_ends():
@@ -144,7 +144,7 @@ def test_a_direction_tables_claimed_residual_is_what_a_random_order_leaves():
     same points in random order gave 24.57 / 6.74 um. Both-ways points give a claim within 5 % of
     the random order, which the report gives beside it."""
     from volerr_pin.compensation.export.run import export_tables
-    from volerr_pin.model.specio import add_terms
+    from volerr_pin.model import add_terms
 
     m = add_terms(vp.load_machine("vmc500"), {"EXX": {"kind": "backlash", "prefix": "h", "reversal_um": 6.0}})
     for controller in ("linuxcnc", "fanuc"):
@@ -182,7 +182,7 @@ def test_fit_recovers_a_table_the_machine_is_made_of():
     m = vp.load_machine("vmc500")
     nodes = np.linspace(0.0, 0.5, 6)
     errors_um = [0.0, 3.0, -2.0, 1.0, 4.0, 0.5]
-    m = remove_components(m, [c for c in m.components if c != "EXX"])
+    m = m.with_spec(m.spec.without(*(c for c in m.components if c != "EXX")))
     m = replace_terms(m, {"EXX": {"kind": "table", "interpolation": "linear", "positions_mm": list(nodes * 1e3),
                                   "values_um": errors_um}})
     layout = SetpointTables((Table(0, (0,), (nodes,), np.zeros(6)),), 3)

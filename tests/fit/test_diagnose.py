@@ -12,7 +12,7 @@ import volerr_pin as vp
 from volerr_pin.cli import main
 from volerr_pin.fit.diagnosis import diagnose
 from volerr_pin.measurements.simulate import campaign, off_model_geometry, write_points
-from volerr_pin.model.specio import add_terms, remove_components, replace_terms
+from volerr_pin.model import add_terms, replace_terms
 
 NOISE = 0.3
 FLOOR = np.sqrt(3) * NOISE  # RMS of the 3D norm of the noise: 0.52 um
@@ -69,7 +69,7 @@ def test_geometric_terms_left_out_of_the_spec_are_named(machines, kind, seed):
     # the true machine has a smooth version of the component; the model lacks it entirely
     truth = replace_terms(m, {component: {"kind": "legendre", "coefficients_um" if component[1] in "XYZ"
                                           else "coefficients_arcsec": [0.0, 3.0, 2.0, -1.0][:4 if component[1] in "XYZ" else 3]}})
-    base = remove_components(m, [component])
+    base = m.with_spec(m.spec.without(component))
     check_first(diagnose(base, [campaign(truth, 400, NOISE, seed)]), expected)
 
 
@@ -362,7 +362,7 @@ def test_an_effect_kind_registered_as_a_plug_in_is_offered_named_and_written(mac
     the catalogue's force deflection, is named for what it is and is written with its prefix,
     while the loop itself is untouched."""
     from volerr_pin.fit.diagnosis import EFFECTS, Candidate, EffectKind, effect_kind, register
-    from volerr_pin.model.spec import component_name
+    from volerr_pin.model import component_name
 
     class CuttingLoad(EffectKind):
         name, prefix = "cutting_load", "cut"

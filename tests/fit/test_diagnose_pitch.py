@@ -14,12 +14,13 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.fit.diagnosis import diagnose
-from volerr_pin.fit.diagnosis.candidates import smoother_table
+from volerr_pin.fit.diagnosis.candidates import smoother_term
+from volerr_pin.model import check_covariates
 from volerr_pin.fit.diagnosis.projector import Columns
 from volerr_pin.fit.diagnosis.scoring import periodogram_period
 from volerr_pin.fit.identify import build_observations
 from volerr_pin.measurements.simulate import campaign, heldout_set
-from volerr_pin.model.specio import add_terms
+from volerr_pin.model import add_terms
 
 HMC = Path(__file__).resolve().parents[1] / "data" / "hmc_b"
 NOISE = 0.3
@@ -61,12 +62,14 @@ def test_smoother_table_is_one_step_richer_between_the_nodes(machines):
     """A linear table becomes a cubic spline through its nodes, a spline gains a node between
     every two; a polynomial has no nodes."""
     m = machines["vmc500"]
-    table, how = smoother_table(m, "EYY")   # linear, 100 mm steps
-    assert table["interpolation"] == "cubic" and table["positions_mm"] == [0.0, 100.0, 200.0, 300.0, 400.0]
-    assert "cubic spline through its nodes" in how and not any(table["values_um"])
-    table, how = smoother_table(m, "EXX")   # cubic, 50 mm steps
-    assert table["interpolation"] == "cubic" and len(table["positions_mm"]) == 21 and "between every two" in how
-    assert smoother_table(m, "EZY") is None and smoother_table(m, "EQQ") is None
+    term, how = smoother_term(m, "EYY")   # linear, 100 mm steps
+    assert term.term.interpolation == "cubic"
+    np.testing.assert_array_equal(term.term.nodes, [0.0, 0.1, 0.2, 0.3, 0.4])
+    assert "cubic spline through its nodes" in how and not term.coefficients.any()
+    term, how = smoother_term(m, "EXX")   # cubic, 50 mm steps
+    assert term.term.interpolation == "cubic" and len(term.term.nodes) == 21 and "between every two" in how
+    assert not term.coefficients.any() and term.prefix == ""
+    assert smoother_term(m, "EZY") is None and smoother_term(m, "EQQ") is None
 
 
 def test_the_periodogram_reads_the_axis_own_direction_under_a_turning_table(hmc):
@@ -79,7 +82,8 @@ def test_the_periodogram_reads_the_axis_own_direction_under_a_turning_table(hmc)
     obs = build_observations(zero, [data], sigma_um=NOISE)
     r = obs.y / obs.sigma   # the zero model predicts nothing: the residual is the data
     E = zero.error_joint_sensitivity(obs.q, first_order=True)
-    gain = Columns(obs, zero.check_covariates(obs.n_points, obs.covariates)).gain(E, list(zero.error_joints), "EXX")
+    cov = check_covariates(zero.model, obs.n_points, obs.covariates)
+    gain = Columns(obs, cov).gain(E, list(zero.error_joints), "EXX")
     period, searched = periodogram_period(obs, r, gain, 0)
     assert period == pytest.approx(12.46e-3, abs=0.02e-3) and searched > 100
     letter = obs.w[:, 0] / obs.sigma   # the residual's x component in the workpiece frame

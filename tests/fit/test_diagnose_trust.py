@@ -17,7 +17,7 @@ from volerr_pin.fit.diagnosis import axis_directions, build_candidates, diagnose
 from volerr_pin.fit.diagnosis import results as diagnose_results
 from volerr_pin.fit.identify import build_observations
 from volerr_pin.measurements.simulate import campaign, heldout_set, write_points
-from volerr_pin.model.specio import add_terms
+from volerr_pin.model import add_terms
 
 ROOT = Path(__file__).resolve().parents[2]
 NOISE = 0.3
@@ -432,7 +432,7 @@ def test_a_diagnosis_builds_pinocchios_model_once_at_most(monkeypatch):
     """A backlash hidden: the rounds edit the model many times and offer squareness on X, whose
     error joints the spec lacks, in every round; Pinocchio's model is built once (issue 45: at
     most twice, counting the machine's own)."""
-    import volerr_pin.model.assembly as assembly
+    import volerr_pin.model._model as assembly
 
     from volerr_pin import load_machine
 

@@ -11,8 +11,8 @@ import volerr_pin as vp
 from volerr_pin.cli import main
 from volerr_pin.fit.identify import identify
 from volerr_pin.measurements import PointMeasurements, read_runs
-from volerr_pin.model.specio import write_spec
-from volerr_pin.model.workspace import sample
+from volerr_pin.model import write_spec
+from volerr_pin.model import sample
 
 
 def tool_points(machine, truth, n, noise, seed):
@@ -243,7 +243,7 @@ def test_a_time_constant_in_seconds_is_not_taken_for_no_effect(machines):
     """cgm4000's angular coefficients move the tool by metres per radian, a time constant by
     nanometres per second: the zero test compares typical changes, not SI units."""
     from volerr_pin.measurements.simulate import campaign
-    from volerr_pin.model.specio import add_terms
+    from volerr_pin.model import add_terms
 
     m = machines["cgm4000"]
     drift = {"EZX": {"kind": "thermal_drift", "driver": "time", "prefix": "d", "amplitudes_um": [6.0],
@@ -261,7 +261,7 @@ def test_a_fit_that_did_not_converge_is_not_called_fitted(machines):
     """One Gauss-Newton step on a drift whose time constant starts far off: the report says
     where it stopped, and no coefficient is called fitted."""
     from volerr_pin.measurements.simulate import campaign
-    from volerr_pin.model.specio import add_terms
+    from volerr_pin.model import add_terms
 
     m = machines["vmc500"]
     drift = {"kind": "thermal_drift", "driver": "time", "prefix": "h", "amplitudes_um": [6.0],

@@ -10,7 +10,7 @@ import pytest
 import volerr_pin as vp
 from volerr_pin.cli import main
 from volerr_pin.fit.ranking import rank, read_tolerances, tool_identifiability
-from volerr_pin.model.workspace import sample
+from volerr_pin.model import sample
 
 
 def test_ranking_contributions_equal_direct_first_order_errors(machines):

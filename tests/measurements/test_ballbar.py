@@ -14,7 +14,7 @@ from volerr_pin.fit.diagnosis import diagnose
 from volerr_pin.fit.identify import identify
 from volerr_pin.measurements import MeasurementError, read_any
 from volerr_pin.measurements.simulate import ballbar_run, write_ballbar
-from volerr_pin.model.specio import add_terms
+from volerr_pin.model import add_terms
 
 ANGLES = np.linspace(0.0, 2 * np.pi, 360, endpoint=False)
 CENTRE = {"X": 250.0, "Y": 200.0, "Z": 200.0}

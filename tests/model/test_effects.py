@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.model.effects import ForceDeflection
+from volerr_pin.model import ForceDeflection
 from volerr_pin.fit.identify import identify
 from volerr_pin.measurements import PointMeasurements
-from volerr_pin.model.spec import build_term
-from volerr_pin.model.specio import add_terms, write_spec
-from volerr_pin.model.terms import Context, Covariates
+from volerr_pin.model import build_term
+from volerr_pin.model import add_terms, write_spec
+from volerr_pin.model import Context, Covariates
 
 TRAVEL = (0.0, 0.5)
 ARCSEC = math.pi / 180 / 3600
@@ -84,8 +84,8 @@ def test_effect_round_trips_through_its_spec_table(name):
 def test_the_registry_reads_what_each_kind_writes():
     """One class per kind reads its table (from_spec) and writes it back (to_spec) with
     keys it accepts; the tables here cover every registered kind."""
-    from volerr_pin.model.speckeys import stem_of
-    from volerr_pin.model.termkinds import KINDS, term_class
+    from volerr_pin.model._speckeys import stem_of
+    from volerr_pin.model import KINDS, term_class
 
     geometric = [({"kind": "constant", "value_um": 1.0}, "length"),
                  ({"kind": "legendre", "coefficients_arcsec": [1.0, -2.0]}, "angle"),
@@ -95,7 +95,7 @@ def test_the_registry_reads_what_each_kind_writes():
     for table, quantity in geometric + list(TABLES.values()):
         cls = term_class(table, "test")
         spec = build_term(dict(table), "test", quantity, "length", TRAVEL)
-        assert type(spec.term) is cls and cls.from_spec.__func__ is not vp.model.terms.Term.from_spec.__func__
+        assert type(spec.term) is cls and cls.from_spec.__func__ is not vp.model.Term.from_spec.__func__
         written = spec.term.to_spec(spec.coefficients)
         assert {stem_of(k) for k in written} <= cls.keys | {"kind", "prefix"}, written
         seen.add(table["kind"])

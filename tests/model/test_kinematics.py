@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.model import kinematics as K
+from volerr_pin.model import _kinematics as K
 
 from conftest import ALL_MACHINES, random_q
 
@@ -34,7 +34,7 @@ def test_batch_equals_pinocchio_per_point(machines, name, scale):
     theta = m.theta * scale
     q = random_q(m, 60, seed=2)
     error = m.volumetric_error(q, theta)
-    model = m.model
+    model = m.model.pinocchio
     actual = m.pinocchio_configuration(q, theta)
     nominal = m.pinocchio_configuration(q, np.zeros_like(theta))
     for i in range(len(q)):
@@ -102,7 +102,7 @@ def test_large_input_is_chunked(machines):
 def test_joint_motions_match_forward_kinematics(machines, name):
     """Each joint's motion is computed alone (no pinocchio.Data, which grows with the cube of a
     chain's joints): it equals what forward kinematics gives for that joint."""
-    model = machines[name].model
+    model = machines[name].model.pinocchio
     moved = K._moved(model)
     data = model.createData()
     pin.forwardKinematics(model, data, moved)
@@ -123,7 +123,7 @@ def test_evaluation_blocks_do_not_change_results(machines):
     m = machines["cgm4000"]
     q = random_q(m, 40, seed=5)
     small = m.with_theta(m.theta)
-    small._asm = dataclasses.replace(m.assembly, block=7)
+    small = vp.Machine(dataclasses.replace(m.model, block=7), m.theta)
     for method in ("volumetric_error", "component_sensitivity", "error_joint_sensitivity", "axis_jacobian",
                    "sensitivity"):
         np.testing.assert_allclose(getattr(small, method)(q), getattr(m, method)(q), rtol=1e-12, atol=1e-18,
@@ -162,7 +162,7 @@ def test_the_kernels_inverse_left_jacobian_is_pinocchios():
     left one is its transpose at phi) from 1e-2 to 3 rad, and below, where Pinocchio goes through
     the rotation matrix and loses digits, against the series I - K/2 + (1/12 + t^2/720 +
     t^4/30240) K^2, on both sides of the kernel's own switch to a series (1e-4)."""
-    from volerr_pin.model.kinematics import _left_jacobian_inverse, log3_left_jacobian_inverse
+    from volerr_pin.model._kinematics import _left_jacobian_inverse, log3_left_jacobian_inverse
 
     rng = np.random.default_rng(3)
     for size in (0.0, 1e-9, 3e-5, 9.9e-5, 1.01e-4, 1e-3, 1e-2, 0.3, 3.0):

@@ -37,7 +37,7 @@ def test_a_chosen_set_of_coefficients_in_any_order_gives_their_columns(machines,
     """Coefficients chosen out of order, repeated, or one: the same numbers as those columns of
     the full sensitivity, to the last bit, over more points than one block of the batch."""
     m = machines[name]
-    q = random_q(m, m.assembly.block + 37, seed=51)
+    q = random_q(m, m.model.block + 37, seed=51)
     full = m.sensitivity(q, m.theta * 20)
     P = len(m.theta)
     for cols in ([P - 1, 3, 0, P // 2], [5, 5], [P - 2], list(range(P))[::-1]):
@@ -50,7 +50,7 @@ def test_a_chosen_set_of_coefficients_in_any_order_gives_their_columns(machines,
 def test_joint_jacobian_equals_pinocchio_frame_jacobians(machines, name):
     """GUIDE section 6: J = R_w^T (Jt_lin - Jw_lin + [p_t - p_w] Jw_ang); angular R_w^T (Jt - Jw)."""
     m = machines[name]
-    model = m.model
+    model = m.model.pinocchio
     data = model.createData()
     q = random_q(m, 6, seed=51)
     J = m.joint_jacobian(q, m.theta * 30)

@@ -13,8 +13,8 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.base import safeio
-from volerr_pin.model.machine import machines_dir
-from volerr_pin.model.spec import read_toml
+from volerr_pin.model import machines_dir
+from volerr_pin.model import read_toml
 
 from conftest import random_q
 

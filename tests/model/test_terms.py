@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from volerr_pin.base import safeio
-from volerr_pin.model import terms as T
-from volerr_pin.model.spec import build_term
+from volerr_pin.model import _terms as T
+from volerr_pin.model import build_term
 
 TRAVEL = (0.0, 0.5)
 

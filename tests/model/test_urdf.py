@@ -8,7 +8,7 @@ import pytest
 import yourdfpy
 
 import volerr_pin as vp
-from volerr_pin.model.urdf import load_urdf, parse_urdf
+from volerr_pin.model import load_urdf, parse_urdf
 
 from conftest import ALL_MACHINES, needs_device, random_q
 
@@ -100,7 +100,7 @@ def test_injected_urdf_round_trips_through_yourdfpy_and_pinocchio(machines, tmp_
     q = random_q(m, 8, seed=30)
     R, p = m.tool_poses(q, theta)
     values = m.joint_values(q, theta)
-    own = m.model
+    own = m.model.pinocchio
     config = m.pinocchio_configuration(q, theta)
     for i in range(len(q)):
         # Pinocchio from the written file: map joint values by name
@@ -174,7 +174,7 @@ def test_a_hundred_axis_chain_loads_and_is_right(tmp_path):
     path = tmp_path / "c100.urdf"
     path.write_text(chain_urdf(100))
     m = vp.load_machine(path, tool_frame="l100", workpiece_frame="l0")
-    assert m.model.njoints == 701
+    assert m.model.pinocchio.njoints == 701
     q = np.random.default_rng(4).uniform(-1, 1, (5, 100))
     theta = np.zeros(len(m.parameter_names))
     theta[m.parameter_names.index("EX_j50.c0")] = 1e-6

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.model.workspace import (error_summary, evaluate_field, field_grid, from_engineering, grid, nice_scale, sample,
+from volerr_pin.model import (error_summary, evaluate_field, field_grid, from_engineering, grid, nice_scale, sample,
                                   to_engineering)
 
 

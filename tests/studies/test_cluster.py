@@ -123,7 +123,7 @@ def test_a_study_sends_its_machine_and_points_to_the_workers_once(cluster, machi
     scattered with their run and released after it; the numbers are those of one process."""
     from distributed import Client
 
-    from volerr_pin.model.workspace import grid
+    from volerr_pin.model import grid
     from volerr_pin.studies.engine import DaskEngine
     from volerr_pin.studies.tolerance import study_tolerances
     from volerr_pin.studies.tolerances import read_tolerance_file

@@ -499,7 +499,7 @@ def test_a_trackers_headline_is_what_it_determines_and_simulated_campaigns_find_
     field[:] = rigid[0, :3]
     assert np.abs(without_rigid(field, P)).max() < 1e-12          # a pure shift is all rigid
     rng = np.random.default_rng(5)
-    truth = vmc500._with_theta(vmc500.theta + rng.normal(0.0, 1.0, len(vmc500.theta)) * 2e-6)
+    truth = vmc500.with_theta(vmc500.theta + rng.normal(0.0, 1.0, len(vmc500.theta)) * 2e-6, limits=False)
     free = np.array([vmc500.parameter_names.index(n) for n in p.identifiable])
     zero = np.zeros(len(vmc500.theta))
     det = simulated(truth, inst, setup, p.units, free, zone_q, 8, 11, P, prior=zero)["zone_rms"] * 1e6
@@ -552,7 +552,8 @@ def test_a_coefficient_that_stands_for_a_combination_is_marked(vmc500):
     assert marked["EXX.n0"] == ["EXX.n10"]       # the table's last node, held: its first ones absorb it
     assert all(set(held).isdisjoint(p.identifiable) for held in marked.values())
     zone_q = pose_candidates(setup.zone, vmc500.axis_kinds, 512, "sobol", 1)
-    truth = vmc500._with_theta(vmc500.theta + np.random.default_rng(5).normal(0.0, 1.0, len(vmc500.theta)) * 20e-6)
+    truth = vmc500.with_theta(vmc500.theta + np.random.default_rng(5).normal(0.0, 1.0, len(vmc500.theta)) * 20e-6,
+                              limits=False)
     free = np.array([vmc500.parameter_names.index(n) for n in p.identifiable])
     s = simulated(truth, inst, setup, p.units, free, zone_q, 8, 11, prior=np.zeros(len(vmc500.theta)))
     ratio = dict(zip(p.identifiable, s["std"] / np.array([p.std[n] for n in p.identifiable])))

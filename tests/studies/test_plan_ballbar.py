@@ -59,7 +59,7 @@ def test_circles_stay_inside_the_zone(vmc500, zone, layout):
     assert len(circles) == 40
     q = inst.visits(vmc500, circles)
     assert np.all(q >= setup.zone[:, 0] - 1e-12) and np.all(q <= setup.zone[:, 1] + 1e-12)
-    vmc500.check_q(q)
+    vp.model.check_q(vmc500.model, q)
     assert {c.radius for c in circles} <= set(inst.radii)
     span = np.diff(setup.zone, axis=1)[:, 0]
     fits = {r for r in inst.radii if 2 * r <= min(span)}

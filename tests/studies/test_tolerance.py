@@ -27,8 +27,8 @@ from volerr_pin.studies.shapes import legendre_range, shapes_of
 from volerr_pin.studies.tolerance import study_tolerances, tolerance_source
 from volerr_pin.studies.tolerances import read_tolerance_file, tolerances_toml
 from volerr_pin.base.units import ARCSEC, UM
-from volerr_pin.model.spec import parse_component_name
-from volerr_pin.model.workspace import grid
+from volerr_pin.model import parse_component_name
+from volerr_pin.model import grid
 
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -223,7 +223,7 @@ def test_what_a_work_offset_removes_is_left_out(machines, tmp_path):
     """lathe_2axis' turret and spindle offsets move the tool by the same translation at every
     point (asked of the machine's own sensitivities here): the study leaves them out and says
     so, and its numbers are those of a file that gives them no tolerance. vmc500 has none."""
-    from volerr_pin.model.specio import replace_terms
+    from volerr_pin.model import replace_terms
 
     m = machines["lathe_2axis"]
     q = grid(m, 3)

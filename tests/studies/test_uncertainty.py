@@ -25,7 +25,7 @@ from volerr_pin.cli.common import in_cli_words
 from volerr_pin.base.errors import InputError
 from volerr_pin.studies.uncertainty import (K95, compare_scalar, compensated_points, numerical_tolerance,
                                             study_uncertainty, table_compensation, z_family)
-from volerr_pin.model.workspace import grid
+from volerr_pin.model import grid
 
 ARM = "examples/data/two_link_arm.urdf"
 
@@ -257,7 +257,7 @@ def test_a_bad_identification_report_is_refused_naming_the_file(machines, tmp_pa
 def test_the_campaign_covariance_is_the_spread_of_simulated_least_squares_fits(machines):
     """Refit the determined coefficients to many noisy simulated campaigns (the same poses,
     independent noise of sigma per coordinate): their covariance is the one stated."""
-    from volerr_pin.model.workspace import sample
+    from volerr_pin.model import sample
 
     m = machines["vmc700"]
     sigma = 2e-6
@@ -350,7 +350,7 @@ def test_a_controller_s_tables_leave_the_residual_the_export_simulates(machines)
 def test_tables_applied_by_direction_need_the_approach_directions(machines):
     from volerr_pin.compensation.export import Points
     from volerr_pin.compensation.export.simulate import residuals
-    from volerr_pin.model.specio import add_terms
+    from volerr_pin.model import add_terms
 
     m = add_terms(machines["vmc500"], {"EXX": {"kind": "backlash", "prefix": "b", "reversal_um": 6.0}})
     with pytest.raises(InputError, match="direction each axis moved.*in Machine.with_state .directions=") as err:

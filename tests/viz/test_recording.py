@@ -16,7 +16,7 @@ from volerr_pin.base.errors import InputError
 from volerr_pin.viz.plots import field_slice_png, ranking_png
 from volerr_pin.fit.ranking import rank
 from volerr_pin.viz.recording import log_field, log_time_series, new_recording, record_field, sweep_angles
-from volerr_pin.model.workspace import evaluate_field, field_grid
+from volerr_pin.model import evaluate_field, field_grid
 
 
 def chunks(path, entity):

@@ -57,7 +57,7 @@ def test_the_check_sees_an_empty_view_and_a_playing_recording(tmp_path):
     import rerun.blueprint as rrb
 
     import volerr_pin as vp
-    from volerr_pin.model.workspace import default_config
+    from volerr_pin.model import default_config
     from volerr_pin.viz.recording import log_machine, new_recording, streaming
 
     machine = vp.load_machine("vmc500")
@@ -110,7 +110,7 @@ def _machine_alone_screenshot(folder: Path) -> Path:
     import rerun.blueprint as rrb
 
     import volerr_pin as vp
-    from volerr_pin.model.workspace import default_config
+    from volerr_pin.model import default_config
     from volerr_pin.viz.recording import log_machine, new_recording, streaming
 
     machine = vp.load_machine("vmc500")

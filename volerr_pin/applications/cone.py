@@ -39,7 +39,7 @@ import numpy as np
 
 from ..base.chunks import in_chunks
 from ..base.errors import InputError
-from ..model.machine import Machine
+from ..model import Machine
 from .cmm import RoundFeature, measure_round
 
 __all__ = ["Cone", "ConeSection", "find_cones", "measure_cones", "cone_frustum_test_piece", "section_heights"]

@@ -41,7 +41,7 @@ import numpy as np
 
 from ..base.errors import InputError
 from ..base.units import UM_PER_M
-from ..model.machine import Machine
+from ..model import Machine
 from .cone import ConeSection, find_cones, measure_cones
 from ..base.chunks import CHUNK, in_chunks
 from .cmm import RoundFeature, fit_circle, fit_line, measure_round
@@ -866,7 +866,7 @@ def measure(machine: Machine, segments, reference=None, *, plane: tuple[int, int
 def _component_columns(machine: Machine) -> dict[str, list[int]]:
     """Each component's coefficient columns, in the machine's order."""
     out: dict[str, list[int]] = {}
-    for term in machine.assembly.term_info():
+    for term in machine.model.term_info():
         out.setdefault(term["component"], []).extend(machine.parameter_names.index(n) for n in term["parameters"])
     return out
 

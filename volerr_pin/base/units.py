@@ -65,6 +65,7 @@ PLAUSIBLE = {
     "position_length": (-1e3, 1e3),               # positions and coordinates beyond 1 km
     "position_angle": (-1e7 * DEG, 1e7 * DEG),    # rotary positions beyond 10 million deg
     "time": (-1e10, 1e10),                        # 317 years (Unix time in s is 1.7e9)
+    "time_constant": (1e-9, 1e10),                # a time constant is positive; below a nanosecond a unit mistake
     "temperature": (-273.15, 1000.0),             # degC: below absolute zero, or melting
     "force": (-1e7, 1e7),                         # N: 10 MN
     "reading": (-1e15, 1e15),                     # a series value of unknown unit (epoch ms pass)
@@ -74,7 +75,7 @@ PLAUSIBLE = {
 #: what each limit is of, for messages
 PLAUSIBLE_WHAT = {"error_length": "a deviation", "error_angle": "an angular deviation",
                   "position_length": "a position", "position_angle": "a rotary position",
-                  "time": "a time", "temperature": "a temperature", "force": "a force",
+                  "time": "a time", "time_constant": "a time constant", "temperature": "a temperature", "force": "a force",
                   "reading": "a reading in any unit", "period_length": "a period",
                   "period_angle": "an angular period"}
 

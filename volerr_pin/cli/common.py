@@ -21,7 +21,7 @@ from ..base.safeio import check_outputs, same_file
 from ..base.units import axis_values_to_si, parse_axis_values
 
 if TYPE_CHECKING:   # the model loads Pinocchio, SciPy and Numba: imported where a command runs, not to parse
-    from ..model.machine import Machine
+    from ..model import Machine
 
 DEFAULT_MACHINE = "vmc500"
 
@@ -263,7 +263,7 @@ def complete_machine(prefix: str, **kwargs) -> list[str]:
     (argcomplete calls it with the word typed so far)."""
     from argcomplete.completers import FilesCompleter
 
-    from ..model.catalog import bundled_machines
+    from ..model import bundled_machines
 
     names = [n for n in bundled_machines() if n.startswith(prefix)]
     return names + list(FilesCompleter(("toml", "urdf"))(prefix, **kwargs))
@@ -281,7 +281,7 @@ def add_json_arg(parser, help: str = "print one JSON object") -> None:
 
 def machine_of(args) -> Machine:
     """The machine the options name, held in the ``--state`` given (when the command has one)."""
-    from ..model.machine import load_machine   # the model (Pinocchio, SciPy, Numba): only when a command runs
+    from ..model import load_machine   # the model (Pinocchio, SciPy, Numba): only when a command runs
 
     machine = load_machine(args.machine, tool_frame=args.tool_frame, workpiece_frame=args.workpiece_frame,
                            package_dirs=args.package_dir or ())
@@ -354,7 +354,7 @@ def program_positions(machine: Machine, args) -> tuple[list[float] | None, list[
 
 def axis_components(machine: Machine) -> set[str]:
     """Names of the component errors of the machine's axes (not location errors)."""
-    from ..model.spec import parse_component_name
+    from ..model import parse_component_name
 
     return {c for c in machine.components
             if not parse_component_name(c)[1] and parse_component_name(c)[2] in machine.axes}

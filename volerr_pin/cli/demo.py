@@ -31,8 +31,8 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     from ..fit.ranking import rank
-    from ..model.describe import machine_info
-    from ..model.workspace import error_summary, grid, sample
+    from ..model import machine_info
+    from ..model import error_summary, grid, sample
 
     machine = machine_of(args)
     check_run_outputs({"out": args.out}, machine=machine)

@@ -70,7 +70,7 @@ def run(args) -> int:
     from ..fit.diagnosis import Separation, ThermalModel, diagnose
     from ..fit.diagnosis.effects import effect_kind
     from ..measurements import read_any
-    from ..model.specio import write_spec
+    from ..model import write_spec
 
     machine = machine_of(args)
     distinct_inputs(args.data, "DATA")

@@ -60,7 +60,7 @@ def _plane(machine, names, png) -> tuple[str, str] | None:
 
 def run(args) -> int:
     from ..fit.ranking import rank
-    from ..model.workspace import sample
+    from ..model import sample
 
     from ..viz.recording import record_field
 

@@ -94,10 +94,18 @@ def _references(machine, items: list[str] | None) -> dict[str, dict]:
     return out
 
 
+def _with_axis_errors(machine, changes: dict):
+    """The machine with the axes' errors placed as ``changes`` says ({axis: {"frame", "reference"}})."""
+    if not changes:
+        return machine
+    spec = machine.spec
+    for axis, change in changes.items():
+        spec = spec.with_axis(axis, frame=change.get("frame"), reference=change.get("reference"))
+    return machine.with_spec(spec)
+
+
 def run(args) -> int:
     from ..applications.gear import contribution_degrees, deviations_by_source, unit_error_study
-    from ..model.specio import with_axis_errors
-
     machine = machine_of(args)
     check_run_outputs({"png": args.png, "rrd": args.rrd}, machine=machine)
     gear = GearPair(module=args.module_mm * MM, pressure_angle=args.pressure_angle_deg * DEG, teeth=args.teeth,
@@ -119,13 +127,11 @@ def run(args) -> int:
         if args.errors_frame:
             for axis in axes:
                 changes.setdefault(axis, {})["frame"] = args.errors_frame
-        if changes:
-            machine = with_axis_errors(machine, changes)
+        machine = _with_axis_errors(machine, changes)
         rows = unit_error_study(machine, gear, axes=axes, translation=_or(args.translation_mm, 1.0) * MM,
                                 rotation=_or(args.rotation_deg, 1.0) * DEG, **options)
     else:
-        if changes:
-            machine = with_axis_errors(machine, changes)
+        machine = _with_axis_errors(machine, changes)
         rows = deviations_by_source(machine, gear, **options)
     with transaction() as tx:  # the picture and the recording are both written, or neither
         if args.png:

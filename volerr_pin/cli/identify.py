@@ -43,14 +43,17 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from ..fit.identify import identify
     from ..measurements import read_any
-    from ..model.specio import legendre_terms, replace_terms, write_spec
+    from ..model import legendre_terms, write_spec
 
     machine = machine_of(args)
     distinct_inputs(args.data, "DATA")
     check_run_outputs({"out": args.out}, args.data, machine)
     if args.degree is not None:
         targets = args.terms or [c for c in machine.components if c in axis_components(machine)]
-        machine = replace_terms(machine, legendre_terms(machine, targets, args.degree))
+        spec = machine.spec
+        for name, term in legendre_terms(machine, targets, args.degree).items():
+            spec = spec.with_component(name, term)
+        machine = machine.with_spec(spec)
     data = [read_any(path, machine, args.axis) for path in args.data]
     notes = [f"{d.source}: columns not used: {', '.join(d.unused)}" for d in data if d.unused]
     with FitProgress(not args.json) as progress:

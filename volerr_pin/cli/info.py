@@ -20,7 +20,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..model.describe import machine_info
+    from ..model import machine_info
 
     machine = machine_of(args)
     info = machine_info(machine)

@@ -16,7 +16,7 @@ import numpy as np
 from .points import COMPENSATION_BYTES
 from ..base.errors import InputError
 from ..base.safeio import require_memory
-from ..model.workspace import _integer
+from ..base.checks import integer as _integer
 
 #: memory of a quarter turn of a compensated arc: its points, samples and pieces [bytes]
 ARC_QUARTER_BYTES = 8 * COMPENSATION_BYTES

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.machine import Machine
+from ..model import Machine
 
 
 class AxisProgramming:

@@ -29,10 +29,11 @@ from pathlib import Path
 import numpy as np
 
 from ..base.errors import InputError
-from ..model.machine import Machine
+from ..model import Machine
 from ..base.safeio import check_output_folder, check_outputs, replacing, require_memory, transaction
 from ..base.units import AXIS_UNIT, axis_scale
 from ..base.checks import counts, integer
+from ..model import check_q
 
 NODES_PER_ORDER = {1: 8, 2: 20, 3: 32}
 #: memory of one evaluated point beyond its own arrays (the kinematics' working set) [bytes]
@@ -309,7 +310,7 @@ class ErrorMap:
             If ``q`` is invalid, an axis outside the map differs from its fixed position, or a
             point lies outside the map.
         """
-        q = self.machine.check_q(q)
+        q = check_q(self.machine.model, q)
         others = [j for j in range(q.shape[1]) if j not in self.axes]
         if others and not np.allclose(q[:, others], self.fixed[others], atol=1e-12):
             raise InputError("the error map was built with " + ", ".join(
@@ -534,7 +535,7 @@ def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> li
     directory = check_output_folder("directory", directory)
     travel = machine.travel
     mid = machine.mid_travel
-    info = {t["component"]: t["owner"] for t in machine.assembly.term_info()}
+    info = {t["component"]: t["owner"] for t in machine.model.term_info()}
     files = []
     with transaction() as tx:
         tx.folder(directory)

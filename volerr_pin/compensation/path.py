@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..base.errors import InputError
-from ..model.machine import Machine
+from ..model import Machine
 from ..base.safeio import require_memory
-from ..model.workspace import _integer, _positive
+from ..base.checks import integer as _integer, positive as _positive
 from .arcs import Arc
 from .context import Context
 from .lines import plan_lines

@@ -24,10 +24,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..base.errors import InputError
-from ..model.machine import Machine
+from ..model import Machine
 from ..base.safeio import require_memory
 from ..base.units import UM_PER_M, URAD_PER_RAD
-from ..model.workspace import _integer, _positive
+from ..base.checks import integer as _integer, positive as _positive
+from ..model import check_q
 
 #: memory of one point compensated by :func:`compensate_points` (measured: 1.4-2.1 kB) [bytes]
 COMPENSATION_BYTES = 2500
@@ -146,7 +147,7 @@ def compensate_points(machine: Machine, q_desired, *, method: str = "newton", to
         raise InputError(f"method must be 'newton' or 'recursive', got {method!r}", parameters=("method",))
     tol_um, tol_urad, lever = _positive("tol_um", tol_um), _positive("tol_urad", tol_urad), _positive("lever", lever)
     max_iter = _integer("max_iter", max_iter, 0)
-    q_d = machine.check_q(q_desired, name="q_desired")
+    q_d = check_q(machine.model, q_desired, name="q_desired")
     require_memory(len(q_d) * COMPENSATION_BYTES, f"compensating {len(q_d):,} positions", ("q_desired",))
     n = len(q_d)
     orientation = has_rotary(machine) if orientation is None else orientation

@@ -20,7 +20,7 @@ from typing import Protocol
 import numpy as np
 
 from ..base.errors import InputError
-from ..model.machine import Machine
+from ..model import Machine
 
 __all__ = ["PROGRAMMINGS", "Programming", "programming_for"]
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model.machine import Machine
+from ..model import Machine
 from .points import skew, solve_damped
 
 __all__ = ["PointSolver", "PoseMetric", "SolvedPoints"]

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..base.errors import InputError
-from ..model.machine import Machine
+from ..model import Machine
 
 #: the words that carry the tool tip, and the workpiece direction each carries
 TIP_WORDS = ("X", "Y", "Z")

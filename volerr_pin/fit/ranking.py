@@ -18,12 +18,13 @@ import numpy as np
 
 from ..base.errors import InputError, SpecError
 from .identifiability import IdentifiabilityGroup, analyse
-from ..model.machine import Machine
-from ..model.spec import parse_component_name, read_toml
+from ..model import Machine
+from ..model import parse_component_name, read_toml
 from ..base.safeio import require_memory
 from ..base.units import ARCSEC, ARCSEC_PER_RAD, LENGTH, UM, UM_PER_M, scale, split_key, within
 from ..base.checks import integer, positive
-from ..model.workspace import sample
+from ..model import sample
+from ..model import check_q
 
 DIRECTIONS = {"x": [0], "y": [1], "z": [2], "all": [0, 1, 2]}
 
@@ -305,7 +306,7 @@ def _points(machine: Machine, q, points, seed, point_bytes: int, what: str) -> n
         require_memory(points * (point_bytes + 8 * 4 * len(machine.axes)), f"{what} over {points:,} workspace samples",
                        ("points",))
         q = sample(machine, points, seed=seed)
-    q = machine.check_q(q)
+    q = check_q(machine.model, q)
     if len(q) == 0:
         raise InputError("q holds no points", parameters=("q",))
     require_memory(len(q) * point_bytes, f"{what} over the {len(q):,} positions given")

@@ -50,9 +50,10 @@ import numpy as np
 
 from ..base.errors import InputError
 from ..base.units import DEG, LENGTH, MM, PLAUSIBLE, parse_number
-from ..model.workspace import config_from_file
+from ..model import config_from_file
 from .protocol import MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
 from .table import DIRECTION_WORDS, MeasurementError, Table, axis_values, read_table
+from ..model import check_q
 
 __all__ = ["KIND", "MIN_ARC_DEG", "MIN_SAMPLES", "BallbarRun", "ballbar_positions", "check_circle", "covered_arc",
            "evaluate_circular", "is_ballbar_file", "radial_about", "read_ballbar"]
@@ -389,7 +390,7 @@ def ballbar_positions(machine, run: BallbarRun) -> tuple[np.ndarray, np.ndarray,
         The machine; the run's plane axes must be two of its linear axes.
     run : BallbarRun
         The circular test; the centre comes from its ``centre`` (other axes at their default
-        configuration, see :func:`~volerr_pin.model.workspace.config_from_file`).
+        configuration, see :func:`~volerr_pin.model.config_from_file`).
 
     Returns
     -------
@@ -420,7 +421,7 @@ def ballbar_positions(machine, run: BallbarRun) -> tuple[np.ndarray, np.ndarray,
     q[:, j1] += run.radius * np.cos(run.angle)
     q[:, j2] += run.radius * np.sin(run.angle)
     try:
-        machine.check_q(q)
+        check_q(machine.model, q)
     except InputError as err:
         raise InputError(f"{run.source}: the circle leaves the travel: {err}") from None
     J = machine.axis_jacobian(q, nominal=True)[:, :3, :]

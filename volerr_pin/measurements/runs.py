@@ -29,10 +29,11 @@ from pathlib import Path
 import numpy as np
 
 from ..base.errors import InputError
-from ..model.spec import parse_component_name
+from ..model import parse_component_name
+from ..model import check_q
 from ..base.units import (ANGLE, DEG, LENGTH, MM, PLAUSIBLE, axis_scale, axis_values_to_si, describe_range, parse_number,
                           shown)
-from ..model.workspace import default_config
+from ..model import default_config
 from .protocol import MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
 from .table import (DIRECTION_WORDS, META_RE, MeasurementError, Table, add_meta, axis_values, read_file,
                     read_table)
@@ -142,7 +143,7 @@ class Runs:
         q = np.tile(base, (len(self.target), 1))
         q[:, j] = self.target
         try:
-            machine.check_q(q)
+            check_q(machine.model, q)
         except InputError as err:
             raise InputError(f"{self.source}: {err}") from None
         covariates = {"directions": np.where(np.arange(len(machine.axes)) == j, self.direction[:, None], 1.0)}

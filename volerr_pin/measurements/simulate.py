@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.machine import Machine
+from ..model import Machine
 from .ballbar import BallbarRun, ballbar_positions
 from .points import PointMeasurements
 from .tracker import TrackerMeasurements
 from ..base.safeio import write_text
 from ..base.units import AXIS_UNIT, axis_scale
-from ..model.workspace import to_engineering
+from ..model import to_engineering
 
 
 def covariates(n: int, rng: np.random.Generator, hours: float = 6.0, n_axes: int = 3) -> dict:
@@ -170,7 +170,7 @@ def off_model_geometry(machine: Machine, seed: int = 0, style: str = "spline",
     Returns
     -------
     Machine
-        The machine with the replaced terms (:func:`~volerr_pin.model.specio.replace_terms`).
+        The machine with the replaced terms (:func:`~volerr_pin.model.replace_terms`).
 
     Raises
     ------
@@ -199,7 +199,7 @@ def off_model_geometry(machine: Machine, seed: int = 0, style: str = "spline",
                 tables[name] = {"kind": "table", "interpolation": "cubic",
                                 f"positions_{position_unit}": [float(x * scale) for x in nodes],
                                 f"values_{unit}": [float(v) for v in rng.normal(0.0, size, 7)]}
-    from ..model.specio import replace_terms
+    from ..model import replace_terms
     return replace_terms(machine, tables)
 
 
@@ -382,7 +382,7 @@ def heldout_set(machine: Machine, hidden: dict | None = None, n: int = 400, nois
     machine : Machine
         The model that will be diagnosed (the truth starts from it).
     hidden : dict, optional
-        Component -> term table (or list of tables), as :func:`~volerr_pin.model.specio.add_terms`
+        Component -> term table (or list of tables), as :func:`~volerr_pin.model.add_terms`
         takes them; none by default.
     n : int, default 400
         Points.
@@ -400,7 +400,7 @@ def heldout_set(machine: Machine, hidden: dict | None = None, n: int = 400, nois
     tuple of (Machine, PointMeasurements)
         The true machine and its measurements.
     """
-    from ..model.specio import add_terms
+    from ..model import add_terms
 
     truth = off_model_geometry(machine, seed, style)
     if hidden:

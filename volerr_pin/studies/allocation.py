@@ -33,7 +33,7 @@ from scipy.special import ndtr
 from scipy.stats import beta
 
 from ..base.errors import InputError
-from ..model.machine import Machine
+from ..model import Machine
 from .engine import Engine, InProcess, plan_chunks
 from .montecarlo import SAMPLE_CHUNK, MonteCarlo, Points, run_monte_carlo
 from .shapes import LEFT_OUT, ShapedSource

@@ -28,11 +28,11 @@ from ..base.checks import sensible
 from ..base.errors import InputError
 from ..fit.identifiability import analyse
 from ..fit.identify import check_report_machine, parameter_units
-from ..model.machine import Machine
+from ..model import Machine
 from ..base.safeio import require_memory
 from ..base.safeio import read_json
 from ..base.units import UM
-from ..model.workspace import sample
+from ..model import sample
 
 __all__ = ["Covariance", "covariance_from_campaign", "covariance_from_report"]
 

@@ -38,7 +38,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from ..base.errors import InputError
-from ..model.machine import Machine
+from ..model import Machine
 from ..base.safeio import require_memory
 
 __all__ = ["DaskEngine", "Engine", "InProcess", "PortableMachine", "available_cores", "chunk_rng", "connect",
@@ -131,9 +131,10 @@ class PortableMachine:
         if self._machine is None:
             built = _BUILT.get(self.key)
             if built is None:
-                from ..model.urdf import parse_urdf
+                from ..model import build_model, parse_urdf
 
-                built = Machine(self._spec, parse_urdf(self._urdf, self._source))._with_theta(self._theta)
+                built = Machine(build_model(self._spec, parse_urdf(self._urdf, self._source))).with_theta(self._theta,
+                                                                                                     limits=False)
                 if self._state:
                     built = built.with_state(**self._state)
                 if len(_BUILT) > 8:

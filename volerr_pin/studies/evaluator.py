@@ -8,8 +8,8 @@ once per block of points: the joint values are ``v(theta) = v(0) + sum_k theta_k
 ``g_k``), exact for terms linear in their coefficients. A machine with non-linear
 coefficients (time constants, periods) gets its joint values from
 :meth:`Machine.joint_values` for every vector instead. The kinematics is then one call of
-the compiled kernel (:func:`volerr_pin.model.kinematics.pose_error`, on the chain
-:func:`~volerr_pin.model.kinematics.build_chain` makes of the machine's model) for many
+the compiled kernel (:func:`volerr_pin.model._kinematics.pose_error`, on the chain
+:func:`~volerr_pin.model._kinematics.build_chain` makes of the machine's model) for many
 vectors at once, :data:`CALL_POINTS` point-vector pairs at a time. The result equals
 :meth:`Machine.volumetric_error` to rounding (the tests hold it to 1e-15 m).
 """
@@ -20,8 +20,8 @@ from collections import OrderedDict
 
 import numpy as np
 
-from ..model import kinematics as K
-from ..model.machine import Machine
+from ..model import _kinematics as K
+from ..model import Machine
 
 __all__ = ["CALL_POINTS", "Evaluator"]
 
@@ -42,7 +42,7 @@ class Evaluator:
 
     def __init__(self, machine: Machine):
         self.machine = machine
-        model = machine.model
+        model = machine.model.pinocchio
         ids = {model.getJointId(n) for n in machine.error_joints}
         self.chain = K.build_chain(model, machine.tool_frame, machine.workpiece_frame, ids)
         self.linear = not machine.nonlinear_parameters

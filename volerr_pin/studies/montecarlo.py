@@ -32,10 +32,11 @@ from typing import Callable, Protocol
 import numpy as np
 
 from ..base.errors import InputError
-from ..model.machine import Machine
+from ..model import Machine
 from ..base.safeio import require_memory
 from .evaluator import CALL_POINTS, evaluator_of
 from .engine import Engine, InProcess, PortableMachine, chunk_rng, plan_chunks, tasks_of
+from ..model import check_q
 
 __all__ = ["MonteCarlo", "NormalSource", "POINT_BLOCK", "Points", "QUANTILE_TASK_BYTES", "RowsSource",
            "SAMPLE_CHUNK", "ThetaSource", "grid_points", "make_points", "point_quantiles", "run_monte_carlo"]
@@ -214,7 +215,7 @@ def make_points(machine: Machine, q: np.ndarray, theta=None, offset=None, extrap
     Points
         The points.
     """
-    q = machine.check_q(q, extrapolate)
+    q = check_q(machine.model, q, extrapolate)
     offset = np.zeros((len(q), 3)) if offset is None else np.asarray(offset, dtype=float)
     f = machine.volumetric_error(q, theta, extrapolate=extrapolate)[:, :3] + offset
     key = hashlib.sha1(np.ascontiguousarray(q).tobytes() + bytes([extrapolate])).hexdigest()
@@ -497,7 +498,7 @@ def grid_points(machine: Machine, counts) -> np.ndarray:
         Naming ``grid``, if a count is below 1, there are neither one nor ``n_axes`` counts,
         or the grid would not fit in memory.
     """
-    from ..model.workspace import grid
+    from ..model import grid
 
     counts = [int(c) for c in np.atleast_1d(counts)]
     n_axes = len(machine.axes)

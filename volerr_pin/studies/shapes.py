@@ -41,9 +41,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model.machine import Machine
-from ..model.spec import parse_component_name
-from ..model.specio import replace_terms
+from ..model import Machine
+from ..model import parse_component_name
+from ..model import replace_terms
 from .distributions import Distribution
 
 __all__ = ["LEFT_OUT", "NODE_STEP", "Shape", "ShapedSource", "legendre_range", "shape_machine", "shapes_of",

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..base.errors import InputError
-from ..model.machine import Machine
+from ..model import Machine
 from ..base.safeio import require_memory
 from ..base.units import UM_PER_M
 from .allocation import Reallocation, reallocate

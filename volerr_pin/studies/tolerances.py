@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from ..base.errors import SpecError
-from ..model.machine import Machine
-from ..model.spec import parse_component_name, read_toml
+from ..model import Machine
+from ..model import parse_component_name, read_toml
 from ..fit.ranking import tolerance_key
 from ..base.units import ARCSEC, UM, split_key
 from .distributions import DISTRIBUTIONS, Distribution, distribution

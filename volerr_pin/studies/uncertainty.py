@@ -59,9 +59,10 @@ import numpy as np
 from scipy.special import ndtri
 
 from ..base.errors import InputError
-from ..model.machine import Machine
+from ..model import Machine
+from ..model import check_q
 from ..base.units import UM_PER_M
-from ..model.workspace import to_engineering
+from ..model import to_engineering
 from .covariance import Covariance
 from .engine import Engine, InProcess
 from ..base.safeio import require_memory
@@ -602,7 +603,7 @@ def compensated_points(machine: Machine, q_desired: np.ndarray, command: Callabl
     InputError
         If the compensation returns another shape or values that are not finite.
     """
-    q_desired = machine.check_q(q_desired, name="q_desired")
+    q_desired = check_q(machine.model, q_desired, name="q_desired")
     q_c = np.asarray(command(q_desired), dtype=float)
     if q_c.shape != q_desired.shape or not np.isfinite(q_c).all():
         raise InputError(f"compensation: expected finite commands of shape {q_desired.shape}, got shape "
@@ -748,7 +749,7 @@ def study_uncertainty(covariance: Covariance, q: np.ndarray, *, samples: int = 2
     machine = covariance.machine
     samples, seed, interval_samples = check_arguments(samples, seed, interval_samples)
     engine = engine or InProcess()
-    q = machine.check_q(q)
+    q = check_q(machine.model, q)
     source = NormalSource(machine.theta, covariance.factor(), int(seed))
     points = make_points(machine, q)
     field = _field(machine, covariance, points, q, source, samples, int(interval_samples), engine, progress, "map")

@@ -20,7 +20,7 @@ import rerun.blueprint as rrb
 from ..compensation.export import ExportResult
 from ..base.safeio import check_outputs
 from ..base.units import UM_PER_M
-from ..model.workspace import default_config, nice_scale, to_engineering
+from ..model import default_config, nice_scale, to_engineering
 from .plots import plt, save
 from .recording import colours, eye_on, log_legend, log_machine, new_recording, opened_paused, streaming
 

@@ -10,9 +10,9 @@ matplotlib.use("Agg")  # files only, no display
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..model.machine import Machine  # noqa: E402
-from ..model.workspace import default_config, evaluate_field  # noqa: E402
-from ..model.workspace import sample, to_engineering  # noqa: E402
+from ..model import Machine  # noqa: E402
+from ..model import default_config, evaluate_field  # noqa: E402
+from ..model import sample, to_engineering  # noqa: E402
 from ..base.errors import InputError  # noqa: E402
 from ..base.safeio import replacing  # noqa: E402
 from ..base.units import UM_PER_M  # noqa: E402
@@ -468,7 +468,7 @@ def part_png(prediction, path: str | Path, factor: float | None = None) -> dict:
     each sample moved by its normal deviation magnified ``factor`` times and coloured by its
     size; right, each full circle's deviation about its least-squares circle as a CMM prints
     it (polar, the nominal circle as reference, deviations magnified)."""
-    from ..model.workspace import nice_scale
+    from ..model import nice_scale
 
     deviation = prediction.deviation
     size = np.linalg.norm(deviation.normal, axis=1) * 1e6

@@ -15,7 +15,7 @@ Field data sit in the URDF's workpiece frame (``CoordinateFrame``), so they move
 table in the 3D view. Rotary axes get a sweep on the ``sweep`` timeline.
 
 Recordings are shared, so Rerun's URDF importer (which embeds every mesh file a URDF names)
-is only ever given a copy of the URDF whose meshes passed :func:`volerr_pin.model.urdf.checked_meshes`:
+is only ever given a copy of the URDF whose meshes passed :func:`volerr_pin.model.checked_meshes`:
 inside the URDF's folder or a package folder named, regular files, limited in size; other
 visuals are dropped with a warning. Files are written through a temporary file beside the
 target, renamed over it once Rerun has closed it (footer written), so a failed run leaves an
@@ -38,10 +38,10 @@ import rerun.blueprint as rrb
 from matplotlib import colormaps
 
 from ..base.errors import InputError
-from ..model.machine import Machine
+from ..model import Machine
 from ..base.safeio import check_outputs, replacing, require_memory
-from ..model.urdf import checked_meshes, complete_limits, package_folders
-from ..model.workspace import FieldData, default_config, evaluate_field, field_grid, nice_scale, to_engineering
+from ..model import checked_meshes, complete_limits, package_folders
+from ..model import FieldData, default_config, evaluate_field, field_grid, nice_scale, to_engineering
 from ..base.units import UM_PER_M
 
 #: memory a field point takes while it is evaluated and logged, and per sweep step held [bytes]
@@ -85,8 +85,8 @@ def log_machine(rec: rr.RecordingStream, machine: Machine, q: np.ndarray,
     static except for the axes named in ``moving`` (those are logged on the active timeline
     by :func:`log_joint_transforms`).
 
-    Meshes are read only as :func:`volerr_pin.model.urdf.checked_meshes` allows, from the machine's
-    :attr:`~volerr_pin.model.machine.Machine.package_dirs` and ``package_dirs``; a visual whose mesh
+    Meshes are read only as :func:`volerr_pin.model.checked_meshes` allows, from the machine's
+    :attr:`~volerr_pin.model.Machine.package_dirs` and ``package_dirs``; a visual whose mesh
     is refused is left out with a warning naming the URDF, its line and the mesh."""
     from rerun.urdf import UrdfTree
 
@@ -119,7 +119,7 @@ def _rerun_urdf(machine: Machine, package_dirs=None, meshes: bool = True):
     """The path of a copy of the machine's URDF that Rerun's importer may read, in a temporary
     folder for the duration of the block: every ``<limit>`` with ``effort`` and ``velocity`` (URDF
     allows leaving them out, the importer does not), and every mesh a checked copy beside it
-    (:func:`volerr_pin.model.urdf.checked_meshes`; refused ones dropped with a warning), or no visuals
+    (:func:`volerr_pin.model.checked_meshes`; refused ones dropped with a warning), or no visuals
     at all when ``meshes`` is False."""
     with tempfile.TemporaryDirectory(prefix="volerr_urdf_") as folder:
         if meshes:
@@ -227,13 +227,12 @@ def _workpiece_placement(machine: Machine, q: np.ndarray):
     positions ``q`` (SI), and the workpiece frame's placement in the root."""
     import pinocchio as pin
 
-    from ..model.assembly import axis_values
-    from ..model.kinematics import pinocchio_configuration
+    from ..model import check_q, pinocchio_configuration
 
-    model = machine.model
+    model = machine.model.pinocchio
     data = model.createData()
-    values = axis_values(machine.assembly, np.asarray(q, float)[None, :])
-    pin.framesForwardKinematics(model, data, pinocchio_configuration(model, values.T)[0])
+    configuration = pinocchio_configuration(machine.model, check_q(machine.model, q, extrapolate=True))[0]
+    pin.framesForwardKinematics(model, data, configuration)
     return data, data.oMf[model.getFrameId(machine.workpiece_frame)]
 
 
@@ -416,11 +415,11 @@ def record_field(machine: Machine, path: str | Path | None = None, *, counts=Non
         The ``.rrd`` file, written through a temporary file beside it and renamed over it once
         complete (a failed run leaves an existing file as it was); None for a viewer only.
     counts : sequence of int, optional
-        Points per linear axis (see :func:`volerr_pin.model.workspace.field_grid`).
+        Points per linear axis (see :func:`volerr_pin.model.field_grid`).
     config : dict of str to float, optional
         Positions of the axes that do not span the field [m, rad].
     scale : float, optional
-        Arrow magnification (default: a round factor, see :func:`volerr_pin.model.workspace.nice_scale`).
+        Arrow magnification (default: a round factor, see :func:`volerr_pin.model.nice_scale`).
     ranking : dict, optional
         A ranking (:meth:`volerr_pin.fit.ranking.Ranking.to_dict`) to show beside the field.
     sweep_steps : int, default 24
@@ -484,7 +483,7 @@ def record_field(machine: Machine, path: str | Path | None = None, *, counts=Non
 
 
 def _field_points(machine: Machine, counts) -> int | None:
-    """How many points :func:`~volerr_pin.model.workspace.field_grid` will make, without making them;
+    """How many points :func:`~volerr_pin.model.field_grid` will make, without making them;
     None when ``counts`` is not something it accepts (it then says why)."""
     linear = sum(k == "linear" for k in machine.axis_kinds)
     if not linear:

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..base.safeio import check_outputs
 from ..base.units import UM_PER_M
-from ..model.workspace import default_config
+from ..model import default_config
 
 __all__ = ["log_uncertainty_field", "max_error_png", "record_uncertainty"]
 

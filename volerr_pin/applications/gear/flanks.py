@@ -9,7 +9,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.units import UM
 from .generation import Generation, generation_of
 from .geometry import FLANKS, REFERENCE_GEAR, GearPair

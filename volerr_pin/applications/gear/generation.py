@@ -12,10 +12,10 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ...base.errors import InputError
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.safeio import require_memory
 from ...base.units import MM, axis_scale
-from ...model.workspace import to_engineering
+from ...model import to_engineering
 from .geometry import GearPair
 
 __all__ = ["BYTES_PER_FLANK_POINT", "FlankGrid", "Generation", "Mesh", "flank_grid", "generation_of", "mesh_of"]

@@ -10,8 +10,8 @@ from typing import Sequence
 import numpy as np
 
 from ...base.errors import InputError
-from ...model.machine import Machine
-from ...model.spec import parse_component_name
+from ...model import Machine
+from ...model import parse_component_name
 from ...base.units import DEG, MM
 from .flanks import FlankDeviations, each_flanks
 from .geometry import FLANKS, REFERENCE_GEAR, GearPair
@@ -103,15 +103,13 @@ def deviations_by_source(machine: Machine, gear: GearPair = REFERENCE_GEAR, *, c
     InputError
         If a component name is unknown, or as :func:`flank_deviations`.
     """
-    from ...model.specio import remove_components
-
     present = list(machine.components)          # the components that have terms
     names = present if components is None else list(components)
     unknown = [n for n in names if n not in present]
     if unknown:
         raise InputError(f"components {', '.join(unknown)} have no terms in {machine.name} "
                          f"(those with terms: {', '.join(present)})", parameters=("components",))
-    machines = [remove_components(machine, [c for c in present if c != name]) for name in names]
+    machines = [machine.with_spec(machine.spec.without(*(c for c in present if c != name))) for name in names]
     flanks = each_flanks(machines + [machine], gear, options)
     out = [SourceDeviations(name, _label(name), "spec", "sources", f) for name, f in zip(names, flanks)]
     out.append(SourceDeviations("all", "all sources", "spec", "all", flanks[-1]))
@@ -152,8 +150,6 @@ def unit_error_study(machine: Machine, gear: GearPair = REFERENCE_GEAR, *, axes:
     InputError
         If an axis is unknown, a unit value is not positive, or as :func:`flank_deviations`.
     """
-    from ...model.specio import remove_components, replace_terms
-
     for name, value, unit, factor in (("translation", translation, "mm", MM), ("rotation", rotation, "deg", DEG)):
         if not (np.isfinite(value) and value > 0):
             raise InputError(f"{name} must be positive, got {value / factor:g} {unit}", parameters=(name,))
@@ -161,7 +157,7 @@ def unit_error_study(machine: Machine, gear: GearPair = REFERENCE_GEAR, *, axes:
         if axis not in machine.axes:
             raise InputError(f"axis {axis!r} is not an axis of {machine.name} (axes: {', '.join(machine.axes)})",
                              parameters=("axes",))
-    bare = remove_components(machine, machine.components)
+    bare = machine.with_spec(machine.spec.without(*machine.components))
     studied = []
     for axis in axes:
         for direction in "XYZABC":
@@ -171,7 +167,7 @@ def unit_error_study(machine: Machine, gear: GearPair = REFERENCE_GEAR, *, axes:
             else:
                 table, value = {"kind": "constant", "value_deg": rotation / DEG}, f"{rotation / DEG:g} deg"
             group = f"{axis} {'translations' if direction in 'XYZ' else 'rotations'}"
-            studied.append((name, value, group, replace_terms(bare, {name: table})))
+            studied.append((name, value, group, bare.with_spec(bare.spec.with_component(name, bare.spec.term(name, table)))))
     flanks = each_flanks([one for *_, one in studied], gear, options)
     return [SourceDeviations(name, _label(name), value, group, f)
             for (name, value, group, _), f in zip(studied, flanks)]

@@ -35,7 +35,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ...base.errors import InputError
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.units import DEG, MM
 from .layouts import nc_axes
 from .tables import SetpointTables, Table, quantised

@@ -27,7 +27,7 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg
 
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.safeio import require_memory
 from .protocol import Compensation
 from .simulate import residuals, tip_jacobian

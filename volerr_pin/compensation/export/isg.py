@@ -37,7 +37,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ...base.errors import InputError
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.units import DEG, UM
 from .isg_volumetric import CONFIG, model_of, quantise_model, read_volumetric, volumetric_files
 from .layouts import best_masters, check_count, cross_table, linear_xyz, nc_axes, own_table, plane_table

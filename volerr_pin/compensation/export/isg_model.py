@@ -40,7 +40,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
-from ...model.machine import Machine
+from ...model import Machine
 from .tables import interpolation_weights
 
 __all__ = ["VolumetricModel", "rotation"]

@@ -27,7 +27,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ...base.errors import InputError, SpecError
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.units import DEG, MM
 from .isg_model import DIRECTIONS, VolumetricModel
 from .layouts import check_count, fixed
@@ -59,7 +59,7 @@ def kinematic_chain(machine: Machine) -> tuple[list[int], list[int]]:
     workpiece, tool : list of int
         Axis indices.
     """
-    model = machine.model
+    model = machine.model.pinocchio
     support_of = lambda frame: list(model.supports[model.frames[model.getFrameId(frame)].parentJoint])  # noqa: E731
     wp, tl = support_of(machine.workpiece_frame), support_of(machine.tool_frame)
     workpiece, tool = [], []

@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from ...base.errors import InputError, SpecError
-from ...model.machine import Machine
+from ...model import Machine
 from .tables import Table, fixed
 from .zone import Zone, node_positions
 

@@ -36,7 +36,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ...base.errors import InputError
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.units import axis_scale
 from .tables import SetpointTables, Table, quantised
 from .layouts import fixed, own_table

@@ -17,7 +17,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 import scipy.sparse as sp
 
-from ...model.machine import Machine
+from ...model import Machine
 from .zone import Zone
 
 __all__ = ["Compensation", "ControllerFormat"]

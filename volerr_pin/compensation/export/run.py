@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ...base.errors import InputError, SpecError
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.safeio import Transaction, check_output_folder, check_outputs, transaction
 from ...base.units import AXIS_UNIT, MM, axis_scale
 from .fit import fit

@@ -34,7 +34,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ...base.errors import InputError
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.units import DEG, MM
 from .layouts import check_count, cross_table, explained_scores, fixed, linear_xyz, nc_axes, own_table
 from .tables import SetpointTables, Table, quantised

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.units import UM_PER_M
 from .protocol import Compensation
 from .zone import Points

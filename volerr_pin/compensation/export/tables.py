@@ -21,7 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...base.errors import InputError
-from ...model.machine import Machine
+from ...model import Machine
 
 __all__ = ["SetpointTables", "Table", "fixed", "interpolation_weights", "quantised"]
 

@@ -25,7 +25,7 @@ from scipy.stats import qmc
 
 from ...base.checks import integer, sensible
 from ...base.errors import InputError
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.safeio import require_memory
 from ...base.units import AXIS_UNIT, MM, axis_scale, parse_number
 

@@ -17,7 +17,7 @@ import numpy as np
 from ..arcs import Arc
 from ..programming import Programming, programming_for
 from ...base.errors import InputError
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.units import INCH, MM
 from .arcs import read_arc
 from .letters import check_letters, full_circle

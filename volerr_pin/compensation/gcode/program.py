@@ -17,7 +17,7 @@ import numpy as np
 
 from ..moves import ARC, LINE, POINT
 from ..path import PathCompensator
-from ...model.machine import Machine
+from ...model import Machine
 from .flow import Flow
 from . import macros
 from .lexer import LATHE_CYCLES, PROGRAM_END, WORK_OFFSETS, Block, GcodeError, mask_comments, split_lines

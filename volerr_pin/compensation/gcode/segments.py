@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..arcs import Arc
-from ...model.machine import Machine
+from ...model import Machine
 from .flow import Flow
 from . import macros
 from .lexer import PROGRAM_END, GcodeError, mask_comments, split_lines

@@ -55,7 +55,7 @@ Parts, each importing only those listed before it:
 - :mod:`~volerr_pin.fit.diagnosis.loop`: :func:`diagnose`, round by round.
 """
 
-from .candidates import axis_directions, build_candidates, geometric_term, raised_table
+from .candidates import axis_directions, build_candidates, geometric_term, raised_term
 from .changes import raise_components
 from .loop import diagnose
 from .report import drift_series, driver_values, evidence, residual_analysis
@@ -66,4 +66,4 @@ from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Candida
 __all__ = ["EFFECTS", "PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "Candidate", "Change", "Diagnosis",
            "DriftSeries", "EffectKind", "Evidence", "Raise", "Role", "Score", "Separation", "Step", "ThermalModel",
            "axis_directions", "build_candidates", "diagnose", "drift_series", "driver_values", "effect_kind",
-           "evidence", "geometric_term", "raise_components", "raised_table", "register", "residual_analysis"]
+           "evidence", "geometric_term", "raise_components", "raised_term", "register", "residual_analysis"]

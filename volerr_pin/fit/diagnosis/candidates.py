@@ -8,20 +8,21 @@ node between every two).
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ...base.errors import InputError
 from ..identify import Observations
-from ...model.machine import Machine
-from ...model.spec import component_name, parse_component_name
-from ...model.termkinds import GEOMETRIC
-from ...model.terms import Context, Covariates
+from ...base.units import ANGLE, LENGTH
+from ...model import (GEOMETRIC, Constant, Context, Covariates, Machine, Polynomial, TermSpec, component_name,
+                      parse_component_name)
 from .effects import EFFECTS, Offer, direction_of, effect_kind
 from .results import Candidate, Role
 
 __all__ = ["LETTERS", "MAX_DEGREE", "MAX_NODES", "PITCH_PERIOD_MM", "RAISE_BY",
-           "adequacy_candidates", "axis_directions", "build_candidates", "form_of",
-           "geometric_name", "geometric_term", "raised_table", "smoother_table"]
+           "adequacy_candidates", "axis_directions", "build_candidates", "display_unit", "form_of",
+           "geometric_name", "geometric_term", "legendre", "raised_term", "smoother_term"]
 
 LETTERS = "XYZABC"
 PITCH_PERIOD_MM = (1.0, 50.0)   # ball-screw leads
@@ -122,9 +123,6 @@ def build_candidates(machine: Machine, obs: Observations) -> list[Candidate]:
     kinds = list(EFFECTS.values())
     out: list[Candidate] = []
 
-    def unit_of(direction):
-        return ("um", "length") if direction in "XYZ" else ("arcsec", "angle")
-
     # position-independent translations (a drift, a deflection), through every site
     for site in [a for a in machine.axes] + [b.name for b in machine.spec.bodies]:
         for d in "XYZ":
@@ -141,20 +139,18 @@ def build_candidates(machine: Machine, obs: Observations) -> list[Candidate]:
         for d in LETTERS:
             comp = component_name(d, axis)
             if comp not in present:
-                unit, _ = unit_of(d)
                 name = geometric_name(d, axis, False, own.get(axis), kind == "linear")
                 # degrees: positioning 5 (interferometer tables bend), straightness 3, angular 2
-                coefs = [0.0] * (6 if name == "positioning" else 4 if d in "XYZ" else 3)
-                out.append(Candidate(name, axis, direction_of(d), comp,
-                                     {"kind": "legendre", f"coefficients_{unit}": coefs}, f"q_{axis}",
-                                     kind=Role.MISSING))
+                degree = 5 if name == "positioning" else 3 if d in "XYZ" else 2
+                out.append(Candidate(name, axis, direction_of(d), comp, None, f"q_{axis}", kind=Role.MISSING,
+                                     term=legendre(d, tuple(machine.travel[j]), np.zeros(degree + 1))))
         for d in ("ABC" if kind == "linear" else LETTERS):
             comp = component_name(d, axis, True)
             if comp not in present:
-                unit, _ = unit_of(d)
                 name = geometric_name(d, axis, True, own.get(axis), kind == "linear")
-                out.append(Candidate(name, axis, direction_of(d), comp,
-                                     {"kind": "constant", f"value_{unit}": 0.0}, kind=Role.MISSING))
+                unit, scale = display_unit(d)
+                out.append(Candidate(name, axis, direction_of(d), comp, None, kind=Role.MISSING,
+                                     term=TermSpec("", Constant(unit, scale), np.zeros(1))))
     out += adequacy_candidates(machine, own)
     for c in out:
         c.label = effect_kind(c.name).describe(c)
@@ -191,7 +187,48 @@ def geometric_term(machine: Machine, component: str):
     return None, None
 
 
-def smoother_table(machine: Machine, component: str) -> tuple[dict, str] | None:
+def display_unit(direction: str) -> tuple[str, float]:
+    """The unit a geometric term of an error in ``direction`` is written in: um (X, Y, Z) or
+    arcsec (A, B, C), and its SI value.
+
+    Parameters
+    ----------
+    direction : str
+        The error direction letter.
+
+    Returns
+    -------
+    tuple of (str, float)
+        The unit and its SI value.
+    """
+    return ("um", LENGTH["um"]) if direction in "XYZ" else ("arcsec", ANGLE["arcsec"])
+
+
+def legendre(direction: str, travel: tuple[float, float], coefficients: np.ndarray, prefix: str = "") -> TermSpec:
+    """A Legendre polynomial over an axis' travel, in the unit of ``direction``'s errors.
+
+    Parameters
+    ----------
+    direction : str
+        The error direction letter.
+    travel : tuple of float
+        The axis' travel [m, rad].
+    coefficients : ndarray, shape (degree + 1,)
+        SI values.
+    prefix : str, default ""
+        The coefficients' prefix.
+
+    Returns
+    -------
+    TermSpec
+        The term.
+    """
+    unit, scale = display_unit(direction)
+    return TermSpec(prefix, Polynomial(len(coefficients) - 1, "legendre", "travel", travel, unit, scale),
+                    np.asarray(coefficients, dtype=float))
+
+
+def smoother_term(machine: Machine, component: str) -> tuple[TermSpec, str] | None:
     """The component's table one step richer between its nodes, zero-valued, for asking whether
     a period along the axis is the table's interpolation.
 
@@ -212,8 +249,8 @@ def smoother_table(machine: Machine, component: str) -> tuple[dict, str] | None:
 
     Returns
     -------
-    tuple of (dict, str) or None
-        The spec table and what it is, in words; None when the component has no table or (a
+    tuple of (TermSpec, str) or None
+        The term and what it is, in words; None when the component has no table or (a
         spline) its nodes are at :data:`MAX_NODES` already.
     """
     if component not in machine.components:
@@ -222,25 +259,22 @@ def smoother_table(machine: Machine, component: str) -> tuple[dict, str] | None:
     if tspec is None or tspec.term.kind != "table":
         return None
     if tspec.term.interpolation == "linear":
-        table = dict(tspec.term.to_spec(np.zeros(tspec.term.size)), interpolation="cubic")
-        how = "a cubic spline through its nodes"
-    else:
-        raised = raised_table(machine, component)
-        if raised is None:
-            return None
-        table, how = raised[1], "a node between every two"
-    table.pop("prefix", None)
-    return table, how
+        term = replace(tspec.term, interpolation="cubic")
+        return TermSpec("", term, np.zeros(term.size)), "a cubic spline through its nodes"
+    raised = raised_term(machine, component)
+    if raised is None:
+        return None
+    return replace(raised[1], prefix=""), "a node between every two"
 
 
-def raised_table(machine: Machine, component: str, values: np.ndarray | None = None, by: int = 1):
-    """The component's geometric term richer, as a spec table, and (from, to).
+def raised_term(machine: Machine, component: str, values: np.ndarray | None = None, by: int = 1):
+    """The component's geometric term richer, and its forms (from, to).
 
     A constant becomes a Legendre polynomial of degree ``by``, a polynomial gains ``by``
     degrees (two are offered because an odd or even part alone may be what is missing),
     a table gains a node between every two (the coarser function space is inside the finer
     one, so the base fit is reproduced exactly; ``by`` is ignored). With ``values`` (the
-    term's coefficients, SI) the table starts from the present function; else it is
+    term's coefficients, SI) the richer term starts from the present function; else it is
     zero-valued.
 
     Parameters
@@ -256,26 +290,27 @@ def raised_table(machine: Machine, component: str, values: np.ndarray | None = N
 
     Returns
     -------
-    tuple of (int, dict, tuple of str) or None
-        The term's index, the richer spec table and the forms (from, to); None when the term
-        would pass :data:`MAX_DEGREE` / :data:`MAX_NODES` or there is no geometric term.
+    tuple of (int, TermSpec, tuple of str) or None
+        The term's index among the component's, the richer term (with the present one's
+        prefix) and the forms (from, to); None when the term would pass :data:`MAX_DEGREE` /
+        :data:`MAX_NODES` or there is no geometric term.
     """
     index, tspec = geometric_term(machine, component)
     if tspec is None:
         return None
     term = tspec.term
     zero = np.zeros(term.size) if values is None else np.asarray(values, float)
-    table = term.to_spec(zero)
     if term.kind in ("constant", "legendre", "monomial"):
         degree = 0 if term.kind == "constant" else term.degree
         if degree + by > MAX_DEGREE:
             return None
+        coefficients = np.r_[zero, np.zeros(by)]
         if term.kind == "constant":
-            unit = term.unit
-            table = {"kind": "legendre", f"coefficients_{unit}": [table[f"value_{unit}"]] + [0.0] * by}
+            owner = parse_component_name(component)[2]
+            richer = Polynomial(by, "legendre", "travel", tuple(machine.travel[machine.axes.index(owner)]),
+                                term.unit, term.unit_scale)
         else:
-            key = f"coefficients_{term.unit}"
-            table[key] = list(table[key]) + [0.0] * by
+            richer = replace(term, degree=degree + by)
         change = ("constant" if term.kind == "constant" else f"degree {degree}", f"degree {degree + by}")
     elif by != 1:
         return None
@@ -284,13 +319,10 @@ def raised_table(machine: Machine, component: str, values: np.ndarray | None = N
         if 2 * len(nodes) - 1 > MAX_NODES:
             return None
         fine = np.sort(np.r_[nodes, 0.5 * (nodes[1:] + nodes[:-1])])
-        ctx = Context(fine, None, Covariates(len(fine)))
-        table[f"positions_{term.position_unit}"] = [float(x / term.position_scale) for x in fine]
-        table[f"values_{term.unit}"] = [float(v / term.unit_scale) for v in term.value(zero, ctx)]
+        richer = replace(term, nodes=fine)
+        coefficients = term.value(zero, Context(fine, None, Covariates(len(fine))))
         change = (f"table of {len(nodes)} nodes", f"{len(fine)} nodes")
-    if tspec.prefix:
-        table["prefix"] = tspec.prefix
-    return index, table, change
+    return index, TermSpec(tspec.prefix, richer, coefficients), change
 
 
 def adequacy_candidates(machine: Machine, own: dict[str, str]) -> list[Candidate]:
@@ -317,13 +349,13 @@ def adequacy_candidates(machine: Machine, own: dict[str, str]) -> list[Candidate
         if not np.all(np.isfinite(machine.travel[j])):
             continue  # a polynomial over the travel needs a finite travel
         for by in RAISE_BY:
-            raised = raised_table(machine, comp.name, by=by)
+            raised = raised_term(machine, comp.name, by=by)
             if raised is None:
                 continue
-            _, table, change = raised
+            _, term, change = raised
             name = geometric_name(direction, owner, False, own.get(owner), machine.axis_kinds[j] == "linear")
-            out.append(Candidate(name, owner, direction_of(direction), comp.name, table, f"q_{owner}",
-                                 kind=Role.RAISE, change=change, by=by))
+            out.append(Candidate(name, owner, direction_of(direction), comp.name, None, f"q_{owner}",
+                                 kind=Role.RAISE, change=change, by=by, term=term))
     return out
 
 

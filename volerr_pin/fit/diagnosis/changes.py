@@ -1,16 +1,19 @@
-"""Changes to the model: an accepted effect added as a term, under-modelled components raised
-(starting from their present function, so the base fit is reproduced exactly), an effect
-removed again, raises trimmed to what the final fit finds significant; and the size of a
-change in standard uncertainties, which decides whether it stays.
+"""Changes to the model, as typed edits of its spec (:class:`~volerr_pin.model.MachineSpec`) laid
+out on the same Pinocchio model (:meth:`~volerr_pin.model.Machine.with_spec`): an accepted
+effect added as a term, under-modelled components raised (starting from their present
+function, so the base fit is reproduced exactly), an effect removed again, raises trimmed to
+what the final fit finds significant; and the size of a change in standard uncertainties,
+which decides whether it stays.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-from ...model.machine import Machine
-from ...model.specio import add_terms, remove_components, replace_terms, term_tables
-from .candidates import geometric_term, raised_table
+from ...model import Machine, TermSpec
+from .candidates import geometric_term, raised_term
 from .effects import effect_kind
 from .results import SIGNIFICANCE, Change, Role, Score
 
@@ -28,10 +31,11 @@ def _unique_prefix(machine: Machine, component: str, stem: str) -> str:
     return f"{stem}{k}"
 
 
-def _table_with(tspec, coefs, prefix):
-    table = tspec.term.to_spec(coefs)
-    table["prefix"] = prefix
-    return table
+def _with_term(spec, component: str, index: int, tspec: TermSpec):
+    """``spec`` with ``component``'s term ``index`` replaced by ``tspec``."""
+    terms = list(spec.component(component).terms)
+    terms[index] = tspec
+    return spec.with_component(component, *terms)
 
 
 def raise_components(machine: Machine, components: list[tuple[str, int]]) -> Machine:
@@ -50,16 +54,12 @@ def raise_components(machine: Machine, components: list[tuple[str, int]]) -> Mac
     Machine
         The machine with the raised terms.
     """
-    theta = dict(zip(machine.parameter_names, machine.theta))
-    present = term_tables(machine)
-    tables = {}
+    spec = machine.spec
     for component, by in components:
         index, tspec = geometric_term(machine, component)
-        values = np.array([theta[n] for n in tspec.names(component)])
-        _, table, _ = raised_table(machine, component, values, by)
-        tables[component] = present[component]
-        tables[component][index] = table
-    return replace_terms(machine, tables)
+        _, raised, _ = raised_term(machine, component, tspec.coefficients, by)
+        spec = _with_term(spec, component, index, raised)
+    return machine.with_spec(spec)
 
 
 def remove_effect(machine: Machine, effect: Change) -> Machine:
@@ -79,12 +79,9 @@ def remove_effect(machine: Machine, effect: Change) -> Machine:
     """
     component = effect.component
     names = set(effect.names)
-    comp = next(c for c in machine.spec.components if c.name == component)
-    keep = [i for i, t in enumerate(comp.terms) if not names & set(t.names(component))]
-    if not keep:
-        return remove_components(machine, [component])
-    tables = term_tables(machine)[component]
-    return replace_terms(machine, {component: [tables[i] for i in keep]})
+    spec = machine.spec
+    keep = [t for t in spec.component(component).terms if not names & set(t.names(component))]
+    return machine.with_spec(spec.with_component(component, *keep) if keep else spec.without(component))
 
 
 def apply_changes(machine: Machine, batch: list[Score]) -> tuple[Machine, list[Change]]:
@@ -122,10 +119,10 @@ def apply_changes(machine: Machine, batch: list[Score]) -> tuple[Machine, list[C
     before = set(machine.parameter_names)
     stem = effect_kind(cand.name).prefix   # None: a geometric term ("geom" beside others, none alone)
     prefix = _unique_prefix(machine, cand.component, stem or "geom")
-    table_spec = _table_with(score.term, score.coefficients, prefix)
     if not (stem is not None or cand.component in machine.components):
-        table_spec.pop("prefix", None)
-    new = add_terms(machine, {cand.component: table_spec})
+        prefix = ""
+    term = TermSpec(prefix, score.term.term, score.coefficients)
+    new = machine.with_spec(machine.spec.with_terms(cand.component, term))
     return new, [Change(Role.EFFECT, cand.label, cand.name, cand.component,
                         cand.axis if cand.axis in machine.axes else None, cand.direction, cand.driver,
                         score.p_value, score.bic_gain, names=[n for n in new.parameter_names if n not in before])]
@@ -153,8 +150,7 @@ def trim_raises(machine: Machine, fit, base: Machine, components) -> Machine | N
     """
     if fit is None:
         return None
-    tables = {}
-    present = None
+    spec, trimmed = machine.spec, False
     for component in sorted(components):
         index, tspec = geometric_term(machine, component)
         if tspec.term.kind not in ("legendre", "monomial"):
@@ -170,12 +166,9 @@ def trim_raises(machine: Machine, fit, base: Machine, components) -> Machine | N
         keep = max([start] + [d for d in range(start + 1, len(names)) if z[d] >= SIGNIFICANCE])
         if keep >= tspec.term.degree:
             continue
-        present = present or term_tables(machine)
-        terms = present[component]
-        key = f"coefficients_{tspec.term.unit}"
-        terms[index] = dict(terms[index], **{key: list(terms[index][key])[:keep + 1]})
-        tables[component] = terms
-    return replace_terms(machine, tables) if tables else None
+        shorter = TermSpec(tspec.prefix, replace(tspec.term, degree=keep), tspec.coefficients[:keep + 1])
+        spec, trimmed = _with_term(spec, component, index, shorter), True
+    return machine.with_spec(spec) if trimmed else None
 
 
 def tested_names(machine: Machine, change: Change) -> list[str]:
@@ -253,16 +246,11 @@ def with_lag(machine: Machine, effects: list[Change], lag_s: float) -> Machine:
     Machine
         The machine with the lagged terms, their coefficients kept.
     """
-    present = term_tables(machine)
-    tables = {}
+    spec, changed = machine.spec, False
     for effect in effects:
-        comp = next(c for c in machine.spec.components if c.name == effect.component)
         names = set(effect.names)
-        terms = tables.get(effect.component, present[effect.component])
-        for i, t in enumerate(comp.terms):
-            if names & set(t.names(effect.component)) and terms[i].get("driver") == "temperature":
-                terms[i] = {k: v for k, v in terms[i].items() if k != "lag_s"}
-                if lag_s:
-                    terms[i]["lag_s"] = float(lag_s)
-        tables[effect.component] = terms
-    return replace_terms(machine, tables) if tables else machine
+        comp = spec.component(effect.component)
+        terms = [TermSpec(t.prefix, replace(t.term, lag=float(lag_s)), t.coefficients)
+                 if names & set(t.names(effect.component)) and hasattr(t.term, "lag") else t for t in comp.terms]
+        spec, changed = spec.with_component(effect.component, *terms), True
+    return machine.with_spec(spec) if changed else machine

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..identify import Observations
-from ...model.machine import Machine
-from ...model.spec import component_name
+from ...model import Machine
+from ...model import component_name
 from .results import Candidate
 
 __all__ = ["EFFECTS", "MIN_PERIODS", "ROTARY_ORDERS", "Backlash", "EffectKind", "ForceDeflection", "Geometric", "Offer",

@@ -21,10 +21,11 @@ from ...base.errors import InputError, SpecError
 from ..identify import (Identification, Observations, build_observations, check_observations, conditioning_note,
                         identify, parameter_units, pose_folds, residual_rms)
 from ..identify.design import by_halves
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.safeio import require_memory
 from ...base.units import UM_PER_M
-from ...model.specio import add_terms, check_values
+from ...model import Constant, TermSpec, check_covariates, check_values
+from .candidates import display_unit
 from .candidates import build_candidates
 from .changes import apply_changes, remove_effect, size_of, tested_names, trim_raises, with_lag
 from .report import (components_per_point, effect_amplitude, floor_verdict, group_findings, noise_floor,
@@ -167,7 +168,7 @@ class _Loop:
         self.machine, self.obs, self.split, self.fixed, self.alpha = machine, obs, split, fixed, alpha
         self.noise_stated = noise_stated
         self.max_effects, self.progress, self.keep_machines = max_effects, progress, keep_machines
-        self.cov_obj = machine.check_covariates(obs.n_points, obs.covariates)
+        self.cov_obj = check_covariates(machine.model, obs.n_points, obs.covariates, machine.state)
         self.axis_index_of = {a: j for j, a in enumerate(machine.axes)}
         self.columns = Columns(obs, self.cov_obj)
         self.free_names: list[str] = []        # with ``fixed``: the coefficients that may move
@@ -197,7 +198,7 @@ class _Loop:
             theta = model.theta.copy()
             for n, p in strayed.items():
                 theta[model.parameter_names.index(n)] = p
-            res = _quiet_identify(model._with_theta(theta), self.obs, free=_free(self, model, names, set(strayed)),
+            res = _quiet_identify(model.with_theta(theta, limits=False), self.obs, free=_free(self, model, names, set(strayed)),
                                   initialise=initialise)
         return res.machine, res.fitted, np.array(list(res.nuisance.values())), res
 
@@ -607,10 +608,14 @@ def _offered(loop: _Loop) -> tuple[list, np.ndarray, list[str]]:
         effect_kind(c.name).per_revolution and (c.component, PeriodicRotary.order(c)) in accepted_orders)]
     if len(loop.effects) >= loop.max_effects:
         candidates = [c for c in candidates if c.kind == Role.RAISE]
-    missing_loc = {c.component: {"kind": "constant", "prefix": "probe",
-                                 f"value_{'um' if c.component[1] in 'XYZ' else 'arcsec'}": 0.0}
-                   for c in candidates if c.component not in loop.current.error_joints}
-    probe = add_terms(loop.current, missing_loc) if missing_loc else loop.current
+    missing_loc = sorted({c.component for c in candidates if c.component not in loop.current.error_joints},
+                         key=[c.component for c in candidates].index)
+    probe = loop.current
+    if missing_loc:
+        spec = probe.spec
+        for component in missing_loc:
+            spec = spec.with_terms(component, TermSpec("probe", Constant(*display_unit(component[1])), np.zeros(1)))
+        probe = probe.with_spec(spec)
     E = by_halves(loop.obs, lambda q, **cov: probe.error_joint_sensitivity(q, first_order=True, **cov),
                   "joint sensitivity")
     return candidates, E, list(probe.error_joints)
@@ -629,7 +634,8 @@ def _memory_needed(machine: Machine, obs: Observations, folds: int) -> float:
     candidate (non-linear ones at several grid values) and the base design with its basis and
     that basis's rows in every training and held-out set, per observation row."""
     candidates = build_candidates(machine, obs)
-    columns = sum(max(1, sum(len(v) for v in c.table.values() if isinstance(v, list))) for c in candidates)
+    columns = sum(max(1, c.term.term.size if c.table is None else
+                      sum(len(v) for v in c.table.values() if isinstance(v, list))) for c in candidates)
     base = obs.nuisance.shape[1] + len(machine.parameter_names)
     return 8.0 * len(obs.y) * (6 * columns + (folds + 4) * base)
 
@@ -725,5 +731,5 @@ def _hold_periods(loop: _Loop) -> None:
     theta = loop.current.theta.copy()
     for n, v in held.items():
         theta[names.index(n)] = v
-    loop.current = loop.current._with_theta(theta)
+    loop.current = loop.current.with_theta(theta, limits=False)
     loop.held = set(held)

@@ -14,9 +14,9 @@ import numpy as np
 from scipy.linalg import lapack
 
 from ..identify import Observations, point_squares, predict_observations
-from ...model.machine import Machine
-from ...model.spec import build_term, parse_component_name
-from ...model.terms import Context, Covariates
+from ...model import Machine
+from ...model import build_term, parse_component_name
+from ...model import Context, Covariates
 from ...base.units import UM_PER_M
 from .results import Candidate
 
@@ -96,7 +96,7 @@ class Columns:
     """Weighted columns of a candidate's coefficients, linearised at the base.
 
     The term's own Jacobian depends only on the positions and covariates, which stay the
-    same through the diagnosis: it is computed once per (candidate table, non-linear
+    same through the diagnosis: it is computed once per (candidate term, non-linear
     value) and kept.
 
     Parameters
@@ -133,7 +133,8 @@ class Columns:
         travel = tuple(machine.travel[axis_index]) if axis_index is not None else None
         position_quantity = None if (location or axis_index is None) else (
             "length" if machine.axis_kinds[axis_index] == "linear" else "angle")
-        tspec = build_term(dict(cand.table), f"candidate {cand.label}", quantity, position_quantity, travel)
+        tspec = cand.term if cand.table is None else build_term(
+            dict(cand.table), f"candidate {cand.label}", quantity, position_quantity, travel)
         position = None if position_quantity is None else self.obs.q[:, axis_index]
         ctx = Context(position, travel, self.cov_obj, axis_index, cand.component)
         return tspec, ctx
@@ -163,8 +164,9 @@ class Columns:
             The columns (rows, k), the term and the coefficients used.
         """
         obs = self.obs
-        key = (cand.component, repr(sorted(cand.table.items())),
-               None if coefs is None else tuple(np.round(coefs, 15)))
+        what = (repr(sorted(cand.table.items())) if cand.table is not None
+                else (repr(cand.term.term), tuple(cand.term.coefficients)))
+        key = (cand.component, what, None if coefs is None else tuple(np.round(coefs, 15)))
         entry = self.cache.get(key)
         if entry is None:
             tspec, ctx = self.term(machine, cand)

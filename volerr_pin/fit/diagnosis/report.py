@@ -12,7 +12,7 @@ import numpy as np
 from ...base.checks import integer
 from ...base.errors import InputError
 from ..identify import Observations
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.units import ARCSEC, AXIS_UNIT, UM_PER_M, axis_scale
 from .candidates import form_of
 from .projector import Projector

@@ -11,7 +11,7 @@ from enum import StrEnum
 import numpy as np
 
 from ..identify import Observations
-from ...model.machine import Machine
+from ...model import Machine
 
 __all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR", "Candidate", "Change",
            "Diagnosis", "DriftSeries", "Evidence", "Raise", "Role", "Score", "Separation", "Step", "ThermalModel",
@@ -86,8 +86,10 @@ class Candidate:
         "x", "y", "z" (rotations: about that axis).
     component : str
         The component error it is modelled as ("EXX", "EC0Y").
-    table : dict
-        Its spec term table, zero-valued (for :func:`volerr_pin.model.specio.add_terms`).
+    table : dict or None
+        An effect's term as its kind offers it: a table in the spec file's form, zero-valued,
+        read into a term where it is scored; None for the model's own geometry (offered as
+        ``term``).
     driver : str, optional
         The covariate that drives it ("t", "T_spindle", "Fx", "dir_X", "q_X").
     label : str
@@ -99,18 +101,21 @@ class Candidate:
         Raises: the component's form before and after ("degree 2", "degree 3").
     by : int, default 1
         Raises: degrees gained.
+    term : TermSpec or None
+        The model's own geometry (a missing component, a raise): its term, zero-valued.
     """
 
     name: str                 # catalogue name
     axis: str | None
     direction: str | None     # "x", "y", "z" (rotations: about that axis)
     component: str
-    table: dict               # spec term table (zero-valued) for add_terms
+    table: dict | None        # an effect's term table (zero-valued), as its kind offers it
     driver: str | None = None  # covariate that drives it ("t", "T_spindle", "Fx", "dir_X", "q_X")
     label: str = ""
     kind: Role = Role.EFFECT
     change: tuple[str, str] | None = None
     by: int = 1
+    term: object = None       # TermSpec of the model's own geometry (missing, raised), zero-valued
 
     def describe(self) -> str:
         """The candidate in words, e.g. "backlash on X in x driven by dir_X (EXX)" (an effect

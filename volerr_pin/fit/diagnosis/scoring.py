@@ -15,9 +15,9 @@ from scipy import stats
 from scipy.signal import lombscargle
 
 from ..identify import Observations
-from ...model.terms import Covariates
+from ...model import Covariates
 from ...base.units import ARCSEC, UM_PER_M
-from .candidates import PITCH_PERIOD_MM, smoother_table
+from .candidates import PITCH_PERIOD_MM, smoother_term
 from .effects import MIN_PERIODS, effect_kind
 from .projector import Base, Columns, Projector
 from .results import Candidate, Role, Score
@@ -217,7 +217,7 @@ def table_interpolation(base: Base, proj: Projector, E: np.ndarray, joints: list
     A table leaves, between its nodes, the residual of a smooth function, which repeats at the
     node spacing and its harmonics; a ball screw's error does neither. So the periodic error is
     fitted again beside the table one step richer between its nodes
-    (:func:`~volerr_pin.fit.diagnosis.candidates.smoother_table`), jointly with the base: the
+    (:func:`~volerr_pin.fit.diagnosis.candidates.smoother_term`), jointly with the base: the
     table's residual goes into the richer table, a screw's error stays. The periodic error is
     the table's unless its amplitude stays within :data:`SURVIVES` of what it was and its
     inverse (a sinusoid the richer table can take as well is no longer determined beside it,
@@ -248,12 +248,12 @@ def table_interpolation(base: Base, proj: Projector, E: np.ndarray, joints: list
         The reason, with both amplitudes [um]; None when the error survives, the component has
         no table, or the table cannot be made richer.
     """
-    smoother = smoother_table(base.machine, cand.component)
+    smoother = smoother_term(base.machine, cand.component)
     if smoother is None:
         return None
-    table, how = smoother
-    richer = Candidate(cand.name, cand.axis, cand.direction, cand.component, table,
-                       label=f"{cand.component} richer between its nodes", kind=Role.RAISE)
+    term, how = smoother
+    richer = Candidate(cand.name, cand.axis, cand.direction, cand.component, None,
+                       label=f"{cand.component} richer between its nodes", kind=Role.RAISE, term=term)
     C_table = columns(base.machine, E, joints, richer)[0]
     before = float(np.linalg.norm(gamma))
     after = float(np.linalg.norm(proj.fit(np.hstack([C_table, C]))[2][-C.shape[1]:]))

@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import lapack
 
-from ...model import evaluate
+from ...model import check_inputs, sensitivity, volumetric_error
 from ...base.errors import InputError
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.units import UM_PER_M, URAD_PER_RAD
 from .observations import Observations, data_names, take_covariates
 
@@ -50,7 +50,7 @@ def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray,
 def error_and_sensitivity(machine: Machine, q: np.ndarray, theta: np.ndarray, columns, covariates: dict,
                           first_order: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The error at points and its sensitivity to some coefficients, the inputs checked once
-    and both evaluated by the model core (:mod:`volerr_pin.model.evaluate`).
+    and both evaluated by the algorithms of :mod:`volerr_pin.model`.
 
     Parameters
     ----------
@@ -63,7 +63,7 @@ def error_and_sensitivity(machine: Machine, q: np.ndarray, theta: np.ndarray, co
     columns : ndarray of int, shape (F,)
         Indices of the coefficients to differentiate by.
     covariates : dict
-        The points' covariates, as :meth:`~volerr_pin.model.machine.Machine.volumetric_error` takes them.
+        The points' covariates, as :meth:`~volerr_pin.model.Machine.volumetric_error` takes them.
     first_order : bool, default False
         The sensitivity of the first-order model.
 
@@ -75,10 +75,9 @@ def error_and_sensitivity(machine: Machine, q: np.ndarray, theta: np.ndarray, co
         d error / d theta[columns].
     """
     columns = np.asarray(columns, dtype=int)
-    q, theta, cov = machine.check_inputs(q, theta, columns=len(columns), **covariates)
-    asm = machine.assembly
-    return (evaluate.volumetric_error(asm, q, theta, cov),
-            evaluate.sensitivity(asm, q, theta, cov, columns, first_order))
+    q, theta, cov = check_inputs(machine.model, q, theta, covariates, state=machine.state, columns=len(columns))
+    return (volumetric_error(machine.model, q, theta, cov),
+            sensitivity(machine.model, q, theta, cov, columns=columns, first_order=first_order))
 
 
 def by_halves(obs: Observations, fn, tag: str) -> np.ndarray:

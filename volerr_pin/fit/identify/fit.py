@@ -11,7 +11,7 @@ import numpy as np
 from ...base.checks import fraction, integer, measurement_sigma, positive
 from ...base.errors import InputError
 from ..identifiability import analyse
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.safeio import require_memory
 from . import design
 from .crossval import cross_validate, holdout_split
@@ -151,7 +151,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         covariance = cov[n_nu:, n_nu:] * residual_sigma ** 2
         ill = ill or rank_deficient
     residual_si = r * obs.sigma
-    fitted_machine = machine._with_theta(theta)
+    fitted_machine = machine.with_theta(theta, limits=False)
     rms_fit = residual_rms(obs, residual_si)
     rms_fit_rot = residual_rms(obs, residual_si, angular=True)
     fitted_idx = free[kept_theta] if convention == "prior" else free

@@ -17,10 +17,10 @@ import numpy as np
 
 from ...base.checks import measurement_sigma
 from ...base.errors import InputError
-from ...model.machine import Machine
+from ...model import Machine
 from ...measurements.protocol import Measurement, ObservationBlock, ObservationOptions
 from ...measurements.registry import read_any
-from ...model.terms import TemperatureHistory
+from ...model import TemperatureHistory
 from ...base.units import UM_PER_M, URAD_PER_RAD, axis_values_to_si
 
 __all__ = ["WEIGHTED_LIMIT", "Observations", "build_observations", "check_observations", "data_names",

@@ -9,7 +9,7 @@ import numpy as np
 
 from ...base.errors import InputError
 from ..identifiability import Analysis
-from ...model.machine import Machine
+from ...model import Machine
 from ...base.units import UM_PER_M, URAD_PER_RAD
 
 __all__ = ["Identification", "check_report_machine", "parameter_units"]

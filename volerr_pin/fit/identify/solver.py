@@ -10,9 +10,9 @@ from typing import Callable
 
 import numpy as np
 
-from ...model import evaluate
+from ...model import check_inputs, sensitivity, volumetric_error
 from ..identifiability import Analysis, analyse
-from ...model.machine import Machine
+from ...model import Machine
 from .design import (column_scale, default_rcond, point_chunks, reduce_design,
                      refuse_non_finite, rows_of, stacked_factor, typical_sizes, weighted_residual)
 from .observations import Observations, take_covariates
@@ -174,7 +174,7 @@ def initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray,
     lin_cols = np.array([c - n_nu for c in kept if c >= n_nu], dtype=int)
     for step, k in enumerate(nonlinear):
         # the columns of the other terms hardly depend on this coefficient: computed once per chunk
-        term = next(p for p in machine.assembly.term_spans() if p.start <= k < p.stop)
+        term = next(p for p in machine.model.term_spans() if p.start <= k < p.stop)
         own = np.array([i for i in range(term.start, term.stop) if i in set(linear[lin_cols].tolist())], dtype=int)
         others = np.array([i for i in linear[lin_cols] if i not in set(own.tolist())], dtype=int)
         grid = np.r_[theta[k], machine.search_grid(k, theta, n=obs.n_points, **obs.covariates)]
@@ -183,15 +183,15 @@ def initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray,
             cov = take_covariates(obs.covariates, points)
             q, w, local, sigma = obs.q[points], obs.w[rows], obs.point[rows] - points[0], obs.sigma[rows, None]
             # checked once for the other terms' columns and every grid value (the model core)
-            q, checked, cov = machine.check_inputs(q, theta, columns=len(others) + len(own), **cov)
-            asm = machine.assembly
-            error = evaluate.volumetric_error(asm, q, checked, cov)
-            _, A_other = rows_of(w, local, error, evaluate.sensitivity(asm, q, checked, cov, others))
+            model = machine.model
+            q, checked, cov = check_inputs(model, q, theta, cov, state=machine.state, columns=len(others) + len(own))
+            error = volumetric_error(model, q, checked, cov)
+            _, A_other = rows_of(w, local, error, sensitivity(model, q, checked, cov, columns=others))
             for g, value in enumerate(grid):
                 trial = theta.copy()
                 trial[k] = value
-                error = evaluate.volumetric_error(asm, q, trial, cov)
-                pred, A_own = rows_of(w, local, error, evaluate.sensitivity(asm, q, trial, cov, own))
+                error = volumetric_error(model, q, trial, cov)
+                pred, A_own = rows_of(w, local, error, sensitivity(model, q, trial, cov, columns=own))
                 factors[g] = stacked_factor(factors[g], [obs.nuisance[rows], A_other, A_own, obs.y[rows] - pred],
                                             sigma[:, 0], lambda block: refuse_non_finite(
                                                 obs, {"residuals or sensitivities": block}))

@@ -180,7 +180,7 @@ def _simulate(machine, instrument, setup, units, free, std, seed) -> tuple[dict,
     rng = np.random.default_rng(seed)
     truth = machine.theta.copy()
     truth[free] = np.where(np.isfinite(std), 10.0 * std, 0.0) * rng.choice([-1.0, 1.0], len(free))
-    true_machine = machine._with_theta(truth)   # a simulated truth: no spec limit applies
+    true_machine = machine.with_theta(truth, limits=False)   # a simulated truth: no spec limit applies
     from ...fit.identify import stack_blocks
     from ...fit.identify.design import rows_of
     from ...measurements.protocol import ObservationOptions
@@ -196,7 +196,7 @@ def _simulate(machine, instrument, setup, units, free, std, seed) -> tuple[dict,
     prior_theta[free] = 0.0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        fit = identify(machine._with_theta(prior_theta), data, free=free, folds=0, sigma_um=sigma_um,
+        fit = identify(machine.with_theta(prior_theta, limits=False), data, free=free, folds=0, sigma_um=sigma_um,
                        sigma_urad=sigma_um, initialise=False)
     grouped = {n for g in fit.groups for n in g.parameters}
     units_of = parameter_units(machine)

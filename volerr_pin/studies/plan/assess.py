@@ -165,7 +165,7 @@ def simulated(machine, instrument, setup, units: list, free: np.ndarray, zone_q:
         theta0[free] = 0.0
     else:
         theta0 = np.array(prior, dtype=float)
-    prior = machine._with_theta(theta0)   # a simulation: no spec limit applies
+    prior = machine.with_theta(theta0, limits=False)   # a simulation: no spec limit applies
     e_zone = machine.volumetric_error(zone_q)[:, :3]
     errors, zone_sq, held = [], [], set()
     for r in range(repeats):

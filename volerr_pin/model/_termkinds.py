@@ -1,4 +1,4 @@
-"""The registry of error-term kinds: which :class:`~volerr_pin.model.terms.Term` class reads a spec
+"""The registry of error-term kinds: which :class:`~volerr_pin.model.Term` class reads a spec
 table of each ``kind`` (and ``driver``).
 
 Every class reads its own table (``from_spec``) and writes it back (``to_spec``); this
@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .effects import EFFECTS
+from ._effects import EFFECTS
 from ..base.errors import SpecError
-from .speckeys import NAME_RE, TermSite, check_keys, text
-from .terms import Constant, Polynomial, Table, Term
+from ._speckeys import NAME_RE, TermSite, check_keys, text
+from ._terms import Constant, Polynomial, Table, Term
 
 #: kinds of geometric terms (functions of the axis position only)
 GEOMETRIC = {"constant": Constant, "legendre": Polynomial, "monomial": Polynomial, "table": Table}

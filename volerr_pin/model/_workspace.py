@@ -10,14 +10,13 @@ from scipy.stats import qmc
 
 from ..base.checks import integer, positive, whole_numbers
 from ..base.errors import InputError
-from .machine import Machine
+from ._machine import Machine
 from ..base.safeio import require_memory
 from ..base.units import ARCSEC_PER_RAD, UM_PER_M, axis_scales, axis_values_to_si
 
 
 # the checks moved to volerr_pin.base.checks; compensate.py and compensation/ (issue 25) still import
 # these two names from here
-_integer, _positive = integer, positive
 
 
 def _size_of_grid(counts) -> int:

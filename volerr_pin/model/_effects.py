@@ -1,6 +1,6 @@
 """Effect terms: thermal drift and expansion, backlash, force deflection, periodic pitch.
 
-Each is a :class:`~volerr_pin.model.terms.Term` of a component error, driven by covariates (time
+Each is a :class:`~volerr_pin.model.Term` of a component error, driven by covariates (time
 ``t``, ``temperatures``, ``forces``, ``directions``) and, for some, the axis position. All
 give exact derivatives with respect to their coefficients (including the non-linear ones:
 time constants and periods) and to the axis position. Spec keys (units in the names) are
@@ -40,8 +40,8 @@ import numpy as np
 from numpy.polynomial import legendre
 
 from ..base.errors import InputError, SpecError
-from .speckeys import TermSite, find_key, number, numbers, stem_of, unit_of
-from .terms import MAX_COEFFICIENTS, Context, Covariates, Term
+from ._speckeys import TermSite, find_key, number, numbers, stem_of, unit_of
+from ._terms import MAX_COEFFICIENTS, Context, Covariates, Term
 from ..base.units import ANGLE, TIME, scale, within
 
 
@@ -165,6 +165,9 @@ class DriftTime(Term):
 
     def coefficient_units(self):
         return [(self.unit_scale, self.unit), (TIME[self.time_unit], self.time_unit)] * self.count
+
+    def coefficient_limits(self):
+        return _with_time_constants(self)
 
     def to_spec(self, c):
         table = {"kind": "thermal_drift", "driver": "time",
@@ -353,6 +356,9 @@ class ExpansionTime(Term):
 
     def coefficient_units(self):
         return [(1e-6, "ppm"), (TIME[self.time_unit], self.time_unit)] * self.count
+
+    def coefficient_limits(self):
+        return _with_time_constants(self)
 
     def to_spec(self, c):
         return {"kind": "thermal_expansion", "driver": "time",
@@ -564,9 +570,15 @@ class PeriodicPitch(Term):
 
 
 def _count(count: int, site: TermSite, key: str, what: str) -> None:
-    """Between 1 and :data:`~volerr_pin.model.terms.MAX_COEFFICIENTS` values of a list key."""
+    """Between 1 and :data:`~volerr_pin.model.MAX_COEFFICIENTS` values of a list key."""
     if not 1 <= count <= MAX_COEFFICIENTS:
         raise SpecError(f"{site.where}.{key}: {count} {what}; give 1 to {MAX_COEFFICIENTS}")
+
+
+def _with_time_constants(term: Term) -> list[str]:
+    """A term's limits with its time constants (``tau1`` ...) held positive, as a spec holds them."""
+    return ["time_constant" if name.startswith("tau") else limit
+            for name, limit in zip(term.local_names, Term.coefficient_limits(term))]
 
 
 def _time_constants(table: dict, site: TermSite, count: int) -> np.ndarray:

@@ -4,7 +4,7 @@ A component error (EXX, EC0Y, ...) is the sum of its terms. A term gives its val
 derivative with respect to its coefficients (:meth:`Term.jacobian`) and with respect to the
 axis position (:meth:`Term.position_slope`). The geometric terms here are linear in their
 coefficients, ``value = basis(context) @ coefficients``; the effect terms of
-:mod:`volerr_pin.model.effects` (thermal, load, reversal, periodic) may have non-linear ones
+:mod:`volerr_pin.model._effects` (thermal, load, reversal, periodic) may have non-linear ones
 (time constants, periods), listed in :attr:`Term.nonlinear`. Coefficients are SI (m or rad
 for the error; positions in m or rad). A term writes itself back in the engineering units
 it was read in (:meth:`Term.to_spec`).
@@ -22,7 +22,7 @@ from scipy.interpolate import CubicSpline, make_interp_spline
 
 from ..base.errors import InputError, SpecError
 from ..base.safeio import require_memory
-from .speckeys import TermSite, text
+from ._speckeys import TermSite, text
 from ..base.units import ANGLE, LENGTH, PLAUSIBLE, TIME, scale
 
 #: peak memory of reading a table of n nodes, per n^2 (measured 96 bytes at 1,000 and 2,000 nodes;

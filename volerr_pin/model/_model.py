@@ -1,7 +1,8 @@
-"""A machine's assembled model: its error joints injected into the URDF, Pinocchio's model of
-the result, the chain from the workpiece frame to the tool frame flattened for the compiled
-kernels, and where each component error and coefficient acts. Built once per spec
-(:func:`assemble`); the functions below evaluate it at points, for any coefficients.
+"""A machine's model: its error joints injected into the URDF, Pinocchio's model of the
+result, the chain from the workpiece frame to the tool frame flattened for the compiled
+kernels, and where each component error and coefficient acts. Built once per structure
+(:func:`build_model`) and never changed; the algorithms (:mod:`._algorithms`) evaluate it at
+points, for any coefficients and covariates.
 
 A group of six error joints (translations X, Y, Z, then rotations A, B, C) is injected for
 every owner of location errors (before the owner's joint), every axis (after its joint when
@@ -21,14 +22,12 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from . import kinematics as K
+from . import _kinematics as K
 from ..base.errors import SpecError, URDFError
-from .spec import DIRECTIONS, MachineSpec, axis_travel, component_name
-from .terms import Context, Covariates
-from .urdf import URDF, Site, inject, package_folders
+from ._spec import DIRECTIONS, MachineSpec, axis_travel, component_name
+from ._urdf import URDF, Site, inject, package_folders
 
-__all__ = ["BLOCK_BYTES", "Assembly", "ComponentSite", "assemble", "axis_values", "component_values", "context",
-           "error_jacobian", "joint_values", "parameter_jacobian"]
+__all__ = ["BLOCK_BYTES", "ComponentSite", "Model", "build_model"]
 
 #: most memory one block of a batch evaluation takes for its Jacobians [bytes]
 BLOCK_BYTES = 128_000_000
@@ -64,14 +63,17 @@ class ComponentSite:
 
 
 @dataclass(frozen=True, eq=False)
-class Assembly:
-    """The assembled model of a machine (see the module docstring); immutable, shared by every
-    machine with the same spec whatever its coefficients or state.
+class Model:
+    """The model of a machine (see the module docstring): built once per structure, never
+    changed, shared by every machine of the same spec whatever its coefficients or state.
+
+    The algorithms of :mod:`volerr_pin.model` (:func:`~volerr_pin.model.volumetric_error` and
+    the others) take it first, as Pinocchio's take its model.
 
     Attributes
     ----------
     spec : MachineSpec
-        The error specification.
+        The error specification (its coefficient values are :attr:`theta`).
     urdf : URDF
         The nominal URDF, without error joints.
     package_dirs : tuple of Path
@@ -80,9 +82,9 @@ class Assembly:
         The injected error sites, in order.
     injected : URDF
         The URDF with the error joints.
-    model : pinocchio.Model
+    pinocchio : pinocchio.Model
         Pinocchio's model of ``injected`` (not to be modified).
-    chain : kinematics.Chain
+    chain : Chain
         The flattened chain from the workpiece frame to the tool frame.
     block : int
         Points per block of a batch evaluation (Jacobian blocks within :data:`BLOCK_BYTES`).
@@ -108,9 +110,9 @@ class Assembly:
         Velocity index of the error joint of each coefficient.
     theta : ndarray, shape (P,)
         The spec's coefficient values (SI, read-only).
-    structures : list of Assembly
-        The structures (error joints, model, chain) edits of this assembly may share, its own
-        first (see :func:`assemble`); shared by all of them.
+    structures : list of Model
+        The structures (error joints, Pinocchio model, chain) edits of this model may share,
+        its own first (see :func:`build_model`); shared by all of them.
     """
 
     spec: MachineSpec
@@ -118,7 +120,7 @@ class Assembly:
     package_dirs: tuple
     sites: tuple
     injected: URDF
-    model: pin.Model
+    pinocchio: pin.Model
     chain: object
     block: int
     axis_cols: np.ndarray
@@ -135,6 +137,11 @@ class Assembly:
     structures: list = field(default_factory=list, repr=False)
 
     @property
+    def name(self) -> str:
+        """The machine's name, from its spec (str)."""
+        return self.spec.name
+
+    @property
     def axes(self) -> tuple[str, ...]:
         """Axis names in the order of the columns of ``q`` (tuple of str)."""
         return tuple(a.name for a in self.spec.axes)
@@ -143,6 +150,21 @@ class Assembly:
     def axis_kinds(self) -> tuple[str, ...]:
         """Kind of each axis, "linear" (a prismatic joint, SI unit m) or "rotary" (SI unit rad)."""
         return tuple("linear" if self.urdf.joints[a.joint].type == "prismatic" else "rotary" for a in self.spec.axes)
+
+    @property
+    def nv(self) -> int:
+        """Pinocchio's velocity dimension: the number of joint values (axes and error joints)."""
+        return self.pinocchio.nv
+
+    @property
+    def component_names(self) -> tuple[str, ...]:
+        """Names of the component errors that have terms, in the order of :attr:`components`."""
+        return tuple(c.name for c in self.components)
+
+    @property
+    def error_joints(self) -> tuple[str, ...]:
+        """Names of the injected error joints of the spec's sites (six per site, X, Y, Z, A, B, C)."""
+        return tuple(n for s in self.sites for n in s.names)
 
     @property
     def nonlinear_parameters(self) -> tuple[int, ...]:
@@ -225,10 +247,10 @@ def _refuse_mimic_between(spec: MachineSpec, urdf: URDF) -> None:
                             "mimic joints are not supported there")
 
 
-def assemble(spec: MachineSpec, urdf: URDF, package_dirs=(), like: Assembly | None = None) -> Assembly:
+def build_model(spec: MachineSpec, urdf: URDF, package_dirs=(), like: Model | None = None) -> Model:
     """Inject the error joints, build Pinocchio's model and flatten the chain.
 
-    With ``like``, the assembly of a machine this spec edits (same URDF, axes, bodies and
+    With ``like``, the model of a machine this spec edits (same URDF, axes, bodies and
     frames; other components, terms or coefficients), only the coefficients are laid out again:
     the injected URDF, Pinocchio model and chain of one of ``like``'s structures are shared.
     An edit that needs an error site none of them has (a location error added) builds once more,
@@ -247,14 +269,14 @@ def assemble(spec: MachineSpec, urdf: URDF, package_dirs=(), like: Assembly | No
     package_dirs : path or iterable of path, optional
         Folders of ``package://`` packages for pictures (the package a spec names its URDF
         by is added).
-    like : Assembly, optional
-        The assembly of the machine this spec edits (see above); one of another URDF, other
+    like : Model, optional
+        The model of the machine this spec edits (see above); one of another URDF, other
         axes, bodies or frames is not used.
 
     Returns
     -------
-    Assembly
-        The assembled model.
+    Model
+        The model.
 
     Raises
     ------
@@ -264,7 +286,7 @@ def assemble(spec: MachineSpec, urdf: URDF, package_dirs=(), like: Assembly | No
         or component does not lie between the workpiece frame and the tool frame.
     URDFError
         If a ``<mimic>`` joint lies between the workpiece and the tool frames, the model would
-        have more than :data:`~volerr_pin.model.urdf.MAX_MODEL_JOINTS` joints with its error joints,
+        have more than :data:`~volerr_pin.model.MAX_MODEL_JOINTS` joints with its error joints,
         or Pinocchio cannot build the model.
     InputError
         If a folder of ``package_dirs`` does not exist.
@@ -289,9 +311,9 @@ def assemble(spec: MachineSpec, urdf: URDF, package_dirs=(), like: Assembly | No
     return _laid_out(spec, structure, sites)
 
 
-def _structure(spec: MachineSpec, urdf: URDF, package_dirs: tuple, sites: list[Site]) -> Assembly:
+def _structure(spec: MachineSpec, urdf: URDF, package_dirs: tuple, sites: list[Site]) -> Model:
     """The error joints of ``sites`` injected into ``urdf``, Pinocchio's model of the result and
-    its chain, as an assembly without components (:func:`_laid_out` adds them)."""
+    its chain, as a model without components (:func:`_laid_out` adds them)."""
     _refuse_mimic_between(spec, urdf)
     taken = set(urdf.joints) | set(urdf.links)
     for site in sites:
@@ -316,7 +338,7 @@ def _structure(spec: MachineSpec, urdf: URDF, package_dirs: tuple, sites: list[S
     error_joint_cols = np.array([model.idx_vs[model.getJointId(n)] for s in sites for n in s.names], dtype=int)
     error_joint_signs = np.array([chain_sign(n, f"error site {s.key}") for s in sites for n in s.names])
     travel = np.array([axis_travel(urdf, a) for a in spec.axes], dtype=float).reshape(-1, 2)
-    return Assembly(spec, urdf, package_dirs, tuple(sites), injected, model, chain, 0, axis_cols, axis_signs,
+    return Model(spec, urdf, package_dirs, tuple(sites), injected, model, chain, 0, axis_cols, axis_signs,
                     axis_chain, error_joint_cols, error_joint_signs, travel, (), (), (), np.zeros(0, int), np.zeros(0))
 
 
@@ -335,7 +357,7 @@ def _chain_sign(spec: MachineSpec, model: pin.Model, chain) -> callable:
     return chain_sign
 
 
-def _same_frame(like: Assembly, spec: MachineSpec, urdf: URDF, package_dirs: tuple) -> bool:
+def _same_frame(like: Model, spec: MachineSpec, urdf: URDF, package_dirs: tuple) -> bool:
     """Whether ``spec`` on ``urdf`` has the axes, bodies and frames of ``like``: an edit of its
     components, whose error joints may be laid out on one of ``like``'s structures."""
     old = like.spec
@@ -344,11 +366,11 @@ def _same_frame(like: Assembly, spec: MachineSpec, urdf: URDF, package_dirs: tup
             == (spec.axes, spec.bodies, spec.tool_frame, spec.workpiece_frame))
 
 
-def _laid_out(spec: MachineSpec, structure: Assembly, sites: list[Site]) -> Assembly:
-    """The assembly of ``spec``: its error ``sites`` (all among the structure's) and its
+def _laid_out(spec: MachineSpec, structure: Model, sites: list[Site]) -> Model:
+    """The model of ``spec``: its error ``sites`` (all among the structure's) and its
     components' terms and coefficients laid out on the model and chain of ``structure``; the
     structure's other error joints stay at zero."""
-    model = structure.model
+    model = structure.pinocchio
     chain_sign = _chain_sign(spec, model, structure.chain)
     every = [n for s in structure.sites for n in s.names]
     col = dict(zip(every, structure.error_joint_cols))
@@ -405,166 +427,3 @@ def spec_package(spec: MachineSpec) -> tuple[Path, ...]:
     if urdf.parts[-len(inner.parts):] != inner.parts:
         return ()
     return package_folders(Path(*urdf.parts[:-len(inner.parts)]))
-
-
-# ----------------------------------------------------------------------------- evaluation
-def context(asm: Assembly, comp: ComponentSite, q: np.ndarray, cov: Covariates) -> Context:
-    """Where a component's terms are evaluated: its axis' positions and travel, the covariates.
-
-    Parameters
-    ----------
-    asm : Assembly
-        The assembled model.
-    comp : ComponentSite
-        The component.
-    q : ndarray, shape (N, n_axes)
-        NC positions [m, rad], checked.
-    cov : Covariates
-        The covariates, checked.
-
-    Returns
-    -------
-    Context
-        The terms' evaluation context.
-    """
-    if comp.axis_index is None:
-        return Context(None, None, cov, None, comp.name)
-    return Context(q[:, comp.axis_index], tuple(asm.travel[comp.axis_index]), cov, comp.axis_index, comp.name)
-
-
-def axis_values(asm: Assembly, q: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """Joint values with every error joint at zero (the nominal machine).
-
-    Parameters
-    ----------
-    asm : Assembly
-        The assembled model.
-    q : ndarray, shape (N, n_axes)
-        NC positions [m, rad], checked.
-    out : ndarray, shape (nv, >= N), optional
-        A buffer to reuse (block loops: no fresh pages per block).
-
-    Returns
-    -------
-    ndarray, shape (nv, N)
-        One row per joint, points contiguous (the kernels' layout).
-    """
-    if out is None:
-        values = np.zeros((asm.model.nv, q.shape[0]))
-    else:
-        values = out[:, :q.shape[0]]
-        values[...] = 0.0
-    values[asm.axis_cols] = (q * asm.axis_signs).T
-    return values
-
-
-def component_values(asm: Assembly, q: np.ndarray, theta: np.ndarray, cov: Covariates,
-                     without_covariates: bool = False) -> np.ndarray:
-    """The component errors' values, as motions of the tool relative to the workpiece.
-
-    Parameters
-    ----------
-    asm : Assembly
-        The assembled model.
-    q : ndarray, shape (N, n_axes)
-        NC positions [m, rad], checked.
-    theta : ndarray, shape (P,)
-        Coefficients (SI), checked.
-    cov : Covariates
-        The covariates, checked.
-    without_covariates : bool, default False
-        Leave out the terms that read covariates.
-
-    Returns
-    -------
-    ndarray, shape (n_components, N)
-        Values [m, rad].
-    """
-    out = np.zeros((len(asm.components), q.shape[0]))
-    for k, comp in enumerate(asm.components):
-        ctx = context(asm, comp, q, cov)
-        for tspec, span in comp.terms:
-            if without_covariates and tspec.term.covariates:
-                continue
-            out[k] += tspec.term.value(theta[span], ctx)
-    return out
-
-
-def joint_values(asm: Assembly, q: np.ndarray, theta: np.ndarray, cov: Covariates,
-                 out: np.ndarray | None = None) -> np.ndarray:
-    """Values of all joints: axes at ``sign * q``, error joints at their components' values
-    (negated on the workpiece chain).
-
-    Parameters
-    ----------
-    asm : Assembly
-        The assembled model.
-    q : ndarray, shape (N, n_axes)
-        NC positions [m, rad], checked.
-    theta : ndarray, shape (P,)
-        Coefficients (SI), checked.
-    cov : Covariates
-        The covariates, checked.
-    out : ndarray, shape (nv, >= N), optional
-        A buffer to reuse.
-
-    Returns
-    -------
-    ndarray, shape (nv, N)
-        One row per joint, points contiguous (the kernels' layout).
-    """
-    values = axis_values(asm, q, out)
-    components = component_values(asm, q, theta, cov)
-    for k, comp in enumerate(asm.components):
-        values[comp.column] += comp.chain_sign * components[k]
-    return values
-
-
-def parameter_jacobian(asm: Assembly, q: np.ndarray, theta: np.ndarray, cov: Covariates) -> np.ndarray:
-    """d (error-joint value) / d theta_p: the chain sign times the term's derivative with
-    respect to its coefficient (one joint per coefficient: :attr:`Assembly.param_column`).
-
-    Parameters
-    ----------
-    asm : Assembly
-        The assembled model.
-    q : ndarray, shape (N, n_axes)
-        NC positions [m, rad], checked.
-    theta : ndarray, shape (P,)
-        Coefficients (SI), checked.
-    cov : Covariates
-        The covariates, checked.
-
-    Returns
-    -------
-    ndarray, shape (N, P)
-        The derivatives [m or rad per SI unit of the coefficient].
-    """
-    out = np.empty((q.shape[0], len(asm.names)))
-    for comp in asm.components:
-        ctx = context(asm, comp, q, cov)
-        for tspec, span in comp.terms:
-            out[:, span] = comp.chain_sign * tspec.term.jacobian(theta[span], ctx)
-    return out
-
-
-def error_jacobian(asm: Assembly, values: np.ndarray) -> np.ndarray:
-    """Derivative of the six-component error with respect to the joint values: position rows as
-    they are, rotation rows through the inverse left Jacobian of the rotation error.
-
-    Parameters
-    ----------
-    asm : Assembly
-        The assembled model.
-    values : ndarray, shape (nv, N)
-        Joint values.
-
-    Returns
-    -------
-    ndarray, shape (N, 6, nv)
-        The derivatives.
-    """
-    J = K.joint_jacobian(asm.chain, values, asm.model.nv)
-    phi = K.pose_error(asm.chain, values, None)[:, 3:]
-    J[:, 3:] = K.log3_left_jacobian_inverse(phi) @ J[:, 3:]
-    return J

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from ..base.errors import InputError
-from .machine import Machine
+from ._machine import Machine
 from ..base.units import ARCSEC_PER_RAD, UM_PER_M, axis_scale
 
 
@@ -50,7 +50,7 @@ def machine_info(machine: Machine) -> dict:
             "sign": int(axis.sign),
             "errors_frame": axis.frame,
         })
-    terms = machine.assembly.term_info()
+    terms = machine.model.term_info()
     by_kind: dict[str, list[str]] = {}
     per_component: dict[str, list[dict]] = {}
     for term in terms:
