@@ -22,7 +22,7 @@ def add_parser(sub) -> None:
     p.add_argument("file", help="ballbar file: angle_deg, deviation_um[, direction] with '# plane:' and "
                                 "'# radius:' header lines")
     add_json_arg(p)
-    add_png_arg(p, "write the ISO 230-4 polar picture (PNG)", old=("--plot",))
+    add_png_arg(p, "write the ISO 230-4 polar picture (PNG)")
     p.set_defaults(func=run)
 
 

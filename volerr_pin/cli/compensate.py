@@ -22,7 +22,7 @@ def add_parser(sub) -> None:
     add_machine_args(p)
     add_state_arg(p)
     p.add_argument("program", help="NC program (ISO 6983 / RS-274)")
-    add_out_arg(p, "compensated program to write", what="an NC program", required=True, old=("--output",))
+    add_out_arg(p, "compensated program to write", what="an NC program", required=True)
     p.add_argument("--tol-um", type=float, default=1.0, help="position tolerance along every move (default 1)")
     p.add_argument("--tol-urad", type=float,
                    help="tool-axis tolerance on machines with rotary axes (default 10 per um of --tol-um)")
