@@ -38,7 +38,7 @@ def run(args) -> int:
 
         with transaction() as tx:
             ballbar_png(run, result, tx.path(args.png), title=f"ISO 230-4: {Path(args.file).name}")
-        result["png"] = result["plot"] = str(args.png)  # "plot": the field's name until 2026-11
+        result["png"] = str(args.png)
     if args.json:
         print(dumps(result))
         return 0
