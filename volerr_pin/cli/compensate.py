@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     source = ProgramFile(path)  # a regular file; read as UTF-8 line by line
     start, origin = program_positions(machine, args)
     program = Program(machine, tol_um=args.tol_um, tol_urad=args.tol_urad, strict=args.strict,
-                      pass_through=True if args.pass_through else None, start=start,
+                      pass_through=args.pass_through, start=start,
                       method=args.method, source=str(path), origin=origin, programming=args.programming,
                       detail=bool(args.png), most_blocks=MOST_BLOCKS if args.most_blocks is None else args.most_blocks)
     console = Console(stderr=True, highlight=False)
