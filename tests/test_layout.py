@@ -222,27 +222,22 @@ def test_every_bundled_machine_is_in_the_distribution():
     assert not missing, f"add to [tool.setuptools] packages in pyproject.toml: {sorted(missing)}"
 
 
-def test_the_old_module_names_import_the_same_modules_and_warn():
-    """For one release the names before the layout (volerr_pin.machine, a module under an old
-    package, volerr_pin.compensate) import the modules of the new names, the same objects (no
-    second copy), each with a DeprecationWarning that names the new place."""
+def test_no_old_module_names_and_no_import_hook():
+    """No hidden aliases before a first release: importing the package adds no finder to
+    sys.meta_path, and the modules' names before the layout do not import."""
     import subprocess
     import sys
 
-    code = ("import warnings; warnings.simplefilter('always')\n"
-            "import volerr_pin.machine as a, volerr_pin.model._machine as b\n"
-            "from volerr_pin.gcode.lexer import Block\n"
-            "import volerr_pin.compensation.gcode.lexer as L, volerr_pin.compensate as c, volerr_pin.compensation as C\n"
-            "import volerr_pin as vp\n"
-            "print(a is b, Block is L.Block, c is C, vp.specio is vp.model.specio, b.__spec__.name,\n"
-            "      sorted(n for n in sys.modules if n.startswith('volerr_pin.gcode')))\n").replace("import warnings;",
-                                                                                                "import sys, warnings;")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert done.stdout.split("\n")[0] == ("True True True True volerr_pin.model._machine "
-                                          "['volerr_pin.gcode', 'volerr_pin.gcode.lexer']")
-    for old, new in [("machine", "model.machine"), ("gcode", "compensation.gcode"), ("compensate", "compensation"),
-                     ("specio", "model.specio")]:
-        assert f"DeprecationWarning: volerr_pin.{old} is volerr_pin.{new} now" in done.stderr
+    code = ("import sys; hooks = list(sys.meta_path); import volerr_pin\n"
+            "assert sys.meta_path == hooks, sys.meta_path\n"
+            "for old in ('volerr_pin.machine', 'volerr_pin.compensate'):\n"
+            "    try:\n"
+            "        __import__(old)\n"
+            "    except ModuleNotFoundError:\n"
+            "        continue\n"
+            "    raise SystemExit(old + ' imports')\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
 
 
 def test_the_picture_is_what_the_tables_draw():

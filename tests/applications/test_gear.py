@@ -435,12 +435,3 @@ def test_more_bad_inputs(roller):
     with pytest.raises(InputError, match="broadcast"):
         from volerr_pin.applications.gear import contact_springback
         contact_springback([1e3, 2e3], [0.01, 0.02, 0.03], G, **STEEL)
-
-
-def test_the_reference_gear_keeps_its_old_name_one_release_with_a_warning():
-    import volerr_pin.applications.gear as gear
-
-    with pytest.warns(DeprecationWarning, match="SEED004_GEAR is REFERENCE_GEAR now"):
-        assert gear.SEED004_GEAR is gear.REFERENCE_GEAR
-    with pytest.raises(AttributeError):
-        gear.NO_SUCH_GEAR

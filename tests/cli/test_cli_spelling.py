@@ -1,6 +1,6 @@
 """One spelling per concept on the command line: ``-o/--out`` for every file a command
-writes, its suffix checked against what is written; ``--png`` for every picture; the old
-spellings hidden, working for one release, and saying the new one."""
+writes, its suffix checked against what is written; ``--png`` for every picture; no hidden
+old spelling."""
 
 from __future__ import annotations
 
@@ -20,29 +20,29 @@ def _commands() -> dict[str, argparse.ArgumentParser]:
 
 
 def test_every_command_spells_its_outputs_one_way():
-    """No command shows ``--output`` or ``--plot``; every written file is ``-o/--out``, every
-    picture ``--png``."""
+    """No command has ``--output`` or ``--plot``, shown or hidden; every written file is
+    ``-o/--out``, every picture ``--png``."""
     seen_out = []
     for name, parser in _commands().items():
-        shown = {s for a in parser._actions if a.help != argparse.SUPPRESS for s in a.option_strings}
-        assert not shown & {"--output", "--plot"}, name
+        assert not {s for a in parser._actions for s in a.option_strings} & {"--output", "--plot"}, name
         for action in parser._actions:
-            if action.dest == "out" and action.help != argparse.SUPPRESS:
+            if action.dest == "out":
                 assert action.option_strings == ["-o", "--out"], name
                 seen_out.append(name)
-            if action.dest == "png" and action.help != argparse.SUPPRESS:
+            if action.dest == "png":
                 assert action.option_strings == ["--png"], name
     assert {"compensate", "export", "urdf", "dh", "diagnose", "identify", "field", "demo"} <= set(seen_out)
 
 
-def test_the_old_spellings_still_work_and_say_the_new_one(tmp_path, capsys):
-    urdf, png = tmp_path / "m.urdf", tmp_path / "x.png"
-    assert main(["urdf", "vmc500", "--output", str(urdf)]) == 0
-    assert "volerr: warning: --output is spelled -o/--out now" in capsys.readouterr().err
-    assert urdf.read_text().startswith("<?xml")
-    assert main(["iso230-2", str(DATA / "vmc500_x_positioning.csv"), "--plot", str(png), "--json"]) == 0
-    assert "volerr: warning: --plot is spelled --png now" in capsys.readouterr().err
-    assert png.read_bytes()[:4] == b"\x89PNG"
+@pytest.mark.parametrize("argv", [["urdf", "vmc500", "--output", "m.urdf"],
+                                  ["iso230-2", str(DATA / "vmc500_x_positioning.csv"), "--plot", "x.png"]])
+def test_the_old_spellings_are_unknown_options(tmp_path, monkeypatch, capsys, argv):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as done:
+        main(argv)
+    assert done.value.code == 2
+    assert f"unrecognized arguments: {argv[-2]}" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -52,7 +52,7 @@ def test_the_old_spellings_still_work_and_say_the_new_one(tmp_path, capsys):
     (["urdf", "vmc500", "--out", "m.json"], "this writes a URDF: its name ends in .urdf or .xml, got m.json"),
     (["compensate", "vmc500", str(DATA / "part.nc"), "-o", "part.json"],
      "part.json is named as a report (JSON), but this writes an NC program"),
-    (["compensate", "vmc500", str(DATA / "part.nc"), "--output", "part.rrd"],
+    (["compensate", "vmc500", str(DATA / "part.nc"), "--out", "part.rrd"],
      "part.rrd is named as a Rerun recording, but this writes an NC program"),
 ])
 def test_an_output_named_as_another_kind_of_file_is_refused_before_any_work(tmp_path, monkeypatch, capsys, argv,

@@ -47,7 +47,7 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.applications import dh, iso230, thermalfit
+from volerr_pin.applications import dh, iso230
 from volerr_pin.compensation import errormap
 from volerr_pin import measurements
 from volerr_pin import model as workspace
@@ -939,7 +939,7 @@ LIBRARY = [
      lambda m, d: compensate_points(m, np.array([[0.3, 0.1, 0.1]]), tol_um=-1.0), "tol_um"),
     ("lib-sample-zero-points", lambda m, d: workspace.sample(m, 0), "0"),
     ("lib-errormap-zero-elements", lambda m, d: errormap.ErrorMap.build(m, (0, 1, 1), 1), "elements"),
-    ("lib-read-series-no-files", lambda m, d: thermalfit.read_series([]), "files"),
+    ("lib-read-series-no-files", lambda m, d: measurements.read_series([]), "files"),
 ]
 
 

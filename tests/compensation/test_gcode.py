@@ -503,8 +503,8 @@ def test_unknown_g_codes_are_refused_unless_pass_through_and_never_moves(machine
     with pytest.raises(GcodeError, match=r"prog\.nc:2: G77 .*does not know.*\(strict refuses it") as info:
         compensate_program(m, program, source="prog.nc", strict=True)
     assert info.value.parameters == ("strict",)
-    with pytest.raises(GcodeError, match=r"prog\.nc:2: G77"):
-        compensate_program(m, program, source="prog.nc", pass_through=False)  # the former spelling of strict
+    with pytest.raises(GcodeError, match="strict refuses the codes pass_through keeps"):
+        compensate_program(m, program, strict=True, pass_through=True)
     # by default too: what an unknown code changes cannot be told, so it is not passed over
     with pytest.raises(GcodeError, match=r"^prog\.nc:2:1: G77 .*does not know.*may be misread") as info:
         compensate_program(m, program, source="prog.nc")

@@ -181,8 +181,7 @@ def test_runs_and_points_together(machines, tmp_path):
 
 def test_the_runs_other_axes_are_placed_by_at_in_si_as_by_the_files_at_line(machines, tmp_path):
     """A run written at Y 200, Z 200 mm without saying so in the file: at (m) places it there as
-    the file's own '# at:' line does, to the last bit; the old run_at (mm) still does, with a
-    warning; both at once, or at naming no axis, are refused by name."""
+    the file's own '# at:' line does, to the last bit; at naming no axis, or in mm, is refused."""
     m = machines["vmc500"]
     truth, _ = identifiable_truth(m, 300, seed=9)
     targets = list(range(0, 501, 50))
@@ -195,11 +194,6 @@ def test_the_runs_other_axes_are_placed_by_at_in_si_as_by_the_files_at_line(mach
     ref = identify(m, [read_runs(said), points], folds=0, sigma_um=1e-3).machine.theta
     got = identify(m, [read_runs(unsaid), points], folds=0, sigma_um=1e-3, at={"Y": 0.2, "Z": 0.2}).machine.theta
     np.testing.assert_array_equal(got, ref)
-    with pytest.warns(DeprecationWarning, match=r"run_at \(mm, deg\) is at \(m, rad\) now"):
-        old = identify(m, [read_runs(unsaid), points], folds=0, sigma_um=1e-3, run_at=at).machine.theta
-    np.testing.assert_array_equal(old, ref)
-    with pytest.raises(vp.InputError, match="not also run_at"):
-        identify(m, [points], folds=0, at={"Y": 0.2}, run_at=at)
     with pytest.raises(vp.InputError, match="at names 'Q', not an axis of vmc500"):
         identify(m, [points], folds=0, at={"Q": 0.2})
     with pytest.raises(vp.InputError, match="Y = 200000 mm is outside its travel"):

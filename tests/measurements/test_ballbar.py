@@ -140,6 +140,7 @@ def test_cli_ballbar(machines, tmp_path, capsys):
     assert main(["ballbar", str(path), "--json", "--png", str(tmp_path / "c.png")]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["G"] > report["G_ccw"] > 0 and report["H"] > 2.0          # 4 um of backlash in X
+    assert report["png"] == str(tmp_path / "c.png") and "plot" not in report   # one name for the picture
     assert (tmp_path / "c.png").stat().st_size > 10_000
     assert main(["ballbar", str(path)]) == 0
     assert "circular hysteresis" in capsys.readouterr().out

@@ -38,7 +38,6 @@ import numpy as np
 
 from ..base.errors import InputError
 from ..measurements.series import SeriesData
-from ..measurements.series import read_series  # noqa: F401  (importable from here, as before; documented there)
 from ..base.safeio import same_file
 from .thermal import GM11, GM1N
 
@@ -47,7 +46,7 @@ METHODS = ("linear", "gm11", "gm1n", "vwgm1n")
 #: other sensors has no coefficient of its own (exact collinearity, up to rounding in the file)
 COLLINEAR = 1e-6
 
-__all__ = ["METHODS", "thermal_fit"]   # SeriesData and read_series are volerr_pin.measurements.series's
+__all__ = ["METHODS", "thermal_fit"]
 
 
 def _design(data: SeriesData, target: str, sensors: list[str], lag: int):

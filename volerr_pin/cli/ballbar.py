@@ -22,7 +22,7 @@ def add_parser(sub) -> None:
     p.add_argument("file", help="ballbar file: angle_deg, deviation_um[, direction] with '# plane:' and "
                                 "'# radius:' header lines")
     add_json_arg(p)
-    add_png_arg(p, "write the ISO 230-4 polar picture (PNG)", old=("--plot",))
+    add_png_arg(p, "write the ISO 230-4 polar picture (PNG)")
     p.set_defaults(func=run)
 
 
@@ -38,7 +38,7 @@ def run(args) -> int:
 
         with transaction() as tx:
             ballbar_png(run, result, tx.path(args.png), title=f"ISO 230-4: {Path(args.file).name}")
-        result["png"] = result["plot"] = str(args.png)  # "plot": the field's name until 2026-11
+        result["png"] = str(args.png)
     if args.json:
         print(dumps(result))
         return 0

@@ -163,20 +163,6 @@ def check_run_outputs(outputs: dict, inputs=(), machine: Machine | None = None) 
 # ------------------------------------------------------------------ options
 
 
-class _OldSpelling(argparse.Action):
-    """An option as an older release spelled it (``--output``, ``--plot``): hidden from the
-    help, it gives the new option's value and says the new spelling on stderr."""
-
-    def __init__(self, option_strings, dest, new: str, **kwargs):
-        super().__init__(option_strings, dest, help=argparse.SUPPRESS, **kwargs)
-        self.new = new
-
-    def __call__(self, parser, namespace, values, option_string=None):
-        print(f"volerr: warning: {option_string} is spelled {self.new} now; {option_string} will go in the next "
-              "release", file=sys.stderr)
-        setattr(namespace, self.dest, values)
-
-
 def check_out_name(args: argparse.Namespace) -> None:
     """Refuse an ``-o/--out`` named as another kind of file than the command writes (its suffix
     against :func:`add_out_arg`'s ``suffixes``), before any work."""
@@ -193,27 +179,18 @@ def check_out_name(args: argparse.Namespace) -> None:
 
 
 def add_out_arg(parser: argparse.ArgumentParser, help: str, *, suffixes: tuple[str, ...] | None = None,
-                what: str = "", required: bool = False, metavar: str = "FILE", old: tuple[str, ...] = (),
-                default: str | None = None) -> None:
+                what: str = "", required: bool = False, metavar: str = "FILE", default: str | None = None) -> None:
     """``-o/--out``, the file (or folder, with ``what`` empty) a command writes: the one
-    spelling of every command (``old`` spellings stay hidden and warn). Its suffix is checked
-    against ``suffixes`` (None: a file of none of the kinds the commands write elsewhere) by
-    :func:`check_out_name`, before any work."""
-    options = parser.add_mutually_exclusive_group(required=required) if old else parser
-    options.add_argument("-o", "--out", metavar=metavar, help=help, default=default,
-                         **({} if old else {"required": required}))   # in a group, the group is required
-    for spelling in old:
-        options.add_argument(spelling, dest="out", action=_OldSpelling, new="-o/--out", metavar=metavar)
+    spelling of every command. Its suffix is checked against ``suffixes`` (None: a file of
+    none of the kinds the commands write elsewhere) by :func:`check_out_name`, before any work."""
+    parser.add_argument("-o", "--out", metavar=metavar, help=help, default=default, required=required)
     if what:
         parser.set_defaults(out_kind=(suffixes, what))
 
 
-def add_png_arg(parser: argparse.ArgumentParser, help: str, *, old: tuple[str, ...] = ()) -> None:
-    """``--png``, the picture a command draws (its format checked with the outputs; ``old``
-    spellings stay hidden and warn)."""
+def add_png_arg(parser: argparse.ArgumentParser, help: str) -> None:
+    """``--png``, the picture a command draws (its format checked with the outputs)."""
     parser.add_argument("--png", metavar="FILE.png", help=help)
-    for spelling in old:
-        parser.add_argument(spelling, dest="png", action=_OldSpelling, new="--png", metavar="FILE.png")
 
 
 def positive(text: str) -> int:

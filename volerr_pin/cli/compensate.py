@@ -22,7 +22,7 @@ def add_parser(sub) -> None:
     add_machine_args(p)
     add_state_arg(p)
     p.add_argument("program", help="NC program (ISO 6983 / RS-274)")
-    add_out_arg(p, "compensated program to write", what="an NC program", required=True, old=("--output",))
+    add_out_arg(p, "compensated program to write", what="an NC program", required=True)
     p.add_argument("--tol-um", type=float, default=1.0, help="position tolerance along every move (default 1)")
     p.add_argument("--tol-urad", type=float,
                    help="tool-axis tolerance on machines with rotary axes (default 10 per um of --tol-um)")
@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     source = ProgramFile(path)  # a regular file; read as UTF-8 line by line
     start, origin = program_positions(machine, args)
     program = Program(machine, tol_um=args.tol_um, tol_urad=args.tol_urad, strict=args.strict,
-                      pass_through=True if args.pass_through else None, start=start,
+                      pass_through=args.pass_through, start=start,
                       method=args.method, source=str(path), origin=origin, programming=args.programming,
                       detail=bool(args.png), most_blocks=MOST_BLOCKS if args.most_blocks is None else args.most_blocks)
     console = Console(stderr=True, highlight=False)

@@ -18,7 +18,7 @@ def add_parser(sub) -> None:
     p = sub.add_parser(COMMAND, help=HELP)
     p.add_argument("table", help="DH table: joint,type,a_mm,alpha_deg,d_mm,theta_deg,lower,upper "
                                  "with '# convention:' and '# tool:' header lines")
-    add_out_arg(p, "URDF file to write", suffixes=(".urdf", ".xml"), what="a URDF", required=True, old=("--output",))
+    add_out_arg(p, "URDF file to write", suffixes=(".urdf", ".xml"), what="a URDF", required=True)
     p.add_argument("--name", help="robot name (default: the table's file name)")
     p.add_argument("--base-frame", default="base", help="name of the base frame (default base)")
     p.add_argument("--tool-frame", default="tool0", help="name of the tool frame (default tool0)")

@@ -26,7 +26,7 @@ def add_parser(sub) -> None:
     add_machine_args(p)
     add_state_arg(p)
     p.add_argument("--controller", required=True, choices=list(CONTROLLERS), help="the controller whose files to write")
-    add_out_arg(p, "folder to write the files into", required=True, metavar="DIR", old=("--output",))
+    add_out_arg(p, "folder to write the files into", required=True, metavar="DIR")
     p.add_argument("--kind", help=f"kind of tables (default the controller's most capable that fits): {kinds}")
     p.add_argument("--zone", nargs="+", metavar="KEY=RANGE",
                    help="working zone: AXIS=LO:HI (mm, deg) or AXIS=V per axis, tool=LO:HI or tool=L (mm, the tool "

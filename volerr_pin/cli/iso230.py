@@ -21,7 +21,7 @@ HELP = "ISO 230-2 evaluation of positioning runs"
 def add_parser(sub) -> None:
     p = sub.add_parser(COMMAND, help=HELP)
     p.add_argument("runs", help="CSV: target_mm,cycle,direction,deviation_um (or _deg / _arcsec)")
-    add_png_arg(p, "write the standard's picture (PNG)", old=("--plot",))
+    add_png_arg(p, "write the standard's picture (PNG)")
     add_json_arg(p)
     p.set_defaults(func=run)
 

@@ -31,7 +31,7 @@ def add_parser(sub) -> None:
     held.add_argument("--holdout", type=float, default=0.0, help="hold out the last fraction of rows")
     held.add_argument("--test", nargs="+", help="held-out files (fit on DATA, predict these)")
     p.add_argument("--top", type=int, default=5, help="sensors to rank (default 5)")
-    add_png_arg(p, "write measured vs modelled (PNG)", old=("--plot",))
+    add_png_arg(p, "write measured vs modelled (PNG)")
     add_json_arg(p)
     p.set_defaults(func=run)
 

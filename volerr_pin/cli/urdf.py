@@ -16,7 +16,7 @@ HELP = "the URDF with error joints injected"
 def add_parser(sub) -> None:
     p = sub.add_parser(COMMAND, help=HELP)
     add_machine_args(p)
-    add_out_arg(p, "file to write (default: stdout)", suffixes=(".urdf", ".xml"), what="a URDF", old=("--output",))
+    add_out_arg(p, "file to write (default: stdout)", suffixes=(".urdf", ".xml"), what="a URDF")
     p.set_defaults(func=run)
 
 

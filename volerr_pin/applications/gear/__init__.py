@@ -89,11 +89,4 @@ def __getattr__(name):
         value = getattr(_import_module(_LAZY[name], __name__), name)
         globals()[name] = value
         return value
-    # the reference gear's name until this release: one more release, with a warning
-    if name == "SEED004_GEAR":
-        import warnings
-
-        warnings.warn("volerr_pin.applications.gear.SEED004_GEAR is REFERENCE_GEAR now; the old name goes in the "
-                      "next release", DeprecationWarning, stacklevel=2)
-        return REFERENCE_GEAR
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -48,10 +48,9 @@ class Program(ChunkWriting):
         The machine, in the state (time, temperatures ...) to compensate for.
     tol_um : float
         Position tolerance along every move [um].
-    pass_through : bool, optional
+    pass_through : bool, default False
         True also keeps G codes the reader does not know (named, with a warning that the
-        blocks after them may be misread), which are refused otherwise; False is the former
-        name of ``strict=True``.
+        blocks after them may be misread), which are refused otherwise.
     start : array_like, shape (n_axes,), optional
         Axis positions [m, rad] where the program starts, NaN where not known (see
         :class:`~volerr_pin.compensation.gcode.modal.Interpreter`; default: none known).
@@ -66,7 +65,7 @@ class Program(ChunkWriting):
         Program coordinates [m, rad] of the program's zero (the work offset, G54 ...): absolute
         program words plus ``origin`` are axis positions (or, in tool-tip programming, the tool
         tip in the workpiece frame and the rotary axes). Default zero.
-    strict : bool, optional
+    strict : bool, default False
         Stop with an error at the first block that cannot be compensated (canned cycles,
         macros, subprograms, polar or cylindrical interpolation ...) instead of keeping it
         unchanged and naming it in the warnings (the default).
@@ -93,13 +92,13 @@ class Program(ChunkWriting):
     GcodeError
         An axis that is not an NC address letter, a tolerance that is not finite or finer
         than :data:`MIN_TOL_UM`, a ``tol_urad`` that is not positive and finite, an invalid
-        ``start`` or ``origin``, both ``strict`` and ``pass_through`` given and in
-        disagreement, or a ``programming`` the machine cannot take.
+        ``start`` or ``origin``, both ``strict`` and ``pass_through`` (strict refuses what
+        pass_through keeps), or a ``programming`` the machine cannot take.
     """
 
-    def __init__(self, machine: Machine, tol_um: float = 1.0, pass_through: bool | None = None,
+    def __init__(self, machine: Machine, tol_um: float = 1.0, pass_through: bool = False,
                  start=None, method: str = "newton", source: str = "<program>", tol_urad: float | None = None,
-                 origin=None, *, strict: bool | None = None, programming: str = "axes", detail: bool = False,
+                 origin=None, *, strict: bool = False, programming: str = "axes", detail: bool = False,
                  most_blocks: int = macros.MOST_BLOCKS):
         check_axes(machine)  # the machine is reported before the tolerance
         if not (math.isfinite(tol_um) and tol_um >= MIN_TOL_UM):
@@ -107,10 +106,10 @@ class Program(ChunkWriting):
                              f"resolves), got {tol_um}", parameters=("tol_um",))
         if tol_urad is not None and not (math.isfinite(tol_urad) and tol_urad > 0):
             raise GcodeError(f"tol_urad must be positive and finite, got {tol_urad}", parameters=("tol_urad",))
-        if strict is not None and pass_through is not None and strict == pass_through:
-            raise GcodeError(f"strict={strict} and pass_through={pass_through} disagree; give strict only",
+        if strict and pass_through:
+            raise GcodeError("strict refuses the codes pass_through keeps: give one of them",
                              parameters=("strict", "pass_through"))
-        self.strict = bool(strict) if strict is not None else (pass_through is False)
+        self.strict = bool(strict)
         self.keep_unknown = bool(pass_through)
         self.reader = Interpreter(machine, source=source, start=start, origin=origin, programming=programming)
         # the written numbers are rounded (0.05 um per linear axis at most, and the rotary
@@ -500,9 +499,9 @@ def _levers(machine: Machine) -> list[float]:
     return [float(np.linalg.norm(J[:, :3, j], axis=1).max()) * math.radians(0.5e-5) * 1e6 for j in rotary]
 
 
-def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass_through: bool | None = None,
+def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass_through: bool = False,
                        method: str = "newton", source: str = "<program>", tol_urad: float | None = None,
-                       origin=None, strict: bool | None = None, programming: str = "axes",
+                       origin=None, strict: bool = False, programming: str = "axes",
                        start=None, most_blocks: int = macros.MOST_BLOCKS) -> tuple[str, Report]:
     """Compensate an NC program.
 
@@ -514,8 +513,8 @@ def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass
         The program (mm, inch and deg as it selects).
     tol_um : float
         Position tolerance along every move [um].
-    pass_through : bool, optional
-        True also keeps G codes the reader does not know; False is ``strict=True``.
+    pass_through : bool, default False
+        True also keeps G codes the reader does not know.
     method : str
         Solver of the compensated commands.
     source : str
@@ -525,7 +524,7 @@ def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass
         ``tol_um``).
     origin : array_like, shape (n_axes,), optional
         Program coordinates [m, rad] of the program's zero (default zero).
-    strict : bool, optional
+    strict : bool, default False
         Refuse blocks that cannot be compensated instead of keeping them (default: keep and
         name them).
     programming : str, default "axes"

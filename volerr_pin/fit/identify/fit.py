@@ -27,7 +27,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
              holdout: float | None = None, seed: int = 0, max_iter: int = 50, tol: float = 1e-8,
              sigma_um: float = 1.0, sigma_urad: float = 1.0, run_axis: str | None = None,
              at: dict | None = None, rtol: float = 1e-9, progress=None,
-             initialise: bool = True, run_at: dict | None = None) -> Identification:
+             initialise: bool = True) -> Identification:
     """Fit the machine's coefficients to measurements.
 
     Parameters
@@ -73,8 +73,6 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         Start the non-linear coefficients (time constants, periods) from a grid search
         (default); False starts them from the machine's values, for callers that already
         have good ones.
-    run_at : dict, optional
-        Deprecated: ``at`` in mm / deg, as before this release (warns).
 
     Returns
     -------
@@ -112,7 +110,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     if rtol >= 1:
         raise InputError(f"rtol must be below 1, got {rtol}", parameters=("rtol",))
     obs = data if isinstance(data, Observations) else build_observations(
-        machine, data, sigma_um=sigma_um, sigma_urad=sigma_urad, run_axis=run_axis, at=at, run_at=run_at)
+        machine, data, sigma_um=sigma_um, sigma_urad=sigma_urad, run_axis=run_axis, at=at)
     if isinstance(data, Observations):
         measurement_sigma("sigma_um", sigma_um), measurement_sigma("sigma_urad", sigma_urad)
     check_observations(obs)

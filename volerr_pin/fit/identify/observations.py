@@ -21,7 +21,7 @@ from ...model import Machine
 from ...measurements.protocol import Measurement, ObservationBlock, ObservationOptions
 from ...measurements.registry import read_any
 from ...model import TemperatureHistory
-from ...base.units import UM_PER_M, URAD_PER_RAD, axis_values_to_si
+from ...base.units import UM_PER_M, URAD_PER_RAD
 
 __all__ = ["WEIGHTED_LIMIT", "Observations", "build_observations", "check_observations", "data_names",
            "point_squares", "residual_rms", "stack_blocks", "take_covariates"]
@@ -161,8 +161,7 @@ def take_covariates(cov: dict, idx) -> dict:
 
 
 def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_urad: float = 1.0,
-                       run_axis: str | None = None, at: dict[str, float] | None = None,
-                       run_at: dict[str, float] | None = None) -> Observations:
+                       run_axis: str | None = None, at: dict[str, float] | None = None) -> Observations:
     """Turn measurements into observations: each measurement gives its own block (see
     :class:`~volerr_pin.measurements.protocol.Measurement`), stacked here.
 
@@ -196,8 +195,6 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
         Moving axis of runs that do not name it.
     at : dict of str to float, optional
         Positions of the other axes during runs [m, rad]; overrides the files' ``# at:``.
-    run_at : dict of str to float, optional
-        Deprecated: ``at`` in mm / deg, as before this release (warns).
 
     Returns
     -------
@@ -223,7 +220,7 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
     """
     sigma_um = measurement_sigma("sigma_um", sigma_um)
     sigma_urad = measurement_sigma("sigma_urad", sigma_urad)
-    options = ObservationOptions(sigma_um, sigma_urad, run_axis, _positions(machine, at, run_at))
+    options = ObservationOptions(sigma_um, sigma_urad, run_axis, _positions(machine, at))
     if isinstance(data, (Measurement, str, os.PathLike)):
         data = [data]  # one measurement object or file
     blocks = []
@@ -239,16 +236,8 @@ def build_observations(machine: Machine, data, *, sigma_um: float = 1.0, sigma_u
     return stack_blocks(blocks, machine)
 
 
-def _positions(machine: Machine, at, run_at) -> dict[str, float] | None:
-    """The other axes' positions during runs [m, rad], checked: ``at`` as given, or the
-    deprecated ``run_at`` [mm, deg] converted."""
-    if at is not None and run_at is not None:
-        raise InputError("give the runs' other axis positions once: at (m, rad), not also run_at",
-                         parameters=("at", "run_at"))
-    if run_at is not None:
-        warnings.warn("run_at (mm, deg) is at (m, rad) now; run_at goes in the next release",
-                      DeprecationWarning, stacklevel=3)
-        return axis_values_to_si(machine.axes, machine.axis_kinds, dict(run_at), "run_at", machine.name)
+def _positions(machine: Machine, at) -> dict[str, float] | None:
+    """The other axes' positions during runs [m, rad], ``at`` as given, checked."""
     if at is None:
         return None
     out = {}
