@@ -76,10 +76,25 @@ class Covariates:
     series: np.ndarray | None = None
     history: "TemperatureHistory | None" = None
 
-    def take(self, rows: slice) -> "Covariates":
-        """The covariates of a contiguous block of points (the history stays whole)."""
-        cut = lambda a: None if a is None else a[rows]
-        n = len(range(*rows.indices(self.n)))
+    def take(self, rows) -> "Covariates":
+        """The covariates of some of the points (the history stays whole).
+
+        Parameters
+        ----------
+        rows : slice, ndarray of int or ndarray of bool
+            The points.
+
+        Returns
+        -------
+        Covariates
+            Their covariates.
+        """
+        if isinstance(rows, slice):
+            n = len(range(*rows.indices(self.n)))
+        else:
+            rows = np.asarray(rows)
+            n = int(rows.sum()) if rows.dtype == bool else len(rows)
+        cut = lambda a: None if a is None else a[rows]   # noqa: E731
         return Covariates(n, cut(self.t), {k: v[rows] for k, v in self.temperatures.items()},
                           cut(self.forces), cut(self.directions), cut(self.series), self.history)
 
