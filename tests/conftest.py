@@ -84,3 +84,31 @@ def rot(axis, angle):
     if axis == "y":
         return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+#: the Machine's methods that check what they are given (a user's front end), which the layers
+#: that evaluate the model in loops do not call: they call the model's algorithms
+CHECKING_METHODS = ("volumetric_error", "sensitivity", "tool_poses", "component_sensitivity",
+                    "error_joint_sensitivity", "axis_jacobian", "joint_jacobian", "joint_values", "component_values",
+                    "pinocchio_configuration", "search_grid")
+
+
+def record_checking_calls(monkeypatch, *packages: str) -> list:
+    """Record every call of a checking Machine method (:data:`CHECKING_METHODS`) made directly
+    by a module of ``packages`` (``"volerr_pin.fit"`` ...): (method, calling module) pairs."""
+    import sys
+
+    from volerr_pin.model import Machine
+
+    calls = []
+    for name in CHECKING_METHODS:
+        original = getattr(Machine, name)
+
+        def recorded(self, *args, _original=original, _name=name, **kwargs):
+            caller = sys._getframe(1).f_globals.get("__name__", "")
+            if caller.startswith(packages):
+                calls.append((_name, caller))
+            return _original(self, *args, **kwargs)
+
+        monkeypatch.setattr(Machine, name, recorded)
+    return calls

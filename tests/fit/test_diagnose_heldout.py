@@ -223,7 +223,7 @@ def test_five_axis_per_revolution_periods_stay_in_their_window(machines):
     error. Now every round's model holds at most one per-revolution term of an order per
     component, within its window, and the result names the error or nothing."""
     from volerr_pin.fit.diagnosis.effects import ROTARY_ORDERS
-    from volerr_pin.fit.diagnosis.loop import PERIOD_WINDOW
+    from volerr_pin.fit.diagnosis.changes import PERIOD_WINDOW
     from volerr_pin.model import check_values
 
     m = machines["cgm4000"]

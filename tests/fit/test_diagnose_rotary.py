@@ -11,7 +11,8 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 import volerr_pin.fit.diagnosis.loop as diagnose_loop
-from volerr_pin.fit.diagnosis.loop import PERIOD_WINDOW
+from volerr_pin.fit.diagnosis import changes as diagnose_changes
+from volerr_pin.fit.diagnosis.changes import PERIOD_WINDOW
 from volerr_pin.fit.diagnosis.projector import Projector
 from volerr_pin.fit.diagnosis.scoring import REPEAT_MIN_POINTS, REPEAT_RATIO, REPEAT_SIGMAS, repeat_check
 from volerr_pin.fit.identify import build_observations, pose_folds
@@ -156,8 +157,8 @@ def test_an_accepted_period_a_fit_takes_out_of_its_window_is_fitted_again_held(o
     loop, model = once_per_revolution_loop
     name = "EBB.rotary.period"
     k = model.parameter_names.index(name)
-    monkeypatch.setattr(loop, "periods", {name: 2 * np.pi})
-    calls, original = [], diagnose_loop._quiet_identify
+    monkeypatch.setattr(loop.fit, "periods", {name: 2 * np.pi})
+    calls, original = [], diagnose_changes.quiet_identify
 
     def straying(machine, obs, **options):
         calls.append((machine.theta[k], options.get("free")))
@@ -168,7 +169,7 @@ def test_an_accepted_period_a_fit_takes_out_of_its_window_is_fitted_again_held(o
             res = dataclasses.replace(res, machine=res.machine.with_theta(theta, limits=False))  # as a fit makes it
         return res
 
-    monkeypatch.setattr(diagnose_loop, "_quiet_identify", straying)
+    monkeypatch.setattr(diagnose_changes, "quiet_identify", straying)
     fitted, _, _, res = loop.fit(model, [])
     assert len(calls) == 2 and calls[0][1] is None
     start, free = calls[1]
@@ -179,9 +180,9 @@ def test_an_accepted_period_a_fit_takes_out_of_its_window_is_fitted_again_held(o
 def test_a_period_within_its_window_is_fitted_once(once_per_revolution_loop, monkeypatch):
     loop, model = once_per_revolution_loop
     name = "EBB.rotary.period"
-    monkeypatch.setattr(loop, "periods", {name: 2 * np.pi})
-    calls, original = [], diagnose_loop._quiet_identify
-    monkeypatch.setattr(diagnose_loop, "_quiet_identify",
+    monkeypatch.setattr(loop.fit, "periods", {name: 2 * np.pi})
+    calls, original = [], diagnose_changes.quiet_identify
+    monkeypatch.setattr(diagnose_changes, "quiet_identify",
                         lambda machine, obs, **options: calls.append(options.get("free")) or original(machine, obs, **options))
     fitted, *_ = loop.fit(model, [])
     period = fitted.theta[model.parameter_names.index(name)]

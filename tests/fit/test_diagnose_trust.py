@@ -241,9 +241,10 @@ def test_no_model_is_fitted_twice_with_the_same_free_coefficients(machines, monk
     trimmed model, fitted to judge the trim, is not fitted again when the trim is kept."""
     m = machines["vmc500"]
     _, data = heldout_set(m, None, 200, NOISE, 5)
+    import volerr_pin.fit.diagnosis.changes as changes
     import volerr_pin.fit.diagnosis.loop as loop
 
-    fits, original = [], loop._quiet_identify
+    fits, original = [], changes.quiet_identify
 
     def recorded(machine, obs, **options):
         free = options.get("free")
@@ -251,7 +252,8 @@ def test_no_model_is_fitted_twice_with_the_same_free_coefficients(machines, monk
                      None if free is None else tuple(free), options.get("initialise")))
         return original(machine, obs, **options)
 
-    monkeypatch.setattr(loop, "_quiet_identify", recorded)
+    monkeypatch.setattr(changes, "quiet_identify", recorded)
+    monkeypatch.setattr(loop, "quiet_identify", recorded)
     trims = []
     judged = loop._judged_trim
     monkeypatch.setattr(loop, "_judged_trim", lambda *a: trims.append(judged(*a)) or trims[-1])
@@ -320,18 +322,18 @@ def test_a_refit_whose_values_a_spec_cannot_hold_is_not_accepted(machines, monke
     error's period went to 1e8 deg on a five-axis set); building the next change on it failed
     with an error that ended the diagnosis. Such a refit is not accepted and the candidate's
     note says why; here every refit with a backlash is made to fail the check."""
-    import volerr_pin.fit.diagnosis.loop as loop
+    import volerr_pin.fit.diagnosis.changes as changes
     from volerr_pin.base.errors import SpecError
 
     m = machines["vmc500"]
     _, data = heldout_set(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}, 200, NOISE, 300)
     assert [e.name for e in diagnose(m, [data]).effects] == ["backlash"]   # the case
 
-    def check(machine):
-        if any(".reversal." in n for n in machine.parameter_names):
+    def check(model, theta):
+        if any(".reversal." in n for n in model.names):
             raise SpecError("errors.EYY.terms[1].reversal_um: 1e7 um is implausible")
 
-    monkeypatch.setattr(loop, "check_values", check)
+    monkeypatch.setattr(changes, "check_values", check)
     result = diagnose(m, [data])
     assert "backlash" not in [e.name for e in result.effects]
     notes = [c.get("note", "") for step in result.to_dict()["steps"] for c in step["candidates"]
@@ -345,15 +347,15 @@ def test_a_candidate_too_small_in_its_joint_refit_says_so(machines, monkeypatch)
     SIGNIFICANCE standard uncertainties in its joint refit (a once-per-revolution error of B,
     its period free, came out at 0.02 on a five-axis set); it is not accepted, and its note
     says so with its size. Here every backlash is made to come out at 1.5."""
-    import volerr_pin.fit.diagnosis.loop as loop
+    import volerr_pin.fit.diagnosis.changes as changes
 
     m = machines["vmc500"]
     data = campaign(add_terms(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}), 200, NOISE, 3)
     result = diagnose(m, [data], max_rounds=1)
     assert [e.name for e in result.effects] == ["backlash"]   # the case: named in round 1
     assert not any("joint refit its size" in c.note for step in result.steps for c in step.candidates)
-    size_of = loop.size_of
-    monkeypatch.setattr(loop, "size_of", lambda res, names: 1.5 if any(".reversal." in n for n in names)
+    size_of = changes.size_of
+    monkeypatch.setattr(changes, "size_of", lambda res, names: 1.5 if any(".reversal." in n for n in names)
                         else size_of(res, names))
     result = diagnose(m, [data], max_rounds=1)
     assert "backlash" not in [e.name for e in result.effects]
@@ -398,14 +400,14 @@ def test_a_batch_of_raises_is_refitted_until_every_member_is_significant(machine
     joint refit are dropped and the rest refitted. When that second refit dropped another, the
     model of the second refit (with it) used to be accepted. Here the second raise of the batch
     is made too small always, the third whenever the second is not in the model."""
-    import volerr_pin.fit.diagnosis.loop as loop
+    import volerr_pin.fit.diagnosis.changes as changes
 
     m = machines["vmc500"]
     _, data = heldout_set(m, {}, 200, NOISE, 300)
     batch = diagnose(m, [data], max_rounds=1).steps[0].accepted_all
     assert len(batch) >= 3 and all(a.kind == "under_modelled" for a in batch)   # the case
     second, third = batch[1], batch[2]
-    size_of = loop.size_of
+    size_of = changes.size_of
 
     def sized(res, names):
         parts = {n.split(".")[0] for n in names}
@@ -414,7 +416,7 @@ def test_a_batch_of_raises_is_refitted_until_every_member_is_significant(machine
             return 1.5
         return size_of(res, names)
 
-    monkeypatch.setattr(loop, "size_of", sized)
+    monkeypatch.setattr(changes, "size_of", sized)
     step = diagnose(m, [data], max_rounds=1).steps[0]
     taken = [a.component for a in step.accepted_all]
     assert second.component not in taken and third.component not in taken
@@ -443,14 +445,14 @@ def test_a_diagnosis_builds_pinocchios_model_once_at_most(monkeypatch):
     monkeypatch.setattr(assembly.pin, "buildModelFromXML", lambda *a, **k: built.append(1) or build(*a, **k))
     import volerr_pin.fit.diagnosis.loop as loop
 
-    offered, original = [], loop._offered
+    offered, original = [], loop.offer
 
-    def recorded(state):
-        candidates, E, joints = original(state)
-        offered.append([c.component for c in candidates if c.component.endswith("0X")])
-        return candidates, E, joints
+    def recorded(*args, **kwargs):
+        round_offer = original(*args, **kwargs)
+        offered.append([c.component for c in round_offer.candidates if c.component.endswith("0X")])
+        return round_offer
 
-    monkeypatch.setattr(loop, "_offered", recorded)
+    monkeypatch.setattr(loop, "offer", recorded)
     report = diagnose(m, [data], max_rounds=4)
     assert [e.component for e in report.effects] == ["EYY"] and len(offered) > 2 and all(offered), offered
     assert len(built) == 1

@@ -491,26 +491,28 @@ def test_the_solver_returns_the_factor_at_its_coefficients_reducing_each_design_
     are those of the returned coefficients, and no design is reduced twice at the same
     coefficients (a fit that stops without a step reuses the last one)."""
     import volerr_pin.fit.identify.solver as solver
-    from volerr_pin.fit.identify import build_observations
+    from volerr_pin.fit.identify import FitPoints, build_observations
     from volerr_pin.fit.identify.design import reduce_design
 
     m = machines["vmc500"]
     truth, probe = identifiable_truth(m, 300, seed=7)
     obs = build_observations(m, [tool_points(m, truth, 300, noise, seed=7)], sigma_um=0.3)
+    points = FitPoints.of(m.model, obs)
     seen = []
 
-    def counted(machine, obs_, theta, columns, nuisance, first_order=False):
+    def counted(points_, theta, columns, nuisance, first_order=False):
         seen.append(np.concatenate([theta, nuisance]))
-        return reduce_design(machine, obs_, theta, columns, nuisance, first_order)
+        return reduce_design(points_, theta, columns, nuisance, first_order)
 
     monkeypatch.setattr(solver, "reduce_design", counted)
     start = m.theta.copy()
     for run in range(2):  # from the prior (it stops after a step), then from its own solution
         seen.clear()
-        theta, nuisance, R, r, iterations, status = solver.solve(m, obs, start, probe.fitted, None, "prior", 50, 1e-8)
+        theta, nuisance, R, r, iterations, status = solver.solve(points, start, probe.fitted, None, "prior", 50,
+                                                                 1e-8)
         assert status == "converged"
         assert len(seen) == len({v.tobytes() for v in seen})       # never twice at one point
-        r_again, R_again = reduce_design(m, obs, theta, probe.fitted, nuisance)
+        r_again, R_again = reduce_design(points, theta, probe.fitted, nuisance)
         np.testing.assert_array_equal(r, r_again)
         np.testing.assert_array_equal(R, R_again[:, :-1])
         start = theta
@@ -551,7 +553,7 @@ def test_the_design_reduced_in_two_halves_is_the_whole_designs(machines, monkeyp
     (R^T R = J^T J, the design built here row by row). Not to the last bit: a point's
     prediction may round differently in a batch of another length (the compiled kernels'
     vector loops and their remainders), and nothing exchanges halves any more."""
-    from volerr_pin.fit.identify import build_observations
+    from volerr_pin.fit.identify import FitPoints, build_observations
     from volerr_pin.fit.identify import design
     from volerr_pin.fit.identify.design import predict_observations, reduce_design
 
@@ -559,16 +561,17 @@ def test_the_design_reduced_in_two_halves_is_the_whole_designs(machines, monkeyp
     truth, probe = identifiable_truth(m, 300, seed=7)
     data = tool_points(m, truth, 300, 0.3e-6, seed=7)
     obs = build_observations(m, [data], sigma_um=0.3)
+    points = FitPoints.of(m.model, obs)
     theta, nuisance, columns = truth.theta, np.zeros(obs.nuisance.shape[1]), probe.fitted
-    r, R = reduce_design(m, obs, theta, columns, nuisance)
+    r, R = reduce_design(points, theta, columns, nuisance)
     assert len(design.point_chunks(obs, len(columns))) == 2
-    pred, A = predict_observations(m, obs, theta, columns)
+    pred, A = predict_observations(points, theta, columns)
     J = np.column_stack([obs.nuisance, A, obs.y - pred - obs.nuisance @ nuisance]) / obs.sigma[:, None]
     assert R.T @ R == pytest.approx(J.T @ J, rel=1e-10, abs=1e-12 * np.abs(J.T @ J).max())
     scale = np.abs(J[:, -1]).max()
     np.testing.assert_allclose(r, J[:, -1], rtol=1e-12, atol=1e-14 * scale)
     monkeypatch.setattr(design, "SPLIT_POINTS", 10**9)   # one chunk, one pass
-    r_one, R_one = reduce_design(m, obs, theta, columns, nuisance)
+    r_one, R_one = reduce_design(points, theta, columns, nuisance)
     np.testing.assert_allclose(r, r_one, rtol=1e-12, atol=1e-14 * scale)
     assert np.abs(R) == pytest.approx(np.abs(R_one), rel=1e-9, abs=1e-9 * np.abs(R).max())
     monkeypatch.undo()

@@ -24,7 +24,7 @@ from ..base.safeio import require_memory
 from ..base.units import ARCSEC, ARCSEC_PER_RAD, LENGTH, UM, UM_PER_M, scale, split_key, within
 from ..base.checks import integer, positive
 from ..model import sample
-from ..model import check_q
+from ..model import check_covariates, check_q, component_sensitivity, component_values, sensitivity
 
 DIRECTIONS = {"x": [0], "y": [1], "z": [2], "all": [0, 1, 2]}
 
@@ -241,16 +241,17 @@ def rank(machine: Machine, q: np.ndarray | None = None, *, points: int = 2048, s
     q = _points(machine, q, points, seed, 8 * 6 * 4 * (len(machine.parameter_names) + len(machine.components)),
                 "a ranking")
     rows_dir = DIRECTIONS[direction]
+    model, theta, cov = machine.model, machine.theta, _covariates(machine, q)
     if by == "component":
-        sens = machine.component_sensitivity(q)          # (N, 6, C) per SI unit
+        sens = component_sensitivity(model, q, theta, cov)   # (N, 6, C) per SI unit
         names = list(machine.components)
         if tolerances is None:
-            size = machine.component_values(q)           # (N, C) current values
+            size = component_values(model, q, theta, cov)    # (N, C) current values
         else:
             size = np.tile([tolerances[n] for n in names], (len(q), 1))
         terms = names
     else:
-        sens = machine.sensitivity(q)                    # (N, 6, P)
+        sens = sensitivity(model, q, theta, cov)             # (N, 6, P)
         names = list(machine.parameter_names)
         terms = [n.split(".", 1)[0] for n in names]
         if tolerances is None:
@@ -313,6 +314,11 @@ def _points(machine: Machine, q, points, seed, point_bytes: int, what: str) -> n
     return q
 
 
+def _covariates(machine: Machine, q: np.ndarray):
+    """The covariates of the points ``q`` (checked) in the machine's state."""
+    return check_covariates(machine.model, len(q), None, machine.state)
+
+
 def _check_tolerances(machine: Machine, tolerances: dict) -> None:
     missing = [c for c in machine.components if c not in tolerances]
     if missing:
@@ -372,7 +378,7 @@ def tool_identifiability(machine: Machine, q: np.ndarray | None = None, *, point
     rows = 6 if orientation else 3
     q = _points(machine, q, points, seed, 8 * len(machine.parameter_names) * (6 + 3 * rows) + 400,
                 "an identifiability analysis")
-    S = machine.sensitivity(q)
+    S = sensitivity(machine.model, q, machine.theta, _covariates(machine, q))
     rows = slice(0, 6) if orientation else slice(0, 3)
     A = S[:, rows, :].reshape(-1, S.shape[2])
     what = "the tool point and orientation" if orientation else "the tool point"

@@ -16,6 +16,7 @@ import tomli_w
 
 from ..base.errors import InputError, SpecError
 from ._machine import Machine
+from ._model import Model
 from ..base.safeio import same_file, write_text
 from ._checks import plausible_theta
 from ._spec import TermSpec, parse_component_name
@@ -28,15 +29,17 @@ MAX_DEGREE = 20
 __all__ = ["MAX_DEGREE", "add_terms", "check_values", "legendre_terms", "replace_terms", "spec_document", "write_spec"]
 
 
-def check_values(machine: Machine) -> None:
-    """Check that the machine's present coefficient values are ones its spec can hold (within
+def check_values(machine: Machine | Model, theta: np.ndarray | None = None) -> None:
+    """Check that a machine's present coefficient values are ones its spec can hold (within
     the plausibility limits a spec file is read with), so that a machine built from them - a
     changed model, a written spec - can be.
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
+    machine : Machine or Model
+        The machine (its values are checked), or a model whose ``theta`` is checked.
+    theta : ndarray, shape (P,), optional
+        With a model: the values.
 
     Raises
     ------
@@ -44,10 +47,11 @@ def check_values(machine: Machine) -> None:
         Naming the spec's source ("present values") and the first coefficient, its value and the
         limit that a spec would refuse.
     """
+    model, values = (machine.model, machine.theta) if theta is None else (machine, theta)
     try:
-        plausible_theta(machine.model, machine.theta)
+        plausible_theta(model, values)
     except InputError as err:
-        raise SpecError(f"{machine.spec.source} (present values): {err}") from None
+        raise SpecError(f"{model.spec.source} (present values): {err}") from None
 
 
 def _read(machine: Machine, tables: dict) -> dict[str, list[TermSpec]]:

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import qmc
 
-from ..base.checks import integer, positive, whole_numbers
+from ..base.checks import integer, whole_numbers
 from ..base.errors import InputError
 from ._machine import Machine
 from ..base.safeio import require_memory

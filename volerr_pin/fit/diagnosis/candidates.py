@@ -8,21 +8,22 @@ node between every two).
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ...base.errors import InputError
-from ..identify import Observations
+from ..identify import FitPoints, Observations
+from ..identify.design import by_halves
 from ...base.units import ANGLE, LENGTH
-from ...model import (GEOMETRIC, Constant, Context, Covariates, Machine, Polynomial, TermSpec, component_name,
-                      parse_component_name)
-from .effects import EFFECTS, Offer, direction_of, effect_kind
+from ...model import (GEOMETRIC, Constant, Context, Covariates, Machine, Model, Polynomial, TermSpec, axis_jacobian,
+                      component_name, error_joint_sensitivity, parse_component_name)
+from .effects import EFFECTS, Offer, PeriodicRotary, direction_of, effect_kind
 from .results import Candidate, Role
 
-__all__ = ["LETTERS", "MAX_DEGREE", "MAX_NODES", "PITCH_PERIOD_MM", "RAISE_BY",
+__all__ = ["LETTERS", "MAX_DEGREE", "MAX_NODES", "PITCH_PERIOD_MM", "RAISE_BY", "Offered",
            "adequacy_candidates", "axis_directions", "build_candidates", "display_unit", "form_of",
-           "geometric_name", "geometric_term", "legendre", "raised_term", "smoother_term"]
+           "geometric_name", "geometric_term", "legendre", "offer", "raised_term", "smoother_term"]
 
 LETTERS = "XYZABC"
 PITCH_PERIOD_MM = (1.0, 50.0)   # ball-screw leads
@@ -53,8 +54,8 @@ def axis_directions(machine: Machine) -> dict[str, str]:
         Axis -> letter, for the axes that move along (or about) one direction of their own frame.
     """
     q = machine.mid_travel[None, :]
-    J = machine.axis_jacobian(q, nominal=True)[0]
-    E = machine.error_joint_sensitivity(q, first_order=True)[0]
+    J = axis_jacobian(machine.model, q, nominal=True)[0]
+    E = error_joint_sensitivity(machine.model, q, first_order=True)[0]
     joints = list(machine.error_joints)
     out = {}
     for j, (axis, kind) in enumerate(zip(machine.axes, machine.axis_kinds)):
@@ -119,7 +120,7 @@ def build_candidates(machine: Machine, obs: Observations) -> list[Candidate]:
         Effects, missing geometric components, then raised components, each labelled.
     """
     own = axis_directions(machine)
-    offer = Offer.of(machine, obs, own)
+    offer = Offer.of(machine.model, obs, own)
     kinds = list(EFFECTS.values())
     out: list[Candidate] = []
 
@@ -155,6 +156,76 @@ def build_candidates(machine: Machine, obs: Observations) -> list[Candidate]:
     for c in out:
         c.label = effect_kind(c.name).describe(c)
     return out
+
+
+@dataclass
+class Offered:
+    """What a round offers: the candidates, the first-order sensitivity of the error to every
+    error joint at the points (with the error joints of the location errors offered, at zero),
+    and, for each component a periodic error is offered on, its table one step richer between
+    its nodes (to ask whether a period is the table's interpolation).
+
+    Attributes
+    ----------
+    model : Model
+        The present model.
+    candidates : list of Candidate
+        The candidates, in the order the effect kinds offer them.
+    E : ndarray, shape (N, 6, n_error_joints)
+        d error / d error joint at the observations' points, first order.
+    joints : list of str
+        The error joints, in the order of ``E``.
+    smoother : dict of str to tuple or None
+        Component -> (:func:`smoother_term`'s term, in words), or None.
+    """
+
+    model: Model
+    candidates: list
+    E: np.ndarray
+    joints: list
+    smoother: dict
+
+
+def offer(machine: Machine, obs: Observations, accepted_orders: set, raises_only: bool) -> Offered:
+    """The round's offer (:class:`Offered`): every candidate the data allow
+    (:func:`build_candidates`) but a per-revolution error of an order already accepted on its
+    component (a second term beside the first would only share it), and only raises once the
+    diagnosis has found as many effects as it may.
+
+    Parameters
+    ----------
+    machine : Machine
+        The present model.
+    obs : Observations
+        The observations.
+    accepted_orders : set of tuple of (str, int)
+        (component, periods per revolution) of the per-revolution errors accepted so far.
+    raises_only : bool
+        Offer only raises of the present components.
+
+    Returns
+    -------
+    Offered
+        The offer.
+    """
+    candidates = [c for c in build_candidates(machine, obs) if not (
+        effect_kind(c.name).per_revolution and (c.component, PeriodicRotary.order(c)) in accepted_orders)]
+    if raises_only:
+        candidates = [c for c in candidates if c.kind == Role.RAISE]
+    missing = sorted({c.component for c in candidates if c.component not in machine.error_joints},
+                     key=[c.component for c in candidates].index)
+    probe = machine
+    if missing:
+        spec = machine.spec
+        for component in missing:
+            spec = spec.with_terms(component, TermSpec("probe", Constant(*display_unit(component[1])), np.zeros(1)))
+        probe = machine.with_spec(spec)
+    model = probe.model
+    E = by_halves(FitPoints.of(model, obs, machine.state),
+                  lambda q, cov: error_joint_sensitivity(model, q, cov=cov, first_order=True))
+    smoother = {c.component: smoother_term(machine, c.component) for c in candidates
+                if c.kind == Role.EFFECT and effect_kind(c.name).periodogram}
+    return Offered(machine.model, candidates, E, list(probe.error_joints), smoother)
 
 
 def geometric_term(machine: Machine, component: str):
@@ -348,14 +419,16 @@ def adequacy_candidates(machine: Machine, own: dict[str, str]) -> list[Candidate
         j = machine.axes.index(owner)
         if not np.all(np.isfinite(machine.travel[j])):
             continue  # a polynomial over the travel needs a finite travel
+        _, present = geometric_term(machine, comp.name)
         for by in RAISE_BY:
-            raised = raised_term(machine, comp.name, by=by)
+            raised = raised_term(machine, comp.name, None if present is None else present.coefficients, by=by)
             if raised is None:
                 continue
             _, term, change = raised
             name = geometric_name(direction, owner, False, own.get(owner), machine.axis_kinds[j] == "linear")
             out.append(Candidate(name, owner, direction_of(direction), comp.name, None, f"q_{owner}",
-                                 kind=Role.RAISE, change=change, by=by, term=term))
+                                 kind=Role.RAISE, change=change, by=by,
+                                 term=replace(term, coefficients=np.zeros(term.term.size)), start=term.coefficients))
     return out
 
 

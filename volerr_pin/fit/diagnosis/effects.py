@@ -20,8 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..identify import Observations
-from ...model import Machine
-from ...model import component_name
+from ...model import Model, component_name
 from .results import Candidate
 
 __all__ = ["EFFECTS", "MIN_PERIODS", "ROTARY_ORDERS", "Backlash", "EffectKind", "ForceDeflection", "Geometric", "Offer",
@@ -56,7 +55,7 @@ class Offer:
 
     Attributes
     ----------
-    machine : Machine
+    model : Model
         The present model.
     obs : Observations
         The observations.
@@ -71,7 +70,7 @@ class Offer:
         The force components (0, 1, 2 for x, y, z) that vary.
     """
 
-    machine: Machine
+    model: Model
     obs: Observations
     own: dict
     timed: bool
@@ -79,12 +78,12 @@ class Offer:
     force_axes: list
 
     @classmethod
-    def of(cls, machine: Machine, obs: Observations, own: dict) -> "Offer":
+    def of(cls, model: Model, obs: Observations, own: dict) -> "Offer":
         """The offer of these data.
 
         Parameters
         ----------
-        machine : Machine
+        model : Model
             The present model.
         obs : Observations
             The observations.
@@ -97,7 +96,7 @@ class Offer:
         """
         cov = obs.covariates
         forces = cov.get("forces")
-        return cls(machine, obs, own, "t" in cov and np.ptp(cov["t"]) > 0,
+        return cls(model, obs, own, "t" in cov and np.ptp(cov["t"]) > 0,
                    [s for s, v in (cov.get("temperatures") or {}).items() if np.ptp(v) > 0],
                    [i for i in range(3) if forces is not None and np.ptp(forces[:, i]) > 0])
 
@@ -284,7 +283,7 @@ class Backlash(EffectKind):
     name, prefix = "backlash", "reversal"
 
     def on_axis(self, offer, j):
-        machine = offer.machine
+        machine = offer.model
         axis, letter = machine.axes[j], offer.own[machine.axes[j]]
         if not offer.reverses(j):
             return []
@@ -300,7 +299,7 @@ class PeriodicRotary(EffectKind):
     name, prefix, per_revolution = "periodic_rotary", "rotary", True
 
     def on_axis(self, offer, j):
-        machine = offer.machine
+        machine = offer.model
         if machine.axis_kinds[j] == "linear":
             return []
         axis, letter = machine.axes[j], offer.own[machine.axes[j]]
@@ -336,7 +335,7 @@ class ThermalExpansion(EffectKind):
     name, prefix = "thermal_expansion", "expansion"
 
     def on_axis(self, offer, j):
-        machine = offer.machine
+        machine = offer.model
         if machine.axis_kinds[j] != "linear":
             return []
         axis, letter = machine.axes[j], offer.own[machine.axes[j]]
@@ -359,7 +358,7 @@ class PeriodicPitch(EffectKind):
     name, prefix, periodogram = "periodic_pitch", "pitch", True
 
     def on_axis(self, offer, j):
-        machine = offer.machine
+        machine = offer.model
         if machine.axis_kinds[j] != "linear":
             return []
         axis, letter = machine.axes[j], offer.own[machine.axes[j]]

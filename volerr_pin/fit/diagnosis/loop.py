@@ -17,40 +17,28 @@ import warnings
 import numpy as np
 
 from ...base.checks import fraction, integer, measurement_sigma
-from ...base.errors import InputError, SpecError
-from ..identify import (Identification, Observations, build_observations, check_observations, conditioning_note,
-                        identify, parameter_units, pose_folds, residual_rms)
-from ..identify.design import by_halves
-from ...model import Machine
+from ...base.errors import InputError
 from ...base.safeio import require_memory
 from ...base.units import UM_PER_M
-from ...model import Constant, TermSpec, check_covariates, check_values
-from .candidates import display_unit
-from .candidates import build_candidates
-from .changes import apply_changes, remove_effect, size_of, tested_names, trim_raises, with_lag
-from .report import (components_per_point, effect_amplitude, floor_verdict, group_findings, noise_floor,
-                     raised_summary, residual_analysis, twins_of, undecided_rotary)
-from .effects import PeriodicRotary, effect_kind
-from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Change, Diagnosis, Role, Step,
-                      ThermalModel, one_blas_thread)
+from ...model import Machine, check_covariates
+from ..identify import (FitPoints, Identification, Observations, build_observations, check_observations,
+                        conditioning_note, parameter_units, pose_folds, residual_rms)
+from .candidates import build_candidates, offer
+from .changes import Refit, accept, quiet_identify, remove_effect, size_of, trim_raises, with_lag
+from .effects import effect_kind
 from .projector import Columns, Projector, base_design
-from .scoring import not_repeating, score
+from .report import (components_per_point, effect_amplitude, floor_verdict, group_findings, noise_floor,
+                     raised_summary, residual_analysis, undecided_rotary)
+from .results import PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Change, Diagnosis, Role, Step, ThermalModel, \
+    one_blas_thread
+from .scoring import score_round
 
-__all__ = ["LAGS_S", "PERIOD_WINDOW", "TIME_CHECK_SHARE", "diagnose"]
+__all__ = ["LAGS_S", "TIME_CHECK_SHARE", "diagnose"]
 
 #: lags [s] tried for the temperature terms of a thermal drift
 LAGS_S = (300.0, 600.0, 1200.0, 1800.0, 3600.0)
 #: share of the run's time a thermal drift's check over time fits on (it predicts the rest)
 TIME_CHECK_SHARE = 0.6
-#: in the rounds a per-revolution error's period (free there) stays within this factor of 360/n
-#: deg; a fit that takes an accepted one further is done again with it held at 360/n deg, and a
-#: candidate whose own period goes further is not accepted (it no longer repeats about n times a
-#: turn: off the spec's geometry periods were seen to wander to 5.9 deg with no amplitude left,
-#: and to 1e8 deg, a slope the axis' polynomial already has, with cancelling amplitudes of
-#: thousands of radians; the right ones settled within 0.79 to 1.0 of 360/n)
-PERIOD_WINDOW = 1.5
-#: what the note of a candidate too small in its joint refit says (before its size)
-WEAK = "in the joint refit its size is"
 
 
 def diagnose(machine: Machine, measurements, *, fixed: bool = False, max_effects: int = 5,
@@ -165,15 +153,14 @@ class _Loop:
 
     def __init__(self, machine: Machine, obs: Observations, split: list[np.ndarray], fixed: bool, alpha: float,
                  max_effects: int, progress, keep_machines: bool, noise_stated: bool = False):
-        self.machine, self.obs, self.split, self.fixed, self.alpha = machine, obs, split, fixed, alpha
+        self.machine, self.obs, self.split, self.alpha = machine, obs, split, alpha
         self.noise_stated = noise_stated
         self.max_effects, self.progress, self.keep_machines = max_effects, progress, keep_machines
         self.cov_obj = check_covariates(machine.model, obs.n_points, obs.covariates, machine.state)
         self.axis_index_of = {a: j for j, a in enumerate(machine.axes)}
         self.columns = Columns(obs, self.cov_obj)
         self.free_names: list[str] = []        # with ``fixed``: the coefficients that may move
-        self.periods: dict[str, float] = {}     # accepted per-revolution errors: period name -> 2 pi / n
-        self.held: set[str] = set()             # coefficients no fit moves (from the final fit on: the periods)
+        self.fit = Refit(obs, fixed)            # how models are fitted (the accepted periods, the held names)
         self.current, self.fitted, self.nuisance, self.last_fit = self.fit(machine, self.free_names, initialise=True)
         self.base_machine = self.current
         self.steps: list[Step] = []
@@ -184,28 +171,13 @@ class _Loop:
         self.left_passing: list[str] = []       # what still passed when the round limit ended the rounds
         self.last_passing: list = []            # the last round's passing scores (notes: why refused)
 
-    def fit(self, model: Machine, names: list[str], initialise: bool = False):
-        """The model fitted (all coefficients; with ``fixed`` only ``names``): (machine,
-        fitted indices, nuisance values, identification or None)."""
-        if self.fixed and not names:
-            return model, np.array([], dtype=int), np.zeros(self.obs.nuisance.shape[1]), None
-        res = _quiet_identify(model, self.obs, free=_free(self, model, names), initialise=initialise)
-        strayed = {n: p for n, p in self.periods.items() if n in res.machine.parameter_names
-                   and n not in self.held and not _within_window(res.machine, n, p)}
-        if strayed:
-            # an accepted per-revolution error the fit took out of its window: fitted again
-            # with its period held at 360/n deg (for this fit; the next starts from there)
-            theta = model.theta.copy()
-            for n, p in strayed.items():
-                theta[model.parameter_names.index(n)] = p
-            res = _quiet_identify(model.with_theta(theta, limits=False), self.obs, free=_free(self, model, names, set(strayed)),
-                                  initialise=initialise)
-        return res.machine, res.fitted, np.array(list(res.nuisance.values())), res
-
     def round(self, number: int, may_accept: bool) -> bool:
-        """One round; whether it accepted a change."""
-        obs = self.obs
-        base = base_design(self.current, obs, self.fitted, self.nuisance)
+        """One round, a pipeline: the candidates offered on the present model
+        (:mod:`~volerr_pin.fit.diagnosis.candidates`), scored against its base design
+        (:mod:`~volerr_pin.fit.diagnosis.scoring`), the best that stays significant accepted
+        and refitted (:mod:`~volerr_pin.fit.diagnosis.changes`); whether it accepted a change."""
+        obs, current = self.obs, self.current
+        base = base_design(FitPoints.of(current.model, obs, current.state), current.theta, self.fitted, self.nuisance)
         proj = Projector(base.A, base.r, obs, self.split)
         if number == 0 and len(obs.y) <= proj.rank:
             # the base model interpolates the data: no residual, and a held-out RMS of zero
@@ -214,8 +186,16 @@ class _Loop:
                              "no residual to diagnose; measure more points")
         for record in self.previous:
             record.rms_after_um, record.max_after_um = proj.cv_rms, proj.cv_max
-        ranked, passing = self._scores(number, base, proj)
-        accepted = self._accept(number, passing, proj) if may_accept else []
+        accepted_orders = {(n.split(".")[0], round(2 * math.pi / p)) for n, p in self.fit.periods.items()}
+        offered = offer(current, obs, accepted_orders, raises_only=len(self.effects) >= self.max_effects)
+        ranked, passing = score_round(number, base, proj, obs, offered, self.alpha, self.cov_obj, self.axis_index_of,
+                                      self.columns, self.progress)
+        done = accept(current, number, passing, proj, self.axis_index_of, self.fit, self.free_names) if may_accept \
+            else None
+        if done is not None:
+            self.free_names = done.free_names
+            self.current, self.fitted, self.nuisance, self.last_fit = done.machine, done.fitted, done.nuisance, done.fit
+        accepted = done.records if done is not None else []
         self.last_passing, self.left_passing = passing, ([] if may_accept else [s.label for s in passing])
         self.steps.append(Step(number, proj.cv_rms, [s.summary() for s in ranked], base.r * obs.sigma,
                                self.current if self.keep_machines else None, accepted))
@@ -224,113 +204,7 @@ class _Loop:
         for record in accepted:
             (self.raised if record.kind == Role.UNDER_MODELLED else self.effects).append(record)
         self.previous = accepted
-        twins_of(accepted, passing, self.machine)
         return True
-
-    def _scores(self, number: int, base, proj: Projector) -> tuple[list, list]:
-        """Every candidate's score, best first, and those that pass the F-test and lower the
-        cross-validated RMS."""
-        obs = self.obs
-        candidates, E, joints = _offered(self)
-
-        def progress(done):
-            if self.progress:
-                self.progress(f"round {number + 1}: candidates", done)
-
-        def one(cand):
-            return score(base, proj, obs, E, joints, cand, self.cov_obj, self.axis_index_of, self.columns)
-
-        scores = []
-        for k, cand in enumerate(candidates):
-            s = one(cand)
-            progress(k + 1)
-            if s is not None:
-                scores.append(s)
-        m = max(1, len(scores))
-        ranked = sorted(scores, key=lambda s: -s.bic_gain)
-        # cross-validate what could pass and what is shown
-        shown = [s for k, s in enumerate(ranked) if s.cv_rms_um is None and (k < 10 or s.p_value < self.alpha / m)]
-        for s in shown:
-            s.cv_rms_um = proj.cv(s.columns)
-        passing = [s for s in ranked if s.extra > 0 and s.p_value < self.alpha / m
-                   and s.cv_rms_um is not None and s.cv_rms_um < proj.cv_rms * (1 - 1e-3)]
-        return ranked, passing
-
-    def _accept(self, number: int, passing: list, proj: Projector) -> list[Change]:
-        """The first of the best three passing candidates whose size stays significant in the
-        joint refit (a winning raise with the other raises that pass on their own); the model
-        becomes the refit.
-
-        A per-revolution error that does not repeat from one turn to the next is not accepted,
-        and the raises of its component wait while anything else can be accepted: early on,
-        other axes' unmodelled geometry clouds the repeat of a true error, and a raise over two
-        turns would swallow it; once the rest of the model is in, the question is asked again."""
-        first, allowed = _repeat_order(number, passing, proj, self.obs, self.axis_index_of)
-        records = self._accept_first(number, first, passing, proj)
-        if not records and len(first) < len(allowed):
-            records = self._accept_first(number, allowed, passing, proj)
-        return records
-
-    def _accept_first(self, number: int, candidates: list, passing: list, proj: Projector) -> list[Change]:
-        """The first of the best three of ``candidates`` that stays significant in the joint
-        refit, accepted (raises come along from ``passing``); [] when none does."""
-        for best in candidates[:3]:
-            batch = [best]
-            weak = {}   # id -> (score, size): below SIGNIFICANCE in the last joint refit it took part in
-            if best.candidate.kind == Role.RAISE:
-                # the other under-modelled components that pass on their own come along, except
-                # those a physical effect passing this round would sit on: it gets its round first
-                # (a raised EBB would swallow B's once-per-revolution error before it is tried)
-                taken = {best.candidate.component}
-                held = {s.candidate.component for s in passing if s.candidate.kind == Role.EFFECT}
-                for s in passing:
-                    c = s.candidate
-                    if c.kind == Role.RAISE and c.component not in taken | held and s.bic_gain > 0:
-                        batch.append(s)
-                        taken.add(c.component)
-            accepted = False
-            while True:   # each retry refits a smaller batch: it ends
-                new, records = apply_changes(self.current, batch)
-                names = self.free_names + [n for r in records for n in r.names if n not in self.free_names]
-                new_fit, new_fitted, new_nuisance, res = self.fit(new, names)
-                unheld = _unheld_values(new_fit)
-                if unheld:   # the next change could not be built on it, nor the result written
-                    for s in batch:
-                        s.note = unheld
-                    break
-                tested = [tested_names(new_fit, r) for r in records]
-                sizes = [size_of(res, t) if res is not None and t else math.inf for t in tested]
-                for k, (r, s) in enumerate(zip(records, batch)):
-                    note = _strayed_note(new_fit, r, s) if effect_kind(r.name).per_revolution else None
-                    if note:   # a per-revolution error whose period leaves its window is not that error
-                        sizes[k], s.note = 0.0, note
-                keep = [s for s, z in zip(batch, sizes) if z >= SIGNIFICANCE]
-                # the size of the refit that decides (the last one a candidate took part in)
-                weak.update({id(s): (s, z) for s, z in zip(batch, sizes)
-                             if z < SIGNIFICANCE and (not s.note or WEAK in s.note)})
-                if len(keep) == len(batch):
-                    accepted = True
-                    break
-                if len(batch) == 1:
-                    break
-                # the ones significant in the joint refit, refitted without the others (until all
-                # are); if none is (raises that explain the same residual share it, and each
-                # looks insignificant), the best one alone
-                batch = keep or [best]
-            _note_weak(weak, batch if accepted else [], number)
-            if not accepted:
-                continue
-            for record, z, s in zip(records, sizes, batch):
-                record.rms_before_um, record.max_before_um, record.step = proj.cv_rms, proj.cv_max, number
-                if effect_kind(record.name).per_revolution:
-                    self.periods.update({n: math.radians(s.candidate.table["period_deg"])
-                                         for n in record.names if n.endswith(".period")})
-                if np.isfinite(z):
-                    record.significance = z
-            self.free_names = names
-            self.current, self.fitted, self.nuisance, self.last_fit = new_fit, new_fitted, new_nuisance, res
-            return records
-        return []
 
     def _refit(self, model: Machine):
         """``model`` fitted like the loop's models (with ``fixed`` only the free names it keeps)."""
@@ -347,7 +221,7 @@ class _Loop:
         fitted = fit.fitted if fit is not None else np.array([], dtype=int)
         nuisance = (np.array(list(fit.nuisance.values())) if fit is not None
                     else np.zeros(self.obs.nuisance.shape[1]))
-        b = base_design(model, self.obs, fitted, nuisance)
+        b = base_design(FitPoints.of(model.model, self.obs, model.state), model.theta, fitted, nuisance)
         out = Projector(b.A, b.r, self.obs, self.split), b.r * self.obs.sigma
         self._last_holdout = (model, fit, out)
         return out
@@ -378,7 +252,7 @@ class _Loop:
         kept_jointly: set[str] = set()
         trim, fitted = True, False
         while True:
-            if not fitted and (not self.fixed or self.free_names):
+            if not fitted and (not self.fit.fixed or self.free_names):
                 self.current, _, _, final = self.fit(self.current, self.free_names)
             trimmed = _judged_trim(self, final) if trim else None
             trim = fitted = trimmed is not None
@@ -386,7 +260,7 @@ class _Loop:
                 self.current, res, self.free_names = trimmed
                 final = res if res is not None else final
                 continue
-            weak = [(size_of(final, [n for n in e.names if n not in self.held]) if final is not None else 0.0, i)
+            weak = [(size_of(final, [n for n in e.names if n not in self.fit.held]) if final is not None else 0.0, i)
                     for i, e in enumerate(self.effects)]
             weak = [(z, i) for z, i in weak if z < SIGNIFICANCE and self.effects[i].label not in kept_jointly]
             if not weak:
@@ -528,26 +402,6 @@ class _Loop:
         return final, details
 
 
-def _note_weak(weak: dict, taken: list, number: int) -> None:
-    """Why a candidate that passed its round's tests was not taken: its size in the last joint
-    refit it took part in (``weak``: id -> (score, size)); the notes of the ``taken`` ones go (a
-    candidate too small beside an earlier best may be taken with a later one)."""
-    for s, z in weak.values():
-        if not any(s is t for t in taken):
-            s.note = f"not accepted in round {number + 1}: {WEAK} {_below(z)} standard uncertainties, " \
-                     f"below {SIGNIFICANCE:g}"
-    for s in taken:
-        if WEAK in s.note:
-            s.note = ""
-
-
-def _below(z: float) -> str:
-    """A size below :data:`SIGNIFICANCE` in two digits, or more where two would round it up to
-    the threshold."""
-    text = f"{z:.2g}"
-    return text if float(text) < SIGNIFICANCE else f"{math.floor(z * 1e6) / 1e6:.7g}"
-
-
 def _stopped(loop: _Loop, max_rounds: int) -> dict:
     """Why the rounds ended (:attr:`~volerr_pin.fit.diagnosis.results.Diagnosis.stopped`)."""
     rounds = len(loop.steps)
@@ -560,25 +414,6 @@ def _stopped(loop: _Loop, max_rounds: int) -> dict:
                           "lets the diagnosis go on")}
     return {"reason": "nothing_passes", "rounds": rounds, "max_rounds": max_rounds, "still_passing": [],
             "label": f"stopped after {rounds} round{'s' if rounds != 1 else ''}: no further change passes"}
-
-
-def _repeat_order(number: int, passing: list, proj: Projector, obs: Observations,
-                  axis_index_of: dict[str, int]) -> tuple[list, list]:
-    """The passing candidates a round may accept first, and those it may accept when none of
-    the first is: without the per-revolution errors that do not repeat from one turn to the
-    next (:func:`~volerr_pin.fit.diagnosis.scoring.not_repeating`, whose reason becomes the
-    score's ``note``), the first also without the raises of their components."""
-    failing = set()
-    for s in passing:
-        c = s.candidate
-        if effect_kind(c.name).per_revolution and s.columns is not None:
-            note = not_repeating(proj, obs, s.columns, obs.q[:, axis_index_of[c.axis]], c, number)
-            if note:
-                s.note = note
-                failing.add(s.label)
-    waiting = {s.candidate.component for s in passing if s.label in failing}
-    allowed = [s for s in passing if s.label not in failing]
-    return [s for s in allowed if not (s.candidate.kind == Role.RAISE and s.candidate.component in waiting)], allowed
 
 
 def _judged_trim(loop: _Loop, final) -> tuple | None:
@@ -596,37 +431,6 @@ def _judged_trim(loop: _Loop, final) -> tuple | None:
     model, res, _ = refit
     after = loop.holdout(model, res)[0].cv_rms
     return refit if after <= before * (1 + PRACTICAL_GAIN) else None
-
-
-def _offered(loop: _Loop) -> tuple[list, np.ndarray, list[str]]:
-    """The round's candidates, and the error-joint sensitivity at the points (with the components
-    they would add, at zero) and its joints: a component's per-revolution error of an order
-    already accepted is not offered again (a second term beside the first would only share it),
-    and once ``max_effects`` effects are in only raises are."""
-    accepted_orders = {(n.split(".")[0], round(2 * math.pi / p)) for n, p in loop.periods.items()}
-    candidates = [c for c in build_candidates(loop.current, loop.obs) if not (
-        effect_kind(c.name).per_revolution and (c.component, PeriodicRotary.order(c)) in accepted_orders)]
-    if len(loop.effects) >= loop.max_effects:
-        candidates = [c for c in candidates if c.kind == Role.RAISE]
-    missing_loc = sorted({c.component for c in candidates if c.component not in loop.current.error_joints},
-                         key=[c.component for c in candidates].index)
-    probe = loop.current
-    if missing_loc:
-        spec = probe.spec
-        for component in missing_loc:
-            spec = spec.with_terms(component, TermSpec("probe", Constant(*display_unit(component[1])), np.zeros(1)))
-        probe = probe.with_spec(spec)
-    E = by_halves(loop.obs, lambda q, **cov: probe.error_joint_sensitivity(q, first_order=True, **cov),
-                  "joint sensitivity")
-    return candidates, E, list(probe.error_joints)
-
-
-def _quiet_identify(machine: Machine, obs: Observations, **options) -> Identification:
-    """A fit of the loop, without cross-validation; its conditioning is said once, for the
-    final model, not for every trial."""
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="the fit is ill-conditioned")
-        return identify(machine, obs, folds=0, **options)
 
 
 def _memory_needed(machine: Machine, obs: Observations, folds: int) -> float:
@@ -660,10 +464,12 @@ def _time_check(loop: _Loop, members: list[Change], final) -> dict | None:
     def predicted(key, model):
         names = [n for n in loop.free_names if n in set(model.parameter_names)]
         try:
-            res = _quiet_identify(model, o_early, free=_free(loop, model, names), initialise=False)
+            res = quiet_identify(model, o_early, free=loop.fit.free(model, names), initialise=False)
         except InputError:
             return None  # the first part alone does not determine the model
-        b = base_design(res.machine, o_late, res.fitted, np.array(list(res.nuisance.values())))
+        fitted_model = res.machine
+        b = base_design(FitPoints.of(fitted_model.model, o_late, fitted_model.state), fitted_model.theta, res.fitted,
+                        np.array(list(res.nuisance.values())))
         residual = b.r * o_late.sigma
         part = {f"rms_predicted{key}_um": residual_rms(o_late, residual)}
         if k is not None:
@@ -679,45 +485,6 @@ def _time_check(loop: _Loop, members: list[Change], final) -> dict | None:
     return out
 
 
-def _free(loop: _Loop, model: Machine, names: list[str], also_held: set[str] = frozenset()) -> list[int] | None:
-    """The coefficients of ``model`` a fit of the loop moves: all (None) or, with ``fixed``,
-    ``names``; never a held one (:func:`_hold_periods`, and ``also_held``)."""
-    free = None if not loop.fixed else [model.parameter_names.index(n) for n in names]
-    held = loop.held | set(also_held)
-    if not held:
-        return free
-    return [k for k in (range(len(model.parameter_names)) if free is None else free)
-            if model.parameter_names[k] not in held]
-
-
-def _within_window(model: Machine, name: str, period: float) -> bool:
-    """Whether ``model``'s period ``name`` lies within :data:`PERIOD_WINDOW` of ``period`` (rad)."""
-    value = float(model.theta[model.parameter_names.index(name)])
-    return period / PERIOD_WINDOW <= value <= period * PERIOD_WINDOW
-
-
-def _unheld_values(model: Machine) -> str | None:
-    """Why a refit is not accepted when a spec could not hold its values (None when it can)."""
-    try:
-        check_values(model)
-    except SpecError as exc:
-        return f"not accepted: the joint refit's values are beyond what a spec holds ({exc})"
-    return None
-
-
-def _strayed_note(model: Machine, record: Change, scored) -> str | None:
-    """Why a per-revolution error is not accepted when the joint refit took its period out of
-    its window (None when it did not)."""
-    period_deg = scored.candidate.table["period_deg"]
-    for name in record.names:
-        if name.endswith(".period") and not _within_window(model, name, math.radians(period_deg)):
-            value = math.degrees(float(model.theta[model.parameter_names.index(name)]))
-            return (f"not accepted: in the joint refit its period went to {value:.4g} deg, outside "
-                    f"{1 / PERIOD_WINDOW:.3g} to {PERIOD_WINDOW:g} times {period_deg:g} deg: it no longer "
-                    "repeats as this error does")
-    return None
-
-
 def _hold_periods(loop: _Loop) -> None:
     """From the final fit on, an accepted per-revolution error repeats exactly n times per
     revolution: its period goes back to 360/n deg and no fit moves it. In the rounds it is free,
@@ -725,11 +492,11 @@ def _hold_periods(loop: _Loop) -> None:
     off the spec's geometry it can wander there (285 deg for once per revolution), which is not
     the error the label names."""
     names = loop.current.parameter_names
-    held = {n: v for n, v in loop.periods.items() if n in names}
+    held = {n: v for n, v in loop.fit.periods.items() if n in names}
     if not held:
         return
     theta = loop.current.theta.copy()
     for n, v in held.items():
         theta[names.index(n)] = v
     loop.current = loop.current.with_theta(theta, limits=False)
-    loop.held = set(held)
+    loop.fit.held = set(held)

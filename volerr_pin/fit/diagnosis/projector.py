@@ -13,10 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import lapack
 
-from ..identify import Observations, point_squares, predict_observations
-from ...model import Machine
-from ...model import build_term, parse_component_name
-from ...model import Context, Covariates
+from ..identify import FitPoints, Observations, point_squares, predict_observations
+from ...model import Context, Covariates, Model, build_term, parse_component_name
 from ...base.units import UM_PER_M
 from .results import Candidate
 
@@ -53,7 +51,7 @@ class Base:
 
     Attributes
     ----------
-    machine : Machine
+    model : Model
         The base model.
     A : ndarray, shape (rows, n_nuisance + F)
         Weighted design [nuisance | fitted coefficients] of the first-order model.
@@ -61,21 +59,21 @@ class Base:
         Weighted residual of the exact model.
     """
 
-    machine: Machine
+    model: Model
     A: np.ndarray
     r: np.ndarray
 
 
-def base_design(machine: Machine, obs: Observations, fitted: np.ndarray, nuisance: np.ndarray) -> Base:
+def base_design(points: FitPoints, theta: np.ndarray, fitted: np.ndarray, nuisance: np.ndarray) -> Base:
     """The residual of the exact model and the design of the first-order model (exact
     dependencies) at the base fit.
 
     Parameters
     ----------
-    machine : Machine
-        The fitted base model.
-    obs : Observations
-        The observations.
+    points : FitPoints
+        The observations and their points checked for the base model.
+    theta : ndarray, shape (P,)
+        The fitted base model's coefficients (SI).
     fitted : ndarray of int
         The coefficients that were fitted.
     nuisance : ndarray, shape (n_nuisance,)
@@ -86,10 +84,11 @@ def base_design(machine: Machine, obs: Observations, fitted: np.ndarray, nuisanc
     Base
         Design and residual, weighted.
     """
-    pred, A = predict_observations(machine, obs, machine.theta, fitted, first_order=True)
+    obs = points.obs
+    pred, A = predict_observations(points, theta, fitted, first_order=True)
     r = (obs.y - pred - obs.nuisance @ nuisance) / obs.sigma
     J = np.hstack([obs.nuisance, A]) / obs.sigma[:, None]
-    return Base(machine, J, r)
+    return Base(points.model, J, r)
 
 
 class Columns:
@@ -112,12 +111,12 @@ class Columns:
         self.cache: dict = {}
         self.weights: dict = {}   # (round's E, component) -> weighted row factors
 
-    def term(self, machine: Machine, cand: Candidate) -> tuple:
+    def term(self, model: Model, cand: Candidate) -> tuple:
         """The candidate's term and where it is evaluated.
 
         Parameters
         ----------
-        machine : Machine
+        model : Model
             The present model.
         cand : Candidate
             The candidate.
@@ -129,23 +128,23 @@ class Columns:
         """
         direction, location, owner = parse_component_name(cand.component)
         quantity = "length" if direction in "XYZ" else "angle"
-        axis_index = machine.axes.index(owner) if owner in machine.axes else None
-        travel = tuple(machine.travel[axis_index]) if axis_index is not None else None
+        axis_index = model.axes.index(owner) if owner in model.axes else None
+        travel = tuple(model.travel[axis_index]) if axis_index is not None else None
         position_quantity = None if (location or axis_index is None) else (
-            "length" if machine.axis_kinds[axis_index] == "linear" else "angle")
+            "length" if model.axis_kinds[axis_index] == "linear" else "angle")
         tspec = cand.term if cand.table is None else build_term(
             dict(cand.table), f"candidate {cand.label}", quantity, position_quantity, travel)
         position = None if position_quantity is None else self.obs.q[:, axis_index]
         ctx = Context(position, travel, self.cov_obj, axis_index, cand.component)
         return tspec, ctx
 
-    def __call__(self, machine: Machine, E: np.ndarray, joints: list[str], cand: Candidate,
+    def __call__(self, model: Model, E: np.ndarray, joints: list[str], cand: Candidate,
                  coefs=None, columns=None):
         """The candidate's weighted columns.
 
         Parameters
         ----------
-        machine : Machine
+        model : Model
             The present model.
         E : ndarray, shape (N, 6, n_error_joints)
             First-order sensitivity of the error to every error joint.
@@ -169,7 +168,7 @@ class Columns:
         key = (cand.component, what, None if coefs is None else tuple(np.round(coefs, 15)))
         entry = self.cache.get(key)
         if entry is None:
-            tspec, ctx = self.term(machine, cand)
+            tspec, ctx = self.term(model, cand)
             c = tspec.coefficients if coefs is None else coefs
             entry = self.cache[key] = (tspec, c, tspec.term.jacobian(c, ctx)[obs.point])
         tspec, c, jac = entry

@@ -169,7 +169,7 @@ def floor_verdict(obs: Observations, r_si: np.ndarray, proj: Projector, noise_st
     return floor, source, bound, reaches, stated
 
 
-def twins_of(accepted: list[Change], passing: list[Score], machine: Machine) -> None:
+def twins_of(accepted: list[Change], passing: list[Score]) -> None:
     """An accepted effect whose effect at the tool is the same through other sites (a drift
     in x through X, Y or Z of a Cartesian machine) is labelled as such, with ``axis`` None:
     the data cannot tell which site carries it.
@@ -180,8 +180,6 @@ def twins_of(accepted: list[Change], passing: list[Score], machine: Machine) -> 
         The changes of a round (updated in place).
     passing : list of Score
         The round's passing scores.
-    machine : Machine
-        The machine.
     """
     for record in accepted:
         if record.kind != Role.EFFECT:
@@ -510,7 +508,7 @@ def _grouped(members: list[Change]) -> Change:
 
 def _contribution(machine: Machine, obs: Observations, names: list[str]) -> np.ndarray:
     """What the linear coefficients ``names`` add to every observation row [m or rad]."""
-    from ..identify import predict_observations
+    from ..identify import FitPoints, predict_observations
 
     nonlinear = set(machine.nonlinear_parameters)
     theta0 = machine.theta.copy()
@@ -519,8 +517,8 @@ def _contribution(machine: Machine, obs: Observations, names: list[str]) -> np.n
         if k not in nonlinear:
             theta0[k] = 0.0
     none = np.array([], dtype=int)
-    return predict_observations(machine, obs, machine.theta, none)[0] - predict_observations(
-        machine, obs, theta0, none)[0]
+    points = FitPoints.of(machine.model, obs, machine.state)
+    return predict_observations(points, machine.theta, none)[0] - predict_observations(points, theta0, none)[0]
 
 
 def drift_series(diagnosis: Diagnosis) -> list[DriftSeries]:

@@ -103,6 +103,9 @@ class Candidate:
         Raises: degrees gained.
     term : TermSpec or None
         The model's own geometry (a missing component, a raise): its term, zero-valued.
+    start : ndarray or None
+        A raise: the richer term's coefficients that reproduce the component's present
+        function, where its refit starts.
     """
 
     name: str                 # catalogue name
@@ -116,6 +119,7 @@ class Candidate:
     change: tuple[str, str] | None = None
     by: int = 1
     term: object = None       # TermSpec of the model's own geometry (missing, raised), zero-valued
+    start: object = None      # a raise's coefficients reproducing the present function
 
     def describe(self) -> str:
         """The candidate in words, e.g. "backlash on X in x driven by dir_X (EXX)" (an effect

@@ -17,13 +17,13 @@ from scipy.signal import lombscargle
 from ..identify import Observations
 from ...model import Covariates
 from ...base.units import ARCSEC, UM_PER_M
-from .candidates import PITCH_PERIOD_MM, smoother_term
+from .candidates import PITCH_PERIOD_MM, Offered
 from .effects import MIN_PERIODS, effect_kind
 from .projector import Base, Columns, Projector
 from .results import Candidate, Role, Score
 
 __all__ = ["PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "SURVIVES", "not_repeating",
-           "periodogram_period", "repeat_check", "score", "table_interpolation"]
+           "periodogram_period", "repeat_check", "score", "score_round", "table_interpolation"]
 
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
 #: a per-revolution error of an axis measured over more than one turn is checked for repeating
@@ -211,7 +211,7 @@ def periodogram_period(obs: Observations, r: np.ndarray, gain: np.ndarray, axis_
 
 
 def table_interpolation(base: Base, proj: Projector, E: np.ndarray, joints: list[str], cand: Candidate,
-                        C: np.ndarray, gamma: np.ndarray, columns: Columns) -> str | None:
+                        C: np.ndarray, gamma: np.ndarray, columns: Columns, smoother) -> str | None:
     """Why a periodic error of an axis is its component's table's interpolation, when it is.
 
     A table leaves, between its nodes, the residual of a smooth function, which repeats at the
@@ -241,6 +241,9 @@ def table_interpolation(base: Base, proj: Projector, E: np.ndarray, joints: list
         Its coefficients in the joint fit with the base (SI).
     columns : Columns
         The cache of candidate columns.
+    smoother : tuple of (TermSpec, str) or None
+        The component's table one step richer between its nodes, and how, in words
+        (:func:`~volerr_pin.fit.diagnosis.candidates.smoother_term`); None when it has none.
 
     Returns
     -------
@@ -248,13 +251,12 @@ def table_interpolation(base: Base, proj: Projector, E: np.ndarray, joints: list
         The reason, with both amplitudes [um]; None when the error survives, the component has
         no table, or the table cannot be made richer.
     """
-    smoother = smoother_term(base.machine, cand.component)
     if smoother is None:
         return None
     term, how = smoother
     richer = Candidate(cand.name, cand.axis, cand.direction, cand.component, None,
                        label=f"{cand.component} richer between its nodes", kind=Role.RAISE, term=term)
-    C_table = columns(base.machine, E, joints, richer)[0]
+    C_table = columns(base.model, E, joints, richer)[0]
     before = float(np.linalg.norm(gamma))
     after = float(np.linalg.norm(proj.fit(np.hstack([C_table, C]))[2][-C.shape[1]:]))
     if SURVIVES * before <= after <= before / SURVIVES:
@@ -266,7 +268,7 @@ def table_interpolation(base: Base, proj: Projector, E: np.ndarray, joints: list
             "the table's raise refines it")
 
 
-def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints: list[str], cand: Candidate,
+def score(base: Base, proj: Projector, obs: Observations, offered: Offered, cand: Candidate,
           cov_obj: Covariates, axis_index_of: dict[str, int], columns: Columns) -> Score | None:
     """Fit the candidate jointly with the base (linearised) and score it.
 
@@ -278,10 +280,9 @@ def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints:
         Its projector.
     obs : Observations
         The observations.
-    E : ndarray, shape (N, 6, n_error_joints)
-        First-order sensitivity of the error to every error joint.
-    joints : list of str
-        The error joints, in the order of ``E``.
+    offered : Offered
+        The round's offer: the sensitivity of the error to every error joint, and the tables
+        made richer.
     cand : Candidate
         The candidate (a pitch's period is set here, from the periodogram).
     cov_obj : Covariates
@@ -297,6 +298,7 @@ def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints:
         Its score; None for a pitch with no plausible period.
     """
     n = len(base.r)
+    E, joints = offered.E, offered.joints
     searched = 1.0
     kind = effect_kind(cand.name)
     if kind.periodogram and cand.kind == Role.EFFECT:
@@ -305,7 +307,7 @@ def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints:
             return None
         period, searched = found
         cand.table = dict(cand.table, period_mm=period * 1e3)
-    _, tspec, coefs = columns(base.machine, E, joints, cand)
+    _, tspec, coefs = columns(base.model, E, joints, cand)
     nonlinear = [tspec.term.local_names.index(k) for k in tspec.term.nonlinear]
     lin = [i for i in range(len(coefs)) if i not in nonlinear]
     full = np.array([np.nan])
@@ -320,7 +322,7 @@ def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints:
             if not np.isnan(value):
                 c[nonlinear[0]] = value
             # columns of the linear coefficients at this value of the non-linear one
-            C, _, _ = columns(base.machine, E, joints, cand, None if np.isnan(value) else c, lin)
+            C, _, _ = columns(base.model, E, joints, cand, None if np.isnan(value) else c, lin)
             extra, rss1, gamma = proj.fit(C)
             tried[k] = (extra, rss1, gamma, c, C)
         return tried[k]
@@ -343,7 +345,60 @@ def score(base: Base, proj: Projector, obs: Observations, E: np.ndarray, joints:
     out = Score(cand.label, int(extra), p_value, float(bic_gain), None, (rss0 - rss1) / rss0 if rss0 > 0 else 0.0,
                 cand, tspec, values, C)
     if kind.periodogram and cand.kind == Role.EFFECT:
-        note = table_interpolation(base, proj, E, joints, cand, C, gamma, columns)
+        note = table_interpolation(base, proj, E, joints, cand, C, gamma, columns, offered.smoother.get(cand.component))
         if note:   # the table's, not a screw's: its raise refines the table
             return Score(cand.label, 0, 1.0, 0.0, proj.cv_rms, 0.0, cand, note=note)
     return out
+
+
+def score_round(number: int, base: Base, proj: Projector, obs: Observations, offered: Offered, alpha: float,
+                cov_obj: Covariates, axis_index_of: dict[str, int], columns: Columns, progress=None) -> tuple:
+    """Every candidate of a round scored, best first, and those that pass: the F-test at
+    ``alpha`` over the number of candidates scored (Bonferroni) and a lower cross-validated RMS.
+
+    Parameters
+    ----------
+    number : int
+        The round (0 first).
+    base : Base
+        The round's base.
+    proj : Projector
+        Its projector.
+    obs : Observations
+        The observations.
+    offered : Offered
+        The round's offer.
+    alpha : float
+        The family-wise significance level.
+    cov_obj : Covariates
+        The checked covariates.
+    axis_index_of : dict of str to int
+        Axis name -> index.
+    columns : Columns
+        The cache of candidate columns.
+    progress : callable(str, int), optional
+        Called after every candidate.
+
+    Returns
+    -------
+    ranked : list of Score
+        Every score, best BIC gain first.
+    passing : list of Score
+        Those that pass, in the same order.
+    """
+    scores = []
+    for k, cand in enumerate(offered.candidates):
+        s = score(base, proj, obs, offered, cand, cov_obj, axis_index_of, columns)
+        if progress:
+            progress(f"round {number + 1}: candidates", k + 1)
+        if s is not None:
+            scores.append(s)
+    m = max(1, len(scores))
+    ranked = sorted(scores, key=lambda s: -s.bic_gain)
+    # cross-validate what could pass and what is shown
+    shown = [s for k, s in enumerate(ranked) if s.cv_rms_um is None and (k < 10 or s.p_value < alpha / m)]
+    for s in shown:
+        s.cv_rms_um = proj.cv(s.columns)
+    passing = [s for s in ranked if s.extra > 0 and s.p_value < alpha / m
+               and s.cv_rms_um is not None and s.cv_rms_um < proj.cv_rms * (1 - 1e-3)]
+    return ranked, passing

@@ -24,13 +24,13 @@ Parts, each importing only those listed before it:
 """
 
 from .crossval import pose_folds
-from .design import predict_observations
+from .design import FitPoints, predict_observations
 from .fit import identify
 from .observations import (Observations, build_observations, check_observations, point_squares, residual_rms,
                            stack_blocks)
 from .result import Identification, check_report_machine, parameter_units
 from .solver import CONDITION_LIMIT, conditioning_note
 
-__all__ = ["CONDITION_LIMIT", "Identification", "Observations", "build_observations", "check_observations",
+__all__ = ["CONDITION_LIMIT", "FitPoints", "Identification", "Observations", "build_observations", "check_observations",
            "check_report_machine", "conditioning_note", "identify", "parameter_units", "point_squares",
            "pose_folds", "predict_observations", "residual_rms", "stack_blocks"]

@@ -9,6 +9,8 @@ import numpy as np
 from ...base.checks import integer
 from ...base.errors import InputError
 from ...base.units import UM_PER_M
+from ...model import volumetric_error
+from .design import FitPoints
 from .observations import Observations, point_squares
 from .solver import solve
 
@@ -90,17 +92,15 @@ def holdout_split(obs: Observations, holdout: float, seed: int) -> tuple[list[np
     return splits, how
 
 
-def cross_validate(machine, obs: Observations, theta0: np.ndarray, free: np.ndarray, columns, convention: str,
+def cross_validate(points: FitPoints, theta0: np.ndarray, free: np.ndarray, columns, convention: str,
                    folds: int, holdout: float | None, seed: int, max_iter: int, tol: float, progress=None
                    ) -> tuple[float | None, str]:
     """Held-out RMS of the position residual: each split's points predicted by a fit to the others.
 
     Parameters
     ----------
-    machine : Machine
-        The machine (the prior and start values).
-    obs : Observations
-        The observations.
+    points : FitPoints
+        The observations and their points checked for the model.
     theta0 : ndarray, shape (P,)
         Start values (SI).
     free : ndarray of int
@@ -130,6 +130,7 @@ def cross_validate(machine, obs: Observations, theta0: np.ndarray, free: np.ndar
     how : str
         The splits in words, for reports.
     """
+    obs = points.obs
     if holdout is not None:
         splits, how = holdout_split(obs, holdout, seed)
     else:
@@ -140,10 +141,10 @@ def cross_validate(machine, obs: Observations, theta0: np.ndarray, free: np.ndar
     sq_pos, count = 0.0, 0
     for k, test in enumerate(splits):
         train = np.setdiff1d(np.arange(obs.n_points), test)
-        fit_obs, test_obs = obs.subset(train), obs.subset(np.sort(test))
-        theta, nuisance, *_ = solve(machine, fit_obs, theta0, free, columns, convention, max_iter,
-                                    tol)
-        error = machine.volumetric_error(test_obs.q, theta, **test_obs.covariates)
+        fit_points, test_points = points.subset(train), points.subset(np.sort(test))
+        theta, nuisance, *_ = solve(fit_points, theta0, free, columns, convention, max_iter, tol)
+        test_obs = test_points.obs
+        error = volumetric_error(points.model, test_points.q, theta, test_points.cov)
         pred = np.einsum("rk,rk->r", test_obs.w, error[test_obs.point]) + test_obs.nuisance @ nuisance
         res = test_obs.y - pred
         pos = ~test_obs.angular

@@ -8,27 +8,90 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import lapack
 
-from ...model import check_inputs, sensitivity, volumetric_error
-from ...base.errors import InputError
-from ...model import Machine
-from ...base.units import UM_PER_M, URAD_PER_RAD
-from .observations import Observations, data_names, take_covariates
+from dataclasses import dataclass
 
-__all__ = ["CHUNK_BYTES", "SPLIT_POINTS", "by_halves", "column_scale", "default_rcond", "point_chunks",
+from ...base.errors import InputError
+from ...base.units import UM_PER_M, URAD_PER_RAD
+from ...model import Covariates, Model, check_covariates, check_q, sensitivity, volumetric_error
+from .observations import Observations, data_names
+
+__all__ = ["CHUNK_BYTES", "SPLIT_POINTS", "FitPoints", "by_halves", "column_scale", "default_rcond", "point_chunks",
            "predict_observations", "reduce_design", "refuse_non_finite", "rows_of", "stacked_factor", "typical_sizes",
            "weighted_residual"]
 
 
-def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray, free: np.ndarray,
+@dataclass(frozen=True)
+class FitPoints:
+    """Observations with their points checked once for a model: the positions within its
+    travel and the covariates as its algorithms take them (the machine's state filling in what
+    the data do not give, lagged temperatures added). Every evaluation of a fit reads them.
+
+    Attributes
+    ----------
+    model : Model
+        The model the points were checked for.
+    obs : Observations
+        The observations.
+    q : ndarray, shape (N, n_axes)
+        Their points' positions [m, rad], checked.
+    cov : Covariates
+        Their points' covariates, checked.
+    """
+
+    model: Model
+    obs: Observations
+    q: np.ndarray
+    cov: Covariates
+
+    @classmethod
+    def of(cls, model: Model, obs: Observations, state: dict | None = None) -> "FitPoints":
+        """The observations' points checked for a model and a machine's state.
+
+        Parameters
+        ----------
+        model : Model
+            The model (``machine.model``).
+        obs : Observations
+            The observations.
+        state : dict, optional
+            The machine's state (``machine.state``): the covariates the data do not give.
+
+        Returns
+        -------
+        FitPoints
+            The checked points.
+
+        Raises
+        ------
+        InputError
+            If a position leaves the travel or a covariate is invalid (:func:`~volerr_pin.model.check_inputs`).
+        """
+        return cls(model, obs, check_q(model, obs.q), check_covariates(model, obs.n_points, obs.covariates, state))
+
+    def subset(self, points: np.ndarray) -> "FitPoints":
+        """The checked points of some points, with their observations (:meth:`Observations.subset`).
+
+        Parameters
+        ----------
+        points : ndarray of int, shape (M,)
+            The points, in the order the new points take.
+
+        Returns
+        -------
+        FitPoints
+            Their observations and checked points.
+        """
+        return FitPoints(self.model, self.obs.subset(points), self.q[points], self.cov.take(points))
+
+
+def predict_observations(points: FitPoints, theta: np.ndarray, free: np.ndarray,
                          first_order: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Prediction of every observation row and its Jacobian with respect to the free coefficients.
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
-    obs : Observations
-        The observations.
+    points : FitPoints
+        The observations and their checked points.
     theta : ndarray, shape (P,)
         Coefficients (SI).
     free : ndarray of int, shape (F,)
@@ -43,27 +106,27 @@ def predict_observations(machine: Machine, obs: Observations, theta: np.ndarray,
     A : ndarray, shape (rows, F)
         d pred / d theta[free] [m or rad per SI unit of the coefficient].
     """
-    error, S = error_and_sensitivity(machine, obs.q, theta, free, obs.covariates, first_order)
+    obs = points.obs
+    error, S = error_and_sensitivity(points.model, points.q, theta, free, points.cov, first_order)
     return rows_of(obs.w, obs.point, error, S)
 
 
-def error_and_sensitivity(machine: Machine, q: np.ndarray, theta: np.ndarray, columns, covariates: dict,
+def error_and_sensitivity(model: Model, q: np.ndarray, theta: np.ndarray, columns, cov: Covariates,
                           first_order: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """The error at points and its sensitivity to some coefficients, the inputs checked once
-    and both evaluated by the algorithms of :mod:`volerr_pin.model`.
+    """The error at points and its sensitivity to some coefficients, by the model's algorithms.
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
+    model : Model
+        The model.
     q : ndarray, shape (N, n_axes)
-        NC positions [m, rad].
+        NC positions [m, rad], checked.
     theta : ndarray, shape (P,)
         Coefficients (SI).
     columns : ndarray of int, shape (F,)
         Indices of the coefficients to differentiate by.
-    covariates : dict
-        The points' covariates, as :meth:`~volerr_pin.model.Machine.volumetric_error` takes them.
+    cov : Covariates
+        The points' covariates, checked.
     first_order : bool, default False
         The sensitivity of the first-order model.
 
@@ -75,36 +138,34 @@ def error_and_sensitivity(machine: Machine, q: np.ndarray, theta: np.ndarray, co
         d error / d theta[columns].
     """
     columns = np.asarray(columns, dtype=int)
-    q, theta, cov = check_inputs(machine.model, q, theta, covariates, state=machine.state, columns=len(columns))
-    return (volumetric_error(machine.model, q, theta, cov),
-            sensitivity(machine.model, q, theta, cov, columns=columns, first_order=first_order))
+    return (volumetric_error(model, q, theta, cov),
+            sensitivity(model, q, theta, cov, columns=columns, first_order=first_order))
 
 
-def by_halves(obs: Observations, fn, tag: str) -> np.ndarray:
-    """``fn(q, **covariates)`` of every point (one row per point), over the two halves of the
-    points from :data:`SPLIT_POINTS` points, else over all of them, one after the other (the
-    halves keep every result as it was computed: a point's error computed among other points
-    may differ from it computed among all of them in the last bit, as vectorised loops start
+def by_halves(points: FitPoints, fn) -> np.ndarray:
+    """``fn(q, cov)`` of every point (one row per point), over the two halves of the points
+    from :data:`SPLIT_POINTS` points, else over all of them, one after the other (the halves
+    keep every result as it was computed: a point's error computed among other points may
+    differ from it computed among all of them in the last bit, as vectorised loops start
     elsewhere).
 
     Parameters
     ----------
-    obs : Observations
-        The observations.
+    points : FitPoints
+        The checked points.
     fn : callable
-        The function of the positions and covariates of some points.
-    tag : str
-        What is computed (for messages).
+        The function of the positions and covariates (:class:`~volerr_pin.model.Covariates`)
+        of some points.
 
     Returns
     -------
     ndarray
         ``fn``'s results of the halves, concatenated.
     """
-    def part(points: slice):
-        return fn(obs.q[points], **take_covariates(obs.covariates, points))
+    def part(rows: slice):
+        return fn(points.q[rows], points.cov.take(rows))
 
-    n = obs.n_points
+    n = len(points.q)
     if n < SPLIT_POINTS:
         return part(slice(0, n))
     halves = [slice(0, (n + 1) // 2), slice((n + 1) // 2, n)]
@@ -176,15 +237,13 @@ def column_scale(J: np.ndarray, rtol: float = 1e-9, typical: np.ndarray | None =
     return scale, scaled
 
 
-def weighted_residual(machine: Machine, obs: Observations, theta: np.ndarray, nuisance: np.ndarray) -> np.ndarray:
+def weighted_residual(points: FitPoints, theta: np.ndarray, nuisance: np.ndarray) -> np.ndarray:
     """Weighted residual of every row: (y - model - nuisance) / sigma.
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
-    obs : Observations
-        The observations.
+    points : FitPoints
+        The observations and their checked points.
     theta : ndarray, shape (P,)
         Coefficients (SI).
     nuisance : ndarray, shape (n_nuisance,)
@@ -195,7 +254,8 @@ def weighted_residual(machine: Machine, obs: Observations, theta: np.ndarray, nu
     ndarray, shape (rows,)
         The residuals in standard deviations.
     """
-    error = by_halves(obs, lambda q, **cov: machine.volumetric_error(q, theta, **cov), "residual")
+    obs, model = points.obs, points.model
+    error = by_halves(points, lambda q, cov: volumetric_error(model, q, theta, cov))
     pred = np.einsum("rk,rk->r", obs.w, error[obs.point])
     return (obs.y - pred - obs.nuisance @ nuisance) / obs.sigma
 
@@ -279,7 +339,7 @@ def stacked_factor(R: np.ndarray, parts: list[np.ndarray], sigma: np.ndarray, no
     return np.triu(factor[:min(M.shape)])
 
 
-def reduce_design(machine: Machine, obs: Observations, theta: np.ndarray, columns: np.ndarray,
+def reduce_design(points: FitPoints, theta: np.ndarray, columns: np.ndarray,
                   nuisance: np.ndarray, first_order: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The weighted residual and the triangular factor of the weighted design, built chunk by
     chunk so that neither the design nor the sensitivities are ever held for every point.
@@ -292,10 +352,8 @@ def reduce_design(machine: Machine, obs: Observations, theta: np.ndarray, column
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
-    obs : Observations
-        The observations.
+    points : FitPoints
+        The observations and their checked points.
     theta : ndarray, shape (P,)
         Coefficients (SI) at which to linearise.
     columns : ndarray of int, shape (n_columns,)
@@ -312,6 +370,7 @@ def reduce_design(machine: Machine, obs: Observations, theta: np.ndarray, column
     R : ndarray, shape (min(rows, n + 1), n + 1)
         Upper-triangular factor of ``[J | r]``.
     """
+    obs, model = points.obs, points.model
     width = obs.nuisance.shape[1] + len(columns) + 1
     chunks = point_chunks(obs, len(columns))
     halves = [chunks[:len(chunks) // 2], chunks[len(chunks) // 2:]] if len(chunks) > 1 else [chunks]
@@ -320,11 +379,10 @@ def reduce_design(machine: Machine, obs: Observations, theta: np.ndarray, column
         # the factor of one half's rows, and its weighted residual
         R = np.zeros((0, width))
         r = []
-        for points, rows in half:
-            cov = take_covariates(obs.covariates, points)
-            q = obs.q[points]
-            error, S = error_and_sensitivity(machine, q, theta, columns, cov, first_order)
-            pred, A = rows_of(obs.w[rows], obs.point[rows] - points[0], error, S)
+        for chunk, rows in half:
+            part = slice(chunk[0], chunk[-1] + 1) if len(chunk) else slice(0, 0)   # consecutive points
+            error, S = error_and_sensitivity(model, points.q[part], theta, columns, points.cov.take(part), first_order)
+            pred, A = rows_of(obs.w[rows], obs.point[rows] - part.start, error, S)
             sigma = obs.sigma[rows]
             misfit = obs.y[rows] - pred - obs.nuisance[rows] @ nuisance
             r.append(misfit / sigma)
@@ -361,7 +419,7 @@ def default_rcond(rows: int, columns: int) -> float:
     return float(np.finfo(float).eps * max(rows, columns))
 
 
-def typical_sizes(machine: Machine, theta: np.ndarray, free: np.ndarray, n_nuisance: int) -> np.ndarray:
+def typical_sizes(model: Model, theta: np.ndarray, free: np.ndarray, n_nuisance: int) -> np.ndarray:
     """Typical size of each column's coefficient for the zero test of
     :func:`~volerr_pin.fit.identifiability.analyse`: 1 (the SI unit) for nuisance and linear
     coefficients, the present value for non-linear ones (time constants, periods), whose effect
@@ -369,8 +427,8 @@ def typical_sizes(machine: Machine, theta: np.ndarray, free: np.ndarray, n_nuisa
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
+    model : Model
+        The model (or a machine): which coefficients are non-linear.
     theta : ndarray, shape (P,)
         Present coefficients (SI).
     free : ndarray of int, shape (F,)
@@ -383,7 +441,7 @@ def typical_sizes(machine: Machine, theta: np.ndarray, free: np.ndarray, n_nuisa
     ndarray, shape (n_nuisance + F,)
         Typical sizes (SI).
     """
-    nonlinear = set(machine.nonlinear_parameters)
+    nonlinear = set(model.nonlinear_parameters)
     out = np.ones(n_nuisance + len(free))
     for c, k in enumerate(free):
         if k in nonlinear and theta[k] != 0:

@@ -15,7 +15,7 @@ from ...model import Machine
 from ...base.safeio import require_memory
 from . import design
 from .crossval import cross_validate, holdout_split
-from .design import reduce_design, refuse_non_finite, typical_sizes
+from .design import FitPoints, reduce_design, refuse_non_finite, typical_sizes
 from .observations import Observations, build_observations, check_observations, data_names, residual_rms
 from .result import Identification
 from .solver import conditioning_note, ill_conditioned, initialise_nonlinear, solve, standard_uncertainties
@@ -121,20 +121,21 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         raise InputError(f"{machine.name} has no coefficients to fit")
     if holdout is not None:
         holdout_split(obs, holdout, seed)  # refuses a split that leaves nothing to fit, before the fit
-    theta0 = (initialise_nonlinear(machine, obs, machine.theta, free, rtol, progress) if initialise
+    points = FitPoints.of(machine.model, obs, machine.state)   # the data's points, checked once for this model
+    theta0 = (initialise_nonlinear(points, machine.theta, free, rtol, progress) if initialise
               else machine.theta.copy())
     # identifiability of the first-order model: exact dependencies, untouched by second-order
     # differences that the errors' own size brings in
     n_nu = obs.nuisance.shape[1]
-    _, R0 = reduce_design(machine, obs, theta0, free, np.zeros(n_nu), first_order=True)
+    _, R0 = reduce_design(points, theta0, free, np.zeros(n_nu), first_order=True)
     names = obs.nuisance_names + [machine.parameter_names[k] for k in free]
     analysis = analyse(R0[:, :-1], names, protected=n_nu, rtol=rtol, what="these measurements",
-                       typical=typical_sizes(machine, theta0, free, n_nu), rows=len(obs.y))
+                       typical=typical_sizes(machine.model, theta0, free, n_nu), rows=len(obs.y))
     kept_theta = np.array([c - n_nu for c in analysis.kept if c >= n_nu], dtype=int)
     held = np.array(sorted(set(range(len(free))) - set(kept_theta.tolist())), dtype=int)
     columns = kept_theta if convention == "prior" else None
     tick = (lambda i: progress("fit", i)) if progress else None
-    theta, nuisance, R, r, iterations, solver = solve(machine, obs, theta0, free, columns, convention,
+    theta, nuisance, R, r, iterations, solver = solve(points, theta0, free, columns, convention,
                                                       max_iter, tol, tick)
     dof = len(r) - R.shape[1] if convention == "prior" else len(r) - analysis.rank
     residual_sigma = float(np.sqrt(r @ r / dof)) if dof > 0 else math.nan
@@ -143,7 +144,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
     ill = ill_conditioned(analysis.singular_values, len(r))
     if convention == "prior" and dof > 0:
         std, rank_deficient, cov = standard_uncertainties(
-            R, len(r), typical_sizes(machine, theta, free[kept_theta], n_nu), covariance=True)
+            R, len(r), typical_sizes(machine.model, theta, free[kept_theta], n_nu), covariance=True)
         uncertainty[free[kept_theta]] = std[n_nu:] * residual_sigma
         # the machine's coefficients' block: the nuisance terms marginalised out
         covariance = cov[n_nu:, n_nu:] * residual_sigma ** 2
@@ -163,7 +164,7 @@ def identify(machine: Machine, data, *, terms=None, free=None, convention: str =
         warnings.warn(conditioning_note(analysis, len(r)), stacklevel=2)
     rms_holdout, how = None, "none"
     if holdout is not None or folds >= 2:
-        rms_holdout, how = cross_validate(machine, obs, theta0, free, columns, convention, folds,
+        rms_holdout, how = cross_validate(points, theta0, free, columns, convention, folds,
                                           holdout, seed, max_iter, tol, progress)
         refuse_non_finite(obs, {"held-out RMS": [rms_holdout or 0.0]})
     held_idx = free[held] if convention == "prior" else np.array([], dtype=int)

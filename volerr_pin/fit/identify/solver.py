@@ -10,12 +10,10 @@ from typing import Callable
 
 import numpy as np
 
-from ...model import check_inputs, sensitivity, volumetric_error
+from ...model import search_grid, sensitivity, volumetric_error
 from ..identifiability import Analysis, analyse
-from ...model import Machine
-from .design import (column_scale, default_rcond, point_chunks, reduce_design,
+from .design import (FitPoints, column_scale, default_rcond, point_chunks, reduce_design,
                      refuse_non_finite, rows_of, stacked_factor, typical_sizes, weighted_residual)
-from .observations import Observations, take_covariates
 
 __all__ = ["CONDITION_LIMIT", "conditioning_note", "ill_conditioned", "initialise_nonlinear", "solve",
            "standard_uncertainties"]
@@ -26,7 +24,7 @@ __all__ = ["CONDITION_LIMIT", "conditioning_note", "ill_conditioned", "initialis
 CONDITION_LIMIT = 1e12
 
 
-def solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndarray,
+def solve(points: FitPoints, theta0: np.ndarray, free: np.ndarray,
           columns: np.ndarray | None, convention: str, max_iter: int, tol: float,
           step: Callable[[int], None] | None = None) -> tuple:
     """Gauss-Newton on [nuisance | free[columns]], damped (Levenberg-Marquardt, growing
@@ -35,10 +33,8 @@ def solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndar
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
-    obs : Observations
-        The observations.
+    points : FitPoints
+        The observations and their points checked for the model.
     theta0 : ndarray, shape (P,)
         Start values (SI); the nuisance terms start at 0 (they are linear).
     free : ndarray of int, shape (F,)
@@ -66,11 +62,12 @@ def solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndar
         although the linearised model says one should: the model is far from linear there, or
         badly conditioned) or "iteration limit".
     """
+    obs, model = points.obs, points.model
     theta = theta0.copy()
     n_nu = obs.nuisance.shape[1]
     nuisance = np.zeros(n_nu)
     use = np.arange(len(free)) if columns is None else columns
-    positive = np.array([k in set(machine.nonlinear_parameters) for k in free[use]], dtype=bool)
+    positive = np.array([k in set(model.nonlinear_parameters) for k in free[use]], dtype=bool)
     n_cols = n_nu + len(use)
     rcond = 1e-9 if convention == "min-norm" else default_rcond(len(obs.y), n_cols)
     it = 0
@@ -78,9 +75,9 @@ def solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndar
     flat = 0
     reduced = None  # the residual and factor at the present theta, once computed
     for it in range(1, max_iter + 1):
-        r, R = reduced = reduce_design(machine, obs, theta, free[use], nuisance)
+        r, R = reduced = reduce_design(points, theta, free[use], nuisance)
         z = R[:, -1]
-        scale, Rs = column_scale(R[:, :-1], typical=typical_sizes(machine, theta, free[use], n_nu))
+        scale, Rs = column_scale(R[:, :-1], typical=typical_sizes(model, theta, free[use], n_nu))
         step_scaled = np.linalg.lstsq(Rs, z, rcond=rcond)[0]
         delta = step_scaled / scale
         rss = float(r @ r)
@@ -104,7 +101,7 @@ def solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndar
             trial_nu = nuisance + delta[:n_nu]
             if not np.all(trial_theta[free[use]][positive] > 0):
                 continue
-            trial_r = weighted_residual(machine, obs, trial_theta, trial_nu)
+            trial_r = weighted_residual(points, trial_theta, trial_nu)
             if float(trial_r @ trial_r) <= rss * (1 + 1e-12) + 1e-300:
                 accepted = damping
                 break
@@ -128,11 +125,11 @@ def solve(machine: Machine, obs: Observations, theta0: np.ndarray, free: np.ndar
             status = "converged"
             break
     # the loop ends at the theta of its last design (no step taken) or after a step
-    r, R = reduced if reduced is not None else reduce_design(machine, obs, theta, free[use], nuisance)
+    r, R = reduced if reduced is not None else reduce_design(points, theta, free[use], nuisance)
     return theta, nuisance, R[:, :-1], r, it, status
 
 
-def initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray, free: np.ndarray,
+def initialise_nonlinear(points: FitPoints, theta: np.ndarray, free: np.ndarray,
                          rtol: float = 1e-9, progress=None) -> np.ndarray:
     """Variable projection by grid search: for each free non-linear coefficient (time
     constant, period), try the candidates of its term's grid (and the prior value), fitting
@@ -143,10 +140,8 @@ def initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray,
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
-    obs : Observations
-        The observations.
+    points : FitPoints
+        The observations and their points checked for the model.
     theta : ndarray, shape (P,)
         Present coefficients (SI).
     free : ndarray of int
@@ -162,31 +157,31 @@ def initialise_nonlinear(machine: Machine, obs: Observations, theta: np.ndarray,
         ``theta`` with the best grid value of every free non-linear coefficient (and the
         linear ones fitted with it).
     """
+    obs, model = points.obs, points.model
     theta = theta.copy()
-    nonlinear = [k for k in machine.nonlinear_parameters if k in set(free.tolist())]
+    nonlinear = [k for k in model.nonlinear_parameters if k in set(free.tolist())]
     if not nonlinear:
         return theta
     linear = np.array([k for k in free if k not in set(nonlinear)], dtype=int)
     n_nu = obs.nuisance.shape[1]
-    _, R = reduce_design(machine, obs, theta, linear, np.zeros(n_nu), first_order=True)
+    _, R = reduce_design(points, theta, linear, np.zeros(n_nu), first_order=True)
     kept = analyse(R[:, :-1], [""] * (R.shape[1] - 1), protected=n_nu, rtol=rtol,
-                   typical=typical_sizes(machine, theta, linear, n_nu), rows=len(obs.y)).kept
+                   typical=typical_sizes(model, theta, linear, n_nu), rows=len(obs.y)).kept
     lin_cols = np.array([c - n_nu for c in kept if c >= n_nu], dtype=int)
     for step, k in enumerate(nonlinear):
         # the columns of the other terms hardly depend on this coefficient: computed once per chunk
-        term = next(p for p in machine.model.term_spans() if p.start <= k < p.stop)
+        term = next(p for p in model.term_spans() if p.start <= k < p.stop)
         own = np.array([i for i in range(term.start, term.stop) if i in set(linear[lin_cols].tolist())], dtype=int)
         others = np.array([i for i in linear[lin_cols] if i not in set(own.tolist())], dtype=int)
-        grid = np.r_[theta[k], machine.search_grid(k, theta, n=obs.n_points, **obs.covariates)]
+        grid = np.r_[theta[k], search_grid(model, k, theta, points.cov)]
         factors = [np.zeros((0, n_nu + len(others) + len(own) + 1)) for _ in grid]
-        for points, rows in point_chunks(obs, len(others) + len(own)):
-            cov = take_covariates(obs.covariates, points)
-            q, w, local, sigma = obs.q[points], obs.w[rows], obs.point[rows] - points[0], obs.sigma[rows, None]
-            # checked once for the other terms' columns and every grid value (the model core)
-            model = machine.model
-            q, checked, cov = check_inputs(model, q, theta, cov, state=machine.state, columns=len(others) + len(own))
-            error = volumetric_error(model, q, checked, cov)
-            _, A_other = rows_of(w, local, error, sensitivity(model, q, checked, cov, columns=others))
+        for chunk, rows in point_chunks(obs, len(others) + len(own)):
+            part = slice(chunk[0], chunk[-1] + 1) if len(chunk) else slice(0, 0)   # consecutive points
+            q, cov = points.q[part], points.cov.take(part)
+            w, local, sigma = obs.w[rows], obs.point[rows] - part.start, obs.sigma[rows, None]
+            # the other terms' columns once per chunk, for every grid value
+            error = volumetric_error(model, q, theta, cov)
+            _, A_other = rows_of(w, local, error, sensitivity(model, q, theta, cov, columns=others))
             for g, value in enumerate(grid):
                 trial = theta.copy()
                 trial[k] = value
