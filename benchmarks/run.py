@@ -46,8 +46,7 @@ import pinocchio as pin
 
 import volerr_pin as vp
 from volerr_pin.model import _kinematics as K
-from volerr_pin.model import parameter_jacobian
-from volerr_pin.model import sample
+from volerr_pin.model import check_covariates, parameter_jacobian, sample
 
 
 def best_of(fn, repeat=3):
@@ -64,7 +63,7 @@ def best_of(fn, repeat=3):
 
 # ------------------------------------------------------------------ the alternatives
 def pinocchio_loop(machine, actual, nominal):
-    model = machine.model
+    model = machine.model.pinocchio
     data = model.createData()
     tool = model.getFrameId(machine.tool_frame)
     work = model.getFrameId(machine.workpiece_frame)
@@ -104,7 +103,7 @@ def _homogeneous(R, p):
 def naive_numpy_loop(machine, values):
     """Per point: multiply 4x4 matrices along the workpiece -> tool chain, once with the
     error joints and once without, then the relative pose and its rotation vector."""
-    ch = machine.assembly.chain
+    ch = machine.model.chain
     consts = [_homogeneous(ch.C_R[k], ch.C_p[k]) for k in range(len(ch.kind))]
     end = _homogeneous(ch.end_R[0], ch.end_p[0])
     out = np.empty((len(values), 6))
@@ -148,7 +147,7 @@ def pinocchio_sensitivity_loop(machine, configs, basis, pcol, out):
     Jacobian in the workpiece frame (GUIDE section 6), the inverse left Jacobian of the
     rotation error, and the chain rule to the coefficients (one joint column per
     coefficient, scaled by the term's basis value), written into ``out`` (N, 6, P)."""
-    model = machine.model
+    model = machine.model.pinocchio
     data = model.createData()
     T, W = model.getFrameId(machine.tool_frame), model.getFrameId(machine.workpiece_frame)
     J = np.empty((6, model.nv))
@@ -205,19 +204,19 @@ def bench_sensitivity(name, n, n_loop):
     configs = m.pinocchio_configuration(q_loop)
     values = m.joint_values(q_loop).T
     theta = m.theta
-    cov = m.check_covariates(n_loop, {})
-    basis = parameter_jacobian(m.assembly, q_loop, theta, cov)
-    pcol = m.assembly.param_column
+    cov = check_covariates(m.model, n_loop)
+    basis = parameter_jacobian(m.model, q_loop, theta, cov)
+    pcol = m.model.param_column
     # the batch's rotation rows carry Jl^-1 of the rotation error; apply it to the loop's
     # relative Jacobian the same way so that both compute the same numbers
-    phi = K.pose_error(m.assembly.chain, values, None)[:, 3:]
+    phi = K.pose_error(m.model.chain, values, None)[:, 3:]
     Jl_inv = K.log3_left_jacobian_inverse(phi)
     out = np.empty((n_loop, 6, len(theta)))
     pinocchio_sensitivity_loop(m, configs, basis, pcol, out)
     out[:, 3:] = np.einsum("nij,njp->nip", Jl_inv, out[:, 3:])
     assert np.abs(out - m.sensitivity(q_loop)).max() < 1e-9
     # the loop's time includes the coefficient basis it needs (the terms' values at the points)
-    t_loop = best_of(lambda: pinocchio_sensitivity_loop(m, configs, parameter_jacobian(m.assembly, q_loop, theta, cov),
+    t_loop = best_of(lambda: pinocchio_sensitivity_loop(m, configs, parameter_jacobian(m.model, q_loop, theta, cov),
                                                         pcol, np.empty_like(out)), repeat=2) / n_loop
     q = sample(m, n, seed=4)
     t = best_of(lambda: m.sensitivity(q), repeat=2) / n

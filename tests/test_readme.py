@@ -284,19 +284,21 @@ def test_docstring_bars_are_escaped_outside_literals():
     assert escape("+----+----+") == "+----+----+"
 
 
-def test_api_reference_has_every_module():
-    """Every module of the package gets a page (``__main__``, which runs the CLI, excepted), and
-    every package a page listing its modules."""
+def test_api_reference_documents_every_public_name():
+    """The API reference is the public API: a page per public package (no part of its name
+    private), every name of its ``__all__`` documented on it, its public subpackages listed;
+    no private module gets a page."""
     pages = _ext("apipages")
-    names = pages.modules()
-    on_disk = {".".join(p.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
-               for p in (ROOT / "volerr_pin").rglob("*.py")}
-    assert set(names) == {n for n in on_disk if not n.endswith("__main__")}
-    listed = set()
-    for package in pages.packages(names):
-        page = pages.package_page(package, names)
-        listed |= set(re.findall(r"^- :doc:`([\w.]+)`", page, re.M))
-    assert listed == set(names) - {"volerr_pin"}
+    found = pages.packages()
+    on_disk = {".".join(p.relative_to(ROOT).parent.parts) for p in (ROOT / "volerr_pin").rglob("__init__.py")}
+    assert set(found) == {n for n in on_disk if not any(part.startswith("_") for part in n.split("."))}
+    for package in found:
+        page = pages.package_page(package, found)
+        documented = set(re.findall(r"^\.\. auto(?:function|class|data):: ([\w.]+)$", page, re.M))
+        assert documented == {f"{package}.{n}" for n in pages.public_names(package)}, package
+        children = {p for p in found if p.rpartition(".")[0] == package}
+        assert children <= set(re.findall(r"^- :doc:`([\w.]+)`", page, re.M)), package
+        assert not re.search(r"\w\._(?!_)", page), package   # no private module named
 
 
 @pytest.mark.slow

@@ -1,19 +1,20 @@
-"""The API reference, grouped by package, written before the pages are read.
+"""The API reference, a page per package, written before the pages are read.
 
-Every module found by :func:`pkgutil.walk_packages` (``__main__`` left out: importing it runs
-the command line) gets
-``docs/api/generated/<module>.rst`` (ignored by git) with an ``automodule`` of its documented
-members. Each package gets a page ``docs/api/generated/<package>.rst``: the first paragraph
-of its docstring, what it exports, and a summary of each of its modules (the first paragraph
-of the module's docstring) linking to the module's page. The package's own modules at the top
-of ``volerr_pin`` are grouped by the layers of ``docs/layout.md``; the pages nest as the
-packages do, under ``volerr_pin``'s, which ``docs/api/index.md`` lists, so a new module or
-package appears without an edit.
+The library's public API is what each package names in its ``__all__`` (its modules are
+private, ``_name.py``, as SciPy's are): each public package (found by
+:func:`pkgutil.walk_packages`, no part of its name private) gets
+``docs/api/generated/<package>.rst`` (ignored by git) with the first paragraph of its
+docstring, its public subpackages, and every public name documented in full (``autofunction``,
+``autoclass`` with its members, ``autodata``), in the order of its ``__all__``. The top
+package's page groups the packages by the layers of ``docs/layout.md``; the pages nest as the
+packages do, under ``volerr_pin``'s, which ``docs/api/index.md`` lists, so a new package or
+public name appears without an edit.
 """
 
 from __future__ import annotations
 
 import importlib
+import inspect
 import pkgutil
 import re
 from pathlib import Path
@@ -22,9 +23,8 @@ DOCS = Path(__file__).resolve().parents[1]
 OUT = DOCS / "api" / "generated"
 
 
-def modules(package: str = "volerr_pin") -> list[str]:
-    """Names of the package's modules and subpackages (``__main__`` left out),
-    sorted.
+def packages(package: str = "volerr_pin") -> list[str]:
+    """The public packages: the top one and every subpackage no part of whose name is private.
 
     Parameters
     ----------
@@ -34,37 +34,39 @@ def modules(package: str = "volerr_pin") -> list[str]:
     Returns
     -------
     list of str
-        Dotted module names, the package itself first.
+        Dotted package names, sorted (the top package first).
     """
-    root = __import__(package)
-    names = [package] + [m.name for m in pkgutil.walk_packages(root.__path__, package + ".")
-                         if m.name.rsplit(".", 1)[-1] != "__main__"]
-    return sorted(names)
+    root = importlib.import_module(package)
+    found = [m.name for m in pkgutil.walk_packages(root.__path__, package + ".")
+             if m.ispkg and not any(part.startswith("_") for part in m.name.split("."))]
+    return sorted([package] + found)
 
 
-def packages(names: list[str]) -> list[str]:
-    """The packages among ``names``: those that have modules under them.
+def public_names(package: str) -> list[str]:
+    """The names a package makes public: its ``__all__``, in order (its subpackages left out:
+    they have pages of their own).
 
     Parameters
     ----------
-    names : list of str
-        Dotted module names (:func:`modules`).
+    package : str
+        Dotted package name.
 
     Returns
     -------
     list of str
-        The packages, sorted.
+        The names.
     """
-    return sorted({n for n in names if any(m.startswith(n + ".") for m in names)})
+    module = importlib.import_module(package)
+    return [n for n in getattr(module, "__all__", []) if not inspect.ismodule(getattr(module, n))]
 
 
 def summary(name: str) -> str:
-    """The first paragraph of a module's docstring, on one line.
+    """The first paragraph of a package's docstring, on one line.
 
     Parameters
     ----------
     name : str
-        Dotted module name.
+        Dotted package name.
 
     Returns
     -------
@@ -95,52 +97,65 @@ def layers(layout: Path = DOCS / "layout.md") -> list[tuple[str, list[str]]]:
     return out
 
 
-def _module_line(name: str) -> str:
+def _package_line(name: str) -> str:
     text = summary(name)
     return f"- :doc:`{name}`" + (f": {text}" if text else "")
 
 
-def package_page(package: str, names: list[str]) -> str:
+def _directive(package: str, name: str) -> list[str]:
+    """The autodoc directive that documents ``package.name``."""
+    obj = getattr(importlib.import_module(package), name)
+    target = f"{package}.{name}"
+    if inspect.isclass(obj):
+        return [f".. autoclass:: {target}", "   :members:", ""]
+    if inspect.isfunction(obj) or inspect.isbuiltin(obj):
+        return [f".. autofunction:: {target}", ""]
+    return [f".. autodata:: {target}", "   :annotation:", ""]
+
+
+def package_page(package: str, all_packages: list[str]) -> str:
     """The reStructuredText of a package's page.
 
     Parameters
     ----------
     package : str
         Dotted package name.
-    names : list of str
-        Every module name (:func:`modules`).
+    all_packages : list of str
+        Every public package (:func:`packages`).
 
     Returns
     -------
     str
-        The page: its summary, its modules (by layer for the top package), its exports.
+        The page: its summary, its subpackages (by layer for the top package), its public names.
     """
-    inner = [n for n in names if n.rpartition(".")[0] == package]
+    inner = [p for p in all_packages if p.rpartition(".")[0] == package]
     lines = [package, "=" * len(package), "", summary(package), ""]
     if package == "volerr_pin":
         placed = set()
         for title, entries in layers():
             here = [f"volerr_pin.{e.rstrip('/')}" for e in entries if e != "__init__"]
-            here = [n for n in here if n in names]
+            here = [p for p in here if p in all_packages]
             if not here:
                 continue
             placed |= set(here)
-            lines += [f"**Layer {title}**", ""]
-            lines += [_module_line(n) for n in here] + [""]
-        rest = [n for n in inner if n not in placed]
+            lines += [f"**Layer {title}**", ""] + [_package_line(p) for p in here] + [""]
+        rest = [p for p in inner if p not in placed]
         if rest:
-            lines += ["**Elsewhere**", ""] + [_module_line(n) for n in rest] + [""]
-    else:
-        lines += ["**Modules**", ""] + [_module_line(n) for n in inner] + [""]
-    lines += [".. toctree::", "   :hidden:", ""]
-    lines += [f"   {n}" for n in inner] + [""]
-    lines += ["**What the package exports**", "", f".. automodule:: {package}", "   :members:", ""]
+            lines += ["**Elsewhere**", ""] + [_package_line(p) for p in rest] + [""]
+    elif inner:
+        lines += ["**Subpackages**", ""] + [_package_line(p) for p in inner] + [""]
+    if inner:
+        lines += [".. toctree::", "   :hidden:", ""] + [f"   {p}" for p in inner] + [""]
+    names = public_names(package)
+    if names:
+        lines += ["**Public names**", "", ".. currentmodule:: " + package, ""]
+        for name in names:
+            lines += _directive(package, name)
     return "\n".join(lines)
 
 
 def write_pages(out: Path = OUT) -> list[Path]:
-    """Write one page per package and per module into ``out``, replacing pages of modules
-    that are gone.
+    """Write one page per public package into ``out``, replacing pages of packages that are gone.
 
     Parameters
     ----------
@@ -153,15 +168,11 @@ def write_pages(out: Path = OUT) -> list[Path]:
         The pages written.
     """
     out.mkdir(parents=True, exist_ok=True)
-    names = modules()
-    groups = set(packages(names))
+    found = packages()
     pages = []
-    for name in names:
+    for name in found:
         page = out / f"{name}.rst"
-        if name in groups:
-            text = package_page(name, names)
-        else:
-            text = f"{name}\n{'=' * len(name)}\n\n.. automodule:: {name}\n   :members:\n"
+        text = package_page(name, found)
         if not page.exists() or page.read_text() != text:   # unchanged pages keep their time: no rebuild
             page.write_text(text)
         pages.append(page)

@@ -51,7 +51,7 @@ _NAMES = {
 }
 _WHERE = {name: module for module, names in _NAMES.items() for name in names}
 
-__all__ = sorted(_WHERE)
+__all__ = [name for names in _NAMES.values() for name in names]   # by concept, as the docstring goes
 
 
 def __getattr__(name: str):

@@ -253,14 +253,10 @@ class Machine:
 
         Parameters
         ----------
-        t : float, optional
-            Time [s].
-        temperatures : mapping of str to float, optional
-            Temperature by sensor name [degC]. An empty mapping changes nothing.
-        forces : array_like, shape (3,), optional
-            Process force Fx, Fy, Fz [N].
-        directions : array_like, shape (n_axes,), optional
-            Approach direction of each axis, +1 or -1.
+        t, temperatures, forces, directions : optional
+            A time [s], temperatures by sensor [degC], the process force Fx, Fy, Fz [N] and each
+            axis' approach direction (+1 or -1), as :func:`~volerr_pin.model.merge_state`
+            checks and merges them.
 
         Returns
         -------
@@ -270,8 +266,7 @@ class Machine:
         Raises
         ------
         InputError
-            If a value is not a real number, ``forces`` is not three values, ``directions`` not
-            n_axes values of +1 or -1, or a value of the state is not finite.
+            If a value is invalid (:func:`~volerr_pin.model.merge_state`).
         """
         return self._copy(state=merge_state(self._state, self.axes, t, temperatures, forces, directions))
 
@@ -390,7 +385,7 @@ class Machine:
         Returns
         -------
         ndarray, shape (N, 6) or (6,)
-            dx, dy, dz [m], rx, ry, rz [rad]: actual minus nominal.
+            The error of each point (:func:`~volerr_pin.model.volumetric_error`).
 
         Raises
         ------
@@ -422,8 +417,7 @@ class Machine:
         Returns
         -------
         ndarray, shape (N, 6, P') or (6, P')
-            d error / d theta: m or rad of error per SI unit of the coefficient; rows dx, dy, dz,
-            rx, ry, rz.
+            The derivatives at each point (:func:`~volerr_pin.model.sensitivity`).
 
         Raises
         ------
@@ -457,7 +451,8 @@ class Machine:
         Returns
         -------
         ndarray, shape (N, n_components)
-            Component error values [m, rad], columns in the order of :attr:`components`.
+            The values at each point, in the order of :attr:`components`
+            (:func:`~volerr_pin.model.component_values`).
 
         Raises
         ------
@@ -484,8 +479,8 @@ class Machine:
         Returns
         -------
         ndarray, shape (N, 6, n_components) or (6, n_components)
-            Error (dx, dy, dz [m], rx, ry, rz [rad]) per m or rad of each component, in the order
-            of :attr:`components`.
+            The derivatives at each point, in the order of :attr:`components`
+            (:func:`~volerr_pin.model.component_sensitivity`).
 
         Raises
         ------
@@ -516,7 +511,7 @@ class Machine:
         Returns
         -------
         ndarray, shape (N, 6, n_error_joints) or (6, n_error_joints)
-            Error (dx, dy, dz [m], rx, ry, rz [rad]) per m or rad of each error joint.
+            The derivatives at each point (:func:`~volerr_pin.model.error_joint_sensitivity`).
 
         Raises
         ------
@@ -546,8 +541,7 @@ class Machine:
         Returns
         -------
         ndarray, shape (N, 6, n_axes) or (6, n_axes)
-            Rows 0-2 the tool point's displacement [m per m or rad], rows 3-5 the rotation
-            (angular velocity, workpiece axes) [rad per m or rad].
+            The Jacobian at each point (:func:`~volerr_pin.model.axis_jacobian`).
 
         Raises
         ------
@@ -575,8 +569,7 @@ class Machine:
         Returns
         -------
         ndarray, shape (N, 6, nv)
-            Rows 0-2 [m per m or rad of the joint], rows 3-5 [rad per m or rad]; columns in
-            Pinocchio's velocity-space order.
+            The Jacobian at each point (:func:`~volerr_pin.model.joint_jacobian`).
 
         Raises
         ------
@@ -605,7 +598,7 @@ class Machine:
         Returns
         -------
         ndarray, shape (N, nv)
-            Joint values [m, rad], columns in Pinocchio's velocity-space order (``idx_vs``).
+            The values at each point (:func:`~volerr_pin.model.joint_values`).
 
         Raises
         ------
@@ -633,10 +626,8 @@ class Machine:
 
         Returns
         -------
-        R : ndarray, shape (N, 3, 3)
-            Rotations of the tool frame in the workpiece frame.
-        p : ndarray, shape (N, 3)
-            Positions of the tool frame's origin in the workpiece frame [m].
+        R, p : ndarray, shapes (N, 3, 3) and (N, 3)
+            The poses (:func:`~volerr_pin.model.tool_poses`).
 
         Raises
         ------
@@ -664,7 +655,7 @@ class Machine:
         Returns
         -------
         ndarray, shape (N, nq)
-            Pinocchio configuration vectors (cos, sin pairs for continuous joints).
+            The configurations (:func:`~volerr_pin.model.pinocchio_configuration`).
 
         Raises
         ------
