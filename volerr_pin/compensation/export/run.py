@@ -174,13 +174,18 @@ def _zone(machine: Machine, zone: Zone | None) -> Zone:
     The positions sampled from it are then the library's own, evaluated unchecked."""
     if zone is None:
         return Zone.workspace(machine)
+    axes = machine.axes
     try:
         ranges = np.asarray(zone.ranges, dtype=float)
-    except (TypeError, ValueError):
-        ranges = np.full(0, np.nan)
-    if ranges.shape != (len(machine.axes), 2) or not np.all(np.isfinite(ranges)):
-        raise InputError(f"zone: the ranges must be finite (lower, upper) positions of the axes "
-                         f"{', '.join(machine.axes)}, shape ({len(machine.axes)}, 2), got {zone.ranges!r}",
+    except (TypeError, ValueError) as err:
+        raise InputError(f"zone: the ranges must be numbers: {err}", parameters=("zone",)) from None
+    if ranges.shape != (len(axes), 2):
+        raise InputError(f"zone: the ranges have shape {ranges.shape}; expected ({len(axes)}, 2), the lower and "
+                         f"upper position of each axis {', '.join(axes)}", parameters=("zone",))
+    bad = np.flatnonzero(~np.isfinite(ranges).all(axis=1))
+    if bad.size:
+        j = int(bad[0])
+        raise InputError(f"zone: the range of {axes[j]} is {ranges[j].tolist()}; it must be finite",
                          parameters=("zone",))
     return zone
 
