@@ -278,6 +278,10 @@ class PathCompensator:
                    programming: str | Programming = "axes", end: np.ndarray | None = None) -> BatchResult:
         """Compensate a batch of consecutive moves.
 
+        The batch is the library's own (the NC reader checks the program's words as it reads
+        them): its positions and the commands given are evaluated as they are, outside the
+        travel too.
+
         Parameters
         ----------
         batch : MoveBatch
