@@ -10,6 +10,7 @@ import pytest
 from volerr_pin.compensation import (PathCompensator, arc_from_center, compensate_points,
                                      evaluate_compensation)
 from volerr_pin.base.errors import InputError
+from volerr_pin.model import add_terms
 
 from conftest import random_q
 
@@ -213,6 +214,60 @@ def test_bad_path_compensation_options_are_refused(machines, kwargs, match, para
     with pytest.raises(InputError, match=match) as err:
         PathCompensator(machines["vmc500"], **kwargs)
     assert err.value.parameters == (parameter,)
+
+
+def test_positions_and_covariates_are_checked_once_at_the_door(machines):
+    """Point compensation checks what it is given once, naming it as the caller does; the path
+    compensator's own methods check the positions they take (outside the travel allowed)."""
+    m = machines["vmc500"]
+    ok, nan = np.array([0.1, 0.1, 0.1]), np.array([0.1, np.nan, 0.1])
+    with pytest.raises(InputError, match=r"q_desired\[0, 1\] \(axis Y\) is nan"):
+        compensate_points(m, nan[None, :])
+    with pytest.raises(InputError, match=r"q_desired\[0, 1\] = 0.9 m is outside the travel of axis Y"):
+        compensate_points(m, np.array([[0.1, 0.9, 0.1]]))
+    with pytest.raises(InputError, match=r"covariate 't' has shape \(2,\); expected \(1,\)"):
+        compensate_points(m, ok[None, :], t=[1.0, 2.0])
+    with pytest.raises(InputError, match="unknown covariate"):
+        compensate_points(m, ok[None, :], speed=[1.0])
+    comp = PathCompensator(m)
+    for call in (lambda: comp.points(nan), lambda: comp.point(nan), lambda: comp.line(ok, nan),
+                 lambda: comp.line(nan, ok), lambda: comp.rapid(ok, nan), lambda: comp.line(ok, ok, start_c=nan)):
+        with pytest.raises(InputError, match=r"q\[0, 1\] \(axis Y\) is nan"):
+            call()
+    with pytest.raises(InputError, match=r"q has shape \(2, 4\); expected \(N, 3\)"):
+        comp.points(np.zeros((2, 4)))
+    assert comp.line(ok, np.array([0.1, 0.45, 0.1])).max_residual < 1e-6   # beyond the travel: compensated
+
+
+def test_the_state_is_checked_where_it_enters(machines):
+    """A term reading a lagged temperature needs the time: refused with the machine's message
+    by point and path compensation alike."""
+    m = add_terms(machines["vmc500"], {"EZZ": {"kind": "thermal_drift", "driver": "temperature", "prefix": "g",
+                                               "sensors": ["column"], "coefficients_um_per_K": [3.0],
+                                               "reference_degC": 21.0, "lag_s": 1800.0}})
+    m = m.with_state(temperatures={"column": 22.0})
+    q = np.array([[0.1, 0.1, 0.1]])
+    with pytest.raises(InputError, match=r"a temperature lag needs the covariate t \(time, s\)"):
+        compensate_points(m, q)
+    with pytest.raises(InputError, match=r"a temperature lag needs the covariate t \(time, s\)"):
+        PathCompensator(m).points(q)
+    held = compensate_points(m.with_state(t=3600.0), q)
+    assert held.within_tolerance.all()
+
+
+def test_newton_reads_each_point_at_its_own_lagged_temperature(machines):
+    """The lagged temperatures of the points are read along all of them once: the residual
+    reported is that of the commands at the points' own covariates, however few points are
+    still iterating."""
+    m = add_terms(machines["vmc500"], {"EZZ": {"kind": "thermal_drift", "driver": "temperature", "prefix": "g",
+                                               "sensors": ["column"], "coefficients_um_per_K": [3.0],
+                                               "reference_degC": 21.0, "lag_s": 1800.0}})
+    q = random_q(m, 300, seed=0)
+    cov = {"t": np.linspace(0.0, 7200.0, 300), "temperatures": {"column": 20 + 5 * np.sin(np.linspace(0, 9, 300))}}
+    res = compensate_points(m, q, **cov)
+    _, p = m.tool_poses(res.q, extrapolate=True, **cov)
+    _, p_d = m.tool_poses(q, nominal=True)
+    np.testing.assert_array_equal(res.residual, np.linalg.norm(p - p_d, axis=1))
 
 
 def test_empty_positions_and_degenerate_arcs_are_refused(machines):

@@ -153,13 +153,15 @@ def test_a_failed_table_leaves_the_old_file_and_no_temporary(machines, tmp_path,
     target.write_text("old\n")
     calls = []
 
+    checked = compensate.compensate_checked
+
     def failing(*args, **kwargs):
         calls.append(1)
         if len(calls) > 1:  # the disk probe passes, the table itself fails
             raise RuntimeError("interrupted")
-        return compensate_points(*args, **kwargs)
+        return checked(*args, **kwargs)
 
-    monkeypatch.setattr(compensate, "compensate_points", failing)
+    monkeypatch.setattr(compensate, "compensate_checked", failing)
     with pytest.raises(RuntimeError, match="interrupted"):
         compensation_table(machines["vmc500"], target, nodes=(3, 3, 3))
     assert target.read_text() == "old\n" and sorted(p.name for p in tmp_path.iterdir()) == ["table.csv"]

@@ -102,6 +102,21 @@ def test_zones_parse_in_engineering_units_and_refuse_nonsense(machines):
         assert err.value.parameters == ("zone",)
 
 
+def test_a_zone_given_is_checked_where_the_export_takes_it(machines):
+    """The positions sampled from a zone are evaluated unchecked: a zone that is not a finite
+    range of every axis is refused at the door, naming the axis."""
+    from volerr_pin.compensation.export import export_tables, layout_files
+
+    m = machines["vmc500"]
+    nan = Zone(np.array([[0.0, 0.5], [0.0, np.nan], [0.0, 0.4]]))
+    for call in (lambda: export_tables(m, "linuxcnc", zone=nan, points=64), lambda: layout_files(m, "fanuc", zone=nan)):
+        with pytest.raises(InputError, match=r"zone: the range of Y is \[0.0, nan\]; it must be finite") as err:
+            call()
+        assert err.value.parameters == ("zone",)
+    with pytest.raises(InputError, match=r"zone: the ranges have shape \(2, 2\); expected \(3, 2\)"):
+        export_tables(m, "linuxcnc", zone=Zone(np.zeros((2, 2))), points=64)
+
+
 def test_zone_samples_stay_inside_and_carry_tools():
     m = vp.load_machine("vmc700")
     z = parse_zone(m, ["X=100:200", "tool=10:30"])

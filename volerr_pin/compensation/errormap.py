@@ -29,11 +29,10 @@ from pathlib import Path
 import numpy as np
 
 from ..base.errors import InputError
-from ..model import Machine
 from ..base.safeio import check_output_folder, check_outputs, replacing, require_memory, transaction
 from ..base.units import AXIS_UNIT, axis_scale
 from ..base.checks import counts, integer
-from ..model import check_q
+from ..model import Machine, check_covariates, check_q, component_values, tool_poses, volumetric_error
 
 NODES_PER_ORDER = {1: 8, 2: 20, 3: 32}
 #: memory of one evaluated point beyond its own arrays (the kinematics' working set) [bytes]
@@ -233,7 +232,7 @@ class ErrorMap:
         pts = lows[:, None, :] + (nodes[None, :, :] + 1) / 2 * sizes[:, None, :]
         q = np.tile(fixed, (pts.shape[0] * pts.shape[1], 1))
         q[:, list(lin)] = pts.reshape(-1, 3)
-        emap.values = machine.volumetric_error(q).reshape(pts.shape[0], pts.shape[1], 6)
+        emap.values = _errors(machine, q).reshape(pts.shape[0], pts.shape[1], 6)
         return emap
 
     @property
@@ -359,7 +358,7 @@ class ErrorMap:
         for k, j in enumerate(self.axes):
             e = self.edges[k]
             q[:, j] = e[0] + rng.random(n) * (e[-1] - e[0])
-        direct = self.machine.volumetric_error(q)[:, :3]
+        direct = _errors(self.machine, q)[:, :3]
         diff = np.linalg.norm(self.interpolate(q)[:, :3] - direct, axis=1)
         size = np.linalg.norm(direct, axis=1)
         return {"order": self.order, "nodes_per_element": NODES_PER_ORDER[self.order],
@@ -367,6 +366,13 @@ class ErrorMap:
                 "max_um": float(diff.max() * 1e6), "rms_um": float(np.sqrt(np.mean(diff**2)) * 1e6),
                 "error_rms_um": float(np.sqrt(np.mean(size**2)) * 1e6),
                 "relative": float(np.sqrt(np.mean(diff**2)) / max(np.sqrt(np.mean(size**2)), 1e-300))}
+
+
+def _errors(machine: Machine, q: np.ndarray) -> np.ndarray:
+    """The volumetric errors at positions the library laid out within the travel, in the
+    machine's state (checked here, where it enters)."""
+    model = machine.model
+    return volumetric_error(model, q, machine.theta, check_covariates(model, len(q), None, machine.state))
 
 
 def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), config: dict | None = None) -> dict:
@@ -409,7 +415,7 @@ def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), c
         spanned one or a position outside the travel, ``nodes`` is not three whole numbers
         >= 2, or the table would not fit on the disk of ``path``'s folder.
     """
-    from .points import compensate_points
+    from .points import MachineInputs, compensate_checked
 
     path = check_outputs({"path": path})["path"]
     lin, fixed = _map_axes(machine, config, "a compensation table")
@@ -428,8 +434,12 @@ def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), c
             q[:, j] = grids[k][index[k]]
         return q
 
+    inputs = MachineInputs(machine)
+
     def corrections(q: np.ndarray) -> np.ndarray:
-        return compensate_points(machine, q, orientation=False).q - q
+        """Exact point compensation (:func:`~volerr_pin.compensation.compensate_points` with its
+        defaults, the tool axis not corrected) of nodes laid out within the travel."""
+        return compensate_checked(inputs.model, inputs.theta, q, inputs.covariates(len(q))).q - q
 
     row_format = ",".join(["%.4f"] * (3 + len(machine.axes))) + "\n"
 
@@ -491,8 +501,9 @@ def compensation_table(machine: Machine, path: str | Path, nodes=(11, 11, 11), c
             w = w * (frac[k] if c else 1 - frac[k])
         tri = tri + w[:, None] * values
     err = np.abs(tri - exact)[:, lin].max(axis=1)
-    _, p_cmd = machine.tool_poses(test + tri, extrapolate=True)
-    _, p_d = machine.tool_poses(test, nominal=True)
+    commanded = test + tri
+    _, p_cmd = tool_poses(inputs.model, commanded, inputs.theta, inputs.covariates(len(commanded)))
+    _, p_d = tool_poses(inputs.model, test, nominal=True)
     resid = np.linalg.norm(p_cmd - p_d, axis=1)
     return {"file": str(path), "nodes": list(nodes), "rows": rows,
             "max_correction_um": largest * 1e6,
@@ -535,6 +546,7 @@ def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> li
     directory = check_output_folder("directory", directory)
     travel = machine.travel
     mid = machine.mid_travel
+    theta, state = machine.theta, machine.state
     info = {t["component"]: t["owner"] for t in machine.model.term_info()}
     files = []
     with transaction() as tx:
@@ -546,7 +558,7 @@ def axis_tables(machine: Machine, directory: str | Path, points: int = 21) -> li
             lo, hi = travel[j] if np.isfinite(travel[j]).all() else (0.0, 2 * np.pi)
             q = np.tile(mid, (points, 1))
             q[:, j] = np.linspace(lo, hi, points)
-            vals = machine.component_values(q)
+            vals = component_values(machine.model, q, theta, check_covariates(machine.model, points, None, state))
             cols = [machine.components.index(c) for c in comps]
             path = directory / f"{machine.name}_{axis}.csv"
             with open(tx.path(path), "w", newline="") as fh:

@@ -90,7 +90,7 @@ class _Grid:
             self.J = solver.constant_rows
             self.d = -(self.E @ solver.constant.T)
         else:
-            J = metric.machine.axis_jacobian(self.q, nominal=True, extrapolate=True)
+            J = metric.jacobian(self.q, nominal=True)
             self.J = prog.word_rows(solver.rows(J, self.a_d), J)
             self.d = -solve_damped(self.J, self.E, metric.scale, solver.damping)
         # the compensation at the ends is known exactly

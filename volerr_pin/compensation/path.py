@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..base.errors import InputError
-from ..model import Machine
+from ..model import Machine, check_q
 from ..base.safeio import require_memory
 from ..base.checks import integer as _integer, positive as _positive
 from .arcs import Arc
@@ -245,8 +245,13 @@ class PathCompensator:
         -------
         ndarray, shape (N, n_axes)
             Compensated commands [m, rad].
+
+        Raises
+        ------
+        InputError
+            If ``q_d`` is not (N, n_axes) finite positions.
         """
-        return self.solver.solve(np.atleast_2d(np.asarray(q_d, dtype=float))).c
+        return self.solver.solve(self._checked(np.atleast_2d(np.asarray(q_d, dtype=float)))).c
 
     def point(self, q_d: np.ndarray) -> np.ndarray:
         """Compensated command for one desired position (see :meth:`points`).
@@ -260,6 +265,11 @@ class PathCompensator:
         -------
         ndarray, shape (n_axes,)
             Compensated command [m, rad].
+
+        Raises
+        ------
+        InputError
+            If ``q_d`` is not n_axes finite positions.
         """
         return self.points(np.asarray(q_d, dtype=float)[None, :])[0]
 
@@ -267,6 +277,10 @@ class PathCompensator:
     def compensate(self, batch: MoveBatch, start: np.ndarray | None = None, start_residual: float = 0.0,
                    programming: str | Programming = "axes", end: np.ndarray | None = None) -> BatchResult:
         """Compensate a batch of consecutive moves.
+
+        The batch is the library's own (the NC reader checks the program's words as it reads
+        them): its positions and the commands given are evaluated as they are, outside the
+        travel too.
 
         Parameters
         ----------
@@ -336,9 +350,16 @@ class PathCompensator:
         return BatchResult(pieces, cw_end, r_end, before, residual, limited)
 
     # one move -------------------------------------------------------------------------
+    def _checked(self, q: np.ndarray) -> np.ndarray:
+        """Positions a caller gives, checked once as the machine's evaluations check them (finite,
+        (N, n_axes); outside the travel allowed): the solver and the splitting trust them."""
+        return check_q(self.metric.inputs.model, q, extrapolate=True)
+
     def _one(self, batch: MoveBatch, start_c, end_c) -> PathCompensation:
-        end = None if end_c is None else np.asarray(end_c, dtype=float)[None, :]
-        start = None if start_c is None else np.asarray(start_c, dtype=float)
+        self._checked(batch.w0)
+        self._checked(batch.w1)
+        end = None if end_c is None else self._checked(np.asarray(end_c, dtype=float)[None, :])
+        start = None if start_c is None else self._checked(np.asarray(start_c, dtype=float)[None, :])[0]
         r0 = 0.0
         if start is not None:
             ctx = self.context()
@@ -371,6 +392,11 @@ class PathCompensator:
         -------
         PathCompensation
             One line piece; residual and ``before`` are those at the end point [m].
+
+        Raises
+        ------
+        InputError
+            If a position given is not n_axes finite values.
         """
         batch = _single(POINT, q_start, q_end)
         return self._one(batch, q_start if start_c is None else start_c, end_c)
@@ -394,6 +420,11 @@ class PathCompensator:
         -------
         PathCompensation
             The line pieces.
+
+        Raises
+        ------
+        InputError
+            If a position given is not n_axes finite values.
         """
         return self._one(_single(LINE, q_start, q_end), start_c, end_c)
 
@@ -416,6 +447,11 @@ class PathCompensator:
         -------
         PathCompensation
             The arc (or, where degenerate, line) pieces.
+
+        Raises
+        ------
+        InputError
+            If a position given is not n_axes finite values.
         """
         batch = _single(ARC, arc.start, arc.end)
         batch.plane[0] = arc.plane

@@ -19,22 +19,80 @@ their largest residual until every point is within the tolerance).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..base.errors import InputError
-from ..model import Machine
 from ..base.safeio import require_memory
 from ..base.units import UM_PER_M, URAD_PER_RAD
 from ..base.checks import integer as _integer, positive as _positive
-from ..model import check_q
+from ..model import (Covariates, Machine, Model, axis_jacobian, check_covariates, check_q, outside_travel,
+                     tool_poses)
 
 #: memory of one point compensated by :func:`compensate_points` (measured: 1.4-2.1 kB) [bytes]
 COMPENSATION_BYTES = 2500
 
-__all__ = ["PointCompensation", "compensate_points", "evaluate_compensation", "has_rotary", "solve_damped",
-           "skew"]
+__all__ = ["MachineInputs", "PointCompensation", "compensate_checked", "compensate_points", "evaluate_compensation",
+           "has_rotary", "solve_damped", "skew"]
+
+
+class MachineInputs:
+    """What the algorithms of :mod:`volerr_pin.model` take of a machine, taken from it once: its
+    model, its coefficients and the covariates of its state, for any number of points.
+
+    Loops that evaluate a machine in one state (the path compensation's solver, a controller's
+    simulated tables) hold one and call the algorithms with it. The state is checked on first
+    use (:func:`~volerr_pin.model.check_covariates` of one point, its refusals included) and
+    its covariates are repeated for the points evaluated, the values the machine's own
+    evaluations would give them.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine, in its state (:meth:`Machine.with_state`).
+
+    Attributes
+    ----------
+    model : Model
+        The machine's model.
+    theta : ndarray, shape (P,)
+        Its coefficients (SI; a copy, taken once).
+    """
+
+    __slots__ = ("model", "theta", "_state", "_one")
+
+    def __init__(self, machine: Machine):
+        self.model = machine.model
+        self.theta = machine.theta
+        self._state = machine.state
+        self._one: Covariates | None = None
+
+    def covariates(self, n: int, directions: np.ndarray | None = None) -> Covariates:
+        """The covariates of ``n`` points in the machine's state.
+
+        Parameters
+        ----------
+        n : int
+            Number of points.
+        directions : ndarray, shape (n, n_axes), optional
+            The points' own motion directions (+1 or -1, made by the library), in place of the
+            state's.
+
+        Returns
+        -------
+        Covariates
+            The state's values at every point.
+
+        Raises
+        ------
+        InputError
+            If the state cannot give what the model reads (a lagged temperature without ``t``).
+        """
+        if self._one is None:
+            self._one = check_covariates(self.model, 1, None, self._state)
+        cov = self._one.take(np.zeros(n, dtype=np.intp))
+        return cov if directions is None else replace(cov, directions=directions)
 
 
 @dataclass
@@ -149,14 +207,55 @@ def compensate_points(machine: Machine, q_desired, *, method: str = "newton", to
     max_iter = _integer("max_iter", max_iter, 0)
     q_d = check_q(machine.model, q_desired, name="q_desired")
     require_memory(len(q_d) * COMPENSATION_BYTES, f"compensating {len(q_d):,} positions", ("q_desired",))
-    n = len(q_d)
+    cov = check_covariates(machine.model, len(q_d), {k: v for k, v in covariates.items() if v is not None},
+                           machine.state)
     orientation = has_rotary(machine) if orientation is None else orientation
+    return compensate_checked(machine.model, machine.theta, q_d, cov, method=method, tol_um=tol_um,
+                              tol_urad=tol_urad, max_iter=max_iter, orientation=orientation, lever=lever)
+
+
+def compensate_checked(model: Model, theta: np.ndarray, q_d: np.ndarray, cov: Covariates, *, method: str = "newton",
+                       tol_um: float = 0.01, tol_urad: float = 0.1, max_iter: int = 30, orientation: bool = False,
+                       lever: float = 0.1) -> PointCompensation:
+    """:func:`compensate_points` of positions and covariates checked already, on the model's
+    algorithms: for the library's own loops over positions it laid out.
+
+    The iterations evaluate only the points still iterating, with their covariates sliced from
+    ``cov`` (:meth:`Covariates.take <volerr_pin.model.Covariates.take>`), outside the travel
+    too (a compensated command may leave it; the result says where).
+
+    Parameters
+    ----------
+    model : Model
+        The machine's model.
+    theta : ndarray, shape (P,)
+        Its coefficients (SI).
+    q_d : ndarray, shape (N, n_axes)
+        Desired NC positions [m, rad], checked (:func:`~volerr_pin.model.check_q`).
+    cov : Covariates
+        Their covariates, checked (:func:`~volerr_pin.model.check_covariates`).
+    method : "newton" or "recursive", default "newton"
+        As for :func:`compensate_points`.
+    tol_um, tol_urad : float
+        Tolerances [um, urad], as for :func:`compensate_points`.
+    max_iter : int, default 30
+        Iteration limit.
+    orientation : bool, default False
+        Also correct the tool axis (never with ``method="recursive"``).
+    lever : float, default 0.1
+        Weight of the tool-axis direction [m per rad], and the column scale of rotary axes.
+
+    Returns
+    -------
+    PointCompensation
+        The commands, residuals before and after, and per-point status.
+    """
     if method == "recursive":
         orientation = False
-    R_d, p_d = machine.tool_poses(q_d, nominal=True)
+    n = len(q_d)
+    R_d, p_d = tool_poses(model, q_d, nominal=True)
     a_d = R_d[:, :, 2]
-    cov = {k: v for k, v in covariates.items() if v is not None}
-    R0, p0 = machine.tool_poses(q_d, extrapolate=True, **cov)
+    R0, p0 = tool_poses(model, q_d, theta, cov)
     before = np.linalg.norm(p0 - p_d, axis=1)
     axis_before = np.linalg.norm(np.cross(R0[:, :, 2], a_d), axis=1)
     q = q_d.copy()
@@ -167,7 +266,7 @@ def compensate_points(machine: Machine, q_desired, *, method: str = "newton", to
     stationary = np.zeros(n, dtype=bool)
     history = [p0 - p_d] if method == "recursive" else []
     nominal_J = None
-    scale = np.where(np.array(machine.axis_kinds) == "rotary", lever, 1.0)
+    scale = np.where(np.array(model.axis_kinds) == "rotary", lever, 1.0)
     R, p = R0, p0
     active = np.flatnonzero(~within)
     for it in range(max_iter):
@@ -175,12 +274,13 @@ def compensate_points(machine: Machine, q_desired, *, method: str = "newton", to
             break
         iterations[active] += 1
         e = p - p_d[active]
+        cov_active = cov.take(active)
         if method == "recursive":
             if nominal_J is None:
-                nominal_J = machine.axis_jacobian(q_d, nominal=True, extrapolate=True)[:, :3, :]
+                nominal_J = axis_jacobian(model, q_d, nominal=True)[:, :3, :]
             dq = solve_damped(nominal_J[active], e, scale, damping=1e-9)
         else:
-            J = machine.axis_jacobian(q[active], extrapolate=True, **_take(cov, active))
+            J = axis_jacobian(model, q[active], theta, cov_active)
             rows, rhs = [J[:, :3, :]], [e]
             if orientation:
                 a = R[:, :, 2]
@@ -192,7 +292,7 @@ def compensate_points(machine: Machine, q_desired, *, method: str = "newton", to
         # a machine with fewer axes than error directions (a 2-axis lathe) stops at the
         # least-squares optimum: the part of the error no axis can move is left
         stationary[active] = np.max(np.abs(dq) * scale, axis=1) < 1e-13
-        R, p = machine.tool_poses(q[active], extrapolate=True, **_take(cov, active))
+        R, p = tool_poses(model, q[active], theta, cov_active)
         if method == "recursive":
             step = history[-1].copy()  # points no longer iterating keep their residual
             step[active] = p - p_d[active]
@@ -204,15 +304,8 @@ def compensate_points(machine: Machine, q_desired, *, method: str = "newton", to
         keep = ~(within[active] | stationary[active])
         active, R, p = active[keep], R[keep], p[keep]
     done = within | stationary
-    reachable = ~machine.outside_travel(q).any(axis=1)
+    reachable = ~outside_travel(model, q).any(axis=1)
     return PointCompensation(q, res, a_err, before, axis_before, iterations, done, reachable, within, history)
-
-
-def _take(cov: dict, index: np.ndarray) -> dict:
-    out = {}
-    for k, v in cov.items():
-        out[k] = {s: np.asarray(a)[index] for s, a in v.items()} if isinstance(v, dict) else np.asarray(v)[index]
-    return out
 
 
 def skew(a: np.ndarray) -> np.ndarray:

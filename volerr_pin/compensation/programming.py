@@ -63,7 +63,7 @@ class Programming(Protocol):
         rows : ndarray, shape (N, m, n_axes)
             Derivatives of some quantity with respect to the axis positions.
         jacobian : ndarray, shape (N, 6, n_axes)
-            The nominal axis Jacobian at the same poses (:meth:`Machine.axis_jacobian`).
+            The nominal axis Jacobian at the same poses (:func:`~volerr_pin.model.axis_jacobian`).
 
         Returns
         -------

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import Machine
-from .points import skew, solve_damped
+from ..model import Machine, axis_jacobian, tool_poses
+from .points import MachineInputs, skew, solve_damped
 
 __all__ = ["PointSolver", "PoseMetric", "SolvedPoints"]
 
@@ -42,6 +42,8 @@ class PoseMetric:
     ----------
     machine : Machine
         The machine.
+    inputs : MachineInputs
+        Its model, coefficients and state, as the algorithms take them.
     lever : float
         [m per rad].
     orientation : bool
@@ -52,6 +54,7 @@ class PoseMetric:
 
     def __init__(self, machine: Machine, lever: float, orientation: bool):
         self.machine = machine
+        self.inputs = MachineInputs(machine)
         self.lever = float(lever)
         self.orientation = bool(orientation)
         self.scale = np.where(np.array(machine.axis_kinds) == "rotary", self.lever, 1.0)
@@ -71,7 +74,8 @@ class PoseMetric:
         p : ndarray, shape (N, 3)
             Tool points [m].
         """
-        R, p = self.machine.tool_poses(q, extrapolate=True)
+        inputs = self.inputs
+        R, p = tool_poses(inputs.model, q, inputs.theta, inputs.covariates(len(q)))
         return np.ascontiguousarray(R[:, :, 2]), p
 
     def nominal(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -89,8 +93,28 @@ class PoseMetric:
         p : ndarray, shape (N, 3)
             Tool points [m].
         """
-        R, p = self.machine.tool_poses(q, nominal=True, extrapolate=True)
+        R, p = tool_poses(self.inputs.model, q, nominal=True)
         return np.ascontiguousarray(R[:, :, 2]), p
+
+    def jacobian(self, q: np.ndarray, nominal: bool = False) -> np.ndarray:
+        """Axis Jacobians of the actual (or nominal) machine at commands ``q``.
+
+        Parameters
+        ----------
+        q : ndarray, shape (N, n_axes)
+            Commanded axis positions [m, rad] (outside the travel allowed).
+        nominal : bool, default False
+            The nominal machine.
+
+        Returns
+        -------
+        ndarray, shape (N, 6, n_axes)
+            As :func:`~volerr_pin.model.axis_jacobian` gives them.
+        """
+        inputs = self.inputs
+        if nominal:
+            return axis_jacobian(inputs.model, q, nominal=True)
+        return axis_jacobian(inputs.model, q, inputs.theta, inputs.covariates(len(q)))
 
     def residual(self, a: np.ndarray, p: np.ndarray, a_d: np.ndarray, p_d: np.ndarray) -> np.ndarray:
         """The residual of actual poses against desired ones.
@@ -207,7 +231,7 @@ class PointSolver:
         Parameters
         ----------
         J : ndarray, shape (N, 6, n_axes)
-            Axis Jacobians (:meth:`Machine.axis_jacobian`).
+            Axis Jacobians (:meth:`PoseMetric.jacobian`).
         a : ndarray, shape (N, 3) or None
             Tool axes (needed with orientation).
 
@@ -231,7 +255,7 @@ class PointSolver:
         rng = np.random.default_rng(1)
         travel = machine.travel
         q = travel[:, 0] + rng.random((8, len(machine.axes))) * (travel[:, 1] - travel[:, 0])
-        J = machine.axis_jacobian(q, nominal=True, extrapolate=True)[:, :3, :]
+        J = self.metric.jacobian(q, nominal=True)[:, :3, :]
         if np.max(np.abs(J - J[0])) > 1e-12:
             return None
         self.constant_rows = J[0]
@@ -242,11 +266,11 @@ class PointSolver:
     def _nominal_step(self, q: np.ndarray, a: np.ndarray, r: np.ndarray) -> np.ndarray:
         if self.constant is not None:
             return r @ self.constant.T
-        J = self.metric.machine.axis_jacobian(q, nominal=True, extrapolate=True)
+        J = self.metric.jacobian(q, nominal=True)
         return solve_damped(self.rows(J, a), r, self.metric.scale, self.damping)
 
     def _actual_step(self, q: np.ndarray, a: np.ndarray, r: np.ndarray) -> np.ndarray:
-        J = self.metric.machine.axis_jacobian(q, extrapolate=True)
+        J = self.metric.jacobian(q)
         return solve_damped(self.rows(J, a), r, self.metric.scale, self.damping)
 
     # solving --------------------------------------------------------------------------

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..base.errors import InputError
-from ..model import Machine
+from ..model import Machine, tool_poses
 
 #: the words that carry the tool tip, and the workpiece direction each carries
 TIP_WORDS = ("X", "Y", "Z")
@@ -47,6 +47,7 @@ class ToolTipProgramming:
 
     def __init__(self, machine: Machine):
         self.machine = machine
+        self._model = machine.model
         kinds = machine.axis_kinds
         linear = tuple(a for a, k in zip(machine.axes, kinds) if k == "linear")
         if sorted(linear) != sorted(TIP_WORDS):
@@ -79,7 +80,7 @@ class ToolTipProgramming:
             Program coordinates [m, rad]: X, Y, Z words hold the tip's x, y, z.
         """
         q = np.asarray(q, dtype=float)
-        _, p = self.machine.tool_poses(q, nominal=True, extrapolate=True)
+        _, p = tool_poses(self._model, q, nominal=True)
         out = q.copy()
         out[:, self._tip] = p
         return out
@@ -111,7 +112,7 @@ class ToolTipProgramming:
         probe = np.repeat(base[None], 4, axis=0)
         for k, j in enumerate(self._tip):
             probe[k + 1, :, j] = 1.0
-        _, p = self.machine.tool_poses(probe.reshape(-1, words.shape[1]), nominal=True, extrapolate=True)
+        _, p = tool_poses(self._model, probe.reshape(-1, words.shape[1]), nominal=True)
         p = p.reshape(4, n, 3)
         J = np.stack([p[1] - p[0], p[2] - p[0], p[3] - p[0]], axis=2)  # (N, 3 directions, 3 axes)
         x = np.linalg.solve(J, (words[:, self._tip] - p[0])[..., None])[..., 0]

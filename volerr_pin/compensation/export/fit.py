@@ -29,6 +29,7 @@ import scipy.sparse.linalg
 
 from ...model import Machine
 from ...base.safeio import require_memory
+from ..points import MachineInputs
 from .protocol import Compensation
 from .simulate import residuals, tip_jacobian
 from .zone import Points
@@ -41,10 +42,11 @@ RIDGE = 1e-9
 DENSE_LIMIT = 3000
 
 
-def _design(machine: Machine, compensation: Compensation, points: Points, setpoints: np.ndarray) -> sp.csr_matrix:
+def _design(inputs: MachineInputs, compensation: Compensation, points: Points, setpoints: np.ndarray
+            ) -> sp.csr_matrix:
     """(3N, P): d residual / d values = J_tip(setpoints) @ d correction / d values."""
     n, n_axes = points.q.shape
-    J = tip_jacobian(machine, setpoints, points)                                  # (N, 3, n_axes)
+    J = tip_jacobian(inputs, setpoints, points)                                   # (N, 3, n_axes)
     rows = np.repeat(np.arange(3 * n), n_axes)
     cols = (np.arange(n)[:, None, None] * n_axes + np.arange(n_axes)[None, None, :]).repeat(3, axis=1).ravel()
     blockdiag = sp.csr_matrix((J.ravel(), (rows, cols)), shape=(3 * n, n * n_axes))
@@ -95,16 +97,17 @@ def fit(machine: Machine, compensation: Compensation, points: Points, *, iterati
     n_axes = points.q.shape[1]
     require_memory(len(points) * (3 * n_axes + 3) * 8 * max(8, v_prior.size // 50) + 8.0 * v_prior.size ** 2,
                    f"fitting {v_prior.size} table values over {len(points)} points", ("points", "nodes"))
+    inputs = MachineInputs(machine)
     current = prior
     factor = None
     for _ in range(iterations):
         v = current.values
-        r = residuals(machine, current, points).ravel()
+        r = residuals(inputs, current, points).ravel()
         if factor is None:
             # the design changes with the values only by products of errors (1e-4 relative): it is
             # built and factorised once, and the steps iterate on the exact residual (chord method)
             setpoints = points.q + current.correction(points.q, points.directions, points.tool)
-            A = _design(machine, current, points, setpoints)
+            A = _design(inputs, current, points, setpoints)
             normal = (A.T @ A).tocsr()
             ridge = RIDGE * max(float(normal.diagonal().max()), 1e-300)
             factor = _factor(normal + ridge * sp.identity(v.size, format="csr"))

@@ -40,7 +40,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
-from ...model import Machine
+from ...model import Machine, component_values
+from ..points import MachineInputs
 from .tables import interpolation_weights
 
 __all__ = ["VolumetricModel", "rotation"]
@@ -341,15 +342,19 @@ class VolumetricModel:
         VolumetricModel
             The copy.
         """
+        inputs = MachineInputs(machine)
         tables = []
         for k, j in enumerate(self.chain):
             q = np.tile(machine.mid_travel, (len(self.nodes[k]), 1))
             q[:, j] = self.nodes[k]
             values = np.zeros((len(q), 6))
+            every = None
             for c, d in enumerate(DIRECTIONS):
                 name = f"E{d}{self.names[k]}"
                 if name in machine.components:
-                    values[:, c] = machine.component_values(q, extrapolate=True)[:, machine.components.index(name)]
+                    if every is None:
+                        every = component_values(inputs.model, q, inputs.theta, inputs.covariates(len(q)))
+                    values[:, c] = every[:, machine.components.index(name)]
             tables.append(values)
         return replace(self, tables=tuple(tables))
 

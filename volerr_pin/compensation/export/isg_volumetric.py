@@ -27,7 +27,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from ...base.errors import InputError, SpecError
-from ...model import Machine
+from ...model import Machine, axis_jacobian, component_values, tool_poses
+from ..points import MachineInputs
 from ...base.units import DEG, MM
 from .isg_model import DIRECTIONS, VolumetricModel
 from .layouts import check_count, fixed
@@ -107,8 +108,8 @@ def model_of(machine: Machine, zone: Zone, nodes: int) -> VolumetricModel:
     if len(chain) != len(names):
         raise SpecError(f"{machine.name}: not every axis lies between workpiece and tool")
     zero = np.zeros((1, len(names)))
-    J = machine.axis_jacobian(zero, nominal=True, extrapolate=True)[0]
-    R0, p0 = machine.tool_poses(zero, nominal=True, extrapolate=True)
+    J = axis_jacobian(machine.model, zero, nominal=True)[0]
+    R0, p0 = tool_poses(machine.model, zero, nominal=True)
     directions, centres = np.zeros((len(chain), 3)), np.zeros((len(chain), 3))
     for k, j in enumerate(chain):
         if kinds[j] == "linear":
@@ -125,11 +126,14 @@ def model_of(machine: Machine, zone: Zone, nodes: int) -> VolumetricModel:
     count = check_count(nodes, 2, 100000, "a TF5280 component table")
     grids = tuple(node_positions(*zone.ranges[j], count, kinds[j]) for j in chain)
     positions = np.zeros((len(chain), 6))
+    inputs = MachineInputs(machine)
+    at_zero = None
     for name in machine.components:
         if len(name) == 4 and name[0] == "E" and name[2] == "0" and name[3] in [names[j] for j in chain]:
             k = [names[j] for j in chain].index(name[3])
-            index = machine.components.index(name)
-            positions[k, DIRECTIONS.index(name[1])] = machine.component_values(zero, extrapolate=True)[0, index]
+            if at_zero is None:
+                at_zero = component_values(inputs.model, zero, inputs.theta, inputs.covariates(1))[0]
+            positions[k, DIRECTIONS.index(name[1])] = at_zero[machine.components.index(name)]
     model = VolumetricModel(tuple(chain), tuple(names[j] for j in chain), tuple(kinds[j] == "rotary" for j in chain),
                             directions, centres, p0[0].copy(), R0[0][:, 2].copy(), grids,
                             tuple(np.zeros((count, 6)) for _ in chain), positions, len(names),
@@ -142,7 +146,7 @@ def _check_nominal(machine: Machine, model: VolumetricModel, zone: Zone) -> None
     points = zone.sample(64, seed=7)
     q = points.q
     tool = np.zeros(len(q))
-    _, p = machine.tool_poses(q, nominal=True, extrapolate=True)
+    _, p = tool_poses(machine.model, q, nominal=True)
     mismatch = np.abs(model.tool_points(q, tool, with_errors=False) - p).max()
     if mismatch > TOLERANCE:
         raise SpecError(f"{machine.name}: the kernel's serial model (chain {''.join(model.names)}, centres at zero) "

@@ -10,7 +10,8 @@ import math
 import numpy as np
 
 from ...base.errors import InputError, SpecError
-from ...model import Machine
+from ...model import Machine, volumetric_error
+from ..points import MachineInputs
 from .tables import Table, fixed
 from .zone import Zone, node_positions
 
@@ -219,7 +220,9 @@ def explained_scores(machine: Machine, zone: Zone, slaves: list[int], candidates
         (slave, candidate) -> score, for every pair of different axes.
     """
     points = zone.sample(2048, seed)
-    error = machine.volumetric_error(points.q, extrapolate=True, directions=points.directions)[:, :3]
+    inputs = MachineInputs(machine)
+    error = volumetric_error(inputs.model, points.q, inputs.theta,
+                             inputs.covariates(len(points), points.directions))[:, :3]
     out = {}
     for s in slaves:
         e = error[:, "XYZ".index(machine.axes[s])]

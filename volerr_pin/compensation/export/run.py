@@ -164,9 +164,30 @@ def layout_files(machine: Machine, controller: str | ControllerFormat, *, zone: 
         File names relative to the output folder.
     """
     fmt = controller if isinstance(controller, ControllerFormat) else controller_format(controller)
-    zone = zone or Zone.workspace(machine)
+    zone = _zone(machine, zone)
     layout = fmt.layout(machine, zone, _kind(fmt, kind, machine, zone, nodes), nodes)
     return sorted(fmt.files(fmt.quantise(layout, machine), machine))
+
+
+def _zone(machine: Machine, zone: Zone | None) -> Zone:
+    """``zone`` (default the workspace), checked where it enters: a finite range of every axis.
+    The positions sampled from it are then the library's own, evaluated unchecked."""
+    if zone is None:
+        return Zone.workspace(machine)
+    axes = machine.axes
+    try:
+        ranges = np.asarray(zone.ranges, dtype=float)
+    except (TypeError, ValueError) as err:
+        raise InputError(f"zone: the ranges must be numbers: {err}", parameters=("zone",)) from None
+    if ranges.shape != (len(axes), 2):
+        raise InputError(f"zone: the ranges have shape {ranges.shape}; expected ({len(axes)}, 2), the lower and "
+                         f"upper position of each axis {', '.join(axes)}", parameters=("zone",))
+    bad = np.flatnonzero(~np.isfinite(ranges).all(axis=1))
+    if bad.size:
+        j = int(bad[0])
+        raise InputError(f"zone: the range of {axes[j]} is {ranges[j].tolist()}; it must be finite",
+                         parameters=("zone",))
+    return zone
 
 
 def _kind(fmt: ControllerFormat, kind: str | None, machine: Machine, zone: Zone, nodes: int | None) -> str:
@@ -244,15 +265,16 @@ def export_tables(machine: Machine, controller: str | ControllerFormat, folder: 
     Raises
     ------
     InputError
-        For an unknown controller or kind, a node count or value beyond the format's limits,
-        or files that do not read back as written.
+        For an unknown controller or kind, a zone whose ranges are not finite positions of
+        every axis, a node count or value beyond the format's limits, or files that do not read
+        back as written.
     SpecError
         For a machine the controller cannot compensate this way.
     """
     fmt = controller if isinstance(controller, ControllerFormat) else controller_format(controller)
     if folder is not None:
         check_output_folder("folder", folder)
-    zone = zone or Zone.workspace(machine)
+    zone = _zone(machine, zone)
     kind = _kind(fmt, kind, machine, zone, nodes)
     step = progress or (lambda stage: None)
     layout = fmt.layout(machine, zone, kind, nodes)

@@ -10,6 +10,11 @@ the residual is that position minus the nominal tool point at ``q``, in the work
 for the tool point ``L`` beyond the machine's tool point along the tool axis. Exact point
 compensation (:func:`exact_setpoints`) solves ``r = 0`` for the set-points directly; it is
 what no table can beat.
+
+The positions evaluated here are the library's own (a zone's samples, their set-points), so
+the model's algorithms evaluate them as they are; loops take the machine's inputs once
+(:class:`~volerr_pin.compensation.points.MachineInputs`), and every function here takes
+either.
 """
 
 from __future__ import annotations
@@ -18,8 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...model import Machine
+from ...model import Machine, axis_jacobian, tool_poses
 from ...base.units import UM_PER_M
+from ..points import MachineInputs
 from .protocol import Compensation
 from .zone import Points
 
@@ -29,14 +35,19 @@ __all__ = ["Residuals", "exact_setpoints", "residuals", "summary", "tip_jacobian
 LEVER = 0.1
 
 
-def tool_tips(machine: Machine, q: np.ndarray, points: Points, nominal: bool = False) -> np.ndarray:
+def _inputs(machine: Machine | MachineInputs) -> MachineInputs:
+    """The machine's inputs (taken here, or given)."""
+    return machine if isinstance(machine, MachineInputs) else MachineInputs(machine)
+
+
+def tool_tips(machine: Machine | MachineInputs, q: np.ndarray, points: Points, nominal: bool = False) -> np.ndarray:
     """Tool points in the workpiece frame, ``L`` beyond the machine's tool point along the tool
     axis.
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
+    machine : Machine or MachineInputs
+        The machine, or its inputs taken once.
     q : ndarray, shape (N, n_axes)
         Axis positions [m, rad] (set-points; may leave the travel by the corrections).
     points : Points
@@ -49,20 +60,21 @@ def tool_tips(machine: Machine, q: np.ndarray, points: Points, nominal: bool = F
     ndarray, shape (N, 3)
         Tool points [m].
     """
+    inputs = _inputs(machine)
     if nominal:
-        R, p = machine.tool_poses(q, nominal=True, extrapolate=True)
+        R, p = tool_poses(inputs.model, q, nominal=True)
     else:
-        R, p = machine.tool_poses(q, extrapolate=True, directions=points.directions)
+        R, p = tool_poses(inputs.model, q, inputs.theta, inputs.covariates(len(q), points.directions))
     return p - points.tool[:, None] * R[:, :, 2]
 
 
-def tip_jacobian(machine: Machine, q: np.ndarray, points: Points) -> np.ndarray:
+def tip_jacobian(machine: Machine | MachineInputs, q: np.ndarray, points: Points) -> np.ndarray:
     """d (actual tool point) / d (axis positions), with the errors' position slopes.
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
+    machine : Machine or MachineInputs
+        The machine, or its inputs taken once.
     q : ndarray, shape (N, n_axes)
         Axis positions [m, rad].
     points : Points
@@ -73,8 +85,10 @@ def tip_jacobian(machine: Machine, q: np.ndarray, points: Points) -> np.ndarray:
     ndarray, shape (N, 3, n_axes)
         [m per m or rad].
     """
-    J = machine.axis_jacobian(q, extrapolate=True, directions=points.directions)
-    R, _ = machine.tool_poses(q, extrapolate=True, directions=points.directions)
+    inputs = _inputs(machine)
+    cov = inputs.covariates(len(q), points.directions)
+    J = axis_jacobian(inputs.model, q, inputs.theta, cov)
+    R, _ = tool_poses(inputs.model, q, inputs.theta, cov)
     arm = -points.tool[:, None] * R[:, :, 2]                       # tip - tool point, workpiece axes
     # v_tip = v + w x arm = v - arm x w
     skew = np.zeros((len(q), 3, 3))
@@ -84,13 +98,13 @@ def tip_jacobian(machine: Machine, q: np.ndarray, points: Points) -> np.ndarray:
     return J[:, :3] - skew @ J[:, 3:]
 
 
-def residuals(machine: Machine, compensation: Compensation | None, points: Points) -> np.ndarray:
+def residuals(machine: Machine | MachineInputs, compensation: Compensation | None, points: Points) -> np.ndarray:
     """Position error of the tool point left when the controller applies ``compensation``.
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
+    machine : Machine or MachineInputs
+        The machine, or its inputs taken once.
     compensation : Compensation or None
         What the controller adds to the set-points; None: nothing (the uncompensated error).
     points : Points
@@ -101,21 +115,23 @@ def residuals(machine: Machine, compensation: Compensation | None, points: Point
     ndarray, shape (N, 3)
         Actual minus nominal tool point [m], workpiece frame.
     """
-    target = tool_tips(machine, points.q, points, nominal=True)
+    inputs = _inputs(machine)
+    target = tool_tips(inputs, points.q, points, nominal=True)
     setpoints = points.q if compensation is None else points.q + compensation.correction(
         points.q, points.directions, points.tool)
-    return tool_tips(machine, setpoints, points) - target
+    return tool_tips(inputs, setpoints, points) - target
 
 
-def exact_setpoints(machine: Machine, points: Points, tol: float = 1e-11, max_iter: int = 20) -> np.ndarray:
+def exact_setpoints(machine: Machine | MachineInputs, points: Points, tol: float = 1e-11,
+                    max_iter: int = 20) -> np.ndarray:
     """Set-points that put the actual tool point exactly on the nominal one at every point
     (Gauss-Newton on the exact tool-point Jacobian; least change, rotary axes weighted by a
     0.1 m lever, where the machine has more axes than three).
 
     Parameters
     ----------
-    machine : Machine
-        The machine.
+    machine : Machine or MachineInputs
+        The machine, or its inputs taken once.
     points : Points
         Commanded positions, directions, tools.
     tol : float, default 1e-11
@@ -128,14 +144,15 @@ def exact_setpoints(machine: Machine, points: Points, tol: float = 1e-11, max_it
     ndarray, shape (N, n_axes)
         Set-points [m, rad].
     """
-    scale = np.array([1.0 if k == "linear" else 1.0 / LEVER for k in machine.axis_kinds])
-    target = tool_tips(machine, points.q, points, nominal=True)
+    inputs = _inputs(machine)
+    scale = np.array([1.0 if k == "linear" else 1.0 / LEVER for k in inputs.model.axis_kinds])
+    target = tool_tips(inputs, points.q, points, nominal=True)
     q = points.q.copy()
     for _ in range(max_iter):
-        r = tool_tips(machine, q, points) - target
+        r = tool_tips(inputs, q, points) - target
         if np.abs(r).max() < tol:
             break
-        J = tip_jacobian(machine, q, points) * (1.0 / scale)
+        J = tip_jacobian(inputs, q, points) * (1.0 / scale)
         step = np.einsum("nij,nj->ni", np.linalg.pinv(J), r)
         q = q - step / scale
     return q

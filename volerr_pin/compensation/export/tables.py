@@ -21,7 +21,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...base.errors import InputError
-from ...model import Machine
+from ...model import Machine, component_values
+from ..points import MachineInputs
 
 __all__ = ["SetpointTables", "Table", "fixed", "interpolation_weights", "quantised"]
 
@@ -391,24 +392,27 @@ def _axis_letter(name: str) -> str | None:
     return name if name in ("X", "Y", "Z", "A", "B", "C") else None
 
 
-def _component(machine: Machine, direction: str | None, axis: str, q: np.ndarray, sign: float | None) -> np.ndarray:
+def _component(inputs: MachineInputs, direction: str | None, axis: str, q: np.ndarray, sign: float | None
+               ) -> np.ndarray:
     """Component error E<direction><axis> at ``q`` [m, rad] (zero where the machine has none),
     with every axis moving ``sign`` (None: the mean of the two directions)."""
+    model = inputs.model
     name = f"E{direction}{axis}" if direction else None
-    if name not in machine.components:
+    if name not in model.component_names:
         return np.zeros(len(q))
-    covariates = {} if sign is None else {"directions": np.full(q.shape, float(sign))}
-    if sign is None and "directions" in machine.covariates_used:
-        covariates = {"directions": np.ones(q.shape)}
-        up = machine.component_values(q, extrapolate=True, **covariates)[:, machine.components.index(name)]
-        covariates = {"directions": -np.ones(q.shape)}
-        down = machine.component_values(q, extrapolate=True, **covariates)[:, machine.components.index(name)]
-        return 0.5 * (up + down)
-    return machine.component_values(q, extrapolate=True, **covariates)[:, machine.components.index(name)]
+    column = model.component_names.index(name)
+
+    def values(directions):
+        return component_values(model, q, inputs.theta, inputs.covariates(len(q), directions))[:, column]
+
+    if sign is None and "directions" in model.covariates_used:
+        return 0.5 * (values(np.ones(q.shape)) + values(-np.ones(q.shape)))
+    return values(None if sign is None else np.full(q.shape, float(sign)))
 
 
 def _naive_values(machine: Machine, table: Table) -> np.ndarray:
     """Minus the component errors of the table's inputs along its output axis, at the nodes."""
+    inputs = MachineInputs(machine)
     direction = _axis_letter(machine.axes[table.output])
     grids = np.meshgrid(*table.nodes, indexing="ij")
     shape = grids[0].shape
@@ -419,7 +423,7 @@ def _naive_values(machine: Machine, table: Table) -> np.ndarray:
     def at(sign):
         total = np.zeros(len(q))
         for j in table.inputs:
-            total += _component(machine, direction, machine.axes[j], q, sign)
+            total += _component(inputs, direction, machine.axes[j], q, sign)
         return -total.reshape(shape)
 
     if table.directional:
