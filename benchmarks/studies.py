@@ -3,8 +3,9 @@
     python benchmarks/studies.py [--quick] [--json FILE] [--markdown FILE]
 
 1. The evaluator (many coefficient vectors at the same points, bases reused, one kernel call
-   for many vectors) against one :meth:`Machine.volumetric_error` call per vector, in this
-   process (after checking that both give the same errors).
+   for many vectors) against one call of the algorithm :func:`volerr_pin.model.volumetric_error`
+   per vector (inputs checked once, as a loop of the library calls it), in this process (after
+   checking that both give the same errors).
 2. A tolerance study's Monte Carlo (the largest and RMS error over a grid per draw) on an
    embedded local Dask cluster of 1 and of 2 worker processes (one thread each, loopback):
    draws per second, per worker, and the scaling from 1 to 2 workers. Cluster start-up and
@@ -38,6 +39,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import volerr_pin as vp  # noqa: E402
+from volerr_pin.model import check_inputs, volumetric_error  # noqa: E402
 from volerr_pin.studies.engine import available_cores, local_cluster  # noqa: E402
 from volerr_pin.studies.evaluator import Evaluator  # noqa: E402
 from volerr_pin.studies.montecarlo import grid_points, make_points, run_monte_carlo  # noqa: E402
@@ -51,19 +53,20 @@ TOLERANCES = ROOT / "examples" / "data" / "vmc500_tolerances.toml"
 def bench_evaluator(name: str, points: int, draws: int) -> dict:
     """Point-draws per second: the evaluator against a loop of volumetric_error calls."""
     machine = vp.load_machine(name)
-    q = grid_points(machine, [max(2, round(points ** (1 / len(machine.axes))))])
+    q, _, cov = check_inputs(machine.model, grid_points(machine, [max(2, round(points ** (1 / len(machine.axes))))]),
+                             state=machine.state)
     rng = np.random.default_rng(0)
     thetas = machine.theta + rng.normal(size=(draws, len(machine.theta))) * 1e-6
     ev = Evaluator(machine)
     got = ev.errors(q, thetas, key="bench")                   # also builds the bases (timed apart)
-    want = np.stack([machine.volumetric_error(q, t)[:, :3] for t in thetas[:5]])
+    want = np.stack([volumetric_error(machine.model, q, t, cov)[:, :3] for t in thetas[:5]])
     assert np.abs(got[:5] - want).max() < 1e-14
     t0 = time.perf_counter()
     ev.errors(q, thetas, key="bench")
     fast = time.perf_counter() - t0
     t0 = time.perf_counter()
     for t in thetas:
-        machine.volumetric_error(q, t)
+        volumetric_error(machine.model, q, t, cov)
     slow = time.perf_counter() - t0
     pairs = len(q) * draws
     return {"task": "evaluator vs one call per draw", "machine": name, "points": len(q), "draws": draws,

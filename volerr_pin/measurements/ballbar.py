@@ -53,7 +53,7 @@ from ..base.units import DEG, LENGTH, MM, PLAUSIBLE, parse_number
 from ..model import config_from_file
 from .protocol import MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
 from .table import DIRECTION_WORDS, MeasurementError, Table, axis_values, read_table
-from ..model import check_q
+from ..model import axis_jacobian, check_q
 
 __all__ = ["KIND", "MIN_ARC_DEG", "MIN_SAMPLES", "BallbarRun", "ballbar_positions", "check_circle", "covered_arc",
            "evaluate_circular", "is_ballbar_file", "radial_about", "read_ballbar"]
@@ -421,10 +421,10 @@ def ballbar_positions(machine, run: BallbarRun) -> tuple[np.ndarray, np.ndarray,
     q[:, j1] += run.radius * np.cos(run.angle)
     q[:, j2] += run.radius * np.sin(run.angle)
     try:
-        check_q(machine.model, q)
+        q = check_q(machine.model, q)
     except InputError as err:
         raise InputError(f"{run.source}: the circle leaves the travel: {err}") from None
-    J = machine.axis_jacobian(q, nominal=True)[:, :3, :]
+    J = axis_jacobian(machine.model, q, nominal=True)[:, :3, :]
     radial = J[:, :, j1] * np.cos(run.angle)[:, None] + J[:, :, j2] * np.sin(run.angle)[:, None]
     radial /= np.linalg.norm(radial, axis=1, keepdims=True)
     # direction of motion of each plane axis: d/da of (cos a, sin a), times the run's sense;

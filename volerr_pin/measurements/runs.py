@@ -30,7 +30,7 @@ import numpy as np
 
 from ..base.errors import InputError
 from ..model import parse_component_name
-from ..model import check_q
+from ..model import axis_jacobian, check_q
 from ..base.units import (ANGLE, DEG, LENGTH, MM, PLAUSIBLE, axis_scale, axis_values_to_si, describe_range, parse_number,
                           shown)
 from ..model import default_config
@@ -143,12 +143,12 @@ class Runs:
         q = np.tile(base, (len(self.target), 1))
         q[:, j] = self.target
         try:
-            check_q(machine.model, q)
+            q = check_q(machine.model, q)
         except InputError as err:
             raise InputError(f"{self.source}: {err}") from None
         covariates = {"directions": np.where(np.arange(len(machine.axes)) == j, self.direction[:, None], 1.0)}
         if self.component is None:
-            nominal = machine.axis_jacobian(q, nominal=True)[:, :, j]
+            nominal = axis_jacobian(machine.model, q, nominal=True)[:, :, j]
             w = nominal / np.linalg.norm(nominal, axis=1, keepdims=True)
             angular = kind == "rotary"
             label = "positioning"

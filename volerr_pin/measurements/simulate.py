@@ -18,6 +18,7 @@ from .tracker import TrackerMeasurements
 from ..base.safeio import write_text
 from ..base.units import AXIS_UNIT, axis_scale
 from ..model import to_engineering
+from ..model import axis_jacobian, check_covariates, tool_poses, volumetric_error
 
 
 def covariates(n: int, rng: np.random.Generator, hours: float = 6.0, n_axes: int = 3) -> dict:
@@ -86,10 +87,11 @@ def campaign(truth: Machine, n: int = 400, noise_um: float = 0.3, seed: int = 0,
     rng = np.random.default_rng(seed)
     travel = truth.travel
     travel = np.where(np.isfinite(travel), travel, np.array([-np.pi, np.pi]))
-    q = rng.uniform(travel[:, 0], travel[:, 1], (n, len(truth.axes)))
+    q = rng.uniform(travel[:, 0], travel[:, 1], (n, len(truth.axes)))   # within the travel
     cov = covariates(n, rng, hours, len(truth.axes))
     values = np.full((n, 6), np.nan)
-    values[:, :3] = truth.volumetric_error(q, **cov)[:, :3] + rng.normal(0.0, noise_um * 1e-6, (n, 3))
+    error = volumetric_error(truth.model, q, truth.theta, check_covariates(truth.model, n, cov, truth.state))
+    values[:, :3] = error[:, :3] + rng.normal(0.0, noise_um * 1e-6, (n, 3))
     return PointMeasurements(source, q, values, cov, np.arange(n))
 
 
@@ -254,15 +256,17 @@ def ballbar_run(machine: Machine, plane=("X", "Y"), radius_mm: float = 100.0, ce
     direction = np.concatenate([np.full(n, float(d)) for d in directions])
     run = BallbarRun(source, angle, np.zeros(len(angle)), direction, radius_mm * 1e-3, tuple(plane),
                      dict(centre_mm or {}), np.arange(len(angle)))
-    q, _, dirs = ballbar_positions(machine, run)
+    q, _, dirs = ballbar_positions(machine, run)   # checked against the travel
     j1, j2 = (machine.axes.index(a) for a in plane)
-    J = machine.axis_jacobian(q, nominal=True)[:, :3, :]
+    model = machine.model
+    J = axis_jacobian(model, q, nominal=True)[:, :3, :]
     centre_q = q.copy()
     centre_q[:, j1] -= run.radius * np.cos(angle)
     centre_q[:, j2] -= run.radius * np.sin(angle)
     offset = (J[:, :, j1] * setup_offset_um[0] + J[:, :, j2] * setup_offset_um[1]) * 1e-6
     d = (J[:, :, j1] * (q[:, j1] - centre_q[:, j1])[:, None] + J[:, :, j2] * (q[:, j2] - centre_q[:, j2])[:, None]
-         + machine.volumetric_error(q, directions=dirs)[:, :3] - offset)
+         + volumetric_error(model, q, machine.theta,
+                            check_covariates(model, len(q), {"directions": dirs}, machine.state))[:, :3] - offset)
     deviation = (np.linalg.norm(d, axis=1) - run.radius + length_error_um * 1e-6
                  + rng.normal(0.0, noise_um * 1e-6, len(angle)))
     return BallbarRun(source, angle, deviation, direction, run.radius, tuple(plane), dict(centre_mm or {}),
@@ -328,7 +332,7 @@ def tracker_campaign(truth: Machine, n: int = 100, offsets_mm=((0.0, 0.0, 0.0),)
     """
     rng = np.random.default_rng(seed)
     travel = np.where(np.isfinite(truth.travel), truth.travel, np.array([-np.pi, np.pi]))
-    q0 = rng.uniform(travel[:, 0], travel[:, 1], (n, len(truth.axes)))
+    q0 = rng.uniform(travel[:, 0], travel[:, 1], (n, len(truth.axes)))   # within the travel
     offsets = np.asarray(offsets_mm, dtype=float) * 1e-3
     q = np.repeat(q0, len(offsets), axis=0)
     o = np.tile(offsets, (n, 1))
@@ -338,7 +342,7 @@ def tracker_campaign(truth: Machine, n: int = 100, offsets_mm=((0.0, 0.0, 0.0),)
     if rotation is None:
         cz, sz, cx, sx = np.cos(np.radians(30)), np.sin(np.radians(30)), np.cos(np.radians(5)), np.sin(np.radians(5))
         rotation = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]) @ np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    R_act, p_act = truth.tool_poses(q, **cov)
+    R_act, p_act = tool_poses(truth.model, q, truth.theta, check_covariates(truth.model, len(q), cov, truth.state))
     target = p_act + np.einsum("nij,nj->ni", R_act, o)
     measured = target @ np.asarray(rotation).T + np.asarray(translation_mm) * 1e-3
     measured += rng.normal(0.0, noise_um * 1e-6, measured.shape)

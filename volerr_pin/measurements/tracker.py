@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ..base.errors import InputError
+from ..model import check_q, tool_poses
 from .columns import header_columns, positions_and_covariates
 from .protocol import MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
 from .table import MeasurementError, Table, read_table
@@ -232,7 +233,8 @@ def tracker_observations(machine, data: TrackerMeasurements) -> dict:
     machine : Machine
         The machine.
     data : TrackerMeasurements
-        The measurements (at least 3 target positions, not on one line).
+        The measurements (at least 3 target positions, not on one line); their positions are
+        checked against the machine's travel here.
 
     Returns
     -------
@@ -247,10 +249,10 @@ def tracker_observations(machine, data: TrackerMeasurements) -> dict:
     Raises
     ------
     InputError
-        If the targets lie on a line or are fewer than 3: the tracker's placement cannot be
-        found.
+        If a position is invalid or outside the travel (:func:`~volerr_pin.model.check_q`), or
+        the targets lie on a line or are fewer than 3: the tracker's placement cannot be found.
     """
-    R_nom, p_nom = machine.tool_poses(data.q, nominal=True)
+    R_nom, p_nom = tool_poses(machine.model, check_q(machine.model, data.q), nominal=True)
     arm = np.einsum("nij,nj->ni", R_nom, data.offsets)   # target offset in the workpiece frame
     nominal = p_nom + arm
     spread = np.linalg.svd(nominal - nominal.mean(axis=0), compute_uv=False)

@@ -34,6 +34,7 @@ from scipy.stats import beta
 
 from ..base.errors import InputError
 from ..model import Machine
+from ..model import check_covariates, sensitivity
 from .engine import Engine, InProcess, plan_chunks
 from .montecarlo import SAMPLE_CHUNK, MonteCarlo, Points, run_monte_carlo
 from .shapes import LEFT_OUT, ShapedSource
@@ -267,9 +268,11 @@ def reallocate(machine: Machine, tolerances: Tolerances, points: Points, source:
     margin = 1.645 * math.sqrt(probability * (1 - probability) / samples)
     goal = min(probability + margin, 1 - 0.5 / n_s)
     x, uniform, mc, verify_seed = np.zeros(len(active)), None, None, seed
+    model, theta = machine.model, machine.theta
+    cov = check_covariates(model, points.n, None, machine.state)
     for round_ in range(1, rounds + 1):
         cand = np.array(sorted(candidates))
-        C = machine.sensitivity(points.q[cand], first_order=True, extrapolate=points.extrapolate)[:, :3, cols]
+        C = sensitivity(model, points.q[cand], theta, cov.take(cand), first_order=True)[:, :3, cols]
         keep = max(1, min(n_s, SURROGATE_SIZE // (len(cand) * max(1, len(active) // 4))))
         surrogate = _Surrogate(C, xi[:keep], t0, target, owner)
         x, uniform = _solve(surrogate, w, goal, lo, hi)

@@ -32,7 +32,7 @@ from ..model import Machine
 from ..base.safeio import require_memory
 from ..base.safeio import read_json
 from ..base.units import UM
-from ..model import sample
+from ..model import check_covariates, sample, sensitivity
 
 __all__ = ["Covariance", "covariance_from_campaign", "covariance_from_report"]
 
@@ -240,8 +240,10 @@ def covariance_from_campaign(machine: Machine, sigma: float, *, points: int = 20
         raise InputError(f"campaign_points must be >= 1, got {points!r}", parameters=("campaign_points",))
     require_memory(points * 6.0 * len(machine.parameter_names) * 8 * 3, f"a campaign of {points:,} poses",
                    ("campaign_points",))
-    q = sample(machine, int(points), seed=seed)
-    J = machine.sensitivity(q)[:, :3, :].reshape(-1, len(machine.parameter_names))
+    q = sample(machine, int(points), seed=seed)   # within the travel
+    model = machine.model
+    J = sensitivity(model, q, machine.theta, check_covariates(model, len(q), None, machine.state)
+                    )[:, :3, :].reshape(-1, len(machine.parameter_names))
     analysis = analyse(J, machine.parameter_names, rtol=rtol, what="a tool-point campaign")
     kept = np.array(sorted(analysis.kept), dtype=int)
     if not kept.size:

@@ -6,7 +6,7 @@ A study evaluates, for every sample ``s`` (a coefficient vector ``theta_s`` draw
 
     f_s(i) = e(q_i, theta_s)[:3] + offset_i        (m)
 
-the position part of the exact volumetric error (:meth:`Machine.volumetric_error`), plus a
+the position part of the exact volumetric error (:func:`~volerr_pin.model.volumetric_error`), plus a
 fixed offset (zero for an error map; for the residual after a compensation the nominal
 displacement from the desired to the commanded position). Each task (a chunk of
 :data:`SAMPLE_CHUNK` samples x a block of :data:`POINT_BLOCK` points) returns, per sample,
@@ -36,7 +36,7 @@ from ..model import Machine
 from ..base.safeio import require_memory
 from .evaluator import CALL_POINTS, evaluator_of
 from .engine import Engine, InProcess, PortableMachine, chunk_rng, plan_chunks, tasks_of
-from ..model import check_q
+from ..model import check_covariates, check_q, check_theta, volumetric_error
 
 __all__ = ["MonteCarlo", "NormalSource", "POINT_BLOCK", "Points", "QUANTILE_TASK_BYTES", "RowsSource",
            "SAMPLE_CHUNK", "ThetaSource", "grid_points", "make_points", "point_quantiles", "run_monte_carlo"]
@@ -213,11 +213,19 @@ def make_points(machine: Machine, q: np.ndarray, theta=None, offset=None, extrap
     Returns
     -------
     Points
-        The points.
+        The points, their positions checked (the study's tasks evaluate them unchecked).
+
+    Raises
+    ------
+    InputError
+        If ``q`` or ``theta`` is invalid (:func:`~volerr_pin.model.check_q`,
+        :func:`~volerr_pin.model.check_theta`).
     """
-    q = check_q(machine.model, q, extrapolate)
+    model = machine.model
+    q = check_q(model, q, extrapolate)
     offset = np.zeros((len(q), 3)) if offset is None else np.asarray(offset, dtype=float)
-    f = machine.volumetric_error(q, theta, extrapolate=extrapolate)[:, :3] + offset
+    theta = machine.theta if theta is None else check_theta(model, theta)
+    f = volumetric_error(model, q, theta, check_covariates(model, len(q), None, machine.state))[:, :3] + offset
     key = hashlib.sha1(np.ascontiguousarray(q).tobytes() + bytes([extrapolate])).hexdigest()
     return Points(q, offset, np.column_stack([f, np.linalg.norm(f, axis=1)]), extrapolate, key)
 
@@ -226,7 +234,7 @@ def _values(machine: PortableMachine, points: Points, thetas: np.ndarray, block:
     """(n, nb, 4): fx, fy, fz, |f| of every vector at the points of ``block``."""
     _, p0, p1 = block
     evaluator = evaluator_of(machine.key, machine.machine())
-    f = evaluator.errors(points.q[p0:p1], thetas, extrapolate=points.extrapolate, key=(points.key, p0, p1))
+    f = evaluator.errors(points.q[p0:p1], thetas, key=(points.key, p0, p1))
     f += points.offset[p0:p1]
     return np.concatenate([f, np.sqrt(np.einsum("sij,sij->si", f, f))[..., None]], axis=2)
 

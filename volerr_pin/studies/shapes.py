@@ -44,6 +44,7 @@ import numpy as np
 from ..model import Machine
 from ..model import parse_component_name
 from ..model import replace_terms
+from ..model import check_covariates, sensitivity
 from .distributions import Distribution
 
 __all__ = ["LEFT_OUT", "NODE_STEP", "Shape", "ShapedSource", "legendre_range", "shape_machine", "shapes_of",
@@ -297,7 +298,8 @@ def work_offset_components(machine: Machine, columns, q: np.ndarray, shapes) -> 
     columns : sequence of ndarray of int
         Each component's coefficients.
     q : ndarray, shape (N, n_axes)
-        The study's points [m, rad].
+        The study's points [m, rad], checked (:attr:`Points.q
+        <volerr_pin.studies.montecarlo.Points.q>`).
     shapes : sequence of Shape
         One per component.
 
@@ -310,11 +312,14 @@ def work_offset_components(machine: Machine, columns, q: np.ndarray, shapes) -> 
     if not constant or len(q) < 2:
         return []
     cols = [int(columns[k][0]) for k in constant]
+    model, theta = machine.model, machine.theta
+    cov = check_covariates(model, len(q), None, machine.state)
     first = None
     size = np.zeros(len(cols))
     spread = np.zeros(len(cols))
     for start in range(0, len(q), SENSITIVITY_BLOCK):   # the sensitivities of a block at a time
-        S = machine.sensitivity(q[start:start + SENSITIVITY_BLOCK], first_order=True)[:, :3, cols]
+        rows = slice(start, start + SENSITIVITY_BLOCK)
+        S = sensitivity(model, q[rows], theta, cov.take(rows), first_order=True)[:, :3, cols]
         if first is None:
             first = S[:1]
         size = np.maximum(size, np.abs(S).max(axis=(0, 1)))

@@ -60,7 +60,7 @@ from scipy.special import ndtri
 
 from ..base.errors import InputError
 from ..model import Machine
-from ..model import check_q
+from ..model import check_covariates, check_parameters, check_q, sensitivity, tool_poses
 from ..base.units import UM_PER_M
 from ..model import to_engineering
 from .covariance import Covariance
@@ -319,7 +319,15 @@ def linear_propagation(machine: Machine, covariance: Covariance, points: Points,
     -------
     Linear
         Per point and summary standard uncertainties.
+
+    Raises
+    ------
+    InputError
+        If ``covariance.indices`` are not indices of the machine's coefficients.
     """
+    model, theta = machine.model, machine.theta
+    columns = check_parameters(model, covariance.indices)
+    cov = check_covariates(model, points.n, None, machine.state)
     Sigma = covariance.matrix
     f = points.reference[:, :3]
     norm = points.reference[:, 3]
@@ -331,8 +339,7 @@ def linear_propagation(machine: Machine, covariance: Covariance, points: Points,
     max_scale = 0.0
     for start in range(0, points.n, block):
         rows = slice(start, min(start + block, points.n))
-        S = machine.sensitivity(points.q[rows], parameters=covariance.indices,
-                                extrapolate=points.extrapolate)[:, :3, :]
+        S = sensitivity(model, points.q[rows], theta, cov.take(rows), columns=columns)[:, :3, :]
         C = np.einsum("nip,pq,njq->nij", S, Sigma, S)
         u[rows, :3] = np.sqrt(np.clip(np.einsum("nii->ni", C), 0.0, None))
         nb = norm[rows]
@@ -601,15 +608,21 @@ def compensated_points(machine: Machine, q_desired: np.ndarray, command: Callabl
     Raises
     ------
     InputError
-        If the compensation returns another shape or values that are not finite.
+        If ``q_desired`` is invalid, or the compensation returns another shape or values that
+        are not finite.
     """
-    q_desired = check_q(machine.model, q_desired, name="q_desired")
+    return _compensated_points(machine, check_q(machine.model, q_desired, name="q_desired"), command)
+
+
+def _compensated_points(machine: Machine, q_desired: np.ndarray, command: Callable[[np.ndarray], np.ndarray]
+                        ) -> Points:
+    """:func:`compensated_points` at checked desired positions."""
     q_c = np.asarray(command(q_desired), dtype=float)
     if q_c.shape != q_desired.shape or not np.isfinite(q_c).all():
         raise InputError(f"compensation: expected finite commands of shape {q_desired.shape}, got shape "
                          f"{q_c.shape}", parameters=("compensation",))
-    _, p_c = machine.tool_poses(q_c, nominal=True, extrapolate=True)
-    _, p_d = machine.tool_poses(q_desired, nominal=True)
+    _, p_c = tool_poses(machine.model, q_c, nominal=True)   # commands may leave the travel at its ends
+    _, p_d = tool_poses(machine.model, q_desired, nominal=True)
     return make_points(machine, q_c, offset=p_c - p_d, extrapolate=True)
 
 
@@ -749,9 +762,9 @@ def study_uncertainty(covariance: Covariance, q: np.ndarray, *, samples: int = 2
     machine = covariance.machine
     samples, seed, interval_samples = check_arguments(samples, seed, interval_samples)
     engine = engine or InProcess()
-    q = check_q(machine.model, q)
+    points = make_points(machine, q)   # q checked here, once
+    q = points.q
     source = NormalSource(machine.theta, covariance.factor(), int(seed))
-    points = make_points(machine, q)
     field = _field(machine, covariance, points, q, source, samples, int(interval_samples), engine, progress, "map")
     residual, name = None, "none"
     if compensation is not None:
@@ -765,7 +778,7 @@ def study_uncertainty(covariance: Covariance, q: np.ndarray, *, samples: int = 2
                 raise InputError(f"compensation must be 'point', a controller ({', '.join(CONTROLLERS)}) or a "
                                  f"callable, got {compensation!r}", parameters=("compensation",))
             compensation = table_compensation(machine, compensation)
-        cpoints = compensated_points(machine, q, compensation)
+        cpoints = _compensated_points(machine, q, compensation)
         residual = _field(machine, covariance, cpoints, q, source, samples, int(interval_samples), engine, progress,
                           "compensation")
     return UncertaintyStudy(machine, covariance, samples, int(seed), engine.workers, field, residual, name)

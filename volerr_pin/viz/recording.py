@@ -42,6 +42,7 @@ from ..model import Machine
 from ..base.safeio import check_outputs, replacing, require_memory
 from ..model import checked_meshes, complete_limits, package_folders
 from ..model import FieldData, default_config, evaluate_field, field_grid, nice_scale, to_engineering
+from ..model import tool_poses
 from ..base.units import UM_PER_M
 
 #: memory a field point takes while it is evaluated and logged, and per sweep step held [bytes]
@@ -463,7 +464,7 @@ def record_field(machine: Machine, path: str | Path | None = None, *, counts=Non
                        ("counts", "sweep_steps") if sweeping else ("counts",))
     q = field_grid(machine, counts, config)
     rec = new_recording()
-    eye = eye_on(machine, base, machine.tool_poses(q, nominal=True)[1])
+    eye = eye_on(machine, base, tool_poses(machine.model, q, nominal=True)[1])   # the grid is within the travel
     blueprint = default_blueprint(sweep=bool(sweeping), eye=eye)
     with streaming(rec, path, blueprint, spawn, connect):
         log_machine(rec, machine, base, moving=sweeping, package_dirs=package_dirs)
@@ -582,7 +583,7 @@ def record_diagnosis(diagnosis, path: str | Path, scale: float | None = None, pa
     check_outputs({"path": path})
     machine = diagnosis.machine
     obs = diagnosis.observations
-    _, positions = machine.tool_poses(obs.q, nominal=True)
+    _, positions = tool_poses(machine.model, obs.q, nominal=True)   # the measurements' positions, checked as read
     per_step = []
     for step in diagnosis.steps:
         vec = np.zeros((obs.n_points, 3))

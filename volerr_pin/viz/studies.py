@@ -19,7 +19,7 @@ import numpy as np
 
 from ..base.safeio import check_outputs
 from ..base.units import UM_PER_M
-from ..model import default_config
+from ..model import default_config, tool_poses
 
 __all__ = ["log_uncertainty_field", "max_error_png", "record_uncertainty"]
 
@@ -47,7 +47,7 @@ def log_uncertainty_field(rec, machine, field, prefix: str = "uncertainty/map") 
 
     from .recording import colours, log_legend
 
-    _, positions = machine.tool_poses(field.q, nominal=True)
+    _, positions = tool_poses(machine.model, field.q, nominal=True)   # the study checked its points
     u_mc = field.u_position * UM_PER_M
     u_lin = field.linear_u_position * UM_PER_M
     hi = float(max(u_mc.max(), u_lin.max())) if len(u_mc) else 1.0
@@ -102,7 +102,7 @@ def record_uncertainty(study, path: str | Path, package_dirs=None) -> dict:
         fields["compensation"] = study.compensated
     rec = new_recording("volerr_pin_uncertainty")
     base = default_config(machine)
-    eye = eye_on(machine, base, machine.tool_poses(study.map.q, nominal=True)[1])   # one camera: views compare
+    eye = eye_on(machine, base, tool_poses(machine.model, study.map.q, nominal=True)[1])   # one camera: views compare
     what = {"map": "of the error map (what the machine does)",
             "compensation": f"of the residual after {study.compensation} compensation"}
     views = [rrb.Spatial3DView(origin="/", contents=["+ machine/**", f"+ uncertainty/{name}/**",

@@ -10,6 +10,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ...model import Machine
+from ...model import check_covariates, check_theta, tool_poses
 from ...base.units import UM
 from .generation import Generation, generation_of
 from .geometry import FLANKS, REFERENCE_GEAR, GearPair
@@ -189,15 +190,24 @@ def flanks_of(machine: Machine, gear: GearPair, generation: Generation, theta, c
     theta : array_like or None
         Coefficients (SI); defaults to the machine's.
     covariates : dict
-        As for :meth:`Machine.tool_poses`.
+        As for :meth:`Machine.tool_poses`, one value per flank point; those not given from the
+        machine's state.
 
     Returns
     -------
     FlankDeviations
         The deviations.
+
+    Raises
+    ------
+    InputError
+        If ``theta`` or the covariates are invalid (:func:`~volerr_pin.model.check_theta`,
+        :func:`~volerr_pin.model.check_covariates`).
     """
-    grid = generation.grid
-    R1, p1 = machine.tool_poses(grid.q, theta, **covariates)
+    grid = generation.grid   # its positions checked against the travel where it was made
+    model = machine.model
+    theta = machine.theta if theta is None else check_theta(model, theta)
+    R1, p1 = tool_poses(model, grid.q, theta, check_covariates(model, len(grid.q), covariates, machine.state))
     moved = np.einsum("nij,nj->ni", R1, generation.local) + p1
     normal = np.einsum("ni,ni->n", moved - grid.point, grid.normal).reshape(grid.shape)
     return FlankDeviations(gear, normal, grid.roll, gear.radius_at(grid.roll), grid.face, grid.teeth,

@@ -16,6 +16,7 @@ from ...model import Machine
 from ...base.safeio import require_memory
 from ...base.units import MM, axis_scale
 from ...model import to_engineering
+from ...model import check_q, tool_poses
 from .geometry import GearPair
 
 __all__ = ["BYTES_PER_FLANK_POINT", "FlankGrid", "Generation", "Mesh", "flank_grid", "generation_of", "mesh_of"]
@@ -119,7 +120,7 @@ def mesh_of(machine: Machine, gear: GearPair, spindles: Sequence[str], at: Mappi
     probe = np.repeat(q0[None], 3, axis=0)
     probe[1, work] += eps
     probe[2, tool] += eps
-    _, p = machine.tool_poses(probe, nominal=True, extrapolate=True)
+    _, p = tool_poses(machine.model, check_q(machine.model, probe, extrapolate=True), nominal=True)
     r = float(np.hypot(p[0, 0], p[0, 1]))
     if abs(r - gear.pitch_radius) > 1e-6:
         raise InputError(f"the tool point of {machine.name} is {r / MM:.4f} mm from the workpiece axis (the "
@@ -150,7 +151,7 @@ def mesh_of(machine: Machine, gear: GearPair, spindles: Sequence[str], at: Mappi
     column = axes.index(feed)
     probe = np.repeat(q0[None], 2, axis=0)
     probe[1, column] += eps
-    _, p = machine.tool_poses(probe, nominal=True, extrapolate=True)
+    _, p = tool_poses(machine.model, probe, nominal=True)   # at the configuration checked above
     step = (p[1] - p[0]) / eps
     if abs(abs(step[2]) - 1) > 1e-6 or np.hypot(step[0], step[1]) > 1e-6:
         raise InputError(f"feed axis {feed!r} of {machine.name} does not move the tool along the gear axis",
@@ -338,5 +339,5 @@ def generation_of(machine: Machine, gear: GearPair, spindles: Sequence[str] = ("
                          f"{unit} (travel {travel[j, 0] / factor:.6g} to {travel[j, 1] / factor:.6g})")
         raise InputError(f"at: generating the gear needs {'; '.join(parts)}; move the nominal configuration",
                          parameters=("at",))
-    R0, p0 = machine.tool_poses(grid.q, nominal=True)
+    R0, p0 = tool_poses(machine.model, grid.q, nominal=True)
     return Generation(grid, np.einsum("nji,nj->ni", R0, grid.point - p0))

@@ -27,6 +27,7 @@ import numpy as np
 from ...base.checks import integer
 from ...base.errors import InputError
 from ...fit.identify import check_report_machine, identify, parameter_units
+from ...model import check_covariates, volumetric_error
 from .assess import predicted
 from .campaign import size_pool
 from .design import d_optimal, unit_design
@@ -180,7 +181,6 @@ def _simulate(machine, instrument, setup, units, free, std, seed) -> tuple[dict,
     rng = np.random.default_rng(seed)
     truth = machine.theta.copy()
     truth[free] = np.where(np.isfinite(std), 10.0 * std, 0.0) * rng.choice([-1.0, 1.0], len(free))
-    true_machine = machine.with_theta(truth, limits=False)   # a simulated truth: no spec limit applies
     from ...fit.identify import stack_blocks
     from ...fit.identify.design import rows_of
     from ...measurements.protocol import ObservationOptions
@@ -188,8 +188,10 @@ def _simulate(machine, instrument, setup, units, free, std, seed) -> tuple[dict,
     sigma_um = setup.sigma * 1e6
     measurements, _ = instrument.measurements(machine, setup, units)
     obs = stack_blocks([m.observations(machine, ObservationOptions(sigma_um, sigma_um)) for m in measurements], machine)
-    rows, _ = rows_of(obs.w, obs.point, true_machine.volumetric_error(obs.q, **obs.covariates),
-                      np.zeros((obs.n_points, 6, 0)))
+    # a simulated truth (no spec limit applies) at the positions of the chosen units
+    error = volumetric_error(machine.model, obs.q, truth,
+                             check_covariates(machine.model, obs.n_points, obs.covariates, machine.state))
+    rows, _ = rows_of(obs.w, obs.point, error, np.zeros((obs.n_points, 6, 0)))
     values = rows + rng.normal(0.0, setup.sigma, len(rows))
     data, _ = instrument.measurements(machine, setup, units, values)
     prior_theta = truth.copy()

@@ -27,6 +27,7 @@ from ...fit.identify import identify, stack_blocks
 from ...fit.identify.design import rows_of
 from ...measurements.protocol import ObservationOptions
 from ...base.units import UM_PER_M
+from ...model import check_covariates, volumetric_error
 from .design import UnitDesign
 
 __all__ = ["predicted", "rigid_basis", "simulated", "without_rigid", "zone_summary"]
@@ -136,7 +137,7 @@ def simulated(machine, instrument, setup, units: list, free: np.ndarray, zone_q:
     free : ndarray of int, shape (F,)
         The coefficients identified (indices into theta); the others stay at the truth.
     zone_q : ndarray, shape (Z, n_axes)
-        Points of the zone [m, rad].
+        Points of the zone [m, rad], within the travel.
     repeats : int
         Simulated campaigns (noise seeds ``seed``, ``seed + 1``, ...).
     seed : int
@@ -158,7 +159,8 @@ def simulated(machine, instrument, setup, units: list, free: np.ndarray, zone_q:
     sigma_um = setup.sigma * 1e6
     obs = stack_blocks([m.observations(machine, ObservationOptions(sigma_um, sigma_um)) for m in measurements],
                        machine)
-    error = machine.volumetric_error(obs.q, **obs.covariates)
+    model, truth = machine.model, machine.theta
+    error = volumetric_error(model, obs.q, truth, check_covariates(model, obs.n_points, obs.covariates, machine.state))
     truth_rows, _ = rows_of(obs.w, obs.point, error, np.zeros((obs.n_points, 6, 0)))
     if prior is None:
         theta0 = machine.theta.copy()
@@ -166,7 +168,8 @@ def simulated(machine, instrument, setup, units: list, free: np.ndarray, zone_q:
     else:
         theta0 = np.array(prior, dtype=float)
     prior = machine.with_theta(theta0, limits=False)   # a simulation: no spec limit applies
-    e_zone = machine.volumetric_error(zone_q)[:, :3]
+    zone_cov = check_covariates(model, len(zone_q), None, machine.state)
+    e_zone = volumetric_error(model, zone_q, truth, zone_cov)[:, :3]
     errors, zone_sq, held = [], [], set()
     for r in range(repeats):
         rng = np.random.default_rng(seed + r)
@@ -178,7 +181,9 @@ def simulated(machine, instrument, setup, units: list, free: np.ndarray, zone_q:
                            initialise=False)
         held.update(machine.parameter_names[k] for k in fit.held)
         errors.append(fit.machine.theta[free] - machine.theta[free])
-        d = fit.machine.volumetric_error(zone_q)[:, :3] - e_zone
+        found = fit.machine
+        d = volumetric_error(found.model, zone_q, found.theta, zone_cov if found.model is model else
+                             check_covariates(found.model, len(zone_q), None, found.state))[:, :3] - e_zone
         zone_sq.append(np.sum((d if rigid is None else without_rigid(d, rigid)) ** 2, axis=1))
     errors = np.array(errors)
     return {"std": np.sqrt(np.mean(errors ** 2, axis=0)), "zone_rms": float(np.sqrt(np.mean(zone_sq))),

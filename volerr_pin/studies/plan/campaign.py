@@ -23,6 +23,7 @@ from ...base.errors import InputError
 from ...fit.identify import parameter_units
 from ...base.safeio import require_memory
 from ...base.units import UM_PER_M, axis_scales
+from ...model import check_covariates, sensitivity, tool_poses, volumetric_error
 from .assess import predicted, rigid_basis, simulated, without_rigid, zone_summary
 from .design import UnitDesign, d_optimal, unit_design
 from .poses import pose_candidates
@@ -338,11 +339,13 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
     design = unit_design(machine, instrument, setup, pool, free)
     analysis = design.analyse()
     columns = np.array(analysis.kept, dtype=int)
-    zone_q = pose_candidates(setup.zone, machine.axis_kinds, zone_points, "sobol", seed + 1)
-    S_zone = machine.sensitivity(zone_q, parameters=free, first_order=True)[:, :3, :]
+    zone_q = pose_candidates(setup.zone, machine.axis_kinds, zone_points, "sobol", seed + 1)   # within the travel
+    model, coefficients = machine.model, machine.theta
+    zone_cov = check_covariates(model, len(zone_q), None, machine.state)
+    S_zone = sensitivity(model, zone_q, coefficients, zone_cov, columns=free, first_order=True)[:, :3, :]
     # an instrument that registers itself (a tracker) cannot determine a rigid motion of the whole
     # map: what it determines, and what the plan optimises and compares, is the map less that
-    P = rigid_basis(machine.tool_poses(zone_q, nominal=True)[1]) if getattr(instrument, "registers", False) else None
+    P = rigid_basis(tool_poses(model, zone_q, nominal=True)[1]) if getattr(instrument, "registers", False) else None
     S_fit = S_zone if P is None else without_rigid(S_zone, P)
     weight = None
     if criterion == "I":
@@ -364,7 +367,7 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
                      f"identify undetermined ({', '.join(lost[:5])}{', ...' if len(lost) > 5 else ''}): raise the "
                      "budget")
     zone_um = zone_summary(mine["zone"])
-    e = machine.volumetric_error(zone_q)[:, :3]
+    e = volumetric_error(model, zone_q, coefficients, zone_cov)[:, :3]
     error = np.linalg.norm(e, axis=1) * UM_PER_M
     zone_um.update(error_rms_um=float(np.sqrt(np.mean(error ** 2))), error_max_um=float(error.max()))
     u, e_rms, what = zone_um["zone_rms_um"], zone_um["error_rms_um"], ""

@@ -36,6 +36,7 @@ from ...fit.identify import stack_blocks
 from ...fit.identify.design import rows_of, typical_sizes
 from ...measurements.protocol import ObservationOptions
 from ...base.safeio import require_memory
+from ...model import check_covariates, check_parameters, sensitivity
 
 __all__ = ["UnitDesign", "d_optimal", "information", "unit_design"]
 
@@ -148,9 +149,10 @@ def unit_design(machine, instrument, setup, units: list, free: np.ndarray) -> Un
                    if len(np.unique(_units_of(b, f, np.asarray(unit_of_point)))) > 1)
     require_memory(8.0 * n_rows * (n_shared + len(free) + 6) * 3,
                    f"the design of {len(units)} candidate {instrument.unit}s", ("candidates",))
+    columns = check_parameters(machine.model, free)
     parts, first = [], 0
     for chunk in _chunks(blocks):   # blocks share no nuisance column: a chunk's nuisance matrix stays small
-        parts.append(_chunk_design(machine, chunk, free, np.asarray(unit_of_point), first))
+        parts.append(_chunk_design(machine, chunk, columns, np.asarray(unit_of_point), first))
         first += sum(len(b.q) for b in chunk)
     n_global = sum(p[1].shape[1] for p in parts)
     D = np.zeros((n_rows, n_global + len(free)))
@@ -186,12 +188,15 @@ def _chunks(blocks: list, rows: int = 20000) -> list[list]:
 
 
 def _chunk_design(machine, blocks: list, free: np.ndarray, unit_of_point: np.ndarray, first: int):
-    """Weighted sensitivities of some blocks, each unit's own nuisance terms projected out.
+    """Weighted sensitivities of some blocks (their positions checked where the measurements
+    were made), each unit's own nuisance terms projected out; ``free`` checked indices.
 
     Returns ``(A, G, row_unit, names)``: the coefficients' rows (rows, F), the shared nuisance
     columns (rows, g), the unit of each row and the shared columns' names."""
     obs = stack_blocks(blocks, machine)
-    S = machine.sensitivity(obs.q, parameters=free, first_order=True, **obs.covariates)
+    model = machine.model
+    cov = check_covariates(model, obs.n_points, obs.covariates, machine.state)
+    S = sensitivity(model, obs.q, machine.theta, cov, columns=free, first_order=True)
     _, A = rows_of(obs.w, obs.point, np.zeros((obs.n_points, 6)), S)
     A = A / obs.sigma[:, None]
     N = obs.nuisance / obs.sigma[:, None]

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...measurements.tracker import TrackerMeasurements
+from ...model import tool_poses
 from .nc import StopsProgram
 from .poses import OneFileOfPoses, pose_candidates
 from .probe import point_table
@@ -31,8 +32,9 @@ __all__ = ["TRACKER", "Tracker", "in_sight"]
 
 
 def _targets_at(machine, q: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Nominal target positions (n, k, 3) [m] and tool rotations (n, 3, 3) in the workpiece frame."""
-    R, p = machine.tool_poses(q, nominal=True)
+    """Nominal target positions (n, k, 3) [m] and tool rotations (n, 3, 3) in the workpiece frame
+    at poses ``q`` of the zone (a float array, within the travel)."""
+    R, p = tool_poses(machine.model, q, nominal=True)
     return p[:, None, :] + np.einsum("nij,kj->nki", R, targets), R
 
 
