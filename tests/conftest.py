@@ -94,8 +94,9 @@ CHECKING_METHODS = ("volumetric_error", "sensitivity", "tool_poses", "component_
 
 
 def record_checking_calls(monkeypatch, *packages: str) -> list:
-    """Record every call of a checking Machine method (:data:`CHECKING_METHODS`) made directly
-    by a module of ``packages`` (``"volerr_pin.fit"`` ...): (method, calling module) pairs."""
+    """Record every call of a checking Machine method (:data:`CHECKING_METHODS`, wrapped on the
+    class) made directly by a module of ``packages`` (``"volerr_pin.fit"`` ...): (method,
+    calling module, calling function, line), in call order."""
     import sys
 
     from volerr_pin.model import Machine
@@ -105,9 +106,10 @@ def record_checking_calls(monkeypatch, *packages: str) -> list:
         original = getattr(Machine, name)
 
         def recorded(self, *args, _original=original, _name=name, **kwargs):
-            caller = sys._getframe(1).f_globals.get("__name__", "")
-            if caller.startswith(packages):
-                calls.append((_name, caller))
+            caller = sys._getframe(1)
+            module = caller.f_globals.get("__name__", "")
+            if module.startswith(packages):
+                calls.append((_name, module, caller.f_code.co_name, caller.f_lineno))
             return _original(self, *args, **kwargs)
 
         monkeypatch.setattr(Machine, name, recorded)

@@ -45,7 +45,7 @@ def test_the_recorder_sees_a_checking_call_from_the_fit(monkeypatch, tracker):
     m, _ = tracker
     calls = record_checking_calls(monkeypatch, __name__)
     m.volumetric_error(m.mid_travel)
-    assert calls == [("volumetric_error", __name__)]
+    assert [c[:2] for c in calls] == [("volumetric_error", __name__)]
 
 
 def test_a_diagnosis_writes_and_reads_no_spec_and_builds_pinocchio_once_more_at_most(monkeypatch, tracker):

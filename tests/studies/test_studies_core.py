@@ -18,14 +18,12 @@ from pathlib import Path
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.model import Machine, grid
+from volerr_pin.model import grid
+
+from conftest import CHECKING_METHODS as CHECKING, record_checking_calls
 
 ROOT = Path(__file__).resolve().parents[2]
 
-#: the checking evaluations of a Machine (each checks its inputs, then calls the algorithm)
-CHECKING = ("volumetric_error", "sensitivity", "tool_poses", "component_sensitivity", "error_joint_sensitivity",
-            "axis_jacobian", "joint_jacobian", "joint_values", "component_values", "pinocchio_configuration",
-            "search_grid")
 #: the modules whose calls are counted: the layers above the model that evaluate it in loops
 WATCHED = ("volerr_pin.studies", "volerr_pin.measurements", "volerr_pin.applications.gear", "volerr_pin.viz")
 #: their source files, the other applications that read measurements into the model, and the
@@ -44,21 +42,8 @@ SOURCES = [*sorted((ROOT / "volerr_pin" / "studies").rglob("*.py")),
 @pytest.fixture
 def calls(monkeypatch):
     """Calls of the checking methods whose immediate caller is a module of :data:`WATCHED`:
-    (method, module, line) in call order."""
-    seen = []
-
-    def watched(name, method):
-        def wrapper(self, *args, **kwargs):
-            caller = sys._getframe(1)
-            module = caller.f_globals.get("__name__", "")
-            if module.startswith(WATCHED):
-                seen.append((name, module, caller.f_lineno))
-            return method(self, *args, **kwargs)
-        return wrapper
-
-    for name in CHECKING:
-        monkeypatch.setattr(Machine, name, watched(name, getattr(Machine, name)))
-    return seen
+    (method, module, function, line) in call order."""
+    return record_checking_calls(monkeypatch, *WATCHED)
 
 
 @pytest.fixture(scope="module")
