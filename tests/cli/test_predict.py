@@ -118,3 +118,15 @@ def test_predict_reads_each_program_once_and_never_joins_its_text(tmp_path, caps
     monkeypatch.setattr(segments, "split_lines", refused)
     assert _json(capsys, ["predict", "vmc500", str(piece), "--reference", str(piece), "--json"]) == expected
     assert reads == [piece, piece]   # the program, then the reference
+
+
+def test_predict_reports_a_state_of_directions(tmp_path, capsys):
+    """A state with directions (an array) is reported as numbers in JSON (it was refused by the
+    JSON encoder), and named in the text."""
+    piece = tmp_path / "tp.nc"
+    assert main(["testpiece", "vmc500", "-o", str(piece)]) == 0
+    capsys.readouterr()
+    report = _json(capsys, ["predict", "vmc500", str(piece), "--state", "directions=-1,1,1", "t=10", "--json"])
+    assert report["state"] == {"directions": [-1.0, 1.0, 1.0], "t": 10.0}
+    assert main(["predict", "vmc500", str(piece), "--state", "directions=-1,1,1"]) == 0
+    assert "(directions=" in capsys.readouterr().out

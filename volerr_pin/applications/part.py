@@ -43,6 +43,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from ..base.units import UM_PER_M
 from ..model import Machine
 from ._part_features import CircleFeature, LineFeature, PairFeature
@@ -113,7 +115,9 @@ class PartPrediction:
             row["drivers"] = ranking[:top]
             features.append(row)
         return {"machine": self.machine.name, "program": self.source, "reference": self.reference,
-                "state": self.machine.state, "tolerance_um": self.deviation.tolerance * UM_PER_M,
+                "state": {key: value.tolist() if isinstance(value, np.ndarray) else value   # (directions, forces)
+                          for key, value in self.machine.state.items()},
+                "tolerance_um": self.deviation.tolerance * UM_PER_M,
                 "samples": int(len(self.deviation.line)), "max_normal_deviation_um": self.deviation.max_um,
                 "max_line": int(worst),
                 "blocks": [{"line": int(line), "max_um": value} for line, value in blocks.items()],

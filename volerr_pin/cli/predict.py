@@ -76,7 +76,7 @@ def run(args) -> int:
         print(dumps(report))
         return 0
     console = table_console()
-    state = ", ".join(f"{k}={v}" for k, v in report["state"].items()) if report["state"] else "no state"
+    state = ", ".join(f"{k}={v}" for k, v in machine.state.items()) if machine.state else "no state"
     console.print(escape(f"{machine.name}: {path} ({state}); {report['samples']:,} samples along the cutting moves, "
                          f"to {report['tolerance_um']:g} um"
                          + (f"; the part as {args.reference} defines it" if args.reference else "")))
