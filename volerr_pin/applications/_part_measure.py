@@ -35,9 +35,9 @@ def _full_circles(moves: CuttingPath) -> list[list[int]]:
     words = moves.moves
     sweep = words.sweep.tolist()   # (summed as plain floats, in order)
 
-    def same(a, b):
-        return (bool((words.plane[a] == words.plane[b]).all()) and np.allclose(words.center[a], words.center[b],
-                                                                                atol=1e-9)
+    def same(a, b):   # one plane, centre and radius
+        return (bool((words.plane[a] == words.plane[b]).all())
+                and np.allclose(words.center[a], words.center[b], atol=1e-9)
                 and abs(float(words.r0[a]) - float(words.r0[b])) <= 1e-9)
 
     runs = []
