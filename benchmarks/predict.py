@@ -91,6 +91,7 @@ def batches_against_a_loop(blocks: int = 2_000) -> dict:
     import volerr_pin as vp
     from volerr_pin.applications.part import deviation_along
     from volerr_pin.compensation.gcode import interpret
+    from volerr_pin.compensation.moves import POINT
 
     nc = _nc()
     with tempfile.TemporaryDirectory(prefix="volerr-predict-bench-") as tmp:
@@ -98,14 +99,14 @@ def batches_against_a_loop(blocks: int = 2_000) -> dict:
         nc.write_program(path, "short", blocks)
         text = path.read_text()
     machine = vp.load_machine("vmc500")
-    segments = interpret(machine, text)
-    cutting = [s for s in segments if s.kind in ("line", "arc")]
+    moves = interpret(machine, text)
+    cutting = np.flatnonzero(moves.kind != POINT)   # (rapids cut nothing)
 
     def batched():
-        return deviation_along(machine, segments)
+        return deviation_along(machine, moves)
 
     def by_move():
-        return [deviation_along(machine, [s]) for s in cutting]
+        return [deviation_along(machine, moves.take(cutting[i:i + 1])) for i in range(len(cutting))]
 
     whole, parts = batched(), by_move()
     assert np.array_equal(whole.fraction, np.concatenate([p.fraction for p in parts]))

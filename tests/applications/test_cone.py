@@ -15,8 +15,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import volerr_pin.applications.cone as cone_module
 from volerr_pin.applications.cone import Cone, cone_frustum_test_piece, find_cones, measure_cones
-from volerr_pin.applications.part import _contours, _Moves, cut_of, feature_ranking, measure, predict
+from volerr_pin.applications.part import CuttingPath, cut_of, feature_ranking, measure, predict
 from volerr_pin.base.errors import InputError
 from volerr_pin.compensation.gcode import interpret
 from volerr_pin.model import _kinematics as K
@@ -28,34 +29,42 @@ HEIGHTS = (0.0, 10e-3, 18e-3)
 def piece(machines):
     m = machines["cgm4000"]
     text = cone_frustum_test_piece(m)
-    segments = interpret(m, text)
-    cut = cut_of(m, segments)
-    cones = find_cones(m, _Moves(m, segments), _contours(segments), cut, 10e-3)
-    return m, text, segments, cut, cones
+    path = CuttingPath(m, interpret(m, text))
+    cut = cut_of(m, path)
+    cones = find_cones(m, path.moves, path.contours, cut, 10e-3)
+    return m, text, path, cut, cones
 
 
 class Displaced:
     """A machine whose tool is displaced rigidly from the nominal: turned by ``R`` about the
     workpiece frame's origin, shifted by ``t``, and moved ``along`` its own axis and turned by
-    ``spin`` about it (the tool frame's z)."""
+    ``spin`` about it (the tool frame's z). :meth:`measure` measures sections on it: the
+    algorithm the cone's measurement takes the actual tool poses from gives these poses while
+    it runs."""
 
     def __init__(self, machine, R=np.eye(3), t=np.zeros(3), along=0.0, spin=0.0):
         self.machine, self.R, self.t, self.along, self.spin = machine, R, np.asarray(t), along, spin
 
-    def __getattr__(self, name):
-        return getattr(self.machine, name)
-
-    def tool_poses(self, q, nominal=False, extrapolate=False):
-        Rn, pn = self.machine.tool_poses(q, nominal=True, extrapolate=True)
-        if nominal:
-            return Rn, pn
+    def poses(self, Rn, pn):
+        """The displaced tool poses of nominal ones."""
         c, s = np.cos(self.spin), np.sin(self.spin)
         turned = Rn @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         return self.R @ turned, pn @ self.R.T + self.t + self.along * Rn[:, :, 2]
 
+    def measure(self, cones, cut, heights):
+        real = cone_module.tool_poses
+
+        def tool_poses(model, q, theta=None, cov=None, *, nominal=False):
+            Rn, pn = real(model, q, nominal=True)
+            return (Rn, pn) if nominal else self.poses(Rn, pn)
+
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(cone_module, "tool_poses", tool_poses)
+            return measure_cones(self.machine, cones, cut, heights)
+
 
 def test_the_test_piece_is_the_cone_it_says(piece):
-    m, text, segments, cut, cones = piece
+    m, text, path, cut, cones = piece
     assert text.splitlines()[1] == "(measure it with the cutter's diameter 20 mm, at heights 2, 10, 18 mm)"
     (cone,) = cones
     assert cone.boss and cone.half_angle == pytest.approx(np.radians(15.0), abs=1e-6)
@@ -70,7 +79,7 @@ def test_a_perfect_machine_cuts_the_programs_chords_only(piece):
     """The program's own form: 1,440 chords of an 80 mm circle sag 0.095 um, and the words are
     rounded to 0.1 um and 1e-4 deg."""
     m, _, _, cut, cones = piece
-    for section in measure_cones(Displaced(m), cones, cut, HEIGHTS):
+    for section in Displaced(m).measure(cones, cut, HEIGHTS):
         assert 0.09 < section.circularity_um < 0.3
         assert abs(section.diameter_error_um) < 0.01 and section.centre_error_um < 0.01
 
@@ -78,9 +87,9 @@ def test_a_perfect_machine_cuts_the_programs_chords_only(piece):
 def test_a_rigid_shift_moves_the_centre_and_the_diameter_as_the_cone_does(piece):
     m, _, _, cut, cones = piece
     (cone,) = cones
-    perfect = measure_cones(Displaced(m), cones, cut, HEIGHTS)
+    perfect = Displaced(m).measure(cones, cut, HEIGHTS)
     t = np.array([3e-6, -2e-6, 5e-6])
-    shifted = measure_cones(Displaced(m, t=t), cones, cut, HEIGHTS)
+    shifted = Displaced(m, t=t).measure(cones, cut, HEIGHTS)
     along = t @ cone.axis
     across = t - along * cone.axis
     for a, b in zip(perfect, shifted):
@@ -95,9 +104,9 @@ def test_an_error_along_or_about_the_tool_axis_cuts_nothing(piece):
     """The flank slides along itself: a tool length error or a turn of the tool about its axis
     leaves the surface where it was."""
     m, _, _, cut, cones = piece
-    perfect = measure_cones(Displaced(m), cones, cut, HEIGHTS)
+    perfect = Displaced(m).measure(cones, cut, HEIGHTS)
     for stub in (Displaced(m, along=7e-6), Displaced(m, spin=50e-6)):
-        for a, b in zip(perfect, measure_cones(stub, cones, cut, HEIGHTS)):
+        for a, b in zip(perfect, stub.measure(cones, cut, HEIGHTS)):
             np.testing.assert_allclose(b.radial_um, a.radial_um, atol=1e-4)   # second order: 1e-5 um
             assert b.diameter_error_um == pytest.approx(a.diameter_error_um, abs=1e-4)
             assert b.centre_error_um == pytest.approx(a.centre_error_um, abs=1e-4)
@@ -116,14 +125,13 @@ def test_a_tilt_of_the_tool_moves_the_sections_apart_with_height(piece):
     R = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(omega), -np.sin(omega)], [0.0, np.sin(omega), np.cos(omega)]])
 
     class AboutTip(Displaced):
-        def tool_poses(self, q, nominal=False, extrapolate=False):
-            Rn, pn = self.machine.tool_poses(q, nominal=True, extrapolate=True)
-            return (Rn, pn) if nominal else (R @ Rn, pn)
+        def poses(self, Rn, pn):
+            return R @ Rn, pn
 
     def centre(section):   # the least-squares centre, in the workpiece frame
         return section.fitted_centre @ cone.basis()
 
-    low, high = measure_cones(AboutTip(m), cones, cut, (2e-3, 18e-3))
+    low, high = AboutTip(m).measure(cones, cut, (2e-3, 18e-3))
     moved = centre(high) - centre(low)
     expected = omega * 16e-3 * np.cross([1.0, 0.0, 0.0], cone.axis) / np.cos(cone.half_angle) ** 2
     np.testing.assert_allclose(moved, expected, atol=0.01 * np.linalg.norm(expected))
@@ -138,9 +146,9 @@ def test_sections_agree_with_pinocchio_and_the_cylinder_cut_by_the_plane(piece, 
     if form == "boss":
         _, _, _, cut, cones = piece
     else:
-        segments = interpret(m, cone_frustum_test_piece(m, form="bore", tool_diameter=10e-3))
-        cut = cut_of(m, segments)
-        cones = find_cones(m, _Moves(m, segments), _contours(segments), cut, 5e-3)
+        path = CuttingPath(m, interpret(m, cone_frustum_test_piece(m, form="bore", tool_diameter=10e-3)))
+        cut = cut_of(m, path)
+        cones = find_cones(m, path.moves, path.contours, cut, 5e-3)
     (cone,) = cones
     height = 10e-3
     (section,) = measure_cones(m, cones, cut, [height])
@@ -180,7 +188,7 @@ def test_the_ranking_matches_each_source_acting_alone(piece):
     columns = {}
     for term in m.model.term_info():
         columns.setdefault(term["component"], []).extend(m.parameter_names.index(n) for n in term["parameters"])
-    perfect = measure_cones(Displaced(m), cones, cut, [10e-3])[0].radial_um
+    perfect = Displaced(m).measure(cones, cut, [10e-3])[0].radial_um
     alone = {}
     for row in ranking[:4]:
         theta = np.zeros_like(m.theta)
@@ -226,7 +234,7 @@ def test_a_conical_bore(machines):
 
 
 def test_three_axis_programs_and_sections_out_of_the_cone_are_refused_or_absent(machines, piece):
-    m, text, segments, cut, cones = piece
+    m, text, path, cut, cones = piece
     with pytest.raises(InputError, match="cone_heights run from 0"):
         measure_cones(m, cones, cut, [0.5])
     with pytest.raises(InputError, match="two rotary axes"):

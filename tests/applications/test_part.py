@@ -193,19 +193,19 @@ def test_the_feature_ranking_matches_finite_differences(machines, which):
         theta[columns[component]] = 0.0
         return m.with_theta(theta)
 
-    import volerr_pin.applications.part as part
+    import volerr_pin.applications._part_ranking as ranking
 
-    original = part._contributions
+    original = ranking._contributions
 
     def by_differences(machine, q, covariates=None):
         full = machine.volumetric_error(q, **(covariates or {}))
         return {c: full - without(c).volumetric_error(q, **(covariates or {})) for c in columns}
 
-    part._contributions = by_differences
+    ranking._contributions = by_differences
     try:
         differences = {r["component"]: r for r in feature_ranking(m, feature)}
     finally:
-        part._contributions = original
+        ranking._contributions = original
     assert list(exact)[:3] == list(differences)[:3]
     for component, row in exact.items():
         assert row["share"] == pytest.approx(differences[component]["share"], abs=2e-3), component

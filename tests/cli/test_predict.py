@@ -93,3 +93,40 @@ def test_predict_refuses_a_move_out_of_the_travel_naming_its_line(tmp_path, caps
     program.write_text("G90 G21\nG0 X50 Y100 Z100\nG1 X700 F500\nM30\n")
     assert main(["predict", "vmc500", str(program)]) == 2
     assert "line 3: the move takes X to 700.0000 mm, outside its travel 0 .. 500 mm" in capsys.readouterr().err
+
+
+def test_predict_reads_each_program_once_and_never_joins_its_text(tmp_path, capsys, monkeypatch):
+    """volerr predict reads the program (and the reference) line by line once and gives the NC
+    reader its lines: no file is read twice and no text is joined to be split again."""
+    from volerr_pin.compensation.gcode import ProgramFile, segments
+
+    piece = tmp_path / "tp.nc"
+    assert main(["testpiece", "vmc500", "-o", str(piece)]) == 0
+    capsys.readouterr()
+    expected = _json(capsys, ["predict", "vmc500", str(piece), "--reference", str(piece), "--json"])
+    reads = []
+    lines = ProgramFile.lines
+
+    def counted(self):
+        reads.append(self.path)
+        return lines(self)
+
+    def refused(text):
+        raise AssertionError("the program's text was split again")
+
+    monkeypatch.setattr(ProgramFile, "lines", counted)
+    monkeypatch.setattr(segments, "split_lines", refused)
+    assert _json(capsys, ["predict", "vmc500", str(piece), "--reference", str(piece), "--json"]) == expected
+    assert reads == [piece, piece]   # the program, then the reference
+
+
+def test_predict_reports_a_state_of_directions(tmp_path, capsys):
+    """A state with directions (an array) is reported as numbers in JSON (it was refused by the
+    JSON encoder), and named in the text."""
+    piece = tmp_path / "tp.nc"
+    assert main(["testpiece", "vmc500", "-o", str(piece)]) == 0
+    capsys.readouterr()
+    report = _json(capsys, ["predict", "vmc500", str(piece), "--state", "directions=-1,1,1", "t=10", "--json"])
+    assert report["state"] == {"directions": [-1.0, 1.0, 1.0], "t": 10.0}
+    assert main(["predict", "vmc500", str(piece), "--state", "directions=-1,1,1"]) == 0
+    assert "(directions=" in capsys.readouterr().out

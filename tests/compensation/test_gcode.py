@@ -1119,3 +1119,44 @@ def test_a_subroutine_body_of_plain_moves_is_kept_not_read(machines):
     out, report = compensate_program(machines["vmc500"], program, tol_um=1.0)
     assert out.splitlines()[:7] == program.splitlines()[:7]
     assert report.passed_through == 7 and report.moves == 1
+
+
+def test_a_program_reads_back_as_one_batch_of_moves(machines, tmp_path):
+    """interpret gives the program's moves as one MoveBatch, in program order: each move's
+    line, kind (rapids as POINT), programming mode and, for an arc, its circle. Its text, its
+    lines and its file (read once, line by line) give the same batch; a row read on its own is
+    that row of the arrays, and its points are the batch's (the arcs' through arc_points)."""
+    from volerr_pin.compensation.gcode import ProgramFile, split_lines
+    from volerr_pin.compensation.moves import ARC, LINE, POINT, MoveBatch
+
+    m = machines["vmc500"]
+    program = "G21 G90 G17\r\nG0 X100 Y100 Z50\nG1 X200 F500\n\nG2 X300 Y100 I50 J0\nG0 Z80\nG1 X250\nM30"
+    moves = interpret(m, program)
+    assert isinstance(moves, MoveBatch) and len(moves) == 5
+    np.testing.assert_array_equal(moves.kind, [POINT, LINE, ARC, POINT, LINE])
+    np.testing.assert_array_equal(moves.line, [2, 3, 5, 6, 7])
+    assert not moves.tool_tip.any()
+    np.testing.assert_allclose(moves.w1[2] * 1e3, [300, 100, 50], atol=1e-12)
+    np.testing.assert_allclose(moves.center[2] * 1e3, [250, 100], atol=1e-12)
+    assert tuple(moves.plane[2]) == (0, 1, 2) and moves.sweep[2] == pytest.approx(-math.pi)
+    assert moves.r0[2] == pytest.approx(0.05) and moves.r1[2] == pytest.approx(0.05)
+    path = tmp_path / "p.nc"
+    path.write_bytes(program.encode())
+    for other in (interpret(m, split_lines(program)), interpret(m, ProgramFile(path)),
+                  interpret(m, ProgramFile(path).lines())):
+        for name in ("kind", "w0", "w1", "plane", "center", "r0", "r1", "a0", "sweep", "line", "tool_tip"):
+            np.testing.assert_array_equal(getattr(other, name), getattr(moves, name), err_msg=name)
+    arc = moves[2]
+    assert (arc.line, arc.kind, arc.programming) == (5, "arc", "axes") and moves[-1].kind == "line"
+    assert [mv.kind for mv in moves] == ["rapid", "line", "arc", "rapid", "line"]
+    k = np.linspace(0.0, 1.0, 7)
+    np.testing.assert_array_equal(arc.arc.point(k), moves.desired(np.full(7, 2), k))
+    np.testing.assert_array_equal(arc.sample(7), moves.desired(np.full(7, 2), k))
+    np.testing.assert_allclose(np.linalg.norm(arc.sample(9)[:, :2] - moves.center[2], axis=1), 0.05, atol=1e-15)
+    with pytest.raises(IndexError):
+        moves[5]
+    tip = interpret(machines["cgm4000"], "G21 G90\nG0 X2000 Y1250 Z300 A0 B0\nG43.4 H1\nG1 X2010\nG49\nG1 X2020\nM30\n")
+    np.testing.assert_array_equal(tip.tool_tip, [False, True, False])
+    assert [mv.programming for mv in tip] == ["axes", "tool-tip", "axes"]
+    empty = interpret(m, "G21 G90\nM30\n")
+    assert len(empty) == 0 and empty.w0.shape == (0, 3)

@@ -37,9 +37,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..base.chunks import in_chunks
 from ..base.errors import InputError
-from ..model import Machine
+from ..model import Machine, check_covariates, outside_travel, tool_poses
 from .cmm import RoundFeature, measure_round
 
 __all__ = ["Cone", "ConeSection", "find_cones", "measure_cones", "cone_frustum_test_piece", "section_heights"]
@@ -192,12 +191,12 @@ def find_cones(machine: Machine, moves, contours: list[list[int]], cut, tool_rad
     ----------
     machine : Machine
         The machine.
-    moves : volerr_pin.applications.part._Moves
-        The program's cutting moves.
+    moves : MoveBatch
+        The program's cutting moves (their ``line`` names a cone's blocks).
     contours : list of list of int
         Its contours (runs of cutting moves between rapids), as move indices.
     cut : volerr_pin.applications.part.Cut
-        The cut's samples.
+        The cut's samples (its axis positions, within the travel).
     tool_radius : float, default 0
         The tool's radius [m]: the part is the axis cone offset by it.
 
@@ -225,7 +224,7 @@ def find_cones(machine: Machine, moves, contours: list[list[int]], cut, tool_rad
         rows = cut.rows(turning)
         if len(rows) < 8:
             continue
-        R, tips = in_chunks(machine.tool_poses, cut.q[rows], nominal=True, extrapolate=True)
+        R, tips = tool_poses(machine.model, cut.q[rows], nominal=True)
         w = R[:, :, 2]
         contour = turning
         fitted = _fit(tips, w)
@@ -306,10 +305,11 @@ def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=N
                                  f"the cone of lines {cone.lines[0]}..{cone.lines[-1]} has no section at a negative "
                                  f"height ({height * 1e3:g} mm) of cone_heights", parameters=("cone_heights",))
     sections = []
+    model, theta, state = machine.model, machine.theta, machine.state
     for number, cone in enumerate(cones):
         taken = cut.rows(cone.moves) if rows is None else rows[number]
         q, covariates = cut.q[taken], cut.at(taken)
-        R, tips = machine.tool_poses(q, nominal=True, extrapolate=True)
+        R, tips = tool_poses(model, q, nominal=True)
         basis = cone.basis()
         around = np.sort(_around(tips, cone.apex, cone.axis, basis)) if len(q) else np.zeros(0)
         gap = float(np.degrees(np.diff(np.r_[around, around[:1] + 2 * np.pi]).max())) if len(q) else 360.0
@@ -318,7 +318,7 @@ def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=N
                 notes.append(f"the cone of lines {cone.lines[0]}..{cone.lines[-1]} is not measured: the cut has "
                              f"{len(q):,} points on it, not all round it (a gap of {gap:.1f} deg)")
             continue
-        R_act, p_act = machine.tool_poses(q, extrapolate=True, **covariates)
+        R_act, p_act = tool_poses(model, q, theta, check_covariates(model, len(q), covariates, state=state))
         w = R[:, :, 2]
         sign = 1.0 if cone.boss else -1.0
         contact = tips - sign * cone.tool_radius * _away(tips, w, cone.apex, cone.axis)
@@ -344,7 +344,9 @@ def measure_cones(machine: Machine, cones: list[Cone], cut, cone_heights, rows=N
 
 
 def _tool_axis(machine: Machine, q: np.ndarray) -> np.ndarray:
-    return machine.tool_poses(q, nominal=True, extrapolate=True)[0][:, :, 2]
+    """The nominal tool axis at axis positions (the grid and probes of :func:`_orient`, which
+    may step past the travel's ends)."""
+    return tool_poses(machine.model, q, nominal=True)[0][:, :, 2]
 
 
 def _orient(machine: Machine, rotary: list[int], base: np.ndarray, targets: np.ndarray) -> np.ndarray:
@@ -451,7 +453,7 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
     for k in rotary:
         lo, hi = machine.travel[k]
         base[k] = 0.0 if lo <= 0.0 <= hi else (lo + hi) / 2.0
-    origin = machine.tool_poses(base[None], nominal=True)[1][0] - np.array([0.0, 0.0, height])
+    origin = tool_poses(machine.model, base[None], nominal=True)[1][0] - np.array([0.0, 0.0, height])   # (mid travel)
     axis = np.array([np.sin(tilt), 0.0, np.cos(tilt)])
     e1 = np.cross([0.0, 1.0, 0.0], axis)
     e1 /= np.linalg.norm(e1)
@@ -469,7 +471,7 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
     words[:, :3] = tips
     tip_mode = programming_for("tool-tip", machine)
     q = tip_mode.to_axes(words)
-    outside = machine.outside_travel(q)
+    outside = outside_travel(machine.model, q)
     if outside.any():
         axis_index = int(np.argwhere(outside)[0][1])
         if machine.axis_kinds[axis_index] == "rotary":   # the angles are the piece's, whatever its size

@@ -54,11 +54,11 @@ def run(args) -> int:
     path = Path(args.program)
     inputs = [path] + ([Path(args.reference)] if args.reference else [])
     check_run_outputs({"png": args.png, "rrd": args.rrd}, inputs, machine)
-    text = "".join(body + ending for body, ending in ProgramFile(path).lines())
-    reference = ("".join(body + ending for body, ending in ProgramFile(args.reference).lines())
-                 if args.reference else None)
+    # each file read once, line by line, its lines given to the NC reader as they are
+    lines = list(ProgramFile(path).lines())
+    reference = list(ProgramFile(args.reference).lines()) if args.reference else None
     start, origin = program_positions(machine, args)
-    prediction = predict(machine, text, str(path), reference=reference, reference_source=args.reference or "",
+    prediction = predict(machine, lines, str(path), reference=reference, reference_source=args.reference or "",
                          tolerance=args.tol_um * 1e-6, start=start, origin=origin,
                          plane=None if args.plane is None else tuple("xyz".index(c) for c in args.plane),
                          tool_diameter=args.tool_diameter * 1e-3, cone_heights=[h * 1e-3 for h in args.cone_heights])
@@ -76,7 +76,7 @@ def run(args) -> int:
         print(dumps(report))
         return 0
     console = table_console()
-    state = ", ".join(f"{k}={v}" for k, v in report["state"].items()) if report["state"] else "no state"
+    state = ", ".join(f"{k}={v}" for k, v in machine.state.items()) if machine.state else "no state"
     console.print(escape(f"{machine.name}: {path} ({state}); {report['samples']:,} samples along the cutting moves, "
                          f"to {report['tolerance_um']:g} um"
                          + (f"; the part as {args.reference} defines it" if args.reference else "")))

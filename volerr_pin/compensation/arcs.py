@@ -65,7 +65,8 @@ class Arc:
 
         A small mismatch of start and end radius (as programs written to 4 decimals have) is
         spread linearly over the sweep, as controllers do, so that the arc ends exactly at the
-        programmed end point. Coordinates other than the plane's move linearly.
+        programmed end point. Coordinates other than the plane's move linearly
+        (:func:`arc_points`, for one arc).
 
         Parameters
         ----------
@@ -78,13 +79,15 @@ class Arc:
             Positions [m, rad].
         """
         k = np.atleast_1d(np.asarray(k, dtype=float))
-        i, j, _ = self.plane
-        out = self.start + np.outer(k, self.end - self.start)
-        ang = self.start_angle + k * self.sweep
-        r = self.radius if self.end_radius is None else self.radius + k * (self.end_radius - self.radius)
-        out[:, i] = self.center[0] + r * np.cos(ang)
-        out[:, j] = self.center[1] + r * np.sin(ang)
-        return out
+        m = len(k)
+
+        def rows(value):
+            return np.broadcast_to(np.asarray(value), (m,) + np.shape(value))
+
+        end_radius = self.radius if self.end_radius is None else self.end_radius
+        return arc_points(rows(self.start), rows(self.end), rows(self.plane[:2]), rows(self.center),
+                          np.full(m, self.radius), np.full(m, end_radius), np.full(m, self.start_angle),
+                          np.full(m, self.sweep), k)
 
 
 def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plane: tuple[int, int, int],

@@ -28,7 +28,8 @@ names axes make the position unknown.
 
 Modules: :mod:`.macros` and :mod:`.expressions` (programs as run), :mod:`.polar`,
 :mod:`.lexer` (words, blocks, lines, code tables), :mod:`.modal` (the modal state
-and the moves it gives), :mod:`.arcs` (reading arcs), :mod:`.segments` (:func:`interpret`),
+and the moves it gives), :mod:`.arcs` (reading arcs), :mod:`.segments` (:func:`interpret`: a program's moves as one
+:class:`~volerr_pin.compensation.moves.MoveBatch`),
 :mod:`.source` (reading a file line by line), :mod:`.program` (compensating as a stream),
 :mod:`.kept` (what cannot be compensated) and :mod:`.regions` (modes that change how later
 coordinates read), :mod:`.letters` (words against the modal state), :mod:`.rewrite` and
@@ -38,8 +39,8 @@ coordinates read), :mod:`.letters` (words against the modal state), :mod:`.rewri
 from .lexer import Block, GcodeError, Word, parse_block, split_lines
 from .program import Program, compensate_program
 from .report import Report
-from .segments import Segment, interpret
+from .segments import interpret
 from .source import ProgramFile
 
-__all__ = ["Block", "GcodeError", "Program", "ProgramFile", "Report", "Segment", "Word", "compensate_program",
+__all__ = ["Block", "GcodeError", "Program", "ProgramFile", "Report", "Word", "compensate_program",
            "interpret", "parse_block", "split_lines"]

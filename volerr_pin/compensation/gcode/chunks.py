@@ -87,7 +87,7 @@ class ChunkWriting:
         n = len(reader.axes)
         total = sum(g.count for g in groups)
         batch = MoveBatch.empty(total, n)
-        line = np.empty(total, dtype=np.int64)
+        line = batch.line
         singles: list[int] = []
         ones: list = []
         k = 0
@@ -107,13 +107,10 @@ class ChunkWriting:
             batch.w0[singles] = [mv.start for mv in ones]
             batch.w1[singles] = [mv.target for mv in ones]
             line[singles] = [mv.line for mv in ones]
-            for i, mv in zip(singles, ones):
-                if mv.arc is not None:
-                    a = mv.arc
-                    batch.plane[i] = a.plane
-                    batch.center[i] = a.center
-                    batch.r0[i], batch.r1[i] = a.radius, (a.radius if a.end_radius is None else a.end_radius)
-                    batch.a0[i], batch.sweep[i] = a.start_angle, a.sweep
+            arcs = [(i, mv.arc) for i, mv in zip(singles, ones) if mv.arc is not None]
+            if arcs:
+                batch.put_arcs([i for i, _ in arcs], [a for _, a in arcs])
+        batch.tool_tip[:] = not mode.identity   # (a chunk is in one programming mode)
         self._groups = groups
         _check_travel(self, line, batch, mode)
         start, start_residual = None, 0.0

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..moves import ARC, LINE, POINT
 from ..path import PathCompensator
-from ...model import Machine
+from ...model import Machine, axis_jacobian
 from .flow import Flow
 from . import macros
 from .lexer import LATHE_CYCLES, PROGRAM_END, WORK_OFFSETS, Block, GcodeError, mask_comments, split_lines
@@ -495,7 +495,7 @@ def _levers(machine: Machine) -> list[float]:
     rng = np.random.default_rng(0)
     travel = np.where(np.isfinite(machine.travel), machine.travel, np.array([-math.pi, math.pi]))
     q = travel[:, 0] + rng.random((32, len(machine.axes))) * (travel[:, 1] - travel[:, 0])
-    J = machine.axis_jacobian(q, nominal=True, extrapolate=True)
+    J = axis_jacobian(machine.model, q, nominal=True)   # (random poses within the travel)
     return [float(np.linalg.norm(J[:, :3, j], axis=1).max()) * math.radians(0.5e-5) * 1e6 for j in rotary]
 
 

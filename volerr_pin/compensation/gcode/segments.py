@@ -1,12 +1,11 @@
-"""The moves of a program as the controller interpolates them (for reading programs back)."""
+"""Reading a program back: its moves as the controller interpolates them, as one
+:class:`~volerr_pin.compensation.moves.MoveBatch` (:func:`interpret`)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Iterable
 
-import numpy as np
-
-from ..arcs import Arc
+from ..moves import ARC, LINE, POINT, MoveBatch
 from ...model import Machine
 from .flow import Flow
 from . import macros
@@ -14,57 +13,13 @@ from .lexer import PROGRAM_END, GcodeError, mask_comments, split_lines
 from . import kept
 from .modal import Interpreter
 from .polar import has_polar, read_polar
+from .source import ProgramFile
 
-__all__ = ["Segment", "interpret"]
-
-
-@dataclass
-class Segment:
-    """One interpolated move of a program.
-
-    Attributes
-    ----------
-    line : int
-        1-based line number of its block.
-    kind : str
-        "rapid" (only the end point is meaningful), "line" (straight in program coordinates) or
-        "arc".
-    start, end : numpy.ndarray, shape (n_axes,)
-        Program coordinates at the ends [m, rad] (axis positions in axis programming).
-    arc : Arc or None
-        The arc, for ``kind == "arc"``.
-    programming : str
-        ``"axes"`` or ``"tool-tip"``: what the coordinates are.
-    """
-
-    line: int
-    kind: str
-    start: np.ndarray
-    end: np.ndarray
-    arc: Arc | None = None
-    programming: str = "axes"
-
-    def sample(self, n: int) -> np.ndarray:
-        """Points along the move, evenly spaced in its parameter.
-
-        Parameters
-        ----------
-        n : int
-            Number of points, ends included.
-
-        Returns
-        -------
-        numpy.ndarray, shape (n, n_axes)
-            Program coordinates [m, rad].
-        """
-        k = np.linspace(0.0, 1.0, n)
-        if self.kind == "arc":
-            return self.arc.point(k)
-        return self.start + np.outer(k, self.end - self.start)
+__all__ = ["interpret"]
 
 
-def interpret(machine: Machine, text: str, source: str = "<program>", start=None, origin=None,
-              programming: str = "axes") -> list[Segment]:
+def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str, str]], source: str = "<program>",
+              start=None, origin=None, programming: str = "axes") -> MoveBatch:
     """The moves of a program as the controller interpolates them.
 
     Lines are straight in program coordinates, arcs turn about their centres. Moves before
@@ -75,8 +30,10 @@ def interpret(machine: Machine, text: str, source: str = "<program>", start=None
     ----------
     machine : Machine
         The machine; its axes are NC address letters.
-    text : str
-        The program (mm, inch and deg as it selects).
+    program : str, ProgramFile or iterable of (str, str)
+        The program (mm, inch and deg as it selects): its text, its file (read once, line by
+        line), or its lines with their endings (:meth:`ProgramFile.lines`,
+        :func:`~volerr_pin.compensation.gcode.lexer.split_lines`).
     source : str
         Name of the program, for messages.
     start : array_like, shape (n_axes,), optional
@@ -88,9 +45,12 @@ def interpret(machine: Machine, text: str, source: str = "<program>", start=None
 
     Returns
     -------
-    list of Segment
-        One per move, in program order, in program coordinates [m, rad]; targets may lie
-        outside the travel.
+    MoveBatch
+        One row per move, in program order, in program coordinates [m, rad] (targets may lie
+        outside the travel): its ``line``, its ``kind`` (:data:`~volerr_pin.compensation.moves.POINT`
+        for a rapid or a move from an unknown position, ``LINE`` or ``ARC``, with the arc's
+        circle) and whether it is in tool-tip programming. Its rows read one at a time as
+        :class:`~volerr_pin.compensation.moves.Move`.
 
     Raises
     ------
@@ -98,23 +58,29 @@ def interpret(machine: Machine, text: str, source: str = "<program>", start=None
         A block that cannot be read, naming its line.
     """
     reader = Interpreter(machine, source=source, start=start, origin=origin, programming=programming)
-    lines = split_lines(text)
+    if isinstance(program, str):
+        lines = split_lines(program)
+    else:
+        lines = list(program.lines() if isinstance(program, ProgramFile) else program)
     try:
         expansion = macros.expand(lines, source)
     except macros.Unfollowable:
         expansion = None   # read as it is, macro blocks kept (as compensate_program reads it)
     if expansion is None:
-        return _segments(reader, lines, source, None)
+        return _moves(reader, lines, source, None)
     try:
-        return _segments(reader, expansion.lines, source, expansion.origin)
+        return _moves(reader, expansion.lines, source, expansion.origin)
     except GcodeError as err:
         raise macros.renamed(err, source, expansion.origin) from None
 
 
-def _segments(reader: Interpreter, lines, source: str, origin) -> list[Segment]:
+def _moves(reader: Interpreter, lines, source: str, origin) -> MoveBatch:
+    """The moves of the blocks ``lines`` (``origin``: the program line each comes from, for an
+    expanded program), gathered in lists and laid into one batch at the end."""
     state = reader.initial_state()
     flow = Flow(source)
-    out = []
+    numbers, kinds, tips, starts, targets = [], [], [], [], []
+    arc_rows, arcs = [], []
     for number, (body, _) in enumerate(lines, start=1):
         masked = mask_comments(body, number, source)
         if has_polar(masked) and flow.body is None:
@@ -132,19 +98,28 @@ def _segments(reader: Interpreter, lines, source: str, origin) -> list[Segment]:
             continue
         move = reader.advance(block, state, check_travel=False)
         if move is not None:
-            out.append(_segment(reader, block, move, state, number if origin is None else origin[number - 1]))
+            # a rapid, or a move from an unknown position: only its end is meaningful
+            if not move.start_known.all() or move.motion == 0:
+                kind = POINT
+            elif move.motion == 1:
+                kind = LINE
+            else:
+                kind = ARC
+                arc_rows.append(len(kinds))
+                arcs.append(reader.arc(block, move.start, move.target, move.motion == 2, state))
+            kinds.append(kind)
+            numbers.append(number if origin is None else origin[number - 1])
+            tips.append(move.tool_tip)
+            starts.append(move.start)
+            targets.append(move.target)
         if any(w.letter == "M" and w.value in PROGRAM_END for w in block.words):
             break   # the program ends: nothing after it is read
-    return out
-
-
-def _segment(reader: Interpreter, block, move, state, number: int) -> Segment:
-    """The segment of a block's move: a rapid (also a move from an unknown position), a line or
-    an arc."""
-    mode = "tool-tip" if move.tool_tip else "axes"
-    if not move.start_known.all() or move.motion == 0:
-        return Segment(number, "rapid", move.start, move.target, programming=mode)
-    if move.motion == 1:
-        return Segment(number, "line", move.start, move.target, programming=mode)
-    return Segment(number, "arc", move.start, move.target,
-                   reader.arc(block, move.start, move.target, move.motion == 2, state), mode)
+    batch = MoveBatch.empty(len(kinds), len(reader.axes))
+    if kinds:
+        batch.kind[:] = kinds
+        batch.w0[:] = starts
+        batch.w1[:] = targets
+        batch.line[:] = numbers
+        batch.tool_tip[:] = tips
+        batch.put_arcs(arc_rows, arcs)
+    return batch
