@@ -29,8 +29,6 @@ ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "examples" / "data"
 
 PACKAGE = "volerr_pin.compensation"
-#: calls left to the rework of the NC reader (compensation/gcode/, owned there): caller module and function
-PENDING = {("volerr_pin.compensation.gcode.program", "_levers")}
 
 
 @pytest.fixture
@@ -41,8 +39,7 @@ def recorded(monkeypatch):
 
 
 def _unexpected(calls):
-    return sorted({f"{module}.{function} (line {line}) calls Machine.{name}"
-                   for name, module, function, line in calls if (module, function) not in PENDING})
+    return sorted({f"{module}.{function} (line {line}) calls Machine.{name}" for name, module, function, line in calls})
 
 
 def test_the_wrapper_records_a_call_from_compensation(recorded):
@@ -103,11 +100,10 @@ def test_nc_compensation_calls_the_algorithms(recorded, tmp_path, argv):
     assert not _unexpected(recorded)
 
 
-@pytest.mark.xfail(strict=False, reason="compensation/gcode/program.py's _levers still calls Machine.axis_jacobian; "
-                                        "converted with the NC reader's rework")
 def test_the_nc_reader_calls_the_algorithms_too(recorded, tmp_path):
+    """A five-axis program: the reader's rounding levers (the nominal axis Jacobian) included."""
     assert main(["compensate", "cgm4000", str(DATA / "cgm4000_cone.nc"), "-o", str(tmp_path / "out.nc")]) == 0
-    assert not [call for call in recorded if call[1:3] in PENDING]
+    assert not _unexpected(recorded)
 
 
 def test_error_maps_and_compensation_tables_call_the_algorithms(recorded, machines, tmp_path):
