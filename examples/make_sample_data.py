@@ -189,7 +189,7 @@ def test_piece(path: Path) -> None:
 def cone_frustum(path: Path) -> None:
     """The cone frustum test piece for cgm4000, as ``volerr testpiece cgm4000 --kind cone-frustum``
     writes it."""
-    from volerr_pin.applications.cone import cone_frustum_test_piece
+    from volerr_pin.applications.part import cone_frustum_test_piece
 
     path.write_text(cone_frustum_test_piece(vp.load_machine("cgm4000")))
 

@@ -15,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import volerr_pin.applications.cone as cone_module
-from volerr_pin.applications.cone import Cone, cone_frustum_test_piece, find_cones, measure_cones
+import volerr_pin.applications.part._cone as cone_module
+from volerr_pin.applications.part import Cone, cone_frustum_test_piece, find_cones, measure_cones
 from volerr_pin.applications.part import CuttingPath, cut_of, feature_ranking, measure, predict
 from volerr_pin.base.errors import InputError
 from volerr_pin.compensation.gcode import interpret

@@ -193,7 +193,7 @@ def test_the_feature_ranking_matches_finite_differences(machines, which):
         theta[columns[component]] = 0.0
         return m.with_theta(theta)
 
-    import volerr_pin.applications._part_ranking as ranking
+    import volerr_pin.applications.part._ranking as ranking
 
     original = ranking._contributions
 

@@ -10,7 +10,6 @@ not this test's business)."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +20,7 @@ from volerr_pin.cli import main
 from volerr_pin.compensation import PathCompensator, arc_from_center, compensate_points, evaluate_compensation
 from volerr_pin.compensation.errormap import ErrorMap, axis_tables, compensation_table
 from volerr_pin.compensation.export import export_tables, parse_zone
-from volerr_pin.model import Machine, add_terms
+from volerr_pin.model import add_terms
 
 from conftest import random_q, record_checking_calls
 

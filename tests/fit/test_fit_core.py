@@ -6,11 +6,9 @@ machine goes through once: offered, scored, accepted and refitted."""
 
 from __future__ import annotations
 
-import os
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 import volerr_pin as vp

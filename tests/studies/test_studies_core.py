@@ -12,7 +12,6 @@ methods as an attribute (a call, or a bound method passed on as a callable).
 from __future__ import annotations
 
 import ast
-import sys
 from pathlib import Path
 
 import pytest

@@ -36,7 +36,7 @@ def run(args) -> int:
     size = None if args.size is None else args.size * 1e-3
     advice = ""
     if args.kind == "cone-frustum":
-        from ..applications.cone import cone_frustum_test_piece, section_heights
+        from ..applications.part import cone_frustum_test_piece, section_heights
 
         text = cone_frustum_test_piece(machine, size, tool_diameter=args.tool_diameter * 1e-3, feed=args.feed)
         heights = ",".join(f"{h * 1e3:g}" for h in (section_heights(size) if size else section_heights()))

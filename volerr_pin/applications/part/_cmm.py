@@ -9,8 +9,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..base.errors import InputError
-from ..base.units import UM_PER_M
+from ...base.errors import InputError
+from ...base.units import UM_PER_M
 
 __all__ = ["fit_circle", "fit_line", "RoundFeature", "measure_round"]
 

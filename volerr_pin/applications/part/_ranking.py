@@ -7,10 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..base.units import UM_PER_M
-from ..model import Machine, check_covariates, sensitivity
-from ._part_features import CircleFeature, LineFeature
-from .cone import ConeSection
+from ...base.units import UM_PER_M
+from ...model import Machine, check_covariates, sensitivity
+from ._features import CircleFeature, LineFeature
+from ._cone import ConeSection
 
 __all__ = ["feature_ranking"]
 

@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..base.errors import InputError
-from ..compensation.moves import ARC, POINT, MoveBatch
-from ..model import Machine, check_covariates, outside_travel, tool_poses, volumetric_error
+from ...base.errors import InputError
+from ...compensation.moves import ARC, POINT, MoveBatch
+from ...model import Machine, check_covariates, outside_travel, tool_poses, volumetric_error
 
 __all__ = ["TANGENT_STEP", "TIP_PIECE", "CuttingPath", "normal_part"]
 
@@ -163,7 +163,7 @@ class CuttingPath:
     def _to_axes(self, words: np.ndarray) -> np.ndarray:
         """Tool-tip words as axis positions, :data:`TIP_PIECE` points at a time."""
         if self._tip is None:
-            from ..compensation.programming import programming_for
+            from ...compensation.programming import programming_for
 
             self._tip = programming_for("tool-tip", self.machine)
         if len(words) <= TIP_PIECE:

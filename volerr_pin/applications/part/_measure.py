@@ -9,7 +9,7 @@ diameter error (twice the fitted minus the nominal radius) and the centre error 
 of the fitted centre from the nominal one). A straight side (a cutting line in the contour
 plane) gives its straightness, and within a contour (cutting moves between rapids) its corners
 give squareness and its opposite sides parallelism; a contour a five-axis machine cuts with
-the tool's flank gives a cone's sections (:mod:`~volerr_pin.applications.cone`).
+the tool's flank gives a cone's sections (:func:`~volerr_pin.applications.part.measure_cones`).
 """
 
 from __future__ import annotations
@@ -18,13 +18,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..base.units import UM_PER_M
-from ..model import Machine
-from ._part_features import CircleFeature, LineFeature, PairFeature
-from ._part_path import CuttingPath
-from ._part_sampling import Cut, cut_of
-from .cmm import fit_line, measure_round
-from .cone import find_cones, measure_cones
+from ...base.units import UM_PER_M
+from ...model import Machine
+from ._features import CircleFeature, LineFeature, PairFeature
+from ._path import CuttingPath
+from ._sampling import Cut, cut_of
+from ._cmm import fit_line, measure_round
+from ._cone import find_cones, measure_cones
 
 __all__ = ["Features", "contour_plane", "measure"]
 
@@ -197,7 +197,7 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
     straight side (a cutting line in the plane at least ``min_length`` long), within a contour
     (cutting moves between rapids) its corners' squareness and its opposite sides' parallelism
     (the earlier side the datum), and each contour that cuts a cone with the tool's flank (five-axis,
-    :func:`volerr_pin.applications.cone.find_cones`), in sections at ``cone_heights``. They are
+    :func:`volerr_pin.applications.part.find_cones`), in sections at ``cone_heights``. They are
     measured on the cut: the program's cutting moves sampled at most ``spacing`` apart, where
     the tool actually is. A sample measures a feature of its own move; with a reference (a
     compensated program against the program it was made from), a sample measures the feature

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .cmm import RoundFeature
+from ._cmm import RoundFeature
 
 __all__ = ["CircleFeature", "LineFeature", "PairFeature"]
 
@@ -24,7 +24,7 @@ def _without(values: np.ndarray, basis: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True, kw_only=True)
 class CircleFeature(RoundFeature):
     """A full circle of the program, as a CMM reports it (the fields of
-    :class:`~volerr_pin.applications.cmm.RoundFeature`, in the contour plane, and these).
+    :class:`~volerr_pin.applications.part.RoundFeature`, in the contour plane, and these).
 
     Attributes
     ----------

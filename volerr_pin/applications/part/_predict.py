@@ -1,42 +1,6 @@
-"""The part a program cuts: the tool's deviation from the programmed path, and the features a
-CMM reports of it, with the error sources that decide each (:func:`predict`).
-
-The path is read by the NC reader ``compensate`` uses (:func:`volerr_pin.compensation.gcode.interpret`:
-every mode it follows, every refusal it makes), once, as one batch of moves, and sampled along
-each cutting move (lines and arcs; rapids cut nothing). At each sample the model gives the
-tool point's error ``e`` (actual minus nominal, in the workpiece frame). What the cut surface
-keeps is the part of ``e`` normal to the path: the part along the path only shifts when the
-tool passes, so
-
-    d = e - (e . t) t,
-
-with ``t`` the unit tangent of the nominal tool path. Where the tool point does not move (a
-rotary axis turning about it) there is no path direction, and the whole error is kept.
-
-The samples are refined until the deviation, interpolated linearly between neighbours, is
-within ``tolerance`` of the model at every midpoint (a stated sampling tolerance, checked, not
-assumed).
-
-The path sets what the machine's state cannot: for a machine whose errors depend on the axes'
-directions (backlash), each axis' direction at each sample is the sign of its commanded motion
-into the sample, kept while the axis stands still, rapids included, as a controller takes it;
-the state's ``directions`` only say how the axes arrived before the program.
-
-The work is split by concern, each in a module of its own, this one naming the whole:
-
-- ``_part_path``: the program's cutting moves on the machine (:class:`CuttingPath`: positions,
-  tool points, errors, the axes' directions);
-- ``_part_sampling``: the deviation along the path (:func:`deviation_along`) and the cut
-  sampled evenly (:func:`cut_of`);
-- ``_part_features``: circles, sides and pairs as a CMM reports them;
-- ``_part_measure``: finding them in a program and measuring them on the cut (:func:`measure`,
-  :func:`contour_plane`; a cone's sections through :mod:`~volerr_pin.applications.cone`);
-- ``_part_ranking``: the error sources of a feature (:func:`feature_ranking`);
-- ``_part_testpiece``: the contouring test piece (:func:`contouring_test_piece`).
-
-Conventions: positions in m, deviations in um in the reports; programs in axes or tool-tip
-programming, as ``compensate`` reads them.
-"""
+"""The prediction of the part a program cuts (:func:`predict`): the program's moves read once, the
+deviation sampled along the path, the features measured on the cut, each ranked by the error
+sources that decide it (:class:`PartPrediction`); see :mod:`volerr_pin.applications.part`."""
 
 from __future__ import annotations
 
@@ -45,19 +9,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..base.units import UM_PER_M
-from ..model import Machine
-from ._part_features import CircleFeature, LineFeature, PairFeature
-from ._part_measure import Features, contour_plane, measure
-from ._part_path import CuttingPath, normal_part
-from ._part_ranking import feature_ranking
-from ._part_sampling import Cut, PathDeviation, cut_of, deviation_along
-from ._part_testpiece import contouring_test_piece
-from .cmm import fit_circle, fit_line
+from ...base.units import UM_PER_M
+from ...model import Machine
+from ._measure import measure
+from ._path import CuttingPath
+from ._ranking import feature_ranking
+from ._sampling import PathDeviation, deviation_along
 
-__all__ = ["CircleFeature", "Cut", "CuttingPath", "Features", "LineFeature", "PairFeature", "PartPrediction",
-           "PathDeviation", "blocks_text", "contour_plane", "contouring_test_piece", "cut_of", "deviation_along",
-           "feature_ranking", "fit_circle", "fit_line", "measure", "normal_part", "predict"]
+__all__ = ["PartPrediction", "blocks_text", "predict"]
 
 
 def blocks_text(blocks: list[int]) -> str:
@@ -172,7 +131,7 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
         tolerance is not a positive number or takes too many samples, or a cone has no section
         at a height.
     """
-    from ..compensation.gcode import interpret
+    from ...compensation.gcode import interpret
 
     moves = CuttingPath(machine, interpret(machine, program, source, start=start, origin=origin))
     defining = None if reference is None else interpret(machine, reference, reference_source, start=start,

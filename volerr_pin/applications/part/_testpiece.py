@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..base.errors import InputError
-from ..model import Machine
+from ...base.errors import InputError
+from ...model import Machine
 
 __all__ = ["contouring_test_piece"]
 

@@ -37,9 +37,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..base.errors import InputError
-from ..model import Machine, check_covariates, outside_travel, tool_poses
-from .cmm import RoundFeature, measure_round
+from ...base.errors import InputError
+from ...model import Machine, check_covariates, outside_travel, tool_poses
+from ._cmm import RoundFeature, measure_round
 
 __all__ = ["Cone", "ConeSection", "find_cones", "measure_cones", "cone_frustum_test_piece", "section_heights"]
 
@@ -110,7 +110,7 @@ class Cone:
 @dataclass(frozen=True, kw_only=True)
 class ConeSection(RoundFeature):
     """A section of a cone at a height, as a CMM reports it (the fields of
-    :class:`~volerr_pin.applications.cmm.RoundFeature`, in the section's coordinates
+    :class:`~volerr_pin.applications.part.RoundFeature`, in the section's coordinates
     :meth:`Cone.basis` about the nominal axis, and these).
 
     Attributes
@@ -432,7 +432,7 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
         If the machine has not two rotary axes, cannot point the tool so, or the cut leaves
         its travel.
     """
-    from ..compensation.programming import programming_for
+    from ...compensation.programming import programming_for
 
     rotary = [k for k, kind in enumerate(machine.axis_kinds) if kind == "rotary"]
     if len(rotary) != 2:

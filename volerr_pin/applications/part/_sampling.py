@@ -3,7 +3,7 @@ stated tolerance (:func:`deviation_along`), and the cut surface sampled evenly a
 cutting move, where the tool actually is (:func:`cut_of`), which features are measured on.
 
 The deviation is what the cut surface keeps of the tool point's error ``e``: its part normal
-to the path, ``d = e - (e . t) t`` (:func:`~._part_path.normal_part`), the part along the path
+to the path, ``d = e - (e . t) t`` (:func:`~volerr_pin.applications.part.normal_part`), the part along the path
 only shifting where the tool passes.
 """
 
@@ -13,10 +13,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..base.errors import InputError
-from ..base.units import UM_PER_M
-from ..model import Machine
-from ._part_path import CuttingPath
+from ...base.errors import InputError
+from ...base.units import UM_PER_M
+from ...model import Machine
+from ._path import CuttingPath
 
 __all__ = ["SHORTEST", "Cut", "PathDeviation", "cut_of", "deviation_along"]
 
