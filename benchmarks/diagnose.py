@@ -5,7 +5,7 @@ environment free and limited to one thread, measured in one run.
 
 Every measurement runs in a fresh process on a held-out set of vmc500 with every covariate
 column (t, three temperatures, three forces, three approach directions; off-spec geometry and a
-hidden backlash, :func:`volerr_pin.measurements.simulate.heldout_set`). A diagnosis runs in one process on
+hidden backlash, :func:`volerr_pin.measurements.heldout_set`). A diagnosis runs in one process on
 one BLAS thread, which it sets itself: "default" runs it with the environment as a user has it,
 "one thread" with BLAS, OpenMP and numba limited to one thread through the environment, and the
 two should take the same time (their ratio near 1: a diagnosis that let BLAS spin threads on its
@@ -48,7 +48,7 @@ print(json.dumps({"wall_s": time.perf_counter() - t0, "cpu_s": cpu() - c0,
 
 def _write_set(n: int, folder: Path) -> Path:
     import volerr_pin as vp
-    from volerr_pin.measurements.simulate import heldout_set, write_points
+    from volerr_pin.measurements import heldout_set, write_points
 
     machine = vp.load_machine("vmc500")
     _, data = heldout_set(machine, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}, n, 0.3, 7)

@@ -15,9 +15,7 @@ import platform
 import time
 
 import volerr_pin as vp
-from volerr_pin.compensation.export import CONTROLLERS, Zone, export_tables
-from volerr_pin.compensation.export.fit import fit
-from volerr_pin.compensation.export.run import FIT_POINTS_PER_VALUE
+from volerr_pin.compensation.export import CONTROLLERS, FIT_POINTS_PER_VALUE, Zone, export_tables, fit
 
 MACHINES = ("vmc500", "cgm4000")
 
@@ -72,6 +70,6 @@ if __name__ == "__main__":
     text = markdown(bench(args.points))
     print(text)
     if args.markdown:
-        from volerr_pin.base.safeio import write_text
+        from volerr_pin.base import write_text
 
         write_text(args.markdown, text)

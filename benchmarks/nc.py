@@ -229,7 +229,7 @@ def main(argv=None) -> int:
     rows = bench(sizes, args.kinds)
     text = markdown(rows)
     print(text)
-    from volerr_pin.base.safeio import write_text
+    from volerr_pin.base import write_text
 
     if args.markdown:
         write_text(args.markdown, text)

@@ -101,7 +101,7 @@ def main() -> int:
     text = section(args.quick, args.instruments)
     print(text)
     if args.markdown:
-        from volerr_pin.base.safeio import write_text
+        from volerr_pin.base import write_text
 
         write_text(args.markdown, text)
     return 0

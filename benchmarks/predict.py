@@ -91,7 +91,7 @@ def batches_against_a_loop(blocks: int = 2_000) -> dict:
     import volerr_pin as vp
     from volerr_pin.applications.part import deviation_along
     from volerr_pin.compensation.gcode import interpret
-    from volerr_pin.compensation.moves import POINT
+    from volerr_pin.compensation import POINT
 
     nc = _nc()
     with tempfile.TemporaryDirectory(prefix="volerr-predict-bench-") as tmp:
@@ -161,7 +161,7 @@ def main(argv=None) -> int:
     text = markdown(*bench(args.sizes or (QUICK_SIZES if args.quick else SIZES), args.kinds))
     print(text)
     if args.markdown:
-        from volerr_pin.base.safeio import write_text
+        from volerr_pin.base import write_text
 
         write_text(args.markdown, text)
     return 0

@@ -45,8 +45,7 @@ import numpy as np
 import pinocchio as pin
 
 import volerr_pin as vp
-from volerr_pin.model import _kinematics as K
-from volerr_pin.model import check_covariates, parameter_jacobian, sample
+from volerr_pin.model import _kinematics as K, add_terms, check_covariates, parameter_jacobian, sample
 
 
 def best_of(fn, repeat=3):
@@ -253,7 +252,7 @@ def peak_memory(name, n):
 
 def bench_identification(n):
     from volerr_pin.fit.identify import identify
-    from volerr_pin.measurements.simulate import campaign
+    from volerr_pin.measurements import campaign
 
     truth = vp.load_machine("vmc500")
     data = campaign(truth, n=n, noise_um=0.3, seed=1)
@@ -270,8 +269,7 @@ DIAGNOSIS = """
 import json, sys, time
 import volerr_pin as vp
 from volerr_pin.fit.diagnosis import diagnose
-from volerr_pin.measurements.simulate import campaign, off_model_geometry
-from volerr_pin.model import add_terms
+from volerr_pin.measurements import campaign, off_model_geometry
 
 n, style = int(sys.argv[1]), sys.argv[2]
 m = vp.load_machine("vmc500")
@@ -518,7 +516,7 @@ def main(argv=None):
     text = markdown(info)
     print(text)
     if args.markdown:
-        from volerr_pin.base.safeio import write_text
+        from volerr_pin.base import write_text
 
         write_text(args.markdown, text + "\n")
     if args.json:

@@ -40,11 +40,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import volerr_pin as vp  # noqa: E402
 from volerr_pin.model import check_inputs, volumetric_error  # noqa: E402
-from volerr_pin.studies.engine import available_cores, local_cluster  # noqa: E402
-from volerr_pin.studies.evaluator import Evaluator  # noqa: E402
-from volerr_pin.studies.montecarlo import grid_points, make_points, run_monte_carlo  # noqa: E402
-from volerr_pin.studies.tolerance import study_tolerances, tolerance_source  # noqa: E402
-from volerr_pin.studies.tolerances import read_tolerance_file  # noqa: E402
+from volerr_pin.studies import available_cores, local_cluster  # noqa: E402
+from volerr_pin.studies import Evaluator  # noqa: E402
+from volerr_pin.studies import grid_points, make_points, run_monte_carlo  # noqa: E402
+from volerr_pin.studies import study_tolerances, tolerance_source  # noqa: E402
+from volerr_pin.studies import read_tolerance_file  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 TOLERANCES = ROOT / "examples" / "data" / "vmc500_tolerances.toml"
@@ -140,7 +140,7 @@ def client_seconds(machine, tol, points: int, sobol: int) -> tuple[float, float]
     and the Sobol' analysis (SALib's estimators and bootstrap) of ``sobol`` base samples."""
     from SALib.analyze import sobol as salib_sobol
 
-    from volerr_pin.studies.shapes import work_offset_components
+    from volerr_pin.studies import work_offset_components
 
     q = grid_points(machine, [max(2, round(points ** (1 / len(machine.axes))))])
     t0 = time.perf_counter()
@@ -219,7 +219,7 @@ def predict(row: dict, draws: float, points: float, workers: int) -> float:
     ``o`` Dask's measured cost per piece of work, ``W / TASK_SECONDS`` the pieces; the client's
     own time per point (its machine, reference errors, work-offset test) and the Sobol'
     analysis as measured. Cluster start-up is apart."""
-    from volerr_pin.studies.engine import TASK_SECONDS
+    from volerr_pin.studies import TASK_SECONDS
 
     total = draws + row["model_draws"] - row["draws"]
     work = total * points * row["us_per_pair"] * 1e-6

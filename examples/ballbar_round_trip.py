@@ -28,10 +28,9 @@ from pathlib import Path
 import numpy as np
 
 import volerr_pin as vp
-from volerr_pin.measurements.ballbar import evaluate_circular, read_ballbar
+from volerr_pin.measurements import ballbar_run, evaluate_circular, read_ballbar, write_ballbar
 from volerr_pin.fit.identify import identify
-from volerr_pin.viz.plots import ballbar_png
-from volerr_pin.measurements.simulate import ballbar_run, write_ballbar
+from volerr_pin.viz import ballbar_png
 from volerr_pin.model import add_terms
 
 CENTRE = {"X": 250.0, "Y": 200.0, "Z": 200.0}

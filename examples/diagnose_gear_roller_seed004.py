@@ -28,8 +28,7 @@ import numpy as np
 
 import volerr_pin as vp
 from volerr_pin.measurements import PointMeasurements
-from volerr_pin.model import build_term
-from volerr_pin.model import add_terms
+from volerr_pin.model import add_terms, build_term
 
 E_GPA, D_MM, L_MM, B_MM = 210.0, 60.0, 400.0, 150.0
 MEASURED_UM = 5.0

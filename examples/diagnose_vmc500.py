@@ -23,7 +23,7 @@ from pathlib import Path
 
 import volerr_pin as vp
 from volerr_pin.cli import main as cli
-from volerr_pin.measurements.simulate import campaign, write_points
+from volerr_pin.measurements import campaign, write_points
 from volerr_pin.model import add_terms
 
 HIDDEN = {"EZZ": {"kind": "thermal_drift", "driver": "temperature", "prefix": "growth",

@@ -32,9 +32,10 @@ import numpy as np
 from scipy.optimize import least_squares
 
 import volerr_pin as vp
-from volerr_pin.applications.gear import REFERENCE_GEAR, contact_springback, contribution_degrees, flank_deviations, unit_error_study
+from volerr_pin.applications.gear import (REFERENCE_GEAR, contact_springback, contribution_degrees, flank_deviations,
+                                          unit_error_study)
 from volerr_pin.model import replace_terms
-from volerr_pin.base.units import UM
+from volerr_pin.base import UM
 
 # seed 004, Tables 2 and 4: total profile, total helix, single pitch deviation [mm]
 PAPER = {"EXA": (0.973, 0.9611, 0.9575), "EYA": (0.3615, 0.29988, -0.2838), "EZA": (0.0, 0.0, 0.0),

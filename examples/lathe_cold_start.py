@@ -31,11 +31,10 @@ import numpy as np
 import rerun.blueprint as rrb
 
 import volerr_pin as vp
-from volerr_pin.viz.plots import save
-from volerr_pin.viz.recording import (eye_on, log_field, log_machine, log_time_series, new_recording, opened_paused,
-                                      streaming, whole_range)
-from volerr_pin.model import add_terms
-from volerr_pin.model import default_config, evaluate_field, field_grid
+from volerr_pin.viz import save
+from volerr_pin.viz import (eye_on, log_field, log_machine, log_time_series, new_recording, opened_paused, streaming,
+                            whole_range)
+from volerr_pin.model import add_terms, default_config, evaluate_field, field_grid
 
 HOURS = 20.0
 REFERENCE_MM = (-250.0, 100.0)  # Z, X: mid-length of a part, 100 mm radius

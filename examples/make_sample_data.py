@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 import volerr_pin as vp
-from volerr_pin.measurements.simulate import ballbar_run, campaign, off_model_geometry, write_ballbar, write_points
+from volerr_pin.measurements import ballbar_run, campaign, off_model_geometry, write_ballbar, write_points
 from volerr_pin.model import add_terms
 
 HERE = Path(__file__).resolve().parent

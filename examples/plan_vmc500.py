@@ -31,10 +31,8 @@ import numpy as np
 import volerr_pin as vp
 from volerr_pin.fit.identify import identify
 from volerr_pin.measurements import read_any
-from volerr_pin.studies.plan import instrument, make_setup, plan
-from volerr_pin.studies.plan.after import after_diagnosis
-from volerr_pin.studies.plan.nc import nc_program, time_estimate
-from volerr_pin.base.safeio import write_text
+from volerr_pin.studies.plan import after_diagnosis, instrument, make_setup, nc_program, plan, time_estimate
+from volerr_pin.base import write_text
 
 TARGETS_M = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]])
 TRACKER_AT_MM = np.array([1500.0, -800.0, 300.0])

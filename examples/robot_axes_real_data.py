@@ -102,7 +102,7 @@ def whole_robot(table: np.ndarray, axes: list, out: Path | None = None) -> dict:
     import volerr_pin as vp
     from volerr_pin.applications.axisfit import axes_to_urdf
     from volerr_pin.fit.identify import identify
-    from volerr_pin.measurements.tracker import read_tracker
+    from volerr_pin.measurements import read_tracker
 
     joints = table[:, 15:21].copy()
     joints[:, 2] += joints[:, 1]

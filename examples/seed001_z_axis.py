@@ -31,7 +31,7 @@ from volerr_pin.fit.identify import identify
 from volerr_pin.applications.iso230 import evaluate_runs
 from volerr_pin.measurements import Runs, read_runs
 from volerr_pin.model import legendre_terms, replace_terms, write_spec
-from volerr_pin.viz.plots import iso230_png
+from volerr_pin.viz import iso230_png
 
 # this file's folder: the docs' gallery (sphinx-gallery) runs the examples without __file__, naming the file in argv[0]
 DATA = Path(globals().get("__file__") or sys.argv[0]).resolve().parent / "data"

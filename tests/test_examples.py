@@ -103,7 +103,8 @@ def test_sample_data_is_what_the_script_writes(tmp_path):
 def test_sample_data_reads_and_tells_the_simulated_story():
     """The sample files are valid input, and hold what the script says they do."""
     from volerr_pin.applications.iso230 import evaluate_runs
-    from volerr_pin.measurements import read_points, read_runs
+    from volerr_pin.measurements import read_runs
+    from volerr_pin.measurements._points import read_points
 
     m = vp.load_machine("vmc500")
     points = read_points(EXAMPLES / "data" / "vmc500_tracker.csv", m)

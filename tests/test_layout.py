@@ -73,12 +73,30 @@ def imports(name: str) -> set[str]:
             for alias in node.names:
                 full = f"{target}.{alias.name}" if target else alias.name
                 out.add(full if full in MODULES else (target or "__init__"))
+                part = _lazy_parts(target).get(alias.name)   # a name a package loads when first used
+                if part is not None:
+                    out.add(part)
         elif isinstance(node, ast.Import):
             for alias in node.names:
                 if alias.name.startswith("volerr_pin"):
                     out.add(alias.name.removeprefix("volerr_pin").lstrip(".") or "__init__")
     out.discard(name)
     return out
+
+
+def _lazy_parts(package: str) -> dict[str, str]:
+    """Name -> the module that defines it, for a package that loads its public names when first
+    used (a literal ``_NAMES = {part: (names, ...)}`` in its ``__init__``); empty for others."""
+    path = MODULES.get(package or "__init__")
+    if path is None or path.name != "__init__.py":
+        return {}
+    for node in ast.parse(path.read_text()).body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "_NAMES" for t in node.targets):
+            parts = ast.literal_eval(node.value)
+            prefix = f"{package}." if package else ""
+            return {name: f"{prefix}{part}" for part, names in parts.items() for name in names
+                    if f"{prefix}{part}" in MODULES}
+    return {}
 
 
 def _names(cell: str) -> list[str]:
@@ -116,9 +134,9 @@ def layer_of(name: str, table: dict[str, int]) -> int | None:
 def test_the_layout_table_is_read():
     table, order = layers(), package_order()
     assert table["cli/"] == 6 and table["base/"] == 0 and table["measurements/"] == 2 and table["__init__"] == 4
-    assert order["measurements"]["registry"] > order["measurements"]["points"] > order["measurements"]["table"]
+    assert order["measurements"]["_registry"] > order["measurements"]["_points"] > order["measurements"]["_table"]
     assert order["model"]["_machine"] > order["model"]["_algorithms"] > order["model"]["_model"]
-    assert order["fit"]["diagnosis"] > order["fit"]["identify"] and "lexer" in order["compensation.gcode"]
+    assert order["fit"]["diagnosis"] > order["fit"]["identify"] and "_lexer" in order["compensation.gcode"]
 
 
 def test_the_package_root_shows_the_layers():
@@ -187,12 +205,13 @@ def test_the_checker_sees_every_kind_of_import(tmp_path, monkeypatch):
     """A function-level import, one under TYPE_CHECKING and a module loaded by name through
     importlib (a constant or the start of an f-string) are all found."""
     (tmp_path / "state.py").write_text(
-        "import importlib\nfrom typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .machine import Machine\n"
-        "def f():\n    from ..viz.plots import something\n    from ..cli import main\n"
+        "import importlib\nfrom typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from ._machine import Machine\n"
+        "def f():\n    from ..viz import part_png\n    from ..cli import main\n"
         "def g(kind):\n    importlib.import_module(f'..studies.{kind}', __package__)\n"
-        "    return importlib.import_module('volerr_pin.compensation.export.registry')\n")
+        "    return importlib.import_module('volerr_pin.compensation.export._registry')\n")
     monkeypatch.setitem(MODULES, "model.state", tmp_path / "state.py")
-    assert imports("model.state") == {"model.machine", "viz.plots", "cli", "studies", "compensation.export.registry"}
+    assert imports("model.state") == {"model._machine", "viz", "viz._plots", "cli", "studies",
+                                      "compensation.export._registry"}
     table = layers()
     assert {layer_of(t, table) for t in imports("model.state")} == {1, 3, 4, 5, 6}   # all but its own above model/'s 1
 

@@ -1,29 +1,17 @@
 """volerr_pin: volumetric error of machine tools as multibody systems on Pinocchio."""
 
-from importlib import import_module as _import_module
-
-from .base.errors import InputError, SpecError, URDFError, VolerrError
+from .base import InputError, SpecError, URDFError, VolerrError, lazy_exports
 
 __version__ = "0.1.0"
 
 #: names imported when first used (PEP 562): the model loads Pinocchio, SciPy and Numba, and the
 #: diagnosis the fitting machinery, which ``import volerr_pin`` (and every command's start,
 #: ``volerr --help`` and shell completion included) would otherwise pay for
-_LAZY = {"diagnose": ".fit.diagnosis", "Machine": ".model", "bundled_machines": ".model",
-         "load_machine": ".model"}
+_NAMES = {"model": ("Machine", "bundled_machines", "load_machine"), "fit.diagnosis": ("diagnose",)}
+__getattr__, _lazy_dir, _lazy = lazy_exports(__name__, _NAMES)
 
-__all__ = ["InputError", "Machine", "SpecError", "URDFError", "VolerrError", "bundled_machines", "diagnose",
-           "load_machine", "__version__"]
-
-
-def __getattr__(name: str):
-    if name in _LAZY:
-        value = getattr(_import_module(_LAZY[name], __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__all__ = ["InputError", "SpecError", "URDFError", "VolerrError", "__version__"]
 
 
 def __dir__():
     return list(__all__)
-

@@ -125,7 +125,7 @@ def test_a_robot_rebuilt_from_its_measured_axes(machines, tmp_path):
 
 def test_axes_to_urdf_refuses_mismatched_lists():
     from volerr_pin.applications.axisfit import Axis, axes_to_urdf
-    from volerr_pin.base.errors import InputError
+    from volerr_pin.base import InputError
 
     axis = Axis(point=np.zeros(3), direction=np.array([0.0, 0.0, 1.0]), circles=(), angle_residual=np.zeros(0),
                 angle_scale=1.0)

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 import volerr_pin.applications.part._cone as cone_module
-from volerr_pin.applications.part import Cone, cone_frustum_test_piece, find_cones, measure_cones
-from volerr_pin.applications.part import CuttingPath, cut_of, feature_ranking, measure, predict
-from volerr_pin.base.errors import InputError
+from volerr_pin.applications.part import (Cone, CuttingPath, cone_frustum_test_piece, cut_of, feature_ranking,
+                                          find_cones, measure, measure_cones, predict)
+from volerr_pin.base import InputError
 from volerr_pin.compensation.gcode import interpret
 from volerr_pin.model import _kinematics as K
 

@@ -90,7 +90,7 @@ def test_duplicate_joint_names_are_refused(tmp_path, capsys):
 
 def test_unknown_convention_is_refused():
     from volerr_pin.applications.dh import DHRow, split, transform
-    from volerr_pin.base.errors import InputError
+    from volerr_pin.base import InputError
 
     row = DHRow(name="j1", a=0.1, alpha=0.0, d=0.0, theta=0.0)
     for function in (lambda: transform(row, 0.0, "craig"), lambda: split(row, "craig")):

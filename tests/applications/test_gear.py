@@ -10,12 +10,11 @@ from scipy.spatial.transform import Rotation
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.base.errors import InputError
+from volerr_pin.base import ARCSEC, DEG, MM, UM, InputError
 from volerr_pin.applications.gear import (REFERENCE_GEAR, GearPair, contribution_degrees, deviations_by_source,
                              flank_deviations, unit_error_study)
-from volerr_pin.applications.gear.generation import flank_grid, mesh_of
+from volerr_pin.applications.gear._generation import flank_grid, mesh_of
 from volerr_pin.model import replace_terms
-from volerr_pin.base.units import ARCSEC, DEG, MM, UM
 
 G = REFERENCE_GEAR
 

@@ -14,7 +14,7 @@ import pytest
 
 from conftest import single
 from volerr_pin.applications.part import deviation_along, feature_ranking, fit_circle, measure, normal_part, predict
-from volerr_pin.base.errors import InputError
+from volerr_pin.base import InputError
 from volerr_pin.compensation.gcode import interpret
 
 ARCSEC = np.pi / 180 / 3600
@@ -217,7 +217,7 @@ def test_a_tool_tip_program_is_followed_where_the_controller_puts_the_axes(machi
     """The same cut written in tool-tip programming (G43.4: X, Y, Z the tool tip) and in axes
     programming (the axis positions the controller would take): the same deviation. With the
     head tilted the two differ by the head's offset, which the tool-tip words leave out."""
-    from volerr_pin.compensation.programming import programming_for
+    from volerr_pin.compensation import programming_for
 
     m = machines["cgm4000"]
     tip = programming_for("tool-tip", m)

@@ -259,8 +259,8 @@ def test_a_lag_reads_each_file_along_its_own_record(machines):
     other day. Each file is its own time series, and a subset of the points (a fold, a half, a
     chunk) reads the lagged temperature from the whole record, not from itself alone."""
     from volerr_pin.fit.identify import build_observations, identify
-    from volerr_pin.fit.identify.observations import take_covariates
-    from volerr_pin.measurements.simulate import campaign
+    from volerr_pin.fit.identify._observations import take_covariates
+    from volerr_pin.measurements import campaign
     from volerr_pin.model import add_terms
 
     m = machines["vmc500"]
@@ -296,8 +296,8 @@ def test_a_temperature_column_in_kelvin_or_fahrenheit_is_converted_to_degC(machi
     knows are converted as the column is read, so the fit finds the truth whichever the file
     uses, and the sensor keeps its name."""
     from volerr_pin.fit.identify import identify
-    from volerr_pin.measurements import read_points
-    from volerr_pin.measurements.simulate import campaign, write_points
+    from volerr_pin.measurements._points import read_points
+    from volerr_pin.measurements import campaign, write_points
     from volerr_pin.model import add_terms
 
     m = machines["vmc500"]
@@ -332,7 +332,7 @@ def test_a_time_column_is_the_clock_not_a_sensor(tmp_path):
 
     from volerr_pin.applications.thermalfit import thermal_fit
     from volerr_pin.measurements import read_series
-    from volerr_pin.viz.plots import thermal_fit_png
+    from volerr_pin.viz import thermal_fit_png
 
     data = read_series(Path(__file__).resolve().parents[2] / "examples" / "data" / "vmc500_spindle_thermal.csv")
     assert "t" in data.columns

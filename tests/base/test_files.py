@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.base import safeio
+from volerr_pin.base import _safeio as safeio
 from volerr_pin.cli import main
 
 DATA = Path(__file__).resolve().parents[2] / "examples" / "data"
@@ -271,12 +271,12 @@ def test_diagnose_with_a_bad_picture_keeps_the_existing_spec(work, capsys):
 
 
 def test_a_writer_failing_midway_leaves_every_output_as_it_was(work, capsys, monkeypatch):
-    import volerr_pin.viz.plots as plots
+    import volerr_pin.viz as viz
 
     def broken(*args, **kwargs):
         raise vp.InputError("the picture failed")
 
-    monkeypatch.setattr(plots, "compensation_png", broken)
+    monkeypatch.setattr(viz, "compensation_png", broken)
     (work / "existing.out").write_text("keep me")
     (work / "r.json").write_text("{}")
     before = snapshot(work)

@@ -169,7 +169,7 @@ def test_state_drives_time_dependent_terms(tmp_path, capsys):
     assert main(["errormap", str(spec), "--elements", "1", "--points", "400", "--order", "3",
                  "--state", "t=3600", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
-    from volerr_pin.compensation.errormap import ErrorMap
+    from volerr_pin.compensation import ErrorMap
 
     warm = ErrorMap.build(m.with_state(t=3600.0), (1, 1, 1), 3).interpolation_error(400, 0)
     cold = ErrorMap.build(m.with_state(t=0.0), (1, 1, 1), 3).interpolation_error(400, 0)
@@ -224,7 +224,7 @@ def test_covariates_in_some_files_only(tmp_path, capsys):
     """A tracker file with times and temperatures beside an interferometer run without them:
     a geometric model does not read them (a note), a model that does needs them everywhere."""
     import volerr_pin as vp
-    from volerr_pin.measurements.simulate import campaign, write_points
+    from volerr_pin.measurements import campaign, write_points
 
     m = vp.load_machine("vmc500")
     points = tmp_path / "points.csv"
@@ -243,7 +243,7 @@ def test_covariates_in_some_files_only(tmp_path, capsys):
 
 def test_json_reports_are_strict_json():
     """Non-finite numbers become null: a NaN token would break strict JSON readers."""
-    from volerr_pin.cli.common import dumps
+    from volerr_pin.cli._common import dumps
 
     text = dumps({"a": float("nan"), "b": [1.0, float("inf")], "c": np.float64(2.5), "d": np.int64(3)})
     assert json.loads(text) == {"a": None, "b": [1.0, None], "c": 2.5, "d": 3}
@@ -384,7 +384,7 @@ def test_identifiability_factors_in_display_units_follow_the_group_kind():
 
     from rich.console import Console
 
-    from volerr_pin.cli.tables import print_groups
+    from volerr_pin.cli._tables import print_groups
 
     units = {"EZX.c0": (1e-6, "um"), "EZX.tau1": (60.0, "min"), "EYX.c1": (1e-6, "um")}
     out = io.StringIO()

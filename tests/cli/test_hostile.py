@@ -48,11 +48,9 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.applications import dh, iso230
-from volerr_pin.compensation import errormap
-from volerr_pin import measurements
-from volerr_pin import model as workspace
+from volerr_pin.compensation import _errormap as errormap, compensate_points
+from volerr_pin import measurements, model as workspace
 from volerr_pin.cli import main
-from volerr_pin.compensation import compensate_points
 from volerr_pin.model import machines_dir
 
 from conftest import needs_device

@@ -179,7 +179,7 @@ def test_a_full_disk_leaves_no_folder_and_names_the_file(machines, tmp_path, mon
     import errno
 
     from volerr_pin.cli import main
-    from volerr_pin.compensation.export import run as export_run
+    from volerr_pin.compensation.export import _run as export_run
 
     class Full:
         def __init__(self, *args, **kwargs):
@@ -328,7 +328,7 @@ def test_a_signal_whose_exception_a_callback_swallows_still_stops_the_run(tmp_pa
     import weakref
 
     import volerr_pin.cli as cli
-    import volerr_pin.cli.urdf as urdf_cli
+    import volerr_pin.cli._urdf as urdf_cli
 
     out = tmp_path / "m.urdf"
     real = urdf_cli.run

@@ -98,7 +98,7 @@ def test_predict_refuses_a_move_out_of_the_travel_naming_its_line(tmp_path, caps
 def test_predict_reads_each_program_once_and_never_joins_its_text(tmp_path, capsys, monkeypatch):
     """volerr predict reads the program (and the reference) line by line once and gives the NC
     reader its lines: no file is read twice and no text is joined to be split again."""
-    from volerr_pin.compensation.gcode import ProgramFile, segments
+    from volerr_pin.compensation.gcode import ProgramFile, _segments as segments
 
     piece = tmp_path / "tp.nc"
     assert main(["testpiece", "vmc500", "-o", str(piece)]) == 0

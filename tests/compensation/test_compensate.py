@@ -9,7 +9,7 @@ import pytest
 
 from volerr_pin.compensation import (PathCompensator, arc_from_center, compensate_points,
                                      evaluate_compensation)
-from volerr_pin.base.errors import InputError
+from volerr_pin.base import InputError
 from volerr_pin.model import add_terms
 
 from conftest import random_q
@@ -289,7 +289,7 @@ def test_empty_positions_and_degenerate_arcs_are_refused(machines):
 def test_path_sizes_are_bounded(machines, monkeypatch):
     """A depth beyond double precision would only reach Python's recursion limit; samples are
     sized against the free memory."""
-    import volerr_pin.base.safeio as safeio
+    import volerr_pin.base._safeio as safeio
 
     monkeypatch.setattr(safeio, "available_memory", lambda: 1_000_000_000)
     m = machines["vmc500"]
@@ -301,7 +301,7 @@ def test_path_sizes_are_bounded(machines, monkeypatch):
 
 
 def test_more_points_than_the_memory_can_compensate_at_once_are_refused(machines, monkeypatch):
-    import volerr_pin.base.safeio as safeio
+    import volerr_pin.base._safeio as safeio
 
     monkeypatch.setattr(safeio, "available_memory", lambda: 1_000_000)
     m = machines["vmc500"]

@@ -17,8 +17,8 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.compensation import PathCompensator, arc_from_center, compensate_points, evaluate_compensation
-from volerr_pin.compensation.errormap import ErrorMap, axis_tables, compensation_table
+from volerr_pin.compensation import (ErrorMap, PathCompensator, arc_from_center, axis_tables, compensate_points,
+                                     compensation_table, evaluate_compensation)
 from volerr_pin.compensation.export import export_tables, parse_zone
 from volerr_pin.model import add_terms
 

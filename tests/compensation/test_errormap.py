@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from volerr_pin.compensation import compensate_points
-from volerr_pin.compensation.errormap import ErrorMap, axis_tables, compensation_table, natural_nodes, shape_functions
-from volerr_pin.base.errors import InputError
+from volerr_pin.compensation._errormap import ErrorMap, axis_tables, compensation_table, natural_nodes, shape_functions
+from volerr_pin.base import InputError
 
 
 def _monomials(degree):
@@ -124,7 +124,7 @@ def test_axis_tables_carry_iso_names_and_model_values(machines, tmp_path):
 def test_a_table_written_in_chunks_is_the_table_written_at_once(machines, tmp_path, monkeypatch):
     """The table is computed and written chunk by chunk; with chunks of 7 nodes every byte and
     every summary number is what one chunk gives."""
-    import volerr_pin.compensation.errormap as errormap
+    import volerr_pin.compensation._errormap as errormap
 
     m = machines["vmc500"]
     whole = compensation_table(m, tmp_path / "whole.csv", nodes=(4, 3, 5))
@@ -147,7 +147,7 @@ def test_a_table_the_disk_cannot_hold_is_refused_before_any_work(machines, tmp_p
 
 
 def test_a_failed_table_leaves_the_old_file_and_no_temporary(machines, tmp_path, monkeypatch):
-    import volerr_pin.compensation.points as compensate
+    import volerr_pin.compensation._points as compensate
 
     target = tmp_path / "table.csv"
     target.write_text("old\n")
@@ -214,7 +214,7 @@ def test_axis_tables_are_written_whole(machines, tmp_path):
 
 
 def test_interpolation_in_chunks_is_the_interpolation_at_once(machines, monkeypatch):
-    import volerr_pin.compensation.errormap as errormap
+    import volerr_pin.compensation._errormap as errormap
 
     m = machines["vmc500"]
     emap = ErrorMap.build(m, (2, 2, 2), 3)

@@ -16,9 +16,9 @@ import rerun as rr
 from volerr_pin.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
-MODULES = ["compensation.export", "compensation.export.protocol", "compensation.export.registry", "compensation.export.zone", "compensation.export.tables", "compensation.export.simulate",
-           "compensation.export.fit", "compensation.export.run", "compensation.export.layouts", "compensation.export.linuxcnc", "compensation.export.isg", "compensation.export.isg_model",
-           "compensation.export.isg_volumetric", "compensation.export.siemens", "compensation.export.heidenhain", "compensation.export.fanuc", "viz.export"]
+MODULES = ["compensation.export", "compensation.export._protocol", "compensation.export._registry", "compensation.export._zone", "compensation.export._tables", "compensation.export._simulate",
+           "compensation.export._fit", "compensation.export._run", "compensation.export._layouts", "compensation.export._linuxcnc", "compensation.export._isg", "compensation.export._isg_model",
+           "compensation.export._isg_volumetric", "compensation.export._siemens", "compensation.export._heidenhain", "compensation.export._fanuc", "viz._export"]
 
 
 def chunks(path, entity):

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.base.errors import InputError, SpecError
+from volerr_pin.base import InputError, SpecError
 from volerr_pin.compensation.export import CONTROLLERS, export_tables, parse_zone
-from volerr_pin.compensation.export.siemens import Siemens840D
+from volerr_pin.compensation.export._siemens import Siemens840D
 from volerr_pin.model import add_terms, replace_terms
 
 SCALE_UM_PER_MM = 0.02                                 # EXX = 20 um/m x X
@@ -292,7 +292,7 @@ def test_a_zone_fit_does_better_in_its_zone_than_a_workspace_fit(machines):
     local = export_tables(m, "heidenhain", zone=zone, points=1024)
     everywhere = export_tables(m, "heidenhain", points=1024)
     inside = local.points
-    from volerr_pin.compensation.export.simulate import residuals, summary
+    from volerr_pin.compensation.export._simulate import residuals, summary
 
     assert summary(residuals(m, local.compensation, inside)).rms_um < summary(
         residuals(m, everywhere.compensation, inside)).rms_um

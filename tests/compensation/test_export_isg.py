@@ -8,10 +8,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from volerr_pin.base.errors import SpecError
+from volerr_pin.base import SpecError
 from volerr_pin.compensation.export import Zone
-from volerr_pin.compensation.export.isg_model import rotation
-from volerr_pin.compensation.export.isg_volumetric import kinematic_chain, model_of, read_volumetric, volumetric_files
+from volerr_pin.compensation.export._isg_volumetric import kinematic_chain, model_of, read_volumetric, volumetric_files
+from volerr_pin.compensation.export._isg_model import rotation
 
 
 @pytest.mark.parametrize("name,chain", [("vmc500", "YXZ"), ("vmc700", "XYZ"), ("cgm4000", "XYZAB")])
@@ -102,8 +102,8 @@ def test_plane_tables_reserve_the_same_points_whatever_their_grid():
     import re
 
     import volerr_pin as vp
-    from volerr_pin.compensation.export.isg import PLANE_MAX_POINTS
-    from volerr_pin.compensation.export.run import export_tables
+    from volerr_pin.compensation.export._isg import PLANE_MAX_POINTS
+    from volerr_pin.compensation.export import export_tables
 
     m = vp.load_machine("vmc500")
     reserved = set()

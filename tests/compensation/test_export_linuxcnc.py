@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.base.errors import InputError
+from volerr_pin.base import InputError
 from volerr_pin.compensation.export import Zone, export_tables
-from volerr_pin.compensation.export.linuxcnc import LinuxCNC
+from volerr_pin.compensation.export._linuxcnc import LinuxCNC
 from volerr_pin.model import add_terms, replace_terms
 
 LINELEN = 255

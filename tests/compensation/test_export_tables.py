@@ -7,12 +7,11 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.base.errors import InputError
-from volerr_pin.compensation.export import Zone, parse_zone
-from volerr_pin.compensation.export.fit import fit
-from volerr_pin.compensation.export.simulate import exact_setpoints, residuals, tip_jacobian, tool_tips
-from volerr_pin.compensation.export.tables import SetpointTables, Table, interpolation_weights, quantised
-from volerr_pin.compensation.export.zone import Points, motion_directions
+from volerr_pin.base import InputError
+from volerr_pin.compensation.export import Points, Zone, fit, parse_zone, tool_tips
+from volerr_pin.compensation.export._tables import SetpointTables, Table, interpolation_weights, quantised
+from volerr_pin.compensation.export._simulate import exact_setpoints, residuals, tip_jacobian
+from volerr_pin.compensation.export._zone import motion_directions
 from volerr_pin.model import replace_terms
 
 
@@ -158,7 +157,7 @@ def test_a_direction_tables_claimed_residual_is_what_a_random_order_leaves():
     judged on the Sobol' sequence's own order the claim was 18.40 / 6.10 um (max / RMS) where the
     same points in random order gave 24.57 / 6.74 um. Both-ways points give a claim within 5 % of
     the random order, which the report gives beside it."""
-    from volerr_pin.compensation.export.run import export_tables
+    from volerr_pin.compensation.export import export_tables
     from volerr_pin.model import add_terms
 
     m = add_terms(vp.load_machine("vmc500"), {"EXX": {"kind": "backlash", "prefix": "h", "reversal_um": 6.0}})

@@ -448,8 +448,8 @@ def test_origin_shifts_program_coordinates_to_axis_positions(machines):
 def test_modal_state_follows_the_blocks(machines):
     """The modal state between blocks: modes and position from the blocks read, canned
     cycles tracked, and a skipped block that names axes makes every position unknown."""
-    from volerr_pin.compensation.gcode import kept, parse_block
-    from volerr_pin.compensation.gcode.modal import Interpreter
+    from volerr_pin.compensation.gcode import _kept as kept, parse_block
+    from volerr_pin.compensation.gcode._modal import Interpreter
 
     reader = Interpreter(machines["vmc500"])
     state = reader.initial_state()
@@ -1127,7 +1127,8 @@ def test_a_program_reads_back_as_one_batch_of_moves(machines, tmp_path):
     lines and its file (read once, line by line) give the same batch; a row read on its own is
     that row of the arrays, and its points are the batch's (the arcs' through arc_points)."""
     from volerr_pin.compensation.gcode import ProgramFile, split_lines
-    from volerr_pin.compensation.moves import ARC, LINE, POINT, MoveBatch
+    from volerr_pin.compensation import ARC, POINT, MoveBatch
+    from volerr_pin.compensation._moves import LINE
 
     m = machines["vmc500"]
     program = "G21 G90 G17\r\nG0 X100 Y100 Z50\nG1 X200 F500\n\nG2 X300 Y100 I50 J0\nG0 Z80\nG1 X250\nM30"

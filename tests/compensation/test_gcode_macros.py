@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 from volerr_pin.cli import main
-from volerr_pin.compensation.gcode import GcodeError, compensate_program, interpret, split_lines
-from volerr_pin.compensation.gcode.macros import Unfollowable, expand, may_need
+from volerr_pin.compensation.gcode import GcodeError, compensate_program, interpret, may_need, split_lines
+from volerr_pin.compensation.gcode._expressions import Unfollowable
+from volerr_pin.compensation.gcode._macros import expand
 
 START = "G21 G90 G17\nG0 X100 Y100 Z100\n"
 

@@ -14,9 +14,9 @@ import subprocess
 import pytest
 
 from volerr_pin.compensation.gcode import compensate_program, split_lines
-from volerr_pin.compensation.gcode.macros import expand
-from volerr_pin.compensation.gcode.profiles import Profiles
-from volerr_pin.compensation.gcode.modal import ModalState
+from volerr_pin.compensation.gcode._state import ModalState
+from volerr_pin.compensation.gcode._profiles import Profiles
+from volerr_pin.compensation.gcode._macros import expand
 
 import numpy as np
 

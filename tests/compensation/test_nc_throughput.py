@@ -14,11 +14,10 @@ import re
 import numpy as np
 import pytest
 
-from volerr_pin.compensation.gcode import parse_block
-from volerr_pin.compensation.gcode import lexer
-from volerr_pin.compensation.gcode.arc_words import arc_errors
-from volerr_pin.compensation.gcode.modal import Interpreter
-from volerr_pin.compensation.gcode.rewrite import Writer
+from volerr_pin.compensation.gcode import _lexer as lexer, parse_block
+from volerr_pin.compensation.gcode._modal import Interpreter
+from volerr_pin.compensation.gcode._rewrite import Writer
+from volerr_pin.compensation.gcode._arc_words import arc_errors
 
 
 def _values_by_definition(writer: Writer, end, prev, st: dict) -> dict[str, str]:
@@ -162,7 +161,7 @@ def _random_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
 def test_fast_path_writes_what_the_full_reader_writes(machines, name, seed):
     """Programs drawn at random (fixed seeds) compensate to the same text and the same report
     with the fast path for plain axis-word lines as with every line through the full reader."""
-    from volerr_pin.compensation.gcode.program import Program
+    from volerr_pin.compensation.gcode import Program
 
     machine = machines[name]
     axes = "".join(machine.axes)
@@ -249,8 +248,8 @@ def _runs_program(rng, axes: str, travel_mm: np.ndarray, n: int) -> str:
 def test_runs_of_plain_lines_write_what_the_full_reader_writes(machines, name, seed, programming):
     """Runs of plain lines longer than a chunk, read and written as arrays, give the same text,
     report and per-move detail as every line through the full reader."""
-    from volerr_pin.compensation.gcode import chunks
-    from volerr_pin.compensation.gcode.program import Program
+    from volerr_pin.compensation.gcode import _chunks as chunks
+    from volerr_pin.compensation.gcode import Program
 
     machine = machines[name]
     axes = "".join(machine.axes)
@@ -287,8 +286,8 @@ def test_run_templates_write_what_the_writer_writes(machines, name):
     sequence number, with values around zero of both signs and at halves of the last decimal, mm and inch, an origin, and the
     motion word a run's first line gets when the output's modal motion differs; a split move's
     further pieces as Writer.new_line writes them."""
-    from volerr_pin.compensation.path import Piece
-    from volerr_pin.compensation.gcode.runs import PlainRun, PlainRuns, plain_line, plain_words
+    from volerr_pin.compensation import Piece
+    from volerr_pin.compensation.gcode._runs import PlainRun, PlainRuns, plain_line, plain_words
 
     machine = machines[name]
     rng = np.random.default_rng(11)
@@ -348,8 +347,8 @@ def test_a_bad_line_inside_a_run_is_named_as_the_full_reader_names_it(machines, 
     number, an arc that its words cannot define or a centre word on a straight move, in the
     middle of a long run of plain lines: the same error, naming the same line, with and
     without the run path."""
-    from volerr_pin.compensation.gcode.lexer import GcodeError
-    from volerr_pin.compensation.gcode.program import Program
+    from volerr_pin.compensation.gcode import GcodeError
+    from volerr_pin.compensation.gcode import Program
 
     machine = machines["vmc500"]
     body = [f"X{100 + 0.01 * i:.3f} Y{100 + 0.02 * (i % 50):.3f}" for i in range(3000)]
@@ -377,7 +376,7 @@ def test_arc_read_back_errors_of_a_chunk_match_each_piece(machines, name):
     from 0.2 um to 50 mm of radius (the smallest round to no centre, or to one whose circle
     misses the written ends), including arcs read back as the rest of the circle; with centres
     as offsets or (G90.1) absolute, X as a radius or (G7) a diameter."""
-    from volerr_pin.compensation.path import Piece
+    from volerr_pin.compensation import Piece
 
     machine = machines[name]
     rng = np.random.default_rng(12)
@@ -417,7 +416,7 @@ def test_feed_words_in_runs_under_inverse_time_are_shared_out_as_the_writer_does
     """Under G93 a split move's F words are its pieces' shares of its time; lines with F in a
     run of long moves (split into pieces) give what the full reader gives, and so do the same
     lines under G94, where F stays on the first piece."""
-    from volerr_pin.compensation.gcode.program import Program
+    from volerr_pin.compensation.gcode import Program
 
     machine = machines["vmc500"]
     rng = np.random.default_rng(93)

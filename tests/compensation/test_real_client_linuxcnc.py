@@ -18,9 +18,11 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.compensation.gcode import compensate_program, interpret, split_lines
-from volerr_pin.compensation.gcode.macros import Unfollowable, expand
+from volerr_pin.compensation.gcode._expressions import Unfollowable
+from volerr_pin.compensation.gcode._macros import expand
 
-from test_gcode import DWELL_AND_MOVE, FULL_CIRCLES, G90_1, LATHE_DIAMETER, LATHE_PROFILE, PROGRAM_500, PROGRAM_700, PROGRAM_CGM, SUB
+from test_gcode import (DWELL_AND_MOVE, FULL_CIRCLES, G90_1, LATHE_DIAMETER, LATHE_PROFILE, PROGRAM_500, PROGRAM_700,
+                        PROGRAM_CGM, SUB)
 
 RS274 = shutil.which("rs274")
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(

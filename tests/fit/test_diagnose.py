@@ -11,7 +11,7 @@ import rerun as rr
 import volerr_pin as vp
 from volerr_pin.cli import main
 from volerr_pin.fit.diagnosis import diagnose
-from volerr_pin.measurements.simulate import campaign, off_model_geometry, write_points
+from volerr_pin.measurements import campaign, off_model_geometry, write_points
 from volerr_pin.model import add_terms, replace_terms
 
 NOISE = 0.3
@@ -315,7 +315,7 @@ def test_data_with_nothing_to_diagnose_are_refused(machines):
 
 
 def test_a_diagnosis_too_large_for_the_memory_is_refused_before_it_starts(machines, monkeypatch):
-    import volerr_pin.base.safeio as safeio
+    import volerr_pin.base._safeio as safeio
 
     m = machines["vmc500"]
     monkeypatch.setattr(safeio, "available_memory", lambda: 10_000_000)
@@ -378,8 +378,8 @@ def test_an_effect_kind_registered_as_a_plug_in_is_offered_named_and_written(mac
             return f"cutting load along {cand.direction} from {cand.driver} ({cand.component})"
 
     registry = {k: v for k, v in EFFECTS.items() if k != "force_deflection"}
-    monkeypatch.setattr("volerr_pin.fit.diagnosis.effects.EFFECTS", registry)
-    monkeypatch.setattr("volerr_pin.fit.diagnosis.candidates.EFFECTS", registry)
+    monkeypatch.setattr("volerr_pin.fit.diagnosis._effects.EFFECTS", registry)
+    monkeypatch.setattr("volerr_pin.fit.diagnosis._candidates.EFFECTS", registry)
     with pytest.raises(ValueError, match="a name of its own"):
         register(type("Again", (EffectKind,), {"name": "backlash"}))
     register(CuttingLoad)

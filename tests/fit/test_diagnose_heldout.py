@@ -11,10 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from volerr_pin.fit.diagnosis import diagnose
+from volerr_pin.fit.diagnosis import PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, diagnose
 from volerr_pin.fit.identify import build_observations
-from volerr_pin.fit.diagnosis.results import PRACTICAL_AMPLITUDE, PRACTICAL_GAIN
-from volerr_pin.measurements.simulate import heldout_set
+from volerr_pin.measurements import heldout_set
 
 NOISE = 0.3
 FLOOR = np.sqrt(3) * NOISE
@@ -191,7 +190,7 @@ def test_what_the_data_cannot_tell_from_geometry_is_said(machines, capsys):
     import shlex
 
     from volerr_pin.cli import main
-    from volerr_pin.cli.diagnose import plan_argv
+    from volerr_pin.cli._diagnose import plan_argv
     from volerr_pin.fit.diagnosis import Separation
 
     m = machines["cgm4000"]
@@ -222,8 +221,8 @@ def test_five_axis_per_revolution_periods_stay_in_their_window(machines):
     3,000 rad), and the next change's spec refused that value: the diagnosis stopped with an
     error. Now every round's model holds at most one per-revolution term of an order per
     component, within its window, and the result names the error or nothing."""
-    from volerr_pin.fit.diagnosis.effects import ROTARY_ORDERS
-    from volerr_pin.fit.diagnosis.changes import PERIOD_WINDOW
+    from volerr_pin.fit.diagnosis._effects import ROTARY_ORDERS
+    from volerr_pin.fit.diagnosis._changes import PERIOD_WINDOW
     from volerr_pin.model import check_values
 
     m = machines["cgm4000"]
@@ -264,8 +263,8 @@ def test_real_spindle_sensors_are_one_thermal_finding(machines):
     headline the final model's."""
     import csv
 
-    from volerr_pin.measurements.points import PointMeasurements
-    from volerr_pin.measurements.simulate import off_model_geometry
+    from volerr_pin.measurements import PointMeasurements
+    from volerr_pin.measurements import off_model_geometry
 
     with open(SPINDLE, encoding="utf-8-sig") as f:
         rows = list(csv.reader(f))

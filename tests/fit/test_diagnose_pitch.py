@@ -14,13 +14,12 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.fit.diagnosis import diagnose
-from volerr_pin.fit.diagnosis.candidates import smoother_term
-from volerr_pin.model import check_covariates
-from volerr_pin.fit.diagnosis.projector import Columns
-from volerr_pin.fit.diagnosis.scoring import periodogram_period
+from volerr_pin.fit.diagnosis._projector import Columns
+from volerr_pin.fit.diagnosis._scoring import periodogram_period
+from volerr_pin.fit.diagnosis._candidates import smoother_term
+from volerr_pin.model import add_terms, check_covariates
 from volerr_pin.fit.identify import build_observations
-from volerr_pin.measurements.simulate import campaign, heldout_set
-from volerr_pin.model import add_terms
+from volerr_pin.measurements import campaign, heldout_set
 
 HMC = Path(__file__).resolve().parents[1] / "data" / "hmc_b"
 NOISE = 0.3

@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from volerr_pin.fit.diagnosis.projector import SVD_RTOL, Projector
+from volerr_pin.fit.diagnosis._projector import SVD_RTOL, Projector
 
 POINTS = 90
 ROWS_PER_POINT = 4   # dx, dy, dz and one angle, as a point measured by a laser and a level
@@ -19,8 +19,8 @@ ROWS_PER_POINT = 4   # dx, dy, dz and one angle, as a point measured by a laser 
 @pytest.fixture(autouse=True, params=["whole", "halves"])
 def basis(request, monkeypatch):
     """Every test with the round's basis from the SVD of the whole design and from its two halves
-    of rows (:func:`~volerr_pin.fit.diagnosis.projector._halves_basis`, from 1,000 rows by default)."""
-    from volerr_pin.fit.diagnosis import projector
+    of rows (:func:`~volerr_pin.fit.diagnosis._projector._halves_basis`, from 1,000 rows by default)."""
+    from volerr_pin.fit.diagnosis import _projector as projector
 
     monkeypatch.setattr(projector, "HALVES_MIN_ROWS", 10**9 if request.param == "whole" else 0)
     return request.param
@@ -158,7 +158,7 @@ def _brute_fit(A: np.ndarray, C: np.ndarray, r: np.ndarray):
 
 def _paths(monkeypatch) -> list:
     """Record, for every least squares of a candidate, whether the small products gave it."""
-    from volerr_pin.fit.diagnosis import projector
+    from volerr_pin.fit.diagnosis import _projector as projector
 
     seen, gram = [], projector._gram_lstsq
 
@@ -234,7 +234,7 @@ def test_the_held_out_rms_of_a_candidate_partly_in_the_base_span(seed, monkeypat
 def test_the_basis_from_two_halves_is_that_of_the_whole_svd(case):
     """The same span, singular values and cut as numpy's SVD of the whole design, orthonormal
     columns."""
-    from volerr_pin.fit.diagnosis.projector import _halves_basis, _svd
+    from volerr_pin.fit.diagnosis._projector import _halves_basis, _svd
 
     rng = np.random.default_rng(7)
     rows = {"few_rows": 30}.get(case, 1201)

@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
 
-import volerr_pin.fit.diagnosis.loop as diagnose_loop
-from volerr_pin.fit.diagnosis import changes as diagnose_changes
-from volerr_pin.fit.diagnosis.changes import PERIOD_WINDOW
-from volerr_pin.fit.diagnosis.projector import Projector
-from volerr_pin.fit.diagnosis.scoring import REPEAT_MIN_POINTS, REPEAT_RATIO, REPEAT_SIGMAS, repeat_check
+import volerr_pin.fit.diagnosis._loop as diagnose_loop
+from volerr_pin.fit.diagnosis import _changes as diagnose_changes
+from volerr_pin.fit.diagnosis._changes import PERIOD_WINDOW
+from volerr_pin.fit.diagnosis._scoring import REPEAT_MIN_POINTS, REPEAT_RATIO, REPEAT_SIGMAS, repeat_check
+from volerr_pin.fit.diagnosis._projector import Projector
 from volerr_pin.fit.identify import build_observations, pose_folds
-from volerr_pin.measurements.simulate import heldout_set
+from volerr_pin.measurements import heldout_set
 from volerr_pin.model import add_terms
 
 N = 400
@@ -115,8 +115,8 @@ def test_no_check_over_one_turn_or_with_too_few_points_on_a_turn():
 
 
 def test_the_reason_names_the_axis_and_the_per_turn_coefficients():
-    from volerr_pin.fit.diagnosis.results import Candidate
-    from volerr_pin.fit.diagnosis.scoring import not_repeating
+    from volerr_pin.fit.diagnosis import Candidate
+    from volerr_pin.fit.diagnosis._scoring import not_repeating
 
     cand = Candidate("periodic_rotary", "B", "y", "EBB", {"kind": "periodic_pitch", "period_deg": 360.0})
     rng, b, base, C, obs, folds = _setup(0)

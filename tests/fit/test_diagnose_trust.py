@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from volerr_pin.cli import main
-from volerr_pin.fit.diagnosis import axis_directions, build_candidates, diagnose, drift_series
-from volerr_pin.fit.diagnosis import results as diagnose_results
+from volerr_pin.fit.diagnosis import (_results as diagnose_results, axis_directions, build_candidates, diagnose,
+                                      drift_series)
 from volerr_pin.fit.identify import build_observations
-from volerr_pin.measurements.simulate import campaign, heldout_set, write_points
+from volerr_pin.measurements import campaign, heldout_set, write_points
 from volerr_pin.model import add_terms
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -58,7 +58,7 @@ def test_a_rotary_periodic_error_over_part_of_a_turn_needs_four_periods(machines
     another smooth shape of the axis' off-spec geometry, so only orders with MIN_PERIODS periods
     in the measured span are tried (the cause of a 4-per-revolution error of A invented beside a
     hidden backlash of B)."""
-    from volerr_pin.fit.diagnosis.effects import MIN_PERIODS, ROTARY_ORDERS
+    from volerr_pin.fit.diagnosis._effects import MIN_PERIODS, ROTARY_ORDERS
 
     m = machines["cgm4000"]
     obs = build_observations(m, [campaign(m, 60, NOISE, 0)], sigma_um=NOISE)
@@ -241,8 +241,8 @@ def test_no_model_is_fitted_twice_with_the_same_free_coefficients(machines, monk
     trimmed model, fitted to judge the trim, is not fitted again when the trim is kept."""
     m = machines["vmc500"]
     _, data = heldout_set(m, None, 200, NOISE, 5)
-    import volerr_pin.fit.diagnosis.changes as changes
-    import volerr_pin.fit.diagnosis.loop as loop
+    import volerr_pin.fit.diagnosis._changes as changes
+    import volerr_pin.fit.diagnosis._loop as loop
 
     fits, original = [], changes.quiet_identify
 
@@ -294,7 +294,7 @@ def test_noise_floor_from_repeats_is_the_pooled_scatter_of_each_pair(machines):
     """The floor from repeated points against a pair-by-pair computation: each point measured
     twice (same place, approach and load), the scatter of the pair's residuals pooled; a point
     approached from the other side is no repeat."""
-    from volerr_pin.fit.diagnosis.report import noise_floor
+    from volerr_pin.fit.diagnosis._report import noise_floor
 
     m = machines["vmc500"]
     data = campaign(m, 100, NOISE, 2)
@@ -322,8 +322,8 @@ def test_a_refit_whose_values_a_spec_cannot_hold_is_not_accepted(machines, monke
     error's period went to 1e8 deg on a five-axis set); building the next change on it failed
     with an error that ended the diagnosis. Such a refit is not accepted and the candidate's
     note says why; here every refit with a backlash is made to fail the check."""
-    import volerr_pin.fit.diagnosis.changes as changes
-    from volerr_pin.base.errors import SpecError
+    import volerr_pin.fit.diagnosis._changes as changes
+    from volerr_pin.base import SpecError
 
     m = machines["vmc500"]
     _, data = heldout_set(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}, 200, NOISE, 300)
@@ -347,7 +347,7 @@ def test_a_candidate_too_small_in_its_joint_refit_says_so(machines, monkeypatch)
     SIGNIFICANCE standard uncertainties in its joint refit (a once-per-revolution error of B,
     its period free, came out at 0.02 on a five-axis set); it is not accepted, and its note
     says so with its size. Here every backlash is made to come out at 1.5."""
-    import volerr_pin.fit.diagnosis.changes as changes
+    import volerr_pin.fit.diagnosis._changes as changes
 
     m = machines["vmc500"]
     data = campaign(add_terms(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}), 200, NOISE, 3)
@@ -400,7 +400,7 @@ def test_a_batch_of_raises_is_refitted_until_every_member_is_significant(machine
     joint refit are dropped and the rest refitted. When that second refit dropped another, the
     model of the second refit (with it) used to be accepted. Here the second raise of the batch
     is made too small always, the third whenever the second is not in the model."""
-    import volerr_pin.fit.diagnosis.changes as changes
+    import volerr_pin.fit.diagnosis._changes as changes
 
     m = machines["vmc500"]
     _, data = heldout_set(m, {}, 200, NOISE, 300)
@@ -443,7 +443,7 @@ def test_a_diagnosis_builds_pinocchios_model_once_at_most(monkeypatch):
     _, data = heldout_set(m, {"EYY": {"kind": "backlash", "prefix": "h", "reversal_um": 4.0}}, 300, NOISE, 7)
     built, build = [], assembly.pin.buildModelFromXML
     monkeypatch.setattr(assembly.pin, "buildModelFromXML", lambda *a, **k: built.append(1) or build(*a, **k))
-    import volerr_pin.fit.diagnosis.loop as loop
+    import volerr_pin.fit.diagnosis._loop as loop
 
     offered, original = [], loop.offer
 

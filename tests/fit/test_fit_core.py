@@ -26,7 +26,7 @@ def tracker():
 
 def test_no_checking_machine_method_is_called_inside_the_fit(monkeypatch, tracker):
     from volerr_pin.fit.identify import identify
-    from volerr_pin.fit.ranking import rank, tool_identifiability
+    from volerr_pin.fit import rank, tool_identifiability
 
     m, data = tracker
     calls = record_checking_calls(monkeypatch, "volerr_pin.fit")
@@ -81,7 +81,7 @@ def test_a_diagnosis_writes_and_reads_no_spec_and_builds_pinocchio_once_more_at_
 def _route(machine, data, rounds):
     """Per round, the files of the library (above the model core) the machine goes through:
     every call of a function that receives a Machine, consecutive calls in one file one stop."""
-    from volerr_pin.fit.diagnosis import loop
+    from volerr_pin.fit.diagnosis import _loop as loop
     from volerr_pin.model import Machine
 
     package = Path(vp.__file__).parent
@@ -126,9 +126,9 @@ def test_a_round_is_a_pipeline_the_machine_goes_through_once(tracker):
     routes = _route(m, [data], 8)
     assert len(routes) >= 5
     for route in routes:
-        stages = ["fit/diagnosis/candidates.py", "fit/diagnosis/changes.py", "fit/identify/fit.py"]
+        stages = ["fit/diagnosis/_candidates.py", "fit/diagnosis/_changes.py", "fit/identify/_fit.py"]
         assert route[:1] == stages[:1], route
-        assert len({"fit/diagnosis/loop.py", *route}) <= 4, route
+        assert len({"fit/diagnosis/_loop.py", *route}) <= 4, route
         tail = route[1:]
         # changes -> identify, again for each smaller batch: nothing goes back to the candidates
         assert all(a != b and {a, b} <= set(stages[1:]) for a, b in zip(tail, tail[1:])), route

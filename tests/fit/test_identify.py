@@ -11,8 +11,7 @@ import volerr_pin as vp
 from volerr_pin.cli import main
 from volerr_pin.fit.identify import identify
 from volerr_pin.measurements import PointMeasurements, read_runs
-from volerr_pin.model import write_spec
-from volerr_pin.model import sample
+from volerr_pin.model import sample, write_spec
 
 
 def tool_points(machine, truth, n, noise, seed):
@@ -101,8 +100,8 @@ def test_the_report_carries_the_fits_covariance_and_uncertainty_propagates_it(ma
     """The report's correlations and uncertainties give back s^2 (J^T J)^-1 computed here from
     the machine's own sensitivities at the fitted values (GUM 5.2); the reader of reports
     propagates them, and a report without them is read with a warning."""
-    from volerr_pin.cli.common import dumps
-    from volerr_pin.studies.covariance import covariance_from_report
+    from volerr_pin.cli._common import dumps
+    from volerr_pin.studies import covariance_from_report
 
     m = machines["vmc500"]
     truth, _ = identifiable_truth(m, 300, seed=12)
@@ -236,7 +235,7 @@ def test_cli_identify_bad_input(tmp_path, capsys):
 def test_a_time_constant_in_seconds_is_not_taken_for_no_effect(machines):
     """cgm4000's angular coefficients move the tool by metres per radian, a time constant by
     nanometres per second: the zero test compares typical changes, not SI units."""
-    from volerr_pin.measurements.simulate import campaign
+    from volerr_pin.measurements import campaign
     from volerr_pin.model import add_terms
 
     m = machines["cgm4000"]
@@ -254,7 +253,7 @@ def test_a_time_constant_in_seconds_is_not_taken_for_no_effect(machines):
 def test_a_fit_that_did_not_converge_is_not_called_fitted(machines):
     """One Gauss-Newton step on a drift whose time constant starts far off: the report says
     where it stopped, and no coefficient is called fitted."""
-    from volerr_pin.measurements.simulate import campaign
+    from volerr_pin.measurements import campaign
     from volerr_pin.model import add_terms
 
     m = machines["vmc500"]
@@ -417,7 +416,7 @@ def test_one_point_one_pose_and_one_object(machines, small_points):
 def test_chunked_design_gives_the_fit_of_the_whole_design(machines, monkeypatch):
     """The fit reduces its design chunk by chunk (so it never holds every point's
     sensitivities); chunks of 64 points give the one-chunk result to rounding."""
-    import volerr_pin.fit.identify.design as design
+    import volerr_pin.fit.identify._design as design
 
     m = machines["cgm4000"]
     truth, _ = identifiable_truth(m, 300, seed=5)
@@ -473,7 +472,7 @@ def test_observations_built_by_hand_must_be_consistent(machines, small_points):
 def test_cli_says_an_ill_conditioned_fit_in_one_note_and_the_report(tmp_path, capsys, monkeypatch):
     """The limit lowered to 1 makes any fit ill-conditioned: the command prints the warning as
     one note and the JSON report carries the flag."""
-    import volerr_pin.fit.identify.solver as solver
+    import volerr_pin.fit.identify._solver as solver
 
     monkeypatch.setattr(solver, "CONDITION_LIMIT", 1.0)
     path = tmp_path / "points.csv"
@@ -490,9 +489,9 @@ def test_the_solver_returns_the_factor_at_its_coefficients_reducing_each_design_
     """The triangular factor and residual a fit returns (its uncertainties and residual RMS)
     are those of the returned coefficients, and no design is reduced twice at the same
     coefficients (a fit that stops without a step reuses the last one)."""
-    import volerr_pin.fit.identify.solver as solver
+    import volerr_pin.fit.identify._solver as solver
     from volerr_pin.fit.identify import FitPoints, build_observations
-    from volerr_pin.fit.identify.design import reduce_design
+    from volerr_pin.fit.identify._design import reduce_design
 
     m = machines["vmc500"]
     truth, probe = identifiable_truth(m, 300, seed=7)
@@ -523,7 +522,7 @@ def test_the_stacked_factor_is_that_of_the_whole_weighted_design():
     """Blocks factored one after another on top of the factor so far give the factor of the
     whole design divided row by row by sigma (R^T R = J^T J; |R| as numpy's QR gives it, to
     rounding), whatever the sizes: more rows than columns, fewer, none."""
-    from volerr_pin.fit.identify.design import stacked_factor
+    from volerr_pin.fit.identify._design import stacked_factor
 
     rng = np.random.default_rng(5)
     n = 7
@@ -554,8 +553,9 @@ def test_the_design_reduced_in_two_halves_is_the_whole_designs(machines, monkeyp
     prediction may round differently in a batch of another length (the compiled kernels'
     vector loops and their remainders), and nothing exchanges halves any more."""
     from volerr_pin.fit.identify import FitPoints, build_observations
-    from volerr_pin.fit.identify import design
-    from volerr_pin.fit.identify.design import predict_observations, reduce_design
+    from volerr_pin.fit.identify import _design as design
+    from volerr_pin.fit.identify import predict_observations
+    from volerr_pin.fit.identify._design import reduce_design
 
     m = machines["vmc500"]
     truth, probe = identifiable_truth(m, 300, seed=7)

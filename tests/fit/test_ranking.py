@@ -9,7 +9,7 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.fit.ranking import rank, read_tolerances, tool_identifiability
+from volerr_pin.fit import rank, read_tolerances, tool_identifiability
 from volerr_pin.model import sample
 
 
@@ -214,7 +214,7 @@ def test_rank_cli_bad_tolerances_exit_2(tmp_path, capsys):
     (lambda m: tool_identifiability(m, points=8, rtol=0), "rtol must be positive and finite", "rtol"),
 ])
 def test_bad_studies_are_refused_naming_the_parameter(machines, monkeypatch, call, match, parameter):
-    import volerr_pin.base.safeio as safeio
+    import volerr_pin.base._safeio as safeio
 
     monkeypatch.setattr(safeio, "available_memory", lambda: 2_000_000_000)
     with pytest.raises(vp.InputError, match=match) as err:
@@ -223,7 +223,7 @@ def test_bad_studies_are_refused_naming_the_parameter(machines, monkeypatch, cal
 
 
 def test_the_identifiability_analysis_refuses_what_it_cannot_analyse():
-    from volerr_pin.fit.identifiability import analyse
+    from volerr_pin.fit import analyse
 
     A = np.random.default_rng(0).normal(size=(20, 3))
     assert analyse(A, ["a", "b", "c"]).rank == 3
@@ -251,8 +251,8 @@ def test_columns_each_independent_but_singular_together_are_thinned(n, d, protec
     determined where 20 were, and warned that its design was rank-deficient. The kept set is now
     thinned with its own singular vectors: what goes is reported as a combination whose
     weighted sum has no effect, and what stays is well conditioned."""
-    from volerr_pin.fit.identifiability import analyse
-    from volerr_pin.fit.identify.solver import ill_conditioned
+    from volerr_pin.fit import analyse
+    from volerr_pin.fit.identify._solver import ill_conditioned
 
     R = np.triu(-np.ones((n, n)), 1) + d * np.eye(n)
     Q, _ = np.linalg.qr(np.random.default_rng(n).normal(size=(3 * n, n)))

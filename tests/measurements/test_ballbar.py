@@ -8,12 +8,11 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.measurements.ballbar import BallbarRun, evaluate_circular, read_ballbar
+from volerr_pin.measurements import (BallbarRun, MeasurementError, ballbar_run, evaluate_circular, read_any,
+                                     read_ballbar, write_ballbar)
 from volerr_pin.cli import main
 from volerr_pin.fit.diagnosis import diagnose
 from volerr_pin.fit.identify import identify
-from volerr_pin.measurements import MeasurementError, read_any
-from volerr_pin.measurements.simulate import ballbar_run, write_ballbar
 from volerr_pin.model import add_terms
 
 ANGLES = np.linspace(0.0, 2 * np.pi, 360, endpoint=False)

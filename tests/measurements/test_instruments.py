@@ -12,11 +12,9 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.fit.identify import build_observations, identify, pose_folds
-from volerr_pin.measurements import registry
-from volerr_pin.measurements.protocol import (Measurement, MeasurementKind, NuisanceTerm, ObservationBlock,
-                                              ObservationOptions)
-from volerr_pin.measurements.table import MeasurementError, Table
-from volerr_pin.measurements.simulate import campaign, tracker_campaign
+from volerr_pin.measurements import (Measurement, MeasurementError, MeasurementKind, NuisanceTerm, ObservationBlock,
+                                     ObservationOptions, Table, _registry as registry)
+from volerr_pin.measurements._simulate import campaign, tracker_campaign
 
 # ---------------------------------------------------------------- the toy instrument, as a user writes it
 

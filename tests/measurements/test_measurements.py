@@ -8,8 +8,9 @@ import re
 import numpy as np
 import pytest
 
-from volerr_pin.base import safeio
-from volerr_pin.measurements import MeasurementError, Table, read_any, read_points, read_runs
+from volerr_pin.base import _safeio as safeio
+from volerr_pin.measurements import MeasurementError, Table, read_any, read_runs
+from volerr_pin.measurements._points import read_points
 
 POINTS = """# tracker data, vmc500
 x,y,z,dx,dy,dz,rx,t,T_spindle,Fx,Fy,Fz,dir_x,operator
@@ -416,7 +417,7 @@ def test_the_documented_plausibility_limits_are_the_ones_applied():
     """docs/measurements.md states each limit; a change of one without the other fails here."""
     from pathlib import Path
 
-    from volerr_pin.base.units import DEG, PLAUSIBLE
+    from volerr_pin.base import DEG, PLAUSIBLE
 
     doc = (Path(__file__).resolve().parents[2] / "docs" / "measurements.md").read_text()
     section = doc[doc.index("### Plausibility limits"):doc.index("## Point measurements")]

@@ -9,9 +9,9 @@ import pytest
 
 from volerr_pin.cli import main
 from volerr_pin.fit.identify import identify
-from volerr_pin.measurements import MeasurementError, read_any
-from volerr_pin.measurements.simulate import tracker_campaign, write_tracker
-from volerr_pin.measurements.tracker import TrackerMeasurements, read_tracker, register, tracker_observations
+from volerr_pin.measurements import MeasurementError, TrackerMeasurements, read_any, read_tracker, register
+from volerr_pin.measurements._tracker import tracker_observations
+from volerr_pin.measurements._simulate import tracker_campaign, write_tracker
 from volerr_pin.model import sample
 
 TARGETS = ((0.0, 0.0, 0.0), (60.0, 0.0, -30.0), (0.0, 70.0, -30.0))

@@ -8,12 +8,9 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.model import ForceDeflection
+from volerr_pin.model import Context, Covariates, ForceDeflection, add_terms, build_term, write_spec
 from volerr_pin.fit.identify import identify
 from volerr_pin.measurements import PointMeasurements
-from volerr_pin.model import build_term
-from volerr_pin.model import add_terms, write_spec
-from volerr_pin.model import Context, Covariates
 
 TRAVEL = (0.0, 0.5)
 ARCSEC = math.pi / 180 / 3600

@@ -7,7 +7,7 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.applications.thermal import GM11, GM1N, feed_axis_six_point, spindle_five_point
-from volerr_pin.base.units import parse_axis_values
+from volerr_pin.base import parse_axis_values
 
 
 def test_wrong_shape(machines):

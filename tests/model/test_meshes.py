@@ -13,9 +13,8 @@ import rerun as rr
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.model import checked_meshes, load_urdf, package_folders
-from volerr_pin.viz.recording import log_machine, new_recording
-from volerr_pin.model import default_config
+from volerr_pin.model import checked_meshes, default_config, load_urdf, package_folders
+from volerr_pin.viz import log_machine, new_recording
 
 STL = b"solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n"
 SECRET = b"root:x:0:0:secret line that must not leave this machine\n"

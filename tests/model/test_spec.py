@@ -12,9 +12,8 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.base import safeio
-from volerr_pin.model import machines_dir
-from volerr_pin.model import read_toml
+from volerr_pin.base import _safeio as safeio
+from volerr_pin.model import machines_dir, read_toml
 
 from conftest import random_q
 

@@ -5,9 +5,8 @@ from __future__ import annotations
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.model import build_model
+from volerr_pin.model import MAX_DEGREE, build_model, legendre_terms
 from volerr_pin.cli import main
-from volerr_pin.model import MAX_DEGREE, legendre_terms
 
 
 def test_legendre_degree_is_bounded(machines):
@@ -34,7 +33,7 @@ def test_check_values_refuses_what_a_spec_file_would(machines):
     error of 3,000 rad); the check names it as reading a spec would, and passes the rest."""
     import numpy as np
 
-    from volerr_pin.base.errors import SpecError
+    from volerr_pin.base import SpecError
     from volerr_pin.model import add_terms, check_values
 
     m = add_terms(machines["cgm4000"], {"EBB": {"kind": "periodic_pitch", "prefix": "rotary", "period_deg": 360.0,

@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from volerr_pin.base import safeio
-from volerr_pin.model import _terms as T
-from volerr_pin.model import build_term
+from volerr_pin.base import _safeio as safeio
+from volerr_pin.model import _terms as T, build_term
 
 TRAVEL = (0.0, 0.5)
 

@@ -62,7 +62,7 @@ def test_engineering_units_round_trip(machines):
 def test_bad_counts_and_sizes_are_refused_naming_them(machines, monkeypatch, call, match, parameter):
     """volerr field --grid 1000 gave a MemoryError traceback: sizes are checked against the free
     memory (here 1 GB) before anything is allocated, naming the parameter that sets them."""
-    import volerr_pin.base.safeio as safeio
+    import volerr_pin.base._safeio as safeio
 
     monkeypatch.setattr(safeio, "available_memory", lambda: 1_000_000_000)
     with pytest.raises(vp.InputError, match=match) as err:
@@ -71,7 +71,7 @@ def test_bad_counts_and_sizes_are_refused_naming_them(machines, monkeypatch, cal
 
 
 def test_a_machine_without_linear_axes_sizes_its_field_by_points(machines, monkeypatch):
-    import volerr_pin.base.safeio as safeio
+    import volerr_pin.base._safeio as safeio
 
     monkeypatch.setattr(safeio, "available_memory", lambda: 1_000_000_000)
     m = machines["ur5"]

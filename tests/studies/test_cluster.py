@@ -97,7 +97,7 @@ def test_a_cluster_gets_pieces_of_work_worth_sending_and_folds_them_in_order(clu
     the workers, and the results come back in task order, as in one process."""
     from distributed import Client
 
-    from volerr_pin.studies.engine import DaskEngine, InProcess
+    from volerr_pin.studies import DaskEngine, InProcess
 
     tasks = [(k,) for k in range(200)]
     with Client(cluster) as client:
@@ -124,9 +124,9 @@ def test_a_study_sends_its_machine_and_points_to_the_workers_once(cluster, machi
     from distributed import Client
 
     from volerr_pin.model import grid
-    from volerr_pin.studies.engine import DaskEngine
-    from volerr_pin.studies.tolerance import study_tolerances
-    from volerr_pin.studies.tolerances import read_tolerance_file
+    from volerr_pin.studies import DaskEngine
+    from volerr_pin.studies import study_tolerances
+    from volerr_pin.studies import read_tolerance_file
 
     m = machines["vmc500"]
     path = tmp_path / "tol.toml"

@@ -19,18 +19,17 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.base.errors import InputError
+from volerr_pin.base import InputError
 from volerr_pin.compensation.gcode import interpret
 from volerr_pin.fit.identify import identify
-from volerr_pin.measurements import read_any
-from volerr_pin.measurements.points import PointMeasurements
-from volerr_pin.measurements.protocol import ObservationOptions
-from volerr_pin.studies.plan import INSTRUMENTS, instrument, make_setup, plan, register_instrument
-from volerr_pin.studies.plan.after import after_diagnosis, components_to_settle
-from volerr_pin.studies.plan.design import UnitDesign, d_optimal
-from volerr_pin.studies.plan.nc import StopsProgram, nc_program, time_estimate
-from volerr_pin.studies.plan.poses import grid_counts, pose_candidates
-from volerr_pin.studies.plan.tracker import in_sight
+from volerr_pin.measurements import ObservationOptions, PointMeasurements, read_any
+from volerr_pin.studies.plan import (INSTRUMENTS, after_diagnosis, instrument, make_setup, nc_program, plan,
+                                     register_instrument, time_estimate)
+from volerr_pin.studies.plan._nc import StopsProgram
+from volerr_pin.studies.plan._design import UnitDesign, d_optimal
+from volerr_pin.studies.plan._after import components_to_settle
+from volerr_pin.studies.plan._poses import grid_counts, pose_candidates
+from volerr_pin.studies.plan._tracker import in_sight
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -445,7 +444,7 @@ def test_interferometer_runs_are_files_identify_reads(tmp_path, vmc500, capsys):
 
 
 def test_files_of_one_unit_each_are_numbered_to_the_width_of_the_count(tmp_path):
-    from volerr_pin.studies.plan.protocol import numbered_files
+    from volerr_pin.studies.plan._protocol import numbered_files
 
     assert [p.name for p in numbered_files(tmp_path / "bb.csv", 3, "circle")] == [
         "bb_circle01.csv", "bb_circle02.csv", "bb_circle03.csv"]
@@ -484,7 +483,7 @@ def test_a_trackers_headline_is_what_it_determines_and_simulated_campaigns_find_
     machine whose every coefficient is off from a prior of zero (those the tracker cannot
     separate included) find that figure; the whole map's error exceeds the prediction by the
     rigid part. The split is exact: total^2 = determinable^2 + rigid^2."""
-    from volerr_pin.studies.plan.assess import rigid_basis, simulated, without_rigid
+    from volerr_pin.studies.plan._assess import rigid_basis, simulated, without_rigid
 
     inst = instrument("tracker")
     setup = make_setup(vmc500, inst)
@@ -512,9 +511,9 @@ def test_the_plan_is_compared_with_the_median_of_many_random_sets(vmc500, capsys
     """One random set is one draw: the comparison's random entry is the median of 21 draws by
     predicted zone uncertainty (recomputed here from the same seeds), and the spread is
     reported."""
-    from volerr_pin.studies.plan.assess import predicted, rigid_basis, without_rigid, zone_summary
-    from volerr_pin.studies.plan.campaign import RANDOM_SETS, free_coefficients
-    from volerr_pin.studies.plan.design import unit_design
+    from volerr_pin.studies.plan._assess import predicted, rigid_basis, without_rigid, zone_summary
+    from volerr_pin.studies.plan._campaign import RANDOM_SETS, free_coefficients
+    from volerr_pin.studies.plan._design import unit_design
 
     inst = instrument("tracker")
     setup = make_setup(vmc500, inst)
@@ -543,7 +542,7 @@ def test_a_coefficient_that_stands_for_a_combination_is_marked(vmc500):
     tracker cannot separate from others held at their priors carry those others' errors: the
     ones the plan marks (stands_for) reach several of their predicted uncertainties, the
     unmarked stay within two."""
-    from volerr_pin.studies.plan.assess import simulated
+    from volerr_pin.studies.plan._assess import simulated
 
     inst = instrument("tracker")
     setup = make_setup(vmc500, inst)

@@ -1,4 +1,4 @@
-"""volerr_pin.studies.plan.ballbar: circles as identify sees them (predicted covariance = identify's),
+"""volerr_pin.studies.plan._ballbar: circles as identify sees them (predicted covariance = identify's),
 the files read back and identified after filling them with the machine's exact kinematics, the
 NC program read back by the product's NC reader to the same circles, the time in closed form,
 the travel kept, the plan against random circles, and the command line's refusals."""
@@ -15,15 +15,14 @@ import pytest
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.base.errors import InputError
+from volerr_pin.base import InputError
 from volerr_pin.compensation.gcode import interpret
 from volerr_pin.fit.identify import identify
-from volerr_pin.measurements import read_any
-from volerr_pin.measurements.ballbar import BallbarRun
+from volerr_pin.measurements import BallbarRun, read_any
 from volerr_pin.studies.plan import instrument, make_setup, plan
-from volerr_pin.studies.plan.assess import simulated
-from volerr_pin.studies.plan.ballbar import Ballbar, Circle
-from volerr_pin.studies.plan.poses import pose_candidates
+from volerr_pin.studies.plan._ballbar import Ballbar, Circle
+from volerr_pin.studies.plan._poses import pose_candidates
+from volerr_pin.studies.plan._assess import simulated
 
 
 @pytest.fixture(scope="module")

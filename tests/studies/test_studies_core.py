@@ -33,7 +33,7 @@ SOURCES = [*sorted((ROOT / "volerr_pin" / "studies").rglob("*.py")),
            *sorted((ROOT / "volerr_pin" / "viz").rglob("*.py")),
            *(ROOT / "volerr_pin" / "applications" / f"{name}.py"
              for name in ("thermal", "thermalfit", "dh", "axisfit", "iso230")),
-           *(ROOT / "volerr_pin" / "cli" / f"{name}.py"
+           *(ROOT / "volerr_pin" / "cli" / f"_{name}.py"
              for name in ("uncertainty", "tolerance", "plan", "ballbar", "iso230", "thermal_fit", "gear", "dh",
                           "field", "demo"))]
 
@@ -93,7 +93,7 @@ def test_a_plan_and_its_simulated_campaigns_call_the_algorithms(calls, vmc500, n
 
 def test_a_plan_after_a_diagnosis_calls_the_algorithms(calls, vmc500):
     from volerr_pin.studies.plan import instrument, make_setup
-    from volerr_pin.studies.plan.after import after_diagnosis
+    from volerr_pin.studies.plan import after_diagnosis
 
     report = {"machine": "vmc500", "effects": [{"name": "straightness", "component": "EAZ",
                                                 "same_at_tool_as": ["EYX", "EYZ"]}], "under_modelled": []}
@@ -104,8 +104,8 @@ def test_a_plan_after_a_diagnosis_calls_the_algorithms(calls, vmc500):
 
 
 def test_simulated_measurements_and_their_observations_call_the_algorithms(calls, vmc500):
-    from volerr_pin.measurements.protocol import ObservationOptions
-    from volerr_pin.measurements.simulate import ballbar_run, campaign, heldout_set, tracker_campaign
+    from volerr_pin.measurements import ObservationOptions
+    from volerr_pin.measurements._simulate import ballbar_run, campaign, heldout_set, tracker_campaign
 
     truth, points = heldout_set(vmc500, n=20, seed=2)
     runs = [points, campaign(truth, n=10), ballbar_run(truth, radius_mm=50.0, n=36),

@@ -21,14 +21,12 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.fit.ranking import read_tolerances
-from volerr_pin.studies.sobol import sobol_indices
-from volerr_pin.studies.shapes import legendre_range, shapes_of
-from volerr_pin.studies.tolerance import study_tolerances, tolerance_source
-from volerr_pin.studies.tolerances import read_tolerance_file, tolerances_toml
-from volerr_pin.base.units import ARCSEC, UM
-from volerr_pin.model import parse_component_name
-from volerr_pin.model import grid
+from volerr_pin.fit import read_tolerances
+from volerr_pin.studies import read_tolerance_file, study_tolerances, tolerance_source, tolerances_toml
+from volerr_pin.studies._shapes import legendre_range, shapes_of
+from volerr_pin.studies._sobol import sobol_indices
+from volerr_pin.base import ARCSEC, UM
+from volerr_pin.model import grid, parse_component_name
 
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -431,7 +429,7 @@ def test_the_text_report_warns_where_the_sobol_intervals_do_not_separate_and_say
     """The guide's example with 32 base samples: the intervals are wider than the indices, and
     the text says so with the samples that would separate the largest; the table says it shows
     12 of 21 components; a tolerance the re-allocation loosens to its bound says why."""
-    from volerr_pin.studies.sobol import SobolIndices
+    from volerr_pin.studies._sobol import SobolIndices
 
     args = ["tolerance", "vmc500", "--tolerances", str(EXAMPLE), "--samples", "1e3", "--grid", "3",
             "--target-um", "12", "--sobol-samples", "32", "--workers", "0"]

@@ -16,14 +16,13 @@ import numpy as np
 import pytest
 
 import volerr_pin as vp
-from volerr_pin.studies.covariance import Covariance, covariance_from_campaign, covariance_from_report
-from volerr_pin.studies.engine import DaskEngine, InProcess, PortableMachine, chunk_rng
-from volerr_pin.studies.evaluator import Evaluator
-from volerr_pin.studies.montecarlo import (NormalSource, grid_points, make_points, point_quantiles,
-                                           run_monte_carlo)
-from volerr_pin.cli.common import in_cli_words
-from volerr_pin.base.errors import InputError
-from volerr_pin.studies.uncertainty import (K95, compare_scalar, compensated_points, numerical_tolerance,
+from volerr_pin.studies import (Covariance, DaskEngine, Evaluator, InProcess, PortableMachine, covariance_from_campaign,
+                                covariance_from_report, grid_points, make_points, run_monte_carlo)
+from volerr_pin.studies._montecarlo import NormalSource, point_quantiles
+from volerr_pin.studies._engine import chunk_rng
+from volerr_pin.cli._common import in_cli_words
+from volerr_pin.base import InputError
+from volerr_pin.studies._uncertainty import (K95, compare_scalar, compensated_points, numerical_tolerance,
                                             study_uncertainty, table_compensation, z_family)
 from volerr_pin.model import grid
 
@@ -307,7 +306,7 @@ def test_a_summary_s_linear_interval_applies_only_away_from_zero(machines):
     """The scales behind the rule, computed here from the machine's own sensitivities: the
     worst point's largest standard deviation, and that of all points' errors stacked over
     sqrt(N); a summary within 1.96 of its scale of zero gets no linear interval."""
-    from volerr_pin.studies.uncertainty import linear_propagation
+    from volerr_pin.studies._uncertainty import linear_propagation
 
     m = machines["vmc500"]
     cov = covariance_from_campaign(m, 1e-6, points=60)
@@ -327,7 +326,7 @@ def test_a_summary_s_linear_interval_applies_only_away_from_zero(machines):
 
 def test_a_controller_s_tables_leave_the_residual_the_export_simulates(machines):
     from volerr_pin.compensation.export import Points
-    from volerr_pin.compensation.export.simulate import residuals
+    from volerr_pin.compensation.export._simulate import residuals
 
     m = machines["vmc500"]
     cov = covariance_from_campaign(m, 1e-6, points=60)
@@ -349,7 +348,7 @@ def test_a_controller_s_tables_leave_the_residual_the_export_simulates(machines)
 
 def test_tables_applied_by_direction_need_the_approach_directions(machines):
     from volerr_pin.compensation.export import Points
-    from volerr_pin.compensation.export.simulate import residuals
+    from volerr_pin.compensation.export._simulate import residuals
     from volerr_pin.model import add_terms
 
     m = add_terms(machines["vmc500"], {"EXX": {"kind": "backlash", "prefix": "b", "reversal_um": 6.0}})
@@ -508,8 +507,8 @@ def test_volerr_uncertainty_refuses_a_missing_report_before_any_work(capsys, tmp
 # ------------------------------------------------------------------ layout
 
 
-STUDY_MODULES = ["engine", "distributions", "tolerances", "montecarlo", "evaluator", "covariance", "uncertainty",
-                 "sobol", "allocation", "tolerance"]
+STUDY_MODULES = ["_engine", "_distributions", "_tolerances", "_montecarlo", "_evaluator", "_covariance",
+                 "_uncertainty", "_sobol", "_allocation", "_tolerance"]
 
 
 @pytest.mark.parametrize("name", STUDY_MODULES)

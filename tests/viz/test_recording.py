@@ -12,10 +12,10 @@ import rerun as rr
 
 import volerr_pin as vp
 from volerr_pin.cli import main
-from volerr_pin.base.errors import InputError
-from volerr_pin.viz.plots import field_slice_png, ranking_png
-from volerr_pin.fit.ranking import rank
-from volerr_pin.viz.recording import log_field, log_time_series, new_recording, record_field, sweep_angles
+from volerr_pin.base import InputError
+from volerr_pin.viz import field_slice_png, ranking_png
+from volerr_pin.fit import rank
+from volerr_pin.viz._recording import log_field, log_time_series, new_recording, record_field, sweep_angles
 from volerr_pin.model import evaluate_field, field_grid
 
 
@@ -182,7 +182,7 @@ def test_the_model_and_the_pictures_do_not_load_rerun():
     assert "volerr_pin.fit.identify" in core and "volerr_pin.fit.diagnosis" in core and len(core) > 20
     code = (f"import sys, {', '.join(core)}; "
             "print('rerun' in sys.modules, 'matplotlib' in sys.modules); "
-            "import volerr_pin.viz.plots; print('rerun' in sys.modules)")
+            "import volerr_pin.viz._plots; print('rerun' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False", "False"]
 
@@ -190,7 +190,7 @@ def test_the_model_and_the_pictures_do_not_load_rerun():
 @pytest.mark.filterwarnings("error:RRD file has no footer")
 def test_gear_recording_holds_the_normal_deviations(machines, tmp_path):
     from volerr_pin.applications.gear import deviations_by_source
-    from volerr_pin.viz.recording import record_gear
+    from volerr_pin.viz import record_gear
 
     rows = deviations_by_source(machines["gear_roller"], components=["EXA", "ECB"], profile_points=5, face_points=3)
     path = tmp_path / "gear.rrd"
@@ -245,7 +245,7 @@ def test_absurd_field_sizes_are_refused_before_allocating(machines, tmp_path, co
 
 
 def test_a_failed_recording_leaves_the_file_as_it_was(machines, tmp_path, monkeypatch):
-    import volerr_pin.viz.recording as recording
+    import volerr_pin.viz._recording as recording
 
     target = tmp_path / "field.rrd"
     target.write_bytes(b"the recording of yesterday")

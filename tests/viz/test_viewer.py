@@ -58,7 +58,7 @@ def test_the_check_sees_an_empty_view_and_a_playing_recording(tmp_path):
 
     import volerr_pin as vp
     from volerr_pin.model import default_config
-    from volerr_pin.viz.recording import log_machine, new_recording, streaming
+    from volerr_pin.viz import log_machine, new_recording, streaming
 
     machine = vp.load_machine("vmc500")
     path = tmp_path / "bare.rrd"
@@ -111,7 +111,7 @@ def _machine_alone_screenshot(folder: Path) -> Path:
 
     import volerr_pin as vp
     from volerr_pin.model import default_config
-    from volerr_pin.viz.recording import log_machine, new_recording, streaming
+    from volerr_pin.viz import log_machine, new_recording, streaming
 
     machine = vp.load_machine("vmc500")
     path, shot = folder / "machine.rrd", folder / "machine.png"

@@ -35,9 +35,8 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..base.errors import InputError
-from ..measurements.table import MeasurementError, read_table
-from ..base.units import axis_scale
+from ..base import InputError, axis_scale
+from ..measurements import MeasurementError, read_table
 
 
 @dataclass(frozen=True)

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..base.errors import InputError
-from ..measurements.runs import Runs
+from ..base import InputError
+from ..measurements import Runs
 
 
 def evaluate(targets, directions, deviations, unit: str = "um", source: str = "") -> dict:

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..base.errors import InputError
+from ..base import InputError
 
 
 def spindle_five_point(s1, s2, s3, s4, s5, l: float, l1: float, l2: float) -> dict:

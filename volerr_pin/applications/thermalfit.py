@@ -36,9 +36,8 @@ import numbers
 
 import numpy as np
 
-from ..base.errors import InputError
-from ..measurements.series import SeriesData
-from ..base.safeio import same_file
+from ..base import InputError, same_file
+from ..measurements import SeriesData
 from .thermal import GM11, GM1N
 
 METHODS = ("linear", "gm11", "gm1n", "vwgm1n")

@@ -25,15 +25,13 @@ from collections.abc import Iterable
 import argcomplete
 
 from .. import __version__
-from ..base import safeio
-from ..base.errors import VolerrError
-from . import (ballbar, compensate, demo, dh, diagnose, errormap, field, gear, identify, info, iso230, rank,
-               thermal_fit, urdf)
-from . import tolerance, uncertainty
-from . import export
-from . import plan
-from . import predict, testpiece
-from .common import check_out_name, in_cli_words
+from ..base import COMMIT_CHECKS, VolerrError
+from . import (_ballbar as ballbar, _compensate as compensate, _demo as demo, _dh as dh, _diagnose as diagnose,
+               _errormap as errormap, _field as field, _gear as gear, _identify as identify, _info as info,
+               _iso230 as iso230, _rank as rank, _thermal_fit as thermal_fit, _urdf as urdf)
+from . import (_export as export, _plan as plan, _predict as predict, _testpiece as testpiece, _tolerance as tolerance,
+               _uncertainty as uncertainty)
+from ._common import check_out_name, in_cli_words
 
 #: one module per command, in the order ``volerr --help`` lists them
 COMMANDS = (demo, field, rank, iso230, identify, thermal_fit, diagnose, compensate, export, errormap, ballbar,
@@ -109,7 +107,7 @@ class Stopped(BaseException):
 
 
 #: termination signals received in this run (a handler's exception can be swallowed: see
-#: :data:`volerr_pin.base.safeio.COMMIT_CHECKS`)
+#: :data:`volerr_pin.base.COMMIT_CHECKS`)
 _RECEIVED: list[int] = []
 
 
@@ -145,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
         for signum in (signal.SIGTERM, signal.SIGHUP):
             previous[signum] = signal.signal(signum, _stop)
         _RECEIVED.clear()
-        safeio.COMMIT_CHECKS.append(_refuse_after_stop)
+        COMMIT_CHECKS.append(_refuse_after_stop)
         sys.unraisablehook = _quiet_stop(hook)
     try:
         with warnings.catch_warnings():
@@ -175,5 +173,5 @@ def main(argv: list[str] | None = None) -> int:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
         if previous:
-            safeio.COMMIT_CHECKS.remove(_refuse_after_stop)
+            COMMIT_CHECKS.remove(_refuse_after_stop)
             sys.unraisablehook = hook

@@ -9,25 +9,17 @@ pieces), :mod:`.lines` and :mod:`.splitter` (splitting straight moves and arcs),
 (:class:`PathCompensator`).
 """
 
-from importlib import import_module as _import_module
+from ..base import lazy_exports
 
 #: names imported from their module when first used (PEP 562): these load the machine model
 #: (Pinocchio, SciPy, Numba), which the command line's parser, reading only the controllers'
 #: names from :mod:`.export`, would otherwise pay for at every start
-_LAZY = {"Arc": ".arcs", "arc_from_center": ".arcs", "ARC": ".moves", "LINE": ".moves", "POINT": ".moves",
-         "MoveBatch": ".moves", "PieceSet": ".moves", "BatchResult": ".path", "PathCompensation": ".path",
-         "PathCompensator": ".path", "Piece": ".path", "PointCompensation": ".points",
-         "compensate_points": ".points", "evaluate_compensation": ".points", "PROGRAMMINGS": ".programming",
-         "Programming": ".programming", "programming_for": ".programming"}
-
-__all__ = ["ARC", "Arc", "BatchResult", "LINE", "MoveBatch", "POINT", "PROGRAMMINGS", "PathCompensation",
-           "PathCompensator", "Piece", "PieceSet", "PointCompensation", "Programming", "arc_from_center",
-           "compensate_points", "evaluate_compensation", "programming_for"]
-
-
-def __getattr__(name: str):
-    if name in _LAZY:
-        value = getattr(_import_module(_LAZY[name], __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+_NAMES = {
+    "_arcs": ("Arc", "arc_from_center", "RADIUS_SLACK", "arc_extent", "sweep_of", "sweeps"),
+    "_moves": ("ARC", "POINT", "MoveBatch", "PieceSet"),
+    "_path": ("BatchResult", "PathCompensation", "PathCompensator", "Piece"),
+    "_points": ("PointCompensation", "compensate_points", "evaluate_compensation", "MachineInputs"),
+    "_programming": ("PROGRAMMINGS", "Programming", "programming_for"),
+    "_errormap": ("ErrorMap", "axis_tables", "compensation_table"),
+}
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _NAMES)

@@ -23,7 +23,7 @@ free algorithms that take it first, and the :class:`Machine` a user holds.
 Names load when first used (PEP 562): listing the bundled machines does not load Pinocchio.
 """
 
-from importlib import import_module as _import_module
+from ..base import lazy_exports
 
 #: public name -> the private module that defines it
 _NAMES = {
@@ -49,18 +49,4 @@ _NAMES = {
                    "from_engineering", "grid", "nice_scale", "sample", "to_engineering"),
     "_describe": ("machine_info",),
 }
-_WHERE = {name: module for module, names in _NAMES.items() for name in names}
-
-__all__ = [name for names in _NAMES.values() for name in names]   # by concept, as the docstring goes
-
-
-def __getattr__(name: str):
-    if name in _WHERE:
-        value = getattr(_import_module(f"{__name__}.{_WHERE[name]}"), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return list(__all__)
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _NAMES)   # by concept, as the docstring goes

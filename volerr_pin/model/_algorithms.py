@@ -27,13 +27,13 @@ from __future__ import annotations
 import numpy as np
 
 from . import _kinematics as K
-from ..base.errors import InputError
+from ..base import InputError
 from ._model import ComponentSite, Model
 from ._terms import Context, Covariates
 
 __all__ = ["axis_jacobian", "component_sensitivity", "component_values", "error_joint_sensitivity", "joint_jacobian",
-           "joint_values", "parameter_jacobian", "pinocchio_configuration", "search_grid", "sensitivity",
-           "tool_poses", "volumetric_error"]
+           "joint_values", "parameter_jacobian", "pinocchio_configuration", "search_grid", "sensitivity", "tool_poses",
+           "volumetric_error"]
 
 
 # ----------------------------------------------------------------------------- the door

@@ -14,9 +14,7 @@ import numpy as np
 
 from typing import Mapping
 
-from ..base.checks import real_array
-from ..base.errors import InputError
-from ..base.safeio import require_memory
+from ..base import InputError, real_array, require_memory
 from ._effects import add_lagged_temperatures
 from ._model import Model
 from ._terms import Covariates, TemperatureHistory
@@ -24,8 +22,8 @@ from ._terms import Covariates, TemperatureHistory
 #: evaluations below this many bytes are not sized against the free memory
 SMALL_REQUEST = 64 * 2**20
 
-__all__ = ["COVARIATES", "check_covariates", "check_inputs", "check_parameters", "check_q", "check_theta", "merge_state",
-           "outside_travel", "plausible_theta", "theta_bounds"]
+__all__ = ["COVARIATES", "check_covariates", "check_inputs", "check_parameters", "check_q", "check_theta",
+           "merge_state", "outside_travel", "plausible_theta", "theta_bounds"]
 
 #: the covariates a machine can read
 COVARIATES = ("t", "temperatures", "forces", "directions", "series", "history")

@@ -6,9 +6,8 @@ import math
 
 import numpy as np
 
-from ..base.errors import InputError
+from ..base import ARCSEC_PER_RAD, UM_PER_M, InputError, axis_scale
 from ._machine import Machine
-from ..base.units import ARCSEC_PER_RAD, UM_PER_M, axis_scale
 
 
 def machine_info(machine: Machine) -> dict:

@@ -39,10 +39,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.polynomial import legendre
 
-from ..base.errors import InputError, SpecError
+from ..base import ANGLE, TIME, InputError, SpecError, scale, within
 from ._speckeys import TermSite, find_key, number, numbers, stem_of, unit_of
 from ._terms import MAX_COEFFICIENTS, Context, Covariates, Term
-from ..base.units import ANGLE, TIME, scale, within
 
 
 STATE_HINT = "; give it with the points, or hold the machine in a state (Machine.with_state)"
@@ -69,6 +68,20 @@ def _need_temperature(ctx: Context, sensor: str, lag: float = 0.0) -> np.ndarray
 
 
 def lagged_name(sensor: str, lag: float) -> str:
+    """The covariate key of a sensor's temperature read ``lag`` seconds earlier: ``"T1@30s"``.
+
+    Parameters
+    ----------
+    sensor : str
+        The sensor's name.
+    lag : float
+        The lag [s].
+
+    Returns
+    -------
+    str
+        ``<sensor>@<lag>s``, the lag written with ``:g``.
+    """
     return f"{sensor}@{lag:g}s"
 
 
@@ -131,6 +144,23 @@ def _tau_grid(cov: Covariates) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class DriftTime(Term):
+    """Thermal drift driven by time: ``sum_k a_k g(t; tau_k)``, heating from t = 0 and cooling
+    after ``stop`` (the module's forms); coefficients ``a1, tau1, a2, tau2, ...``.
+
+    Attributes
+    ----------
+    unit : str
+        The display unit of the error in the spec (``um``, ``arcsec``).
+    unit_scale : float
+        SI per display unit.
+    count : int
+        Number of exponentials.
+    stop : float or None
+        The time heating stops and cooling starts [s]; None: no stop.
+    time_unit : str
+        The display unit of the time constants in the spec (``s``, ``min``, ``h``).
+    """
+
     unit: str
     unit_scale: float
     count: int
@@ -141,17 +171,47 @@ class DriftTime(Term):
 
     @property
     def local_names(self):  # type: ignore[override]
+        """Names of the coefficients: amplitude and time constant of each exponential, ``a1, tau1, ...``."""
         return tuple(n for k in range(1, self.count + 1) for n in (f"a{k}", f"tau{k}"))
 
     @property
     def nonlinear(self):  # type: ignore[override]
+        """The time constants ``tau1, ...``, which the value is not linear in."""
         return tuple(f"tau{k}" for k in range(1, self.count + 1))
 
     def value(self, c, ctx):
+        """The drift at the points' times ``t``.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The value at each point (SI).
+        """
         t = _need_t(ctx, "thermal_drift")
         return sum(c[2 * k] * _saturation(t, c[2 * k + 1], self.stop)[0] for k in range(self.count))
 
     def jacobian(self, c, ctx):
+        """Derivatives of the drift with respect to the amplitudes and time constants.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, size)
+            d value / d coefficient at each point.
+        """
         t = _need_t(ctx, "thermal_drift")
         out = np.empty((ctx.n, 2 * self.count))
         for k in range(self.count):
@@ -161,15 +221,60 @@ class DriftTime(Term):
         return out
 
     def search_grid(self, name, c, cov):
+        """Candidate time constants: 48 values spaced geometrically from 1/300 to 3 times the span of ``t``.
+
+        Parameters
+        ----------
+        name : str
+            The coefficient's local name (a ``tau<k>``); every time constant gets the same grid.
+        c : ndarray, shape (size,)
+            The term's current coefficients (SI).
+        cov : Covariates
+            The covariates of the points to be fitted.
+
+        Returns
+        -------
+        ndarray, shape (48,) or (0,)
+            Time constants [s]; empty without at least two distinct times.
+        """
         return _tau_grid(cov)
 
     def coefficient_units(self):
+        """(SI per display unit, display unit) of each coefficient: the error's unit for the
+        amplitudes, ``time_unit`` for the time constants.
+
+        Returns
+        -------
+        list of (float, str)
+            One pair per coefficient, in the order of :attr:`local_names`.
+        """
         return [(self.unit_scale, self.unit), (TIME[self.time_unit], self.time_unit)] * self.count
 
     def coefficient_limits(self):
+        """The plausibility limit of each coefficient, the time constants held positive
+        ("time_constant").
+
+        Returns
+        -------
+        list of str
+            One key of :data:`~volerr_pin.base.PLAUSIBLE` per coefficient.
+        """
         return _with_time_constants(self)
 
     def to_spec(self, c):
+        """The spec table: ``driver = "time"``, ``amplitudes_<unit>``, ``time_constants_<unit>``
+        and ``stop_<unit>`` when heating stops.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+
+        Returns
+        -------
+        dict
+            The table.
+        """
         table = {"kind": "thermal_drift", "driver": "time",
                  f"amplitudes_{self.unit}": [float(c[2 * k] / self.unit_scale) for k in range(self.count)],
                  f"time_constants_{self.time_unit}": [float(c[2 * k + 1] / TIME[self.time_unit])
@@ -182,6 +287,21 @@ class DriftTime(Term):
 
     @classmethod
     def from_spec(cls, table, site):
+        """Read a time-driven drift from its spec table.
+
+        Parameters
+        ----------
+        table : dict
+            The term's spec table, keys checked against :attr:`keys` already.
+        site : TermSite
+            Where the table is and what it is an error of.
+
+        Returns
+        -------
+        term : DriftTime
+        coefficients : ndarray, shape (2 count,)
+            ``a1, tau1, ...`` in SI.
+        """
         amps, unit, factor, akey = site.value(table, "amplitudes")
         _count(amps.size, site, akey, "amplitudes")
         taus = _time_constants(table, site, amps.size)
@@ -195,6 +315,23 @@ class DriftTime(Term):
 
 @dataclass(frozen=True, eq=False)
 class DriftTemperature(Term):
+    """Thermal drift driven by temperatures: ``sum_s k_s (T_s(t - lag) - T_ref,s)``;
+    coefficients ``k_<sensor>`` [m/K or rad/K].
+
+    Attributes
+    ----------
+    unit : str
+        The display unit of the error in the spec (``um``, ``arcsec``).
+    unit_scale : float
+        SI per display unit.
+    sensors : tuple of str
+        The temperature sensors it reads.
+    reference : tuple of float
+        The reference temperature of each sensor [degC].
+    lag : float
+        How much earlier each sensor is read [s]; 0: at the points' own times.
+    """
+
     unit: str
     unit_scale: float
     sensors: tuple[str, ...]
@@ -205,25 +342,89 @@ class DriftTemperature(Term):
 
     @property
     def local_names(self):  # type: ignore[override]
+        """Names of the coefficients, ``k_<sensor>`` for each sensor."""
         return tuple(f"k_{s}" for s in self.sensors)
 
     def lag_requests(self):
+        """(sensor, lag) for each sensor when the term has a lag.
+
+        Returns
+        -------
+        tuple of (str, float)
+            The sensors and the lag [s]; empty without a lag.
+        """
         return tuple((s, self.lag) for s in self.sensors) if self.lag else ()
 
     def temperature_sensors(self):
+        """The sensors the term reads.
+
+        Returns
+        -------
+        tuple of str
+            :attr:`sensors`.
+        """
         return self.sensors
 
     def coefficient_units(self):
+        """(SI per display unit, display unit) of each coefficient: the error's unit per kelvin.
+
+        Returns
+        -------
+        list of (float, str)
+            One pair per sensor.
+        """
         return [(self.unit_scale, f"{self.unit}/K")] * self.size
 
     def jacobian(self, c, ctx):
+        """The temperature differences ``T_s(t - lag) - T_ref,s`` of the sensors.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+            The temperatures (lagged ones under :func:`lagged_name`) are read from the covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, size)
+            Temperature differences [K], one column per sensor.
+        """
         return np.column_stack([_need_temperature(ctx, s, self.lag) - ref
                                 for s, ref in zip(self.sensors, self.reference)])
 
     def value(self, c, ctx):
+        """The drift, the temperature differences times the coefficients.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The value at each point (SI).
+        """
         return self.jacobian(c, ctx) @ c
 
     def to_spec(self, c):
+        """The spec table: ``driver = "temperature"``, ``sensors``, ``coefficients_<unit>_per_K``,
+        ``reference_degC`` and ``lag_s`` when there is a lag.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+
+        Returns
+        -------
+        dict
+            The table.
+        """
         table = {"kind": "thermal_drift", "driver": "temperature", "sensors": list(self.sensors),
                  f"coefficients_{self.unit}_per_K": [float(v / self.unit_scale) for v in c],
                  "reference_degC": list(self.reference)}
@@ -235,6 +436,21 @@ class DriftTemperature(Term):
 
     @classmethod
     def from_spec(cls, table, site):
+        """Read a temperature-driven drift from its spec table (reference 20 degC and no lag by default).
+
+        Parameters
+        ----------
+        table : dict
+            The term's spec table, keys checked against :attr:`keys` already.
+        site : TermSite
+            Where the table is and what it is an error of.
+
+        Returns
+        -------
+        term : DriftTemperature
+        coefficients : ndarray, shape (n_sensors,)
+            ``k_<sensor>`` in SI [m/K or rad/K].
+        """
         where = site.where
         sensors = table.get("sensors")
         if not isinstance(sensors, list) or not sensors or not all(isinstance(s, str) and s for s in sensors):
@@ -255,6 +471,19 @@ class DriftTemperature(Term):
 
 @dataclass(frozen=True, eq=False)
 class ExpansionTemperature(Term):
+    """Thermal expansion of a linear axis driven by a temperature: ``alpha (T - T_ref) (q - q0)``;
+    one coefficient ``alpha`` [1/K].
+
+    Attributes
+    ----------
+    sensor : str
+        The temperature sensor it reads.
+    reference : float
+        The reference temperature ``T_ref`` [degC].
+    origin : float
+        The axis position ``q0`` the expansion is measured from [m].
+    """
+
     sensor: str
     reference: float
     origin: float
@@ -266,27 +495,96 @@ class ExpansionTemperature(Term):
     local_names = ("alpha",)
 
     def temperature_sensors(self):
+        """The sensor the term reads.
+
+        Returns
+        -------
+        tuple of str
+            ``(sensor,)``.
+        """
         return (self.sensor,)
 
     def coefficient_units(self):
+        """(SI per display unit, display unit) of ``alpha``: ppm/K.
+
+        Returns
+        -------
+        list of (float, str)
+            ``[(1e-6, "ppm/K")]``.
+        """
         return [(1e-6, "ppm/K")]
 
     def _parts(self, ctx):
         return _need_temperature(ctx, self.sensor) - self.reference, ctx.position - self.origin
 
     def value(self, c, ctx):
+        """The expansion ``alpha (T - T_ref) (q - q0)``.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The length error at each point [m].
+        """
         dT, dq = self._parts(ctx)
         return c[0] * dT * dq
 
     def jacobian(self, c, ctx):
+        """The derivative with respect to ``alpha``, ``(T - T_ref) (q - q0)``.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, 1)
+            [K m].
+        """
         dT, dq = self._parts(ctx)
         return (dT * dq)[:, None]
 
     def position_slope(self, c, ctx):
+        """The derivative with respect to the axis position, ``alpha (T - T_ref)``.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The strain at each point [m/m].
+        """
         dT, _ = self._parts(ctx)
         return c[0] * dT
 
     def to_spec(self, c):
+        """The spec table: ``driver = "temperature"``, ``sensor``, ``coefficient_ppm_per_K``,
+        ``reference_degC`` and ``origin_mm``.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+
+        Returns
+        -------
+        dict
+            The table.
+        """
         return {"kind": "thermal_expansion", "driver": "temperature", "sensor": self.sensor,
                 "coefficient_ppm_per_K": float(c[0] * 1e6), "reference_degC": self.reference,
                 "origin_mm": self.origin * 1e3}
@@ -296,6 +594,22 @@ class ExpansionTemperature(Term):
 
     @classmethod
     def from_spec(cls, table, site):
+        """Read a temperature-driven expansion from its spec table (``coefficient_per_K`` or
+        ``coefficient_ppm_per_K``, within +-1 per K; reference 20 degC and origin 0 by default).
+
+        Parameters
+        ----------
+        table : dict
+            The term's spec table, keys checked against :attr:`keys` already.
+        site : TermSite
+            Where the table is and what it is an error of.
+
+        Returns
+        -------
+        term : ExpansionTemperature
+        coefficients : ndarray, shape (1,)
+            ``alpha`` [1/K].
+        """
         where = site.where
         sensor = table.get("sensor")
         if not isinstance(sensor, str) or not sensor:
@@ -314,6 +628,19 @@ class ExpansionTemperature(Term):
 
 @dataclass(frozen=True, eq=False)
 class ExpansionTime(Term):
+    """Thermal expansion of a linear axis driven by time (Srivastava et al.):
+    ``(q - q0) sum_k s_k (1 - exp(-t / tau_k))``; coefficients ``s1, tau1, s2, tau2, ...``.
+
+    Attributes
+    ----------
+    count : int
+        Number of exponentials.
+    origin : float
+        The axis position ``q0`` the expansion is measured from [m].
+    time_unit : str
+        The display unit of the time constants in the spec (``s``, ``min``, ``h``).
+    """
+
     count: int
     origin: float
     time_unit: str
@@ -324,10 +651,12 @@ class ExpansionTime(Term):
 
     @property
     def local_names(self):  # type: ignore[override]
+        """Names of the coefficients: strain and time constant of each exponential, ``s1, tau1, ...``."""
         return tuple(n for k in range(1, self.count + 1) for n in (f"s{k}", f"tau{k}"))
 
     @property
     def nonlinear(self):  # type: ignore[override]
+        """The time constants ``tau1, ...``, which the value is not linear in."""
         return tuple(f"tau{k}" for k in range(1, self.count + 1))
 
     def _strain(self, c, ctx):
@@ -341,26 +670,113 @@ class ExpansionTime(Term):
         return strain, parts
 
     def value(self, c, ctx):
+        """The expansion, the strain at the points' times ``t`` times ``q - q0``.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The length error at each point [m].
+        """
         return self._strain(c, ctx)[0] * (ctx.position - self.origin)
 
     def jacobian(self, c, ctx):
+        """Derivatives of the expansion with respect to the strains and time constants.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, size)
+            d value / d coefficient at each point.
+        """
         _, parts = self._strain(c, ctx)
         dq = ctx.position - self.origin
         return np.column_stack([col * dq for g, dg in parts for col in (g, dg)])
 
     def position_slope(self, c, ctx):
+        """The derivative with respect to the axis position: the strain at the points' times.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The strain at each point [m/m].
+        """
         return self._strain(c, ctx)[0]
 
     def search_grid(self, name, c, cov):
+        """Candidate time constants: 48 values spaced geometrically from 1/300 to 3 times the span of ``t``.
+
+        Parameters
+        ----------
+        name : str
+            The coefficient's local name (a ``tau<k>``); every time constant gets the same grid.
+        c : ndarray, shape (size,)
+            The term's current coefficients (SI).
+        cov : Covariates
+            The covariates of the points to be fitted.
+
+        Returns
+        -------
+        ndarray, shape (48,) or (0,)
+            Time constants [s]; empty without at least two distinct times.
+        """
         return _tau_grid(cov)
 
     def coefficient_units(self):
+        """(SI per display unit, display unit) of each coefficient: ppm for the strains,
+        ``time_unit`` for the time constants.
+
+        Returns
+        -------
+        list of (float, str)
+            One pair per coefficient, in the order of :attr:`local_names`.
+        """
         return [(1e-6, "ppm"), (TIME[self.time_unit], self.time_unit)] * self.count
 
     def coefficient_limits(self):
+        """The plausibility limit of each coefficient, the time constants held positive
+        ("time_constant").
+
+        Returns
+        -------
+        list of str
+            One key of :data:`~volerr_pin.base.PLAUSIBLE` per coefficient.
+        """
         return _with_time_constants(self)
 
     def to_spec(self, c):
+        """The spec table: ``driver = "time"``, ``strains_ppm``, ``time_constants_<unit>`` and
+        ``origin_mm``.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+
+        Returns
+        -------
+        dict
+            The table.
+        """
         return {"kind": "thermal_expansion", "driver": "time",
                 "strains_ppm": [float(c[2 * k] * 1e6) for k in range(self.count)],
                 f"time_constants_{self.time_unit}": [float(c[2 * k + 1] / TIME[self.time_unit])
@@ -371,6 +787,21 @@ class ExpansionTime(Term):
 
     @classmethod
     def from_spec(cls, table, site):
+        """Read a time-driven expansion from its spec table (strains within +-1e6 ppm).
+
+        Parameters
+        ----------
+        table : dict
+            The term's spec table, keys checked against :attr:`keys` already.
+        site : TermSite
+            Where the table is and what it is an error of.
+
+        Returns
+        -------
+        term : ExpansionTime
+        coefficients : ndarray, shape (2 count,)
+            ``s1, tau1, ...`` in SI (strains [m/m], time constants [s]).
+        """
         if "strains_ppm" not in table:
             raise SpecError(f"{site.where}: missing 'strains_ppm'")
         strains = numbers(table["strains_ppm"], f"{site.where}.strains_ppm")
@@ -385,6 +816,17 @@ class ExpansionTime(Term):
 
 @dataclass(frozen=True, eq=False)
 class Backlash(Term):
+    """Reversal error of an axis: ``(b / 2) d``, ``d`` the axis' approach direction (+1 or -1;
+    0, the mean of both, when no directions are given); one coefficient ``b``.
+
+    Attributes
+    ----------
+    unit : str
+        The display unit of the error in the spec (``um``, ``arcsec``).
+    unit_scale : float
+        SI per display unit.
+    """
+
     unit: str
     unit_scale: float
     kind = "backlash"
@@ -399,24 +841,101 @@ class Backlash(Term):
         return d[:, ctx.axis_index]
 
     def value(self, c, ctx):
+        """Half the reversal, signed by the approach direction.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The value at each point (SI).
+        """
         return 0.5 * c[0] * self._direction(ctx)
 
     def jacobian(self, c, ctx):
+        """The derivative with respect to ``b``, ``d / 2``.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, 1)
+            +-0.5, or 0 without directions.
+        """
         return (0.5 * self._direction(ctx))[:, None]
 
     def to_spec(self, c):
+        """The spec table: ``reversal_<unit>``.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+
+        Returns
+        -------
+        dict
+            The table.
+        """
         return {"kind": "backlash", f"reversal_{self.unit}": float(c[0] / self.unit_scale)}
 
     keys = frozenset({"reversal"})
 
     @classmethod
     def from_spec(cls, table, site):
+        """Read a backlash from its spec table (``reversal_<unit>``, one number).
+
+        Parameters
+        ----------
+        table : dict
+            The term's spec table, keys checked against :attr:`keys` already.
+        site : TermSite
+            Where the table is and what it is an error of.
+
+        Returns
+        -------
+        term : Backlash
+        coefficients : ndarray, shape (1,)
+            ``b`` in SI.
+        """
         b, unit, factor, _ = site.value(table, "reversal", count=1)
         return cls(unit, factor), b
 
 
 @dataclass(frozen=True, eq=False)
 class ForceDeflection(Term):
+    """Deflection under the process force: ``F_i sum_k c_k P_k(u)``, a compliance (Legendre in
+    the axis position over its travel when ``degree`` > 0) times one force component;
+    coefficients ``c0, c1, ...`` [m/N or rad/N].
+
+    Attributes
+    ----------
+    unit : str
+        The display unit of the error in the spec (``um``, ``arcsec``).
+    unit_scale : float
+        SI per display unit.
+    force : int
+        The force component it reads: 0, 1, 2 for x, y, z.
+    degree : int
+        Degree of the compliance's polynomial in the position (0: a constant compliance).
+    travel : tuple of (float, float) or None
+        The axis' travel (lower, upper) [m or rad] that u is normalised over (read only for
+        degree > 0); may be None for degree 0.
+    model : dict or None
+        For a compliance computed from a structural model: ``{"compliance": c0 [SI], "keys":
+        the model's spec keys}``, to write it back as read; None otherwise.
+    """
+
     unit: str
     unit_scale: float
     force: int
@@ -428,6 +947,7 @@ class ForceDeflection(Term):
 
     @property
     def local_names(self):  # type: ignore[override]
+        """Names of the coefficients, ``c0`` ... ``c<degree>``."""
         return tuple(f"c{k}" for k in range(self.degree + 1))
 
     def _force(self, ctx):
@@ -451,18 +971,80 @@ class ForceDeflection(Term):
         return V, dV
 
     def jacobian(self, c, ctx):
+        """The force component times each Legendre polynomial of the position.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, size)
+            d value / d coefficient at each point [N].
+        """
         return self._basis(ctx)[0] * self._force(ctx)[:, None]
 
     def value(self, c, ctx):
+        """The deflection, the compliance at the position times the force component.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The value at each point (SI).
+        """
         return self.jacobian(c, ctx) @ c
 
     def position_slope(self, c, ctx):
+        """The derivative with respect to the axis position: the compliance's slope times the force.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            d value / d position at each point (SI); zeros for degree 0.
+        """
         return (self._basis(ctx)[1] @ c) * self._force(ctx)
 
     def coefficient_units(self):
+        """(SI per display unit, display unit) of each coefficient: the error's unit per newton.
+
+        Returns
+        -------
+        list of (float, str)
+            One pair per coefficient.
+        """
         return [(self.unit_scale, f"{self.unit}/N")] * self.size
 
     def to_spec(self, c):
+        """The spec table: ``force`` and ``compliance_<unit>_per_N``, or the structural model's
+        keys when the compliance is still the one the model gave.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+
+        Returns
+        -------
+        dict
+            The table.
+        """
         table = {"kind": "force_deflection", "force": "xyz"[self.force],
                  f"compliance_{self.unit}_per_N": [float(v / self.unit_scale) for v in c]}
         if self.model is not None and self.degree == 0 and math.isclose(
@@ -474,6 +1056,22 @@ class ForceDeflection(Term):
 
     @classmethod
     def from_spec(cls, table, site):
+        """Read a force deflection from its spec table: a compliance, or ``model = "beam"`` or
+        ``"torsion"`` with the model's dimensions (see the module's forms).
+
+        Parameters
+        ----------
+        table : dict
+            The term's spec table, keys checked against :attr:`keys` already.
+        site : TermSite
+            Where the table is and what it is an error of.
+
+        Returns
+        -------
+        term : ForceDeflection
+        coefficients : ndarray, shape (degree + 1,)
+            The compliance coefficients in SI [m/N or rad/N].
+        """
         where, quantity = site.where, site.quantity
         force = table.get("force")
         if not isinstance(force, str) or force not in ("x", "y", "z"):
@@ -499,6 +1097,26 @@ class ForceDeflection(Term):
 
 @dataclass(frozen=True, eq=False)
 class PeriodicPitch(Term):
+    """Periodic error of an axis (a ballscrew's pitch, a rotary axis' once-per-revolution):
+    ``sum_h s_h sin(2 pi h (q - q0) / p) + c_h cos(2 pi h (q - q0) / p)``; coefficients
+    ``s1, c1, s2, c2, ..., period``, the period ``p`` non-linear.
+
+    Attributes
+    ----------
+    unit : str
+        The display unit of the error in the spec (``um``, ``arcsec``).
+    unit_scale : float
+        SI per display unit.
+    harmonics : int
+        Number of harmonics.
+    origin : float
+        The axis position ``q0`` the phase is measured from [m or rad].
+    position_unit : str
+        The display unit of the period and origin in the spec (``mm``, ``deg``).
+    position_scale : float
+        SI per ``position_unit``.
+    """
+
     unit: str
     unit_scale: float
     harmonics: int
@@ -510,6 +1128,7 @@ class PeriodicPitch(Term):
 
     @property
     def local_names(self):  # type: ignore[override]
+        """Names of the coefficients: ``s1, c1, ..., s<H>, c<H>, period``."""
         return tuple(n for h in range(1, self.harmonics + 1) for n in (f"s{h}", f"c{h}")) + ("period",)
 
     nonlinear = ("period",)
@@ -520,10 +1139,38 @@ class PeriodicPitch(Term):
         return 2.0 * np.pi * np.outer(ctx.position - self.origin, h) / p, h, p
 
     def value(self, c, ctx):
+        """The sum of the harmonics at the axis positions.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The value at each point (SI).
+        """
         phi, _, _ = self._phase(c, ctx)
         return np.sin(phi) @ c[0:-1:2] + np.cos(phi) @ c[1:-1:2]
 
     def jacobian(self, c, ctx):
+        """Derivatives with respect to the sine and cosine amplitudes and the period.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, size)
+            d value / d coefficient at each point.
+        """
         phi, h, p = self._phase(c, ctx)
         out = np.empty((ctx.n, self.size))
         out[:, 0:-1:2] = np.sin(phi)
@@ -533,20 +1180,78 @@ class PeriodicPitch(Term):
         return out
 
     def position_slope(self, c, ctx):
+        """The derivative with respect to the axis position.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            d value / d position at each point (SI).
+        """
         phi, h, p = self._phase(c, ctx)
         return (np.cos(phi) * c[0:-1:2] - np.sin(phi) * c[1:-1:2]) @ (2.0 * np.pi * h / p)
 
     def search_grid(self, name, c, cov):
+        """Candidate periods: 61 values evenly spaced from 0.7 to 1.3 times the current period.
+
+        Parameters
+        ----------
+        name : str
+            The coefficient's local name ("period").
+        c : ndarray, shape (size,)
+            The term's current coefficients (SI); the last is the period.
+        cov : Covariates
+            The covariates of the points to be fitted (not read).
+
+        Returns
+        -------
+        ndarray, shape (61,)
+            Periods [m or rad].
+        """
         return c[-1] * np.linspace(0.7, 1.3, 61)
 
     def coefficient_units(self):
+        """(SI per display unit, display unit) of each coefficient: the error's unit for the
+        amplitudes, ``position_unit`` for the period.
+
+        Returns
+        -------
+        list of (float, str)
+            One pair per coefficient, in the order of :attr:`local_names`.
+        """
         return [(self.unit_scale, self.unit)] * (2 * self.harmonics) + [(self.position_scale, self.position_unit)]
 
     def coefficient_limits(self):
+        """The plausibility limit of each coefficient: an error for the amplitudes,
+        "period_length" or "period_angle" for the period.
+
+        Returns
+        -------
+        list of str
+            One key of :data:`~volerr_pin.base.PLAUSIBLE` per coefficient.
+        """
         quantity = "angle" if self.position_unit in ANGLE else "length"
         return super().coefficient_limits()[:-1] + [f"period_{quantity}"]
 
     def to_spec(self, c):
+        """The spec table: ``period_<unit>``, ``sine_<unit>``, ``cosine_<unit>`` and ``origin_<unit>``.
+
+        Parameters
+        ----------
+        c : ndarray, shape (size,)
+            The term's coefficients (SI), in the order of :attr:`local_names`.
+
+        Returns
+        -------
+        dict
+            The table.
+        """
         return {"kind": "periodic_pitch",
                 f"period_{self.position_unit}": float(c[-1] / self.position_scale),
                 f"sine_{self.unit}": [float(v / self.unit_scale) for v in c[0:-1:2]],
@@ -557,6 +1262,21 @@ class PeriodicPitch(Term):
 
     @classmethod
     def from_spec(cls, table, site):
+        """Read a periodic error from its spec table (a positive period, as many cosines as sines).
+
+        Parameters
+        ----------
+        table : dict
+            The term's spec table, keys checked against :attr:`keys` already.
+        site : TermSite
+            Where the table is and what it is an error of.
+
+        Returns
+        -------
+        term : PeriodicPitch
+        coefficients : ndarray, shape (2 harmonics + 1,)
+            ``s1, c1, ..., period`` in SI.
+        """
         position = site.position_quantity or "length"   # a rotary axis' period is an angle
         period, punit, pscale, pkey = site.value(table, "period", position, count=1)
         if period[0] <= 0:

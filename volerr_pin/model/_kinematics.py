@@ -17,7 +17,7 @@ import numba
 import numpy as np
 import pinocchio as pin
 
-from ..base.errors import SpecError
+from ..base import SpecError
 
 # motion kinds of a chain operation
 PX, PY, PZ, RX, RY, RZ, PG, RG = range(8)

@@ -18,8 +18,7 @@ from ._checks import check_covariates, check_inputs, check_parameters, check_q, 
 from ._model import Model, build_model
 from ._spec import MachineSpec, load_spec, spec_from_urdf
 from ._urdf import URDF, load_urdf, package_folders
-from ..base.checks import one_point
-from ..base.errors import SpecError
+from ..base import SpecError, one_point
 
 __all__ = ["Machine", "load_machine"]
 

@@ -23,7 +23,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import _kinematics as K
-from ..base.errors import SpecError, URDFError
+from ..base import SpecError, URDFError
 from ._spec import DIRECTIONS, MachineSpec, axis_travel, component_name
 from ._urdf import URDF, Site, inject, package_folders
 

@@ -16,11 +16,9 @@ from typing import Any
 import numpy as np
 
 from . import _terms as T
-from ..base.errors import InputError, SpecError
-from ..base.safeio import read_text
+from ..base import ANGLE, LENGTH, InputError, SpecError, read_text, scale, within
 from ._speckeys import NAME_RE, TermSite, check_keys, find_key, numbers, text
 from ._termkinds import read_term
-from ..base.units import ANGLE, LENGTH, scale, within
 from ._urdf import URDF, load_urdf
 
 DIRECTIONS = ("X", "Y", "Z", "A", "B", "C")

@@ -14,13 +14,11 @@ from pathlib import Path
 import numpy as np
 import tomli_w
 
-from ..base.errors import InputError, SpecError
+from ..base import ANGLE, LENGTH, InputError, SpecError, same_file, write_text
 from ._machine import Machine
 from ._model import Model
-from ..base.safeio import same_file, write_text
 from ._checks import plausible_theta
 from ._spec import TermSpec, parse_component_name
-from ..base.units import ANGLE, LENGTH
 
 #: the highest degree :func:`legendre_terms` fits
 MAX_DEGREE = 20

@@ -13,8 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from ..base.errors import SpecError
-from ..base.units import scale, split_key, within
+from ..base import SpecError, scale, split_key, within
 
 #: a plain name: components, prefixes, joints, bodies
 NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -162,7 +161,7 @@ class TermSite:
         ``quantity`` defaults to the component's (then the values are errors, or error rates
         with ``per``: ``"K"`` for ``coefficients_um_per_K``, ``"N"`` for ``compliance_um_per_N``);
         ``count`` fixes the number of values. Values beyond the plausibility limits of
-        :data:`volerr_pin.base.units.PLAUSIBLE` (an error of more than 1 m or 1 rad, a position
+        :data:`volerr_pin.base.PLAUSIBLE` (an error of more than 1 m or 1 rad, a position
         beyond 1 km) are refused, naming the key.
         """
         what = quantity or self.quantity

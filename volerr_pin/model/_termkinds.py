@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._effects import EFFECTS
-from ..base.errors import SpecError
+from ..base import SpecError
 from ._speckeys import NAME_RE, TermSite, check_keys, text
 from ._terms import Constant, Polynomial, Table, Term
 
@@ -25,7 +25,25 @@ DRIVEN = tuple(dict.fromkeys(kind for kind, driver in EFFECTS if driver is not N
 
 
 def term_class(table: dict, where: str) -> type[Term]:
-    """The class that reads ``table``, by its ``kind`` (and ``driver``)."""
+    """The class that reads ``table``, by its ``kind`` (and ``driver``).
+
+    Parameters
+    ----------
+    table : dict
+        A term's spec table.
+    where : str
+        Where the table is in the spec (for messages).
+
+    Returns
+    -------
+    type of Term
+        A class of :data:`GEOMETRIC` or :data:`~volerr_pin.model.EFFECTS`.
+
+    Raises
+    ------
+    SpecError
+        When the kind is unknown, or a driven kind's ``driver`` is not "time" or "temperature".
+    """
     kind = table.get("kind")
     if kind not in KINDS:
         raise SpecError(f"{where}: 'kind' must be one of {', '.join(KINDS)}, got {kind!r}")

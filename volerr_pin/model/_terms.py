@@ -20,10 +20,8 @@ import numpy as np
 from numpy.polynomial import legendre
 from scipy.interpolate import CubicSpline, make_interp_spline
 
-from ..base.errors import InputError, SpecError
-from ..base.safeio import require_memory
+from ..base import ANGLE, LENGTH, PLAUSIBLE, TIME, InputError, SpecError, require_memory, scale
 from ._speckeys import TermSite, text
-from ..base.units import ANGLE, LENGTH, PLAUSIBLE, TIME, scale
 
 #: peak memory of reading a table of n nodes, per n^2 (measured 96 bytes at 1,000 and 2,000 nodes;
 #: the estimate of 40 had a 7,000-node cubic table take 4.8 GB where 1.96 GB was allowed for)
@@ -128,6 +126,20 @@ class Context:
 
     ``position`` is the NC position of the axis owning the component (m or rad), None for
     components of bodies without an axis; ``travel`` its (lower, upper) range.
+
+    Attributes
+    ----------
+    position : ndarray, shape (N,), or None
+        NC position of the owning axis at each point [m or rad]; None for a body without an axis.
+    travel : tuple of (float, float) or None
+        The axis' travel (lower, upper) [m or rad]; None for a body without an axis.
+    covariates : Covariates
+        The points' covariates (time, temperatures, forces, directions), SI.
+    axis_index : int or None
+        Index of the owning axis among the model's axes (its column of ``q`` and of
+        ``covariates.directions``); None for a body without an axis.
+    component : str
+        Name of the component error being evaluated (for messages).
     """
 
     position: np.ndarray | None
@@ -138,6 +150,7 @@ class Context:
 
     @property
     def n(self) -> int:
+        """Number of points N."""
         return self.covariates.n
 
 
@@ -151,38 +164,114 @@ class Term:
 
     @property
     def size(self) -> int:
+        """Number of coefficients (``len(local_names)``)."""
         return len(self.local_names)
 
     def value(self, coefficients: np.ndarray, ctx: Context) -> np.ndarray:
-        """(N,) value of the term, SI."""
+        """(N,) value of the term, SI.
+
+        Parameters
+        ----------
+        coefficients : ndarray, shape (size,)
+            The term's coefficients (SI).
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The value at each point [m or rad, as the component error].
+        """
         raise NotImplementedError
 
     def jacobian(self, coefficients: np.ndarray, ctx: Context) -> np.ndarray:
-        """(N, P) derivative of the value with respect to the coefficients."""
+        """(N, P) derivative of the value with respect to the coefficients.
+
+        Parameters
+        ----------
+        coefficients : ndarray, shape (size,)
+            The term's coefficients (SI).
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, size)
+            d value / d coefficient at each point (SI), columns in the order of :attr:`local_names`.
+        """
         raise NotImplementedError
 
     def position_slope(self, coefficients: np.ndarray, ctx: Context) -> np.ndarray:
-        """(N,) derivative of the value with respect to the axis position."""
+        """(N,) derivative of the value with respect to the axis position.
+
+        Parameters
+        ----------
+        coefficients : ndarray, shape (size,)
+            The term's coefficients (SI).
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            d value / d position at each point (SI); zeros here, for a term that does not depend
+            on the position.
+        """
         return np.zeros(ctx.n)
 
     def search_grid(self, name: str, coefficients: np.ndarray, covariates: Covariates) -> np.ndarray:
-        """Candidate values of a non-linear coefficient for a grid search before a fit."""
+        """Candidate values of a non-linear coefficient for a grid search before a fit.
+
+        Parameters
+        ----------
+        name : str
+            The coefficient's local name (one of :attr:`nonlinear`).
+        coefficients : ndarray, shape (size,)
+            The term's current coefficients (SI).
+        covariates : Covariates
+            The covariates of the points to be fitted.
+
+        Returns
+        -------
+        ndarray, shape (G,)
+            Candidate values in the coefficient's SI unit; empty here (no grid).
+        """
         return np.array([])
 
     def coefficient_units(self) -> list[tuple[float, str]]:
-        """(SI per display unit, display unit) of each coefficient, as the spec writes it."""
+        """(SI per display unit, display unit) of each coefficient, as the spec writes it.
+
+        Returns
+        -------
+        list of (float, str)
+            One pair per coefficient, in the order of :attr:`local_names`; here the term's
+            ``unit_scale`` and ``unit`` for every coefficient.
+        """
         return [(self.unit_scale, self.unit)] * self.size
 
     def coefficient_limits(self) -> list[str]:
-        """The plausibility limit (a key of :data:`volerr_pin.base.units.PLAUSIBLE`) of each
+        """The plausibility limit (a key of :data:`volerr_pin.base.PLAUSIBLE`) of each
         coefficient, read from its display unit's numerator: an error for a length or angle
-        (and a length or angle per kelvin, newton or position), a time for a time constant."""
+        (and a length or angle per kelvin, newton or position), a time for a time constant.
+
+        Returns
+        -------
+        list of str
+            One key of :data:`~volerr_pin.base.PLAUSIBLE` per coefficient ("error_length",
+            "error_angle" or "time").
+        """
         return [_limit_of(unit) for _, unit in self.coefficient_units()]
 
     def coefficient_bounds(self) -> np.ndarray:
         """(size, 2) lowest and highest plausible SI value of each coefficient: the spec's
         rule, a value in its display unit times its numerator's unit within the limit of
-        :meth:`coefficient_limits` (1 m, 1 rad, 1e10 s; 1 m per kelvin)."""
+        :meth:`coefficient_limits` (1 m, 1 rad, 1e10 s; 1 m per kelvin).
+
+        Returns
+        -------
+        ndarray, shape (size, 2)
+            (lowest, highest) SI value of each coefficient.
+        """
         out = np.empty((self.size, 2))
         for k, ((si_per_unit, unit), limit) in enumerate(zip(self.coefficient_units(), self.coefficient_limits())):
             numerator = unit.partition("/")[0]
@@ -190,15 +279,39 @@ class Term:
         return out
 
     def lag_requests(self) -> tuple[tuple[str, float], ...]:
-        """(sensor, lag [s]) pairs whose delayed temperatures the term reads."""
+        """(sensor, lag [s]) pairs whose delayed temperatures the term reads.
+
+        Returns
+        -------
+        tuple of (str, float)
+            The sensor names and lags [s]; empty here (no lagged temperature).
+        """
         return ()
 
     def temperature_sensors(self) -> tuple[str, ...]:
-        """Names of the temperature sensors the term reads."""
+        """Names of the temperature sensors the term reads.
+
+        Returns
+        -------
+        tuple of str
+            The sensor names; empty here (no temperature).
+        """
         return ()
 
     def to_spec(self, coefficients: np.ndarray) -> dict:
-        """The term as a spec table, in the units it was read in."""
+        """The term as a spec table, in the units it was read in.
+
+        Parameters
+        ----------
+        coefficients : ndarray, shape (size,)
+            The term's coefficients (SI).
+
+        Returns
+        -------
+        dict
+            The spec table (``kind`` and the kind's keys, units in the key names), the inverse
+            of :meth:`from_spec`.
+        """
         raise NotImplementedError
 
     #: stems of the keys of its spec table besides "kind" and "prefix" (units are suffixes)
@@ -233,20 +346,86 @@ class LinearTerm(Term):
     :meth:`basis_derivative` when the basis depends on the axis position)."""
 
     def basis(self, ctx: Context) -> np.ndarray:
-        """(N, P) matrix with ``value = basis @ coefficients``."""
+        """(N, P) matrix with ``value = basis @ coefficients``.
+
+        Parameters
+        ----------
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, size)
+            The basis functions at the points.
+        """
         raise NotImplementedError
 
     def basis_derivative(self, ctx: Context) -> np.ndarray:
-        """(N, P) derivative of :meth:`basis` with respect to the axis position."""
+        """(N, P) derivative of :meth:`basis` with respect to the axis position.
+
+        Parameters
+        ----------
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, size)
+            d basis / d position [1/m or 1/rad]; zeros here, for a basis that does not depend on
+            the position.
+        """
         return np.zeros((ctx.n, self.size))
 
     def value(self, coefficients, ctx):
+        """The value, ``basis(ctx) @ coefficients``.
+
+        Parameters
+        ----------
+        coefficients : ndarray, shape (size,)
+            The term's coefficients (SI).
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The value at each point (SI).
+        """
         return self.basis(ctx) @ coefficients
 
     def jacobian(self, coefficients, ctx):
+        """The derivative with respect to the coefficients: the basis itself.
+
+        Parameters
+        ----------
+        coefficients : ndarray, shape (size,)
+            The term's coefficients (SI).
+            Not read: the value is linear in them.
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, size)
+            :meth:`basis` at the points.
+        """
         return self.basis(ctx)
 
     def position_slope(self, coefficients, ctx):
+        """The derivative with respect to the axis position, ``basis_derivative(ctx) @ coefficients``.
+
+        Parameters
+        ----------
+        coefficients : ndarray, shape (size,)
+            The term's coefficients (SI).
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            d value / d position at each point (SI).
+        """
         return self.basis_derivative(ctx) @ coefficients
 
 
@@ -259,7 +438,15 @@ def _check_position(term: Term, ctx: Context, where: str) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Constant(LinearTerm):
-    """A constant error; one coefficient ``c0``."""
+    """A constant error; one coefficient ``c0``.
+
+    Attributes
+    ----------
+    unit : str
+        The display unit of the value in the spec (``um``, ``arcsec``).
+    unit_scale : float
+        SI per display unit.
+    """
 
     unit: str
     unit_scale: float
@@ -267,18 +454,69 @@ class Constant(LinearTerm):
     local_names = ("c0",)
 
     def basis(self, ctx):
+        """A column of ones.
+
+        Parameters
+        ----------
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, 1)
+            Ones.
+        """
         return np.ones((ctx.n, 1))
 
     def basis_derivative(self, ctx):
+        """A column of zeros: a constant does not depend on the position.
+
+        Parameters
+        ----------
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, 1)
+            Zeros.
+        """
         return np.zeros((ctx.n, 1))
 
     def to_spec(self, coefficients):
+        """The spec table: ``kind = "constant"`` and ``value_<unit>``.
+
+        Parameters
+        ----------
+        coefficients : ndarray, shape (1,)
+            ``c0`` (SI).
+
+        Returns
+        -------
+        dict
+            The table, the value in :attr:`unit`.
+        """
         return {"kind": "constant", f"value_{self.unit}": float(coefficients[0] / self.unit_scale)}
 
     keys = frozenset({"value"})
 
     @classmethod
     def from_spec(cls, table, site):
+        """Read a constant from its spec table (``value_<unit>``, one number).
+
+        Parameters
+        ----------
+        table : dict
+            The term's spec table, keys checked against :attr:`keys` already.
+        site : TermSite
+            Where the table is and what it is an error of.
+
+        Returns
+        -------
+        term : Constant
+        coefficients : ndarray, shape (1,)
+            ``c0`` in SI.
+        """
         value, unit, factor, key = site.value(table, "value", count=1)
         if isinstance(table[key], (list, tuple)):
             raise SpecError(f"{site.where}.{key}: a constant takes one number, not a list")
@@ -292,6 +530,26 @@ class Polynomial(LinearTerm):
     ``basis`` is "legendre" (P_k(u)) or "monomial" (u**k); ``over`` is "travel"
     (u = 2 (q - lower) / (upper - lower) - 1, in [-1, 1] over the travel) or, for
     monomials, "position" (u = q in ``position_unit``). Coefficients c0..cN.
+
+    Attributes
+    ----------
+    degree : int
+        The highest power N (degree + 1 coefficients).
+    family : str
+        "legendre" or "monomial" (the spec's ``kind``).
+    over : str
+        "travel" (u normalised to [-1, 1] over the travel) or "position" (u = q in
+        ``position_unit``, monomials only).
+    travel : tuple of (float, float) or None
+        The axis' travel (lower, upper) [m or rad] that u is normalised over.
+    unit : str
+        The display unit of the error in the spec (``um``, ``arcsec``).
+    unit_scale : float
+        SI per display unit.
+    position_unit : str or None
+        The unit of u over the position (``mm``, ``deg``); None over the travel.
+    position_scale : float
+        SI per ``position_unit`` (1.0 over the travel).
     """
 
     degree: int
@@ -305,10 +563,12 @@ class Polynomial(LinearTerm):
 
     @property
     def kind(self):  # type: ignore[override]
+        """The term's kind: its family, "legendre" or "monomial"."""
         return self.family
 
     @property
     def local_names(self):  # type: ignore[override]
+        """Names of the coefficients, ``c0`` ... ``c<degree>``."""
         return tuple(f"c{k}" for k in range(self.degree + 1))
 
     def _u(self, ctx):
@@ -319,12 +579,36 @@ class Polynomial(LinearTerm):
         return q, 1.0
 
     def basis(self, ctx):
+        """The Vandermonde matrix of u: ``P_k(u)`` (Legendre) or ``u**k`` (monomial), k = 0 ... degree.
+
+        Parameters
+        ----------
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, degree + 1)
+            The basis at the points.
+        """
         u, _ = self._u(ctx)
         if self.family == "legendre":
             return legendre.legvander(u, self.degree)
         return np.vander(u, self.degree + 1, increasing=True)
 
     def basis_derivative(self, ctx):
+        """The derivative of :meth:`basis` with respect to the axis position (``d/du`` times ``du/dq``).
+
+        Parameters
+        ----------
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, degree + 1)
+            d basis / d position [1/m or 1/rad].
+        """
         u, du_dq = self._u(ctx)
         out = np.zeros((u.size, self.degree + 1))
         if self.family == "legendre":
@@ -338,6 +622,14 @@ class Polynomial(LinearTerm):
         return out * du_dq
 
     def coefficient_units(self):
+        """(SI per display unit, display unit) of each coefficient: the error's unit over the
+        travel; over the position, ``c_k`` in ``unit/position_unit^k``.
+
+        Returns
+        -------
+        list of (float, str)
+            One pair per coefficient, ``c0`` first.
+        """
         if self.over != "position":
             return [(self.unit_scale, self.unit)] * self.size
         return [(self.unit_scale / self.position_scale ** k,
@@ -345,6 +637,19 @@ class Polynomial(LinearTerm):
                 for k in range(self.degree + 1)]
 
     def to_spec(self, coefficients):
+        """The spec table: ``kind``, ``over`` (monomials), ``position_unit`` (over the position)
+        and ``coefficients_<unit>`` (per ``position_unit**k`` over the position).
+
+        Parameters
+        ----------
+        coefficients : ndarray, shape (degree + 1,)
+            ``c0`` ... ``cN`` (SI; over the position, per metre or radian to the k).
+
+        Returns
+        -------
+        dict
+            The table.
+        """
         table = {"kind": self.family}
         if self.family == "monomial":
             table["over"] = self.over
@@ -360,6 +665,22 @@ class Polynomial(LinearTerm):
 
     @classmethod
     def from_spec(cls, table, site):
+        """Read a polynomial from its spec table (``coefficients_<unit>``, ``over``,
+        ``position_unit``); at most :data:`MAX_COEFFICIENTS` coefficients.
+
+        Parameters
+        ----------
+        table : dict
+            The term's spec table, keys checked against :attr:`keys` already.
+        site : TermSite
+            Where the table is and what it is an error of.
+
+        Returns
+        -------
+        term : Polynomial
+        coefficients : ndarray, shape (degree + 1,)
+            The coefficients in SI.
+        """
         family, where, travel = table["kind"], site.where, site.travel
         _needs_position(site, family)
         si, unit, factor, key = site.value(table, "coefficients")
@@ -431,6 +752,23 @@ class Table(LinearTerm):
     ``interpolation`` is "linear" or "cubic" (a cubic spline, ``boundary`` "not-a-knot" or
     "natural"). Coefficients n0..nK are the values at the nodes. Outside the node range
     the end pieces are extended, which only happens where extrapolation was asked for.
+
+    Attributes
+    ----------
+    nodes : ndarray, shape (K,)
+        The target positions, strictly increasing [m or rad].
+    interpolation : str
+        "linear" or "cubic".
+    boundary : str
+        The cubic spline's end condition, "not-a-knot" or "natural".
+    unit : str
+        The display unit of the values in the spec (``um``, ``arcsec``).
+    unit_scale : float
+        SI per display unit.
+    position_unit : str
+        The display unit of the positions in the spec (``mm``, ``deg``).
+    position_scale : float
+        SI per ``position_unit``.
     """
 
     nodes: np.ndarray
@@ -444,6 +782,7 @@ class Table(LinearTerm):
 
     @property
     def local_names(self):  # type: ignore[override]
+        """Names of the coefficients, ``n0`` ... ``n<K-1>``: the values at the nodes."""
         return tuple(f"n{k}" for k in range(len(self.nodes)))
 
     @cached_property
@@ -454,12 +793,49 @@ class Table(LinearTerm):
         return CubicSpline(self.nodes, eye, bc_type=self.boundary, extrapolate=True)
 
     def basis(self, ctx):
+        """The interpolation's cardinal functions (one per node) at the axis positions.
+
+        Parameters
+        ----------
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, K)
+            The basis at the points.
+        """
         return self._spline(_check_position(self, ctx, "table"))
 
     def basis_derivative(self, ctx):
+        """The derivative of :meth:`basis` with respect to the axis position.
+
+        Parameters
+        ----------
+        ctx : Context
+            The points: axis position, travel and covariates.
+
+        Returns
+        -------
+        ndarray, shape (N, K)
+            d basis / d position [1/m or 1/rad].
+        """
         return self._spline.derivative()(_check_position(self, ctx, "table"))
 
     def to_spec(self, coefficients):
+        """The spec table: ``interpolation``, ``positions_<unit>``, ``values_<unit>`` and, for a
+        cubic table, ``boundary``.
+
+        Parameters
+        ----------
+        coefficients : ndarray, shape (K,)
+            The values at the nodes (SI).
+
+        Returns
+        -------
+        dict
+            The table.
+        """
         table = {
             "kind": "table",
             "interpolation": self.interpolation,
@@ -474,6 +850,23 @@ class Table(LinearTerm):
 
     @classmethod
     def from_spec(cls, table, site):
+        """Read a table from its spec table, checking its nodes (strictly increasing, covering
+        the travel unless ``extrapolate``), its memory and, for a cubic one, the spline's swing
+        (at most :data:`MAX_SWING`).
+
+        Parameters
+        ----------
+        table : dict
+            The term's spec table, keys checked against :attr:`keys` already.
+        site : TermSite
+            Where the table is and what it is an error of.
+
+        Returns
+        -------
+        term : Table
+        coefficients : ndarray, shape (K,)
+            The values at the nodes in SI.
+        """
         where, travel = site.where, site.travel
         _needs_position(site, "table")
         nodes, punit, pscale, pkey = site.value(table, "positions", site.position_quantity)

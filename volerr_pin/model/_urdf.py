@@ -28,8 +28,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-from ..base.errors import InputError, URDFError
-from ..base.units import within
+from ..base import InputError, URDFError, within
 
 JOINT_TYPES = ("fixed", "prismatic", "revolute", "continuous", "floating", "planar")
 #: directions of the six error joints of a group, in order
@@ -183,7 +182,7 @@ def _where(source: str, element) -> str:
 def _floats(source: str, element, attr: str, count: int, default: str | None, limit: str | None = None
             ) -> tuple[float, ...]:
     """``count`` finite numbers of an attribute, within the plausibility limit ``limit`` (a key of
-    :data:`volerr_pin.base.units.PLAUSIBLE`, SI values) when one is given."""
+    :data:`volerr_pin.base.PLAUSIBLE`, SI values) when one is given."""
     text = element.get(attr, default)
     if text is None:
         raise URDFError(f"{_where(source, element)}: missing attribute '{attr}'")

@@ -8,15 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import qmc
 
-from ..base.checks import integer, whole_numbers
-from ..base.errors import InputError
+from ..base import (ARCSEC_PER_RAD, UM_PER_M, InputError, axis_scales, axis_values_to_si, integer, require_memory,
+                    whole_numbers)
 from ._machine import Machine
-from ..base.safeio import require_memory
-from ..base.units import ARCSEC_PER_RAD, UM_PER_M, axis_scales, axis_values_to_si
-
-
-# the checks moved to volerr_pin.base.checks; compensate.py and compensation/ (issue 25) still import
-# these two names from here
 
 
 def _size_of_grid(counts) -> int:

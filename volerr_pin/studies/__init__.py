@@ -10,12 +10,18 @@
 - engines: :class:`InProcess` (default), :func:`local_cluster`, :func:`connect`.
 """
 
-from .covariance import Covariance, covariance_from_campaign, covariance_from_report
-from .engine import InProcess, connect, local_cluster
-from .tolerance import ToleranceStudy, study_tolerances
-from .tolerances import Tolerances, read_tolerance_file
-from .uncertainty import UncertaintyStudy, study_uncertainty
+from ._covariance import Covariance, covariance_from_campaign, covariance_from_report
+from ._engine import (TASK_SECONDS, DaskEngine, InProcess, PortableMachine, available_cores, connect,
+                      local_cluster)
+from ._tolerance import ToleranceStudy, check_arguments, study_tolerances, tolerance_source
+from ._tolerances import Tolerances, read_tolerance_file, tolerances_toml
+from ._uncertainty import UncertaintyStudy, study_uncertainty
+from ._evaluator import Evaluator
+from ._montecarlo import grid_points, make_points, run_monte_carlo
+from ._shapes import work_offset_components
 
-__all__ = ["Covariance", "InProcess", "ToleranceStudy", "Tolerances", "UncertaintyStudy", "connect",
-           "covariance_from_campaign", "covariance_from_report", "local_cluster", "read_tolerance_file",
-           "study_tolerances", "study_uncertainty"]
+__all__ = ["available_cores", "check_arguments", "connect",
+           "Covariance", "covariance_from_campaign", "covariance_from_report", "DaskEngine", "Evaluator", "grid_points",
+           "InProcess", "local_cluster", "make_points", "PortableMachine", "read_tolerance_file", "run_monte_carlo",
+           "study_tolerances", "study_uncertainty", "TASK_SECONDS", "tolerance_source", "Tolerances", "tolerances_toml", "ToleranceStudy", "UncertaintyStudy",
+           "work_offset_components"]

@@ -60,33 +60,29 @@ workpiece spindle, from -180 to +180 deg about its position in ``at`` (with ``fe
 section of a tooth at the same spindle position: the workpiece turns whole turns between
 them, or its errors repeat every turn).
 
-Parts, each importing only those listed before it: :mod:`~volerr_pin.applications.gear.geometry` (the gear
-pair), :mod:`~volerr_pin.applications.gear.generation` (where and when each flank point is generated),
-:mod:`~volerr_pin.applications.gear.flanks` (normal deviations and the profile, helix and pitch deviations),
-:mod:`~volerr_pin.applications.gear.sources` (per error source, the unit-error study, contribution degrees),
-:mod:`~volerr_pin.applications.gear.springback`.
+Parts, private modules each importing only those listed before it: the gear pair
+(:class:`GearPair`), where and when each flank point is generated (:func:`flank_grid`), the
+normal deviations and the profile, helix and pitch deviations (:func:`flank_deviations`), per
+error source, the unit-error study and contribution degrees (:func:`deviations_by_source`,
+:func:`unit_error_study`, :func:`contribution_degrees`), and the contact springback
+(:func:`contact_springback`).
 """
 
-from importlib import import_module as _import_module
-
-from .geometry import DEVIATIONS, FLANKS, REFERENCE_GEAR, GearPair
+from ...base import lazy_exports
+from ._geometry import DEVIATIONS, FLANKS, REFERENCE_GEAR, GearPair
 
 #: names imported from their part when first used (PEP 562): the generation loads the machine
 #: model (Pinocchio, SciPy, Numba), which the command line's parser, needing only the gear's
 #: geometry, would otherwise pay for at every start
-_LAZY = {"FlankDeviations": ".flanks", "flank_deviations": ".flanks", "pitch_positions": ".flanks",
-         "BYTES_PER_FLANK_POINT": ".generation", "SourceDeviations": ".sources", "contribution_degrees": ".sources",
-         "deviations_by_source": ".sources", "unit_error_study": ".sources", "Springback": ".springback",
-         "contact_springback": ".springback"}
+_NAMES = {
+    "_flanks": ("FlankDeviations", "flank_deviations", "pitch_positions"),
+    "_generation": ("BYTES_PER_FLANK_POINT",),
+    "_sources": ("SourceDeviations", "contribution_degrees", "deviations_by_source", "unit_error_study"),
+    "_springback": ("Springback", "contact_springback"),
+}
+__getattr__, _lazy_dir, _lazy = lazy_exports(__name__, _NAMES)
+__all__ = ["DEVIATIONS", "FLANKS", "REFERENCE_GEAR", "GearPair", *_lazy]
 
-__all__ = ["BYTES_PER_FLANK_POINT", "DEVIATIONS", "FLANKS", "REFERENCE_GEAR", "FlankDeviations", "GearPair",
-           "SourceDeviations", "Springback", "contact_springback", "contribution_degrees", "deviations_by_source",
-           "flank_deviations", "pitch_positions", "unit_error_study"]
 
-
-def __getattr__(name):
-    if name in _LAZY:
-        value = getattr(_import_module(_LAZY[name], __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+def __dir__():
+    return list(__all__)

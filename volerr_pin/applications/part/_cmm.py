@@ -9,8 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...base.errors import InputError
-from ...base.units import UM_PER_M
+from ...base import UM_PER_M, InputError
 
 __all__ = ["fit_circle", "fit_line", "RoundFeature", "measure_round"]
 
@@ -110,7 +109,19 @@ class RoundFeature:
 
     def less_circle(self, radial: np.ndarray) -> np.ndarray:
         """A radial profile (M,) at the measured points, or several as columns (M, C), less its
-        least-squares circle, to first order (its mean and first harmonics in :attr:`angle`)."""
+        least-squares circle, to first order (its mean and first harmonics in :attr:`angle`).
+
+        Parameters
+        ----------
+        radial : ndarray, shape (M,) or (M, C)
+            Radial values at the measured points (any unit), one profile per column.
+
+        Returns
+        -------
+        ndarray, shape as ``radial``
+            The residual of each profile after a least-squares fit of ``1, cos(angle),
+            sin(angle)``, in the unit of ``radial``.
+        """
         basis = np.c_[np.ones_like(self.angle), np.cos(self.angle), np.sin(self.angle)]
         coefficients, *_ = np.linalg.lstsq(basis, radial, rcond=None)
         return radial - basis @ coefficients
@@ -120,7 +131,22 @@ def measure_round(points: np.ndarray, centre: np.ndarray, radius: float) -> dict
     """What a CMM reports of a round feature's measured points (N, 2) against its nominal
     ``centre`` (2,) and ``radius`` [m]: the :class:`RoundFeature` fields ``radius``,
     ``circularity_um``, ``diameter_error_um``, ``centre_error_um``, ``fitted_centre`` and
-    ``radial_um``."""
+    ``radial_um``.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 2)
+        The measured points in the feature's plane [m].
+    centre : ndarray, shape (2,)
+        The nominal centre [m].
+    radius : float
+        The nominal radius [m].
+
+    Returns
+    -------
+    dict
+        Those fields (``angle``, ``q`` and ``covariates`` are the caller's to add).
+    """
     fitted_centre, fitted = fit_circle(points)
     deviation = np.linalg.norm(points - fitted_centre, axis=1) - fitted
     return {"radius": float(radius), "circularity_um": float(np.ptp(deviation) * UM_PER_M),

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...base.errors import InputError
+from ...base import InputError
 from ...model import Machine, check_covariates, outside_travel, tool_poses
 from ._cmm import RoundFeature, measure_round
 
@@ -89,18 +89,48 @@ class Cone:
 
     def near_tips(self, points: np.ndarray, capture: float) -> np.ndarray:
         """Which tool points (N, 3) lie within ``capture`` of the circle this cone's tool points
-        go round (axially and radially)."""
+        go round (axially and radially).
+
+        Parameters
+        ----------
+        points : ndarray, shape (N, 3)
+            Tool points in the workpiece frame [m].
+        capture : float
+            The largest axial and radial distance from the circle of :attr:`tips` [m].
+
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+            True for the points within ``capture`` of it both axially and radially.
+        """
         d = points - self.apex
         along = d @ self.axis
         radial = np.linalg.norm(d - np.outer(along, self.axis), axis=1)
         return (np.abs(along - self.tips[0]) <= capture) & (np.abs(radial - self.tips[1]) <= capture)
 
     def radius_at(self, height: float) -> float:
-        """The part's nominal radius at ``height`` above the bottom [m]."""
+        """The part's nominal radius at ``height`` above the bottom [m].
+
+        Parameters
+        ----------
+        height : float
+            Height along the axis above the plane the tool's end cuts in [m].
+
+        Returns
+        -------
+        float
+            ``|bottom + height| tan(half_angle)`` [m].
+        """
         return abs(self.bottom + height) * np.tan(self.half_angle)
 
     def basis(self) -> np.ndarray:
-        """Two unit vectors normal to the axis, (2, 3): the section's coordinates."""
+        """Two unit vectors normal to the axis, (2, 3): the section's coordinates.
+
+        Returns
+        -------
+        ndarray, shape (2, 3)
+            Orthonormal rows ``e1``, ``e2 = axis x e1`` in the workpiece frame.
+        """
         helper = np.eye(3)[int(np.argmin(np.abs(self.axis)))]
         e1 = np.cross(self.axis, helper)
         e1 /= np.linalg.norm(e1)
@@ -115,6 +145,8 @@ class ConeSection(RoundFeature):
 
     Attributes
     ----------
+    radius, circularity_um, diameter_error_um, centre_error_um, fitted_centre, angle, radial_um, q, covariates
+        As in :class:`~volerr_pin.applications.part.RoundFeature`, in the section's coordinates.
     cone : Cone
     height : float
         Above the plane the tool's end cuts in, along the axis [m].
@@ -131,10 +163,19 @@ class ConeSection(RoundFeature):
 
     @property
     def lines(self) -> tuple[int, ...]:
+        """The blocks of the cone's contour."""
         return self.cone.lines
 
     def to_dict(self) -> dict:
-        """The feature in the report's terms (ISO name, um)."""
+        """The feature in the report's terms (ISO name, um).
+
+        Returns
+        -------
+        dict
+            JSON-ready: ``kind`` ("cone"), ``name``, ``blocks``, ``form`` ("boss" or "bore"),
+            ``height_mm``, ``diameter_mm``, ``half_angle_deg``, ``axis``, ``tool_diameter_mm``,
+            ``circularity_um``, ``diameter_error_um`` and ``centre_error_um``.
+        """
         cone = self.cone
         return {"kind": "cone", "name": "roundness, diameter and centre of a cone's section at a height "
                                         "(ISO 12181-1, least squares)",
@@ -147,7 +188,19 @@ class ConeSection(RoundFeature):
 
     def profiles(self, parts: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Each source's radial deviation in the section (``parts``: its first-order pose error
-        (M, 6) at the measured points: dx, dy, dz, rx, ry, rz) less its least-squares circle."""
+        (M, 6) at the measured points: dx, dy, dz, rx, ry, rz) less its least-squares circle.
+
+        Parameters
+        ----------
+        parts : dict of str to ndarray, shape (M, 6)
+            Per error source (component), its first-order pose error of the tool at the
+            measured points [m, rad].
+
+        Returns
+        -------
+        dict of str to ndarray, shape (M,)
+            Per source, in the order of ``parts``, its profile [m].
+        """
         moment = np.cross(self.arm, self.direction)
         radial = np.stack([np.sum(p[:, :3] * self.direction, axis=1) + np.sum(p[:, 3:] * moment, axis=1)
                            for p in parts.values()], axis=1)
@@ -387,7 +440,19 @@ SECTIONS = (0.1, 0.5, 0.9)
 
 
 def section_heights(size: float = 80e-3) -> list[float]:
-    """Where the test piece of base diameter ``size`` [m] is measured: heights above its base [m]."""
+    """Where the test piece of base diameter ``size`` [m] is measured: heights above its base [m].
+
+    Parameters
+    ----------
+    size : float, default 80e-3
+        The test piece's base diameter [m].
+
+    Returns
+    -------
+    list of float
+        The heights of its three sections, 10 %, 50 % and 90 % of its height (a quarter of
+        ``size``) [m].
+    """
     return [f * HEIGHT * size for f in SECTIONS]
 
 
@@ -432,7 +497,7 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
         If the machine has not two rotary axes, cannot point the tool so, or the cut leaves
         its travel.
     """
-    from ...compensation.programming import programming_for
+    from ...compensation import programming_for
 
     rotary = [k for k, kind in enumerate(machine.axis_kinds) if kind == "rotary"]
     if len(rotary) != 2:

@@ -28,6 +28,8 @@ class CircleFeature(RoundFeature):
 
     Attributes
     ----------
+    radius, circularity_um, diameter_error_um, centre_error_um, fitted_centre, angle, radial_um, q, covariates
+        As in :class:`~volerr_pin.applications.part.RoundFeature`, in the contour plane.
     lines : tuple of int
         The blocks it comes from (of the reference program, when one is given).
     plane : tuple of int
@@ -41,7 +43,15 @@ class CircleFeature(RoundFeature):
     centre: np.ndarray
 
     def to_dict(self) -> dict:
-        """The feature in the report's terms (ISO name, um)."""
+        """The feature in the report's terms (ISO name, um).
+
+        Returns
+        -------
+        dict
+            JSON-ready: ``kind`` ("circle"), ``name``, ``blocks``, ``plane`` ("xy" ...),
+            ``centre_mm``, ``diameter_mm``, ``circularity_um``, ``diameter_error_um`` and
+            ``centre_error_um``.
+        """
         return {"kind": "circle", "name": "roundness, diameter and centre of a circle (ISO 12181-1, least squares)",
                 "blocks": list(self.lines), "plane": "xyz"[self.plane[0]] + "xyz"[self.plane[1]],
                 "centre_mm": (self.centre * 1e3).tolist(), "diameter_mm": 2e3 * self.radius,
@@ -50,7 +60,19 @@ class CircleFeature(RoundFeature):
 
     def profiles(self, parts: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Each source's radial deviation (in-plane errors ``parts`` at the measured points)
-        less its least-squares circle, to first order."""
+        less its least-squares circle, to first order.
+
+        Parameters
+        ----------
+        parts : dict of str to ndarray, shape (M, 2)
+            Per error source (component), its error of the tool point in the plane at the
+            measured points [m].
+
+        Returns
+        -------
+        dict of str to ndarray, shape (M,)
+            Per source, in the order of ``parts``, its profile [m].
+        """
         radial = np.c_[np.cos(self.angle), np.sin(self.angle)]
         profiles = self.less_circle(np.stack([np.sum(p * radial, axis=1) for p in parts.values()], axis=1))
         return dict(zip(parts, profiles.T))
@@ -92,29 +114,57 @@ class LineFeature:
 
     @property
     def length(self) -> float:
+        """Nominal length of the side [m]."""
         return float(np.linalg.norm(self.end - self.start))
 
     @property
     def direction(self) -> np.ndarray:
+        """Unit direction from the nominal start to the end, shape (2,), in the plane."""
         return (self.end - self.start) / self.length
 
     @property
     def across(self) -> np.ndarray:
+        """Unit normal of the side in the plane, :attr:`direction` turned +90 degrees, shape (2,)."""
         return np.array([-self.direction[1], self.direction[0]])
 
     def along(self) -> np.ndarray:
-        """Each measured point's distance from the nominal start along the side [m]."""
+        """Each measured point's distance from the nominal start along the side [m].
+
+        Returns
+        -------
+        ndarray, shape (M,)
+            The measured points' coordinates along :attr:`direction` from :attr:`start` [m].
+        """
         return (self.measured - self.start) @ self.direction
 
     def to_dict(self) -> dict:
-        """The feature in the report's terms (ISO name, um)."""
+        """The feature in the report's terms (ISO name, um).
+
+        Returns
+        -------
+        dict
+            JSON-ready: ``kind`` ("straightness"), ``name``, ``blocks``, ``plane``, ``start_mm``,
+            ``end_mm``, ``length_mm`` and ``straightness_um``.
+        """
         return {"kind": "straightness", "name": "straightness of a side (ISO 12780, least squares)",
                 "blocks": list(self.lines), "plane": "xyz"[self.plane[0]] + "xyz"[self.plane[1]],
                 "start_mm": (self.start * 1e3).tolist(), "end_mm": (self.end * 1e3).tolist(),
                 "length_mm": self.length * 1e3, "straightness_um": self.straightness_um}
 
     def profiles(self, parts: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Each source's deviation across the side less its least-squares line, to first order."""
+        """Each source's deviation across the side less its least-squares line, to first order.
+
+        Parameters
+        ----------
+        parts : dict of str to ndarray, shape (M, 2)
+            Per error source (component), its error of the tool point in the plane at the
+            measured points [m].
+
+        Returns
+        -------
+        dict of str to ndarray, shape (M,)
+            Per source, in the order of ``parts``, its profile [m].
+        """
         along = self.along()
         basis = np.c_[np.ones_like(along), along]
         return dict(zip(parts, _without(np.stack([p @ self.across for p in parts.values()], axis=1), basis).T))
@@ -145,9 +195,17 @@ class PairFeature:
 
     @property
     def lines(self) -> tuple[int, ...]:
+        """The blocks of the two sides, the datum's first."""
         return self.datum.lines + self.toleranced.lines
 
     def to_dict(self) -> dict:
-        """The feature in the report's terms (ISO name, um)."""
+        """The feature in the report's terms (ISO name, um).
+
+        Returns
+        -------
+        dict
+            JSON-ready: ``kind``, ``name``, ``blocks``, ``datum_line`` (the datum side's block)
+            and ``<kind>_um`` (the zone's width).
+        """
         return {"kind": self.kind, "name": f"{self.kind} of a side to a datum side (ISO 1101)",
                 "blocks": list(self.lines), "datum_line": self.datum.lines[0], f"{self.kind}_um": self.value_um}

@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...base.units import UM_PER_M
+from ...base import UM_PER_M
 from ...model import Machine
 from ._features import CircleFeature, LineFeature, PairFeature
 from ._path import CuttingPath
@@ -105,7 +105,18 @@ def contour_plane(cut: Cut) -> tuple[int, int]:
     third coordinate constant), half in each of two when it runs along one axis (a plunge along
     z lies in xz and yz, a side along x in xy and xz); xy for a milled contour, xz for a lathe's
     profile; ties go to xy, then xz. A cut whose moves mostly lie in no
-    such plane (five-axis moves, a cone's turn) takes the two coordinates it spreads over most."""
+    such plane (five-axis moves, a cone's turn) takes the two coordinates it spreads over most.
+
+    Parameters
+    ----------
+    cut : Cut
+        The cut surface (:func:`~volerr_pin.applications.part.cut_of`).
+
+    Returns
+    -------
+    tuple of (int, int)
+        The plane's two coordinates (0, 1, 2 for x, y, z), ascending: (0, 1) for xy.
+    """
     starts = np.flatnonzero(np.r_[True, np.diff(cut.move) != 0])
     spread = np.maximum.reduceat(cut.nominal, starts) - np.minimum.reduceat(cut.nominal, starts)
     steps = np.linalg.norm(np.diff(cut.nominal, axis=0), axis=1)

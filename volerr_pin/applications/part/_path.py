@@ -2,11 +2,11 @@
 the nominal tool point is and which way the path runs there, the tool point's error, and the
 axes' directions a controller takes along the path (for a machine with backlash).
 
-The moves are the program's :class:`~volerr_pin.compensation.moves.MoveBatch` as the NC
+The moves are the program's :class:`~volerr_pin.compensation.MoveBatch` as the NC
 reader gives it (:func:`volerr_pin.compensation.gcode.interpret`): its cutting rows (lines and
 arcs; rapids cut nothing) are the path, its rapids keep their place in the program between
 them (they end contours, and the axes' directions carry through them). Points along a move
-are the batch's own (:meth:`~volerr_pin.compensation.moves.MoveBatch.desired`), turned into
+are the batch's own (:meth:`~volerr_pin.compensation.MoveBatch.desired`), turned into
 axis positions as the controller does (tool-tip programming through the nominal machine).
 Every evaluation is one call of the model's algorithms for all the points asked at once.
 """
@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...base.errors import InputError
-from ...compensation.moves import ARC, POINT, MoveBatch
+from ...base import InputError
+from ...compensation import ARC, POINT, MoveBatch
 from ...model import Machine, check_covariates, outside_travel, tool_poses, volumetric_error
 
 __all__ = ["TANGENT_STEP", "TIP_PIECE", "CuttingPath", "normal_part"]
@@ -163,7 +163,7 @@ class CuttingPath:
     def _to_axes(self, words: np.ndarray) -> np.ndarray:
         """Tool-tip words as axis positions, :data:`TIP_PIECE` points at a time."""
         if self._tip is None:
-            from ...compensation.programming import programming_for
+            from ...compensation import programming_for
 
             self._tip = programming_for("tool-tip", self.machine)
         if len(words) <= TIP_PIECE:

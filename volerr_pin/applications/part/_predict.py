@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...base.units import UM_PER_M
+from ...base import UM_PER_M
 from ...model import Machine
 from ._measure import measure
 from ._path import CuttingPath
@@ -20,7 +20,18 @@ __all__ = ["PartPrediction", "blocks_text", "predict"]
 
 
 def blocks_text(blocks: list[int]) -> str:
-    """A feature's block lines for a table: all of up to four, else the first and the last."""
+    """A feature's block lines for a table: all of up to four, else the first and the last.
+
+    Parameters
+    ----------
+    blocks : list of int
+        The line numbers of the feature's blocks, in order.
+
+    Returns
+    -------
+    str
+        ``"12,14,16"``, or ``"12..40"`` for more than four.
+    """
     return ",".join(map(str, blocks)) if len(blocks) <= 4 else f"{blocks[0]}..{blocks[-1]}"
 
 
@@ -65,7 +76,20 @@ class PartPrediction:
 
     def to_dict(self, top: int = 5) -> dict:
         """The report: the largest deviation and its block, every block's, and the features
-        with the ``top`` error sources of each, its ``drivers`` (JSON: ``features``)."""
+        with the ``top`` error sources of each, its ``drivers`` (JSON: ``features``).
+
+        Parameters
+        ----------
+        top : int, default 5
+            How many error sources of each feature's ranking to keep.
+
+        Returns
+        -------
+        dict
+            JSON-ready: ``machine``, ``program``, ``reference``, ``state``, ``tolerance_um``,
+            ``samples``, ``max_normal_deviation_um``, ``max_line``, ``blocks`` (each block's
+            ``line`` and ``max_um``), ``features`` and ``notes``.
+        """
         blocks = self.deviation.per_block()
         worst = max(blocks, key=blocks.get)
         features = []

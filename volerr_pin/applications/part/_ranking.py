@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...base.units import UM_PER_M
+from ...base import UM_PER_M
 from ...model import Machine, check_covariates, sensitivity
 from ._features import CircleFeature, LineFeature
 from ._cone import ConeSection

@@ -13,8 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...base.errors import InputError
-from ...base.units import UM_PER_M
+from ...base import UM_PER_M, InputError
 from ...model import Machine
 from ._path import CuttingPath
 
@@ -58,7 +57,14 @@ class PathDeviation:
     tolerance: float
 
     def per_block(self) -> dict[int, float]:
-        """Largest normal deviation per block line [um]."""
+        """Largest normal deviation per block line [um].
+
+        Returns
+        -------
+        dict of int to float
+            Block line -> the largest normal deviation of its samples [um], in the order the
+            blocks are first sampled.
+        """
         size = np.linalg.norm(self.normal, axis=1) * UM_PER_M
         out: dict[int, float] = {}
         for line, value in zip(self.line.tolist(), size.tolist()):
@@ -66,7 +72,13 @@ class PathDeviation:
         return out
 
     def runs(self) -> list[np.ndarray]:
-        """Each move's rows, in order (the samples run move by move)."""
+        """Each move's rows, in order (the samples run move by move).
+
+        Returns
+        -------
+        list of ndarray of int
+            The indices of the samples of each sampled move, one array per move.
+        """
         return np.split(np.arange(len(self.move)), np.flatnonzero(np.diff(self.move)) + 1)
 
     @property
@@ -199,11 +211,33 @@ class Cut:
     covariates: dict = field(default_factory=dict)
 
     def at(self, rows) -> dict:
-        """The covariates of samples ``rows``."""
+        """The covariates of samples ``rows``.
+
+        Parameters
+        ----------
+        rows : slice, ndarray of int or ndarray of bool
+            The samples.
+
+        Returns
+        -------
+        dict
+            Covariate name -> its values at those samples (as :attr:`covariates`).
+        """
         return {name: value[rows] for name, value in self.covariates.items()}
 
     def rows(self, moves: list[int]) -> np.ndarray:
-        """The rows of the samples of ``moves`` (the samples run move by move)."""
+        """The rows of the samples of ``moves`` (the samples run move by move).
+
+        Parameters
+        ----------
+        moves : list of int
+            Indices of moves among the program's cutting moves.
+
+        Returns
+        -------
+        ndarray of int
+            The rows, ascending (empty for no moves).
+        """
         if not len(moves):
             return np.zeros(0, dtype=int)
         if max(moves) - min(moves) + 1 == len(moves):   # a run of moves: one range of rows

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...base.errors import InputError
+from ...base import InputError
 from ...model import Machine
 
 __all__ = ["contouring_test_piece"]

@@ -8,16 +8,21 @@ error the machine would have left once they are in place (max and RMS), beside t
 uncompensated error, tables filled by sampling the component errors at their nodes, and the
 model's exact point compensation.
 
-Modules: :mod:`~volerr_pin.compensation.export.protocol` (the two protocols), :mod:`~.registry` (formats
-by name), :mod:`~.zone` (zone, points, motion directions), :mod:`~.tables` (set-point
-tables), :mod:`~.simulate`, :mod:`~.fit`, :mod:`~.run` (one export), and one module per
+Parts, private modules: the two protocols (:class:`ControllerFormat`, :class:`Compensation`),
+the formats by name (:data:`CONTROLLERS`, :func:`controller_format`), the zone and its points
+(:class:`Zone`, :func:`parse_zone`), set-point tables, the controller's simulation, the least
+squares through the model (:func:`fit`), one export (:func:`export_tables`), and one module per
 format.
 """
 
-from .protocol import Compensation, ControllerFormat
-from .registry import CONTROLLERS, controller_format
-from .run import ExportResult, export_tables, layout_files, write_export
-from .zone import Points, Zone, parse_zone
+from ._protocol import Compensation, ControllerFormat
+from ._registry import CONTROLLERS, controller_format
+from ._run import FIT_POINTS_PER_VALUE, ExportResult, export_tables, layout_files, write_export
+from ._zone import Points, Zone, parse_zone
+from ._fit import fit
+from ._simulate import tool_tips
 
-__all__ = ["CONTROLLERS", "Compensation", "ControllerFormat", "ExportResult", "Points", "Zone", "controller_format",
-           "export_tables", "layout_files", "parse_zone", "write_export"]
+__all__ = ["Compensation", "controller_format", "ControllerFormat", "CONTROLLERS", "export_tables",
+           "ExportResult", "fit", "FIT_POINTS_PER_VALUE", "layout_files",
+           "parse_zone", "Points", "tool_tips",
+           "write_export", "Zone"]

@@ -13,8 +13,7 @@ split move are inserted as new lines after it.
 
 A program with parameters, expressions or LinuxCNC O-words (subroutines, loops, branches) is
 expanded into the program as LinuxCNC runs it, and that is compensated and written
-(:mod:`.macros`); LinuxCNC's polar words ``@`` / ``^`` are written as the X and Y they mean
-(:mod:`.polar`).
+; LinuxCNC's polar words ``@`` / ``^`` are written as the X and Y they mean.
 
 Nothing is guessed: a character that belongs to no word, a repeated word, two codes of one
 group, a word that means nothing in its block (I/J/K/R off an arc, an axis the machine does
@@ -26,21 +25,22 @@ unchanged and named in the report's warnings, or refused with ``strict``; G code
 does not know are refused unless ``pass_through``. A tool change (M6) and a kept block that
 names axes make the position unknown.
 
-Modules: :mod:`.macros` and :mod:`.expressions` (programs as run), :mod:`.polar`,
-:mod:`.lexer` (words, blocks, lines, code tables), :mod:`.modal` (the modal state
-and the moves it gives), :mod:`.arcs` (reading arcs), :mod:`.segments` (:func:`interpret`: a program's moves as one
-:class:`~volerr_pin.compensation.moves.MoveBatch`),
-:mod:`.source` (reading a file line by line), :mod:`.program` (compensating as a stream),
-:mod:`.kept` (what cannot be compensated) and :mod:`.regions` (modes that change how later
-coordinates read), :mod:`.letters` (words against the modal state), :mod:`.rewrite` and
-:mod:`.arc_words` (writing pieces back), :mod:`.report`.
+Parts, private modules: programs as LinuxCNC runs them (parameters, expressions, O-words) and
+its polar words; the lexer (words, blocks, lines, code tables: :func:`parse_block`,
+:func:`split_lines`); the modal state and the moves it gives; reading arcs; :func:`interpret`
+(a program's moves as one :class:`~volerr_pin.compensation.MoveBatch`); reading a file line by
+line (:class:`ProgramFile`); compensating as a stream (:class:`Program`,
+:func:`compensate_program`); what cannot be compensated and the modes that change how later
+coordinates read; the letters' checks against the modal state; writing pieces back; the
+:class:`Report`.
 """
 
-from .lexer import Block, GcodeError, Word, parse_block, split_lines
-from .program import Program, compensate_program
-from .report import Report
-from .segments import interpret
-from .source import ProgramFile
+from ._lexer import Block, GcodeError, Word, parse_block, split_lines
+from ._program import Program, compensate_program
+from ._report import Report
+from ._segments import interpret
+from ._source import ProgramFile
+from ._macros import MOST_BLOCKS, may_need
 
-__all__ = ["Block", "GcodeError", "Program", "ProgramFile", "Report", "Word", "compensate_program",
-           "interpret", "parse_block", "split_lines"]
+__all__ = ["Block", "compensate_program", "GcodeError", "interpret", "may_need",
+           "MOST_BLOCKS", "parse_block", "Program", "ProgramFile", "Report", "split_lines", "Word"]

@@ -29,41 +29,37 @@ A real machine's geometry is never exactly the spec's. A smooth residual that a 
 degree of an existing component explains as well as an effect does is reported as
 "geometric component X under-modelled (degree n -> m)" in :attr:`Diagnosis.under_modelled`,
 not as a physical effect. A periodic pitch must have a period in the ball-screw range
-(:data:`~volerr_pin.fit.diagnosis.candidates.PITCH_PERIOD_MM`) and at least
-:data:`~volerr_pin.fit.diagnosis.effects.MIN_PERIODS` periods inside the measured
+(:data:`~volerr_pin.fit.diagnosis._candidates.PITCH_PERIOD_MM`) and at least
+:data:`~volerr_pin.fit.diagnosis.MIN_PERIODS` periods inside the measured
 travel.
 
 Effects whose effect at the tool is the same wherever they sit (a drift in x through any
 axis of a Cartesian machine) are reported with ``axis`` None: the data cannot tell which.
 
-The catalogue effects are plug-ins (:mod:`~volerr_pin.fit.diagnosis.effects`): each kind is a
-class with its candidates, its coefficients' prefix, its label and the properties the loop asks
-about, found through a registry (:data:`EFFECTS`); no part of the loop asks for an effect by name.
+The catalogue effects are plug-ins: each kind is a class (:class:`EffectKind`) with its
+candidates, its coefficients' prefix, its label and the properties the loop asks about, found
+through a registry (:data:`EFFECTS`, :func:`register`); no part of the loop asks for an effect by
+name.
 
-Parts, each importing only those listed before it:
-
-- :mod:`~volerr_pin.fit.diagnosis.results`: typed results (candidates, scores, changes, rounds, the
-  diagnosis and its JSON report, each kind's details);
-- :mod:`~volerr_pin.fit.diagnosis.effects`: the catalogue effects, as plug-ins;
-- :mod:`~volerr_pin.fit.diagnosis.candidates`: what the model could be missing;
-- :mod:`~volerr_pin.fit.diagnosis.projector`: the round's base design and its basis, on which a
-  candidate's joint fit and held-out RMS cost a few small products;
-- :mod:`~volerr_pin.fit.diagnosis.scoring`: each candidate fitted jointly with the base and scored;
-- :mod:`~volerr_pin.fit.diagnosis.changes`: accepted changes applied to the model, their sizes;
-- :mod:`~volerr_pin.fit.diagnosis.report`: residual analysis, noise floor, raised components,
-  evidence for pictures;
-- :mod:`~volerr_pin.fit.diagnosis.loop`: :func:`diagnose`, round by round.
+Each round is a pipeline the model goes through once, each stage a private module: what the
+model could be missing is offered (the candidates, the error-joint sensitivity, the tables made
+richer); every candidate is fitted jointly with the base model on the round's projector and
+scored; the best that stays significant is applied to the spec as a typed edit and refitted.
+Around the rounds: typed results (candidates, scores, changes, rounds, the :class:`Diagnosis`
+and its JSON report), residual analysis, the noise floor and the evidence for pictures
+(:func:`residual_analysis`, :func:`evidence`), and :func:`diagnose`.
 """
 
-from .candidates import axis_directions, build_candidates, geometric_term, raised_term
-from .changes import raise_components
-from .loop import diagnose
-from .report import drift_series, driver_values, evidence, residual_analysis
-from .effects import EFFECTS, EffectKind, effect_kind, register
-from .results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Candidate, Change, Diagnosis, DriftSeries,
+from ._candidates import axis_directions, build_candidates, geometric_term, raised_term
+from ._changes import raise_components
+from ._loop import diagnose
+from ._report import drift_series, driver_values, evidence, residual_analysis
+from ._effects import EFFECTS, EffectKind, effect_kind, register
+from ._results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Candidate, Change, Diagnosis, DriftSeries,
                       Evidence, Raise, Role, Score, Separation, Step, ThermalModel)
 
-__all__ = ["EFFECTS", "PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "Candidate", "Change", "Diagnosis",
-           "DriftSeries", "EffectKind", "Evidence", "Raise", "Role", "Score", "Separation", "Step", "ThermalModel",
-           "axis_directions", "build_candidates", "diagnose", "drift_series", "driver_values", "effect_kind",
-           "evidence", "geometric_term", "raise_components", "raised_term", "register", "residual_analysis"]
+__all__ = ["axis_directions", "build_candidates", "Candidate", "Change", "diagnose", "Diagnosis",
+           "drift_series", "DriftSeries", "driver_values", "effect_kind", "EffectKind", "EFFECTS", "Evidence",
+           "evidence", "geometric_term", "PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "Raise", "raise_components",
+           "raised_term", "register", "residual_analysis", "Role", "Score", "Separation", "SIGNIFICANCE", "Step",
+           "ThermalModel"]

@@ -1,0 +1,221 @@
+"""What cannot be compensated: classifying blocks, following the ones kept unchanged.
+
+Canned cycles, macro statements and variables, subprogram calls, reference returns, probing,
+cutter compensation, block delete with moves, and every block under a mode that changes how
+later coordinates read (:mod:`.regions`) are *problems*: kept byte for byte and named, or
+refused with ``strict``. A G or M code the reader does not know is a problem whose effect cannot be
+told (``Problem.unknown_code``). A kept block still sets its modal words, and one that may move
+the machine makes the position unknown.
+"""
+
+from __future__ import annotations
+
+from ._lexer import (CANNED, G_DIGITS, G_GROUPS, KEPT_MOTION, KEYWORD, LATHE_CYCLES, M_GROUPS, MACRO_G, NOT_MOVES, TOOL_CHANGE_M, USER_M, Block,
+                    GcodeError, macro_statement, mask_comments, parse_block, uncommented, word_values)
+from ._lexer import AXIS_LETTERS
+from ._modal import Interpreter, ModalState
+from ._regions import follow, keyword_region, region_of
+
+__all__ = ["Problem", "classify", "skip", "unsupported"]
+
+
+class Problem(str):
+    """Why a block cannot be followed (a str for messages).
+
+    Attributes
+    ----------
+    modes_unknown : bool
+        The block may set a mode that changes how later blocks read, or move the machine
+        somewhere not followed.
+    unknown_code : bool
+        The block holds a G or M code the reader does not know: what it changes cannot be told,
+        so it is refused unless unknown codes are explicitly kept (``pass_through``).
+    column : int
+        1-based column of the word that makes the problem (0 if none).
+    """
+
+    modes_unknown = False
+    unknown_code = False
+    column = 0
+
+
+def _unknown(text: str, column: int) -> Problem:
+    problem = Problem(text)
+    problem.modes_unknown = problem.unknown_code = True
+    problem.column = column
+    return problem
+
+
+def classify(reader: Interpreter, line: str, number: int, state: ModalState,
+             code: str | None = None) -> tuple[Block | None, Problem | None]:
+    """Read a line, and say whether it can be followed.
+
+    Parameters
+    ----------
+    reader : Interpreter
+        The program's interpreter.
+    line : str
+        The line without its line ending.
+    number : int
+        Its 1-based line number.
+    state : ModalState
+        The modal state before the block (``canned``, ``programs`` and ``region`` are
+        updated).
+    code : str, optional
+        The line with its comments blanked out
+        (:func:`~volerr_pin.compensation.gcode._lexer.mask_comments`), when the caller has it.
+
+    Returns
+    -------
+    block : Block or None
+        The block (None for a macro statement, which is not read, and for a line inside
+        a kept region).
+    problem : Problem or None
+        What the block holds that cannot be followed (canned cycles, macros,
+        subprograms, codes the reader does not know, a block inside polar interpolation
+        ...); None if it can be.
+
+    Raises
+    ------
+    GcodeError
+        A line that cannot be read (see :func:`~volerr_pin.compensation.gcode.parse_block`).
+    """
+    code = mask_comments(line, number, reader.source) if code is None else code
+    if state.regions:
+        return None, _in_region(reader, code, number, state)
+    keyword = KEYWORD.match(code)
+    if keyword:
+        word = keyword.group(1).upper()
+        region = keyword_region(word, number)
+        if region is not None:
+            state.regions = [region]
+            return None, Problem(f"{word} (a transformation of the axes)")
+        return Block(number, line, [], code, statement=word), None
+    macro = macro_statement(code)
+    if macro:
+        problem = Problem(macro[0])
+        problem.modes_unknown = macro[1]
+        return None, problem
+    block = parse_block(line, number, reader.source, code)
+    return block, _problem(reader, block, state)
+
+def _in_region(reader: Interpreter, code: str, number: int, state: ModalState) -> Problem:
+    what, first = state.regions[0][:2]
+    keyword = KEYWORD.match(code)
+    words = word_values(uncommented(code))
+    state.regions = follow(state.regions, words, keyword.group(1).upper() if keyword else "", number)
+    if not state.regions:
+        state.lose_position(f"line {number}")
+    return Problem(f"in the {what} of line {first}")
+
+def unsupported(reader: Interpreter, line: str, state: ModalState) -> str | None:
+    """Why a block cannot be followed (canned cycles, macros, subprograms, ...).
+
+    Also tracks canned cycles in ``state``: a cycle starts one, and a motion word or G80
+    ends it; until then the axis words of a block are positions of the cycle.
+
+    Parameters
+    ----------
+    reader : Interpreter
+        The program's interpreter.
+    line : str
+        The line without its line ending.
+    state : ModalState
+        The modal state before the block (``canned`` is updated).
+
+    Returns
+    -------
+    str or None
+        What the block holds that cannot be followed, for a message; None if it can.
+
+    Raises
+    ------
+    GcodeError
+        A line that cannot be read.
+    """
+    return classify(reader, line, 0, state)[1]
+
+def _problem(reader: Interpreter, block: Block, state: ModalState) -> Problem | None:
+    words = block.words
+    if block.delete:
+        if any(w.letter in reader.axes for w in words):
+            return Problem("a move with block delete (/), whose execution depends on the operator's switch,")
+        if any(w.letter == "G" for w in words):
+            return Problem("G codes with block delete (/), whose effect depends on the operator's switch,")
+    for w in words:
+        letter = w.letter
+        if letter == "G":
+            g = w.value
+            if g in CANNED:
+                state.canned = True
+                return Problem(f"{w.name} (canned cycle)")
+            if not G_DIGITS.fullmatch(w.text):
+                raise GcodeError(f"{reader.source}:{block.number}:{w.start + 1}: {w.name} is not a G code (at "
+                                 "most three digits and one decimal, as G43.4)")
+            region = region_of(g, [(v.letter, v.value) for v in words], block.number)
+            if region is not None:
+                state.regions = [region]
+                return Problem(f"{w.name} ({region[0].rsplit(' (', 1)[0]})")
+            if g in MACRO_G:
+                return Problem(f"{w.name} (macro call)")
+            if g in NOT_MOVES:  # G52 X0 (no shift), G10 of tool data ...
+                return Problem(f"{w.name} ({NOT_MOVES[g]})")
+            if g in KEPT_MOTION or (g in LATHE_CYCLES and any(v.letter == "Q" for v in words)):
+                what = f"{w.name} ({KEPT_MOTION.get(g) or LATHE_CYCLES[g]})"
+                state.canned = what   # (true: its axis words after it are its, as a cycle's)
+                return Problem(what)
+            if g not in G_GROUPS:
+                return _unknown(f"{w.name} (a G code this reader does not know)", w.start + 1)
+        elif letter == "M" and w.value in (98, 99):
+            return Problem(f"{w.name} (subprogram call or return)")
+        elif letter == "M" and w.value == int(w.value) and w.value not in M_GROUPS and w.value not in USER_M:
+            return _unknown(f"{w.name} (an M code this reader does not know)", w.start + 1)
+        elif letter == "O":
+            if state.programs:
+                return Problem(f"{w.name} (a second program number: the start of a subprogram)")
+            state.programs += 1
+    if state.canned:
+        if any(w.letter == "G" and w.value in (0, 1, 2, 3, 80) for w in words):
+            state.canned = False
+        elif any(w.letter in reader.axes or w.letter in AXIS_LETTERS + "IJKRQPL" for w in words):
+            if isinstance(state.canned, str):
+                return Problem(f"a block of the {state.canned} still in force")
+            return Problem("a canned-cycle position (the cycle is still active)")
+    return None
+
+def skip(reader: Interpreter, line: str, state: ModalState, block: Block | None = None, number: int = 0) -> None:
+    """Follow a block that is kept unchanged rather than interpreted.
+
+    It still sets its modal words (G91 G28 ... stays G91), and if it names axes (or
+    changes tools, calls or returns from a subprogram or macro, starts another program,
+    jumps or loops, or has a word whose value is a macro variable) it moves the machine
+    somewhere not followed: every axis position becomes unknown.
+
+    Parameters
+    ----------
+    reader : Interpreter
+        The program's interpreter.
+    line : str
+        The line without its line ending.
+    state : ModalState
+        Updated in place.
+    block : Block, optional
+        The line read already (None for a macro statement: its words are guessed).
+    number : int
+        Its line number, for messages.
+    """
+    if block is not None:
+        words = [(w.letter, w.value) for w in block.words]
+    else:
+        words = word_values(uncommented(line))
+        macro = macro_statement(mask_comments(line, number, reader.source))
+        if macro and macro[1]:  # a jump, loop or variable word: where the machine goes is not known
+            state.lose_position(f"line {number}")
+    reader.work_offset(words, number, state)
+    state.apply_m([v for letter, v in words if letter == "M"], f"{reader.source}:{number}")
+    gs = [v for letter, v in words if letter == "G"]
+    state.apply_g(gs)
+    reader.tool_tip_codes(gs, state, number)
+    calls = {("M", TOOL_CHANGE_M), ("M", 98), ("M", 99)} | {("G", g) for g in MACRO_G}
+    if any(letter in reader.axes or letter in AXIS_LETTERS + "O" or (letter, v) in calls for letter, v in words):
+        state.lose_position(f"line {number}")

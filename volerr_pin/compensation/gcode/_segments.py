@@ -1,0 +1,124 @@
+"""Reading a program back: its moves as the controller interpolates them, as one
+:class:`~volerr_pin.compensation.MoveBatch` (:func:`interpret`)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from .._moves import ARC, LINE, POINT, MoveBatch
+from ...model import Machine
+from ._flow import Flow
+from . import _kept as kept, _macros as macros
+from ._lexer import PROGRAM_END, GcodeError, mask_comments, split_lines
+from ._modal import Interpreter
+from ._polar import has_polar, read_polar
+from ._source import ProgramFile
+
+__all__ = ["interpret"]
+
+
+def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str, str]], source: str = "<program>",
+              start=None, origin=None, programming: str = "axes") -> MoveBatch:
+    """The moves of a program as the controller interpolates them.
+
+    Lines are straight in program coordinates, arcs turn about their centres. Moves before
+    every axis' position is known, and blocks that cannot be followed (canned cycles ...), are
+    taken as rapids or skipped.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine; its axes are NC address letters.
+    program : str, ProgramFile or iterable of (str, str)
+        The program (mm, inch and deg as it selects): its text, its file (read once, line by
+        line), or its lines with their endings (:meth:`ProgramFile.lines`,
+        :func:`~volerr_pin.compensation.gcode.split_lines`).
+    source : str
+        Name of the program, for messages.
+    start : array_like, shape (n_axes,), optional
+        Axis positions [m, rad] before the program (default: mid-travel).
+    origin : array_like, shape (n_axes,), optional
+        Program coordinates [m, rad] of the program's zero (default zero).
+    programming : str, default "axes"
+        Programming mode when the program starts.
+
+    Returns
+    -------
+    MoveBatch
+        One row per move, in program order, in program coordinates [m, rad] (targets may lie
+        outside the travel): its ``line``, its ``kind`` (:data:`~volerr_pin.compensation.POINT`
+        for a rapid or a move from an unknown position, ``LINE`` or ``ARC``, with the arc's
+        circle) and whether it is in tool-tip programming. Its rows read one at a time as
+        :class:`~volerr_pin.compensation._moves.Move`.
+
+    Raises
+    ------
+    GcodeError
+        A block that cannot be read, naming its line.
+    """
+    reader = Interpreter(machine, source=source, start=start, origin=origin, programming=programming)
+    if isinstance(program, str):
+        lines = split_lines(program)
+    else:
+        lines = list(program.lines() if isinstance(program, ProgramFile) else program)
+    try:
+        expansion = macros.expand(lines, source)
+    except macros.Unfollowable:
+        expansion = None   # read as it is, macro blocks kept (as compensate_program reads it)
+    if expansion is None:
+        return _moves(reader, lines, source, None)
+    try:
+        return _moves(reader, expansion.lines, source, expansion.origin)
+    except GcodeError as err:
+        raise macros.renamed(err, source, expansion.origin) from None
+
+
+def _moves(reader: Interpreter, lines, source: str, origin) -> MoveBatch:
+    """The moves of the blocks ``lines`` (``origin``: the program line each comes from, for an
+    expanded program), gathered in lists and laid into one batch at the end."""
+    state = reader.initial_state()
+    flow = Flow(source)
+    numbers, kinds, tips, starts, targets = [], [], [], [], []
+    arc_rows, arcs = [], []
+    for number, (body, _) in enumerate(lines, start=1):
+        masked = mask_comments(body, number, source)
+        if has_polar(masked) and flow.body is None:
+            body = read_polar(reader, body, masked, number, state)
+            if body is None:   # a canned cycle's position
+                continue
+            masked = mask_comments(body, number, source)
+        code = masked.upper()
+        if flow.line(code, number):
+            continue   # a subroutine body runs where it is called
+        block, problem = kept.classify(reader, body, number, state, masked)
+        if problem:
+            kept.skip(reader, body, state, block, number)
+            flow.called(code, state, f"{source}:{number}")
+            continue
+        move = reader.advance(block, state, check_travel=False)
+        if move is not None:
+            # a rapid, or a move from an unknown position: only its end is meaningful
+            if not move.start_known.all() or move.motion == 0:
+                kind = POINT
+            elif move.motion == 1:
+                kind = LINE
+            else:
+                kind = ARC
+                arc_rows.append(len(kinds))
+                arcs.append(reader.arc(block, move.start, move.target, move.motion == 2, state))
+            kinds.append(kind)
+            numbers.append(number if origin is None else origin[number - 1])
+            tips.append(move.tool_tip)
+            starts.append(move.start)
+            targets.append(move.target)
+        if any(w.letter == "M" and w.value in PROGRAM_END for w in block.words):
+            break   # the program ends: nothing after it is read
+    batch = MoveBatch.empty(len(kinds), len(reader.axes))
+    if kinds:
+        batch.kind[:] = kinds
+        batch.w0[:] = starts
+        batch.w1[:] = targets
+        batch.line[:] = numbers
+        batch.tool_tip[:] = tips
+        batch.put_arcs(arc_rows, arcs)
+    return batch
