@@ -45,7 +45,7 @@ import numpy as np
 import pinocchio as pin
 
 import volerr_pin as vp
-from volerr_pin.model import _kinematics as K, add_terms, check_covariates, parameter_jacobian, sample
+from volerr_pin.model import _kinematics as K, check_covariates, parameter_jacobian, sample
 
 
 def best_of(fn, repeat=3):
@@ -270,6 +270,7 @@ import json, sys, time
 import volerr_pin as vp
 from volerr_pin.fit.diagnosis import diagnose
 from volerr_pin.measurements import campaign, off_model_geometry
+from volerr_pin.model import add_terms
 
 n, style = int(sys.argv[1]), sys.argv[2]
 m = vp.load_machine("vmc500")

@@ -97,7 +97,7 @@ class ToleranceStudy:
             ``std``, ``p95``}, ``target_um``, ``probability_within_target`` and its
             ``probability_se``, ``target_probability``, ``drivers`` (``component``,
             ``first_order``, ``total``, ``first_order_conf``, ``total_conf``), ``sobol_runs``,
-            ``sobol_resolution`` (:meth:`~volerr_pin.studies.SobolIndices.resolution`; null
+            ``sobol_resolution`` (:meth:`~volerr_pin.studies._sobol.SobolIndices.resolution`; null
             without indices), ``tolerances``, ``reallocation``, ``shapes`` (per component
             ``component``, ``shape``, ``excludes``, ``basis``) and ``left_out`` (per component
             left out, ``component`` and ``reason``).

@@ -3,7 +3,7 @@
 Sampling each component error at the nodes (:meth:`Compensation.naive`) ignores how the
 errors combine at the tool: angular errors times their Abbe offsets, errors of one axis seen
 along another, the tool length. The fit instead chooses every value at once so that the
-simulated residual (:func:`volerr_pin.compensation.export.residuals`) over the zone's points is
+simulated residual (:func:`volerr_pin.compensation.export._simulate.residuals`) over the zone's points is
 smallest in the least-squares sense:
 
     minimise  sum_i |p_actual(q_i + c_i(v)) - p_nominal(q_i)|^2 + lambda |v - v_naive|^2

@@ -30,7 +30,7 @@ _FRACTIONS = [k / 16 for k in range(17)]
 class ArcWords:
     """Writes the centre words of arc pieces and checks the arcs they give back.
 
-    ``st`` in the methods is the output state, as for :class:`~volerr_pin.compensation.gcode.Writer`.
+    ``st`` in the methods is the output state, as for :class:`~volerr_pin.compensation.gcode._rewrite.Writer`.
 
     Parameters
     ----------
@@ -109,7 +109,7 @@ class ArcWords:
             ``"ijk"`` and/or ``"r"``.
         written : tuple of ndarray, optional
             The start and end as their written numbers give them back
-            (:meth:`~volerr_pin.compensation.gcode.Writer.written`), if the caller has them.
+            (:meth:`~volerr_pin.compensation.gcode._rewrite.Writer.written`), if the caller has them.
 
         Returns
         -------

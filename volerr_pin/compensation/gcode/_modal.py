@@ -1,5 +1,5 @@
 """The modal interpreter: the moves blocks command, through the controller's state between
-blocks (:class:`~volerr_pin.compensation.gcode.ModalState`).
+blocks (:class:`~volerr_pin.compensation.gcode._state.ModalState`).
 
 Positions are program coordinates in SI (m, rad), with the program's origin added: axis
 positions in axis programming, the tool tip in the workpiece frame and the rotary axes in

@@ -52,7 +52,7 @@ class Program(ChunkWriting):
         blocks after them may be misread), which are refused otherwise.
     start : array_like, shape (n_axes,), optional
         Axis positions [m, rad] where the program starts, NaN where not known (see
-        :class:`~volerr_pin.compensation.gcode.Interpreter`; default: none known).
+        :class:`~volerr_pin.compensation.gcode._modal.Interpreter`; default: none known).
     method : str
         Solver of the compensated commands (see :class:`~volerr_pin.compensation.PathCompensator`).
     source : str
@@ -535,7 +535,7 @@ def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass
         Programming mode when the program starts (``"axes"`` or ``"tool-tip"``).
     start : array_like, shape (n_axes,), optional
         Axis positions [m, rad] where the program starts, NaN where not known (see
-        :class:`~volerr_pin.compensation.gcode.Interpreter`; default: none known).
+        :class:`~volerr_pin.compensation.gcode._modal.Interpreter`; default: none known).
     most_blocks : int
         The most blocks a program whose loops and subroutine calls are followed may run
         (see :mod:`~volerr_pin.compensation.gcode`).

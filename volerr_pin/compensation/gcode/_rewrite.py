@@ -188,7 +188,7 @@ class Writer:
             Output state (updated).
         errors : sequence of float, optional
             Per piece, how far an arc piece written with centre offsets is read back off its
-            path (:func:`~volerr_pin.compensation.gcode.arc_errors`), if known.
+            path (:func:`~volerr_pin.compensation.gcode._arc_words.arc_errors`), if known.
 
         Returns
         -------

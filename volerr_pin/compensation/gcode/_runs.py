@@ -273,7 +273,7 @@ class PlainRuns:
         """The compensated text of a run's lines: each line carries its move's first piece
         (its words' numbers replaced, the axes it does not name appended), further pieces of
         a split move follow as new lines with every axis and the motion word, as
-        :meth:`~volerr_pin.compensation.gcode.Writer.write_move` writes them.
+        :meth:`~volerr_pin.compensation.gcode._rewrite.Writer.write_move` writes them.
 
         Parameters
         ----------

@@ -30,7 +30,7 @@ degree of an existing component explains as well as an effect does is reported a
 "geometric component X under-modelled (degree n -> m)" in :attr:`Diagnosis.under_modelled`,
 not as a physical effect. A periodic pitch must have a period in the ball-screw range
 (:data:`~volerr_pin.fit.diagnosis._candidates.PITCH_PERIOD_MM`) and at least
-:data:`~volerr_pin.fit.diagnosis.MIN_PERIODS` periods inside the measured
+:data:`~volerr_pin.fit.diagnosis._effects.MIN_PERIODS` periods inside the measured
 travel.
 
 Effects whose effect at the tool is the same wherever they sit (a drift in x through any

@@ -560,7 +560,7 @@ def _repeat_order(number: int, passing: list, proj: Projector, obs: Observations
                   axis_index_of: dict[str, int]) -> tuple[list, list]:
     """The passing candidates a round may accept first, and those it may accept when none of
     the first is: without the per-revolution errors that do not repeat from one turn to the
-    next (:func:`~volerr_pin.fit.diagnosis.not_repeating`, whose reason becomes the
+    next (:func:`~volerr_pin.fit.diagnosis._scoring.not_repeating`, whose reason becomes the
     score's ``note``), the first also without the raises of their components."""
     failing = set()
     for s in passing:

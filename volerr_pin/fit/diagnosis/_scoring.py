@@ -217,7 +217,7 @@ def table_interpolation(base: Base, proj: Projector, E: np.ndarray, joints: list
     A table leaves, between its nodes, the residual of a smooth function, which repeats at the
     node spacing and its harmonics; a ball screw's error does neither. So the periodic error is
     fitted again beside the table one step richer between its nodes
-    (:func:`~volerr_pin.fit.diagnosis.smoother_term`), jointly with the base: the
+    (:func:`~volerr_pin.fit.diagnosis._candidates.smoother_term`), jointly with the base: the
     table's residual goes into the richer table, a screw's error stays. The periodic error is
     the table's unless its amplitude stays within :data:`SURVIVES` of what it was and its
     inverse (a sinusoid the richer table can take as well is no longer determined beside it,
@@ -243,7 +243,7 @@ def table_interpolation(base: Base, proj: Projector, E: np.ndarray, joints: list
         The cache of candidate columns.
     smoother : tuple of (TermSpec, str) or None
         The component's table one step richer between its nodes, and how, in words
-        (:func:`~volerr_pin.fit.diagnosis.smoother_term`); None when it has none.
+        (:func:`~volerr_pin.fit.diagnosis._candidates.smoother_term`); None when it has none.
 
     Returns
     -------

@@ -54,7 +54,7 @@ def solve(points: FitPoints, theta0: np.ndarray, free: np.ndarray,
     -------
     tuple
         ``theta`` (P,), ``nuisance`` (n_nuisance,), ``R_J`` (the triangular factor of the
-        weighted design, see :func:`~volerr_pin.fit.identify.reduce_design`), ``r``
+        weighted design, see :func:`~volerr_pin.fit.identify._design.reduce_design`), ``r``
         (rows,) the weighted residual, the iterations, and the status: "converged" (the
         linearised model cannot lower the residual; a full Gauss-Newton step, or three damped
         ones running, lower the weighted RSS by less than 0.001 or 1e-10 of itself; or the
@@ -136,7 +136,7 @@ def initialise_nonlinear(points: FitPoints, theta: np.ndarray, free: np.ndarray,
     the identifiable linear coefficients and nuisance terms for each, and keep the best. The
     Gauss-Newton fit then refines all of them together. Every candidate's design is reduced
     to its triangular factor in one pass over chunks of points (see
-    :func:`~volerr_pin.fit.identify.reduce_design`).
+    :func:`~volerr_pin.fit.identify._design.reduce_design`).
 
     Parameters
     ----------

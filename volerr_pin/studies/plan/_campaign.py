@@ -5,7 +5,7 @@ determine, and compare with a grid and random units of the same count.
 points of the zone, those out of an instrument's sight left out), finds what no selection
 from the pool can separate (the identifiability groups of the whole pool: the coefficients no
 plan with this instrument, these targets and this zone can tell apart, with the reason),
-chooses ``budget`` units by D-optimality over the rest (:func:`~volerr_pin.studies.plan.d_optimal`),
+chooses ``budget`` units by D-optimality over the rest (:func:`~volerr_pin.studies.plan._design.d_optimal`),
 orders them into a short path, and predicts the standard uncertainty of every coefficient
 and of the volumetric error over the zone at the instrument's noise
 (:mod:`~volerr_pin.studies.plan`). With ``compare``, a grid and random units of the same

@@ -67,7 +67,7 @@ class Probe(StopsProgram, OneFileOfPoses):
     default_sigma_um: float = 1.0
 
     def candidates(self, machine, setup: Setup, count: int, layout: str, seed: int) -> list:
-        """Poses of the layout over the zone (see :func:`~volerr_pin.studies.plan.pose_candidates`).
+        """Poses of the layout over the zone (see :func:`~volerr_pin.studies.plan._poses.pose_candidates`).
 
         Parameters
         ----------
