@@ -8,6 +8,7 @@ Sizes are a review guideline, not a test.
 from __future__ import annotations
 
 import ast
+import importlib
 import importlib.util
 import re
 from pathlib import Path
@@ -257,6 +258,21 @@ def test_no_old_module_names_and_no_import_hook():
             "    raise SystemExit(old + ' imports')\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
+
+
+LAZY_PACKAGES = [p for p in ("" if name == "__init__" else name for name in MODULES) if _lazy_parts(p)]
+
+
+@pytest.mark.parametrize("package", LAZY_PACKAGES)
+def test_names_loaded_when_first_used_are_public(package):
+    """A package that loads its names when first used still names every one of them in
+    ``__all__`` and ``dir()`` (``from volerr_pin import *``, completion and the API pages read
+    those), and each loads from the part the package says."""
+    module = importlib.import_module("volerr_pin" + (f".{package}" if package else ""))
+    for name, part in _lazy_parts(package).items():
+        assert name in module.__all__ and name in dir(module), f"{module.__name__}.{name} is not public"
+        where = getattr(getattr(module, name), "__module__", None) or f"volerr_pin.{part}"
+        assert (where + ".").startswith(f"volerr_pin.{part}."), f"{name} comes from {where}, not {part}"
 
 
 def test_the_picture_is_what_the_tables_draw():

@@ -10,7 +10,7 @@ __version__ = "0.1.0"
 _NAMES = {"model": ("Machine", "bundled_machines", "load_machine"), "fit.diagnosis": ("diagnose",)}
 __getattr__, _lazy_dir, _lazy = lazy_exports(__name__, _NAMES)
 
-__all__ = ["InputError", "SpecError", "URDFError", "VolerrError", "__version__"]
+__all__ = ["InputError", "SpecError", "URDFError", "VolerrError", *_lazy, "__version__"]
 
 
 def __dir__():

@@ -102,9 +102,41 @@ def _package_line(name: str) -> str:
     return f"- :doc:`{name}`" + (f": {text}" if text else "")
 
 
+def home(obj, package: str) -> str:
+    """The public package whose private modules define ``obj``: the one page that documents it
+    (a package that also names it links there). Data without a module of their own stay where
+    they are named.
+
+    Parameters
+    ----------
+    obj : object
+        A public name's value.
+    package : str
+        The package that names it.
+
+    Returns
+    -------
+    str
+        Dotted package name.
+    """
+    module = getattr(obj, "__module__", None) if (inspect.isclass(obj) or callable(obj)) else None
+    if not module or not module.startswith("volerr_pin"):
+        return package
+    parts = module.split(".")
+    while parts and parts[-1].startswith("_"):
+        parts.pop()
+    owner = ".".join(parts)
+    names = getattr(importlib.import_module(owner), "__all__", []) if owner else []
+    return owner if any(getattr(importlib.import_module(owner), n, None) is obj for n in names) else package
+
+
 def _directive(package: str, name: str) -> list[str]:
-    """The autodoc directive that documents ``package.name``."""
+    """The autodoc directive that documents ``package.name``, or a link to its home's page."""
     obj = getattr(importlib.import_module(package), name)
+    owner = home(obj, package)
+    if owner != package:
+        role = "class" if inspect.isclass(obj) else "func"
+        return [f"- :py:{role}:`{package}.{name} <{owner}.{name}>` (documented in :doc:`{owner}`)", ""]
     target = f"{package}.{name}"
     if inspect.isclass(obj):
         return [f".. autoclass:: {target}", "   :members:", ""]
