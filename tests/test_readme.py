@@ -286,16 +286,24 @@ def test_docstring_bars_are_escaped_outside_literals():
 
 def test_api_reference_documents_every_public_name():
     """The API reference is the public API: a page per public package (no part of its name
-    private), every name of its ``__all__`` documented on it, its public subpackages listed;
-    no private module gets a page."""
+    private), every name of its ``__all__`` documented on it or, where another package defines
+    it, linked to that package's page, which documents it; its public subpackages listed; no
+    private module gets a page."""
     pages = _ext("apipages")
     found = pages.packages()
     on_disk = {".".join(p.relative_to(ROOT).parent.parts) for p in (ROOT / "volerr_pin").rglob("__init__.py")}
     assert set(found) == {n for n in on_disk if not any(part.startswith("_") for part in n.split("."))}
-    for package in found:
-        page = pages.package_page(package, found)
-        documented = set(re.findall(r"^\.\. auto(?:function|class|data):: ([\w.]+)$", page, re.M))
-        assert documented == {f"{package}.{n}" for n in pages.public_names(package)}, package
+    text = {package: pages.package_page(package, found) for package in found}
+    documented = {package: set(re.findall(r"^\.\. auto(?:function|class|data):: ([\w.]+)$", page, re.M))
+                  for package, page in text.items()}
+    for package, page in text.items():
+        linked = dict((f"{package}.{name}", target) for name, target
+                      in re.findall(rf"^- :py:\w+:`{re.escape(package)}\.(\w+) <([\w.]+)>`", page, re.M))
+        assert documented[package] | set(linked) == {f"{package}.{n}" for n in pages.public_names(package)}, package
+        assert not documented[package] & set(linked), package
+        for name, target in linked.items():
+            owner = target.rpartition(".")[0]
+            assert target in documented.get(owner, ()), f"{name} links to {target}, which no page documents"
         children = {p for p in found if p.rpartition(".")[0] == package}
         assert children <= set(re.findall(r"^- :doc:`([\w.]+)`", page, re.M)), package
         assert not re.search(r"\w\._(?!_)", page), package   # no private module named
