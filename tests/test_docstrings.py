@@ -87,8 +87,10 @@ def parameters(fn, bound: bool) -> list[str]:
     return names[1:] if bound and names else names
 
 
-def function_problems(name: str, fn, bound: bool = False) -> list[str]:
-    doc = inspect.getdoc(fn) if fn.__doc__ else None
+def function_problems(name: str, fn, bound: bool = False, doc: str | None = None) -> list[str]:
+    """What ``fn``'s docstring (or ``doc``, the one it inherits) lacks."""
+    if doc is None:
+        doc = inspect.getdoc(fn) if fn.__doc__ else None
     if not doc or not doc.splitlines()[0].strip() or SECTION_RE.match(doc):
         return [f"{name}: no docstring with a one-line summary"]
     found = sections(doc)
@@ -120,7 +122,8 @@ def class_problems(name: str, cls) -> list[str]:
             missing = [f for f in fields if f not in documented_names(found["Attributes"])]
             if missing:
                 problems.append(f"{name}: Attributes does not name {', '.join(missing)}")
-    elif "__init__" in vars(cls) and not getattr(cls, "_is_protocol", False):  # a Protocol has no constructor
+    # a Protocol has no constructor; typing gives a class that subclasses one object's own
+    elif "__init__" in vars(cls) and not getattr(cls, "_is_protocol", False) and cls.__init__ is not object.__init__:
         params = parameters(cls.__init__, bound=True)
         if params and "Parameters" not in found:
             problems.append(f"{name}: no Parameters section for the constructor")
@@ -132,16 +135,68 @@ def class_problems(name: str, cls) -> list[str]:
         if member.startswith("_"):
             continue
         label = f"{name}.{member}"
+        inherited = protocol_doc(cls, member)   # an override shows its protocol's docstring
         if isinstance(value, property):
-            if not (value.fget.__doc__ or "").strip():
+            if not (value.fget.__doc__ or "").strip() and not inherited:
                 problems.append(f"{label}: property without a docstring")
         elif isinstance(value, staticmethod):
-            problems += function_problems(label, value.__func__)
+            problems += function_problems(label, value.__func__, doc=_own(value.__func__) or inherited)
         elif isinstance(value, classmethod):
-            problems += function_problems(label, value.__func__, bound=True)
+            problems += function_problems(label, value.__func__, bound=True, doc=_own(value.__func__) or inherited)
         elif inspect.isfunction(value):
-            problems += function_problems(label, value, bound=True)
+            problems += function_problems(label, value, bound=True, doc=_own(value) or inherited)
     return problems
+
+
+def _own(fn) -> str | None:
+    return inspect.getdoc(fn) if fn.__doc__ else None
+
+
+def _function(value):
+    if isinstance(value, (staticmethod, classmethod)):
+        return value.__func__
+    return value.fget if isinstance(value, property) else value
+
+
+def protocol_doc(cls, member: str) -> str | None:
+    """The docstring ``cls.member`` inherits: that of the nearest base of the library that
+    defines and documents it (a protocol or a base class), else None."""
+    for base in cls.__mro__[1:]:
+        if base.__module__.startswith("volerr_pin") and member in vars(base):
+            fn = _function(vars(base)[member])
+            if callable(fn) and fn.__doc__:
+                return inspect.getdoc(fn)
+    return None
+
+
+def _library_classes() -> list[type]:
+    import volerr_pin
+
+    out = []
+    for info in pkgutil.walk_packages(volerr_pin.__path__, "volerr_pin."):
+        if info.name.endswith("__main__"):
+            continue
+        module = importlib.import_module(info.name)
+        out += [c for c in vars(module).values() if inspect.isclass(c) and c.__module__ == info.name]
+    return out
+
+
+def test_overrides_inherit_their_protocols_docstring():
+    """A method that implements a documented method of a protocol or base class, with its
+    parameters, does not copy the docstring: it inherits it (``help``, ``inspect.getdoc`` and
+    the API pages show the protocol's), and what the class does differently is said in the
+    class docstring. A parameter named otherwise keeps its own docstring."""
+    copies = []
+    for cls in _library_classes():
+        for member, value in vars(cls).items():
+            fn = _function(value)
+            if member.startswith("_") or not callable(fn) or not fn.__doc__ or not protocol_doc(cls, member):
+                continue
+            base = next(b for b in cls.__mro__[1:] if member in vars(b))
+            mine, theirs = (list(inspect.signature(f).parameters) for f in (fn, _function(vars(base)[member])))
+            if mine == theirs:
+                copies.append(f"{cls.__module__}.{cls.__name__}.{member} (from {base.__name__})")
+    assert not copies, "docstrings copied from their protocol:\n  " + "\n  ".join(copies)
 
 
 def problems_of(module) -> list[str]:

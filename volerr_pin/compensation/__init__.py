@@ -1,12 +1,13 @@
 """Compensation: points, paths and the programming modes of NC programs.
 
-Point compensation (seed 002's recursion and Newton) is :mod:`.points`. Modules:
-:mod:`.arcs` (desired arcs, circles through compensated points), :mod:`.programming`
-(program coordinates to axis positions: :mod:`.axes_mode`, :mod:`.tool_tip`),
-:mod:`.solver` (the residual measure and the batch solver of compensated points),
-:mod:`.smoothness` (the bounds that size the sampling), :mod:`.moves` (batches of moves and
-pieces), :mod:`.lines` and :mod:`.splitter` (splitting straight moves and arcs), :mod:`.path`
-(:class:`PathCompensator`).
+Points are compensated by seed 002's recursion or by Newton (:func:`compensate_points`,
+:func:`evaluate_compensation`); paths by splitting their moves until the compensated path is
+within the tolerance (:class:`PathCompensator`), over batches of moves (:class:`MoveBatch`) and
+desired arcs (:class:`Arc`). A program's coordinates are read in a programming mode
+(:class:`Programming`, found by name with :func:`programming_for`: axis positions or the tool
+tip). Error maps and compensation tables: :class:`ErrorMap`, :func:`axis_tables`,
+:func:`compensation_table`. NC programs are :mod:`~volerr_pin.compensation.gcode`, controller
+tables :mod:`~volerr_pin.compensation.export`.
 """
 
 from ..base import lazy_exports
@@ -19,7 +20,8 @@ _NAMES = {
     "_moves": ("ARC", "POINT", "MoveBatch", "PieceSet"),
     "_path": ("BatchResult", "PathCompensation", "PathCompensator", "Piece"),
     "_points": ("PointCompensation", "compensate_points", "evaluate_compensation", "MachineInputs"),
-    "_programming": ("PROGRAMMINGS", "Programming", "programming_for"),
+    "_modes": ("PROGRAMMINGS", "programming_for"),
+    "_programming": ("Programming",),
     "_errormap": ("ErrorMap", "axis_tables", "compensation_table"),
 }
 __getattr__, __dir__, __all__ = lazy_exports(__name__, _NAMES)

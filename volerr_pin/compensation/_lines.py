@@ -3,7 +3,7 @@
 Seed 002 splits a straight move at the point of largest residual until every point is within
 the tolerance. Done literally, every round evaluates the model along every new piece. Here the
 error is evaluated once, on a grid along the desired path (spaced so that nothing larger than
-:data:`~.context.EPS` of the tolerance hides between grid points, :mod:`.smoothness`), and the
+:data:`~.context.EPS` of the tolerance hides between grid points, :mod:`._smoothness`), and the
 residual of *any* piece between two grid points is predicted from it:
 
     g_j = E_j + J_j ((1 - s) d_a + s d_b)
@@ -16,7 +16,7 @@ compensated exactly. Where the nominal machine is affine in program coordinates 
 machine in axis programming) the prediction is exact but for the error's change over the few
 micrometres of compensation, ``2 S |d|`` (slope ``S``), which is added to it; elsewhere every
 final piece is evaluated exactly at its grid points, and pieces that fail are handed to the
-round-by-round splitter (:mod:`.splitter`).
+round-by-round splitter (:mod:`._splitter`).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ class LinePieces:
     before : ndarray, shape (L,)
         Per move: largest uncompensated residual at the grid points [m].
     retry : dict of str to ndarray
-        Pieces whose exact evaluation missed the tolerance, for :mod:`.splitter`: ``move``,
+        Pieces whose exact evaluation missed the tolerance, for :mod:`._splitter`: ``move``,
         ``k0``, ``k1``, ``cw0``, ``cw1``, ``r0``, ``r1`` (end residuals), ``depth``.
     """
 
@@ -160,7 +160,7 @@ def plan_lines(ctx: Context, w0: np.ndarray, w1: np.ndarray, cw0: np.ndarray, cw
 
 def _bound(ctx: Context, grid: _Grid, spacing: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """What may hide between the grid points of pieces from grid point ``a`` to ``b``
-    (:mod:`.smoothness`, with each piece's own compensations at its ends)."""
+    (:mod:`._smoothness`, with each piece's own compensations at its ends)."""
     smooth = ctx.smooth
     intervals = (b - a).astype(float)
     reach = np.maximum(smooth.lengths(grid.d[a]), smooth.lengths(grid.d[b]))

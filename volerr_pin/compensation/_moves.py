@@ -1,7 +1,7 @@
 """Batches of moves (a program's, or a chunk's to compensate) and of the compensated pieces
 they become.
 
-Everything is in program coordinates (SI: m, rad; see :mod:`.programming`): a controller
+Everything is in program coordinates (SI: m, rad; see :mod:`._programming`): a controller
 interpolates straight moves linearly and arcs along circles *in program coordinates*, so the
 desired path of a move and the commanded path of a piece are both defined there; poses come
 from the axis positions the programming mode maps them to.

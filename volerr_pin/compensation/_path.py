@@ -8,9 +8,9 @@ moves compensate start, middle and end, and each piece is the helix through its 
 compensated points (eqs. 25-29), split likewise.
 
 :meth:`PathCompensator.compensate` does this for a whole batch of moves with a few calls of the
-model per round (:mod:`.lines` for straight moves, :mod:`.splitter` for arcs); how densely each
+model per round (:mod:`._lines` for straight moves, :mod:`._splitter` for arcs); how densely each
 piece is sampled, and how much it is trusted between samples, follows from bounds measured on
-the machine (:mod:`.smoothness`). ``line``, ``arc`` and ``rapid`` compensate one move.
+the machine (:mod:`._smoothness`). ``line``, ``arc`` and ``rapid`` compensate one move.
 """
 
 from __future__ import annotations
@@ -27,7 +27,8 @@ from ._context import Context
 from ._lines import plan_lines
 from ._moves import ARC, LINE, POINT, MoveBatch, PieceSet
 from ._points import has_rotary
-from ._programming import Programming, programming_for
+from ._modes import programming_for
+from ._programming import Programming
 from ._smoothness import Smoothness
 from ._solver import PointSolver, PoseMetric
 from ._splitter import arc_pieces, split_pieces

@@ -3,14 +3,15 @@
 A program's coordinate words are *program coordinates*; a controller turns them into axis
 positions and interpolates its moves linearly (or along arcs) in program coordinates:
 
-- ``"axes"`` (:mod:`.axes_mode`): the words are axis positions (plain axis programming);
-- ``"tool-tip"`` (:mod:`.tool_tip`): the linear words are the tool tip in the workpiece
+- ``"axes"`` (``AxisProgramming``): the words are axis positions (plain axis programming);
+- ``"tool-tip"`` (``ToolTipProgramming``): the linear words are the tool tip in the workpiece
   frame and the rotary words the rotary axis positions (tool centre point programming:
   Fanuc G43.4, Siemens TRAORI, RTCP). The controller finds the linear axis positions that put
   the nominal tool tip there.
 
-A new mode is one module with a class that implements :class:`Programming`, listed in
-:data:`PROGRAMMINGS`; the path compensation never asks which mode it has.
+A new mode is one module with a subclass of :class:`Programming`, listed in
+:data:`~volerr_pin.compensation.PROGRAMMINGS`; the path compensation never asks which mode it
+has.
 """
 
 from __future__ import annotations
@@ -19,10 +20,7 @@ from typing import Protocol
 
 import numpy as np
 
-from ..base import InputError
-from ..model import Machine
-
-__all__ = ["PROGRAMMINGS", "Programming", "programming_for"]
+__all__ = ["Programming"]
 
 
 class Programming(Protocol):
@@ -86,44 +84,3 @@ class Programming(Protocol):
             Program coordinates [m, rad].
         """
         ...
-
-
-def _registry() -> dict:
-    from ._axes_mode import AxisProgramming
-    from ._tool_tip import ToolTipProgramming
-
-    return {AxisProgramming.name: AxisProgramming, ToolTipProgramming.name: ToolTipProgramming}
-
-
-#: the programming modes by name (filled on first use)
-PROGRAMMINGS: dict = {}
-
-
-def programming_for(name: str, machine: Machine) -> Programming:
-    """The programming mode ``name`` for a machine.
-
-    Parameters
-    ----------
-    name : str
-        A key of :data:`PROGRAMMINGS` (``"axes"`` or ``"tool-tip"``).
-    machine : Machine
-        The machine.
-
-    Returns
-    -------
-    Programming
-        The mode.
-
-    Raises
-    ------
-    InputError
-        If the mode is unknown or the machine cannot be programmed in it (naming
-        ``programming``).
-    """
-    if not PROGRAMMINGS:
-        PROGRAMMINGS.update(_registry())
-    kind = PROGRAMMINGS.get(name)
-    if kind is None:
-        raise InputError(f"programming must be one of {', '.join(sorted(PROGRAMMINGS))}, got {name!r}",
-                         parameters=("programming",))
-    return kind(machine)

@@ -2,8 +2,8 @@
 
 Used for arcs and helices (eqs. 25-29: each piece is the helix through its compensated start,
 middle and end, so its path is known only once its middle is compensated) and for the straight
-pieces whose exact check failed (:mod:`.lines`). Every round samples every open piece (as many
-samples as the bound of :mod:`.smoothness` asks, at most ``samples``), keeps the pieces whose
+pieces whose exact check failed (:mod:`._lines`). Every round samples every open piece (as many
+samples as the bound of :mod:`._smoothness` asks, at most ``samples``), keeps the pieces whose
 sampled maximum plus the bound between samples is within the tolerance, and splits the others
 at their largest sample: the split point (and, for arcs, the two new middles) compensated in
 one batch. A piece is kept as it is, reported as limited, when the split point itself cannot

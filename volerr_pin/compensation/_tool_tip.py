@@ -13,12 +13,13 @@ import numpy as np
 
 from ..base import InputError
 from ..model import Machine, tool_poses
+from ._programming import Programming
 
 #: the words that carry the tool tip, and the workpiece direction each carries
 TIP_WORDS = ("X", "Y", "Z")
 
 
-class ToolTipProgramming:
+class ToolTipProgramming(Programming):
     """Program coordinates: the tool tip in the workpiece frame [m] and rotary axis positions [rad].
 
     Parameters
@@ -40,6 +41,19 @@ class ToolTipProgramming:
         Naming ``programming``: the machine's linear axes are not X, Y and Z, or they do not
         move the tool tip in three independent directions (checked at mid-travel and at random
         poses).
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.compensation.Programming` (documented there) do here:
+
+    - ``to_words``: program coordinates: the nominal tool tip in the workpiece frame, and the
+      rotary axes.
+    - ``to_axes``: axis positions of program coordinates: the linear axes that put the nominal
+      tool tip at the X, Y, Z words with the rotary axes at theirs.
+    - ``word_rows``: derivatives with respect to program coordinates, through the map to axis
+      positions. Program coordinates change with the axes as ``D``: the tip words as the nominal
+      tool point (the position rows of ``jacobian``), the rotary words one to one; derivatives
+      with respect to the words are ``rows D^-1``.
     """
 
     name = "tool-tip"
@@ -67,18 +81,6 @@ class ToolTipProgramming:
                              "affinely in three independent directions at every pose", parameters=("programming",))
 
     def to_words(self, q: np.ndarray) -> np.ndarray:
-        """Program coordinates: the nominal tool tip in the workpiece frame, and the rotary axes.
-
-        Parameters
-        ----------
-        q : ndarray, shape (N, n_axes)
-            Axis positions [m, rad].
-
-        Returns
-        -------
-        ndarray, shape (N, n_axes)
-            Program coordinates [m, rad]: X, Y, Z words hold the tip's x, y, z.
-        """
         q = np.asarray(q, dtype=float)
         _, p = tool_poses(self._model, q, nominal=True)
         out = q.copy()
@@ -86,24 +88,6 @@ class ToolTipProgramming:
         return out
 
     def to_axes(self, words: np.ndarray) -> np.ndarray:
-        """Axis positions of program coordinates: the linear axes that put the nominal tool tip
-        at the X, Y, Z words with the rotary axes at theirs.
-
-        Parameters
-        ----------
-        words : ndarray, shape (N, n_axes)
-            Program coordinates [m, rad].
-
-        Returns
-        -------
-        ndarray, shape (N, n_axes)
-            Axis positions [m, rad].
-
-        Raises
-        ------
-        numpy.linalg.LinAlgError
-            If the linear axes do not span three directions at some pose.
-        """
         words = np.asarray(words, dtype=float)
         n = len(words)
         base = words.copy()
@@ -121,24 +105,6 @@ class ToolTipProgramming:
         return out
 
     def word_rows(self, rows: np.ndarray, jacobian: np.ndarray) -> np.ndarray:
-        """Derivatives with respect to program coordinates, through the map to axis positions.
-
-        Program coordinates change with the axes as ``D``: the tip words as the nominal tool
-        point (the position rows of ``jacobian``), the rotary words one to one; derivatives
-        with respect to the words are ``rows D^-1``.
-
-        Parameters
-        ----------
-        rows : ndarray, shape (N, m, n_axes)
-            Derivatives with respect to the axis positions.
-        jacobian : ndarray, shape (N, 6, n_axes)
-            The nominal axis Jacobian at the same poses.
-
-        Returns
-        -------
-        ndarray, shape (N, m, n_axes)
-            The derivatives with respect to the program coordinates.
-        """
         n = rows.shape[2]
         D = np.repeat(np.eye(n)[None], len(rows), axis=0)
         D[:, self._tip, :] = jacobian[:, :3, :]

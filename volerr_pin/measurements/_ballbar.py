@@ -50,7 +50,7 @@ import numpy as np
 
 from ..base import DEG, LENGTH, MM, PLAUSIBLE, InputError, parse_number
 from ..model import axis_jacobian, check_q, config_from_file
-from ._protocol import MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
+from ._protocol import Measurement, MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
 from ._table import DIRECTION_WORDS, MeasurementError, Table, axis_values, read_table
 
 __all__ = ["KIND", "MIN_ARC_DEG", "MIN_SAMPLES", "BallbarRun", "ballbar_positions", "check_circle", "covered_arc",
@@ -65,7 +65,7 @@ MIN_SAMPLES = 4
 
 
 @dataclass(frozen=True)
-class BallbarRun:
+class BallbarRun(Measurement):
     """One circular test in SI.
 
     ``angle`` (N,) rad, ``deviation`` (N,) m, ``direction`` (N,) +1/-1, ``radius`` m,
@@ -93,6 +93,15 @@ class BallbarRun:
         Unit of the deviations in the file (um, nm or mm).
     unused : tuple of str
         Columns present but not used.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.measurements.Measurement` (documented there) do here:
+
+    - ``observations``: one row per sample: the tool's error along the radius at the commanded
+      position; three nuisance terms: the set-up's centre offset along both plane axes and the
+      bar's length error. Approach directions come from the motion (see
+      :func:`ballbar_positions`).
     """
 
     source: str
@@ -107,27 +116,6 @@ class BallbarRun:
     unused: tuple[str, ...] = ()
 
     def observations(self, machine, options: ObservationOptions) -> ObservationBlock:
-        """One row per sample: the tool's error along the radius at the commanded position;
-        three nuisance terms: the set-up's centre offset along both plane axes and the bar's
-        length error. Approach directions come from the motion (see :func:`ballbar_positions`).
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine observed.
-        options : ObservationOptions
-            ``sigma_um``: standard deviation of a radial deviation [um].
-
-        Returns
-        -------
-        ObservationBlock
-            One row per sample.
-
-        Raises
-        ------
-        InputError
-            As :func:`ballbar_positions`.
-        """
         q, radial, directions = ballbar_positions(machine, self)
         tag = f"ballbar {self.source}"
         terms = (NuisanceTerm(f"centre_{self.plane[0]}[{tag}]", False),

@@ -18,14 +18,14 @@ import numpy as np
 
 from ..base import InputError
 from ._columns import DEVIATION_UNITS, DEVIATIONS, header_columns, positions_and_covariates
-from ._protocol import MeasurementKind, ObservationBlock, ObservationOptions
+from ._protocol import Measurement, MeasurementKind, ObservationBlock, ObservationOptions
 from ._table import MeasurementError, Table, read_table
 
 __all__ = ["KIND", "PointMeasurements", "read_points"]
 
 
 @dataclass(frozen=True)
-class PointMeasurements:
+class PointMeasurements(Measurement):
     """Point measurements in SI.
 
     ``q`` (N, n_axes) commanded positions [m, rad]; ``values`` (N, 6) deviations dx, dy, dz [m],
@@ -48,6 +48,12 @@ class PointMeasurements:
         File line of each row.
     unused : tuple of str
         Columns present but not used.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.measurements.Measurement` (documented there) do here:
+
+    - ``observations``: one row per measured deviation, in point order; no nuisance term.
     """
 
     source: str
@@ -64,25 +70,6 @@ class PointMeasurements:
 
 
     def observations(self, machine, options: ObservationOptions) -> ObservationBlock:
-        """One row per measured deviation, in point order; no nuisance term.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine observed (the positions were checked against it when read).
-        options : ObservationOptions
-            The standard deviations of position [um] and rotation [urad] rows.
-
-        Returns
-        -------
-        ObservationBlock
-            Rows observing dx, dy, dz [m] and rx, ry, rz [rad] directly.
-
-        Raises
-        ------
-        InputError
-            If ``values`` is not of shape (N, 6).
-        """
         values = np.asarray(self.values, dtype=float)
         if values.ndim != 2 or values.shape != (len(self.q), 6):
             raise InputError(f"{self.source}: values has shape {values.shape}; expected ({len(self.q)}, 6): "

@@ -31,7 +31,7 @@ import numpy as np
 from ..base import (ANGLE, DEG, LENGTH, MM, PLAUSIBLE, InputError, axis_scale, axis_values_to_si, describe_range,
                     parse_number, shown)
 from ..model import axis_jacobian, check_q, default_config, parse_component_name
-from ._protocol import MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
+from ._protocol import Measurement, MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
 from ._table import (DIRECTION_WORDS, META_RE, MeasurementError, Table, add_meta, axis_values, read_file,
                     read_table)
 
@@ -44,7 +44,7 @@ DIRECTION_INDEX = {d: i for i, d in enumerate("XYZABC")}
 
 
 @dataclass(frozen=True)
-class Runs:
+class Runs(Measurement):
     """A positioning or component run along one axis.
 
     ``target`` (N,) [m or rad]; ``cycle`` (N,) int; ``direction`` (N,) +1/-1; ``value`` (N,)
@@ -83,6 +83,13 @@ class Runs:
         File line of each row.
     unused : tuple of str
         Columns (or keys) present but not used.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.measurements.Measurement` (documented there) do here:
+
+    - ``observations``: the run as observations: one row per approach, an offset (and for a
+      straightness run a slope) as nuisance terms (see the module docstring).
     """
 
     source: str
@@ -102,28 +109,6 @@ class Runs:
 
 
     def observations(self, machine, options: ObservationOptions) -> ObservationBlock:
-        """The run as observations: one row per approach, an offset (and for a straightness
-        run a slope) as nuisance terms (see the module docstring).
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine observed.
-        options : ObservationOptions
-            Standard deviations; ``axis`` for a run that does not name its axis; ``at``
-            positions of the other axes [mm, deg], over the file's ``# at:``.
-
-        Returns
-        -------
-        ObservationBlock
-            One row per approach.
-
-        Raises
-        ------
-        InputError
-            If the axis is unknown or not given, the target unit does not fit the axis kind,
-            the positions leave the travel, or a component run belongs to another axis.
-        """
         axis = self.axis or options.axis
         if axis is None:
             raise InputError(f"{self.source}: which axis moved? Give '# axis: X' in the file or run_axis",

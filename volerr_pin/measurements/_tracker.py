@@ -37,7 +37,7 @@ import numpy as np
 from ..base import InputError
 from ..model import check_q, tool_poses
 from ._columns import header_columns, positions_and_covariates
-from ._protocol import MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
+from ._protocol import Measurement, MeasurementKind, NuisanceTerm, ObservationBlock, ObservationOptions
 from ._table import MeasurementError, Table, read_table
 
 __all__ = ["KIND", "TrackerMeasurements", "is_tracker_file", "read_tracker", "register", "tracker_observations"]
@@ -47,7 +47,7 @@ OFFSETS = ("ox", "oy", "oz")
 
 
 @dataclass(frozen=True)
-class TrackerMeasurements:
+class TrackerMeasurements(Measurement):
     """Laser-tracker measurements of target coordinates, in SI.
 
     ``q`` (N, n_axes) SI; ``coordinates`` (N, 3) m in the tracker frame; ``offsets``
@@ -71,6 +71,14 @@ class TrackerMeasurements:
         File line of each row.
     unused : tuple of str
         Columns present but not used.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.measurements.Measurement` (documented there) do here:
+
+    - ``observations``: three rows per target (its deviation from its nominal position along x,
+      y, z, in the workpiece frame after the first registration) and six nuisance terms: the
+      tracker's small translation and rotation (see :func:`tracker_observations`).
     """
 
     source: str
@@ -83,27 +91,6 @@ class TrackerMeasurements:
     unused: tuple[str, ...] = ()
 
     def observations(self, machine, options: ObservationOptions) -> ObservationBlock:
-        """Three rows per target (its deviation from its nominal position along x, y, z, in the
-        workpiece frame after the first registration) and six nuisance terms: the tracker's
-        small translation and rotation (see :func:`tracker_observations`).
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine observed.
-        options : ObservationOptions
-            ``sigma_um``: standard deviation of each coordinate [um].
-
-        Returns
-        -------
-        ObservationBlock
-            Rows x, y, z of every target, in row order.
-
-        Raises
-        ------
-        InputError
-            If the targets lie on a line or are fewer than 3.
-        """
         obs = tracker_observations(machine, self)
         tag = f"tracker {self.source}"
         terms = tuple(NuisanceTerm(f"shift_{a}[{tag}]", False) for a in "xyz") + tuple(

@@ -159,6 +159,22 @@ class DriftTime(Term):
         The time heating stops and cooling starts [s]; None: no stop.
     time_unit : str
         The display unit of the time constants in the spec (``s``, ``min``, ``h``).
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.model.Term` (documented there) do here:
+
+    - ``value``: the drift at the points' times ``t``.
+    - ``jacobian``: derivatives of the drift with respect to the amplitudes and time constants.
+    - ``search_grid``: candidate time constants: 48 values spaced geometrically from 1/300 to 3
+      times the span of ``t``.
+    - ``coefficient_units``: (SI per display unit, display unit) of each coefficient: the
+      error's unit for the amplitudes, ``time_unit`` for the time constants.
+    - ``coefficient_limits``: the plausibility limit of each coefficient, the time constants
+      held positive ("time_constant").
+    - ``to_spec``: the spec table: ``driver = "time"``, ``amplitudes_<unit>``,
+      ``time_constants_<unit>`` and ``stop_<unit>`` when heating stops.
+    - ``from_spec``: read a time-driven drift from its spec table.
     """
 
     unit: str
@@ -179,105 +195,32 @@ class DriftTime(Term):
         """The time constants ``tau1, ...``, which the value is not linear in."""
         return tuple(f"tau{k}" for k in range(1, self.count + 1))
 
-    def value(self, c, ctx):
-        """The drift at the points' times ``t``.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            The value at each point (SI).
-        """
+    def value(self, coefficients, ctx):
         t = _need_t(ctx, "thermal_drift")
-        return sum(c[2 * k] * _saturation(t, c[2 * k + 1], self.stop)[0] for k in range(self.count))
+        return sum(coefficients[2 * k] * _saturation(t, coefficients[2 * k + 1], self.stop)[0] for k in range(self.count))
 
-    def jacobian(self, c, ctx):
-        """Derivatives of the drift with respect to the amplitudes and time constants.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, size)
-            d value / d coefficient at each point.
-        """
+    def jacobian(self, coefficients, ctx):
         t = _need_t(ctx, "thermal_drift")
         out = np.empty((ctx.n, 2 * self.count))
         for k in range(self.count):
-            g, dg = _saturation(t, c[2 * k + 1], self.stop)
+            g, dg = _saturation(t, coefficients[2 * k + 1], self.stop)
             out[:, 2 * k] = g
-            out[:, 2 * k + 1] = c[2 * k] * dg
+            out[:, 2 * k + 1] = coefficients[2 * k] * dg
         return out
 
-    def search_grid(self, name, c, cov):
-        """Candidate time constants: 48 values spaced geometrically from 1/300 to 3 times the span of ``t``.
-
-        Parameters
-        ----------
-        name : str
-            The coefficient's local name (a ``tau<k>``); every time constant gets the same grid.
-        c : ndarray, shape (size,)
-            The term's current coefficients (SI).
-        cov : Covariates
-            The covariates of the points to be fitted.
-
-        Returns
-        -------
-        ndarray, shape (48,) or (0,)
-            Time constants [s]; empty without at least two distinct times.
-        """
-        return _tau_grid(cov)
+    def search_grid(self, name, coefficients, covariates):
+        return _tau_grid(covariates)
 
     def coefficient_units(self):
-        """(SI per display unit, display unit) of each coefficient: the error's unit for the
-        amplitudes, ``time_unit`` for the time constants.
-
-        Returns
-        -------
-        list of (float, str)
-            One pair per coefficient, in the order of :attr:`local_names`.
-        """
         return [(self.unit_scale, self.unit), (TIME[self.time_unit], self.time_unit)] * self.count
 
     def coefficient_limits(self):
-        """The plausibility limit of each coefficient, the time constants held positive
-        ("time_constant").
-
-        Returns
-        -------
-        list of str
-            One key of :data:`~volerr_pin.base.PLAUSIBLE` per coefficient.
-        """
         return _with_time_constants(self)
 
-    def to_spec(self, c):
-        """The spec table: ``driver = "time"``, ``amplitudes_<unit>``, ``time_constants_<unit>``
-        and ``stop_<unit>`` when heating stops.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-
-        Returns
-        -------
-        dict
-            The table.
-        """
+    def to_spec(self, coefficients):
         table = {"kind": "thermal_drift", "driver": "time",
-                 f"amplitudes_{self.unit}": [float(c[2 * k] / self.unit_scale) for k in range(self.count)],
-                 f"time_constants_{self.time_unit}": [float(c[2 * k + 1] / TIME[self.time_unit])
+                 f"amplitudes_{self.unit}": [float(coefficients[2 * k] / self.unit_scale) for k in range(self.count)],
+                 f"time_constants_{self.time_unit}": [float(coefficients[2 * k + 1] / TIME[self.time_unit])
                                                       for k in range(self.count)]}
         if self.stop is not None:
             table[f"stop_{self.time_unit}"] = float(self.stop / TIME[self.time_unit])
@@ -287,21 +230,6 @@ class DriftTime(Term):
 
     @classmethod
     def from_spec(cls, table, site):
-        """Read a time-driven drift from its spec table.
-
-        Parameters
-        ----------
-        table : dict
-            The term's spec table, keys checked against :attr:`keys` already.
-        site : TermSite
-            Where the table is and what it is an error of.
-
-        Returns
-        -------
-        term : DriftTime
-        coefficients : ndarray, shape (2 count,)
-            ``a1, tau1, ...`` in SI.
-        """
         amps, unit, factor, akey = site.value(table, "amplitudes")
         _count(amps.size, site, akey, "amplitudes")
         taus = _time_constants(table, site, amps.size)
@@ -330,6 +258,21 @@ class DriftTemperature(Term):
         The reference temperature of each sensor [degC].
     lag : float
         How much earlier each sensor is read [s]; 0: at the points' own times.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.model.Term` (documented there) do here:
+
+    - ``lag_requests``: (sensor, lag) for each sensor when the term has a lag.
+    - ``temperature_sensors``: the sensors the term reads.
+    - ``coefficient_units``: (SI per display unit, display unit) of each coefficient: the
+      error's unit per kelvin.
+    - ``jacobian``: the temperature differences ``T_s(t - lag) - T_ref,s`` of the sensors.
+    - ``value``: the drift, the temperature differences times the coefficients.
+    - ``to_spec``: the spec table: ``driver = "temperature"``, ``sensors``,
+      ``coefficients_<unit>_per_K``, ``reference_degC`` and ``lag_s`` when there is a lag.
+    - ``from_spec``: read a temperature-driven drift from its spec table (reference 20 degC and
+      no lag by default).
     """
 
     unit: str
@@ -346,87 +289,24 @@ class DriftTemperature(Term):
         return tuple(f"k_{s}" for s in self.sensors)
 
     def lag_requests(self):
-        """(sensor, lag) for each sensor when the term has a lag.
-
-        Returns
-        -------
-        tuple of (str, float)
-            The sensors and the lag [s]; empty without a lag.
-        """
         return tuple((s, self.lag) for s in self.sensors) if self.lag else ()
 
     def temperature_sensors(self):
-        """The sensors the term reads.
-
-        Returns
-        -------
-        tuple of str
-            :attr:`sensors`.
-        """
         return self.sensors
 
     def coefficient_units(self):
-        """(SI per display unit, display unit) of each coefficient: the error's unit per kelvin.
-
-        Returns
-        -------
-        list of (float, str)
-            One pair per sensor.
-        """
         return [(self.unit_scale, f"{self.unit}/K")] * self.size
 
-    def jacobian(self, c, ctx):
-        """The temperature differences ``T_s(t - lag) - T_ref,s`` of the sensors.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-            The temperatures (lagged ones under :func:`lagged_name`) are read from the covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, size)
-            Temperature differences [K], one column per sensor.
-        """
+    def jacobian(self, coefficients, ctx):
         return np.column_stack([_need_temperature(ctx, s, self.lag) - ref
                                 for s, ref in zip(self.sensors, self.reference)])
 
-    def value(self, c, ctx):
-        """The drift, the temperature differences times the coefficients.
+    def value(self, coefficients, ctx):
+        return self.jacobian(coefficients, ctx) @ coefficients
 
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            The value at each point (SI).
-        """
-        return self.jacobian(c, ctx) @ c
-
-    def to_spec(self, c):
-        """The spec table: ``driver = "temperature"``, ``sensors``, ``coefficients_<unit>_per_K``,
-        ``reference_degC`` and ``lag_s`` when there is a lag.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-
-        Returns
-        -------
-        dict
-            The table.
-        """
+    def to_spec(self, coefficients):
         table = {"kind": "thermal_drift", "driver": "temperature", "sensors": list(self.sensors),
-                 f"coefficients_{self.unit}_per_K": [float(v / self.unit_scale) for v in c],
+                 f"coefficients_{self.unit}_per_K": [float(v / self.unit_scale) for v in coefficients],
                  "reference_degC": list(self.reference)}
         if self.lag:
             table["lag_s"] = self.lag
@@ -436,21 +316,6 @@ class DriftTemperature(Term):
 
     @classmethod
     def from_spec(cls, table, site):
-        """Read a temperature-driven drift from its spec table (reference 20 degC and no lag by default).
-
-        Parameters
-        ----------
-        table : dict
-            The term's spec table, keys checked against :attr:`keys` already.
-        site : TermSite
-            Where the table is and what it is an error of.
-
-        Returns
-        -------
-        term : DriftTemperature
-        coefficients : ndarray, shape (n_sensors,)
-            ``k_<sensor>`` in SI [m/K or rad/K].
-        """
         where = site.where
         sensors = table.get("sensors")
         if not isinstance(sensors, list) or not sensors or not all(isinstance(s, str) and s for s in sensors):
@@ -482,6 +347,22 @@ class ExpansionTemperature(Term):
         The reference temperature ``T_ref`` [degC].
     origin : float
         The axis position ``q0`` the expansion is measured from [m].
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.model.Term` (documented there) do here:
+
+    - ``temperature_sensors``: the sensor the term reads.
+    - ``coefficient_units``: (SI per display unit, display unit) of ``alpha``: ppm/K.
+    - ``value``: the expansion ``alpha (T - T_ref) (q - q0)``.
+    - ``jacobian``: the derivative with respect to ``alpha``, ``(T - T_ref) (q - q0)``.
+    - ``position_slope``: the derivative with respect to the axis position, ``alpha (T -
+      T_ref)``.
+    - ``to_spec``: the spec table: ``driver = "temperature"``, ``sensor``,
+      ``coefficient_ppm_per_K``, ``reference_degC`` and ``origin_mm``.
+    - ``from_spec``: read a temperature-driven expansion from its spec table
+      (``coefficient_per_K`` or ``coefficient_ppm_per_K``, within +-1 per K; reference 20 degC and
+      origin 0 by default).
     """
 
     sensor: str
@@ -495,98 +376,29 @@ class ExpansionTemperature(Term):
     local_names = ("alpha",)
 
     def temperature_sensors(self):
-        """The sensor the term reads.
-
-        Returns
-        -------
-        tuple of str
-            ``(sensor,)``.
-        """
         return (self.sensor,)
 
     def coefficient_units(self):
-        """(SI per display unit, display unit) of ``alpha``: ppm/K.
-
-        Returns
-        -------
-        list of (float, str)
-            ``[(1e-6, "ppm/K")]``.
-        """
         return [(1e-6, "ppm/K")]
 
     def _parts(self, ctx):
         return _need_temperature(ctx, self.sensor) - self.reference, ctx.position - self.origin
 
-    def value(self, c, ctx):
-        """The expansion ``alpha (T - T_ref) (q - q0)``.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            The length error at each point [m].
-        """
+    def value(self, coefficients, ctx):
         dT, dq = self._parts(ctx)
-        return c[0] * dT * dq
+        return coefficients[0] * dT * dq
 
-    def jacobian(self, c, ctx):
-        """The derivative with respect to ``alpha``, ``(T - T_ref) (q - q0)``.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, 1)
-            [K m].
-        """
+    def jacobian(self, coefficients, ctx):
         dT, dq = self._parts(ctx)
         return (dT * dq)[:, None]
 
-    def position_slope(self, c, ctx):
-        """The derivative with respect to the axis position, ``alpha (T - T_ref)``.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            The strain at each point [m/m].
-        """
+    def position_slope(self, coefficients, ctx):
         dT, _ = self._parts(ctx)
-        return c[0] * dT
+        return coefficients[0] * dT
 
-    def to_spec(self, c):
-        """The spec table: ``driver = "temperature"``, ``sensor``, ``coefficient_ppm_per_K``,
-        ``reference_degC`` and ``origin_mm``.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-
-        Returns
-        -------
-        dict
-            The table.
-        """
+    def to_spec(self, coefficients):
         return {"kind": "thermal_expansion", "driver": "temperature", "sensor": self.sensor,
-                "coefficient_ppm_per_K": float(c[0] * 1e6), "reference_degC": self.reference,
+                "coefficient_ppm_per_K": float(coefficients[0] * 1e6), "reference_degC": self.reference,
                 "origin_mm": self.origin * 1e3}
 
     keys = frozenset({"driver", "sensor", "coefficient_per_K", "coefficient_ppm_per_K", "reference_degC",
@@ -594,22 +406,6 @@ class ExpansionTemperature(Term):
 
     @classmethod
     def from_spec(cls, table, site):
-        """Read a temperature-driven expansion from its spec table (``coefficient_per_K`` or
-        ``coefficient_ppm_per_K``, within +-1 per K; reference 20 degC and origin 0 by default).
-
-        Parameters
-        ----------
-        table : dict
-            The term's spec table, keys checked against :attr:`keys` already.
-        site : TermSite
-            Where the table is and what it is an error of.
-
-        Returns
-        -------
-        term : ExpansionTemperature
-        coefficients : ndarray, shape (1,)
-            ``alpha`` [1/K].
-        """
         where = site.where
         sensor = table.get("sensor")
         if not isinstance(sensor, str) or not sensor:
@@ -639,6 +435,25 @@ class ExpansionTime(Term):
         The axis position ``q0`` the expansion is measured from [m].
     time_unit : str
         The display unit of the time constants in the spec (``s``, ``min``, ``h``).
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.model.Term` (documented there) do here:
+
+    - ``value``: the expansion, the strain at the points' times ``t`` times ``q - q0``.
+    - ``jacobian``: derivatives of the expansion with respect to the strains and time constants.
+    - ``position_slope``: the derivative with respect to the axis position: the strain at the
+      points' times.
+    - ``search_grid``: candidate time constants: 48 values spaced geometrically from 1/300 to 3
+      times the span of ``t``.
+    - ``coefficient_units``: (SI per display unit, display unit) of each coefficient: ppm for
+      the strains, ``time_unit`` for the time constants.
+    - ``coefficient_limits``: the plausibility limit of each coefficient, the time constants
+      held positive ("time_constant").
+    - ``to_spec``: the spec table: ``driver = "time"``, ``strains_ppm``,
+      ``time_constants_<unit>`` and ``origin_mm``.
+    - ``from_spec``: read a time-driven expansion from its spec table (strains within +-1e6
+      ppm).
     """
 
     count: int
@@ -669,117 +484,30 @@ class ExpansionTime(Term):
             parts.append((g, c[2 * k] * dg))
         return strain, parts
 
-    def value(self, c, ctx):
-        """The expansion, the strain at the points' times ``t`` times ``q - q0``.
+    def value(self, coefficients, ctx):
+        return self._strain(coefficients, ctx)[0] * (ctx.position - self.origin)
 
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            The length error at each point [m].
-        """
-        return self._strain(c, ctx)[0] * (ctx.position - self.origin)
-
-    def jacobian(self, c, ctx):
-        """Derivatives of the expansion with respect to the strains and time constants.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, size)
-            d value / d coefficient at each point.
-        """
-        _, parts = self._strain(c, ctx)
+    def jacobian(self, coefficients, ctx):
+        _, parts = self._strain(coefficients, ctx)
         dq = ctx.position - self.origin
         return np.column_stack([col * dq for g, dg in parts for col in (g, dg)])
 
-    def position_slope(self, c, ctx):
-        """The derivative with respect to the axis position: the strain at the points' times.
+    def position_slope(self, coefficients, ctx):
+        return self._strain(coefficients, ctx)[0]
 
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            The strain at each point [m/m].
-        """
-        return self._strain(c, ctx)[0]
-
-    def search_grid(self, name, c, cov):
-        """Candidate time constants: 48 values spaced geometrically from 1/300 to 3 times the span of ``t``.
-
-        Parameters
-        ----------
-        name : str
-            The coefficient's local name (a ``tau<k>``); every time constant gets the same grid.
-        c : ndarray, shape (size,)
-            The term's current coefficients (SI).
-        cov : Covariates
-            The covariates of the points to be fitted.
-
-        Returns
-        -------
-        ndarray, shape (48,) or (0,)
-            Time constants [s]; empty without at least two distinct times.
-        """
-        return _tau_grid(cov)
+    def search_grid(self, name, coefficients, covariates):
+        return _tau_grid(covariates)
 
     def coefficient_units(self):
-        """(SI per display unit, display unit) of each coefficient: ppm for the strains,
-        ``time_unit`` for the time constants.
-
-        Returns
-        -------
-        list of (float, str)
-            One pair per coefficient, in the order of :attr:`local_names`.
-        """
         return [(1e-6, "ppm"), (TIME[self.time_unit], self.time_unit)] * self.count
 
     def coefficient_limits(self):
-        """The plausibility limit of each coefficient, the time constants held positive
-        ("time_constant").
-
-        Returns
-        -------
-        list of str
-            One key of :data:`~volerr_pin.base.PLAUSIBLE` per coefficient.
-        """
         return _with_time_constants(self)
 
-    def to_spec(self, c):
-        """The spec table: ``driver = "time"``, ``strains_ppm``, ``time_constants_<unit>`` and
-        ``origin_mm``.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-
-        Returns
-        -------
-        dict
-            The table.
-        """
+    def to_spec(self, coefficients):
         return {"kind": "thermal_expansion", "driver": "time",
-                "strains_ppm": [float(c[2 * k] * 1e6) for k in range(self.count)],
-                f"time_constants_{self.time_unit}": [float(c[2 * k + 1] / TIME[self.time_unit])
+                "strains_ppm": [float(coefficients[2 * k] * 1e6) for k in range(self.count)],
+                f"time_constants_{self.time_unit}": [float(coefficients[2 * k + 1] / TIME[self.time_unit])
                                                      for k in range(self.count)],
                 "origin_mm": self.origin * 1e3}
 
@@ -787,21 +515,6 @@ class ExpansionTime(Term):
 
     @classmethod
     def from_spec(cls, table, site):
-        """Read a time-driven expansion from its spec table (strains within +-1e6 ppm).
-
-        Parameters
-        ----------
-        table : dict
-            The term's spec table, keys checked against :attr:`keys` already.
-        site : TermSite
-            Where the table is and what it is an error of.
-
-        Returns
-        -------
-        term : ExpansionTime
-        coefficients : ndarray, shape (2 count,)
-            ``s1, tau1, ...`` in SI (strains [m/m], time constants [s]).
-        """
         if "strains_ppm" not in table:
             raise SpecError(f"{site.where}: missing 'strains_ppm'")
         strains = numbers(table["strains_ppm"], f"{site.where}.strains_ppm")
@@ -825,6 +538,15 @@ class Backlash(Term):
         The display unit of the error in the spec (``um``, ``arcsec``).
     unit_scale : float
         SI per display unit.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.model.Term` (documented there) do here:
+
+    - ``value``: half the reversal, signed by the approach direction.
+    - ``jacobian``: the derivative with respect to ``b``, ``d / 2``.
+    - ``to_spec``: the spec table: ``reversal_<unit>``.
+    - ``from_spec``: read a backlash from its spec table (``reversal_<unit>``, one number).
     """
 
     unit: str
@@ -840,74 +562,19 @@ class Backlash(Term):
             return np.zeros(ctx.n)
         return d[:, ctx.axis_index]
 
-    def value(self, c, ctx):
-        """Half the reversal, signed by the approach direction.
+    def value(self, coefficients, ctx):
+        return 0.5 * coefficients[0] * self._direction(ctx)
 
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            The value at each point (SI).
-        """
-        return 0.5 * c[0] * self._direction(ctx)
-
-    def jacobian(self, c, ctx):
-        """The derivative with respect to ``b``, ``d / 2``.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, 1)
-            +-0.5, or 0 without directions.
-        """
+    def jacobian(self, coefficients, ctx):
         return (0.5 * self._direction(ctx))[:, None]
 
-    def to_spec(self, c):
-        """The spec table: ``reversal_<unit>``.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-
-        Returns
-        -------
-        dict
-            The table.
-        """
-        return {"kind": "backlash", f"reversal_{self.unit}": float(c[0] / self.unit_scale)}
+    def to_spec(self, coefficients):
+        return {"kind": "backlash", f"reversal_{self.unit}": float(coefficients[0] / self.unit_scale)}
 
     keys = frozenset({"reversal"})
 
     @classmethod
     def from_spec(cls, table, site):
-        """Read a backlash from its spec table (``reversal_<unit>``, one number).
-
-        Parameters
-        ----------
-        table : dict
-            The term's spec table, keys checked against :attr:`keys` already.
-        site : TermSite
-            Where the table is and what it is an error of.
-
-        Returns
-        -------
-        term : Backlash
-        coefficients : ndarray, shape (1,)
-            ``b`` in SI.
-        """
         b, unit, factor, _ = site.value(table, "reversal", count=1)
         return cls(unit, factor), b
 
@@ -934,6 +601,21 @@ class ForceDeflection(Term):
     model : dict or None
         For a compliance computed from a structural model: ``{"compliance": c0 [SI], "keys":
         the model's spec keys}``, to write it back as read; None otherwise.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.model.Term` (documented there) do here:
+
+    - ``jacobian``: the force component times each Legendre polynomial of the position.
+    - ``value``: the deflection, the compliance at the position times the force component.
+    - ``position_slope``: the derivative with respect to the axis position: the compliance's
+      slope times the force.
+    - ``coefficient_units``: (SI per display unit, display unit) of each coefficient: the
+      error's unit per newton.
+    - ``to_spec``: the spec table: ``force`` and ``compliance_<unit>_per_N``, or the structural
+      model's keys when the compliance is still the one the model gave.
+    - ``from_spec``: read a force deflection from its spec table: a compliance, or ``model =
+      "beam"`` or ``"torsion"`` with the model's dimensions (see the module's forms).
     """
 
     unit: str
@@ -970,85 +652,23 @@ class ForceDeflection(Term):
             dV[:, k] = legendre.legval(u, legendre.legder(e)) * 2.0 / (hi - lo)
         return V, dV
 
-    def jacobian(self, c, ctx):
-        """The force component times each Legendre polynomial of the position.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, size)
-            d value / d coefficient at each point [N].
-        """
+    def jacobian(self, coefficients, ctx):
         return self._basis(ctx)[0] * self._force(ctx)[:, None]
 
-    def value(self, c, ctx):
-        """The deflection, the compliance at the position times the force component.
+    def value(self, coefficients, ctx):
+        return self.jacobian(coefficients, ctx) @ coefficients
 
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            The value at each point (SI).
-        """
-        return self.jacobian(c, ctx) @ c
-
-    def position_slope(self, c, ctx):
-        """The derivative with respect to the axis position: the compliance's slope times the force.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            d value / d position at each point (SI); zeros for degree 0.
-        """
-        return (self._basis(ctx)[1] @ c) * self._force(ctx)
+    def position_slope(self, coefficients, ctx):
+        return (self._basis(ctx)[1] @ coefficients) * self._force(ctx)
 
     def coefficient_units(self):
-        """(SI per display unit, display unit) of each coefficient: the error's unit per newton.
-
-        Returns
-        -------
-        list of (float, str)
-            One pair per coefficient.
-        """
         return [(self.unit_scale, f"{self.unit}/N")] * self.size
 
-    def to_spec(self, c):
-        """The spec table: ``force`` and ``compliance_<unit>_per_N``, or the structural model's
-        keys when the compliance is still the one the model gave.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-
-        Returns
-        -------
-        dict
-            The table.
-        """
+    def to_spec(self, coefficients):
         table = {"kind": "force_deflection", "force": "xyz"[self.force],
-                 f"compliance_{self.unit}_per_N": [float(v / self.unit_scale) for v in c]}
+                 f"compliance_{self.unit}_per_N": [float(v / self.unit_scale) for v in coefficients]}
         if self.model is not None and self.degree == 0 and math.isclose(
-                c[0], self.model["compliance"], rel_tol=1e-12):
+                coefficients[0], self.model["compliance"], rel_tol=1e-12):
             table = {"kind": "force_deflection", "force": "xyz"[self.force], **self.model["keys"]}
         return table
 
@@ -1056,22 +676,6 @@ class ForceDeflection(Term):
 
     @classmethod
     def from_spec(cls, table, site):
-        """Read a force deflection from its spec table: a compliance, or ``model = "beam"`` or
-        ``"torsion"`` with the model's dimensions (see the module's forms).
-
-        Parameters
-        ----------
-        table : dict
-            The term's spec table, keys checked against :attr:`keys` already.
-        site : TermSite
-            Where the table is and what it is an error of.
-
-        Returns
-        -------
-        term : ForceDeflection
-        coefficients : ndarray, shape (degree + 1,)
-            The compliance coefficients in SI [m/N or rad/N].
-        """
         where, quantity = site.where, site.quantity
         force = table.get("force")
         if not isinstance(force, str) or force not in ("x", "y", "z"):
@@ -1115,6 +719,24 @@ class PeriodicPitch(Term):
         The display unit of the period and origin in the spec (``mm``, ``deg``).
     position_scale : float
         SI per ``position_unit``.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.model.Term` (documented there) do here:
+
+    - ``value``: the sum of the harmonics at the axis positions.
+    - ``jacobian``: derivatives with respect to the sine and cosine amplitudes and the period.
+    - ``position_slope``: the derivative with respect to the axis position.
+    - ``search_grid``: candidate periods: 61 values evenly spaced from 0.7 to 1.3 times the
+      current period.
+    - ``coefficient_units``: (SI per display unit, display unit) of each coefficient: the
+      error's unit for the amplitudes, ``position_unit`` for the period.
+    - ``coefficient_limits``: the plausibility limit of each coefficient: an error for the
+      amplitudes, "period_length" or "period_angle" for the period.
+    - ``to_spec``: the spec table: ``period_<unit>``, ``sine_<unit>``, ``cosine_<unit>`` and
+      ``origin_<unit>``.
+    - ``from_spec``: read a periodic error from its spec table (a positive period, as many
+      cosines as sines).
     """
 
     unit: str
@@ -1138,145 +760,44 @@ class PeriodicPitch(Term):
         h = np.arange(1, self.harmonics + 1)
         return 2.0 * np.pi * np.outer(ctx.position - self.origin, h) / p, h, p
 
-    def value(self, c, ctx):
-        """The sum of the harmonics at the axis positions.
+    def value(self, coefficients, ctx):
+        phi, _, _ = self._phase(coefficients, ctx)
+        return np.sin(phi) @ coefficients[0:-1:2] + np.cos(phi) @ coefficients[1:-1:2]
 
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            The value at each point (SI).
-        """
-        phi, _, _ = self._phase(c, ctx)
-        return np.sin(phi) @ c[0:-1:2] + np.cos(phi) @ c[1:-1:2]
-
-    def jacobian(self, c, ctx):
-        """Derivatives with respect to the sine and cosine amplitudes and the period.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, size)
-            d value / d coefficient at each point.
-        """
-        phi, h, p = self._phase(c, ctx)
+    def jacobian(self, coefficients, ctx):
+        phi, h, p = self._phase(coefficients, ctx)
         out = np.empty((ctx.n, self.size))
         out[:, 0:-1:2] = np.sin(phi)
         out[:, 1:-1:2] = np.cos(phi)
-        dphase = (np.cos(phi) * c[0:-1:2] - np.sin(phi) * c[1:-1:2])  # d value / d phi_h
+        dphase = (np.cos(phi) * coefficients[0:-1:2] - np.sin(phi) * coefficients[1:-1:2])  # d value / d phi_h
         out[:, -1] = -(dphase * phi).sum(axis=1) / p
         return out
 
-    def position_slope(self, c, ctx):
-        """The derivative with respect to the axis position.
+    def position_slope(self, coefficients, ctx):
+        phi, h, p = self._phase(coefficients, ctx)
+        return (np.cos(phi) * coefficients[0:-1:2] - np.sin(phi) * coefficients[1:-1:2]) @ (2.0 * np.pi * h / p)
 
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            d value / d position at each point (SI).
-        """
-        phi, h, p = self._phase(c, ctx)
-        return (np.cos(phi) * c[0:-1:2] - np.sin(phi) * c[1:-1:2]) @ (2.0 * np.pi * h / p)
-
-    def search_grid(self, name, c, cov):
-        """Candidate periods: 61 values evenly spaced from 0.7 to 1.3 times the current period.
-
-        Parameters
-        ----------
-        name : str
-            The coefficient's local name ("period").
-        c : ndarray, shape (size,)
-            The term's current coefficients (SI); the last is the period.
-        cov : Covariates
-            The covariates of the points to be fitted (not read).
-
-        Returns
-        -------
-        ndarray, shape (61,)
-            Periods [m or rad].
-        """
-        return c[-1] * np.linspace(0.7, 1.3, 61)
+    def search_grid(self, name, coefficients, covariates):
+        return coefficients[-1] * np.linspace(0.7, 1.3, 61)
 
     def coefficient_units(self):
-        """(SI per display unit, display unit) of each coefficient: the error's unit for the
-        amplitudes, ``position_unit`` for the period.
-
-        Returns
-        -------
-        list of (float, str)
-            One pair per coefficient, in the order of :attr:`local_names`.
-        """
         return [(self.unit_scale, self.unit)] * (2 * self.harmonics) + [(self.position_scale, self.position_unit)]
 
     def coefficient_limits(self):
-        """The plausibility limit of each coefficient: an error for the amplitudes,
-        "period_length" or "period_angle" for the period.
-
-        Returns
-        -------
-        list of str
-            One key of :data:`~volerr_pin.base.PLAUSIBLE` per coefficient.
-        """
         quantity = "angle" if self.position_unit in ANGLE else "length"
         return super().coefficient_limits()[:-1] + [f"period_{quantity}"]
 
-    def to_spec(self, c):
-        """The spec table: ``period_<unit>``, ``sine_<unit>``, ``cosine_<unit>`` and ``origin_<unit>``.
-
-        Parameters
-        ----------
-        c : ndarray, shape (size,)
-            The term's coefficients (SI), in the order of :attr:`local_names`.
-
-        Returns
-        -------
-        dict
-            The table.
-        """
+    def to_spec(self, coefficients):
         return {"kind": "periodic_pitch",
-                f"period_{self.position_unit}": float(c[-1] / self.position_scale),
-                f"sine_{self.unit}": [float(v / self.unit_scale) for v in c[0:-1:2]],
-                f"cosine_{self.unit}": [float(v / self.unit_scale) for v in c[1:-1:2]],
+                f"period_{self.position_unit}": float(coefficients[-1] / self.position_scale),
+                f"sine_{self.unit}": [float(v / self.unit_scale) for v in coefficients[0:-1:2]],
+                f"cosine_{self.unit}": [float(v / self.unit_scale) for v in coefficients[1:-1:2]],
                 f"origin_{self.position_unit}": float(self.origin / self.position_scale)}
 
     keys = frozenset({"period", "sine", "cosine", "origin"})
 
     @classmethod
     def from_spec(cls, table, site):
-        """Read a periodic error from its spec table (a positive period, as many cosines as sines).
-
-        Parameters
-        ----------
-        table : dict
-            The term's spec table, keys checked against :attr:`keys` already.
-        site : TermSite
-            Where the table is and what it is an error of.
-
-        Returns
-        -------
-        term : PeriodicPitch
-        coefficients : ndarray, shape (2 harmonics + 1,)
-            ``s1, c1, ..., period`` in SI.
-        """
         position = site.position_quantity or "length"   # a rotary axis' period is an angle
         period, punit, pscale, pkey = site.value(table, "period", position, count=1)
         if period[0] <= 0:

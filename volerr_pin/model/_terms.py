@@ -214,8 +214,8 @@ class Term:
         Returns
         -------
         ndarray, shape (N,)
-            d value / d position at each point (SI); zeros here, for a term that does not depend
-            on the position.
+            d value / d position at each point (SI); by default zeros, for a term that does not
+            depend on the position.
         """
         return np.zeros(ctx.n)
 
@@ -234,7 +234,7 @@ class Term:
         Returns
         -------
         ndarray, shape (G,)
-            Candidate values in the coefficient's SI unit; empty here (no grid).
+            Candidate values in the coefficient's SI unit; by default empty (no grid).
         """
         return np.array([])
 
@@ -244,8 +244,8 @@ class Term:
         Returns
         -------
         list of (float, str)
-            One pair per coefficient, in the order of :attr:`local_names`; here the term's
-            ``unit_scale`` and ``unit`` for every coefficient.
+            One pair per coefficient, in the order of :attr:`local_names`; by default the
+            term's ``unit_scale`` and ``unit`` for every coefficient.
         """
         return [(self.unit_scale, self.unit)] * self.size
 
@@ -284,7 +284,7 @@ class Term:
         Returns
         -------
         tuple of (str, float)
-            The sensor names and lags [s]; empty here (no lagged temperature).
+            The sensor names and lags [s]; by default empty (no lagged temperature).
         """
         return ()
 
@@ -294,7 +294,7 @@ class Term:
         Returns
         -------
         tuple of str
-            The sensor names; empty here (no temperature).
+            The sensor names; by default empty (no temperature).
         """
         return ()
 
@@ -343,7 +343,17 @@ class Term:
 
 class LinearTerm(Term):
     """A term linear in its coefficients: subclasses define :meth:`basis` (and
-    :meth:`basis_derivative` when the basis depends on the axis position)."""
+    :meth:`basis_derivative` when the basis depends on the axis position).
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.model.Term` (documented there) do here:
+
+    - ``value``: the value, ``basis(ctx) @ coefficients``.
+    - ``jacobian``: the derivative with respect to the coefficients: the basis itself.
+    - ``position_slope``: the derivative with respect to the axis position,
+      ``basis_derivative(ctx) @ coefficients``.
+    """
 
     def basis(self, ctx: Context) -> np.ndarray:
         """(N, P) matrix with ``value = basis @ coefficients``.
@@ -371,61 +381,18 @@ class LinearTerm(Term):
         Returns
         -------
         ndarray, shape (N, size)
-            d basis / d position [1/m or 1/rad]; zeros here, for a basis that does not depend on
+            d basis / d position [1/m or 1/rad]; by default zeros, for a basis that does not depend on
             the position.
         """
         return np.zeros((ctx.n, self.size))
 
     def value(self, coefficients, ctx):
-        """The value, ``basis(ctx) @ coefficients``.
-
-        Parameters
-        ----------
-        coefficients : ndarray, shape (size,)
-            The term's coefficients (SI).
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            The value at each point (SI).
-        """
         return self.basis(ctx) @ coefficients
 
     def jacobian(self, coefficients, ctx):
-        """The derivative with respect to the coefficients: the basis itself.
-
-        Parameters
-        ----------
-        coefficients : ndarray, shape (size,)
-            The term's coefficients (SI).
-            Not read: the value is linear in them.
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, size)
-            :meth:`basis` at the points.
-        """
         return self.basis(ctx)
 
     def position_slope(self, coefficients, ctx):
-        """The derivative with respect to the axis position, ``basis_derivative(ctx) @ coefficients``.
-
-        Parameters
-        ----------
-        coefficients : ndarray, shape (size,)
-            The term's coefficients (SI).
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N,)
-            d value / d position at each point (SI).
-        """
         return self.basis_derivative(ctx) @ coefficients
 
 
@@ -446,6 +413,15 @@ class Constant(LinearTerm):
         The display unit of the value in the spec (``um``, ``arcsec``).
     unit_scale : float
         SI per display unit.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.model.Term` (documented there) do here:
+
+    - ``basis``: a column of ones.
+    - ``basis_derivative``: a column of zeros: a constant does not depend on the position.
+    - ``to_spec``: the spec table: ``kind = "constant"`` and ``value_<unit>``.
+    - ``from_spec``: read a constant from its spec table (``value_<unit>``, one number).
     """
 
     unit: str
@@ -454,69 +430,18 @@ class Constant(LinearTerm):
     local_names = ("c0",)
 
     def basis(self, ctx):
-        """A column of ones.
-
-        Parameters
-        ----------
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, 1)
-            Ones.
-        """
         return np.ones((ctx.n, 1))
 
     def basis_derivative(self, ctx):
-        """A column of zeros: a constant does not depend on the position.
-
-        Parameters
-        ----------
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, 1)
-            Zeros.
-        """
         return np.zeros((ctx.n, 1))
 
     def to_spec(self, coefficients):
-        """The spec table: ``kind = "constant"`` and ``value_<unit>``.
-
-        Parameters
-        ----------
-        coefficients : ndarray, shape (1,)
-            ``c0`` (SI).
-
-        Returns
-        -------
-        dict
-            The table, the value in :attr:`unit`.
-        """
         return {"kind": "constant", f"value_{self.unit}": float(coefficients[0] / self.unit_scale)}
 
     keys = frozenset({"value"})
 
     @classmethod
     def from_spec(cls, table, site):
-        """Read a constant from its spec table (``value_<unit>``, one number).
-
-        Parameters
-        ----------
-        table : dict
-            The term's spec table, keys checked against :attr:`keys` already.
-        site : TermSite
-            Where the table is and what it is an error of.
-
-        Returns
-        -------
-        term : Constant
-        coefficients : ndarray, shape (1,)
-            ``c0`` in SI.
-        """
         value, unit, factor, key = site.value(table, "value", count=1)
         if isinstance(table[key], (list, tuple)):
             raise SpecError(f"{site.where}.{key}: a constant takes one number, not a list")
@@ -550,6 +475,21 @@ class Polynomial(LinearTerm):
         The unit of u over the position (``mm``, ``deg``); None over the travel.
     position_scale : float
         SI per ``position_unit`` (1.0 over the travel).
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.model.Term` (documented there) do here:
+
+    - ``basis``: the Vandermonde matrix of u: ``P_k(u)`` (Legendre) or ``u**k`` (monomial), k =
+      0 ... degree.
+    - ``basis_derivative``: the derivative of :meth:`basis` with respect to the axis position
+      (``d/du`` times ``du/dq``).
+    - ``coefficient_units``: (SI per display unit, display unit) of each coefficient: the
+      error's unit over the travel; over the position, ``c_k`` in ``unit/position_unit^k``.
+    - ``to_spec``: the spec table: ``kind``, ``over`` (monomials), ``position_unit`` (over the
+      position) and ``coefficients_<unit>`` (per ``position_unit**k`` over the position).
+    - ``from_spec``: read a polynomial from its spec table (``coefficients_<unit>``, ``over``,
+      ``position_unit``); at most :data:`MAX_COEFFICIENTS` coefficients.
     """
 
     degree: int
@@ -579,36 +519,12 @@ class Polynomial(LinearTerm):
         return q, 1.0
 
     def basis(self, ctx):
-        """The Vandermonde matrix of u: ``P_k(u)`` (Legendre) or ``u**k`` (monomial), k = 0 ... degree.
-
-        Parameters
-        ----------
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, degree + 1)
-            The basis at the points.
-        """
         u, _ = self._u(ctx)
         if self.family == "legendre":
             return legendre.legvander(u, self.degree)
         return np.vander(u, self.degree + 1, increasing=True)
 
     def basis_derivative(self, ctx):
-        """The derivative of :meth:`basis` with respect to the axis position (``d/du`` times ``du/dq``).
-
-        Parameters
-        ----------
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, degree + 1)
-            d basis / d position [1/m or 1/rad].
-        """
         u, du_dq = self._u(ctx)
         out = np.zeros((u.size, self.degree + 1))
         if self.family == "legendre":
@@ -622,14 +538,6 @@ class Polynomial(LinearTerm):
         return out * du_dq
 
     def coefficient_units(self):
-        """(SI per display unit, display unit) of each coefficient: the error's unit over the
-        travel; over the position, ``c_k`` in ``unit/position_unit^k``.
-
-        Returns
-        -------
-        list of (float, str)
-            One pair per coefficient, ``c0`` first.
-        """
         if self.over != "position":
             return [(self.unit_scale, self.unit)] * self.size
         return [(self.unit_scale / self.position_scale ** k,
@@ -637,19 +545,6 @@ class Polynomial(LinearTerm):
                 for k in range(self.degree + 1)]
 
     def to_spec(self, coefficients):
-        """The spec table: ``kind``, ``over`` (monomials), ``position_unit`` (over the position)
-        and ``coefficients_<unit>`` (per ``position_unit**k`` over the position).
-
-        Parameters
-        ----------
-        coefficients : ndarray, shape (degree + 1,)
-            ``c0`` ... ``cN`` (SI; over the position, per metre or radian to the k).
-
-        Returns
-        -------
-        dict
-            The table.
-        """
         table = {"kind": self.family}
         if self.family == "monomial":
             table["over"] = self.over
@@ -665,22 +560,6 @@ class Polynomial(LinearTerm):
 
     @classmethod
     def from_spec(cls, table, site):
-        """Read a polynomial from its spec table (``coefficients_<unit>``, ``over``,
-        ``position_unit``); at most :data:`MAX_COEFFICIENTS` coefficients.
-
-        Parameters
-        ----------
-        table : dict
-            The term's spec table, keys checked against :attr:`keys` already.
-        site : TermSite
-            Where the table is and what it is an error of.
-
-        Returns
-        -------
-        term : Polynomial
-        coefficients : ndarray, shape (degree + 1,)
-            The coefficients in SI.
-        """
         family, where, travel = table["kind"], site.where, site.travel
         _needs_position(site, family)
         si, unit, factor, key = site.value(table, "coefficients")
@@ -769,6 +648,18 @@ class Table(LinearTerm):
         The display unit of the positions in the spec (``mm``, ``deg``).
     position_scale : float
         SI per ``position_unit``.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.model.Term` (documented there) do here:
+
+    - ``basis``: the interpolation's cardinal functions (one per node) at the axis positions.
+    - ``basis_derivative``: the derivative of :meth:`basis` with respect to the axis position.
+    - ``to_spec``: the spec table: ``interpolation``, ``positions_<unit>``, ``values_<unit>``
+      and, for a cubic table, ``boundary``.
+    - ``from_spec``: read a table from its spec table, checking its nodes (strictly increasing,
+      covering the travel unless ``extrapolate``), its memory and, for a cubic one, the spline's
+      swing (at most :data:`MAX_SWING`).
     """
 
     nodes: np.ndarray
@@ -793,49 +684,12 @@ class Table(LinearTerm):
         return CubicSpline(self.nodes, eye, bc_type=self.boundary, extrapolate=True)
 
     def basis(self, ctx):
-        """The interpolation's cardinal functions (one per node) at the axis positions.
-
-        Parameters
-        ----------
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, K)
-            The basis at the points.
-        """
         return self._spline(_check_position(self, ctx, "table"))
 
     def basis_derivative(self, ctx):
-        """The derivative of :meth:`basis` with respect to the axis position.
-
-        Parameters
-        ----------
-        ctx : Context
-            The points: axis position, travel and covariates.
-
-        Returns
-        -------
-        ndarray, shape (N, K)
-            d basis / d position [1/m or 1/rad].
-        """
         return self._spline.derivative()(_check_position(self, ctx, "table"))
 
     def to_spec(self, coefficients):
-        """The spec table: ``interpolation``, ``positions_<unit>``, ``values_<unit>`` and, for a
-        cubic table, ``boundary``.
-
-        Parameters
-        ----------
-        coefficients : ndarray, shape (K,)
-            The values at the nodes (SI).
-
-        Returns
-        -------
-        dict
-            The table.
-        """
         table = {
             "kind": "table",
             "interpolation": self.interpolation,
@@ -850,23 +704,6 @@ class Table(LinearTerm):
 
     @classmethod
     def from_spec(cls, table, site):
-        """Read a table from its spec table, checking its nodes (strictly increasing, covering
-        the travel unless ``extrapolate``), its memory and, for a cubic one, the spline's swing
-        (at most :data:`MAX_SWING`).
-
-        Parameters
-        ----------
-        table : dict
-            The term's spec table, keys checked against :attr:`keys` already.
-        site : TermSite
-            Where the table is and what it is an error of.
-
-        Returns
-        -------
-        term : Table
-        coefficients : ndarray, shape (K,)
-            The values at the nodes in SI.
-        """
         where, travel = site.where, site.travel
         _needs_position(site, "table")
         nodes, punit, pscale, pkey = site.value(table, "positions", site.position_quantity)

@@ -68,7 +68,7 @@ class Distribution(Protocol):
         ...
 
 
-class Uniform:
+class Uniform(Distribution):
     """Uniform within +-tolerance.
 
     Attributes
@@ -79,6 +79,14 @@ class Uniform:
         1 / sqrt(3).
     meaning : str
         What the tolerance means.
+
+    Notes
+    -----
+    The methods of :class:`Distribution` (documented there)
+    do here:
+
+    - ``standard``: ``2 u - 1``: uniform on [-1, 1].
+    - ``salib``: SALib's ``unif`` on [-tolerance, tolerance].
     """
 
     name = "uniform"
@@ -86,37 +94,13 @@ class Uniform:
     meaning = "uniform within +-tolerance"
 
     def standard(self, u: np.ndarray) -> np.ndarray:
-        """``2 u - 1``: uniform on [-1, 1].
-
-        Parameters
-        ----------
-        u : ndarray
-            Uniform numbers in [0, 1).
-
-        Returns
-        -------
-        ndarray
-            Same shape, in [-1, 1).
-        """
         return 2.0 * np.asarray(u) - 1.0
 
     def salib(self, tolerance: float) -> tuple[str, list[float]]:
-        """SALib's ``unif`` on [-tolerance, tolerance].
-
-        Parameters
-        ----------
-        tolerance : float
-            The tolerance [SI].
-
-        Returns
-        -------
-        tuple of (str, list of float)
-            ``("unif", [-tolerance, tolerance])``.
-        """
         return "unif", [-tolerance, tolerance]
 
 
-class Normal:
+class Normal(Distribution):
     """Normal with the tolerance as standard deviation.
 
     Attributes
@@ -127,6 +111,14 @@ class Normal:
         1.
     meaning : str
         What the tolerance means.
+
+    Notes
+    -----
+    The methods of :class:`Distribution` (documented there)
+    do here:
+
+    - ``standard``: the standard normal quantile of ``u``.
+    - ``salib``: SALib's ``norm`` with mean 0 and standard deviation ``tolerance``.
     """
 
     name = "normal"
@@ -134,33 +126,9 @@ class Normal:
     meaning = "normal, standard deviation = tolerance"
 
     def standard(self, u: np.ndarray) -> np.ndarray:
-        """The standard normal quantile of ``u``.
-
-        Parameters
-        ----------
-        u : ndarray
-            Uniform numbers in [0, 1) (0 is moved to the smallest positive double).
-
-        Returns
-        -------
-        ndarray
-            Same shape, standard normal.
-        """
         return ndtri(np.maximum(np.asarray(u), np.finfo(float).tiny))
 
     def salib(self, tolerance: float) -> tuple[str, list[float]]:
-        """SALib's ``norm`` with mean 0 and standard deviation ``tolerance``.
-
-        Parameters
-        ----------
-        tolerance : float
-            The tolerance [SI].
-
-        Returns
-        -------
-        tuple of (str, list of float)
-            ``("norm", [0, tolerance])``.
-        """
         return "norm", [0.0, tolerance]
 
 

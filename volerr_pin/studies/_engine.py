@@ -183,7 +183,7 @@ class Engine(Protocol):
         ...
 
 
-class InProcess:
+class InProcess(Engine):
     """The tasks one after the other in this process (numba may still use every core).
 
     Attributes
@@ -192,30 +192,18 @@ class InProcess:
         1.
     where : str
         "this process".
+
+    Notes
+    -----
+    The methods of :class:`Engine` (documented there) do here:
+
+    - ``map``: ``fn(*shared, *task)`` for every task, in order (see :class:`Engine`).
     """
 
     workers = 1
     where = "this process"
 
     def map(self, fn, shared, tasks, progress=None):
-        """``fn(*shared, *task)`` for every task, in order (see :class:`Engine`).
-
-        Parameters
-        ----------
-        fn : callable
-            The task function.
-        shared : sequence
-            Arguments every task takes first.
-        tasks : sequence of tuple
-            The remaining arguments of each task.
-        progress : callable(int), optional
-            Called with the number of tasks done.
-
-        Yields
-        ------
-        object
-            Each task's result, in task order.
-        """
         for done, task in enumerate(tasks, 1):
             yield fn(*shared, *task)
             if progress is not None:
@@ -252,7 +240,7 @@ def _batch_on_worker(fn, n_shared: int, *args):
     return time.perf_counter() - start, results
 
 
-class DaskEngine:
+class DaskEngine(Engine):
     """Tasks on a Dask ``distributed`` cluster, results folded in task order.
 
     Parameters
@@ -274,6 +262,13 @@ class DaskEngine:
         the cost model in docs/studies.md calls the parallel work).
     pieces : int
         Pieces of work sent so far.
+
+    Notes
+    -----
+    The methods of :class:`Engine` (documented there) do here:
+
+    - ``map``: ``fn(*shared, *task)`` for every task on the cluster, yielded in task order (see
+      :class:`Engine`).
     """
 
     def __init__(self, client, where: str, window: int | None = None, owned: tuple = ()):
@@ -306,25 +301,6 @@ class DaskEngine:
         return future, False
 
     def map(self, fn, shared, tasks, progress=None):
-        """``fn(*shared, *task)`` for every task on the cluster, yielded in task order (see
-        :class:`Engine`).
-
-        Parameters
-        ----------
-        fn : callable
-            A module-level task function.
-        shared : sequence
-            Arguments every task takes first: scattered to every worker once.
-        tasks : sequence of tuple
-            The remaining arguments of each task.
-        progress : callable(int), optional
-            Called with the number of tasks finished so far.
-
-        Yields
-        ------
-        object
-            Each task's result, in task order.
-        """
         from distributed import as_completed
 
         tasks = list(tasks)

@@ -77,7 +77,7 @@ class ThetaSource(Protocol):
 
 
 @dataclass(frozen=True)
-class NormalSource:
+class NormalSource(ThetaSource):
     """Coefficients drawn from a multivariate normal: ``mean + factor @ z``, ``z`` standard normal.
 
     Attributes
@@ -88,6 +88,13 @@ class NormalSource:
         A square root of the covariance (``factor @ factor.T``) [SI].
     seed : int
         The study's seed.
+
+    Notes
+    -----
+    The methods of :class:`ThetaSource` (documented there) do
+    here:
+
+    - ``rows``: draws of chunk ``chunk`` (its own random stream).
     """
 
     mean: np.ndarray
@@ -100,32 +107,25 @@ class NormalSource:
         return len(self.mean)
 
     def rows(self, chunk: int, start: int, stop: int) -> np.ndarray:
-        """Draws of chunk ``chunk`` (its own random stream).
-
-        Parameters
-        ----------
-        chunk : int
-            Chunk index.
-        start, stop : int
-            Sample range of the chunk.
-
-        Returns
-        -------
-        ndarray, shape (stop - start, P)
-            Coefficient vectors [SI].
-        """
         z = chunk_rng(self.seed, chunk).standard_normal((stop - start, self.factor.shape[1]))
         return self.mean + z @ self.factor.T
 
 
 @dataclass(frozen=True)
-class RowsSource:
+class RowsSource(ThetaSource):
     """Coefficient vectors given in advance (a design such as Saltelli's).
 
     Attributes
     ----------
     matrix : ndarray, shape (S, P)
         One row per sample [SI].
+
+    Notes
+    -----
+    The methods of :class:`ThetaSource` (documented there) do
+    here:
+
+    - ``rows``: rows ``start`` to ``stop``.
     """
 
     matrix: np.ndarray
@@ -136,20 +136,6 @@ class RowsSource:
         return self.matrix.shape[1]
 
     def rows(self, chunk: int, start: int, stop: int) -> np.ndarray:
-        """Rows ``start`` to ``stop``.
-
-        Parameters
-        ----------
-        chunk : int
-            Chunk index (unused).
-        start, stop : int
-            Sample range.
-
-        Returns
-        -------
-        ndarray, shape (stop - start, P)
-            Coefficient vectors [SI].
-        """
         return self.matrix[start:stop]
 
 

@@ -43,6 +43,7 @@ import numpy as np
 
 from ..model import Machine, check_covariates, parse_component_name, replace_terms, sensitivity
 from ._distributions import Distribution
+from ._montecarlo import ThetaSource
 
 __all__ = ["LEFT_OUT", "NODE_STEP", "Shape", "ShapedSource", "legendre_range", "shape_machine", "shapes_of",
            "work_offset_components"]
@@ -325,7 +326,7 @@ def work_offset_components(machine: Machine, columns, q: np.ndarray, shapes) -> 
 
 
 @dataclass(frozen=True)
-class ShapedSource:
+class ShapedSource(ThetaSource):
     """Draws of a tolerance study: every component's shape, scaled within its tolerance.
 
     Each draw takes ``1 + SHAPE_INPUTS`` uniform numbers per component from its chunk's
@@ -345,6 +346,13 @@ class ShapedSource:
         Length P of theta.
     seed : int
         The study's seed.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.studies._montecarlo.ThetaSource` (documented there) do
+    here:
+
+    - ``rows``: coefficient vectors of chunk ``chunk`` (ThetaSource).
     """
 
     shapes: tuple[Shape, ...]
@@ -393,20 +401,6 @@ class ShapedSource:
         return np.where(owner >= 0, t[np.maximum(owner, 0)], 0.0)
 
     def rows(self, chunk: int, start: int, stop: int) -> np.ndarray:
-        """Coefficient vectors of chunk ``chunk`` (ThetaSource).
-
-        Parameters
-        ----------
-        chunk : int
-            Chunk index.
-        start, stop : int
-            Sample range of the chunk.
-
-        Returns
-        -------
-        ndarray, shape (stop - start, P)
-            Coefficient vectors [SI].
-        """
         return self.standard(chunk, start, stop) * self.scale()
 
     def with_tolerance(self, tolerance, seed: int | None = None) -> "ShapedSource":

@@ -1,7 +1,7 @@
 """Tolerance studies: which component tolerances a machine can afford.
 
-Every component error is drawn within its tolerance (:mod:`.tolerances`) as the shape the
-standard means by it (:mod:`.shapes`): a positioning error or a straightness deviation along
+Every component error is drawn within its tolerance (:mod:`._tolerances`) as the shape the
+standard means by it (:mod:`._shapes`): a positioning error or a straightness deviation along
 the travel, less the offset (and, for straightness, the slope) they exclude; an angular
 deviation less its offset; a rotary axis' error motions over its angle; a squareness or other
 location error as the constant it is. What a work offset removes is left out: a component
@@ -10,8 +10,8 @@ replaced by these shapes. For every draw the exact volumetric error is
 evaluated at every grid point; the study reports the distribution of the largest and of the
 RMS position error over the grid, the probability that the largest stays within a target
 ``T``, the components that drive it (Sobol' first-order and total indices of the largest
-error, :mod:`.sobol`) and a least-cost re-allocation of the tolerances that meets ``T`` at a
-stated probability, checked by re-simulation (:mod:`.allocation`).
+error, :mod:`._sobol`) and a least-cost re-allocation of the tolerances that meets ``T`` at a
+stated probability, checked by re-simulation (:mod:`._allocation`).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from ..base import UM_PER_M, InputError, require_memory
 from ..model import Machine
 from ._allocation import Reallocation, reallocate
 from ._engine import Engine, InProcess
-from ._montecarlo import MonteCarlo, make_points, run_monte_carlo
+from ._montecarlo import make_points, MonteCarlo, run_monte_carlo, ThetaSource
 from ._shapes import LEFT_OUT, Shape, ShapedSource, shape_machine, shapes_of, work_offset_components
 from ._sobol import SobolIndices, sobol_indices
 from ._tolerances import Tolerances
@@ -126,7 +126,7 @@ class ToleranceStudy:
 
 
 def tolerance_source(machine: Machine, tolerances: Tolerances, seed: int) -> tuple[Machine, ShapedSource]:
-    """The study's machine and its draws: every component as its shape (:mod:`.shapes`), within
+    """The study's machine and its draws: every component as its shape (:mod:`._shapes`), within
     its tolerance.
 
     Parameters
@@ -277,7 +277,7 @@ def study_tolerances(machine: Machine, tolerances: Tolerances, q: np.ndarray, *,
 
 
 @dataclass(frozen=True)
-class DesignSource:
+class DesignSource(ThetaSource):
     """The coefficient vectors of a design (Saltelli's), made where they are evaluated: only the
     design's inputs travel (a few numbers per component and run), not the vectors.
 
@@ -289,6 +289,13 @@ class DesignSource:
         Per active component its magnitude, then its shape's uniform numbers.
     active : tuple of int
         The components the design varies.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.studies._montecarlo.ThetaSource` (documented there) do
+    here:
+
+    - ``rows``: coefficient vectors of runs ``start`` to ``stop`` (ThetaSource).
     """
 
     source: ShapedSource
@@ -301,18 +308,4 @@ class DesignSource:
         return self.source.parameters
 
     def rows(self, chunk: int, start: int, stop: int) -> np.ndarray:
-        """Coefficient vectors of runs ``start`` to ``stop`` (ThetaSource).
-
-        Parameters
-        ----------
-        chunk : int
-            Chunk index (unused).
-        start, stop : int
-            Run range.
-
-        Returns
-        -------
-        ndarray, shape (stop - start, P)
-            Coefficient vectors [SI].
-        """
         return self.source.design_rows(self.design[start:stop], self.active)

@@ -1,7 +1,7 @@
 """How uncertain an error map, or the residual of a compensation, is: linear propagation
 and Monte Carlo side by side (GUM and its Supplement 1).
 
-For coefficients with estimate ``theta`` and covariance ``Sigma`` (:mod:`.covariance`), at
+For coefficients with estimate ``theta`` and covariance ``Sigma`` (:mod:`._covariance`), at
 every point the position error ``f = e(q, theta)[:3]`` (plus a fixed offset for a
 compensation's residual) has
 

@@ -37,6 +37,7 @@ import numpy as np
 from ...base import DEG, MM, InputError
 from ...model import Machine
 from ._layouts import nc_axes
+from ._protocol import ControllerFormat
 from ._tables import SetpointTables, Table, quantised
 from ._zone import Zone
 
@@ -47,7 +48,7 @@ PARAMS = (3620, 3621, 3622, 3623, 3624, 3626, 3627)
 LINE_RE = re.compile(r"^N(?P<number>\d{5})(?P<rest>(?:A\d+P[+-]?\d+)+|P[+-]?\d+)$")
 
 
-class Fanuc:
+class Fanuc(ControllerFormat):
     """FANUC bidirectional pitch error compensation (parameters 3620-3627 and pitch data).
 
     Parameters
@@ -60,6 +61,19 @@ class Fanuc:
         Points per axis and direction.
     total_points : int, default 1024
         Point numbers available for all axes.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.compensation.export.ControllerFormat` (documented there)
+    do here:
+
+    - ``layout``: a bidirectional step table per axis: points every whole number of detection
+      units from machine 0 (the reference position) across the zone, the positive direction's
+      value at the reference fixed at zero.
+    - ``quantise``: absolute corrections rounded to detection unit x magnification (the smallest
+      magnification whose increments fit).
+    - ``files``: ``PITCH.TXT``: parameters 3620-3627 and the pitch data.
+    - ``read``: the tables the parameter file sets, by the CNC's rules.
     """
 
     name = "fanuc"
@@ -82,33 +96,6 @@ class Fanuc:
         return self.units[machine.axis_kinds[j] == "rotary"]
 
     def layout(self, machine: Machine, zone: Zone, kind: str, nodes: int | None) -> SetpointTables:
-        """A bidirectional step table per axis: points every whole number of detection units
-        from machine 0 (the reference position) across the zone, the positive direction's value
-        at the reference fixed at zero.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        zone : Zone
-            Where the points lie (extended to machine 0 when it lies outside).
-        kind : str
-            ``"pitch"``.
-        nodes : int or None
-            Points across the zone (default 41).
-
-        Returns
-        -------
-        SetpointTables
-            Zero-valued.
-
-        Raises
-        ------
-        SpecError
-            For axes that are not NC axes.
-        InputError
-            For more points per axis or in all than the CNC holds.
-        """
         nc_axes(machine, self.title)
         count = self.default_nodes if nodes is None else int(nodes)
         if count < 2:
@@ -150,26 +137,6 @@ class Fanuc:
         raise InputError(f"a pitch error increment beyond {self.value_limit} x 100 detection units")
 
     def quantise(self, compensation: SetpointTables, machine: Machine) -> SetpointTables:
-        """Absolute corrections rounded to detection unit x magnification (the smallest
-        magnification whose increments fit).
-
-        Parameters
-        ----------
-        compensation : SetpointTables
-            The tables.
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        SetpointTables
-            Rounded.
-
-        Raises
-        ------
-        InputError
-            If an increment needs a magnification above 100.
-        """
         out = []
         for t in compensation.tables:
             unit = self._unit(machine, t.output)
@@ -178,20 +145,6 @@ class Fanuc:
         return SetpointTables(tuple(out), compensation.n_axes, compensation.notes, kind=compensation.kind)
 
     def files(self, compensation: SetpointTables, machine: Machine) -> dict[str, str]:
-        """``PITCH.TXT``: parameters 3620-3627 and the pitch data.
-
-        Parameters
-        ----------
-        compensation : SetpointTables
-            Quantised tables, one per axis in axis order.
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        dict of str to str
-            File name -> text.
-        """
         params = {p: [] for p in PARAMS}
         data = []
         base = 0
@@ -219,26 +172,6 @@ class Fanuc:
         return {FILE: "\n".join(lines) + "\n"}
 
     def read(self, texts: Mapping[str, str], machine: Machine) -> SetpointTables:
-        """The tables the parameter file sets, by the CNC's rules.
-
-        Parameters
-        ----------
-        texts : mapping of str to str
-            File name -> text.
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        SetpointTables
-            One bidirectional step table per axis.
-
-        Raises
-        ------
-        InputError
-            Naming the line, for a line that is not a parameter, a missing parameter, point
-            numbers out of order or range, or a value beyond +-127.
-        """
         if FILE not in texts:
             raise InputError(f"{FILE}: missing")
         lines = texts[FILE].splitlines()

@@ -33,6 +33,7 @@ import numpy as np
 from ...base import DEG, MM, InputError
 from ...model import Machine
 from ._layouts import check_count, cross_table, fixed, linear_xyz, nc_axes, own_table
+from ._protocol import ControllerFormat
 from ._tables import SetpointTables, Table, quantised
 from ._zone import Zone
 
@@ -55,8 +56,20 @@ GENERATION = ("the .COM tables are in the AXISPOS column layout of the later con
               "power-of-two spacing instead, which these files do not write")
 
 
-class Heidenhain:
-    """HEIDENHAIN TNC nonlinear axis error compensation (.COM tables, .CMA assignment)."""
+class Heidenhain(ControllerFormat):
+    """HEIDENHAIN TNC nonlinear axis error compensation (.COM tables, .CMA assignment).
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.compensation.export.ControllerFormat` (documented there)
+    do here:
+
+    - ``layout``: one table per axis with its own column and ``BACKLASH``; with ``cross`` also
+      the other linear axes' columns in each linear axis' table.
+    - ``quantise``: values rounded to 0.0001 mm / deg.
+    - ``files``: ``<axis>.COM`` per axis and ``CONFIG.CMA``.
+    - ``read``: the tables the active ``.CMA`` line assigns, read from their ``.COM`` files.
+    """
 
     name = "heidenhain"
     title = "HEIDENHAIN TNC nonlinear axis error compensation (.COM / .CMA)"
@@ -69,32 +82,6 @@ class Heidenhain:
     default_nodes = 41
 
     def layout(self, machine: Machine, zone: Zone, kind: str, nodes: int | None) -> SetpointTables:
-        """One table per axis with its own column and ``BACKLASH``; with ``cross`` also the other
-        linear axes' columns in each linear axis' table.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        zone : Zone
-            Where the points lie.
-        kind : str
-            ``"axis"`` or ``"cross"``.
-        nodes : int or None
-            Points per table (2..256, default 41).
-
-        Returns
-        -------
-        SetpointTables
-            Zero-valued, grouped by the axis each table depends on.
-
-        Raises
-        ------
-        SpecError
-            For axes that are not NC axes.
-        InputError
-            For a point count beyond 256.
-        """
         nc_axes(machine, self.title)
         count = check_count(self.default_nodes if nodes is None else int(nodes), 2, MAX_ENTRIES, "a .COM table")
         lin = linear_xyz(machine)
@@ -111,39 +98,11 @@ class Heidenhain:
         return SetpointTables(tuple(tables), len(machine.axes), notes, kind=kind)
 
     def quantise(self, compensation: SetpointTables, machine: Machine) -> SetpointTables:
-        """Values rounded to 0.0001 mm / deg.
-
-        Parameters
-        ----------
-        compensation : SetpointTables
-            The tables.
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        SetpointTables
-            Rounded.
-        """
         out = [t.with_values(quantised(t.values, UNITS[machine.axis_kinds[t.output] == "rotary"]))
                for t in compensation.tables]
         return SetpointTables(tuple(out), compensation.n_axes, compensation.notes, kind=compensation.kind)
 
     def files(self, compensation: SetpointTables, machine: Machine) -> dict[str, str]:
-        """``<axis>.COM`` per axis and ``CONFIG.CMA``.
-
-        Parameters
-        ----------
-        compensation : SetpointTables
-            Quantised tables, grouped by input axis (own table first).
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        dict of str to str
-            File name -> text.
-        """
         groups: dict[int, list[Table]] = {}
         for t in compensation.tables:
             groups.setdefault(t.inputs[0], []).append(t)
@@ -172,26 +131,6 @@ class Heidenhain:
         return out
 
     def read(self, texts: Mapping[str, str], machine: Machine) -> SetpointTables:
-        """The tables the active ``.CMA`` line assigns, read from their ``.COM`` files.
-
-        Parameters
-        ----------
-        texts : mapping of str to str
-            File name -> text.
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        SetpointTables
-            Grouped by input axis, own table first.
-
-        Raises
-        ------
-        InputError
-            Naming file and line, for a malformed table, an unknown column, positions that do not
-            increase, more than 256 entries or a missing file.
-        """
         if CMA not in texts:
             raise InputError(f"{CMA}: missing")
         header, rows = self._table(CMA, texts[CMA])

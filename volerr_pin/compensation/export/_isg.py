@@ -40,7 +40,7 @@ from ...base import DEG, UM, InputError
 from ...model import Machine
 from ._isg_volumetric import CONFIG, model_of, quantise_model, read_volumetric, volumetric_files
 from ._layouts import best_masters, check_count, cross_table, linear_xyz, nc_axes, own_table, plane_table
-from ._protocol import Compensation
+from ._protocol import Compensation, ControllerFormat
 from ._tables import SetpointTables, Table, quantised
 from ._zone import Zone
 
@@ -67,8 +67,22 @@ def _unit(machine: Machine, j: int) -> float:
     return UNITS[machine.axis_kinds[j] == "rotary"]
 
 
-class ISG:
-    """Beckhoff TwinCAT CNC / ISG kernel: axis compensation lists or TF5280 volumetric files."""
+class ISG(ControllerFormat):
+    """Beckhoff TwinCAT CNC / ISG kernel: axis compensation lists or TF5280 volumetric files.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.compensation.export.ControllerFormat` (documented there)
+    do here:
+
+    - ``layout``: the tables of ``kind``: ``ssfk`` (bilateral per axis), ``crosscomp`` (plus
+      each linear axis corrected over the one other linear axis that explains most of its error),
+      ``crosscomp2`` (plus each linear axis corrected over the plane of the other two) or
+      ``volumetric`` (the TF5280 model).
+    - ``quantise``: values rounded to 0.1 um / 0.0001 deg (the model's to the CSV digits).
+    - ``files``: one list per axis (``achskw_<axis>.lis``), or the three TF5280 files.
+    - ``read``: tables or model from the files, checked by the kernel's rules.
+    """
 
     name = "isg"
     title = "Beckhoff TwinCAT CNC / ISG kernel"
@@ -82,34 +96,6 @@ class ISG:
     default_nodes = {"ssfk": 41, "crosscomp": 41, "crosscomp2": 17, "volumetric": 41}
 
     def layout(self, machine: Machine, zone: Zone, kind: str, nodes: int | None) -> Compensation:
-        """The tables of ``kind``: ``ssfk`` (bilateral per axis), ``crosscomp`` (plus each linear
-        axis corrected over the one other linear axis that explains most of its error),
-        ``crosscomp2`` (plus each linear axis corrected over the plane of the other two) or
-        ``volumetric`` (the TF5280 model).
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        zone : Zone
-            Where the nodes lie.
-        kind : str
-            One of :attr:`kinds`.
-        nodes : int or None
-            Nodes per axis (per master of a plane; default 41, 17 for planes).
-
-        Returns
-        -------
-        Compensation
-            Zero-valued tables, or the zero-valued volumetric model.
-
-        Raises
-        ------
-        SpecError
-            For axes that are not NC axes, or a machine the volumetric model cannot describe.
-        InputError
-            For a node count beyond the lists' limits.
-        """
         count = self.default_nodes[kind] if nodes is None else int(nodes)
         if kind == "volumetric":
             return model_of(machine, zone, count)
@@ -137,25 +123,6 @@ class ISG:
         return SetpointTables(tuple(tables), len(machine.axes), tuple(notes), kind=kind)
 
     def quantise(self, compensation: Compensation, machine: Machine) -> Compensation:
-        """Values rounded to 0.1 um / 0.0001 deg (the model's to the CSV digits).
-
-        Parameters
-        ----------
-        compensation : Compensation
-            Tables or volumetric model.
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        Compensation
-            Rounded.
-
-        Raises
-        ------
-        InputError
-            For a value beyond +-32767 units.
-        """
         if compensation.kind == "volumetric":
             return quantise_model(compensation)
         out = []
@@ -169,20 +136,6 @@ class ISG:
         return SetpointTables(tuple(out), compensation.n_axes, compensation.notes, kind=compensation.kind)
 
     def files(self, compensation: Compensation, machine: Machine) -> dict[str, str]:
-        """One list per axis (``achskw_<axis>.lis``), or the three TF5280 files.
-
-        Parameters
-        ----------
-        compensation : Compensation
-            Quantised tables or model.
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        dict of str to str
-            File name -> text.
-        """
         if compensation.kind == "volumetric":
             return volumetric_files(compensation, machine)
         lists: dict[int, list[str]] = {}
@@ -249,26 +202,6 @@ class ISG:
 
     # ------------------------------------------------------------------ reading
     def read(self, texts: Mapping[str, str], machine: Machine) -> Compensation:
-        """Tables or model from the files, checked by the kernel's rules.
-
-        Parameters
-        ----------
-        texts : mapping of str to str
-            File name -> text.
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        Compensation
-            What the files describe.
-
-        Raises
-        ------
-        InputError
-            Naming file and line, for what the kernel refuses: unknown keys, missing entries,
-            setpoints not ascending, too many entries, values beyond range.
-        """
         if CONFIG in texts:
             return read_volumetric(texts, machine)
         tables, kinds = [], set()

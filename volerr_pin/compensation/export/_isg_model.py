@@ -42,6 +42,7 @@ import scipy.sparse as sp
 
 from ...model import Machine, component_values
 from .._points import MachineInputs
+from ._protocol import Compensation
 from ._tables import interpolation_weights
 
 __all__ = ["VolumetricModel", "rotation"]
@@ -81,7 +82,7 @@ def _skew(v: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class VolumetricModel:
+class VolumetricModel(Compensation):
     """TF5280's serial model with component tables, and the correction the kernel computes.
 
     Attributes
@@ -113,6 +114,27 @@ class VolumetricModel:
         ``"volumetric"``.
     notes : tuple of str
         Facts for the report.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.compensation.export.Compensation` (documented there) do
+    here:
+
+    - ``values``: all component table values, axis after axis, node-major (ndarray of shape
+      (P,), SI).
+    - ``with_values``: a copy with other component table values (as :attr:`values` orders them).
+    - ``correction``: set-point corrections the kernel computes: the linear axes moved by
+      ``-M^-1 d(q)``.
+    - ``basis``: d correction / d table values, first order at the nominal chain (the kernel's
+      correction is linear in its tables up to products of errors: about 1e-3 um on a 4 m gantry
+      with 10 arcsec of location errors; the fit iterates on the exact correction).
+    - ``naive``: the tables filled with the machine's own component errors at the nodes (other
+      axes at mid travel, the mean of both directions), position errors as they are.
+    - ``contents``: chain, geometry, nodes, tables and position errors: everything the files
+      say.
+    - ``axis_nodes``: the nodes of each machine axis' component table (None for axes not in the
+      chain).
+    - ``describe``: one line per axis: its component table and the largest errors it holds.
     """
 
     chain: tuple[int, ...]
@@ -132,22 +154,9 @@ class VolumetricModel:
     # ------------------------------------------------------------------ values
     @property
     def values(self) -> np.ndarray:
-        """All component table values, axis after axis, node-major (ndarray of shape (P,), SI)."""
         return np.concatenate([t.ravel() for t in self.tables])
 
     def with_values(self, values: np.ndarray) -> "VolumetricModel":
-        """A copy with other component table values (as :attr:`values` orders them).
-
-        Parameters
-        ----------
-        values : ndarray, shape (P,)
-            The values [m, rad].
-
-        Returns
-        -------
-        VolumetricModel
-            The copy.
-        """
         values = np.asarray(values, dtype=float)
         out, start = [], 0
         for t in self.tables:
@@ -269,46 +278,12 @@ class VolumetricModel:
 
     # ------------------------------------------------------------------ the kernel's correction
     def correction(self, q: np.ndarray, directions: np.ndarray, tool: np.ndarray) -> np.ndarray:
-        """Set-point corrections the kernel computes: the linear axes moved by ``-M^-1 d(q)``.
-
-        Parameters
-        ----------
-        q : ndarray, shape (N, n_axes)
-            Commanded positions [m, rad].
-        directions : ndarray, shape (N, n_axes)
-            Motion directions (not read: the model has no reversal terms).
-        tool : ndarray, shape (N,)
-            Tool extensions [m].
-
-        Returns
-        -------
-        ndarray, shape (N, n_axes)
-            Corrections [m, rad] (zero for rotary axes).
-        """
         axes, M = self._linear_axes()
         out = np.zeros((len(q), self.n_axes))
         out[:, axes] = -np.linalg.solve(M, self.deviation(q, tool).T).T
         return out
 
     def basis(self, q: np.ndarray, directions: np.ndarray, tool: np.ndarray) -> sp.csr_matrix:
-        """d correction / d table values, first order at the nominal chain (the kernel's
-        correction is linear in its tables up to products of errors: about 1e-3 um on a 4 m
-        gantry with 10 arcsec of location errors; the fit iterates on the exact correction).
-
-        Parameters
-        ----------
-        q : ndarray, shape (N, n_axes)
-            Commanded positions [m, rad].
-        directions : ndarray, shape (N, n_axes)
-            Motion directions (not read).
-        tool : ndarray, shape (N,)
-            Tool extensions [m].
-
-        Returns
-        -------
-        scipy.sparse.csr_matrix, shape (N * n_axes, P)
-            Row ``i * n_axes + j``: axis j at point i.
-        """
         n = len(q)
         axes, M = self._linear_axes()
         Minv = np.linalg.inv(M)
@@ -329,19 +304,6 @@ class VolumetricModel:
 
     # ------------------------------------------------------------------ protocol
     def naive(self, machine: Machine) -> "VolumetricModel":
-        """The tables filled with the machine's own component errors at the nodes (other axes at
-        mid travel, the mean of both directions), position errors as they are.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        VolumetricModel
-            The copy.
-        """
         inputs = MachineInputs(machine)
         tables = []
         for k, j in enumerate(self.chain):
@@ -359,42 +321,16 @@ class VolumetricModel:
         return replace(self, tables=tuple(tables))
 
     def contents(self) -> tuple:
-        """Chain, geometry, nodes, tables and position errors: everything the files say.
-
-        Returns
-        -------
-        tuple
-            Nested tuples of ints, bools and arrays (SI).
-        """
         return (self.chain, self.rotary, self.directions, self.centres, self.p0, self.n0, self.nodes, self.tables,
                 self.positions)
 
     def axis_nodes(self) -> list[np.ndarray | None]:
-        """The nodes of each machine axis' component table (None for axes not in the chain).
-
-        Returns
-        -------
-        list of (ndarray or None)
-            One per machine axis [m, rad].
-        """
         out: list[np.ndarray | None] = [None] * self.n_axes
         for k, j in enumerate(self.chain):
             out[j] = self.nodes[k]
         return out
 
     def describe(self, machine: Machine) -> list[str]:
-        """One line per axis: its component table and the largest errors it holds.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        list of str
-            The lines.
-        """
         lines = [f"chain {''.join(self.names)} (workpiece to tool), every axis tool-side"]
         for k, name in enumerate(self.names):
             t = self.tables[k]

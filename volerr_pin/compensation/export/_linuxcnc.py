@@ -37,6 +37,7 @@ import numpy as np
 
 from ...base import InputError, axis_scale
 from ...model import Machine
+from ._protocol import ControllerFormat
 from ._tables import SetpointTables, Table, quantised
 from ._layouts import fixed, own_table
 from ._zone import Zone
@@ -71,8 +72,19 @@ def comp_file_name(machine: Machine, j: int) -> str:
     return f"joint{j}_{machine.axes[j]}.comp"
 
 
-class LinuxCNC:
-    """LinuxCNC joint compensation (type 1: nominal, forward trim, reverse trim)."""
+class LinuxCNC(ControllerFormat):
+    """LinuxCNC joint compensation (type 1: nominal, forward trim, reverse trim).
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.compensation.export.ControllerFormat` (documented there)
+    do here:
+
+    - ``layout``: one bidirectional table per joint over its zone range.
+    - ``quantise``: trims rounded to 1e-6 mm or deg (what the files hold).
+    - ``files``: one comp file per joint and the INI fragment that loads them.
+    - ``read``: the tables the INI fragment and comp files give, read by LinuxCNC's rules.
+    """
 
     name = "linuxcnc"
     title = "LinuxCNC joint compensation (COMP_FILE_TYPE = 1)"
@@ -85,29 +97,6 @@ class LinuxCNC:
     default_nodes = 41
 
     def layout(self, machine: Machine, zone: Zone, kind: str, nodes: int | None) -> SetpointTables:
-        """One bidirectional table per joint over its zone range.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine; joint n is its n-th axis.
-        zone : Zone
-            Where the tables' nodes lie.
-        kind : str
-            ``"joint"``.
-        nodes : int or None
-            Entries per joint (2 to 256; default 41).
-
-        Returns
-        -------
-        SetpointTables
-            Zero-valued tables.
-
-        Raises
-        ------
-        InputError
-            If ``nodes`` is outside 2..256.
-        """
         count = self.default_nodes if nodes is None else int(nodes)
         if not 2 <= count <= MAX_ENTRIES:
             raise InputError(f"nodes: LinuxCNC holds 2 to {MAX_ENTRIES} entries per joint, got {count}",
@@ -117,39 +106,11 @@ class LinuxCNC:
         return SetpointTables(tuple(tables), len(machine.axes), list(APPLIED), kind="joint")
 
     def quantise(self, compensation: SetpointTables, machine: Machine) -> SetpointTables:
-        """Trims rounded to 1e-6 mm or deg (what the files hold).
-
-        Parameters
-        ----------
-        compensation : SetpointTables
-            The tables.
-        machine : Machine
-            The machine (axis kinds).
-
-        Returns
-        -------
-        SetpointTables
-            Rounded copies.
-        """
         out = [t.with_values(quantised(t.values, 10.0 ** -DECIMALS * axis_scale(machine.axis_kinds[t.output])))
                for t in compensation.tables]
         return SetpointTables(tuple(out), compensation.n_axes, compensation.notes, kind="joint")
 
     def files(self, compensation: SetpointTables, machine: Machine) -> dict[str, str]:
-        """One comp file per joint and the INI fragment that loads them.
-
-        Parameters
-        ----------
-        compensation : SetpointTables
-            Quantised tables (one per joint, in joint order).
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        dict of str to str
-            File name -> text.
-        """
         out = {}
         ini = [f"# volerr_pin: joint compensation for {machine.name}, one comp file per joint.",
                "# COMP_FILE_TYPE 1: nominal position, forward trim, reverse trim; each trim is the correction",
@@ -170,26 +131,6 @@ class LinuxCNC:
         return out
 
     def read(self, texts: Mapping[str, str], machine: Machine) -> SetpointTables:
-        """The tables the INI fragment and comp files give, read by LinuxCNC's rules.
-
-        Parameters
-        ----------
-        texts : mapping of str to str
-            File name -> text, as written.
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        SetpointTables
-            One bidirectional table per joint.
-
-        Raises
-        ------
-        InputError
-            Naming the file and line, for a missing section or key, a type other than 1, a line
-            LinuxCNC would stop at, more than 256 entries or positions that do not increase.
-        """
         if INI_NAME not in texts:
             raise InputError(f"{INI_NAME}: missing")
         sections: dict[str, dict[str, str]] = {}

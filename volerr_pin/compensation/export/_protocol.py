@@ -4,8 +4,8 @@ A :class:`ControllerFormat` lays out the tables its controller can hold for a ma
 (refusing machines it cannot serve), rounds values to what its files can say, writes its
 files and reads them back. A :class:`Compensation` is what the controller then does: the
 set-point corrections it adds at each commanded position, linear (at least to first order)
-in the values the files hold, so one least-squares fit (:mod:`volerr_pin.compensation.export`) and one
-simulation (:mod:`volerr_pin.compensation.export`) serve every format. Generic code never asks
+in the values the files hold, so one least-squares fit (:func:`~volerr_pin.compensation.export.fit_values`)
+and one simulation (:func:`~volerr_pin.compensation.export.simulate`) serve every format. Generic code never asks
 which format or which kind of compensation it holds.
 """
 

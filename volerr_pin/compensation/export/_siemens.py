@@ -36,6 +36,7 @@ import numpy as np
 from ...base import DEG, MM, InputError
 from ...model import Machine
 from ._layouts import check_count, cross_table, explained_scores, fixed, linear_xyz, nc_axes, own_table
+from ._protocol import ControllerFormat
 from ._tables import SetpointTables, Table, quantised
 from ._zone import Zone
 
@@ -45,7 +46,7 @@ LEC_FILE, CEC_FILE = "AX_EEC.INI", "NC_CEC.INI"
 ASSIGN_RE = re.compile(r"^\s*\$(?P<name>A[AN]_[A-Z_]+)\[(?P<index>[^\]]*)\]\s*=\s*(?P<value>[^;\s]+)\s*(;.*)?$")
 
 
-class Siemens840D:
+class Siemens840D(ControllerFormat):
     """SINUMERIK 840D sl: LEC tables per axis, CEC sag / angularity and direction tables.
 
     Parameters
@@ -59,6 +60,18 @@ class Siemens840D:
         Points per CEC table (MD18342); LEC tables take up to 1000 (MD38000).
     max_tables : int, default 8
         CEC tables in all.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.compensation.export.ControllerFormat` (documented there)
+    do here:
+
+    - ``layout``: LEC tables for every axis; with ``cec`` also the linear axes corrected over
+      each other (the pairs that explain most of the error first, up to the table limit) and, on a
+      machine with direction-dependent errors, a pair of one-way tables per axis.
+    - ``quantise``: values rounded to the internal resolution.
+    - ``files``: ``AX_EEC.INI`` (LEC) and, with CEC tables, ``NC_CEC.INI``.
+    - ``read``: the tables the .INI programs assign, checked as the control checks them.
     """
 
     name = "siemens-840d"
@@ -81,33 +94,6 @@ class Siemens840D:
         return self.units[machine.axis_kinds[j] == "rotary"]
 
     def layout(self, machine: Machine, zone: Zone, kind: str, nodes: int | None) -> SetpointTables:
-        """LEC tables for every axis; with ``cec`` also the linear axes corrected over each other
-        (the pairs that explain most of the error first, up to the table limit) and, on a
-        machine with direction-dependent errors, a pair of one-way tables per axis.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        zone : Zone
-            Where the nodes lie.
-        kind : str
-            ``"lec"`` or ``"cec"``.
-        nodes : int or None
-            Points per table (default 41).
-
-        Returns
-        -------
-        SetpointTables
-            Zero-valued tables, LEC first.
-
-        Raises
-        ------
-        SpecError
-            For axes that are not NC axes.
-        InputError
-            For a point count beyond the tables' limits.
-        """
         nc_axes(machine, self.title)
         count = self.default_nodes if nodes is None else int(nodes)
         check_count(count, 2, self.lec_points, "a LEC table (MD38000)")
@@ -133,20 +119,6 @@ class Siemens840D:
         return SetpointTables(tuple(tables), len(machine.axes), tuple(notes), kind=kind)
 
     def quantise(self, compensation: SetpointTables, machine: Machine) -> SetpointTables:
-        """Values rounded to the internal resolution.
-
-        Parameters
-        ----------
-        compensation : SetpointTables
-            The tables.
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        SetpointTables
-            Rounded.
-        """
         out = [t.with_values(quantised(t.values, self._unit(machine, t.output))) for t in compensation.tables]
         return SetpointTables(tuple(out), compensation.n_axes, compensation.notes, kind=compensation.kind)
 
@@ -157,20 +129,6 @@ class Siemens840D:
         return fixed(round(value / unit) * unit / scale, decimals)
 
     def files(self, compensation: SetpointTables, machine: Machine) -> dict[str, str]:
-        """``AX_EEC.INI`` (LEC) and, with CEC tables, ``NC_CEC.INI``.
-
-        Parameters
-        ----------
-        compensation : SetpointTables
-            Quantised tables, LEC first.
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        dict of str to str
-            File name -> text.
-        """
         lec = ["%_N_AX_EEC_INI", "CHANDATA(1)",
                f"; volerr_pin: leadscrew error compensation (LEC) of {machine.name}; values are ERRORS, mm or deg:",
                "; a positive value moves the axis negative. Machine axis AXn is the machine's n-th axis:",
@@ -209,26 +167,6 @@ class Siemens840D:
 
     # ------------------------------------------------------------------ reading
     def read(self, texts: Mapping[str, str], machine: Machine) -> SetpointTables:
-        """The tables the .INI programs assign, checked as the control checks them.
-
-        Parameters
-        ----------
-        texts : mapping of str to str
-            File name -> text.
-        machine : Machine
-            The machine.
-
-        Returns
-        -------
-        SetpointTables
-            LEC tables, then CEC tables in index order.
-
-        Raises
-        ------
-        InputError
-            Naming file and line, for a line that is not an assignment or comment, a missing
-            or unknown variable, a range that does not match its points, too many points.
-        """
         if LEC_FILE not in texts:
             raise InputError(f"{LEC_FILE}: missing")
         lec = self._assignments(LEC_FILE, texts[LEC_FILE], "%_N_AX_EEC_INI")

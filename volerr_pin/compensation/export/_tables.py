@@ -23,6 +23,7 @@ import scipy.sparse as sp
 from ...base import InputError
 from ...model import Machine, component_values
 from .._points import MachineInputs
+from ._protocol import Compensation
 
 __all__ = ["SetpointTables", "Table", "fixed", "interpolation_weights", "quantised"]
 
@@ -205,7 +206,7 @@ class Table:
 
 
 @dataclass(frozen=True, eq=False)
-class SetpointTables:
+class SetpointTables(Compensation):
     """A controller's axis compensation: the sum of its tables' set-point corrections.
 
     Attributes
@@ -218,6 +219,32 @@ class SetpointTables:
         Facts about the layout for the report (e.g. which master each cross table uses).
     kind : str
         The kind of tables, as the format names it (``"joint"``, ``"ssfk"``, ...).
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.compensation.export.Compensation` (documented there) do
+    here:
+
+    - ``values``: the values the fit chooses, all tables concatenated (ndarray of shape (P,),
+      SI).
+    - ``with_values``: a copy with other free values (as :attr:`values` orders them).
+    - ``basis``: d correction / d values: the correction of every axis at every point as a
+      linear map of the free values (exact: tables are linear in their values).
+    - ``correction``: the set-point corrections the controller adds at each commanded position.
+    - ``naive``: the tables filled by sampling the component errors at their nodes, as a
+      commissioning engineer would from single-axis measurements: a table correcting axis ``s`` as
+      a function of axis ``m`` holds minus the component error along ``s`` of axis ``m`` (``-EXX``
+      for X's own table, ``-EZY`` for Z as a function of Y; minus the sum over both masters of a
+      plane), the other axes at mid travel; directional and one-way tables take the component in
+      their direction (a one-way table only the part that changes with the direction). Where the
+      format fixes some values (Fanuc's zero at the reference position), the whole table is
+      shifted to meet them, as the measured errors would be taken relative to that point.
+    - ``contents``: everything the files say about the tables, values included: for comparing
+      what was written with what was read back.
+    - ``axis_nodes``: the node positions each axis' tables read it at (the first table with that
+      axis as its first input), None for an axis no table reads.
+    - ``describe``: one line per table: ``"Z(Y)"`` with its nodes, direction and range of
+      values.
     """
 
     tables: tuple[Table, ...]
@@ -227,23 +254,10 @@ class SetpointTables:
 
     @property
     def values(self) -> np.ndarray:
-        """The values the fit chooses, all tables concatenated (ndarray of shape (P,), SI)."""
         parts = [t.values[t.free] for t in self.tables]
         return np.concatenate(parts) if parts else np.zeros(0)
 
     def with_values(self, values: np.ndarray) -> "SetpointTables":
-        """A copy with other free values (as :attr:`values` orders them).
-
-        Parameters
-        ----------
-        values : ndarray, shape (P,)
-            The free values [m, rad].
-
-        Returns
-        -------
-        SetpointTables
-            The copy.
-        """
         values = np.asarray(values, dtype=float)
         out, start = [], 0
         for t in self.tables:
@@ -254,23 +268,6 @@ class SetpointTables:
         return replace(self, tables=tuple(out))
 
     def basis(self, q: np.ndarray, directions: np.ndarray, tool: np.ndarray) -> sp.csr_matrix:
-        """d correction / d values: the correction of every axis at every point as a linear map
-        of the free values (exact: tables are linear in their values).
-
-        Parameters
-        ----------
-        q : ndarray, shape (N, n_axes)
-            Commanded positions [m, rad].
-        directions : ndarray, shape (N, n_axes)
-            +1 / -1 motion directions.
-        tool : ndarray, shape (N,)
-            Tool extensions [m] (tables do not read them).
-
-        Returns
-        -------
-        scipy.sparse.csr_matrix, shape (N * n_axes, P)
-            Row ``i * n_axes + j``: axis j at point i.
-        """
         n = len(q)
         blocks = []
         for t in self.tables:
@@ -282,48 +279,12 @@ class SetpointTables:
         return sp.hstack(blocks, format="csr")
 
     def correction(self, q: np.ndarray, directions: np.ndarray, tool: np.ndarray) -> np.ndarray:
-        """The set-point corrections the controller adds at each commanded position.
-
-        Parameters
-        ----------
-        q : ndarray, shape (N, n_axes)
-            Commanded positions [m, rad].
-        directions : ndarray, shape (N, n_axes)
-            +1 / -1 motion directions.
-        tool : ndarray, shape (N,)
-            Tool extensions [m] (tables do not read them).
-
-        Returns
-        -------
-        ndarray, shape (N, n_axes)
-            Corrections [m, rad].
-        """
         out = np.zeros((len(q), self.n_axes))
         for t in self.tables:
             out[:, t.output] += t.correction(q, directions)
         return out
 
     def naive(self, machine: Machine) -> "SetpointTables":
-        """The tables filled by sampling the component errors at their nodes, as a
-        commissioning engineer would from single-axis measurements: a table correcting axis
-        ``s`` as a function of axis ``m`` holds minus the component error along ``s`` of axis
-        ``m`` (``-EXX`` for X's own table, ``-EZY`` for Z as a function of Y; minus the sum over
-        both masters of a plane), the other axes at mid travel; directional and one-way tables
-        take the component in their direction (a one-way table only the part that changes with
-        the direction). Where the format fixes some values (Fanuc's zero at the reference
-        position), the whole table is shifted to meet them, as the measured errors would be
-        taken relative to that point.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine (its state included).
-
-        Returns
-        -------
-        SetpointTables
-            The same tables with these values (fixed values kept).
-        """
         out = []
         for t in self.tables:
             values = _naive_values(machine, t)
@@ -336,25 +297,9 @@ class SetpointTables:
         return replace(self, tables=tuple(out))
 
     def contents(self) -> tuple:
-        """Everything the files say about the tables, values included: for comparing what was
-        written with what was read back.
-
-        Returns
-        -------
-        tuple
-            Per table: output, inputs, directional, only, step, nodes and values (SI).
-        """
         return tuple((t.output, t.inputs, t.directional, t.only, t.step, t.nodes, t.values) for t in self.tables)
 
     def axis_nodes(self) -> list[np.ndarray | None]:
-        """The node positions each axis' tables read it at (the first table with that axis as its
-        first input), None for an axis no table reads.
-
-        Returns
-        -------
-        list of (ndarray or None)
-            One entry per machine axis [m, rad].
-        """
         out: list[np.ndarray | None] = [None] * self.n_axes
         for t in self.tables:
             for k, j in enumerate(t.inputs):
@@ -363,18 +308,6 @@ class SetpointTables:
         return out
 
     def describe(self, machine: Machine) -> list[str]:
-        """One line per table: ``"Z(Y)"`` with its nodes, direction and range of values.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine (axis names and units).
-
-        Returns
-        -------
-        list of str
-            The lines.
-        """
         lines = []
         for t in self.tables:
             nodes = " x ".join(str(len(n)) for n in t.nodes)

@@ -1,5 +1,5 @@
 """The values of LinuxCNC's rs274ngc: numbers, parameters, ``[expressions]`` and functions, as
-its interpreter computes them (see :mod:`.macros` for the rules and where they are checked).
+its interpreter computes them (see :mod:`._macros` for the rules and where they are checked).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 Canned cycles, macro statements and variables, subprogram calls, reference returns, probing,
 cutter compensation, block delete with moves, and every block under a mode that changes how
-later coordinates read (:mod:`.regions`) are *problems*: kept byte for byte and named, or
+later coordinates read (:mod:`._regions`) are *problems*: kept byte for byte and named, or
 refused with ``strict``. A G or M code the reader does not know is a problem whose effect cannot be
 told (``Problem.unknown_code``). A kept block still sets its modal words, and one that may move
 the machine makes the position unknown.

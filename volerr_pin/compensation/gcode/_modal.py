@@ -15,7 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._arcs import Arc
-from .._programming import Programming, programming_for
+from .._modes import programming_for
+from .._programming import Programming
 from ...base import INCH, MM, InputError
 from ...model import Machine
 from ._arcs import read_arc

@@ -189,7 +189,7 @@ class Program(ChunkWriting):
         Returns
         -------
         list of (str, str)
-            The blocks as run (see :mod:`.macros`), or ``lines`` itself when there is nothing
+            The blocks as run (see :mod:`._macros`), or ``lines`` itself when there is nothing
             to expand or the expansion is stopped by what only the running machine knows
             (the report's warnings say what); give the result to :meth:`run`. Messages about
             an expanded program name the line each block comes from.

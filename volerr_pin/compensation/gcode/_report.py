@@ -183,7 +183,7 @@ class Report:
         for a program without moves).
     expanded : dict or None
         For a program whose parameters, expressions and O-words were followed (see
-        :mod:`.macros`): ``blocks_run``, ``calls``, ``loop_passes``.
+        :mod:`._macros`): ``blocks_run``, ``calls``, ``loop_passes``.
     programming : list of str
         Programming modes the moves were read in (``"axes"``, ``"tool-tip"``).
     warnings : list of str

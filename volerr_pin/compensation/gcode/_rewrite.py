@@ -4,7 +4,7 @@ A compensated block keeps its text: only the numbers of its coordinate words cha
 did not name are appended, since compensation moves every axis; an arc's centre words are
 replaced likewise), and the further pieces of a split move follow as new blocks with explicit
 G words. Numbers are written to 0.1 um (mm), 0.025 um (inch) and 1e-5 deg. Arc pieces'
-centre words, and the check of the arcs they give back, are :mod:`.arc_words`'.
+centre words, and the check of the arcs they give back, are :mod:`._arc_words`'.
 """
 
 from __future__ import annotations

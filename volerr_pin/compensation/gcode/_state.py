@@ -53,7 +53,7 @@ class ModalState:
     tool_tip : bool
         Tool-tip programming (G43.4, TRAORI) rather than axis programming.
     regions : list of tuple
-        The modes in force whose blocks are kept unchanged (:mod:`.regions`), oldest first;
+        The modes in force whose blocks are kept unchanged (:mod:`._regions`), oldest first;
         empty outside them.
     saved : tuple or None
         The modes M70 (or M73) saved (:meth:`modes`), and its line; None before any and after

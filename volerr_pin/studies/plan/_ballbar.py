@@ -38,7 +38,7 @@ from ...base import InputError, axis_scales, positive
 from ...measurements import BallbarRun
 from ._nc import check_axes
 from ._poses import pose_candidates
-from ._protocol import Setup, numbered_files
+from ._protocol import Instrument, numbered_files, Setup
 
 __all__ = ["BALLBAR", "PLANES", "Ballbar", "Circle"]
 
@@ -72,7 +72,7 @@ class Circle:
 
 
 @dataclass(frozen=True)
-class Ballbar:
+class Ballbar(Instrument):
     """The ballbar instrument (see the module docstring).
 
     Attributes
@@ -93,6 +93,20 @@ class Ballbar:
         Directions run on every circle (+1 counter-clockwise, -1 clockwise).
     lead_deg : float
         Lead-in and lead-out arc of each run [deg].
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.studies.plan.Instrument` (documented there) do here:
+
+    - ``candidates``: circles cycling through the (plane, radius) pairs that fit, centres at the
+      layout's points.
+    - ``measurements``: one ballbar run object per circle, as identify reads its file.
+    - ``outputs``: the files a plan of ``count`` circles writes for ``out``:
+      ``STEM_circle01.csv`` ...
+    - ``files``: one ballbar file per circle, deviations empty.
+    - ``visits``: every sample of every circle, in the order measured.
+    - ``program``: the NC program that runs the circles in order (module docstring).
+    - ``duration``: time to run the circles in order (module docstring).
     """
 
     name: str = "ballbar"
@@ -141,31 +155,6 @@ class Ballbar:
         return out
 
     def candidates(self, machine, setup: Setup, count: int, layout: str, seed: int) -> list:
-        """Circles cycling through the (plane, radius) pairs that fit, centres at the layout's points.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        setup : Setup
-            The zone.
-        count : int
-            Number of circles.
-        layout : str
-            "sobol", "grid" or "random".
-        seed : int
-            Seed.
-
-        Returns
-        -------
-        list of Circle
-            The circles, each inside the zone.
-
-        Raises
-        ------
-        InputError
-            If a target lies off the tool point, or no circle fits in the zone.
-        """
         if np.any(setup.targets != 0):
             raise InputError("targets: a ballbar's ball sits at the tool point", parameters=("targets",))
         kinds = self.kinds(machine, setup.zone)
@@ -214,26 +203,6 @@ class Ballbar:
 
     def measurements(self, machine, setup: Setup, units: list, values: np.ndarray | None = None
                      ) -> tuple[list, np.ndarray]:
-        """One ballbar run object per circle, as identify reads its file.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        setup : Setup
-            Unused.
-        units : list of Circle
-            The circles.
-        values : ndarray, shape (2 samples n circles,), optional
-            Radial deviations [m], circle after circle, each in its file's row order; None: zero.
-
-        Returns
-        -------
-        measurements : list of BallbarRun
-            One per circle.
-        unit_of_point : ndarray of int
-            The circle of every sample.
-        """
         out, owner, start = [], [], 0
         for i, circle in enumerate(units):
             angle, direction = self._samples(circle)
@@ -249,39 +218,9 @@ class Ballbar:
     # ------------------------------------------------------------------ files
 
     def outputs(self, out: str | Path, count: int) -> list[Path]:
-        """The files a plan of ``count`` circles writes for ``out``: ``STEM_circle01.csv`` ...
-
-        Parameters
-        ----------
-        out : str or Path
-            The plan's file as given.
-        count : int
-            Number of circles.
-
-        Returns
-        -------
-        list of Path
-            One file per circle.
-        """
         return numbered_files(out, count, "circle")
 
     def files(self, machine, setup: Setup, units: list) -> list[str]:
-        """One ballbar file per circle, deviations empty.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        setup : Setup
-            Unused.
-        units : list of Circle
-            The circles.
-
-        Returns
-        -------
-        list of str
-            The files' texts, in the order of :meth:`outputs`.
-        """
         texts = []
         for circle in units:
             angle, direction = self._samples(circle)
@@ -294,20 +233,6 @@ class Ballbar:
         return texts
 
     def visits(self, machine, units: list) -> np.ndarray:
-        """Every sample of every circle, in the order measured.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        units : list of Circle
-            The circles.
-
-        Returns
-        -------
-        ndarray, shape (2 samples n circles, n_axes)
-            NC positions [m, rad].
-        """
         rows = []
         for circle in units:
             angle, _ = self._samples(circle)
@@ -335,31 +260,6 @@ class Ballbar:
                 yield i, d, p, [(start, d * lead), (0.0, d * 180.0), (d * 180.0, d * 180.0), (d * 360.0, d * lead)]
 
     def program(self, machine, units: list, feed_mm_min: float, dwell_s: float, title: str = "") -> str:
-        """The NC program that runs the circles in order (module docstring).
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine (axes named by NC address letters).
-        units : list of Circle
-            The circles, in the order measured.
-        feed_mm_min : float
-            Feed [mm/min].
-        dwell_s : float
-            Dwell before each run [s].
-        title : str, optional
-            A comment line at the top (parentheses are removed).
-
-        Returns
-        -------
-        str
-            The program.
-
-        Raises
-        ------
-        InputError
-            If an axis is not an NC address letter, the feed is not positive or the dwell negative.
-        """
         check_axes(machine)
         feed = positive("feed_mm_min", feed_mm_min)
         _check_dwell(dwell_s)
@@ -392,30 +292,6 @@ class Ballbar:
         return "\n".join(lines) + "\n"
 
     def duration(self, machine, units: list, feed_mm_min: float, dwell_s: float) -> dict:
-        """Time to run the circles in order (module docstring).
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        units : list of Circle
-            The circles, in order.
-        feed_mm_min : float
-            Feed [mm/min].
-        dwell_s : float
-            Dwell before each run [s].
-
-        Returns
-        -------
-        dict
-            ``moves_s``, ``dwell_s`` (total), ``total_s``, ``total_min``, ``feed_mm_min``,
-            ``dwell_per_pose_s`` (per run), ``path_mm`` and ``model`` (in words).
-
-        Raises
-        ------
-        InputError
-            If the feed is not positive or the dwell negative or not finite.
-        """
         feed = positive("feed_mm_min", feed_mm_min)
         _check_dwell(dwell_s)
         scale = axis_scales(machine.axis_kinds)

@@ -25,7 +25,7 @@ from ...base import InputError, axis_scales
 from ...measurements import Runs
 from ._poses import pose_candidates
 from ._nc import StopsProgram
-from ._protocol import Setup, numbered_files
+from ._protocol import Instrument, numbered_files, Setup
 
 __all__ = ["INTERFEROMETER", "Interferometer", "Run"]
 
@@ -63,7 +63,7 @@ class Run:
 
 
 @dataclass(frozen=True)
-class Interferometer(StopsProgram):
+class Interferometer(StopsProgram, Instrument):
     """The laser-interferometer instrument (see the module docstring).
 
     Attributes
@@ -76,6 +76,17 @@ class Interferometer(StopsProgram):
         0.5 um per reading, as a default.
     targets : int
         Targets per run (11: ISO 230-2 asks for at least 5 per metre and 5 in all).
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.studies.plan.Instrument` (documented there) do here:
+
+    - ``candidates``: runs cycling through the moving linear axes, the others at the layout's
+      points.
+    - ``measurements``: one run object per planned run.
+    - ``outputs``: the files a plan of ``count`` runs writes for ``out``: ``STEM_run01.csv`` ...
+    - ``files``: one positioning-run file per run, deviations empty.
+    - ``visits``: every target of every run, in the order measured.
     """
 
     name: str = "interferometer"
@@ -94,31 +105,6 @@ class Interferometer(StopsProgram):
         return moving
 
     def candidates(self, machine, setup: Setup, count: int, layout: str, seed: int) -> list:
-        """Runs cycling through the moving linear axes, the others at the layout's points.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        setup : Setup
-            The zone.
-        count : int
-            Number of runs.
-        layout : str
-            "sobol", "grid" or "random".
-        seed : int
-            Seed.
-
-        Returns
-        -------
-        list of Run
-            The runs.
-
-        Raises
-        ------
-        InputError
-            If no linear axis moves in the zone, or a target lies off the tool point.
-        """
         moving = self._moving(machine, setup)
         bases = pose_candidates(setup.zone, machine.axis_kinds, count, layout, seed)
         out = []
@@ -133,26 +119,6 @@ class Interferometer(StopsProgram):
 
     def measurements(self, machine, setup: Setup, units: list, values: np.ndarray | None = None
                      ) -> tuple[list, np.ndarray]:
-        """One run object per planned run.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        setup : Setup
-            Unused.
-        units : list of Run
-            The runs.
-        values : ndarray, shape (2 n runs,), optional
-            Deviations along the axis [m], run after run, in each run's path order; None: zero.
-
-        Returns
-        -------
-        measurements : list of Runs
-            One per run.
-        unit_of_point : ndarray of int
-            The run of every point.
-        """
         out, owner, start = [], [], 0
         for i, run in enumerate(units):
             target, direction = run.path()
@@ -166,39 +132,9 @@ class Interferometer(StopsProgram):
         return out, np.concatenate(owner) if owner else np.zeros(0, int)
 
     def outputs(self, out: str | Path, count: int) -> list[Path]:
-        """The files a plan of ``count`` runs writes for ``out``: ``STEM_run01.csv`` ...
-
-        Parameters
-        ----------
-        out : str or Path
-            The plan's file as given.
-        count : int
-            Number of runs.
-
-        Returns
-        -------
-        list of Path
-            One file per run.
-        """
         return numbered_files(out, count, "run")
 
     def files(self, machine, setup: Setup, units: list) -> list[str]:
-        """One positioning-run file per run, deviations empty.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        setup : Setup
-            Unused.
-        units : list of Run
-            The runs.
-
-        Returns
-        -------
-        list of str
-            The files' texts, in the order of :meth:`outputs`.
-        """
         texts = []
         for run in units:
             target, direction = run.path()
@@ -210,20 +146,6 @@ class Interferometer(StopsProgram):
         return texts
 
     def visits(self, machine, units: list) -> np.ndarray:
-        """Every target of every run, in the order measured.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        units : list of Run
-            The runs.
-
-        Returns
-        -------
-        ndarray, shape (2 n runs, n_axes)
-            NC positions [m, rad].
-        """
         rows = []
         for run in units:
             target, _ = run.path()

@@ -13,7 +13,7 @@ from ...base import InputError, axis_scales
 from ...measurements import PointMeasurements
 from ._poses import OneFileOfPoses, pose_candidates
 from ._nc import StopsProgram
-from ._protocol import Setup
+from ._protocol import Instrument, Setup
 
 __all__ = ["PROBE", "Probe", "point_table"]
 
@@ -49,7 +49,7 @@ def point_table(machine, q: np.ndarray, extra: dict | None = None, columns=("dx"
 
 
 @dataclass(frozen=True)
-class Probe(StopsProgram, OneFileOfPoses):
+class Probe(StopsProgram, OneFileOfPoses, Instrument):
     """The probe instrument (see the module docstring).
 
     Attributes
@@ -60,6 +60,15 @@ class Probe(StopsProgram, OneFileOfPoses):
         "pose".
     default_sigma_um : float
         1 um: a touch-trigger probe's repeatability on a reference artefact, as a default.
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.studies.plan.Instrument` (documented there) do here:
+
+    - ``candidates``: poses of the layout over the zone (see
+      :func:`~volerr_pin.studies.plan._poses.pose_candidates`).
+    - ``measurements``: one point-measurement object: rows dx, dy, dz of every pose, in pose
+      order.
     """
 
     name: str = "probe"
@@ -67,31 +76,6 @@ class Probe(StopsProgram, OneFileOfPoses):
     default_sigma_um: float = 1.0
 
     def candidates(self, machine, setup: Setup, count: int, layout: str, seed: int) -> list:
-        """Poses of the layout over the zone (see :func:`~volerr_pin.studies.plan._poses.pose_candidates`).
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        setup : Setup
-            The zone.
-        count : int
-            Number of poses.
-        layout : str
-            "sobol", "grid" or "random".
-        seed : int
-            Seed.
-
-        Returns
-        -------
-        list of ndarray, shape (n_axes,)
-            NC positions [m, rad].
-
-        Raises
-        ------
-        InputError
-            If a target lies off the tool point.
-        """
         if np.any(setup.targets != 0):
             raise InputError("targets: a probe file gives the deviation of the tool point only (dx, dy, dz): "
                              "targets off the tool point need a tracker", parameters=("targets",))
@@ -99,26 +83,6 @@ class Probe(StopsProgram, OneFileOfPoses):
 
     def measurements(self, machine, setup: Setup, units: list, values: np.ndarray | None = None
                      ) -> tuple[list, np.ndarray]:
-        """One point-measurement object: rows dx, dy, dz of every pose, in pose order.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        setup : Setup
-            Unused (a probe has one target: the tool point).
-        units : list of ndarray
-            Poses [m, rad].
-        values : ndarray, shape (3 n,), optional
-            dx, dy, dz of every pose [m]; None: zero.
-
-        Returns
-        -------
-        measurements : list of PointMeasurements
-            One object.
-        unit_of_point : ndarray of int, shape (n,)
-            0..n-1.
-        """
         q = np.asarray(units, dtype=float).reshape(len(units), len(machine.axes))
         dev = np.zeros((len(q), 6))
         dev[:, 3:] = np.nan

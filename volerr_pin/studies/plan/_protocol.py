@@ -6,8 +6,8 @@ a working zone, turns any selection of them into the measurement objects
 :func:`volerr_pin.fit.identify.identify` reads (so that the planned design is exactly the design
 identify will have, nuisance terms included), writes a selection as the measurement file the
 instrument produces (deviation columns empty) and says which axis positions the machine
-visits. Generic code (:mod:`~volerr_pin.studies.plan`, :mod:`~volerr_pin.studies.plan`)
-never asks which instrument it holds.
+visits. Generic code (the design's choice and :func:`~volerr_pin.studies.plan.plan`) never
+asks which instrument it holds.
 """
 
 from __future__ import annotations

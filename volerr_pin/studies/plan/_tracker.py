@@ -26,7 +26,7 @@ from ...model import tool_poses
 from ._nc import StopsProgram
 from ._poses import OneFileOfPoses, pose_candidates
 from ._probe import point_table
-from ._protocol import Setup
+from ._protocol import Instrument, Setup
 
 __all__ = ["TRACKER", "Tracker", "in_sight"]
 
@@ -70,7 +70,7 @@ def in_sight(machine, setup: Setup, q: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class Tracker(StopsProgram, OneFileOfPoses):
+class Tracker(StopsProgram, OneFileOfPoses, Instrument):
     """The laser-tracker instrument (see the module docstring).
 
     Attributes
@@ -84,6 +84,14 @@ class Tracker(StopsProgram, OneFileOfPoses):
     registers : bool
         True: the tracker's placement is fitted, so a rigid motion of the whole map is not
         determined (:attr:`~volerr_pin.studies.plan.Instrument.registers`).
+
+    Notes
+    -----
+    The methods of :class:`~volerr_pin.studies.plan.Instrument` (documented there) do here:
+
+    - ``candidates``: poses of the layout over the zone, those out of the tracker's sight left
+      out.
+    - ``measurements``: one tracker-measurement object: a row per pose and target (pose-major).
     """
 
     name: str = "tracker"
@@ -92,53 +100,11 @@ class Tracker(StopsProgram, OneFileOfPoses):
     registers: bool = True
 
     def candidates(self, machine, setup: Setup, count: int, layout: str, seed: int) -> list:
-        """Poses of the layout over the zone, those out of the tracker's sight left out.
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        setup : Setup
-            Zone, targets, tracker position.
-        count : int
-            Number of poses proposed (fewer are returned when some are out of sight).
-        layout : str
-            "sobol", "grid" or "random".
-        seed : int
-            Seed.
-
-        Returns
-        -------
-        list of ndarray, shape (n_axes,)
-            NC positions [m, rad].
-        """
         q = pose_candidates(setup.zone, machine.axis_kinds, count, layout, seed)
         return list(q[in_sight(machine, setup, q)])
 
     def measurements(self, machine, setup: Setup, units: list, values: np.ndarray | None = None
                      ) -> tuple[list, np.ndarray]:
-        """One tracker-measurement object: a row per pose and target (pose-major).
-
-        Parameters
-        ----------
-        machine : Machine
-            The machine.
-        setup : Setup
-            Targets and the tracker's position (its frame: the workpiece frame's axes, origin
-            at the tracker; at the workpiece origin when not given).
-        units : list of ndarray
-            Poses [m, rad].
-        values : ndarray, shape (3 n k,), optional
-            Deviation x, y, z of every target from its nominal position in the workpiece frame
-            [m], pose-major; None: zero.
-
-        Returns
-        -------
-        measurements : list of TrackerMeasurements
-            One object.
-        unit_of_point : ndarray of int, shape (n k,)
-            The pose of every target row.
-        """
         q = np.asarray(units, dtype=float).reshape(len(units), len(machine.axes))
         k = len(setup.targets)
         nominal, _ = _targets_at(machine, q, setup.targets)
