@@ -31,6 +31,42 @@ def test_info_table(capsys):
     assert "EC0Y" in out and "arcsec" in out
 
 
+def _urdf_nesting(path) -> dict[str, list[str]]:
+    """Each joint of a URDF and the joints between it and the root, nearest first (read from the
+    XML, not through the product)."""
+    import xml.etree.ElementTree as ET
+
+    joints = {j.get("name"): (j.find("parent").get("link"), j.find("child").get("link"))
+              for j in ET.parse(path).getroot().findall("joint")}  # (not a transmission's)
+    into = {child: name for name, (_, child) in joints.items()}
+    out = {}
+    for name, (parent, _) in joints.items():
+        up = []
+        while parent in into:
+            up.append(into[parent])
+            parent = joints[into[parent]][0]
+        out[name] = up
+    return out
+
+
+@pytest.mark.parametrize("name", vp.bundled_machines())
+def test_info_prints_each_chain_in_the_order_the_urdf_nests_it(name, capsys):
+    """Each chain runs from the bed outwards as the URDF nests the axes' joints, whatever the
+    order of the spec's [axes] (vmc700 names X before Y; its Y carries X)."""
+    machine = vp.load_machine(name)
+    spec = machine.model.spec
+    nesting = _urdf_nesting(spec.urdf)
+    joint = {a.name: a.joint for a in spec.axes}
+    assert main(["info", name, "--json"]) == 0
+    chains = json.loads(capsys.readouterr().out)["chains"]
+    assert sorted(chains["tool"] + chains["workpiece"]) == sorted(machine.axes)
+    for chain in chains.values():
+        for inner, outer in zip(chain, chain[1:]):
+            assert joint[inner] in nesting[joint[outer]], (name, chain)
+    if name == "vmc700":
+        assert chains["workpiece"] == ["Y", "X"] and list(machine.axes) == ["X", "Y", "Z"]
+
+
 def test_urdf_writes_a_loadable_file(tmp_path, capsys):
     out = tmp_path / "gear.urdf"
     assert main(["urdf", "gear_roller", "-o", str(out)]) == 0

@@ -123,10 +123,16 @@ class Machine:
     def chains(self) -> dict[str, tuple[str, ...]]:
         """Axes carried by the tool chain and by the workpiece chain.
 
-        A dict ``{"tool": (axis names), "workpiece": (axis names)}``, each in the order of :attr:`axes`.
+        A dict ``{"tool": (axis names), "workpiece": (axis names)}``, each in kinematic order:
+        from the bed outwards, as the URDF nests the axes' joints (not the spec's order of
+        :attr:`axes`).
         """
-        return {"tool": tuple(a for a, s in zip(self.axes, self.model.axis_chain) if s > 0),
-                "workpiece": tuple(a for a, s in zip(self.axes, self.model.axis_chain) if s < 0)}
+        pinocchio, spec = self.model.pinocchio, self.model.spec
+        # a joint's support is its path from the root: the deeper, the further out on its chain
+        depth = [len(pinocchio.supports[pinocchio.getJointId(a.joint)]) for a in spec.axes]
+        order = sorted(range(len(self.axes)), key=lambda j: (depth[j], j))
+        return {"tool": tuple(self.axes[j] for j in order if self.model.axis_chain[j] > 0),
+                "workpiece": tuple(self.axes[j] for j in order if self.model.axis_chain[j] < 0)}
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
