@@ -94,7 +94,7 @@ def scratches(tmp_path_factory):
     def get(page: str) -> dict:
         if page not in made:
             work = tmp_path_factory.mktemp(Path(page).stem)
-            for name in ("examples", "benchmarks"):
+            for name in ("examples", "benchmarks", "tests"):   # tests: the diagnosis guide's test machine
                 (work / name).symlink_to(ROOT / name)
             env = dict(os.environ)
             env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")

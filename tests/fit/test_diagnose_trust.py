@@ -57,8 +57,9 @@ def test_a_rotary_periodic_error_over_part_of_a_turn_needs_four_periods(machines
     does: every order is tried. Over part of a turn (A's 200 deg here) a period or two is just
     another smooth shape of the axis' off-spec geometry, so only orders with MIN_PERIODS periods
     in the measured span are tried (the cause of a 4-per-revolution error of A invented beside a
-    hidden backlash of B)."""
-    from volerr_pin.fit.diagnosis._effects import MIN_PERIODS, ROTARY_ORDERS
+    hidden backlash of B). Whether a turn is covered is judged by the largest gap between the
+    sampled angles around the circle against each order's period."""
+    from volerr_pin.fit.diagnosis._effects import MIN_PERIODS, ROTARY_ORDERS, largest_gap
 
     m = machines["cgm4000"]
     obs = build_observations(m, [campaign(m, 60, NOISE, 0)], sigma_um=NOISE)
@@ -70,7 +71,14 @@ def test_a_rotary_periodic_error_over_part_of_a_turn_needs_four_periods(machines
     span_deg = np.degrees(np.ptp(obs.q[:, j]))
     assert 180 < span_deg < 360
     assert orders["A"] == {n for n in ROTARY_ORDERS if n * span_deg / 360 >= MIN_PERIODS} == {8}
-    assert np.degrees(np.ptp(obs.q[:, m.axes.index("B")])) >= 360 and orders["B"] == set(ROTARY_ORDERS)
+    # B turns twice; over its 60 points a gap of 46 deg is left around the circle, which hides a
+    # quarter period of 2 per revolution and a whole period of 8: over 200 points every order
+    b = build_observations(m, [campaign(m, 200, NOISE, 0)], sigma_um=NOISE).q[:, m.axes.index("B")]
+    assert np.degrees(np.ptp(b)) >= 360 and np.degrees(largest_gap(b)) < 12
+    assert {round(360.0 / c.table["period_deg"]) for c in build_candidates(m, build_observations(
+        m, [campaign(m, 200, NOISE, 0)], sigma_um=NOISE)) if c.name == "periodic_rotary" and c.axis == "B"} \
+        == set(ROTARY_ORDERS)
+    assert np.degrees(largest_gap(obs.q[:, m.axes.index("B")])) > 45 and 2 not in orders["B"] and 1 in orders["B"]
 
 
 def test_a_periodic_error_per_revolution_is_the_closed_form(machines):

@@ -67,7 +67,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..fit.diagnosis import Separation, ThermalModel, diagnose
+    from ..fit.diagnosis import Alternative, Separation, ThermalModel, diagnose
     from ..fit.diagnosis import effect_kind
     from ..measurements import read_any
     from ..model import write_spec
@@ -118,11 +118,14 @@ def run(args) -> int:
                       f"{e.rms_before_um:.3f} -> {e.rms_after_um:.3f}",
                       f"{e.p_value:.2g}" if e.p_value > 0 else "< 1e-300")
     out.print(table)
-    for e in result.effects:
-        out.print(escape(f"{e.label}:"))
+    def parameters(e, lead="  "):
         for name, p in e.parameters.items():
             u = "" if p["uncertainty"] is None else f" +- {p['uncertainty']:.3g}"
-            out.print(escape(f"  {name} = {p['value']:.5g}{u} {p['unit']}{effect_kind(e.name).parameter_note(name)}"))
+            out.print(escape(f"{lead}{name} = {p['value']:.5g}{u} {p['unit']}{effect_kind(e.name).parameter_note(name)}"))
+
+    for e in result.effects:
+        out.print(escape(f"{e.label}:"))
+        parameters(e)
         if isinstance(e.details, ThermalModel):
             for line in e.details.lines():
                 out.print(escape(line))
@@ -133,6 +136,8 @@ def run(args) -> int:
         out.print(escape(f"{head}: {e.label} ({why})"))
         if isinstance(e.details, Separation):
             out.print(escape("  to plan it: " + shlex.join(plan_argv(args.machine, e.details.separate_by))))
+        if isinstance(e.details, Alternative):
+            parameters(e, "  under this reading: ")
     if result.under_modelled:
         out.print(escape(result.off_spec()["label"]) + " (raised; not physical effects): "
                   + escape(", ".join(f"{u.component} ({u.form_before} -> {u.form_after})" for u in result.under_modelled)))

@@ -21,7 +21,11 @@ The loop (:func:`diagnose`):
    linear coefficients is at least 3 (for a raised degree: the new top coefficient). A
    winning under-modelled component is accepted together with the other components that
    pass on their own (they are checked one by one after the refit);
-5. repeat until no candidate passes; refit; drop any effect whose size is no longer
+5. repeat until no candidate passes; compare every named candidate that a round's accepted
+   raises swallowed (or that swallowed a raise) with them once more, each reading refitted on
+   every observation: within :data:`EVIDENCE_BIC` of each other the finding is "possible,
+   cannot be told apart" (both readings, the BIC difference, where they differ most), and a
+   named reading better by more than that replaces the raises; refit; drop any effect whose size is no longer
    significant; estimate the noise floor (from repeated points if any, else an upper bound
    from the final residual) and say whether the final model reaches it.
 
@@ -55,10 +59,10 @@ from ._changes import raise_components
 from ._loop import diagnose
 from ._report import drift_series, driver_values, evidence, residual_analysis
 from ._effects import EFFECTS, EffectKind, effect_kind, register
-from ._results import (PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Candidate, Change, Diagnosis, DriftSeries,
-                      Evidence, Raise, Role, Score, Separation, Step, ThermalModel)
+from ._results import (EVIDENCE_BIC, PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Alternative, Candidate, Change,
+                      Diagnosis, DriftSeries, Evidence, Raise, Role, Score, Separation, Step, ThermalModel)
 
-__all__ = ["axis_directions", "build_candidates", "Candidate", "Change", "diagnose", "Diagnosis",
+__all__ = ["Alternative", "axis_directions", "build_candidates", "Candidate", "Change", "diagnose", "Diagnosis", "EVIDENCE_BIC",
            "drift_series", "DriftSeries", "driver_values", "effect_kind", "EffectKind", "EFFECTS", "Evidence",
            "evidence", "geometric_term", "PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "Raise", "raise_components",
            "raised_term", "register", "residual_analysis", "Role", "Score", "Separation", "SIGNIFICANCE", "Step",

@@ -13,6 +13,7 @@ import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy import stats
 
 from ...base import SpecError
 from ..identify import Identification, Observations, identify
@@ -24,8 +25,8 @@ from ._report import twins_of
 from ._results import SIGNIFICANCE, Change, Role, Score
 from ._scoring import not_repeating
 
-__all__ = ["PERIOD_WINDOW", "WEAK", "Accepted", "Refit", "accept", "apply_changes", "raise_components", "remove_effect",
-           "size_of", "tested_names", "trim_raises", "with_lag"]
+__all__ = ["PERIOD_WINDOW", "WEAK", "Accepted", "Refit", "absorbed", "accept", "apply_changes", "physical",
+           "raise_components", "remove_effect", "size_of", "tested_names", "trim_raises", "with_lag"]
 
 #: in the rounds a per-revolution error's period (free there) stays within this factor of 360/n
 #: deg; a fit that takes an accepted one further is done again with it held at 360/n deg, and a
@@ -432,6 +433,55 @@ class Accepted:
     free_names: list
 
 
+def physical(score: Score) -> bool:
+    """Whether a scored candidate names something (an effect, or a geometric component the spec
+    leaves out, such as a location error) rather than raising a component the spec has.
+
+    Parameters
+    ----------
+    score : Score
+        A round's score.
+
+    Returns
+    -------
+    bool
+    """
+    return score.candidate is not None and score.candidate.kind != Role.RAISE
+
+
+def absorbed(proj: Projector, given: np.ndarray, score: Score, limit: float) -> bool:
+    """Whether a candidate that passed its round's F-test no longer does beside other columns:
+    what it explains, they explain (raises of an axis' components that soak up its
+    once-per-revolution error, or an offset of the axis it carries).
+
+    Parameters
+    ----------
+    proj : Projector
+        The round's projector.
+    given : ndarray, shape (rows, k)
+        The other candidates' weighted columns.
+    score : Score
+        The candidate's score (its ``columns``).
+    limit : float
+        The round's p-value threshold (``alpha`` over the number of candidates).
+
+    Returns
+    -------
+    bool
+        True when its F-test beside ``given`` fails the threshold.
+    """
+    if score.columns is None or given.shape[1] == 0:
+        return False
+    extra0, rss0, _ = proj.fit(given)
+    extra1, rss1, _ = proj.fit(np.hstack([given, score.columns]))
+    k = extra1 - extra0
+    dof = len(proj.r) - proj.rank - extra1
+    if k <= 0 or dof <= 0 or rss1 <= 0:
+        return True
+    F = ((rss0 - rss1) / k) / (rss1 / dof)
+    return float(stats.f.sf(F, k, dof)) >= limit
+
+
 def accept(current: Machine, number: int, passing: list[Score], proj: Projector, axis_index_of: dict[str, int],
            refit: Refit, free_names: list[str]) -> Accepted | None:
     """The first of the best three passing candidates whose size stays significant in the
@@ -484,7 +534,10 @@ def _accept_first(current: Machine, number: int, candidates: list, passing: list
         if best.candidate.kind == Role.RAISE:
             # the other under-modelled components that pass on their own come along, except
             # those a physical effect passing this round would sit on: it gets its round first
-            # (a raised EBB would swallow B's once-per-revolution error before it is tried)
+            # (a raised EBB would swallow B's once-per-revolution error before it is tried); a
+            # named candidate the batch swallows all the same (two raises of C's radial
+            # components together take an offset of the A axis it carries) is its rival, and
+            # the two readings are weighed after the rounds (_rivals)
             taken = {best.candidate.component}
             held = {s.candidate.component for s in passing if s.candidate.kind == Role.EFFECT}
             for s in passing:

@@ -23,14 +23,91 @@ from ..identify import Observations
 from ...model import Model, component_name
 from ._results import Candidate
 
-__all__ = ["EFFECTS", "MIN_PERIODS", "ROTARY_ORDERS", "Backlash", "EffectKind", "ForceDeflection", "Geometric", "Offer",
+__all__ = ["EFFECTS", "FULL_TURN_GAP", "MIN_PERIODS", "SAMPLED_GAP", "ROTARY_ORDERS", "Backlash", "EffectKind", "ForceDeflection", "Geometric", "Offer",
            "PeriodicPitch", "PeriodicRotary", "ThermalDrift", "ThermalExpansion", "direction_of", "effect_kind",
-           "register"]
+           "largest_gap", "register", "rotary_orders"]
 
 #: a rotary axis' periodic error is tried with these numbers of periods per revolution
 ROTARY_ORDERS = (1, 2, 3, 4, 6, 8)
 #: periods of a periodic error inside the measured travel (over part of a turn, for a rotary axis)
 MIN_PERIODS = 4
+#: a rotary axis' data cover a full turn for an error of period P when no gap between its
+#: sampled angles, around the circle, is wider than this share of P: samples at most a quarter
+#: period apart (twice Nyquist's rate) pin the error's phase on both sides of every gap, so
+#: its closing on itself over the turn is seen
+FULL_TURN_GAP = 0.25
+#: over part of a turn, no gap between sampled angles inside the measured arc may be wider than
+#: this share of the period (Nyquist: a wider gap can hide a whole half-wave)
+SAMPLED_GAP = 0.5
+
+
+def largest_gap(angles: np.ndarray, rank: int = 1) -> float:
+    """The widest arc of the circle that holds no sampled angle [rad] (or the ``rank``-th widest).
+
+    The angles are taken around the circle (modulo one turn), so -179.6 and 179.8 deg are 0.6
+    deg apart: a turn sampled from -179.6 to 179.8 deg has a gap of 0.6 deg, not 360 - 359.4.
+
+    Parameters
+    ----------
+    angles : ndarray, shape (N,)
+        Sampled angles of a rotary axis [rad].
+    rank : int, default 1
+        1 for the widest gap, 2 for the next (over part of a turn: the widest inside the
+        measured arc), and so on.
+
+    Returns
+    -------
+    float
+        The gap [rad]: 2 pi with no angle (0 when there are fewer gaps than ``rank``); the
+        widest is 2 pi less the measured arc over part of a turn.
+    """
+    a = np.sort(np.mod(np.asarray(angles, dtype=float), 2 * np.pi))
+    if a.size == 0:
+        return 2 * np.pi if rank == 1 else 0.0
+    gaps = np.sort(np.diff(a, append=a[0] + 2 * np.pi))
+    return float(gaps[-rank]) if rank <= gaps.size else 0.0
+
+
+def rotary_orders(angles: np.ndarray) -> tuple[int, ...]:
+    """The periods per revolution (of :data:`ROTARY_ORDERS`) a rotary axis' sampled angles
+    can tell from its own smooth geometry.
+
+    Over a full turn (no gap wider than :data:`FULL_TURN_GAP` of the period, around the
+    circle) an error once per revolution closes on itself, which no smooth function of the
+    angle does: it is offered. Over more than a turn every order is (whether it repeats from
+    one turn to the next is checked before it is accepted). Otherwise an order needs
+    :data:`MIN_PERIODS` periods in the measured arc (the turn less the largest gap, or the span)
+    and no gap inside it wider than :data:`SAMPLED_GAP` of the period: over one turn, 2 or 3
+    periods are shapes the axis' own off-spec geometry takes as well (smooth shapes through 7
+    values over a table's turn were named 2, 3 and 4 times per revolution when every order was
+    offered), and eight indexed positions 45 deg apart cannot tell 6 per revolution from 2, nor
+    see 8 per revolution at all.
+
+    Parameters
+    ----------
+    angles : ndarray, shape (N,)
+        Sampled angles of the axis [rad].
+
+    Returns
+    -------
+    tuple of int
+        The orders, ascending.
+    """
+    angles = np.asarray(angles, dtype=float)
+    if angles.size == 0:
+        return ()
+    gap, inside = largest_gap(angles), largest_gap(angles, 2)
+    arc = max(float(np.ptp(angles)), 2 * np.pi - gap)
+
+    def seen(n):
+        period = 2 * np.pi / n
+        if n == 1 and gap <= FULL_TURN_GAP * period:
+            return True
+        if n > 1 and float(np.ptp(angles)) > 2 * np.pi * (1 + 1e-9) and gap <= FULL_TURN_GAP * period:
+            return True   # more than a turn: the repeat from one turn to the next is checked
+        return arc >= MIN_PERIODS * period * (1 - 1e-9) and inside <= SAMPLED_GAP * period
+
+    return tuple(n for n in ROTARY_ORDERS if seen(n))
 
 
 def direction_of(letter: str) -> str:
@@ -319,16 +396,11 @@ class PeriodicRotary(EffectKind):
         if machine.axis_kinds[j] == "linear":
             return []
         axis, letter = machine.axes[j], offer.own[machine.axes[j]]
-        # an error that repeats n times per revolution: over a full turn it closes on itself,
-        # which no smooth function of the angle does; over part of a turn a period or two is
-        # just another smooth shape, as the axis' off-spec geometry (its raise) is, so there it
-        # needs MIN_PERIODS periods in the measured span, as a pitch error does
-        span = float(np.ptp(offer.obs.q[:, j])) if offer.obs.n_points else 0.0
-        periods = 1 if span >= 2 * np.pi * (1 - 1e-9) else MIN_PERIODS
+        # the orders its sampled angles can tell from its own smooth geometry (rotary_orders)
         return [Candidate(self.name, axis, direction_of(letter), component_name(letter, axis),
                           {"kind": "periodic_pitch", "period_deg": 360.0 / n, "sine_arcsec": [0.0],
                            "cosine_arcsec": [0.0], "origin_deg": 0.0}, f"q_{axis}")
-                for n in ROTARY_ORDERS if span >= periods * 2 * np.pi / n * (1 - 1e-9)]
+                for n in rotary_orders(offer.obs.q[:, j])]
 
     @staticmethod
     def order(cand: Candidate) -> int:

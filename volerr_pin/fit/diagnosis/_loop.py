@@ -19,11 +19,12 @@ import numpy as np
 from ...base import UM_PER_M, InputError, fraction, integer, measurement_sigma, require_memory
 from ...model import Machine, check_covariates
 from ..identify import (FitPoints, Identification, Observations, build_observations, check_observations,
-                        conditioning_note, parameter_units, pose_folds, residual_rms)
+                        conditioning_note, pose_folds, residual_rms)
 from ._candidates import build_candidates, offer
 from ._changes import Refit, accept, quiet_identify, remove_effect, size_of, trim_raises, with_lag
 from ._effects import effect_kind
 from ._projector import Columns, Projector, base_design
+from ._rivals import finding_parameters, rivals_of, weigh_rivals
 from ._report import (components_per_point, effect_amplitude, floor_verdict, group_findings, noise_floor,
                      raised_summary, residual_analysis, undecided_rotary)
 from ._results import PRACTICAL_AMPLITUDE, PRACTICAL_GAIN, SIGNIFICANCE, Change, Diagnosis, Role, Step, ThermalModel, \
@@ -167,6 +168,9 @@ class _Loop:
         self._last_holdout = None
         self.left_passing: list[str] = []       # what still passed when the round limit ended the rounds
         self.last_passing: list = []            # the last round's passing scores (notes: why refused)
+        self.rivals: list = []                  # named candidates and raises that explain the same residual
+        self.turns = {a: float(np.ptp(obs.q[:, j])) / (2 * math.pi) if obs.n_points else 0.0
+                      for j, (a, k) in enumerate(zip(machine.axes, machine.axis_kinds)) if k != "linear"}
 
     def round(self, number: int, may_accept: bool) -> bool:
         """One round, a pipeline: the candidates offered on the present model
@@ -187,9 +191,13 @@ class _Loop:
         offered = offer(current, obs, accepted_orders, raises_only=len(self.effects) >= self.max_effects)
         ranked, passing = score_round(number, base, proj, obs, offered, self.alpha, self.cov_obj, self.axis_index_of,
                                       self.columns, self.progress)
+        limit = self.alpha / max(1, len(ranked))
         done = accept(current, number, passing, proj, self.axis_index_of, self.fit, self.free_names) if may_accept \
             else None
         if done is not None:
+            for rival in rivals_of(number, ranked, passing, done.records, proj, limit, self.turns):
+                rival.before = current   # the model of the round, before its change
+                self.rivals.append(rival)
             self.free_names = done.free_names
             self.current, self.fitted, self.nuisance, self.last_fit = done.machine, done.fitted, done.nuisance, done.fit
         accepted = done.records if done is not None else []
@@ -321,6 +329,11 @@ class _Loop:
         obs = self.obs
         _hold_periods(self)
         final, dropped = self._final_fit(self.last_fit)
+        final, rivals, replaced, changed = weigh_rivals(self, final)
+        dropped += replaced
+        if changed:
+            final, more = self._final_fit(final)
+            dropped += more
         possible = self._practical(final)
         if possible:
             final, more = self._final_fit(final)
@@ -331,18 +344,8 @@ class _Loop:
                 final, thermal[members[0].label] = self._thermal(members, final)
         current = self.current
         raised = raised_summary(self.raised, self.base_machine, current)
-        units = parameter_units(current)
-        for e in self.effects + possible:
-            params = {}
-            for name in e.names:
-                if name not in current.parameter_names:
-                    continue
-                k = current.parameter_names.index(name)
-                factor, unit = units[name]
-                u = final.uncertainty[k] if final is not None else math.nan
-                params[name] = {"value": float(current.theta[k] / factor),
-                                "uncertainty": None if math.isnan(u) else float(u / factor), "unit": unit}
-            e.parameters = params
+        for e in self.effects + possible + [r for r in rivals if r.details.in_model == "named"]:
+            e.parameters = finding_parameters(current, final, e.names)
         last_proj, residual = self.holdout(current, final)
         rms_fit = residual_rms(obs, residual)
         floor, source, bound, reaches, stated = floor_verdict(obs, residual, last_proj, self.noise_stated)
@@ -355,10 +358,15 @@ class _Loop:
             if members[0].label in thermal:
                 finding.details = thermal[members[0].label]
             findings.append(finding)
+        # a per-revolution error the last round refused for what it is (it does not repeat ...)
+        # is said with the plan that separates it; a rival reading of the same error gives way
+        undecided = undecided_rotary(self.last_passing, self.effects, current, obs, len(self.steps) - 1)
+        taken = {u.label for u in undecided}
+        rivals = [r for r in rivals if r.label not in taken or r.details.in_model == "named"]
+        undecided = [u for u in undecided if u.label not in {r.label for r in rivals}]
         return Diagnosis(current, self.base_machine, findings, self.steps, self.steps[0].rms_holdout_um,
                          last_proj.cv_rms, rms_fit, floor, source, reaches, self.alpha,
-                         0.0, obs, analysis, raised, dropped, bound,
-                         possible + undecided_rotary(self.last_passing, self.effects, current, obs, len(self.steps) - 1),
+                         0.0, obs, analysis, raised, dropped, bound, possible + rivals + undecided,
                          stated, residual), final
 
     def _thermal(self, members: list[Change], final) -> tuple:

@@ -13,8 +13,8 @@ import numpy as np
 from ..identify import Observations
 from ...model import Machine
 
-__all__ = ["PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR", "Candidate", "Change",
-           "Diagnosis", "DriftSeries", "Evidence", "Raise", "Role", "Score", "Separation", "Step", "ThermalModel",
+__all__ = ["EVIDENCE_BIC", "PRACTICAL_AMPLITUDE", "PRACTICAL_GAIN", "SIGNIFICANCE", "STATED_NOISE_FACTOR", "Alternative",
+           "Candidate", "Change", "Diagnosis", "DriftSeries", "Evidence", "Raise", "Role", "Score", "Separation", "Step", "ThermalModel",
            "one_blas_thread"]
 
 
@@ -47,6 +47,10 @@ def one_blas_thread():
 
 #: |value| / standard uncertainty of an accepted effect's size
 SIGNIFICANCE = 3.0
+#: two models whose BIC differ by less than this are not told apart by the data (Kass and
+#: Raftery, 1995, J. Am. Stat. Assoc. 90(430): a difference above 10 is "very strong"
+#: evidence, below it the evidence is at best "strong" and may be chance)
+EVIDENCE_BIC = 10.0
 #: an effect found is of practical significance when its held-out RMS gain is at least this
 #: share of the held-out RMS before it ...
 PRACTICAL_GAIN = 0.02
@@ -254,9 +258,10 @@ class Change:
     kept_jointly : str
         Why an effect below significance alone stays (collinear terms share what they explain);
         empty otherwise.
-    details : ThermalModel, Separation or None
-        What its kind reports besides: a thermal drift's model over time, or the measurement that
-        would separate a possible per-revolution error from the axis' geometry.
+    details : ThermalModel, Separation, Alternative or None
+        What its kind reports besides: a thermal drift's model over time, the measurement that
+        would separate a possible per-revolution error from the axis' geometry, or the rival
+        reading a possible finding cannot be told apart from.
     """
 
     kind: Role
@@ -285,7 +290,7 @@ class Change:
     gain_um: float | None = None
     members: list[str] = field(default_factory=list)
     kept_jointly: str = ""
-    details: "ThermalModel | Separation | None" = None
+    details: "ThermalModel | Separation | Alternative | None" = None
 
     def to_dict(self) -> dict:
         """The change in the report (docs/reports.md).
@@ -307,7 +312,7 @@ class Change:
         out.update(rms_after_um=self.rms_after_um, max_after_um=self.max_after_um)
         if self.kind == Role.EFFECT:
             out.update(amplitude_um=self.amplitude_um, gain_um=self.gain_um)
-        if self.kind == Role.EFFECT and not self.note:  # a dropped effect has no final values
+        if self.kind == Role.EFFECT and (self.parameters or not self.note):  # a dropped effect has no final values
             out["parameters"] = self.parameters
         if self.members:
             out["members"] = list(self.members)
@@ -409,6 +414,43 @@ class Separation:
         dict
         """
         return {"amplitude_arcsec": self.amplitude_arcsec, "separate_by": self.separate_by}
+
+
+@dataclass
+class Alternative:
+    """A named finding the data cannot tell apart from raising its axis' own components: two
+    readings that explain the measurements within :data:`EVIDENCE_BIC` (the details of a
+    possible finding that has a rival reading).
+
+    Attributes
+    ----------
+    readings : list of str
+        The two readings: the named effect's label, then the raises' (joined by " and ").
+    in_model : str
+        The reading the final model holds: ``"named"`` or ``"raise"``.
+    bic_difference : float
+        BIC of the model with the raise minus BIC of the model with the named effect, each
+        refitted on every observation (positive: the named reading is the better explanation).
+    separate_at : dict
+        Where the two fitted readings differ most at the tool within the travel: ``positions``
+        (axis -> mm / deg), ``difference_um`` (the distance between their tool-point errors
+        there [um]), and ``advice`` (in words: the pose, and what else would separate them).
+    """
+
+    readings: list
+    in_model: str
+    bic_difference: float
+    separate_at: dict
+
+    def to_dict(self) -> dict:
+        """Its fields in the report (docs/reports.md).
+
+        Returns
+        -------
+        dict
+        """
+        return {"readings": list(self.readings), "in_model": self.in_model, "bic_difference": self.bic_difference,
+                "separate_at": self.separate_at}
 
 
 @dataclass
