@@ -13,7 +13,6 @@ import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import stats
 
 from ...base import SpecError
 from ..identify import Identification, Observations, identify
@@ -23,7 +22,7 @@ from ._effects import effect_kind
 from ._projector import Projector
 from ._report import twins_of
 from ._results import SIGNIFICANCE, Change, Role, Score
-from ._scoring import not_repeating
+from ._scoring import f_test, not_repeating
 
 __all__ = ["PERIOD_WINDOW", "WEAK", "Accepted", "Refit", "absorbed", "accept", "apply_changes", "physical",
            "raise_components", "remove_effect", "size_of", "tested_names", "trim_raises", "with_lag"]
@@ -478,8 +477,7 @@ def absorbed(proj: Projector, given: np.ndarray, score: Score, limit: float) -> 
     dof = len(proj.r) - proj.rank - extra1
     if k <= 0 or dof <= 0 or rss1 <= 0:
         return True
-    F = ((rss0 - rss1) / k) / (rss1 / dof)
-    return float(stats.f.sf(F, k, dof)) >= limit
+    return f_test(rss0, rss1, k, dof) >= limit
 
 
 def accept(current: Machine, number: int, passing: list[Score], proj: Projector, axis_index_of: dict[str, int],

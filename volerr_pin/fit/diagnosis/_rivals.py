@@ -183,12 +183,19 @@ def weigh_rivals(loop, final):
         (possible if kind == "possible" else dropped if kind == "dropped" else []).append(change)
     # of the named readings one set of raises explains as well, the best (once and twice per
     # revolution beside a raise of B over two turns): one finding, not a list of every order
-    best: dict = {}
+    # (the others are named in its note, not dropped without a word)
+    groups: dict = {}
     for change in possible:
-        key = (change.details.in_model, change.details.readings[1])
-        if key not in best or change.details.bic_difference > best[key].details.bic_difference:
-            best[key] = change
-    return final, [c for c in possible if best[(c.details.in_model, c.details.readings[1])] is c], dropped, changed
+        groups.setdefault((change.details.in_model, change.details.readings[1]), []).append(change)
+    kept = []
+    for members in groups.values():
+        best = max(members, key=lambda c: c.details.bic_difference)
+        others = [c for c in members if c is not best]
+        if others:
+            best.note += "; " + ", ".join(f"{c.label} (BIC {c.details.bic_difference:+.1f} against the raise)"
+                                          for c in others) + " read the data alike too"
+        kept.append(best)
+    return final, kept, dropped, changed
 
 
 def _bic(loop, model: Machine, fit) -> float:
@@ -200,14 +207,16 @@ def _bic(loop, model: Machine, fit) -> float:
     return n * math.log(max(rss, 1e-300) / n) + proj.rank * math.log(n)
 
 
-def _fitted(loop, model: Machine, names: list[str]):
-    """``model`` fitted as the loop fits its models, a per-revolution period held at 360/n deg:
-    (machine, fit), or None when the data do not determine it."""
-    held = {n for n in model.parameter_names if n in loop.fit.periods or n in loop.fit.held}
+def _fitted(loop, model: Machine, names: list[str], periods: dict | None = None):
+    """``model`` fitted as the loop fits its models, a per-revolution period held at 360/n deg
+    (the loop's and ``periods``: coefficient -> 2 pi / n, for this fit only): (machine, fit), or
+    None when the data do not determine it."""
+    periods = {**loop.fit.periods, **(periods or {})}
+    held = {n for n in model.parameter_names if n in periods or n in loop.fit.held}
     theta = model.theta.copy()
     for n in held:
-        if n in loop.fit.periods:
-            theta[model.parameter_names.index(n)] = loop.fit.periods[n]
+        if n in periods:
+            theta[model.parameter_names.index(n)] = periods[n]
     model = model.with_theta(theta, limits=False)
     if loop.fit.fixed and not names:
         return model, None
@@ -240,11 +249,10 @@ def _weigh(loop, final, rival: Rival):
         except (InputError, ValueError):
             return None
         record = records[0]
-        if effect_kind(record.name).per_revolution:
-            period = math.radians(cand.table["period_deg"])
-            loop.fit.periods.update({n: period for n in record.names if n.endswith(".period")})
+        periods = ({n: math.radians(cand.table["period_deg"]) for n in record.names if n.endswith(".period")}
+                   if effect_kind(record.name).per_revolution else {})
         names = loop.free_names + [n for n in record.names if n not in loop.free_names]
-        fitted = _fitted(loop, alt, names)
+        fitted = _fitted(loop, alt, names, periods)
         if fitted is None:
             return None
         named_model, named_fit = fitted
@@ -297,7 +305,8 @@ def _weigh(loop, final, rival: Rival):
         loop.current, loop.free_names = named_model, names
         loop.effects.append(record)
         loop.raised = [x for x in loop.raised if not (x.component in components and x.step >= rival.number)]
-        loop.fit.held |= {n for n in record.names if n.endswith(".period")}
+        loop.fit.periods.update(periods)
+        loop.fit.held |= set(periods)
         return "replaced", record, named_fit
     if difference <= -EVIDENCE_BIC and rival.in_model == "named":
         r = rival.raises[0].candidate

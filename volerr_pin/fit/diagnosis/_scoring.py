@@ -23,7 +23,7 @@ from ._projector import Base, Columns, Projector
 from ._results import Candidate, Role, Score
 
 __all__ = ["PERIODOGRAM_POINTS", "REPEAT_MIN_POINTS", "REPEAT_RATIO", "REPEAT_SIGMAS", "SURVIVES", "not_repeating",
-           "periodogram_period", "repeat_check", "score", "score_round", "table_interpolation"]
+           "f_test", "periodogram_period", "repeat_check", "score", "score_round", "table_interpolation"]
 
 PERIODOGRAM_POINTS = 1500       # points a periodogram looks at, at most
 #: a per-revolution error of an axis measured over more than one turn is checked for repeating
@@ -268,6 +268,28 @@ def table_interpolation(base: Base, proj: Projector, E: np.ndarray, joints: list
             "the table's raise refines it")
 
 
+def f_test(rss0: float, rss1: float, k: int, dof: int) -> float:
+    """The p-value of an F-test of ``k`` added coefficients that take the residual sum of
+    squares from ``rss0`` to ``rss1``, with ``dof`` degrees of freedom left (1 when none are).
+
+    Parameters
+    ----------
+    rss0, rss1 : float
+        Residual sums of squares without and with the coefficients (weighted).
+    k : int
+        The coefficients added (> 0).
+    dof : int
+        Degrees of freedom of the model with them.
+
+    Returns
+    -------
+    float
+    """
+    if dof <= 0:
+        return 1.0
+    return float(stats.f.sf(((rss0 - rss1) / k) / (rss1 / dof), k, dof))
+
+
 def score(base: Base, proj: Projector, obs: Observations, offered: Offered, cand: Candidate,
           cov_obj: Covariates, axis_index_of: dict[str, int], columns: Columns) -> Score | None:
     """Fit the candidate jointly with the base (linearised) and score it.
@@ -337,8 +359,7 @@ def score(base: Base, proj: Projector, obs: Observations, offered: Offered, cand
         return Score(cand.label, 0, 1.0, 0.0, proj.cv_rms, 0.0, cand)
     k = extra + len(nonlinear)
     dof = n - proj.rank - k
-    F = ((rss0 - rss1) / k) / (rss1 / dof) if dof > 0 else 0.0
-    p_value = min(1.0, float(stats.f.sf(F, k, dof)) * searched) if dof > 0 else 1.0
+    p_value = min(1.0, f_test(rss0, rss1, k, dof) * searched)
     bic_gain = n * math.log(rss0 / rss1) - k * math.log(n) - 2 * math.log(searched)
     values = c.copy()
     values[lin] = gamma
