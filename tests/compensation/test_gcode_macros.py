@@ -113,11 +113,17 @@ def test_what_linuxcnc_refuses_is_refused(program, where):
         expand(split_lines(program), "p.ngc")
 
 
-@pytest.mark.parametrize("expr", ["[0 ** -1]", "EXP[800]", "[10 ** 400]", "FIX[1" + "0" * 400 + "]"])
-def test_values_beyond_any_number_stop_the_expansion(expr):
-    """LinuxCNC: "Calculation resulted in 'infinity'"; the product never writes X inf."""
-    with pytest.raises(Unfollowable, match=r"not a finite number|beyond any number"):
-        expand(split_lines(f"G0 X{expr}\n"))
+@pytest.mark.parametrize("expr, column", [("[0 ** -1]", 14), ("EXP[800]", 5), ("[10 ** 400]", 16),
+                                          ("FIX[1" + "0" * 400 + "]", 9), ("[1 / 0]", 12), ("[SQRT[-1]]", 6),
+                                          ("[ASIN[2]]", 6), ("[LN[0]]", 6), ("[[-8] ** 0.5]", 18), ("[1 +]", 9),
+                                          ("[" * 5000 + "1" + "]" * 5000, 133)])
+def test_values_linuxcnc_refuses_are_refused_naming_line_and_column(expr, column):
+    """LinuxCNC stops the program at them ("Calculation resulted in 'infinity'", "Attempt to
+    divide by zero", ...): the product never writes X inf, nor reads the block as it is and
+    drops the cut (the fourth hostile pass: the block and the next cut were lost, no word)."""
+    with pytest.raises(GcodeError, match=rf"^p\.ngc:2:{column}: .*LinuxCNC stops the program there, so it is "
+                                         "refused"):
+        expand(split_lines(f"G0 X1\nG0 X{expr}\n"), "p.ngc")
 
 
 def test_calls_nest_as_deep_as_linuxcnc_lets_them_and_a_definition_read_in_passing_clears_value():

@@ -16,6 +16,8 @@ from ._common import (add_json_arg, add_machine_args, add_program_position_args,
 #: the command's name, and its line in ``volerr --help`` (read without building its parser)
 COMMAND = "predict"
 HELP = "the part a program cuts: deviation along the path, CMM features, their error sources"
+#: runs of blocks not predicted the text lists (the JSON lists all)
+SHOWN_RUNS = 10
 
 
 def add_parser(sub) -> None:
@@ -47,7 +49,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..applications.part import blocks_text, predict
+    from ..applications.part import NOT_PREDICTED_SHARE, blocks_text, predict
     from ..compensation.gcode import ProgramFile
 
     machine = machine_of(args)
@@ -80,6 +82,10 @@ def run(args) -> int:
     console.print(escape(f"{machine.name}: {path} ({state}); {report['samples']:,} samples along the cutting moves, "
                          f"to {report['tolerance_um']:g} um"
                          + (f"; the part as {args.reference} defines it" if args.reference else "")))
+    missing = sum(s["blocks"] for s in report["not_predicted"])
+    if report["not_predicted_share"] > NOT_PREDICTED_SHARE:
+        console.print(escape(f"{missing:,} of the program's blocks ({100 * report['not_predicted_share']:.1f} %) are "
+                             "not predicted: the deviation and the features below lack their cuts (listed at the end)"))
     console.print(escape(f"largest deviation normal to the programmed path: {report['max_normal_deviation_um']:.3f} um, line "
                          f"{report['max_line']}" + (" (the given program's path: a compensated program is offset from "
                                                      "the part on purpose; the features measure the part)"
@@ -103,6 +109,17 @@ def run(args) -> int:
     console.print(table)
     for note in report["notes"]:
         console.print(escape(f"note: {note}"))
+    runs = report["not_predicted"]
+    if runs:
+        console.print(escape(f"not predicted: {missing:,} block{'s' if missing != 1 else ''}"
+                             + (" (--json lists every one)" if len(runs) > SHOWN_RUNS else "")))
+    for run in runs[:SHOWN_RUNS]:
+        where = (f"line {run['line']}" if run["line"] == run["last_line"] else
+                 f"lines {run['line']}-{run['last_line']}")
+        times = f" ({run['blocks']:,} blocks)" if run["blocks"] > 1 and run["line"] != run["last_line"] else ""
+        console.print(escape(f"  {where}{times}: {run['reason']}"))
+    if len(runs) > SHOWN_RUNS:
+        console.print(escape(f"  ... and {len(runs) - SHOWN_RUNS:,} more runs of blocks"))
     if prediction.cones and not args.tool_diameter:
         console.print("the cones are those the tool's axis sweeps: give the cutter's --tool-diameter for the part's")
     if args.reference:

@@ -21,13 +21,66 @@ import numpy as np
 
 from ._arcs import Arc, arc_points
 
-__all__ = ["ARC", "KIND_NAMES", "LINE", "POINT", "Move", "MoveBatch", "PieceSet"]
+__all__ = ["ARC", "KIND_NAMES", "LINE", "POINT", "Move", "MoveBatch", "PieceSet", "Skipped", "skip_run"]
 
 #: kinds of moves: only the end point is compensated (rapid moves, moves from an unknown
 #: position), a straight move, an arc or helix
 POINT, LINE, ARC = 0, 1, 2
 #: what reading a program calls each kind (a :data:`POINT` move is a rapid: it cuts nothing)
 KIND_NAMES = ("rapid", "line", "arc")
+
+
+@dataclass
+class Skipped:
+    """Blocks of a program, one after the other, that the reader did not follow, for one reason.
+
+    Attributes
+    ----------
+    line, last_line : int
+        The program lines of the first and the last (1-based).
+    blocks : int
+        How many blocks were run (a loop's pass counts each time).
+    reason : str
+        Why: the construct kept as written (as compensate names it), or the cut's unknown start.
+    moved : bool
+        The blocks are moves of the batch (cuts from an unknown position, taken as rapids to
+        their ends), not blocks kept out of it.
+    """
+
+    line: int
+    last_line: int
+    blocks: int
+    reason: str
+    moved: bool = False
+
+    def to_dict(self) -> dict:
+        """JSON: ``line``, ``last_line``, ``blocks`` and ``reason``."""
+        return {"line": self.line, "last_line": self.last_line, "blocks": self.blocks, "reason": self.reason}
+
+
+def skip_run(runs: list, line: int, reason: str, moves_between: bool, moved: bool = False) -> None:
+    """Add a block not followed to ``runs`` (a list of :class:`Skipped`): into the last run when it
+    has the same reason and no move was followed since, so that a program of millions of kept
+    blocks gives a short list.
+
+    Parameters
+    ----------
+    runs : list of Skipped
+        Updated in place.
+    line : int
+        The block's program line.
+    reason : str
+        Why it is not followed.
+    moves_between : bool
+        Whether a move was followed since the last block added.
+    moved : bool, default False
+        The block is a move of the batch (:attr:`Skipped.moved`).
+    """
+    if runs and not moves_between and runs[-1].reason == reason:
+        last = runs[-1]
+        last.last_line, last.blocks = line, last.blocks + 1
+    else:
+        runs.append(Skipped(line, line, 1, reason, moved))
 
 
 @dataclass
@@ -55,6 +108,12 @@ class MoveBatch:
     tool_tip : ndarray of bool, shape (M,)
         The move's coordinates are tool-tip programming's (the tool tip in the workpiece frame
         and the rotary axes) rather than axis positions.
+    skipped : list of Skipped
+        A program's blocks the reader did not follow (kept as written, or cuts from an unknown
+        position), each run of blocks with one reason once (:func:`skip_run`); empty for a chunk.
+    notes : list of str
+        What the reader tells of a program it follows (work and tool offsets taken as the
+        model's), each naming its line; empty for a chunk.
     """
 
     kind: np.ndarray
@@ -68,6 +127,8 @@ class MoveBatch:
     sweep: np.ndarray
     line: np.ndarray
     tool_tip: np.ndarray
+    skipped: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
 
     @classmethod
     def empty(cls, m: int, n: int) -> "MoveBatch":

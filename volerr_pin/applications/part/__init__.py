@@ -47,12 +47,12 @@ from ._cone import Cone, ConeSection, cone_frustum_test_piece, find_cones, measu
 from ._features import CircleFeature, LineFeature, PairFeature
 from ._measure import Features, contour_plane, measure
 from ._path import CuttingPath, normal_part
-from ._predict import PartPrediction, blocks_text, predict
+from ._predict import NOT_PREDICTED_SHARE, PartPrediction, blocks_text, predict
 from ._ranking import feature_ranking
 from ._sampling import Cut, PathDeviation, cut_of, deviation_along
 from ._testpiece import contouring_test_piece
 
-__all__ = ["predict", "PartPrediction", "blocks_text", "CuttingPath", "normal_part", "deviation_along", "PathDeviation",
+__all__ = ["predict", "PartPrediction", "NOT_PREDICTED_SHARE", "blocks_text", "CuttingPath", "normal_part", "deviation_along", "PathDeviation",
            "cut_of", "Cut", "measure", "Features", "contour_plane", "CircleFeature", "LineFeature", "PairFeature",
            "feature_ranking", "fit_circle", "fit_line", "RoundFeature", "measure_round", "find_cones", "measure_cones",
            "Cone", "ConeSection", "section_heights", "cone_frustum_test_piece", "contouring_test_piece"]

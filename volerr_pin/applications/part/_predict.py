@@ -9,14 +9,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...base import UM_PER_M
+from ...base import UM_PER_M, InputError
+from ...compensation import POINT
 from ...model import Machine
 from ._measure import measure
 from ._path import CuttingPath
 from ._ranking import feature_ranking
 from ._sampling import PathDeviation, deviation_along
 
-__all__ = ["PartPrediction", "blocks_text", "predict"]
+__all__ = ["NOT_PREDICTED_SHARE", "PartPrediction", "blocks_text", "predict"]
+
+#: the share of a program's blocks above which the blocks not predicted are told in the headline
+#: (below it they are listed after the features): one in a hundred
+NOT_PREDICTED_SHARE = 0.01
 
 
 def blocks_text(blocks: list[int]) -> str:
@@ -51,7 +56,14 @@ class PartPrediction:
     circles, sides, pairs, cones : list
         The features (:func:`measure`).
     notes : list of str
-        Why a feature the program defines is not measured.
+        What the reader tells of the program (work and tool offsets taken as the model's), and
+        why a feature the program defines is not measured.
+    not_predicted : list of Skipped
+        The program's blocks not predicted, with why (:attr:`MoveBatch.skipped`): constructs
+        kept as written, and cuts from a position not known.
+    blocks_run : int
+        The blocks of the program that move or are not predicted (a loop's pass counts each
+        time): what :attr:`not_predicted_share` divides by.
     rankings : list of list of dict
         Per feature (circles, sides, pairs, cones' sections in that order),
         :func:`feature_ranking`; empty with
@@ -68,6 +80,14 @@ class PartPrediction:
     rankings: list
     cones: list = field(default_factory=list)
     notes: list = field(default_factory=list)
+    not_predicted: list = field(default_factory=list)
+    blocks_run: int = 0
+
+    @property
+    def not_predicted_share(self) -> float:
+        """The share of :attr:`blocks_run` not predicted (0 when every block is)."""
+        missing = sum(s.blocks for s in self.not_predicted)
+        return missing / self.blocks_run if self.blocks_run else 0.0
 
     @property
     def features(self) -> list:
@@ -88,7 +108,9 @@ class PartPrediction:
         dict
             JSON-ready: ``machine``, ``program``, ``reference``, ``state``, ``tolerance_um``,
             ``samples``, ``max_normal_deviation_um``, ``max_line``, ``blocks`` (each block's
-            ``line`` and ``max_um``), ``features`` and ``notes``.
+            ``line`` and ``max_um``), ``features``, ``notes``, ``not_predicted`` (each run of
+            blocks not predicted: ``line``, ``last_line``, ``blocks``, ``reason``) and
+            ``not_predicted_share``.
         """
         blocks = self.deviation.per_block()
         worst = max(blocks, key=blocks.get)
@@ -104,7 +126,9 @@ class PartPrediction:
                 "samples": int(len(self.deviation.line)), "max_normal_deviation_um": self.deviation.max_um,
                 "max_line": int(worst),
                 "blocks": [{"line": int(line), "max_um": value} for line, value in blocks.items()],
-                "features": features, "notes": list(self.notes)}
+                "features": features, "notes": list(self.notes),
+                "not_predicted": [s.to_dict() for s in self.not_predicted],
+                "not_predicted_share": self.not_predicted_share}
 
 
 def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: str = "<program>", *,
@@ -157,7 +181,12 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
     """
     from ...compensation.gcode import interpret
 
-    moves = CuttingPath(machine, interpret(machine, program, source, start=start, origin=origin))
+    batch = interpret(machine, program, source, start=start, origin=origin)
+    if batch.skipped and not np.any(batch.kind != POINT):
+        raise InputError(f"{source}: no cut can be predicted: " + "; ".join(
+            _lines(s) + f": {s.reason}" for s in batch.skipped[:3]) + (
+            f" (and {len(batch.skipped) - 3} more)" if len(batch.skipped) > 3 else ""), parameters=("program",))
+    moves = CuttingPath(machine, batch)
     defining = None if reference is None else interpret(machine, reference, reference_source, start=start,
                                                          origin=origin)
     deviation = deviation_along(machine, moves, tolerance)
@@ -168,4 +197,11 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
     rankings = [feature_ranking(machine, f, cache=cache) if reference is None else []
                 for f in [*found.circles, *found.sides, *found.pairs, *found.cones]]
     return PartPrediction(machine, source, None if reference is None else reference_source, deviation, found.circles,
-                          found.sides, found.pairs, rankings, found.cones, found.notes)
+                          found.sides, found.pairs, rankings, found.cones, batch.notes + found.notes, batch.skipped,
+                          len(batch) + sum(s.blocks for s in batch.skipped if not s.moved))
+
+
+def _lines(skipped) -> str:
+    """``"line 5"`` or ``"lines 5-12"``."""
+    return (f"line {skipped.line}" if skipped.line == skipped.last_line else
+            f"lines {skipped.line}-{skipped.last_line}")

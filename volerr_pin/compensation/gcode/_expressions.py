@@ -36,6 +36,17 @@ class Unfollowable(Exception):
         self.line = line
 
 
+class Refused(Unfollowable):
+    """A value the controller itself refuses (a division by zero, the square root of a negative
+    number, a value beyond any number, brackets nested too deep): the program stops there, so
+    the reader refuses it rather than read the program as it is."""
+
+
+#: the deepest brackets a value may nest: LinuxCNC reads at most 256 characters a line, which
+#: holds at most about 125 pairs around a number
+MOST_NESTING = 128
+
+
 def number_text(value: float) -> str:
     """A value as a plain decimal number (no exponent), exactly as Python's repr rounds it."""
     text = np.format_float_positional(value, trim="-")
@@ -74,16 +85,21 @@ class Values:
         self.globals_numbered: dict[int, float] = {}
         self.globals_named: dict[str, float] = {}
         self.frames = [Frame([], "", 0)]
+        self.depth = 0   # of the brackets being read
 
-    def _error(self, line: Line, at: int, text: str) -> Unfollowable:
+    def _error(self, line: Line, at: int, text: str, refused: bool = False) -> Unfollowable:
         col = line.cols[at] + 1 if at < len(line.cols) else (line.cols[-1] + 2 if line.cols else 1)
+        if refused:
+            error = Refused(line.number, text)
+            error.column = col
+            return error
         return Unfollowable(line.number, f"{text} (column {col})")
 
     def value(self, line: Line, i: int) -> tuple[float, int]:
         """The real value that starts at ``i``, and where it ends."""
         s = line.code
         if i >= len(s):
-            raise self._error(line, i, "a value is missing at the end of the line")
+            raise self._error(line, i, "a value is missing at the end of the line", refused=self.depth > 0)
         c = s[i]
         nxt = s[i + 1] if i + 1 < len(s) else ""
         if c == "[":
@@ -100,30 +116,33 @@ class Values:
             raise self._error(line, i, f"'{s[i:i + 8]}' is not a value this reader knows")
         m = NUMBER.match(s, i)
         if not m:
-            raise self._error(line, i, f"'{c}' does not start a value")
+            raise self._error(line, i, f"'{c}' does not start a value", refused=self.depth > 0)
         try:
             v = float(m.group())
         except ValueError:
             raise self._error(line, i, f"'{m.group()}' is not a number") from None
         if not math.isfinite(v):
-            raise self._error(line, i, f"'{m.group()[:20]}...' is beyond any number")
+            raise self._error(line, i, f"'{m.group()[:20]}...' is beyond any number", refused=True)
         return v, m.end()
 
     def expression(self, line: Line, i: int) -> tuple[float, int]:
         """``[ ... ]`` starting at ``i`` (LinuxCNC's precedence, left to right)."""
         s = line.code
+        self.depth += 1
+        if self.depth > MOST_NESTING:
+            raise self._error(line, i, f"brackets nested more than {MOST_NESTING} deep", refused=True)
         values, ops = [], []
         v, j = self.value(line, i + 1)
         values.append(v)
         while True:
             if j >= len(s):
-                raise self._error(line, i, "an expression whose ']' is missing")
+                raise self._error(line, i, "an expression whose ']' is missing", refused=True)
             if s[j] == "]":
                 j += 1
                 break
             m = OPERATOR.match(s, j)
             if not m:
-                raise self._error(line, j, f"'{s[j]}' where an operator or ']' should be")
+                raise self._error(line, j, f"'{s[j]}' where an operator or ']' should be", refused=True)
             op = m.group()
             while ops and OPERATORS[ops[-1]] >= OPERATORS[op]:
                 self._reduce(line, j, values, ops)
@@ -132,14 +151,15 @@ class Values:
             values.append(v)
         while ops:
             self._reduce(line, j, values, ops)
+        self.depth -= 1
         return values[0], j
 
     def _reduce(self, line: Line, at: int, values: list, ops: list) -> None:
         right, left, op = values.pop(), values.pop(), ops.pop()
         if op == "/" and right == 0.0:
-            raise self._error(line, at, "a division by zero")
+            raise self._error(line, at, "a division by zero", refused=True)
         if op == "**" and left < 0 and math.floor(right) != right:
-            raise self._error(line, at, "a negative number raised to a fractional power")
+            raise self._error(line, at, "a negative number raised to a fractional power", refused=True)
         if op in ("LE", "GE") and 0 < abs(left - right) < TOLERANCE_EQUAL and (left <= right) != (op == "LE"):
             # LinuxCNC 2.9.0 and later compare LE / GE within TOLERANCE_EQUAL, earlier versions
             # (Debian 12's 2.9.0~pre1 among them) exactly: here they disagree, so how the
@@ -165,7 +185,7 @@ class Values:
             except (ValueError, OverflowError):   # 0 ** -1, 10 ** 400
                 v = math.inf
         if not math.isfinite(v):
-            raise self._error(line, at, f"{number_text(left)} {op} {number_text(right)} is not a finite number")
+            raise self._error(line, at, f"{number_text(left)} {op} {number_text(right)} is not a finite number", refused=True)
         values.append(v)
 
     def function(self, line: Line, i: int, name: str) -> tuple[float, int]:
@@ -183,11 +203,11 @@ class Values:
             x, j = self.expression(line, j + 1)
             return math.degrees(math.atan2(v, x)), j
         if name in ("ACOS", "ASIN") and not -1.0 <= v <= 1.0:
-            raise self._error(line, i, f"{name} of {number_text(v)}, outside -1 .. 1")
+            raise self._error(line, i, f"{name} of {number_text(v)}, outside -1 .. 1", refused=True)
         if name == "LN" and v <= 0:
-            raise self._error(line, i, f"LN of {number_text(v)}, not positive")
+            raise self._error(line, i, f"LN of {number_text(v)}, not positive", refused=True)
         if name == "SQRT" and v < 0:
-            raise self._error(line, i, f"SQRT of {number_text(v)}, negative")
+            raise self._error(line, i, f"SQRT of {number_text(v)}, negative", refused=True)
         out = {"ABS": abs, "ACOS": lambda a: math.degrees(math.acos(a)), "ASIN": lambda a: math.degrees(math.asin(a)),
                "COS": lambda a: math.cos(math.radians(a)), "SIN": lambda a: math.sin(math.radians(a)),
                "TAN": lambda a: math.tan(math.radians(a)), "EXP": math.exp, "FIX": math.floor, "FUP": math.ceil,
@@ -198,7 +218,7 @@ class Values:
         except (ValueError, OverflowError):   # EXP[800]
             out = math.inf
         if not math.isfinite(out):
-            raise self._error(line, i, f"{name} of {number_text(v)} is not a finite number")
+            raise self._error(line, i, f"{name} of {number_text(v)} is not a finite number", refused=True)
         return out, j
 
     def parameter(self, line: Line, i: int) -> tuple[float, int]:

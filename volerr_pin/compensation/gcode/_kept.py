@@ -10,13 +10,13 @@ the machine makes the position unknown.
 
 from __future__ import annotations
 
-from ._lexer import (CANNED, G_DIGITS, G_GROUPS, KEPT_MOTION, KEYWORD, LATHE_CYCLES, M_GROUPS, MACRO_G, NOT_MOVES, TOOL_CHANGE_M, USER_M, Block,
+from ._lexer import (CANNED, G_DIGITS, G_GROUPS, KEPT_MOTION, KEYWORD, LATHE_CYCLES, M_GROUPS, MACRO_G, NOT_MOVES, TOOL_CHANGE_M, USER_M, WORK_OFFSETS, Block,
                     GcodeError, macro_statement, mask_comments, parse_block, uncommented, word_values)
 from ._lexer import AXIS_LETTERS
 from ._modal import Interpreter, ModalState
 from ._regions import follow, keyword_region, region_of
 
-__all__ = ["Problem", "classify", "skip", "unsupported"]
+__all__ = ["Problem", "classify", "named", "offset_notes", "skip", "unsupported"]
 
 
 class Problem(str):
@@ -37,6 +37,58 @@ class Problem(str):
     modes_unknown = False
     unknown_code = False
     column = 0
+
+
+def named(problem: Problem, kept: str = "") -> str:
+    """A kept block as compensate's report and predict's ``not_predicted`` name it.
+
+    Parameters
+    ----------
+    problem : Problem
+        What the block holds.
+    kept : str, optional
+        What became of it (``"kept unchanged"``), after the construct.
+
+    Returns
+    -------
+    str
+        The construct, what became of it, and, where it may change how later blocks read, that
+        what it changes is not followed.
+    """
+    return (f"{problem} {kept}" if kept else str(problem).rstrip(",")) + (
+        "; what it changes is not followed, so the blocks after it may be misread" if problem.modes_unknown else "")
+
+
+def offset_notes(block: Block, origin_given: bool, noted: set) -> list[str]:
+    """What to tell (once a program) of the work and tool offsets a block selects, which the
+    model does not know: compensate's report and predict's notes say it alike.
+
+    Parameters
+    ----------
+    block : Block
+        The block.
+    origin_given : bool
+        A program origin was given (then a work offset is what it stands for).
+    noted : set
+        What was told already (``"offset"``, ``"tool"``); updated in place.
+
+    Returns
+    -------
+    list of str
+        The notes for this block (most often none).
+    """
+    out = []
+    for w in block.words:
+        if w.letter == "G" and w.value in WORK_OFFSETS and "offset" not in noted and not origin_given:
+            noted.add("offset")
+            out.append(f"work offset G{w.value:g}: program coordinates are taken as axis positions (give the work "
+                       "offset as the program origin, in mm / deg)")
+        if ((w.letter == "G" and w.value in (43, 44, 43.4)) or w.letter in "HD") and "tool" not in noted:
+            noted.add("tool")
+            what = f"G{w.value:g} tool length offset" if w.letter == "G" else f"tool offset word {w.name}"
+            out.append(f"{what}: the errors are those of the model's tool point; a different tool length changes "
+                       "the angular errors' lever arms")
+    return out
 
 
 def _unknown(text: str, column: int) -> Problem:

@@ -430,6 +430,47 @@ def check_words(block: Block, source: str) -> None:
             raise GcodeError(f"{_where(source, block.number, w.start)}: {problem}")
 
 
+def check_tape(lines: list[tuple[str, str]], source: str) -> None:
+    """Refuse text after the ``%`` that ends a program.
+
+    A program that begins with a ``%`` line ends at the next one; one that does not ends at its
+    first. LinuxCNC reads nothing after that line (and refuses a ``%`` in a program that did
+    not begin with one), so a block there would be compensated or predicted although it never
+    runs.
+
+    Parameters
+    ----------
+    lines : list of (str, str)
+        The program's lines and their endings.
+    source : str
+        Its name, for messages.
+
+    Raises
+    ------
+    GcodeError
+        A line with text after the closing ``%``, naming it and the ``%`` line.
+    """
+    opening, closing = None, None
+    for k, (body, _) in enumerate(lines):
+        if "%" not in body and closing is None:   # (most lines: one scan in C)
+            if opening is None and body.strip(BLANKS):
+                opening = False
+            continue
+        text = body.strip(BLANKS)
+        if closing is not None:
+            if text:
+                raise GcodeError(f"{source}:{k + 1}: text after the '%' of line {closing + 1}, which ends the "
+                                 "program: LinuxCNC reads nothing after it (remove the text, or that '%')")
+            continue
+        tape = text == "%"   # (a named one, %_N_PART_MPF, begins a program of a Siemens file)
+        if opening is None and text:
+            opening = tape
+            if tape:
+                continue
+        if tape:
+            closing = k
+
+
 def split_lines(text: str) -> list[tuple[str, str]]:
     """The lines of a program with their endings.
 

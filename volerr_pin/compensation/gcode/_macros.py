@@ -46,8 +46,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 
-from ._expressions import LITERAL, Frame, Line, Unfollowable, Values, number_text
-from ._lexer import LATHE_CYCLES, GcodeError, mask_comments, uncommented, word_values
+from ._expressions import LITERAL, Frame, Line, Refused, Unfollowable, Values, number_text
+from ._lexer import LATHE_CYCLES, GcodeError, check_tape, mask_comments, uncommented, word_values
 
 __all__ = ["Expansion", "MOST_BLOCKS", "Unfollowable", "expand", "may_need", "renamed"]
 
@@ -510,11 +510,17 @@ def expand(lines: list[tuple[str, str]], source: str = "<program>", most_blocks:
     Unfollowable
         What stops the expansion (the program is then read as it is).
     GcodeError
+        A value the controller refuses (a division by zero, ...; naming its line and column).
+    GcodeError
         A program that would run more than ``most_blocks`` blocks, naming the loop or call.
     """
+    check_tape(lines, source)
     ex = _Expander(lines, source, most_blocks)
     try:
         ex.run(0, len(lines))
+    except Refused as why:
+        raise GcodeError(f"{source}:{why.line}:{why.column}: {why}: LinuxCNC stops the program there, so it is "
+                         "refused") from None
     except _Signal:   # the program's end (a return outside a call is refused where it stands)
         last = ex.origin[-1]   # the M2 / M30: what follows is never read; it is kept as written
         for k in range(last, len(lines)):

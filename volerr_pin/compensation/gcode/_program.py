@@ -20,7 +20,7 @@ from .._path import PathCompensator
 from ...model import Machine, axis_jacobian
 from ._flow import Flow
 from . import _kept as kept, _macros as macros
-from ._lexer import LATHE_CYCLES, PROGRAM_END, WORK_OFFSETS, Block, GcodeError, mask_comments, split_lines
+from ._lexer import LATHE_CYCLES, PROGRAM_END, Block, GcodeError, mask_comments, split_lines
 from ._modal import Interpreter, check_axes, move_of
 from ._polar import has_polar, read_polar
 from ._profiles import Profiles
@@ -385,9 +385,7 @@ class Program(ChunkWriting):
                 raise GcodeError(f"{reader.source}:{number}:{problem.column}: {problem}: what it changes cannot be "
                                  "told, so the blocks after it may be misread (pass_through keeps it unchanged and "
                                  "goes on)", parameters=("pass_through",))
-            reader.notes.add(number, f"{problem} kept unchanged" + (
-                "; what it changes is not followed, so the blocks after it may be misread" if problem.modes_unknown
-                else ""))
+            reader.notes.add(number, kept.named(problem, "kept unchanged"))
             self._kept(code)
             kept.skip(reader, body, state, block, number)
             self.flow.called(code, state, f"{reader.source}:{number}")
@@ -452,18 +450,8 @@ CALLS = re.compile(r"\bCALL\b|(?<![A-Z])M[ \t]*0*98(?![0-9])|(?<![A-Z])G[ \t]*0*
 
 def _note_offsets(program: Program, block: Block) -> None:
     """Warn (once) of work and tool offsets, which the model does not know."""
-    noted = program._noted
-    for w in block.words:
-        if (w.letter == "G" and w.value in WORK_OFFSETS and "offset" not in noted
-                and not program.reader.origin.any()):
-            noted.add("offset")
-            program.reader.notes.add(block.number, f"work offset G{w.value:g}: program coordinates are taken as "
-                                  "axis positions (give the work offset as the program origin, in mm / deg)")
-        if ((w.letter == "G" and w.value in (43, 44, 43.4)) or w.letter in "HD") and "tool" not in noted:
-            noted.add("tool")
-            what = f"G{w.value:g} tool length offset" if w.letter == "G" else f"tool offset word {w.name}"
-            program.reader.notes.add(block.number, f"{what}: the errors are those of the model's tool point; a "
-                                  "different tool length changes the angular errors' lever arms")
+    for text in kept.offset_notes(block, program.reader.origin.any(), program._noted):
+        program.reader.notes.add(block.number, text)
 
 
 def _expanded(program: Program, lines: list[tuple[str, str]]) -> list[tuple[str, str]]:

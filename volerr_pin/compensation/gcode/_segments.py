@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from .._moves import ARC, LINE, POINT, MoveBatch
+from .._moves import ARC, LINE, POINT, MoveBatch, skip_run
 from ...model import Machine
 from ._flow import Flow
 from . import _kept as kept, _macros as macros
@@ -75,31 +75,53 @@ def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str,
 
 def _moves(reader: Interpreter, lines, source: str, origin) -> MoveBatch:
     """The moves of the blocks ``lines`` (``origin``: the program line each comes from, for an
-    expanded program), gathered in lists and laid into one batch at the end."""
+    expanded program), gathered in lists and laid into one batch at the end, with the blocks
+    not followed (:attr:`MoveBatch.skipped`)."""
     state = reader.initial_state()
     flow = Flow(source)
     numbers, kinds, tips, starts, targets = [], [], [], [], []
     arc_rows, arcs = [], []
+    skipped: list = []
+    notes: list = []
+    noted: set = set()
+    origin_given = bool(reader.origin.any())
+    followed = 0        # moves followed when the last block was skipped
+    lost_at = 0         # the program line after which the position was lost
     for number, (body, _) in enumerate(lines, start=1):
+        at = number if origin is None else origin[number - 1]
         masked = mask_comments(body, number, source)
         if has_polar(masked) and flow.body is None:
             body = read_polar(reader, body, masked, number, state)
             if body is None:   # a canned cycle's position
+                skip_run(skipped, at, "polar coordinates (@ ^) of a canned cycle", followed != len(kinds))
+                followed = len(kinds)
                 continue
             masked = mask_comments(body, number, source)
         code = masked.upper()
         if flow.line(code, number):
             continue   # a subroutine body runs where it is called
+        lost = state.lost
         block, problem = kept.classify(reader, body, number, state, masked)
         if problem:
             kept.skip(reader, body, state, block, number)
             flow.called(code, state, f"{source}:{number}")
+            skip_run(skipped, at, kept.named(problem), followed != len(kinds))
+            followed = len(kinds)
+            lost_at = at if state.lost != lost else lost_at
             continue
+        if block.words:
+            notes += [f"line {at}: {text}" for text in kept.offset_notes(block, origin_given, noted)]
         move = reader.advance(block, state, check_travel=False)
         if move is not None:
             # a rapid, or a move from an unknown position: only its end is meaningful
             if not move.start_known.all() or move.motion == 0:
                 kind = POINT
+                if move.motion != 0:
+                    missing = ", ".join(a for a, k in zip(reader.axes, move.start_known) if not k)
+                    why = (f"axes {missing} not known since line {lost_at}" if state.lost and lost_at else
+                           f"axes {missing} not yet programmed")
+                    skip_run(skipped, at, f"a cut from an unknown position ({why})", followed != len(kinds), True)
+                    followed = len(kinds) + 1
             elif move.motion == 1:
                 kind = LINE
             else:
@@ -107,13 +129,16 @@ def _moves(reader: Interpreter, lines, source: str, origin) -> MoveBatch:
                 arc_rows.append(len(kinds))
                 arcs.append(reader.arc(block, move.start, move.target, move.motion == 2, state))
             kinds.append(kind)
-            numbers.append(number if origin is None else origin[number - 1])
+            numbers.append(at)
             tips.append(move.tool_tip)
             starts.append(move.start)
             targets.append(move.target)
+        if state.lost != lost:   # (a tool change)
+            lost_at = at
         if any(w.letter == "M" and w.value in PROGRAM_END for w in block.words):
             break   # the program ends: nothing after it is read
     batch = MoveBatch.empty(len(kinds), len(reader.axes))
+    batch.skipped, batch.notes = skipped, notes
     if kinds:
         batch.kind[:] = kinds
         batch.w0[:] = starts
