@@ -99,7 +99,7 @@ def test_the_samples_meet_the_stated_tolerance(machines):
     segments = interpret(m, CIRCLE)
     deviation = deviation_along(m, segments, tolerance=tolerance)
     arc = [s for s in segments if s.kind == "arc"][0]
-    rows = deviation.move == 1
+    rows = deviation.line == arc.line   # (the zero-length G1 before it is no cutting move)
     k, normal = deviation.fraction[rows], deviation.normal[rows]
     probe = np.random.default_rng(3).random(500)
     q = arc.arc.point(probe)
@@ -317,7 +317,7 @@ def test_backlash_reversals_inside_arcs_and_between_lines_are_sampled(machines):
     program = (f"G17 G90 G21\nG0 {start} Z100\nG1 {start} Z100 F500\n"
                f"G3 {start} I{-c * 1e3:.6f} J{-s * 1e3:.6f}\nM30\n")
     deviation = deviation_along(loose, interpret(loose, program))
-    arc = deviation.move == 1
+    arc = deviation.line == 4   # the G3 (the zero-length G1 before it is no cutting move)
     y_error = deviation.error[arc, 1] * 1e6
     steps = np.flatnonzero(np.abs(np.diff(y_error)) > 1.0)
     assert len(steps) == 2 and np.allclose(np.abs(np.diff(y_error))[steps], 3.0, atol=1e-6)

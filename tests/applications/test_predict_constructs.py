@@ -171,3 +171,101 @@ def test_what_rs274_refuses_or_never_reads_is_refused_naming_the_line(machines, 
     # a closing % with nothing but blank lines after it, or a Siemens program name, is a tape's end
     assert len(interpret(m, "%\nG0 X100 Y100 Z100\nG1 X150 F500\n%\n\n  \n", "p.nc")) == 2
     assert len(interpret(m, "%_N_PART_MPF\nG0 X100 Y100 Z100\nG1 X150 F500\nM30\n", "p.nc")) == 2
+
+
+SQUARE = "G21 G90 G17\nG0 X200 Y150 Z100\nG1 X300 F500\n{extra}G1 Y250\nG1 X200\nG1 Y150\nM30\n"
+
+
+def test_a_zero_length_move_cuts_nothing(machines):
+    """A line to where the axes stand has no direction: counted, its whole error (along the
+    path too) doubled the largest deviation and became its line (3.67 -> 7.51 um in the pass)."""
+    m = machines["vmc500"]
+    plain = predict(m, SQUARE.format(extra="")).to_dict()
+    again = predict(m, SQUARE.format(extra="G1 X300\n")).to_dict()
+    assert again["max_normal_deviation_um"] == pytest.approx(plain["max_normal_deviation_um"], rel=1e-12)
+    assert {b["line"] for b in again["blocks"]} == {3, 5, 6, 7}   # not the zero-length line 4
+    assert [f["kind"] for f in again["features"]] == [f["kind"] for f in plain["features"]]
+
+
+def test_a_circle_cut_in_two_halves_with_a_zero_length_move_between_is_measured(machines):
+    m = machines["vmc500"]
+    whole = predict(m, "G21 G90 G17\nG0 X300 Y200 Z100\nG2 X300 Y200 I-50 J0 F500\nM30\n")
+    halves = predict(m, "G21 G90 G17\nG0 X300 Y200 Z100\nG1 X300 F500\nG2 X200 Y200 I-50 J0\n"
+                        "G1 X200 Y200\nG2 X300 Y200 I50 J0\nM30\n")
+    (circle,) = halves.circles
+    assert circle.lines == (4, 6)
+    assert circle.to_dict()["circularity_um"] == pytest.approx(whole.circles[0].to_dict()["circularity_um"], rel=1e-3)
+
+
+def _shifted(program: str, mm: float) -> str:
+    return re.sub(r"X(\d+\.\d+)", lambda g: f"X{float(g.group(1)) + mm:.4f}", program)
+
+
+def test_reference_features_are_measured_only_where_the_cut_follows_them(machines):
+    """A reference 1 mm off the cut "measured" a circle from the few samples where the two
+    cross (roundness 750 um on a machine of 5 um errors); now each feature the cut leaves is
+    named with the stretch of it the cut leaves and how far it runs from it."""
+    from volerr_pin.applications.part import contouring_test_piece
+
+    m = machines["vmc500"]
+    piece = contouring_test_piece(m)
+    alone = predict(m, piece)
+    near = predict(m, piece, reference=_shifted(piece, 0.1))   # within the 0.2 mm capture: all measured
+    assert len(near.features) == len(alone.features) and not near.notes
+    off = predict(m, piece, reference=_shifted(piece, 1.0))
+    assert off.circles == [] and all(s.start[1] == s.end[1] for s in off.sides)   # only sides along X stay on it
+    strays = [n for n in off.notes if "the cut does not follow it" in n]
+    assert len(strays) == 1 + 6   # the circle, the square's two sides along Y and the diamond's four
+    assert strays[0].startswith("the circle of lines 23 of the reference is not measured") and "1.00" in strays[0]
+    with pytest.raises(InputError, match=r"the cut follows none of the reference's 9 circles and sides: the circle "
+                                         r"of lines 23 .* runs up to 4\d\.\d{3} mm from it") as err:
+        predict(m, piece, reference=_shifted(piece, 50.0))
+    assert err.value.parameters == ("reference",)
+
+
+@pytest.mark.parametrize("plane, message", [((0, 0), "not two different"), ((0, 3), "not two different"),
+                                            ((-1, 0), "not two different"), ((0.5, 1), "not two coordinates"),
+                                            ("xy", "not two coordinates")])
+def test_a_plane_is_two_different_coordinates(machines, plane, message):
+    with pytest.raises(InputError, match=message) as err:
+        predict(machines["vmc500"], SQUARE.format(extra=""), plane=plane)
+    assert err.value.parameters == ("plane",)
+    assert len(predict(machines["vmc500"], SQUARE.format(extra=""), plane=(1, 0)).features) == 10
+
+
+def test_a_tool_too_large_for_the_cone_is_refused_not_dropped(machines):
+    from volerr_pin.applications.part import cone_frustum_test_piece
+
+    m = machines["cgm4000"]
+    piece = cone_frustum_test_piece(m)
+    with pytest.raises(InputError, match=r"a tool diameter of 500 mm cannot cut the cone of lines 7..1446") as err:
+        predict(m, piece, tool_diameter=0.5)
+    assert err.value.parameters == ("tool_diameter",)
+
+
+@pytest.mark.parametrize("feed", [float("nan"), float("inf"), -500.0, 0.0, 1e300, 1e-9, "fast"])
+def test_a_test_piece_feed_is_a_feed_rate(machines, feed):
+    from volerr_pin.applications.part import cone_frustum_test_piece, contouring_test_piece
+
+    for make, m in ((contouring_test_piece, machines["vmc500"]), (cone_frustum_test_piece, machines["cgm4000"])):
+        with pytest.raises(InputError, match=r"^feed") as err:
+            make(m, feed=feed)
+        assert err.value.parameters == ("feed",)
+
+
+def test_test_pieces_write_numbers_their_readers_read(machines):
+    from volerr_pin.applications.part import SMALLEST_SIDE, cone_frustum_test_piece, contouring_test_piece
+
+    m = machines["vmc500"]
+    slow = contouring_test_piece(m, feed=0.5)
+    assert "F0.5" in slow and len(interpret(m, slow)) == len(interpret(m, contouring_test_piece(m)))
+    assert "F1000000\n" in contouring_test_piece(m, feed=1e6)
+    for size in (1e-7, SMALLEST_SIDE * 1e-3 / 2):
+        with pytest.raises(InputError, match=r"below 10 mm") as err:
+            contouring_test_piece(m, size)
+        assert err.value.parameters == ("size",)
+    smallest = predict(m, contouring_test_piece(m, SMALLEST_SIDE * 1e-3))
+    assert len(smallest.sides) == 8 and len(smallest.circles) == 1   # every side of it measured
+    with pytest.raises(InputError, match=r"moves shorter than 0.001 mm") as err:
+        cone_frustum_test_piece(machines["cgm4000"], 0.1e-3, tool_diameter=0.0)
+    assert err.value.parameters == ("size",)

@@ -11,6 +11,14 @@ import pytest
 from volerr_pin.cli import main
 
 
+def _code(argv) -> int:
+    """The exit status of a command, argparse's refusals (which exit) included."""
+    try:
+        return main(argv)
+    except SystemExit as exit:
+        return exit.code
+
+
 def _json(capsys, argv) -> dict:
     assert main(argv) == 0
     return json.loads(capsys.readouterr().out)
@@ -81,11 +89,33 @@ def test_the_cone_frustum_of_a_five_axis_machine(tmp_path, capsys):
     (["testpiece", "lathe_2axis"], "needs linear X, Y, Z"),
     (["testpiece", "vmc500", "--kind", "cone-frustum"], "needs a five-axis machine"),
     (["testpiece", "cgm4000", "--kind", "cone-frustum", "--size", "0"], "--size (the base diameter) must be"),
+    (["testpiece", "vmc500", "--feed", "nan"], "--feed: nan mm/min is not a number: a feed rate lies within 0.001 .. "),
+    (["testpiece", "vmc500", "--feed", "1e300"], "--feed: 1e+300 mm/min is implausible"),
+    (["testpiece", "vmc500", "--feed", "0"], "--feed: 0 mm/min is implausible"),
+    (["testpiece", "vmc500", "--size", "0.0001"], "the square's side 0.0001 mm is below 10 mm"),
+    (["testpiece", "vmc500", "--size", "1e300"], "argument --size: 1e300 mm is implausible"),
 ])
 def test_testpiece_refusals(tmp_path, capsys, argv, message):
-    assert main([*argv, "-o", str(tmp_path / "x.nc")]) == 2
+    assert _code([*argv, "-o", str(tmp_path / "x.nc")]) == 2
     assert message in capsys.readouterr().err
     assert not (tmp_path / "x.nc").exists()
+
+
+@pytest.mark.parametrize("option, message", [
+    (["--tol-um", "nan"], "argument --tol-um: expected a positive, finite tolerance in um, got 'nan'"),
+    (["--tol-um", "1e300"], "argument --tol-um: 1e300 um is implausible"),
+    (["--tool-diameter", "1e300"], "argument --tool-diameter: 1e300 mm is implausible"),
+    (["--cone-heights", "2,1e300"], "argument --cone-heights: 1e300 mm is implausible"),
+    (["--start", "X=1e300"], "--start X: 1e+300 mm is implausible"),
+    (["--origin", "Y=-1e9"], "--origin Y: -1000000000 mm is implausible"),
+])
+def test_predict_options_are_checked_as_a_spec_s_values(tmp_path, capsys, option, message):
+    piece = tmp_path / "tp.nc"
+    assert main(["testpiece", "vmc500", "-o", str(piece)]) == 0
+    capsys.readouterr()
+    assert _code(["predict", "vmc500", str(piece), *option]) == 2
+    err = capsys.readouterr().err
+    assert message in err.strip().splitlines()[-1] and "Traceback" not in err
 
 
 def test_predict_refuses_a_move_out_of_the_travel_naming_its_line(tmp_path, capsys):

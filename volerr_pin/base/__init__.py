@@ -3,7 +3,7 @@ units and their conversions (:data:`LENGTH`, :func:`scale`, :func:`within` ...),
 values a user gives (:func:`positive`, :func:`real_array` ...), and files written as databases
 write them (:func:`transaction`, :func:`write_text`, :func:`check_outputs`, :func:`read_text`)."""
 
-from ._checks import (counts, fraction, integer, measurement_sigma, one_point, positive, real_array, sensible,
+from ._checks import (counts, feed_rate, fraction, integer, measurement_sigma, one_point, positive, real_array, sensible,
                       whole_numbers)
 from ._errors import InputError, SpecError, URDFError, VolerrError
 from ._exports import lazy_exports
@@ -14,7 +14,7 @@ from ._units import (ANGLE, ARCSEC, ARCSEC_PER_RAD, AXIS_UNIT, DEG, INCH, LENGTH
                      describe_range, parse_axis_values, parse_number, scale, shown, split_key, within)
 
 __all__ = ["ANGLE", "COMMIT_CHECKS", "ARCSEC", "ARCSEC_PER_RAD", "axis_scale", "axis_scales", "AXIS_UNIT",
-           "axis_values_to_si", "check_output_folder", "check_outputs", "counts", "DEG", "describe_range", "fraction",
+           "axis_values_to_si", "check_output_folder", "check_outputs", "counts", "DEG", "describe_range", "feed_rate", "fraction",
            "INCH", "InputError", "integer", "lazy_exports", "LENGTH", "measurement_sigma", "MM", "one_point",
            "parse_axis_values", "parse_number", "PLAUSIBLE", "positive", "read_json", "read_text", "real_array",
            "replacing", "require_memory", "same_file", "scale", "sensible", "shown", "SpecError", "split_key",

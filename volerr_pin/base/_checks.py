@@ -11,7 +11,7 @@ import numpy as np
 from ._errors import InputError
 from ._units import within
 
-__all__ = ["counts", "fraction", "integer", "one_point", "positive", "measurement_sigma", "real_array", "sensible",
+__all__ = ["counts", "feed_rate", "fraction", "integer", "one_point", "positive", "measurement_sigma", "real_array", "sensible",
            "whole_numbers"]
 
 
@@ -71,6 +71,35 @@ def sensible(name: str, values, limit: str, unit: str, unit_scale: float = 1.0) 
         ``unit`` (:func:`~volerr_pin.base.within`).
     """
     return within(values, limit, name, unit, unit_scale, error=InputError, parameters=(name,))
+
+
+def feed_rate(name: str, value) -> float:
+    """A feed rate in mm/min for a program the product writes: a number within what a feed may
+    be (:data:`~volerr_pin.base.PLAUSIBLE`: 0.001 mm/min to 1000 m/min).
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name, for the message.
+    value : object
+        The value given [mm/min].
+
+    Returns
+    -------
+    float
+        The number [mm/min].
+
+    Raises
+    ------
+    InputError
+        Naming ``name``.
+    """
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a feed rate in mm/min, got {value!r}", parameters=(name,)) from None
+    sensible(name, [number / 60e3], "feed", "mm/min", 1.0 / 60e3)
+    return number
 
 
 def positive(name: str, value) -> float:

@@ -71,13 +71,14 @@ PLAUSIBLE = {
     "reading": (-1e15, 1e15),                     # a series value of unknown unit (epoch ms pass)
     "period_length": (1e-6, 1e3),                 # a period of a micrometre is a unit mistake, not a screw
     "period_angle": (ANGLE["arcsec"], 1e7 * DEG),  # an angular period below an arc second
+    "feed": (1e-6 / 60.0, 1e3 / 60.0),            # m/s: 0.001 mm/min to 1000 m/min (ten times any machine's)
 }
 #: what each limit is of, for messages
 PLAUSIBLE_WHAT = {"error_length": "a deviation", "error_angle": "an angular deviation",
                   "position_length": "a position", "position_angle": "a rotary position",
                   "time": "a time", "time_constant": "a time constant", "temperature": "a temperature", "force": "a force",
                   "reading": "a reading in any unit", "period_length": "a period",
-                  "period_angle": "an angular period"}
+                  "period_angle": "an angular period", "feed": "a feed rate"}
 
 #: a decimal number as files write it: digits, an optional point and exponent; no NaN or
 #: inf spellings, underscores, hex or non-ASCII digits (all of which float() would take)
@@ -388,11 +389,16 @@ def axis_values_to_si(names: Sequence[str], kinds: Sequence[str], values: dict[s
     Raises
     ------
     InputError
-        If ``values`` names something that is not an axis.
+        If ``values`` names something that is not an axis, or a position beyond what one may be
+        (:data:`PLAUSIBLE`).
     """
     out = {}
     for name, value in values.items():
         if name not in names:
             raise InputError(f"{where} names '{name}', not an axis of {machine_name}")
-        out[name] = value * axis_scale(kinds[list(names).index(name)])
+        kind = kinds[list(names).index(name)]
+        out[name] = value * axis_scale(kind)
+        unit = "deg" if kind == "rotary" else "mm"
+        within([out[name]], f"position_{'angle' if kind == 'rotary' else 'length'}", f"{where} {name}", unit,
+               axis_scale(kind), error=InputError)
     return out

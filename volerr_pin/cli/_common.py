@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from rich.console import Console
 
-from ..base import InputError, VolerrError, axis_values_to_si, check_outputs, parse_axis_values, same_file
+from ..base import (PLAUSIBLE, InputError, VolerrError, axis_values_to_si, check_outputs, describe_range, parse_axis_values,
+                    same_file)
 
 if TYPE_CHECKING:   # the model loads Pinocchio, SciPy and Numba: imported where a command runs, not to parse
     from ..model import Machine
@@ -203,13 +204,28 @@ def positive(text: str) -> int:
 
 
 def millimetres(text: str) -> float:
-    """argparse type: a finite length in mm, not negative."""
+    """argparse type: a finite length in mm, not negative, within what a position may be (1 km)."""
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a length in mm, got {text!r}") from None
     if not math.isfinite(value) or value < 0:
         raise argparse.ArgumentTypeError(f"expected a finite length in mm, not negative, got {text!r}")
+    if value * 1e-3 > PLAUSIBLE["position_length"][1]:
+        raise argparse.ArgumentTypeError(f"{text} mm is implausible: {describe_range('position_length', 'mm', 1e-3)}")
+    return value
+
+
+def tolerance_um(text: str) -> float:
+    """argparse type: a tolerance in um: positive, finite, within what a deviation may be (1 m)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a tolerance in um, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a positive, finite tolerance in um, got {text!r}")
+    if value * 1e-6 > PLAUSIBLE["error_length"][1]:
+        raise argparse.ArgumentTypeError(f"{text} um is implausible: {describe_range('error_length', 'um', 1e-6)}")
     return value
 
 

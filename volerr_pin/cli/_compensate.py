@@ -9,7 +9,7 @@ from rich.console import Console
 
 from ..base import transaction
 from ._common import (add_json_arg, add_machine_args, add_out_arg, add_program_position_args, add_state_arg,
-                     check_run_outputs, dumps, machine_of, program_positions)
+                     check_run_outputs, dumps, machine_of, program_positions, tolerance_um)
 
 
 #: the command's name, and its line in ``volerr --help`` (read without building its parser)
@@ -23,7 +23,7 @@ def add_parser(sub) -> None:
     add_state_arg(p)
     p.add_argument("program", help="NC program (ISO 6983 / RS-274)")
     add_out_arg(p, "compensated program to write", what="an NC program", required=True)
-    p.add_argument("--tol-um", type=float, default=1.0, help="position tolerance along every move (default 1)")
+    p.add_argument("--tol-um", type=tolerance_um, default=1.0, help="position tolerance along every move (default 1)")
     p.add_argument("--tol-urad", type=float,
                    help="tool-axis tolerance on machines with rotary axes (default 10 per um of --tol-um)")
     p.add_argument("--report", help="write the report (JSON) here")

@@ -10,7 +10,7 @@ from rich.table import Table
 
 from ..base import transaction
 from ._common import (add_json_arg, add_machine_args, add_program_position_args, add_state_arg, check_run_outputs, dumps,
-                     machine_of, millimetre_list, millimetres, positive, program_positions, table_console)
+                     machine_of, millimetre_list, millimetres, positive, program_positions, table_console, tolerance_um)
 
 
 #: the command's name, and its line in ``volerr --help`` (read without building its parser)
@@ -28,7 +28,7 @@ def add_parser(sub) -> None:
     p.add_argument("--reference", metavar="PROGRAM",
                    help="the program that defines the part, for a compensated program: its circles and sides are "
                         "measured on what the given program cuts")
-    p.add_argument("--tol-um", type=float, default=0.01,
+    p.add_argument("--tol-um", type=tolerance_um, default=0.01,
                    help="sampling tolerance of the path: the deviation between samples, interpolated, is within it "
                         "of the model (default 0.01)")
     add_program_position_args(p)

@@ -17,7 +17,7 @@ from ..base import lazy_exports
 #: names from :mod:`.export`, would otherwise pay for at every start
 _NAMES = {
     "_arcs": ("Arc", "arc_from_center", "RADIUS_SLACK", "arc_extent", "sweep_of", "sweeps"),
-    "_moves": ("ARC", "POINT", "MoveBatch", "PieceSet", "Skipped"),
+    "_moves": ("ARC", "LINE", "POINT", "MoveBatch", "PieceSet", "Skipped"),
     "_path": ("BatchResult", "PathCompensation", "PathCompensator", "Piece"),
     "_points": ("PointCompensation", "compensate_points", "evaluate_compensation", "MachineInputs"),
     "_modes": ("PROGRAMMINGS", "programming_for"),

@@ -50,9 +50,9 @@ from ._path import CuttingPath, normal_part
 from ._predict import NOT_PREDICTED_SHARE, PartPrediction, blocks_text, predict
 from ._ranking import feature_ranking
 from ._sampling import Cut, PathDeviation, cut_of, deviation_along
-from ._testpiece import contouring_test_piece
+from ._testpiece import SMALLEST_SIDE, contouring_test_piece
 
 __all__ = ["predict", "PartPrediction", "NOT_PREDICTED_SHARE", "blocks_text", "CuttingPath", "normal_part", "deviation_along", "PathDeviation",
            "cut_of", "Cut", "measure", "Features", "contour_plane", "CircleFeature", "LineFeature", "PairFeature",
            "feature_ranking", "fit_circle", "fit_line", "RoundFeature", "measure_round", "find_cones", "measure_cones",
-           "Cone", "ConeSection", "section_heights", "cone_frustum_test_piece", "contouring_test_piece"]
+           "Cone", "ConeSection", "section_heights", "cone_frustum_test_piece", "contouring_test_piece", "SMALLEST_SIDE"]

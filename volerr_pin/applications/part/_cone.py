@@ -37,9 +37,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...base import InputError
+from ...base import InputError, feed_rate, integer
 from ...model import Machine, check_covariates, outside_travel, tool_poses
 from ._cmm import RoundFeature, measure_round
+from ._testpiece import feed_word
 
 __all__ = ["Cone", "ConeSection", "find_cones", "measure_cones", "cone_frustum_test_piece", "section_heights"]
 
@@ -260,6 +261,12 @@ def find_cones(machine: Machine, moves, contours: list[list[int]], cut, tool_rad
         rotary axis; leads in and out at a fixed orientation are left out) are, at every sample, generators of one cone
         (within :data:`APEX_TOLERANCE` and :data:`ANGLE_TOLERANCE`) and its tool points go
         round the cone's axis (no gap above 10 degrees).
+
+    Raises
+    ------
+    InputError
+        If the tool's radius is too large for a cone's flank to be cut (naming
+        ``tool_diameter``).
     """
     cones = []
     rotary = np.array(machine.axis_kinds) == "rotary"
@@ -297,13 +304,16 @@ def find_cones(machine: Machine, moves, contours: list[list[int]], cut, tool_rad
         # it for a bore), a cone of the same axis and angle whose apex is r / sin(alpha) lower in both
         part_apex = apex - tool_radius / np.sin(np.arccos(cosine)) * axis
         bottom = float(np.mean((contact - part_apex) @ axis))
-        if (bottom >= 0.0) == boss:
-            continue   # the tool's end beyond the apex: no frustum
+        lines = tuple(dict.fromkeys(int(moves.line[m]) for m in contour))
+        if (bottom >= 0.0) == boss:   # the tool's end beyond the apex: no frustum
+            raise InputError(f"a tool diameter of {2e3 * tool_radius:g} mm cannot cut the cone of lines {lines[0]}.."
+                             f"{lines[-1]} with its flank: the cone its flank would cut has its apex "
+                             f"{abs(bottom) * 1e3:.3f} mm {'below' if boss else 'above'} the plane the tool's end "
+                             "cuts in (give the cutter's diameter)", parameters=("tool_diameter",))
         d = tips - part_apex
         along = d @ axis
         radial = np.linalg.norm(d - np.outer(along, axis), axis=1)
-        cones.append(Cone(part_apex, axis, float(np.arccos(cosine)), boss, bottom,
-                          tuple(dict.fromkeys(int(moves.line[m]) for m in contour)), list(contour),
+        cones.append(Cone(part_apex, axis, float(np.arccos(cosine)), boss, bottom, lines, list(contour),
                           float(tool_radius), (float(along.mean()), float(radial.mean()))))
     return cones
 
@@ -434,6 +444,8 @@ def _orient(machine: Machine, rotary: list[int], base: np.ndarray, targets: np.n
     return out
 
 
+#: the shortest move of the cone's turn [m]: ten units of the 4 decimals (of mm) a program writes
+SHORTEST_MOVE = 1e-6
 #: the test piece's height, and its sections' heights, as fractions of its base diameter and height
 HEIGHT = 0.25
 SECTIONS = (0.1, 0.5, 0.9)
@@ -495,7 +507,8 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
     ------
     InputError
         If the machine has not two rotary axes, cannot point the tool so, or the cut leaves
-        its travel.
+        its travel, the feed is not a feed rate, or the turn's moves are shorter than
+        :data:`SHORTEST_MOVE`.
     """
     from ...compensation import programming_for
 
@@ -505,9 +518,15 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
                          f"{len(rotary)}")
     if form not in ("boss", "bore"):
         raise InputError(f"form must be 'boss' or 'bore', got {form!r}", parameters=("form",))
+    feed = feed_rate("feed", feed)
+    steps = integer("steps", steps, 8)
     diameter = 80e-3 if size is None else float(size)
     if not (np.isfinite(diameter) and diameter > 0):
         raise InputError(f"size (the base diameter) must be a positive length, got {diameter * 1e3:g} mm",
+                         parameters=("size",))
+    if np.pi * diameter / steps < SHORTEST_MOVE:
+        raise InputError(f"a cone of {diameter * 1e3:g} mm base diameter in {steps} moves makes moves shorter than "
+                         f"{SHORTEST_MOVE * 1e3:g} mm, which the program's 4 decimals cannot write (give a larger size)",
                          parameters=("size",))
     if not (np.isfinite(tool_diameter) and 0 <= tool_diameter < diameter):
         raise InputError(f"tool_diameter must be a length from 0 to the base diameter ({diameter * 1e3:g} mm), got "
@@ -561,7 +580,7 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
     lines = [f"({what}, {height * 1e3:g} mm high, half-angle 15 deg, axis tilted 10 deg towards +X; flank cut by a "
              f"{tool_diameter * 1e3:g} mm end mill, tool tip programmed)",
              f"(measure it with the cutter's diameter {tool_diameter * 1e3:g} mm, at heights {heights} mm)",
-             "G17 G90 G21", "G43.4 H1", block(clear, "G0"), block(words[0], "G1") + f" F{feed:g}"]
+             "G17 G90 G21", "G43.4 H1", block(clear, "G0"), block(words[0], "G1") + f" F{feed_word(feed)}"]
     lines += [block(row, "G1") for row in words[1:]]
     lines += [block(clear, "G0"), "G49", "M30"]
     return "\n".join(lines) + "\n"

@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...base import UM_PER_M
+from ...base import UM_PER_M, InputError
 from ...model import Machine
 from ._features import CircleFeature, LineFeature, PairFeature
 from ._path import CuttingPath
@@ -150,6 +150,35 @@ class _Near:
         return rows[np.abs(self.height[rows] - level) <= capture]
 
 
+#: how a note on a feature the cut does not follow ends
+STRAYS = "; is the reference the program this one was made from?"
+
+
+def _largest_gap(values: np.ndarray, period: float | None) -> float:
+    """The largest gap between sorted values (around a circle of ``period``, or along a line
+    between the first and the last value); the whole period or infinity for none."""
+    if not len(values):
+        return np.inf
+    v = np.sort(values)
+    if period is None:
+        return float(np.diff(v).max()) if len(v) > 1 else np.inf
+    return float(np.diff(np.r_[v, v[0] + period]).max())
+
+
+def _lines(lines) -> str:
+    """A feature's lines for a note."""
+    return ",".join(map(str, lines)) if len(lines) <= 4 else f"{lines[0]}..{lines[-1]}"
+
+
+def _strays(what: str, gap: float, near: "_Near", path: np.ndarray, capture: float) -> str:
+    """The note on a reference's feature the cut does not follow: the stretch of it with no
+    cut within the capture, and how far the cut runs from it."""
+    far = float(near.tree.query(path)[0].max())
+    return (f"{what} of the reference is not measured: the cut does not follow it (it leaves the "
+            f"{capture * 1e3:g} mm capture for {gap * 1e3:.3f} mm of it, and runs up to {far * 1e3:.3f} mm from it "
+            "in the plane)" + STRAYS)
+
+
 def _on_segment(start: np.ndarray, end: np.ndarray, step: float) -> np.ndarray:
     """Points of a segment at most ``step`` apart, its ends included."""
     n = max(2, int(np.ceil(np.linalg.norm(end - start) / step)) + 1)
@@ -214,7 +243,10 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
     compensated program against the program it was made from), a sample measures the feature
     it lies within ``capture`` of (in the plane and in height; a side's ends, 1 % of its
     length, left out; a cone: its tool point within ``capture`` of the circle the reference's
-    tool points go round).
+    tool points go round). A circle or side of the reference is measured only where the cut
+    follows it: a stretch of it longer than twice ``spacing`` (the most two samples of a cut
+    along it lie apart) with no sample within ``capture`` means the cut leaves it, and the
+    feature is named in ``notes`` with that stretch and how far the cut runs from it.
 
     Parameters
     ----------
@@ -252,8 +284,9 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
     Raises
     ------
     InputError
-        If a program has no cutting move, a move leaves the travel (naming its line), or a cone
-        has no section at a height.
+        If a program has no cutting move, a move leaves the travel (naming its line), a cone
+        has no section at a height, or the cut follows none of the reference's circles and
+        sides.
     """
     moves = CuttingPath.of(machine, moves)
     reference = None if reference is None else CuttingPath.of(machine, reference)
@@ -272,8 +305,14 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
             rows = cut.rows(ref["moves"])
         else:
             turn = np.linspace(0.0, 2 * np.pi, max(8, int(np.ceil(2 * np.pi * ref["radius"] / capture)) + 1))
-            rows = near.along(ref["centre"] + ref["radius"] * np.c_[np.cos(turn), np.sin(turn)], capture, ref["height"])
+            path = ref["centre"] + ref["radius"] * np.c_[np.cos(turn), np.sin(turn)]
+            rows = near.along(path, capture, ref["height"])
             rows = rows[np.abs(np.linalg.norm(flat[rows] - ref["centre"], axis=1) - ref["radius"]) <= capture]
+            around = flat[rows] - ref["centre"]
+            gap = ref["radius"] * _largest_gap(np.arctan2(around[:, 1], around[:, 0]), 2 * np.pi)
+            if gap > 2 * spacing:
+                notes.append(_strays(f"the circle of lines {_lines(ref['lines'])}", gap, near, path, capture))
+                continue
         if len(rows) < 3:
             continue
         points = flat[rows]
@@ -292,6 +331,12 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
             along = (flat[rows] - ref["start"]) @ direction
             across = (flat[rows] - ref["start"]) @ np.array([-direction[1], direction[0]])
             rows = rows[(np.abs(across) <= capture) & (along >= 0.01 * length) & (along <= 0.99 * length)]
+            inside = np.clip(along[np.abs(across) <= capture], 0.01 * length, 0.99 * length)
+            gap = _largest_gap(np.r_[0.01 * length, inside, 0.99 * length], None)
+            if gap > 2 * spacing:
+                notes.append(_strays(f"the side of line {_lines(ref['lines'])}", gap, near,
+                                     _on_segment(ref["start"], ref["end"], capture), capture))
+                continue
         if len(rows) < 3:
             continue
         points = flat[rows]
@@ -300,6 +345,11 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
                                  straightness_um=float(np.ptp((points - centre) @ normal) * UM_PER_M),
                                  contour=ref["contour"], measured=points, q=cut.q[rows],
                                  covariates=cut.at(rows)))
+    strayed = [note for note in notes if note.endswith(STRAYS)]
+    if strayed and len(strayed) == len(circles_ref) + len(sides_ref):
+        raise InputError(f"the cut follows none of the reference's {len(strayed)} circles and sides: "
+                         f"{strayed[0]}",
+                         parameters=("reference",))
     pairs = []
     for datum, other, kind in _pairs(sides):
         centre, along, across = fit_line(datum.measured)

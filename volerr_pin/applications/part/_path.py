@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...base import InputError
-from ...compensation import ARC, POINT, MoveBatch
+from ...compensation import ARC, LINE, POINT, MoveBatch
 from ...model import Machine, check_covariates, outside_travel, tool_poses, volumetric_error
 
 __all__ = ["TANGENT_STEP", "TIP_PIECE", "CuttingPath", "normal_part"]
@@ -79,7 +79,7 @@ class CuttingPath:
     machine : Machine
         The machine.
     program : MoveBatch
-        All the program's moves, rapids included.
+        All the program's moves, rapids included, but lines of zero length (they move nothing).
     moves : MoveBatch
         Its cutting moves (lines and arcs), in order; the rows the methods' ``move`` index.
     order : ndarray of int, shape (M,)
@@ -103,6 +103,9 @@ class CuttingPath:
 
     def __init__(self, machine: Machine, program: MoveBatch):
         self.machine = machine
+        still = (program.kind == LINE) & np.all(program.w0 == program.w1, axis=1)
+        if still.any():   # a line to where the axes stand moves nothing: it cuts nothing, nor ends a contour
+            program = program.take(~still)
         self.program = program
         self.order = np.flatnonzero(program.kind != POINT)   # place in the program
         if not len(self.order):

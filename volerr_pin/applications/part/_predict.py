@@ -4,6 +4,7 @@ sources that decide it (:class:`PartPrediction`); see :mod:`volerr_pin.applicati
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
@@ -176,11 +177,14 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
         A block of a program that cannot be read, naming its line.
     InputError
         If a program has no cutting move, a move leaves the travel (naming its line), the
-        tolerance is not a positive number or takes too many samples, or a cone has no section
-        at a height.
+        tolerance is not a positive number or takes too many samples, ``plane`` is not two
+        different coordinates, the tool is too large for a cone's flank, a cone has no section
+        at a height, or the cut follows none of the reference's circles and sides.
     """
     from ...compensation.gcode import interpret
 
+    if plane is not None:
+        plane = _plane(plane)
     batch = interpret(machine, program, source, start=start, origin=origin)
     if batch.skipped and not np.any(batch.kind != POINT):
         raise InputError(f"{source}: no cut can be predicted: " + "; ".join(
@@ -199,6 +203,18 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
     return PartPrediction(machine, source, None if reference is None else reference_source, deviation, found.circles,
                           found.sides, found.pairs, rankings, found.cones, batch.notes + found.notes, batch.skipped,
                           len(batch) + sum(s.blocks for s in batch.skipped if not s.moved))
+
+
+def _plane(plane) -> tuple[int, int]:
+    """A contour plane as two coordinates of x, y, z (0, 1, 2), ascending; refused naming
+    ``plane`` otherwise."""
+    try:
+        i, j = (operator.index(c) for c in plane)
+    except (TypeError, ValueError):
+        raise InputError(f"plane {plane!r} is not two coordinates (0, 1, 2 for x, y, z)", parameters=("plane",)) from None
+    if not {i, j} <= {0, 1, 2} or i == j:
+        raise InputError(f"plane {(i, j)} is not two different coordinates of 0, 1, 2 (x, y, z)", parameters=("plane",))
+    return min(i, j), max(i, j)
 
 
 def _lines(skipped) -> str:
