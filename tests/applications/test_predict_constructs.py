@@ -269,3 +269,51 @@ def test_test_pieces_write_numbers_their_readers_read(machines):
     with pytest.raises(InputError, match=r"moves shorter than 0.001 mm") as err:
         cone_frustum_test_piece(machines["cgm4000"], 0.1e-3, tool_diameter=0.0)
     assert err.value.parameters == ("size",)
+
+
+BIG = "1" * 5000   # beyond Python's 4,300-digit limit for converting a string to an int
+
+
+@pytest.mark.parametrize("block, message", [
+    (f"N{BIG} G1 X150", r"p\.nc:4:1: 'N1111111111111111111\.\.\.' is too large a number"),
+    (f"o{BIG} sub\nG1 X150\no{BIG} endsub\no{BIG} call", r"p\.nc:4: o-word number of 5,000 digits"),
+    (f"#{BIG}=5", r"p\.nc:4:2: '11111111111111111111\.\.\.' is beyond any number"),
+    (f"G1 X#{BIG}", r"p\.nc:4:6: '11111111111111111111\.\.\.' is beyond any number"),
+    (f"M98 P{BIG}", r"p\.nc:4:5: 'P1111111111111111111\.\.\.' is too large a number"),
+    (f"GOTO{BIG}", r"p\.nc:4:1: 'G' is not followed by a number"),
+])
+def test_huge_whole_numbers_are_one_line_naming_it(machines, block, message):
+    """N words, o-words and parameter numbers of 5,000 digits raised Python's int-string
+    ValueError as a traceback in both compensate and predict."""
+    from volerr_pin.compensation.gcode import compensate_program
+
+    m = machines["vmc500"]
+    program = HEAD + block + "\nM30\n"
+    for read in (lambda: interpret(m, program, "p.nc"), lambda: compensate_program(m, program, source="p.nc")):
+        with pytest.raises(GcodeError, match=message):
+            read()
+
+
+def test_a_fanuc_loop_numbered_past_any_number_is_kept_and_named(machines):
+    from volerr_pin.compensation.gcode import compensate_program
+
+    m = machines["vmc500"]
+    program = HEAD + f"WHILE [#1 LT 2] DO{BIG}\nG1 X160\nEND{BIG}\nM30\n"
+    _, report = compensate_program(m, program, pass_through=True)
+    assert any(w.startswith("line 6: a macro statement (END11111111111111111...) kept unchanged")
+               for w in report.warnings)
+    assert max(map(len, report.warnings)) < 400
+
+
+def test_a_circle_cut_many_times_is_measured_once_and_alike(machines):
+    """2,000 full circles gave no answer in 900 s: each turn's points were measured and ranked
+    again (2.5 million). A pass cut again at the same axis positions leaves the same surface:
+    measured once, the feature and its sources are those of one turn, to the last digit."""
+    m = machines["vmc500"]
+    once = predict(m, "G21 G90 G17\nG0 X300 Y200 Z100\nG2 X300 Y200 I-50 J0 F500\nM30\n").to_dict()
+    many = predict(m, "G21 G90 G17\nG0 X300 Y200 Z100\n" + "G2 X300 Y200 I-50 J0 F500\n" * 50 + "M30\n").to_dict()
+    (a,), (b,) = once["features"], many["features"]
+    assert len(b["blocks"]) == 50
+    assert b["circularity_um"] == a["circularity_um"] and b["diameter_error_um"] == a["diameter_error_um"]
+    for x, y in zip(a["drivers"], b["drivers"]):
+        assert x["component"] == y["component"] and y["alone_um"] == pytest.approx(x["alone_um"], rel=1e-12)

@@ -239,7 +239,8 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
     (the earlier side the datum), and each contour that cuts a cone with the tool's flank (five-axis,
     :func:`volerr_pin.applications.part.find_cones`), in sections at ``cone_heights``. They are
     measured on the cut: the program's cutting moves sampled at most ``spacing`` apart, where
-    the tool actually is. A sample measures a feature of its own move; with a reference (a
+    the tool actually is, a point cut again at the same axis positions and covariates measured
+    once (:meth:`Cut.distinct`). A sample measures a feature of its own move; with a reference (a
     compensated program against the program it was made from), a sample measures the feature
     it lies within ``capture`` of (in the plane and in height; a side's ends, 1 % of its
     length, left out; a cone: its tool point within ``capture`` of the circle the reference's
@@ -302,7 +303,7 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
     circles = []
     for ref in circles_ref:
         if reference is None:
-            rows = cut.rows(ref["moves"])
+            rows = cut.distinct(cut.rows(ref["moves"]))
         else:
             turn = np.linspace(0.0, 2 * np.pi, max(8, int(np.ceil(2 * np.pi * ref["radius"] / capture)) + 1))
             path = ref["centre"] + ref["radius"] * np.c_[np.cos(turn), np.sin(turn)]
@@ -325,7 +326,7 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
         length = float(np.linalg.norm(ref["end"] - ref["start"]))
         direction = (ref["end"] - ref["start"]) / length
         if reference is None:
-            rows = cut.rows(ref["moves"])
+            rows = cut.distinct(cut.rows(ref["moves"]))
         else:
             rows = near.along(_on_segment(ref["start"], ref["end"], capture), capture, ref["height"])
             along = (flat[rows] - ref["start"]) @ direction
@@ -358,7 +359,7 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
     defining_cut = cut if reference is None else cut_of(machine, defining, spacing)
     cones = find_cones(machine, defining.moves, defining.contours, defining_cut, tool_diameter / 2.0)
     if reference is None:
-        rows = [cut.rows(cone.moves) for cone in cones]
+        rows = [cut.distinct(cut.rows(cone.moves)) for cone in cones]
     else:
         rows = [cone.near_tips(cut.nominal, capture) for cone in cones]
     sections = measure_cones(machine, cones, cut, cone_heights, rows, notes)

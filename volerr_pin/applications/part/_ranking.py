@@ -30,8 +30,12 @@ def _contributions(machine: Machine, q: np.ndarray, covariates: dict | None = No
     set there, with the machine's state."""
     theta = machine.theta
     cov = check_covariates(machine.model, len(q), covariates, state=machine.state)
-    found = sensitivity(machine.model, q, theta, cov)[:, :6, :]
-    return {component: found[:, :, cols] @ theta[cols] for component, cols in _component_columns(machine).items()}
+    columns = _component_columns(machine)
+    weights = np.zeros((len(theta), len(columns)))   # each component's coefficients in its column
+    for k, cols in enumerate(columns.values()):
+        weights[cols, k] = theta[cols]
+    parts = sensitivity(machine.model, q, theta, cov)[:, :6, :] @ weights   # (one product, not one a component)
+    return {component: parts[:, :, k] for k, component in enumerate(columns)}
 
 
 def _in_plane(parts: dict[str, np.ndarray], plane) -> dict[str, np.ndarray]:

@@ -225,6 +225,30 @@ class Cut:
         """
         return {name: value[rows] for name, value in self.covariates.items()}
 
+    def distinct(self, rows: np.ndarray) -> np.ndarray:
+        """Of samples ``rows``, those at axis positions and covariates no earlier one of them
+        has: a pass cut again over the same points (a spring pass, a circle of many turns)
+        leaves the same surface, which a CMM measures once.
+
+        Parameters
+        ----------
+        rows : ndarray of int
+            The samples, in order.
+
+        Returns
+        -------
+        ndarray of int
+            The first of each, in order (``rows`` itself when none repeats).
+        """
+        if len(rows) < 2:
+            return rows
+        columns = [self.q[rows]]
+        for value in self.covariates.values():
+            for array in (value.values() if isinstance(value, dict) else (value,)):
+                columns.append(np.asarray(array, dtype=float)[rows].reshape(len(rows), -1))
+        _, first = np.unique(np.hstack(columns), axis=0, return_index=True)
+        return rows if len(first) == len(rows) else rows[np.sort(first)]
+
     def rows(self, moves: list[int]) -> np.ndarray:
         """The rows of the samples of ``moves`` (the samples run move by move).
 

@@ -24,10 +24,10 @@ __all__ = ["Flow"]
 O_WORD = re.compile(r"[ \t]*(?:N[ \t]*[0-9]+[ \t]*)?O[ \t]*([0-9]+|<[^>]*>)[ \t]*(SUB|ENDSUB|CALL|WHILE|"
                     r"ENDWHILE|DO|REPEAT|ENDREPEAT|IF|ELSEIF|ELSE|ENDIF|RETURN|BREAK|CONTINUE)\b")
 #: a Fanuc macro loop's start (WHILE [...] DOn) and end (ENDn), and a jump (GOTO n)
-FANUC_DO = re.compile(r"\bWHILE\b.*\bDO[ \t]*([0-9]+)")
-FANUC_END = re.compile(r"^[ \t]*(?:N[ \t]*[0-9]+[ \t]*)?END[ \t]*([0-9]+)\b")
-GOTO = re.compile(r"\bGOTO[ \t]*([0-9]+)")
-LABEL = re.compile(r"[ \t]*N[ \t]*([0-9]+)")
+FANUC_DO = re.compile(r"\bWHILE\b.*\bDO[ \t]*([0-9]{1,18})(?![0-9])")
+FANUC_END = re.compile(r"^[ \t]*(?:N[ \t]*[0-9]+[ \t]*)?END[ \t]*([0-9]{1,18})\b")
+GOTO = re.compile(r"\bGOTO[ \t]*([0-9]{1,18})(?![0-9])")
+LABEL = re.compile(r"[ \t]*N[ \t]*([0-9]{1,18})(?![0-9])")   # (longer: the reader refuses the number)
 
 
 class Flow:

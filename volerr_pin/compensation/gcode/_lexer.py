@@ -30,6 +30,9 @@ ASSIGNMENT = re.compile(r"#[ \t]*([0-9]+)[ \t]*=")
 #: the first system variable on Fanuc-style controls (#1000 and above: work and tool offsets, modes,
 #: positions); writing one may change what later coordinates mean
 SYSTEM_VARIABLES = 1000
+#: the most digits a whole number (a line number, an o-word's or a parameter's) is read with:
+#: beyond, it is too large a number (and Python would refuse to convert it past 4,300)
+MOST_DIGITS = 18
 PERCENT = re.compile(r"%(_[A-Za-z0-9_.]*)?")  # tape start/end, with a Siemens-style name
 MACRO = re.compile(r"\b(IF|WHILE|GOTO|DO\d*|END\d*|SUB|ENDSUB|CALL|RETURN|ELSE|ELSEIF|ENDIF|ENDWHILE|REPEAT|"
                    r"ENDREPEAT|BREAK|CONTINUE|THEN)\b")
@@ -556,12 +559,13 @@ def macro_statement(code: str) -> tuple[str, bool] | None:
     upper = code.upper()
     keyword = MACRO.search(upper)
     if keyword:
-        return f"a macro statement ({keyword.group(1)})", True
+        word = keyword.group(1)
+        return f"a macro statement ({word if len(word) <= 24 else word[:20] + '...'})", True
     word = VARIABLE_WORD.search(upper)
     if word:
         return f"a word whose value is a macro variable or expression ({word.group(0).replace(' ', '')}...)", True
     for assignment in ASSIGNMENT.finditer(code):
-        if int(assignment.group(1)) >= SYSTEM_VARIABLES:
+        if len(assignment.group(1)) > MOST_DIGITS or int(assignment.group(1)) >= SYSTEM_VARIABLES:
             return (f"a write to system variable #{int(assignment.group(1))} (work or tool offsets, modes or "
                     "positions on Fanuc-style controls)"), True
     if "#" in code:

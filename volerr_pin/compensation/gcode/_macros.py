@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 
 from ._expressions import LITERAL, Frame, Line, Refused, Unfollowable, Values, number_text
-from ._lexer import LATHE_CYCLES, GcodeError, check_tape, mask_comments, uncommented, word_values
+from ._lexer import LATHE_CYCLES, MOST_DIGITS, GcodeError, check_tape, mask_comments, uncommented, word_values
 
 __all__ = ["Expansion", "MOST_BLOCKS", "Unfollowable", "expand", "may_need", "renamed"]
 
@@ -156,6 +156,9 @@ class _Expander(Values):
             code = line.code[1:] if line.code.startswith("/") else line.code
             m = O_LINE.match(code)
             if m:
+                if len(m.group(1)) > MOST_DIGITS:
+                    raise GcodeError(f"{source}:{k + 1}: o-word number of {len(m.group(1)):,} digits: too large a "
+                                     f"number (an o-word is numbered with at most {MOST_DIGITS} digits)")
                 self.control[k] = (m.group(1), m.group(2), m.group(3), m.start(3) + (len(line.code) - len(code)))
         self.out: list[tuple[str, str]] = []
         self.origin = array("q")
