@@ -244,6 +244,20 @@ def test_an_identification_report_gives_values_uncertainties_and_correlations(ma
      r"correlation.parameters\[1\]: 'EQQ.c0' is not a coefficient of vmc500"),
     ("{\"machine\": \"vmc700\", \"parameters\": {\"EXX.n0\": {\"value\": 1, \"uncertainty\": 1}}}",
      "the report is of 'vmc700', not of 'vmc500'"),
+    # issue 61: a correlation of some of the uncertain coefficients took the others as uncorrelated
+    ("{\"parameters\": {\"EXX.n0\": {\"value\": 1, \"uncertainty\": 1}, \"EYY.n0\": {\"value\": 1, "
+     "\"uncertainty\": 2}}, \"correlation\": {\"parameters\": [\"EXX.n0\"], \"matrix\": [[1]]}}",
+     r"correlation.parameters: EYY.n0 has an uncertainty but no correlation; a correlation is used in full"),
+    ("{\"parameters\": {\"EXX.n0\": {\"value\": 1, \"uncertainty\": 1}, \"EYY.n0\": {\"value\": 1, "
+     "\"uncertainty\": 2}}, \"correlation\": {\"parameters\": [\"EXX.n0\", \"EYY.n0\"], "
+     "\"matrix\": [[true, false], [false, true]]}}",
+     r"correlation.matrix\[0\]\[0\] \(EXX.n0, EXX.n0\): expected a number, got True"),
+    ("{\"parameters\": {\"EXX.n0\": {\"value\": 1, \"uncertainty\": 1}, \"EYY.n0\": {\"value\": 1, "
+     "\"uncertainty\": 2}}, \"correlation\": {\"parameters\": [\"EXX.n0\", \"EYY.n0\"], "
+     "\"matrix\": [[1, \"0.52\"], [\"0.52\", 1]]}}",
+     r"correlation.matrix\[0\]\[1\] \(EXX.n0, EYY.n0\): expected a number, got '0.52'"),
+    ("{\"parameters\": {\"EXX.n0\": {\"value\": 1, \"uncertainty\": 1}}, \"correlation\": {\"parameters\": "
+     "[\"EXX.n0\"], \"matrix\": [1]}}", r"correlation.matrix: expected 1 rows of 1 numbers"),
     ("[" * 50_000 + "]" * 50_000, "nested too deep"),
 ])
 def test_a_bad_identification_report_is_refused_naming_the_file(machines, tmp_path, text, match):

@@ -178,11 +178,22 @@ def _correlation(path: Path, corr, wanted: list[str], machine: Machine) -> np.nd
                                       f"{machine.name}; a correlation is used in full or not at all")
         if name in given[:i]:
             raise _report_error(path, f"correlation.parameters[{i}]: {name!r} is named twice")
-    try:
-        matrix = np.asarray(corr.get("matrix"), dtype=float)
-    except (TypeError, ValueError):
-        raise _report_error(path, "correlation.matrix: expected a square array of numbers") from None
+    missing = [name for name in wanted if name not in given]
+    if missing:
+        raise _report_error(path, f"correlation.parameters: {missing[0]} has an uncertainty but no correlation"
+                                  + (f" (nor {len(missing) - 1} more)" if len(missing) > 1 else "")
+                                  + "; a correlation is used in full or not at all")
+    rows = corr.get("matrix")
     n = len(given)
+    if not isinstance(rows, list) or len(rows) != n or not all(isinstance(row, list) and len(row) == n for row in rows):
+        raise _report_error(path, f"correlation.matrix: expected {n} rows of {n} numbers (one per coefficient "
+                                  "named)")
+    for i, row in enumerate(rows):
+        for j, entry in enumerate(row):
+            if isinstance(entry, bool) or not isinstance(entry, (int, float)):
+                raise _report_error(path, f"correlation.matrix[{i}][{j}] ({given[i]}, {given[j]}): expected a "
+                                          f"number, got {entry!r}")
+    matrix = np.asarray(rows, dtype=float)
     if matrix.shape != (n, n) or not np.isfinite(matrix).all():
         raise _report_error(path, f"correlation.matrix: expected {n} x {n} finite numbers, got shape {matrix.shape}")
     if not np.allclose(matrix, matrix.T, atol=1e-9) or np.any(np.abs(matrix) > 1 + 1e-9) \
