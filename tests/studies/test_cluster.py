@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -154,3 +155,156 @@ def test_a_study_sends_its_machine_and_points_to_the_workers_once(cluster, machi
     np.testing.assert_array_equal(on_cluster.run.max, here.run.max)
     assert on_cluster.to_dict()["drivers"] == here.to_dict()["drivers"]
     assert on_cluster.reallocation.to_dict() == here.reallocation.to_dict()
+
+
+@pytest.fixture
+def silent_port():
+    """A port that accepts connections and never says a word."""
+    import threading
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    held = []
+    stop = threading.Event()
+
+    def accept():
+        server.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                held.append(server.accept()[0])
+            except OSError:
+                pass
+
+    thread = threading.Thread(target=accept, daemon=True)
+    thread.start()
+    yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    stop.set()
+    thread.join()
+    for conn in held:
+        conn.close()
+    server.close()
+
+
+@pytest.fixture
+def http_port():
+    """An HTTP server (it waits for a request, then answers in HTTP)."""
+    import http.server
+    import threading
+
+    server = http.server.HTTPServer(("127.0.0.1", 0), http.server.SimpleHTTPRequestHandler)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield f"tcp://127.0.0.1:{server.server_address[1]}"
+    server.shutdown()
+    server.server_close()
+
+
+def test_an_address_that_is_no_dask_scheduler_is_refused_within_the_timeout(silent_port, http_port):
+    """A port that accepts and never answers hung distributed's client for ever; an HTTP server
+    made it ask for 3 EiB (MemoryError). Each is refused, naming the scheduler option, within
+    the stated timeout."""
+    import time
+
+    from volerr_pin.base import InputError
+    from volerr_pin.studies import connect
+
+    for address in (silent_port, http_port):
+        start = time.monotonic()
+        with pytest.raises(InputError, match=r"^scheduler: nothing at .* answered as a Dask scheduler within 1 s") \
+                as err:
+            connect(address, timeout=1.0)
+        assert time.monotonic() - start < 5.0 and err.value.parameters == ("scheduler",)
+    with pytest.raises(InputError, match=r"no Dask scheduler answers at 'tcp://127.0.0.1:\d+' \(Connection refused\)"):
+        connect(f"tcp://127.0.0.1:{_free_port()}", timeout=1.0)
+    with pytest.raises(InputError, match=r"'tcp://\[::1' is not a scheduler's address"):
+        connect("tcp://[::1", timeout=1.0)
+
+
+def _descendants(pid: int) -> int:
+    import psutil
+
+    try:
+        return len(psutil.Process(pid).children(recursive=True))
+    except psutil.NoSuchProcess:
+        return 0
+
+
+def _tolerance_study(extra: list[str]) -> subprocess.Popen:
+    """volerr tolerance long enough to be stopped, in a session of its own with SIGINT as a
+    terminal leaves it (a shell's background job would ignore it)."""
+    argv = [sys.executable, "-m", "volerr_pin.cli", "tolerance", "vmc500", "--tolerances", str(EXAMPLE),
+            "--samples", "400000", *extra]
+    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+
+
+def _wait_for(condition, seconds: float) -> None:
+    import time
+
+    end = time.monotonic() + seconds
+    while not condition():
+        assert time.monotonic() < end, "timed out"
+        time.sleep(0.2)
+
+
+@pytest.mark.slow
+def test_ctrl_c_of_a_study_on_a_local_cluster_is_one_line_and_leaves_no_process():
+    """A terminal's Ctrl-C reaches the whole foreground group: each worker process printed its
+    own KeyboardInterrupt (128 lines in the third hostile pass)."""
+    import time
+
+    import psutil
+
+    proc = _tolerance_study(["--workers", "2"])
+    try:
+        _wait_for(lambda: _descendants(proc.pid) >= 2, 120)
+        time.sleep(3.0)   # the workers started and the study running
+        children = psutil.Process(proc.pid).children(recursive=True)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130, err
+    assert err.strip() == "volerr: error: interrupted; the outputs are left as they were"
+    _wait_for(lambda: not any(c.is_running() and c.status() != psutil.STATUS_ZOMBIE for c in children), 30)
+
+
+@pytest.mark.slow
+def test_a_scheduler_lost_during_a_study_is_named_as_lost(tmp_path):
+    """It was reported as "writing the outputs: None" (distributed's CommClosedError is an
+    OSError with no strerror), after pages of distributed's reconnection logs."""
+    import time
+
+    dask = Path(sys.executable).parent / "dask"
+    if not dask.exists():
+        pytest.skip("the dask command is not installed beside this Python")
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    log = open(tmp_path / "cluster.log", "w")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    scheduler = subprocess.Popen([str(dask), "scheduler", "--host", "127.0.0.1", "--port", address.rsplit(":", 1)[1],
+                                  "--no-dashboard"], stdout=log, stderr=log, env=env, start_new_session=True)
+    worker = subprocess.Popen([str(dask), "worker", address, "--nthreads", "1", "--no-dashboard", "--local-directory",
+                               str(tmp_path / "w")], stdout=log, stderr=log, env=env, start_new_session=True)
+    proc = None
+    try:
+        from distributed import Client
+
+        with Client(address, timeout=60) as client:
+            client.wait_for_workers(1, timeout=120)
+        proc = _tolerance_study(["--scheduler", address, "--json"])
+        time.sleep(8.0)   # connected and running (the study takes minutes on one worker)
+        assert proc.poll() is None
+        os.killpg(scheduler.pid, signal.SIGKILL)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        for p in (proc, worker, scheduler):
+            if p is not None and p.poll() is None:
+                os.killpg(p.pid, signal.SIGKILL)
+                p.wait()
+        log.close()
+    assert proc.returncode == 2 and out == ""
+    assert re.fullmatch(rf"volerr: error: the Dask cluster \(scheduler {re.escape(address)}\) was lost during the "
+                        r"run \([^\n]+\); nothing was written", err.strip()), err

@@ -8,6 +8,7 @@ import argparse
 import contextlib
 import csv
 import io
+import logging
 import sys
 
 from rich import box
@@ -88,6 +89,12 @@ def engine_of(args):
 
     engine = (connect(args.scheduler) if args.scheduler else InProcess() if args.workers == 0
               else local_cluster(args.workers))
+    if args.scheduler or args.workers != 0:
+        # the command says itself what went wrong with the cluster, in one line; distributed's
+        # logs (a reconnection's tracebacks when the scheduler is lost) are not for its user
+        # (set once distributed is imported: its import sets its loggers' levels)
+        for name in ("distributed", "distributed.client", "distributed.core", "distributed.comm", "asyncio"):
+            logging.getLogger(name).setLevel(logging.CRITICAL)
     try:
         yield engine
     finally:

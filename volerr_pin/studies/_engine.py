@@ -37,7 +37,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..base import InputError, require_memory
+from ..base import InputError, VolerrError, require_memory
 from ..model import Machine
 
 __all__ = ["DaskEngine", "Engine", "InProcess", "PortableMachine", "available_cores", "chunk_rng", "connect",
@@ -301,7 +301,10 @@ class DaskEngine(Engine):
         return future, False
 
     def map(self, fn, shared, tasks, progress=None):
+        from concurrent.futures import CancelledError
+
         from distributed import as_completed
+        from distributed.comm import CommClosedError
 
         tasks = list(tasks)
         if not tasks:
@@ -351,6 +354,14 @@ class DaskEngine(Engine):
                     yield from part
                     next_out += len(part)
                 top_up()
+        except (OSError, CancelledError) as err:
+            # the scheduler lost: its futures cancelled, or the comm closed (distributed's
+            # CommClosedError is an OSError with no strerror); a task's own OSError stays its own
+            if not isinstance(err, (CommClosedError, CancelledError)) and self.client.status == "running":
+                raise
+            why = getattr(err, "reason", None) or (str(err).splitlines() or [type(err).__name__])[0]
+            raise VolerrError(f"the Dask cluster ({self.where}) was lost during the run ({why}); nothing was "
+                              "written") from None
         finally:
             for future in pending.values():
                 future.cancel()
@@ -382,6 +393,28 @@ def _takes_n_workers(client) -> bool:
     return "n_workers" in inspect.signature(client.scheduler_info).parameters
 
 
+@contextlib.contextmanager
+def _interrupts_to_this_process():
+    """Start worker processes that ignore SIGINT: a terminal's Ctrl-C reaches every process of
+    the foreground group, and each worker printed its own KeyboardInterrupt traceback (128
+    lines for two) while this process, which closes the cluster, said it in one. An ignored
+    signal stays ignored in a process started from this one, and Python then installs no
+    KeyboardInterrupt there (a blocked one does not: the workers unblock it). This process's
+    handler is back once they are started; a Ctrl-C in the second or two they take to start is
+    not seen."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def local_cluster(workers: int | None = None, *, window: int | None = None) -> DaskEngine:
     """An embedded local cluster of worker processes on the loopback, one thread each.
 
@@ -408,8 +441,9 @@ def local_cluster(workers: int | None = None, *, window: int | None = None) -> D
     require_memory(n * WORKER_BYTES, f"a cluster of {n} worker processes", ("workers",))
     from distributed import Client, LocalCluster
 
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=None, silence_logs=logging.ERROR)
+    with _interrupts_to_this_process():
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                               dashboard_address="127.0.0.1:0", silence_logs=logging.CRITICAL)   # (None is :8787)
     try:
         client = Client(cluster)
     except BaseException:
@@ -442,10 +476,13 @@ def connect(address: str, *, timeout: float = 10.0, window: int | None = None) -
     Raises
     ------
     InputError
-        Naming ``scheduler``, if no scheduler answers at ``address`` or it has no workers.
+        Naming ``scheduler``, if no Dask scheduler answers at ``address`` within ``timeout``
+        (nothing listens, a server of another kind, or one that never answers), or it has no
+        workers.
     """
     from distributed import Client
 
+    _probe(address, timeout)
     try:
         client = Client(address, timeout=f"{timeout}s")
     except (OSError, TimeoutError, ValueError) as err:
@@ -456,6 +493,60 @@ def connect(address: str, *, timeout: float = 10.0, window: int | None = None) -
         engine.close()
         raise InputError(f"scheduler: the cluster at {address!r} has no workers", parameters=("scheduler",))
     return engine
+
+
+#: the most bytes a Dask scheduler's greeting may take (it is about 60)
+GREETING_BYTES = 1 << 16
+
+
+def _probe(address: str, timeout: float) -> None:
+    """Refuse, within ``timeout``, a TCP address where no Dask scheduler answers.
+
+    A Dask scheduler greets every connection at once with its handshake (a frame of a few
+    dozen bytes naming its compression, Python and pickle protocol). distributed's own client
+    waits for it without a bound: a port that accepts and never answers hung it, and a server
+    of another kind (HTTP) made it ask for 3 EiB."""
+    import socket
+    import struct
+    import time
+    from urllib.parse import urlsplit
+
+    where = address if "://" in address else f"tcp://{address}"
+    try:
+        parts = urlsplit(where)
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        parts, host, port = None, None, None
+    if parts is not None and parts.scheme != "tcp":   # (tls://, ucx:// ... are left to distributed)
+        return
+    if not host or port is None:
+        raise InputError(f"scheduler: {address!r} is not a scheduler's address (tcp://HOST:PORT)",
+                         parameters=("scheduler",))
+    deadline = time.monotonic() + timeout
+
+    def read(sock, n: int) -> bytes:
+        data = b""
+        while len(data) < n:
+            sock.settimeout(max(deadline - time.monotonic(), 1e-3))
+            chunk = sock.recv(n - len(data))
+            if not chunk:
+                raise ConnectionError("it closed the connection")
+            data += chunk
+        return data
+
+    try:
+        with socket.create_connection((host, port), timeout=timeout) as sock:
+            size = struct.unpack("<Q", read(sock, 8))[0]
+            greeting = read(sock, size) if 0 < size <= GREETING_BYTES else b""
+    except socket.timeout:
+        raise InputError(f"scheduler: nothing at {address!r} answered as a Dask scheduler within {timeout:g} s",
+                         parameters=("scheduler",)) from None
+    except OSError as err:
+        raise InputError(f"scheduler: no Dask scheduler answers at {address!r} ({err.strerror or err})",
+                         parameters=("scheduler",)) from None
+    if b"pickle-protocol" not in greeting:
+        raise InputError(f"scheduler: what answers at {address!r} is not a Dask scheduler (its first bytes are no "
+                         "Dask handshake)", parameters=("scheduler",))
 
 
 def plan_chunks(total: int, size: int) -> list[tuple[int, int, int]]:

@@ -55,4 +55,5 @@ from ._testpiece import SMALLEST_SIDE, contouring_test_piece
 __all__ = ["predict", "PartPrediction", "NOT_PREDICTED_SHARE", "blocks_text", "CuttingPath", "normal_part", "deviation_along", "PathDeviation",
            "cut_of", "Cut", "measure", "Features", "contour_plane", "CircleFeature", "LineFeature", "PairFeature",
            "feature_ranking", "fit_circle", "fit_line", "RoundFeature", "measure_round", "find_cones", "measure_cones",
-           "Cone", "ConeSection", "section_heights", "cone_frustum_test_piece", "contouring_test_piece", "SMALLEST_SIDE"]
+           "Cone", "ConeSection", "section_heights", "cone_frustum_test_piece", "contouring_test_piece",
+           "SMALLEST_SIDE"]

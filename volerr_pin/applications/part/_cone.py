@@ -526,7 +526,8 @@ def cone_frustum_test_piece(machine: Machine, size: float | None = None, tool_di
                          parameters=("size",))
     if np.pi * diameter / steps < SHORTEST_MOVE:
         raise InputError(f"a cone of {diameter * 1e3:g} mm base diameter in {steps} moves makes moves shorter than "
-                         f"{SHORTEST_MOVE * 1e3:g} mm, which the program's 4 decimals cannot write (give a larger size)",
+                         f"{SHORTEST_MOVE * 1e3:g} mm, which the program's 4 decimals cannot write (give a larger "
+                         "size)",
                          parameters=("size",))
     if not (np.isfinite(tool_diameter) and 0 <= tool_diameter < diameter):
         raise InputError(f"tool_diameter must be a length from 0 to the base diameter ({diameter * 1e3:g} mm), got "

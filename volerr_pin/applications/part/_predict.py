@@ -211,7 +211,8 @@ def _plane(plane) -> tuple[int, int]:
     try:
         i, j = (operator.index(c) for c in plane)
     except (TypeError, ValueError):
-        raise InputError(f"plane {plane!r} is not two coordinates (0, 1, 2 for x, y, z)", parameters=("plane",)) from None
+        raise InputError(f"plane {plane!r} is not two coordinates (0, 1, 2 for x, y, z)",
+                         parameters=("plane",)) from None
     if not {i, j} <= {0, 1, 2} or i == j:
         raise InputError(f"plane {(i, j)} is not two different coordinates of 0, 1, 2 (x, y, z)", parameters=("plane",))
     return min(i, j), max(i, j)

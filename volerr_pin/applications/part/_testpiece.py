@@ -81,9 +81,11 @@ def contouring_test_piece(machine: Machine, size: float | None = None, feed: flo
     lines = [f"(contouring test piece for {machine.name}: square {side:g} mm, diamond {2 * tip:g} mm across, "
              f"circle {2 * radius:g} mm, at Z {z:g})", "G17 G90 G21", f"G0 Z{z + 50:.4f}{others}",
              "(square)", f"G0 X{cx - half:.4f} Y{cy - half:.4f}", f"G0 Z{z:.4f}",
-             f"G1 X{cx + half:.4f} F{feed_word(feed)}", f"G1 Y{cy + half:.4f}", f"G1 X{cx - half:.4f}", f"G1 Y{cy - half:.4f}",
+             f"G1 X{cx + half:.4f} F{feed_word(feed)}", f"G1 Y{cy + half:.4f}", f"G1 X{cx - half:.4f}",
+             f"G1 Y{cy - half:.4f}",
              f"G0 Z{z + 50:.4f}", "(diamond)", f"G0 X{cx:.4f} Y{cy - tip:.4f}", f"G0 Z{z:.4f}",
-             f"G1 X{cx + tip:.4f} Y{cy:.4f} F{feed_word(feed)}", f"G1 X{cx:.4f} Y{cy + tip:.4f}", f"G1 X{cx - tip:.4f} Y{cy:.4f}",
+             f"G1 X{cx + tip:.4f} Y{cy:.4f} F{feed_word(feed)}", f"G1 X{cx:.4f} Y{cy + tip:.4f}",
+             f"G1 X{cx - tip:.4f} Y{cy:.4f}",
              f"G1 X{cx:.4f} Y{cy - tip:.4f}", f"G0 Z{z + 50:.4f}",
              "(circle)", f"G0 X{cx - radius:.4f} Y{cy:.4f}", f"G0 Z{z:.4f}",
              f"G2 X{cx - radius:.4f} Y{cy:.4f} I{radius:.4f} J0 F{feed_word(feed)}", f"G0 Z{z + 50:.4f}", "M30"]

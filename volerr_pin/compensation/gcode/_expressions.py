@@ -185,7 +185,8 @@ class Values:
             except (ValueError, OverflowError):   # 0 ** -1, 10 ** 400
                 v = math.inf
         if not math.isfinite(v):
-            raise self._error(line, at, f"{number_text(left)} {op} {number_text(right)} is not a finite number", refused=True)
+            raise self._error(line, at, f"{number_text(left)} {op} {number_text(right)} is not a finite number",
+                              refused=True)
         values.append(v)
 
     def function(self, line: Line, i: int, name: str) -> tuple[float, int]:

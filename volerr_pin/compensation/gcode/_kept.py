@@ -10,7 +10,8 @@ the machine makes the position unknown.
 
 from __future__ import annotations
 
-from ._lexer import (CANNED, G_DIGITS, G_GROUPS, KEPT_MOTION, KEYWORD, LATHE_CYCLES, M_GROUPS, MACRO_G, NOT_MOVES, TOOL_CHANGE_M, USER_M, WORK_OFFSETS, Block,
+from ._lexer import (CANNED, G_DIGITS, G_GROUPS, KEPT_MOTION, KEYWORD, LATHE_CYCLES, M_GROUPS, MACRO_G, NOT_MOVES,
+                    TOOL_CHANGE_M, USER_M, WORK_OFFSETS, Block,
                     GcodeError, macro_statement, mask_comments, parse_block, uncommented, word_values)
 from ._lexer import AXIS_LETTERS
 from ._modal import Interpreter, ModalState

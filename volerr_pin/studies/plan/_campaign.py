@@ -26,7 +26,7 @@ from ._design import UnitDesign, d_optimal, unit_design
 from ._poses import pose_candidates
 from ._protocol import Setup
 
-__all__ = ["Plan", "free_coefficients", "make_setup", "plan", "visiting_order"]
+__all__ = ["MOST_REPEATS", "Plan", "free_coefficients", "make_setup", "plan", "visiting_order"]
 
 
 def make_setup(machine, instrument, *, zone=None, sigma_um: float | None = None, targets=None, station=None,
@@ -264,6 +264,9 @@ RANDOM_SETS = 21
 #: a plan resolves the error it is meant to when its predicted uncertainty over the zone is at most
 #: this share of the error there (three standard uncertainties, the significance the fits ask for)
 RESOLVES = 1.0 / 3.0
+#: the most simulated campaigns per design: the RMS of R campaigns is known to about
+#: 1 / sqrt(2 R) of itself, 0.7 % at this many; more only takes longer
+MOST_REPEATS = 10_000
 
 
 def _weak(u: float | None, e: float, what: str = "") -> str | None:
@@ -299,7 +302,7 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
     compare : bool, default False
         Also assess a grid and random units of the same count, predicted and simulated.
     repeats : int, default 5
-        Simulated campaigns per design when comparing.
+        Simulated campaigns per design when comparing (at most :data:`MOST_REPEATS`).
     zone_points : int, default 512
         Points of the zone the volumetric error's uncertainty is summarised over.
     criterion : str, default "D"
@@ -316,7 +319,7 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
     ------
     InputError
         If ``budget``, ``candidates``, ``repeats`` or ``zone_points`` is not a whole number
-        >= 1 (``seed`` >= 0), ``criterion`` is not "D" or "I", ``budget`` exceeds the candidates (or those left in sight), ``terms`` names an unknown
+        >= 1 (``seed`` >= 0), ``repeats`` is above :data:`MOST_REPEATS`, ``criterion`` is not "D" or "I", ``budget`` exceeds the candidates (or those left in sight), ``terms`` names an unknown
         component, or no candidate is left in the zone and in sight.
     """
     budget = integer("budget", budget, 1)
@@ -325,6 +328,10 @@ def plan(machine, instrument, budget: int, setup: Setup | None = None, *, terms=
     candidates = integer("candidates", candidates, 1)
     seed = integer("seed", seed, 0)
     repeats = integer("repeats", repeats, 1)
+    if repeats > MOST_REPEATS:
+        raise InputError(f"repeats {repeats:,} is above {MOST_REPEATS:,}: the RMS of that many simulated campaigns "
+                         f"is known to {100 / np.sqrt(2 * MOST_REPEATS):.1f} % of itself already",
+                         parameters=("repeats",))
     zone_points = integer("zone_points", zone_points, 1)
     if budget > candidates:
         raise InputError(f"budget {budget} exceeds the {candidates} candidates to choose from",
