@@ -54,7 +54,13 @@ class Skipped:
     moved: bool = False
 
     def to_dict(self) -> dict:
-        """JSON: ``line``, ``last_line``, ``blocks`` and ``reason``."""
+        """The run for a report.
+
+        Returns
+        -------
+        dict
+            JSON-ready: ``line``, ``last_line``, ``blocks`` and ``reason``.
+        """
         return {"line": self.line, "last_line": self.last_line, "blocks": self.blocks, "reason": self.reason}
 
 

@@ -22,8 +22,10 @@ def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str,
     """The moves of a program as the controller interpolates them.
 
     Lines are straight in program coordinates, arcs turn about their centres. Moves before
-    every axis' position is known, and blocks that cannot be followed (canned cycles ...), are
-    taken as rapids or skipped.
+    every axis' position is known are taken as rapids to their ends, and blocks that cannot be
+    followed (canned cycles ...) are left out; both are listed in the batch's ``skipped``,
+    with the reason (the construct as compensate's report names it), and the work and tool
+    offsets the program selects are told in its ``notes``.
 
     Parameters
     ----------
@@ -49,12 +51,14 @@ def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str,
         outside the travel): its ``line``, its ``kind`` (:data:`~volerr_pin.compensation.POINT`
         for a rapid or a move from an unknown position, ``LINE`` or ``ARC``, with the arc's
         circle) and whether it is in tool-tip programming. Its rows read one at a time as
-        :class:`~volerr_pin.compensation._moves.Move`.
+        :class:`~volerr_pin.compensation._moves.Move`. Its ``skipped`` lists the blocks not
+        followed (:class:`~volerr_pin.compensation.Skipped`), its ``notes`` the offsets.
 
     Raises
     ------
     GcodeError
-        A block that cannot be read, naming its line.
+        A block that cannot be read, a value LinuxCNC refuses (naming line and column), or
+        text after the ``%`` that ends the program.
     """
     reader = Interpreter(machine, source=source, start=start, origin=origin, programming=programming)
     if isinstance(program, str):
