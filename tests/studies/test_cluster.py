@@ -30,23 +30,32 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+DASK = Path(sys.executable).parent / "dask"
+ENV = dict(os.environ, PYTHONPATH=str(ROOT))
+
+
+def _scheduler(tmp_path) -> tuple[str, object, list]:
+    """``dask scheduler`` on a free loopback port, as a user starts it: its address, the log
+    file the cluster's processes write to, and the list of those processes (the scheduler)."""
+    if not DASK.exists():
+        pytest.skip("the dask command is not installed beside this Python")
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    log = open(tmp_path / "cluster.log", "w")
+    return address, log, [subprocess.Popen([str(DASK), "scheduler", "--host", "127.0.0.1", "--port",
+                                            address.rsplit(":", 1)[1], "--no-dashboard"], stdout=log, stderr=log,
+                                           env=ENV, start_new_session=True)]
+
+
 @pytest.fixture
 def external_cluster(tmp_path):
     """A scheduler and two single-threaded workers started as a user starts them; stopped after."""
     from distributed import Client
 
-    dask = Path(sys.executable).parent / "dask"
-    if not dask.exists():
-        pytest.skip("the dask command is not installed beside this Python")
-    address = f"tcp://127.0.0.1:{_free_port()}"
-    log = open(tmp_path / "cluster.log", "w")
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    procs = [subprocess.Popen([str(dask), "scheduler", "--host", "127.0.0.1", "--port", address.rsplit(":", 1)[1],
-                               "--no-dashboard"], stdout=log, stderr=log, env=env, start_new_session=True)]
+    address, log, procs = _scheduler(tmp_path)
     try:
-        procs += [subprocess.Popen([str(dask), "worker", address, "--nthreads", "1", "--nworkers", "1",
+        procs += [subprocess.Popen([str(DASK), "worker", address, "--nthreads", "1", "--nworkers", "1",
                                     "--no-dashboard", "--local-directory", str(tmp_path / f"w{k}")],
-                                   stdout=log, stderr=log, env=env, start_new_session=True) for k in range(2)]
+                                   stdout=log, stderr=log, env=ENV, start_new_session=True) for k in range(2)]
         with Client(address, timeout=60) as client:
             client.wait_for_workers(2, timeout=120)
         yield address
@@ -278,16 +287,9 @@ def test_a_scheduler_lost_during_a_study_is_named_as_lost(tmp_path):
     OSError with no strerror), after pages of distributed's reconnection logs."""
     import time
 
-    dask = Path(sys.executable).parent / "dask"
-    if not dask.exists():
-        pytest.skip("the dask command is not installed beside this Python")
-    address = f"tcp://127.0.0.1:{_free_port()}"
-    log = open(tmp_path / "cluster.log", "w")
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    scheduler = subprocess.Popen([str(dask), "scheduler", "--host", "127.0.0.1", "--port", address.rsplit(":", 1)[1],
-                                  "--no-dashboard"], stdout=log, stderr=log, env=env, start_new_session=True)
-    worker = subprocess.Popen([str(dask), "worker", address, "--nthreads", "1", "--no-dashboard", "--local-directory",
-                               str(tmp_path / "w")], stdout=log, stderr=log, env=env, start_new_session=True)
+    address, log, (scheduler,) = _scheduler(tmp_path)
+    worker = subprocess.Popen([str(DASK), "worker", address, "--nthreads", "1", "--no-dashboard", "--local-directory",
+                               str(tmp_path / "w")], stdout=log, stderr=log, env=ENV, start_new_session=True)
     proc = None
     try:
         from distributed import Client

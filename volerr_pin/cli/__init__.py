@@ -159,7 +159,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"volerr: error: {in_cli_words(err)}", file=sys.stderr)
         return 2
     except OSError as err:
-        print(f"volerr: error: {err.filename or 'writing the outputs'}: {err.strerror}; the outputs are left "
+        # (an OSError of no file, a connection's, may have no strerror: its own words then)
+        what = err.strerror or (str(err).splitlines() or [""])[0] or type(err).__name__
+        print(f"volerr: error: {err.filename or 'writing the outputs'}: {what}; the outputs are left "
               "as they were", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

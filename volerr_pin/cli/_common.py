@@ -203,30 +203,35 @@ def positive(text: str) -> int:
     return value
 
 
+def number_of(text: str, what: str) -> float:
+    """An option's text as a float, or argparse's refusal ``expected WHAT, got 'TEXT'``."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+
+
+def _plausible(text: str, value: float, limit: str, unit: str, scale: float) -> float:
+    """``value`` unless beyond what a spec's value of the kind may be (``PLAUSIBLE[limit]``)."""
+    if abs(value) * scale > PLAUSIBLE[limit][1]:
+        raise argparse.ArgumentTypeError(f"{text} {unit} is implausible: {describe_range(limit, unit, scale)}")
+    return value
+
+
 def millimetres(text: str) -> float:
     """argparse type: a finite length in mm, not negative, within what a position may be (1 km)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a length in mm, got {text!r}") from None
+    value = number_of(text, "a length in mm")
     if not math.isfinite(value) or value < 0:
         raise argparse.ArgumentTypeError(f"expected a finite length in mm, not negative, got {text!r}")
-    if value * 1e-3 > PLAUSIBLE["position_length"][1]:
-        raise argparse.ArgumentTypeError(f"{text} mm is implausible: {describe_range('position_length', 'mm', 1e-3)}")
-    return value
+    return _plausible(text, value, "position_length", "mm", 1e-3)
 
 
 def tolerance_um(text: str) -> float:
     """argparse type: a tolerance in um: positive, finite, within what a deviation may be (1 m)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a tolerance in um, got {text!r}") from None
+    value = number_of(text, "a tolerance in um")
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"expected a positive, finite tolerance in um, got {text!r}")
-    if value * 1e-6 > PLAUSIBLE["error_length"][1]:
-        raise argparse.ArgumentTypeError(f"{text} um is implausible: {describe_range('error_length', 'um', 1e-6)}")
-    return value
+    return _plausible(text, value, "error_length", "um", 1e-6)
 
 
 def millimetre_list(text: str) -> tuple[float, ...]:

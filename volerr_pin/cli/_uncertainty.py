@@ -10,6 +10,7 @@ import csv
 import io
 import logging
 import sys
+from concurrent.futures import CancelledError
 
 from rich import box
 from rich.console import Console
@@ -18,7 +19,7 @@ from rich.table import Table
 
 from ..base import UM, transaction
 from ._common import (add_json_arg, add_machine_args, add_out_arg, add_state_arg, check_run_outputs, dumps, machine_of,
-                     positive, table_console)
+                     number_of, positive, table_console)
 
 
 # ------------------------------------------------------------------ shared by the studies
@@ -37,10 +38,7 @@ def count(text: str) -> int:
 
 def positive_float(text: str) -> float:
     """argparse type: a positive finite number."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    value = number_of(text, "a positive number")
     if not (value > 0 and value != float("inf")):
         raise argparse.ArgumentTypeError(f"expected a positive number, got {text}")
     return value
@@ -48,10 +46,7 @@ def positive_float(text: str) -> float:
 
 def probability(text: str) -> float:
     """argparse type: a probability strictly between 0 and 1."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a probability, got {text!r}") from None
+    value = number_of(text, "a probability")
     if not 0 < value < 1:
         raise argparse.ArgumentTypeError(f"expected a probability between 0 and 1, got {text}")
     return value
@@ -97,6 +92,11 @@ def engine_of(args):
             logging.getLogger(name).setLevel(logging.CRITICAL)
     try:
         yield engine
+    except (OSError, CancelledError) as err:   # (a cluster lost outside a map: scattering, closing)
+        lost = getattr(engine, "lost", None)
+        if lost is None:
+            raise
+        raise lost(err) from None
     finally:
         engine.close()
 

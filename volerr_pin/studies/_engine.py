@@ -300,11 +300,35 @@ class DaskEngine(Engine):
         self._kept[key] = future
         return future, False
 
+    def lost(self, err: BaseException) -> BaseException:
+        """What to raise for an error met while using the cluster: an error naming the cluster
+        as lost when it is (its futures cancelled, its connection closed: distributed's
+        CommClosedError is an OSError with no strerror, which read as "writing the outputs:
+        None"), else ``err`` itself (a task's own OSError stays its own).
+
+        Parameters
+        ----------
+        err : BaseException
+            The error.
+
+        Returns
+        -------
+        BaseException
+            A :class:`~volerr_pin.base.VolerrError`, or ``err``.
+        """
+        from concurrent.futures import CancelledError
+
+        from distributed.comm import CommClosedError
+
+        if not isinstance(err, (CommClosedError, CancelledError)) and self.client.status == "running":
+            return err
+        why = getattr(err, "reason", None) or (str(err).splitlines() or [type(err).__name__])[0]
+        return VolerrError(f"the Dask cluster ({self.where}) was lost during the run ({why}); nothing was written")
+
     def map(self, fn, shared, tasks, progress=None):
         from concurrent.futures import CancelledError
 
         from distributed import as_completed
-        from distributed.comm import CommClosedError
 
         tasks = list(tasks)
         if not tasks:
@@ -355,13 +379,7 @@ class DaskEngine(Engine):
                     next_out += len(part)
                 top_up()
         except (OSError, CancelledError) as err:
-            # the scheduler lost: its futures cancelled, or the comm closed (distributed's
-            # CommClosedError is an OSError with no strerror); a task's own OSError stays its own
-            if not isinstance(err, (CommClosedError, CancelledError)) and self.client.status == "running":
-                raise
-            why = getattr(err, "reason", None) or (str(err).splitlines() or [type(err).__name__])[0]
-            raise VolerrError(f"the Dask cluster ({self.where}) was lost during the run ({why}); nothing was "
-                              "written") from None
+            raise self.lost(err) from None
         finally:
             for future in pending.values():
                 future.cancel()

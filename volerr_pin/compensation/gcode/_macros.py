@@ -156,7 +156,7 @@ class _Expander(Values):
             code = line.code[1:] if line.code.startswith("/") else line.code
             m = O_LINE.match(code)
             if m:
-                if len(m.group(1)) > MOST_DIGITS:
+                if m.group(1).isdigit() and len(m.group(1)) > MOST_DIGITS:   # (not a name: o<...>)
                     raise GcodeError(f"{source}:{k + 1}: o-word number of {len(m.group(1)):,} digits: too large a "
                                      f"number (an o-word is numbered with at most {MOST_DIGITS} digits)")
                 self.control[k] = (m.group(1), m.group(2), m.group(3), m.start(3) + (len(line.code) - len(code)))
