@@ -146,6 +146,23 @@ N120 M30
 %
 """
 
+#: a square on vmc500 whose last two sides run under a local offset (G52), which predict lists as
+#: not predicted (docs/guide/part.md)
+LOCAL_OFFSET = """\
+(a square whose last two sides run under a local offset, G52: not predicted, and listed)
+G21 G90 G17
+G0 X200 Y150 Z100
+G1 X300 F500
+G1 Y250
+G52 X5 Y5
+G1 X200
+G1 Y150
+G52 X0 Y0
+G0 X200 Y150 Z100
+G1 X300
+M30
+"""
+
 ARM = """\
 <?xml version="1.0"?>
 <!-- A planar two-link arm (sample for loading a bare URDF; limits give no effort or velocity) -->
@@ -206,6 +223,7 @@ def main(out: Path = HERE / "data") -> list[Path]:
                         ("part.nc", lambda p: p.write_text(PROGRAM)),
                         ("vmc500_testpiece.nc", test_piece),
                         ("cgm4000_cone.nc", cone_frustum),
+                        ("vmc500_local_offset.nc", lambda p: p.write_text(LOCAL_OFFSET)),
                         ("two_link_arm.urdf", lambda p: p.write_text(ARM))):
         write(out / name)
         written.append(out / name)
