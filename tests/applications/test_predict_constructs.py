@@ -137,8 +137,17 @@ def test_fanuc_constructs_rs274_does_not_read_are_listed(machines, machine, body
 def test_a_program_whose_every_cut_is_unpredicted_is_refused_with_the_reasons(machines):
     m = machines["vmc500"]
     with pytest.raises(InputError, match=r"^p\.nc: no cut can be predicted: line 2: G52 \(local coordinate system\); "
-                                         r"lines 3-4: in the local coordinate system \(G52\) of line 2"):
+                                         r"lines 3-4: in the local coordinate system \(G52\) of line 2$"):
         predict(m, "G0 X100 Y100 Z100\nG52 X5\nG1 X10 F100\nG1 Y120\n", "p.nc")
+    # a 2-D program never writes Z: where it stands is asked for
+    two_d = "G21 G90 G17\nG1 X100 Y100 F500\nG1 X200\nG1 Y200\nM30\n"
+    with pytest.raises(InputError, match=r"lines 3-4: a cut from an unknown position \(axes Z not yet programmed\); "
+                                         r"give where the axes stand at the start \(start; a 2-D") as err:
+        predict(m, two_d, "p.nc")
+    assert err.value.parameters == ("start",)
+    part = predict(m, two_d, "p.nc", start=[np.nan, np.nan, 0.1])
+    assert [(s.line, s.reason) for s in part.not_predicted] == [
+        (2, "a cut from an unknown position (axes X, Y not yet programmed)")] and len(part.sides) == 2
 
 
 def test_a_long_kept_region_is_one_entry_and_the_headline_says_so(machines, tmp_path, capsys):

@@ -84,8 +84,9 @@ def run(args) -> int:
                          + (f"; the part as {args.reference} defines it" if args.reference else "")))
     missing = sum(s["blocks"] for s in report["not_predicted"])
     if report["not_predicted_share"] > NOT_PREDICTED_SHARE:
-        console.print(escape(f"{missing:,} of the program's blocks ({100 * report['not_predicted_share']:.1f} %) are "
-                             "not predicted: the deviation and the features below lack their cuts (listed at the end)"))
+        console.print(escape(f"{missing:,} of the program's blocks ({100 * report['not_predicted_share']:.1f} %) "
+                             f"{'is' if missing == 1 else 'are'} not predicted: the deviation and the features below "
+                             "lack their cuts (listed at the end)"))
     console.print(escape(f"largest deviation normal to the programmed path: {report['max_normal_deviation_um']:.3f} um, line "
                          f"{report['max_line']}" + (" (the given program's path: a compensated program is offset from "
                                                      "the part on purpose; the features measure the part)"

@@ -187,9 +187,12 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
         plane = _plane(plane)
     batch = interpret(machine, program, source, start=start, origin=origin)
     if batch.skipped and not np.any(batch.kind != POINT):
+        unprogrammed = any("not yet programmed" in s.reason for s in batch.skipped)
         raise InputError(f"{source}: no cut can be predicted: " + "; ".join(
             _lines(s) + f": {s.reason}" for s in batch.skipped[:3]) + (
-            f" (and {len(batch.skipped) - 3} more)" if len(batch.skipped) > 3 else ""), parameters=("program",))
+            f" (and {len(batch.skipped) - 3} more)" if len(batch.skipped) > 3 else "") + (
+            "; give where the axes stand at the start (start; a 2-D program never writes Z)"
+            if unprogrammed else ""), parameters=("start",) if unprogrammed else ())
     moves = CuttingPath(machine, batch)
     defining = None if reference is None else interpret(machine, reference, reference_source, start=start,
                                                          origin=origin)
