@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...base import AXIS_UNIT, UM_PER_M, InputError, axis_scale
-from ...model import Machine
+from ...model import Machine, check_covariates, volumetric_error
 from ..identify import parameter_units
 from ._candidates import geometric_term
 from ._changes import WEAK, _with_term, absorbed, apply_changes, physical, quiet_identify, raise_components, remove_effect
@@ -373,8 +373,8 @@ def _separate_at(loop, a: Machine, b: Machine, axis: str) -> dict:
     more = (f"or measure over a turn and a half of {axis}" if rotary and hi - lo >= 3 * math.pi else
             "or measure again in a second set-up (another tool length, or the part moved)")
     try:
-        da = a.volumetric_error(q, **covariates)[:, :3]
-        db = b.volumetric_error(q, **covariates)[:, :3]
+        da, db = (volumetric_error(m.model, q, m.theta, check_covariates(m.model, len(q), covariates, m.state))[:, :3]
+                  for m in (a, b))
     except (InputError, TypeError, ValueError):
         return {"positions": None, "difference_um": None,
                 "advice": f"measure {axis} over its whole travel with the other axes at several positions, {more}"}
