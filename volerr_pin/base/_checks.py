@@ -73,6 +73,14 @@ def sensible(name: str, values, limit: str, unit: str, unit_scale: float = 1.0) 
     return within(values, limit, name, unit, unit_scale, error=InputError, parameters=(name,))
 
 
+def _number(name: str, value, what: str) -> float:
+    """``value`` as a float, or an :class:`InputError` ``NAME must be WHAT, got VALUE``."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be {what}, got {value!r}", parameters=(name,)) from None
+
+
 def feed_rate(name: str, value) -> float:
     """A feed rate in mm/min for a program the product writes: a number within what a feed may
     be (:data:`~volerr_pin.base.PLAUSIBLE`: 0.001 mm/min to 1000 m/min).
@@ -94,10 +102,7 @@ def feed_rate(name: str, value) -> float:
     InputError
         Naming ``name``.
     """
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a feed rate in mm/min, got {value!r}", parameters=(name,)) from None
+    number = _number(name, value, "a feed rate in mm/min")
     sensible(name, [number / 60e3], "feed", "mm/min", 1.0 / 60e3)
     return number
 
@@ -122,10 +127,7 @@ def positive(name: str, value) -> float:
     InputError
         Naming ``name``.
     """
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a positive number, got {value!r}", parameters=(name,)) from None
+    number = _number(name, value, "a positive number")
     if not (number > 0 and math.isfinite(number)):
         raise InputError(f"{name} must be positive and finite, got {value}", parameters=(name,))
     return number

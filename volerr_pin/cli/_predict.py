@@ -82,7 +82,7 @@ def run(args) -> int:
     console.print(escape(f"{machine.name}: {path} ({state}); {report['samples']:,} samples along the cutting moves, "
                          f"to {report['tolerance_um']:g} um"
                          + (f"; the part as {args.reference} defines it" if args.reference else "")))
-    missing = sum(s["blocks"] for s in report["not_predicted"])
+    missing = prediction.not_predicted_blocks
     if report["not_predicted_share"] > NOT_PREDICTED_SHARE:
         console.print(escape(f"{missing:,} of the program's blocks ({100 * report['not_predicted_share']:.1f} %) "
                              f"{'is' if missing == 1 else 'are'} not predicted: the deviation and the features below "
@@ -110,15 +110,13 @@ def run(args) -> int:
     console.print(table)
     for note in report["notes"]:
         console.print(escape(f"note: {note}"))
-    runs = report["not_predicted"]
+    runs = prediction.not_predicted
     if runs:
         console.print(escape(f"not predicted: {missing:,} block{'s' if missing != 1 else ''}"
                              + (" (--json lists every one)" if len(runs) > SHOWN_RUNS else "")))
     for run in runs[:SHOWN_RUNS]:
-        where = (f"line {run['line']}" if run["line"] == run["last_line"] else
-                 f"lines {run['line']}-{run['last_line']}")
-        times = f" ({run['blocks']:,} blocks)" if run["blocks"] > 1 and run["line"] != run["last_line"] else ""
-        console.print(escape(f"  {where}{times}: {run['reason']}"))
+        times = f" ({run.blocks:,} blocks)" if run.blocks > 1 and run.line != run.last_line else ""
+        console.print(escape(f"  {run.where}{times}: {run.reason}"))
     if len(runs) > SHOWN_RUNS:
         console.print(escape(f"  ... and {len(runs) - SHOWN_RUNS:,} more runs of blocks"))
     if prediction.cones and not args.tool_diameter:

@@ -53,6 +53,11 @@ class Skipped:
     reason: str
     moved: bool = False
 
+    @property
+    def where(self) -> str:
+        """``"line 5"``, or ``"lines 5-12"`` for a run of blocks (str)."""
+        return f"line {self.line}" if self.line == self.last_line else f"lines {self.line}-{self.last_line}"
+
     def to_dict(self) -> dict:
         """The run for a report.
 

@@ -44,10 +44,10 @@ programming, as ``compensate`` reads them.
 
 from ._cmm import RoundFeature, fit_circle, fit_line, measure_round
 from ._cone import Cone, ConeSection, cone_frustum_test_piece, find_cones, measure_cones, section_heights
-from ._features import CircleFeature, LineFeature, PairFeature
+from ._features import CircleFeature, LineFeature, PairFeature, blocks_text
 from ._measure import Features, contour_plane, measure
 from ._path import CuttingPath, normal_part
-from ._predict import NOT_PREDICTED_SHARE, PartPrediction, blocks_text, predict
+from ._predict import NOT_PREDICTED_SHARE, PartPrediction, predict
 from ._ranking import feature_ranking
 from ._sampling import Cut, PathDeviation, cut_of, deviation_along
 from ._testpiece import SMALLEST_SIDE, contouring_test_piece

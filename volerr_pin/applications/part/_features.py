@@ -12,7 +12,23 @@ import numpy as np
 
 from ._cmm import RoundFeature
 
-__all__ = ["CircleFeature", "LineFeature", "PairFeature"]
+__all__ = ["blocks_text", "CircleFeature", "LineFeature", "PairFeature"]
+
+
+def blocks_text(blocks: list[int]) -> str:
+    """A feature's block lines for a table: all of up to four, else the first and the last.
+
+    Parameters
+    ----------
+    blocks : list of int
+        The line numbers of the feature's blocks, in order.
+
+    Returns
+    -------
+    str
+        ``"12,14,16"``, or ``"12..40"`` for more than four.
+    """
+    return ",".join(map(str, blocks)) if len(blocks) <= 4 else f"{blocks[0]}..{blocks[-1]}"
 
 
 def _without(values: np.ndarray, basis: np.ndarray) -> np.ndarray:

@@ -20,7 +20,7 @@ import numpy as np
 
 from ...base import UM_PER_M, InputError
 from ...model import Machine
-from ._features import CircleFeature, LineFeature, PairFeature
+from ._features import CircleFeature, LineFeature, PairFeature, blocks_text
 from ._path import CuttingPath
 from ._sampling import Cut, cut_of
 from ._cmm import fit_line, measure_round
@@ -150,10 +150,6 @@ class _Near:
         return rows[np.abs(self.height[rows] - level) <= capture]
 
 
-#: how a note on a feature the cut does not follow ends
-STRAYS = "; is the reference the program this one was made from?"
-
-
 def _largest_gap(values: np.ndarray, period: float | None) -> float:
     """The largest gap between sorted values (around a circle of ``period``, or along a line
     between the first and the last value); the whole period or infinity for none."""
@@ -165,18 +161,13 @@ def _largest_gap(values: np.ndarray, period: float | None) -> float:
     return float(np.diff(np.r_[v, v[0] + period]).max())
 
 
-def _lines(lines) -> str:
-    """A feature's lines for a note."""
-    return ",".join(map(str, lines)) if len(lines) <= 4 else f"{lines[0]}..{lines[-1]}"
-
-
 def _strays(what: str, gap: float, near: "_Near", path: np.ndarray, capture: float) -> str:
     """The note on a reference's feature the cut does not follow: the stretch of it with no
     cut within the capture, and how far the cut runs from it."""
     far = float(near.tree.query(path)[0].max())
     return (f"{what} of the reference is not measured: the cut does not follow it (it leaves the "
             f"{capture * 1e3:g} mm capture for {gap * 1e3:.3f} mm of it, and runs up to {far * 1e3:.3f} mm from it "
-            "in the plane)" + STRAYS)
+            "in the plane); is the reference the program this one was made from?")
 
 
 def _on_segment(start: np.ndarray, end: np.ndarray, step: float) -> np.ndarray:
@@ -297,6 +288,7 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
     i, j = plane
     third = ({0, 1, 2} - {i, j}).pop()
     notes: list[str] = []
+    strays: list[str] = []   # the notes on the reference's circles and sides the cut does not follow
     circles_ref, sides_ref = _reference_features(machine, defining, plane, min_length, notes)
     flat, height = cut.actual[:, [i, j]], cut.actual[:, third]
     near = _Near(flat, height) if reference is not None else None
@@ -312,7 +304,8 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
             around = flat[rows] - ref["centre"]
             gap = ref["radius"] * _largest_gap(np.arctan2(around[:, 1], around[:, 0]), 2 * np.pi)
             if gap > 2 * spacing:
-                notes.append(_strays(f"the circle of lines {_lines(ref['lines'])}", gap, near, path, capture))
+                strays.append(_strays(f"the circle of lines {blocks_text(ref['lines'])}", gap, near, path, capture))
+                notes.append(strays[-1])
                 continue
         if len(rows) < 3:
             continue
@@ -331,12 +324,14 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
             rows = near.along(_on_segment(ref["start"], ref["end"], capture), capture, ref["height"])
             along = (flat[rows] - ref["start"]) @ direction
             across = (flat[rows] - ref["start"]) @ np.array([-direction[1], direction[0]])
-            rows = rows[(np.abs(across) <= capture) & (along >= 0.01 * length) & (along <= 0.99 * length)]
-            inside = np.clip(along[np.abs(across) <= capture], 0.01 * length, 0.99 * length)
+            close = np.abs(across) <= capture
+            rows = rows[close & (along >= 0.01 * length) & (along <= 0.99 * length)]
+            inside = np.clip(along[close], 0.01 * length, 0.99 * length)
             gap = _largest_gap(np.r_[0.01 * length, inside, 0.99 * length], None)
             if gap > 2 * spacing:
-                notes.append(_strays(f"the side of line {_lines(ref['lines'])}", gap, near,
-                                     _on_segment(ref["start"], ref["end"], capture), capture))
+                strays.append(_strays(f"the side of line {blocks_text(ref['lines'])}", gap, near,
+                                      _on_segment(ref["start"], ref["end"], capture), capture))
+                notes.append(strays[-1])
                 continue
         if len(rows) < 3:
             continue
@@ -346,10 +341,8 @@ def measure(machine: Machine, moves, reference=None, *, plane: tuple[int, int] |
                                  straightness_um=float(np.ptp((points - centre) @ normal) * UM_PER_M),
                                  contour=ref["contour"], measured=points, q=cut.q[rows],
                                  covariates=cut.at(rows)))
-    strayed = [note for note in notes if note.endswith(STRAYS)]
-    if strayed and len(strayed) == len(circles_ref) + len(sides_ref):
-        raise InputError(f"the cut follows none of the reference's {len(strayed)} circles and sides: "
-                         f"{strayed[0]}",
+    if strays and len(strays) == len(circles_ref) + len(sides_ref):
+        raise InputError(f"the cut follows none of the reference's {len(strays)} circles and sides: {strays[0]}",
                          parameters=("reference",))
     pairs = []
     for datum, other, kind in _pairs(sides):

@@ -18,27 +18,11 @@ from ._path import CuttingPath
 from ._ranking import feature_ranking
 from ._sampling import PathDeviation, deviation_along
 
-__all__ = ["NOT_PREDICTED_SHARE", "PartPrediction", "blocks_text", "predict"]
+__all__ = ["NOT_PREDICTED_SHARE", "PartPrediction", "predict"]
 
 #: the share of a program's blocks above which the blocks not predicted are told in the headline
 #: (below it they are listed after the features): one in a hundred
 NOT_PREDICTED_SHARE = 0.01
-
-
-def blocks_text(blocks: list[int]) -> str:
-    """A feature's block lines for a table: all of up to four, else the first and the last.
-
-    Parameters
-    ----------
-    blocks : list of int
-        The line numbers of the feature's blocks, in order.
-
-    Returns
-    -------
-    str
-        ``"12,14,16"``, or ``"12..40"`` for more than four.
-    """
-    return ",".join(map(str, blocks)) if len(blocks) <= 4 else f"{blocks[0]}..{blocks[-1]}"
 
 
 @dataclass
@@ -85,10 +69,14 @@ class PartPrediction:
     blocks_run: int = 0
 
     @property
+    def not_predicted_blocks(self) -> int:
+        """How many blocks run are not predicted (int)."""
+        return sum(s.blocks for s in self.not_predicted)
+
+    @property
     def not_predicted_share(self) -> float:
         """The share of :attr:`blocks_run` not predicted (0 when every block is)."""
-        missing = sum(s.blocks for s in self.not_predicted)
-        return missing / self.blocks_run if self.blocks_run else 0.0
+        return self.not_predicted_blocks / self.blocks_run if self.blocks_run else 0.0
 
     @property
     def features(self) -> list:
@@ -189,7 +177,7 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
     if batch.skipped and not np.any(batch.kind != POINT):
         unprogrammed = any("not yet programmed" in s.reason for s in batch.skipped)
         raise InputError(f"{source}: no cut can be predicted: " + "; ".join(
-            _lines(s) + f": {s.reason}" for s in batch.skipped[:3]) + (
+            f"{s.where}: {s.reason}" for s in batch.skipped[:3]) + (
             f" (and {len(batch.skipped) - 3} more)" if len(batch.skipped) > 3 else "") + (
             "; give where the axes stand at the start (start; a 2-D program never writes Z)"
             if unprogrammed else ""), parameters=("start",) if unprogrammed else ())
@@ -219,9 +207,3 @@ def _plane(plane) -> tuple[int, int]:
     if not {i, j} <= {0, 1, 2} or i == j:
         raise InputError(f"plane {(i, j)} is not two different coordinates of 0, 1, 2 (x, y, z)", parameters=("plane",))
     return min(i, j), max(i, j)
-
-
-def _lines(skipped) -> str:
-    """``"line 5"`` or ``"lines 5-12"``."""
-    return (f"line {skipped.line}" if skipped.line == skipped.last_line else
-            f"lines {skipped.line}-{skipped.last_line}")

@@ -16,18 +16,20 @@ from __future__ import annotations
 
 import re
 
-from ._lexer import AUTORESTORE_MODES, GcodeError, word_values
+from ._lexer import AUTORESTORE_MODES, MOST_DIGITS, GcodeError, word_values
 
 __all__ = ["Flow"]
 
 #: a LinuxCNC O-word statement: its name (a number or <name>) and keyword
 O_WORD = re.compile(r"[ \t]*(?:N[ \t]*[0-9]+[ \t]*)?O[ \t]*([0-9]+|<[^>]*>)[ \t]*(SUB|ENDSUB|CALL|WHILE|"
                     r"ENDWHILE|DO|REPEAT|ENDREPEAT|IF|ELSEIF|ELSE|ENDIF|RETURN|BREAK|CONTINUE)\b")
+#: a label's or a loop's number (one of more than MOST_DIGITS digits is none: the reader refuses it)
+WHOLE = rf"([0-9]{{1,{MOST_DIGITS}}})(?![0-9])"
 #: a Fanuc macro loop's start (WHILE [...] DOn) and end (ENDn), and a jump (GOTO n)
-FANUC_DO = re.compile(r"\bWHILE\b.*\bDO[ \t]*([0-9]{1,18})(?![0-9])")
-FANUC_END = re.compile(r"^[ \t]*(?:N[ \t]*[0-9]+[ \t]*)?END[ \t]*([0-9]{1,18})\b")
-GOTO = re.compile(r"\bGOTO[ \t]*([0-9]{1,18})(?![0-9])")
-LABEL = re.compile(r"[ \t]*N[ \t]*([0-9]{1,18})(?![0-9])")   # (longer: the reader refuses the number)
+FANUC_DO = re.compile(r"\bWHILE\b.*\bDO[ \t]*" + WHOLE)
+FANUC_END = re.compile(r"^[ \t]*(?:N[ \t]*[0-9]+[ \t]*)?END[ \t]*" + WHOLE + r"\b")
+GOTO = re.compile(r"\bGOTO[ \t]*" + WHOLE)
+LABEL = re.compile(r"[ \t]*N[ \t]*" + WHOLE)
 
 
 class Flow:

@@ -166,8 +166,7 @@ class Word:
     @property
     def name(self) -> str:
         """The word without blanks, upper case, shortened for messages (str)."""
-        text = re.sub(r"[ \t]", "", self.text).upper()
-        return text if len(text) <= 24 else text[:20] + "..."
+        return shortened(re.sub(r"[ \t]", "", self.text).upper())
 
 
 @dataclass
@@ -199,6 +198,22 @@ class Block:
     statement: str = ""
 
 
+def shortened(text: str) -> str:
+    """A piece of a line as messages give it: whole up to 24 characters, else its first 20 and
+    "...".
+
+    Parameters
+    ----------
+    text : str
+        The piece.
+
+    Returns
+    -------
+    str
+    """
+    return text if len(text) <= 24 else text[:20] + "..."
+
+
 def show(text: str) -> str:
     """A piece of a line for a message: quoted, control and non-ASCII characters named, shortened.
 
@@ -215,7 +230,7 @@ def show(text: str) -> str:
     if len(text) == 1 and (not text.isascii() or not text.isprintable()):
         shown = f" ({text!r})" if text.isprintable() else ""
         return f"U+{ord(text):04X}{shown}"
-    return repr(text if len(text) <= 24 else text[:20] + "...")
+    return repr(shortened(text))
 
 
 def _a(letter: str) -> str:
@@ -559,8 +574,7 @@ def macro_statement(code: str) -> tuple[str, bool] | None:
     upper = code.upper()
     keyword = MACRO.search(upper)
     if keyword:
-        word = keyword.group(1)
-        return f"a macro statement ({word if len(word) <= 24 else word[:20] + '...'})", True
+        return f"a macro statement ({shortened(keyword.group(1))})", True
     word = VARIABLE_WORD.search(upper)
     if word:
         return f"a word whose value is a macro variable or expression ({word.group(0).replace(' ', '')}...)", True

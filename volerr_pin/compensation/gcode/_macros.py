@@ -513,9 +513,10 @@ def expand(lines: list[tuple[str, str]], source: str = "<program>", most_blocks:
     Unfollowable
         What stops the expansion (the program is then read as it is).
     GcodeError
-        A value the controller refuses (a division by zero, ...; naming its line and column).
-    GcodeError
-        A program that would run more than ``most_blocks`` blocks, naming the loop or call.
+        A value the controller refuses (a division by zero, ...; naming its line and column),
+        text after the ``%`` that ends the program, an o-word number of more than
+        :data:`MOST_DIGITS` digits, or a program that would run more than ``most_blocks``
+        blocks, naming the loop or call.
     """
     check_tape(lines, source)
     ex = _Expander(lines, source, most_blocks)
