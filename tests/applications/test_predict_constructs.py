@@ -230,6 +230,10 @@ def test_reference_features_are_measured_only_where_the_cut_follows_them(machine
                                          r"of lines 23 .* runs up to 4\d\.\d{3} mm from it") as err:
         predict(m, piece, reference=_shifted(piece, 50.0))
     assert err.value.parameters == ("reference",)
+    # a circle no sample comes near: the stretch the cut leaves is its whole circumference (96 mm across)
+    with pytest.raises(InputError, match=r"the circle of lines 23 of the reference is not measured: .* for 301\.593 "
+                                         r"mm of it"):
+        predict(m, SQUARE.format(extra=""), reference=piece)
 
 
 @pytest.mark.parametrize("plane, message", [((0, 0), "not two different"), ((0, 3), "not two different"),

@@ -152,9 +152,9 @@ class _Near:
 
 def _largest_gap(values: np.ndarray, period: float | None) -> float:
     """The largest gap between sorted values (around a circle of ``period``, or along a line
-    between the first and the last value); the whole period or infinity for none."""
+    between the first and the last value); the whole period (infinity along a line) for none."""
     if not len(values):
-        return np.inf
+        return np.inf if period is None else float(period)
     v = np.sort(values)
     if period is None:
         return float(np.diff(v).max()) if len(v) > 1 else np.inf
