@@ -52,15 +52,20 @@ def numbered(text: str) -> str:
 
 
 def rs274_feeds(program: str, tmp_path) -> list[tuple[int, np.ndarray]]:
-    """The line and the end [mm, program coordinates] of each feed motion rs274 runs for the
-    program (the block delete switch off, as it starts)."""
+    """The line and the end [mm, axis coordinates: the program's, with the work offset and the
+    G92 shift rs274 says] of each feed motion rs274 runs for the program (the block delete switch
+    off, as it starts)."""
     source, canon = tmp_path / "p.ngc", tmp_path / "p.canon"
     source.write_text(program)
     run = subprocess.run([RS274, "-g", str(source), str(canon)], capture_output=True, text=True, timeout=60,
                          stdin=subprocess.DEVNULL, cwd=tmp_path)
     assert run.returncode == 0, run.stdout + run.stderr
     feeds, offset = [], np.zeros(3)
+    shifts = {"G5X": np.zeros(3), "G92": np.zeros(3)}   # rs274's ends are program coordinates
     for line in canon.read_text().splitlines():
+        shift = re.search(r"SET_(G5X|G92)_OFFSET\((?:\d+, )?([-\d.]+), ([-\d.]+), ([-\d.]+),", line)
+        if shift:
+            shifts[shift.group(1)] = np.array([float(v) for v in shift.groups()[1:]])
         tool = re.search(r"USE_TOOL_LENGTH_OFFSET\(([-\d.]+) ([-\d.]+) ([-\d.]+),", line)
         if tool:   # rs274 gives the controlled point: the program's less the tool's length
             offset = np.array([float(v) for v in tool.groups()])
@@ -68,7 +73,7 @@ def rs274_feeds(program: str, tmp_path) -> list[tuple[int, np.ndarray]]:
         if call:
             v = [float(a) for a in call.group(3).split(",")]
             end = np.array(v[:3]) if call.group(2) == "STRAIGHT_FEED" else np.array([v[0], v[1], v[5]])
-            feeds.append((int(call.group(1)), end + offset))
+            feeds.append((int(call.group(1)), end + offset + shifts["G5X"] + shifts["G92"]))
     return feeds
 
 
@@ -93,14 +98,17 @@ def test_every_cut_rs274_runs_is_predicted_or_listed_with_its_reason(machines, t
             assert not_predicted(batch, line), f"{name}: rs274 cuts line {line}, which is neither predicted nor listed"
             listed += 1
     assert set(cuts) <= {line for line, _ in feeds}, f"{name}: a cut rs274 does not run"
-    # every construct but the tool length offset (a note) leaves cuts unpredicted, and says so
-    assert (listed > 0) == (name != "tool length offset")
+    # every construct but the tool length offset (a note) and the work offsets G10 sets, which
+    # are followed, leaves cuts unpredicted, and says so
+    assert (listed > 0) == (name not in ("tool length offset", "G10 L2", "G10 L20"))
     part = predict(m, program, "p.ngc")
     report = part.to_dict()
     assert [(s["line"], s["last_line"], s["reason"]) for s in report["not_predicted"]] == [
         (s.line, s.last_line, s.reason) for s in batch.skipped]
     if name == "tool length offset":
         assert any("G43 tool length offset" in note for note in report["notes"])
+    elif name.startswith("G10"):
+        assert report["not_predicted_share"] == 0 and any("G10 sets G54: followed" in n for n in report["notes"])
     else:
         assert report["not_predicted_share"] > 0.1
 
@@ -127,7 +135,7 @@ def test_fanuc_constructs_rs274_does_not_read_are_listed(machines, machine, body
     m = machines[machine]
     program = ("G18 G21 G90\nG0 X40 Z-10\nG1 X45 F100\nG50 X200 Z0\nG1 X50 Z-10\nG1 X60\nM30\n" if body is None
                else HEAD + body + "M30\n")
-    batch = interpret(m, program, "p.nc")
+    batch = interpret(m, program, "p.nc", dialect="linuxcnc")   # (whole numbers as millimetres)
     assert reason in batch.skipped[0].reason and batch.skipped[0].line == 4
     # every cut after it is listed: none is predicted from a position the program no longer holds
     assert all(batch.line[k] < 4 for k in range(len(batch)) if batch.kind[k] != POINT)
@@ -302,7 +310,8 @@ def test_huge_whole_numbers_are_one_line_naming_it(machines, block, message):
 
     m = machines["vmc500"]
     program = HEAD + block + "\nM30\n"
-    for read in (lambda: interpret(m, program, "p.nc"), lambda: compensate_program(m, program, source="p.nc")):
+    for read in (lambda: interpret(m, program, "p.nc", dialect="linuxcnc"),
+                 lambda: compensate_program(m, program, source="p.nc", dialect="linuxcnc")):
         with pytest.raises(GcodeError, match=message):
             read()
 
@@ -312,7 +321,7 @@ def test_a_fanuc_loop_numbered_past_any_number_is_kept_and_named(machines):
 
     m = machines["vmc500"]
     program = HEAD + f"WHILE [#1 LT 2] DO{BIG}\nG1 X160\nEND{BIG}\nM30\n"
-    _, report = compensate_program(m, program, pass_through=True)
+    _, report = compensate_program(m, program, pass_through=True, dialect="linuxcnc")
     assert any(w.startswith("line 6: a macro statement (END11111111111111111...) kept unchanged")
                for w in report.warnings)
     assert max(map(len, report.warnings)) < 400

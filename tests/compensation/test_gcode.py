@@ -210,7 +210,7 @@ def test_incremental_sections_do_not_accumulate_rounding(machines):
 def test_malformed_programs_fail_with_the_line_number(machines, text, line, message):
     """Blocks that cannot be read, and (with strict) blocks that cannot be compensated."""
     with pytest.raises(GcodeError, match=rf"prog\.nc:{line}:(\d+:)? .*{message}"):
-        compensate_program(machines["vmc500"], text, source="prog.nc", strict=True)
+        compensate_program(machines["vmc500"], text, source="prog.nc", strict=True, dialect="linuxcnc")
 
 
 START = "G90 G21 G17 G0 X100 Y100 Z100\n"
@@ -319,7 +319,7 @@ def test_bad_blocks_are_refused_naming_line_and_column(machines, block, where, m
     naming the line (and the column where a character or word is to blame); blocks that can be
     read but not compensated are refused with strict."""
     with pytest.raises(GcodeError, match=rf"^prog\.nc:{where}: .*{message}"):
-        compensate_program(machines["vmc500"], START + block + "\n", source="prog.nc", strict=True)
+        compensate_program(machines["vmc500"], START + block + "\n", source="prog.nc", strict=True, dialect="linuxcnc")
 
 
 def test_pass_through_keeps_unsupported_blocks_and_warns(machines):
@@ -394,7 +394,7 @@ def test_review_cases(machines):
     # G4's X is a dwell time; G10/G28/G53 are not moves of the program
     out, _ = compensate_program(m, "G90 G0 X10 Y10 Z10\nG4 X1.5\nG1 Y100 F100\n")
     assert out.splitlines()[1] == "G4 X1.5" and abs(float(re.search(r"X([-\d.]+)", out.splitlines()[2]).group(1)) - 10) < 0.01
-    for block in ("G10 L2 P1 X100 Y50 Z0", "G91 G28 Z0", "G53 G0 Z0"):
+    for block in ("G10 L20 P1 X100 Y50 Z0 R30", "G91 G28 Z0", "G53 G0 Z0"):
         with pytest.raises(GcodeError, match=":2: G"):
             compensate_program(m, f"G90 G0 X10 Y10 Z10\n{block}\nG1 X200 F100\n", strict=True)
     # passed through, G91 G28 leaves incremental mode on and the position unknown
@@ -488,7 +488,7 @@ def test_non_motion_lines_of_every_kind_stay_byte_identical(machines):
     program = ("%\nO0042 (part \u00e9 42)\n(header; with a semicolon)\n; a whole-line comment ( with a paren\n"
                "N10 G21 G90 G17 G40 G49 G80 G94\n   \n\t\nN20 T1 M6\n/M8\nM7 M8\nM77\n()\nN30 S8000 M3\n"
                "G0 X10 Y10 Z10\nG4 P500\nG4 X1.5\nG1 F200\nG2\nG1 X20\nM5\nM30\n%_N_SUB_SPF\n%\n")
-    out, report = compensate_program(m, program, pass_through=True)
+    out, report = compensate_program(m, program, pass_through=True, dialect="linuxcnc")
     kept = [ln for ln in program.splitlines() if not re.match(r"G[01] X", ln)]
     assert [ln for ln in out.splitlines() if not re.match(r"G[01] X", ln)] == kept
     # an M code the reader does not know is kept with pass_through, and said so, naming its line
@@ -531,7 +531,7 @@ def test_a_kept_block_that_may_move_loses_the_position(machines, kept, lost):
     current X) may move the machine or run the blocks in another order: the move after it is
     compensated at its end point only."""
     program = START + f"{kept}\nG80\nG1 X150 F100\n"
-    out, report = compensate_program(machines["vmc500"], program, pass_through=True)
+    out, report = compensate_program(machines["vmc500"], program, pass_through=True, dialect="linuxcnc")
     assert out.splitlines()[1] == kept
     assert any(w.startswith("line 2: ") and "kept unchanged" in w for w in report.warnings)
     assert any(w.startswith("line 4: the position before this move is not known") for w in report.warnings) == lost
@@ -700,14 +700,14 @@ def test_inverse_time_feed_is_shared_among_the_pieces_of_a_split_move(machines):
     ("G92 X0 Y0\nG1 X20\nG92.1\nG1 X120\n", range(3, 6), [6]),
     ("G51 X0 Y0 P2\nG1 X20\nG50\nG1 X120\n", range(3, 6), [6]),
     ("G16\nG1 X50 Y30\nG15\nG1 X120\n", range(3, 6), [6]),
-    # a work offset set by the program: the origin given no longer holds, to the end
-    ("G10 L2 P1 X5\nG1 X150\nG1 X120\n", range(3, 6), []),
+    # a work offset set by the program in a way not followed (rotated): to the end
+    ("G10 L2 P1 X5 R30\nG1 X150\nG1 X120\n", range(3, 6), []),
     # a shift of nothing starts nothing
     ("G52 X0\nG1 X150\n", [3], [4]),
 ])
 def test_modes_that_change_how_coordinates_read_keep_every_block_until_they_end(machines, body, kept, compensated):
     program = "G21 G90 G17\nG0 X100 Y100 Z100\n" + body
-    out, report = compensate_program(machines["vmc500"], program)
+    out, report = compensate_program(machines["vmc500"], program, dialect="linuxcnc")
     given, written = program.splitlines(), out.splitlines()
     assert len(written) == len(given)
     for line in kept:
@@ -721,7 +721,7 @@ def test_modes_that_change_how_coordinates_read_keep_every_block_until_they_end(
     for line in compensated:
         assert written[line - 1] != given[line - 1], f"line {line} not compensated"
     with pytest.raises(GcodeError, match=r"^<program>:3: .*strict refuses it"):
-        compensate_program(machines["vmc500"], program, strict=True)
+        compensate_program(machines["vmc500"], program, strict=True, dialect="linuxcnc")
 
 
 @pytest.mark.parametrize("line, system", [("#5221=-50.", True), ("# 2001 = 1.5 (tool length)", True),
@@ -793,14 +793,14 @@ def test_g50_with_axis_words_is_not_a_move(machines, name, program, line):
     scaling's end either): it is no move. It was compensated as one ("G50 X199.9934 Z-0.0009")
     and every later block from the wrong place; now it and the blocks after it are kept unchanged
     and named, as after a work offset the program sets."""
-    out, report = compensate_program(machines[name], program, tol_um=1.0)
+    out, report = compensate_program(machines[name], program, tol_um=1.0, dialect="linuxcnc")
     lines, given = out.splitlines(), program.splitlines()
     assert lines[line - 1:] == given[line - 1:]
     assert any(w.startswith(f"line {line}: G50 (coordinate system set by G50 with axis words) kept unchanged")
                for w in report.warnings), report.warnings
     # G50 alone (scaling off) and a lathe's G50 S (spindle speed limit) set no coordinates
-    out, report = compensate_program(machines["vmc500"], "G50\nG0 X100 Y100 Z50\nG1 X200 F100\n", tol_um=1.0)
-    assert out.splitlines()[1] != "G0 X100 Y100 Z50" and report.passed_through == 0
+    out, report = compensate_program(machines["vmc500"], "G50\nG0 X100. Y100. Z50.\nG1 X200. F100\n", tol_um=1.0)
+    assert out.splitlines()[1] != "G0 X100. Y100. Z50." and report.passed_through == 0
 
 
 def test_path_blending_tolerances_pass_through(machines):
@@ -921,10 +921,10 @@ def test_a_fanuc_loop_over_an_incremental_move_is_refused_by_name(machines, kind
     # for that, before the loop's end is read)
     with pytest.raises(GcodeError, match=r"runs lines \d+-\d+ again, and line \d+ among them moves incrementally|"
                                          r":[34]:8: an incremental move of Z before its position is known"):
-        compensate_program(machines["vmc500"], program, pass_through=True)
+        compensate_program(machines["vmc500"], program, pass_through=True, dialect="linuxcnc")
     if kind in ("goto", "unseen_label"):
         with pytest.raises(GcodeError, match=r"GOTO (10|99).* runs lines \d-\d again, and line \d among them"):
-            compensate_program(machines["vmc500"], program, pass_through=True)
+            compensate_program(machines["vmc500"], program, pass_through=True, dialect="linuxcnc")
 
 
 def test_loops_over_absolute_moves_and_jumps_forward_are_compensated(machines):
@@ -932,10 +932,15 @@ def test_loops_over_absolute_moves_and_jumps_forward_are_compensated(machines):
     nothing again."""
     m = machines["vmc500"]
     absolute = "G0 X100 Y100 Z100\n#1 = 0\nWHILE [#1 LT 3] DO1\nG1 X200 F100\nG1 X100\n#1 = [#1 + 1]\nEND1\nM30\n"
-    out, _ = compensate_program(m, absolute, pass_through=True)
+    out, _ = compensate_program(m, absolute, pass_through=True, dialect="linuxcnc")
     assert out.splitlines()[3] != "G1 X200 F100"
     forward = "G0 X100 Y100 Z100\nG91 G1 Z-10 F100\nGOTO 20\nG90 G1 Z50\nN20 G90 G0 Z150\nM30\n"
-    compensate_program(m, forward, pass_through=True)
+    compensate_program(m, forward, pass_through=True, dialect="linuxcnc")
+    # the same, as a FANUC control reads it: whole numbers are increments, so it asks for points
+    with pytest.raises(GcodeError, match=":1:4: X100 has no decimal point"):
+        compensate_program(m, absolute, pass_through=True)
+    out, _ = compensate_program(m, re.sub(r"([XYZ]-?\d+)(?=[ \n])", r"\1.", absolute), pass_through=True)
+    assert out.splitlines()[3] != "G1 X200. F100"
 
 
 SUB = """o100 sub

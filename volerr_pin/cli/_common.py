@@ -339,6 +339,41 @@ def add_program_position_args(parser: argparse.ArgumentParser) -> None:
                              "programmed")
 
 
+def add_dialect_args(parser: argparse.ArgumentParser) -> None:
+    """``--dialect``, ``--work-offsets`` and ``--work-offsets-unit`` of a command that reads an NC program."""
+    from ..compensation.gcode import DIALECTS
+
+    parser.add_argument("--dialect", choices=[d for d in DIALECTS if d != "heidenhain"],
+                        help="the program's dialect: what its controller sets by default (lathe diameters, machine M "
+                             "codes, work offsets, tape lines); default: told from the program where it says one "
+                             "(a FANUC program number, a Haas code, a LinuxCNC o-word ...), else linuxcnc")
+    parser.add_argument("--work-offsets", metavar="FILE",
+                        help="the controller's work offsets, for a program with several set-ups (G54, G55 ...): a CSV "
+                             "(offset,X_mm,Y_mm,...), LinuxCNC's parameter file (linuxcnc.var) or a FANUC offset "
+                             "listing (G10 L2 Pn lines); not with --origin")
+    parser.add_argument("--work-offsets-unit", choices=["mm", "inch"],
+                        help="the length unit of a LinuxCNC parameter file or a FANUC listing (the controller's)")
+
+
+def program_reading(machine: Machine, args) -> dict:
+    """The keywords of the NC reader from :func:`add_program_position_args` and
+    :func:`add_dialect_args`: ``start``, ``origin``, ``dialect``, ``work_offsets``."""
+    from ..compensation.gcode import read_work_offsets
+
+    start, origin = program_positions(machine, args)
+    if args.work_offsets and args.origin:
+        raise InputError("--origin stands for the work offset in force when no table is given: give --origin or "
+                         "--work-offsets, not both", parameters=("--origin", "--work-offsets"))
+    if args.work_offsets_unit and not args.work_offsets:
+        raise InputError("--work-offsets-unit says the unit of --work-offsets, which is not given",
+                         parameters=("--work-offsets-unit",))
+    offsets = None
+    if args.work_offsets:
+        offsets = read_work_offsets(args.work_offsets, list(machine.axes), list(machine.axis_kinds),
+                                    unit=args.work_offsets_unit)
+    return {"start": start, "origin": origin, "dialect": args.dialect, "work_offsets": offsets}
+
+
 def program_positions(machine: Machine, args) -> tuple[list[float] | None, list[float] | None]:
     """``(start, origin)`` of :func:`add_program_position_args` as the NC reader takes them [m, rad]:
     axes not named in ``--start`` unknown (NaN), in ``--origin`` at 0; None when not given."""

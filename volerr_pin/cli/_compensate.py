@@ -8,8 +8,8 @@ from pathlib import Path
 from rich.console import Console
 
 from ..base import transaction
-from ._common import (add_json_arg, add_machine_args, add_out_arg, add_program_position_args, add_state_arg,
-                     check_run_outputs, dumps, machine_of, program_positions, tolerance_um)
+from ._common import (add_dialect_args, add_json_arg, add_machine_args, add_out_arg, add_program_position_args,
+                     add_state_arg, check_run_outputs, dumps, machine_of, program_reading, tolerance_um)
 
 
 #: the command's name, and its line in ``volerr --help`` (read without building its parser)
@@ -43,6 +43,7 @@ def add_parser(sub) -> None:
                    help="point compensation scheme (default newton)")
     p.add_argument("--png", help="also draw the error along each move before and after (PNG)")
     add_program_position_args(p)
+    add_dialect_args(p)
     p.add_argument("--most-blocks", type=int, default=None, metavar="N",
                    help="the most blocks a program whose loops and subroutine calls are followed may run "
                         "(default: a million); a program that would run more is refused, naming the loop")
@@ -58,13 +59,15 @@ def run(args: argparse.Namespace) -> int:
 
     machine = machine_of(args)
     path = Path(args.program)
-    check_run_outputs({"out": args.out, "report": args.report, "png": args.png}, [path], machine)
+    check_run_outputs({"out": args.out, "report": args.report, "png": args.png},
+                      [path] + ([Path(args.work_offsets)] if args.work_offsets else []), machine)
     source = ProgramFile(path)  # a regular file; read as UTF-8 line by line
-    start, origin = program_positions(machine, args)
     program = Program(machine, tol_um=args.tol_um, tol_urad=args.tol_urad, strict=args.strict,
-                      pass_through=args.pass_through, start=start,
-                      method=args.method, source=str(path), origin=origin, programming=args.programming,
-                      detail=bool(args.png), most_blocks=MOST_BLOCKS if args.most_blocks is None else args.most_blocks)
+                      pass_through=args.pass_through, method=args.method, source=str(path),
+                      programming=args.programming, detail=bool(args.png),
+                      most_blocks=MOST_BLOCKS if args.most_blocks is None else args.most_blocks,
+                      **program_reading(machine, args))
+    program.decide(source.lines())   # the dialect given, or what the program's first lines say
     console = Console(stderr=True, highlight=False)
     with transaction() as tx:  # the program, its report and picture are all written, or none
         with open(tx.path(args.out), "w", encoding="utf-8", newline="") as out, \
@@ -88,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
         print(dumps(report))
         return 0
     r = program.report
+    print(f"read as a {r.dialect} program ({r.dialect_said})")
     print(f"{path} -> {args.out}: {r.blocks_in} blocks in, {r.blocks_out} out; {r.moves} moves in "
           f"{r.pieces} pieces ({r.arcs_kept} arcs kept as arcs, {r.arcs_as_lines} as lines)")
     print(f"largest error along the moves: {r.max_before_um:.2f} um before, {r.max_residual_um:.3f} um after "

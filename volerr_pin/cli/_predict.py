@@ -9,8 +9,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..base import transaction
-from ._common import (add_json_arg, add_machine_args, add_program_position_args, add_state_arg, check_run_outputs, dumps,
-                     machine_of, millimetre_list, millimetres, positive, program_positions, table_console, tolerance_um)
+from ._common import (add_dialect_args, add_json_arg, add_machine_args, add_program_position_args, add_state_arg, check_run_outputs, dumps,
+                     machine_of, millimetre_list, millimetres, positive, program_reading, table_console, tolerance_um)
 
 
 #: the command's name, and its line in ``volerr --help`` (read without building its parser)
@@ -32,6 +32,7 @@ def add_parser(sub) -> None:
                    help="sampling tolerance of the path: the deviation between samples, interpolated, is within it "
                         "of the model (default 0.01)")
     add_program_position_args(p)
+    add_dialect_args(p)
     p.add_argument("--plane", choices=["xy", "xz", "yz"],
                    help="the contour plane circles and sides are measured in (default: the plane that holds the most "
                         "cutting length: xy for a milled contour, xz for a lathe's profile)")
@@ -54,14 +55,14 @@ def run(args) -> int:
 
     machine = machine_of(args)
     path = Path(args.program)
-    inputs = [path] + ([Path(args.reference)] if args.reference else [])
+    inputs = [path] + ([Path(args.reference)] if args.reference else []) + (
+        [Path(args.work_offsets)] if args.work_offsets else [])
     check_run_outputs({"png": args.png, "rrd": args.rrd}, inputs, machine)
     # each file read once, line by line, its lines given to the NC reader as they are
     lines = list(ProgramFile(path).lines())
     reference = list(ProgramFile(args.reference).lines()) if args.reference else None
-    start, origin = program_positions(machine, args)
     prediction = predict(machine, lines, str(path), reference=reference, reference_source=args.reference or "",
-                         tolerance=args.tol_um * 1e-6, start=start, origin=origin,
+                         tolerance=args.tol_um * 1e-6, **program_reading(machine, args),
                          plane=None if args.plane is None else tuple("xyz".index(c) for c in args.plane),
                          tool_diameter=args.tool_diameter * 1e-3, cone_heights=[h * 1e-3 for h in args.cone_heights])
     report = prediction.to_dict(top=args.top)

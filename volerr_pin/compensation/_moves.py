@@ -125,6 +125,9 @@ class MoveBatch:
     notes : list of str
         What the reader tells of a program it follows (work and tool offsets taken as the
         model's), each naming its line; empty for a chunk.
+    dialect : tuple of (str, str) or None
+        For a program: the dialect it was read in and what decided it (``("fanuc", "detected:
+        line 2: O1000, a FANUC program number")``).
     """
 
     kind: np.ndarray
@@ -140,6 +143,7 @@ class MoveBatch:
     tool_tip: np.ndarray
     skipped: list = field(default_factory=list)
     notes: list = field(default_factory=list)
+    dialect: tuple | None = None
 
     @classmethod
     def empty(cls, m: int, n: int) -> "MoveBatch":

@@ -123,7 +123,7 @@ class PartPrediction:
 def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: str = "<program>", *,
             reference: str | Iterable[tuple[str, str]] | None = None, reference_source: str = "<reference>",
             tolerance: float = 0.01e-6, start=None, origin=None, plane: tuple[int, int] | None = None,
-            tool_diameter: float = 0.0, cone_heights=(0.0,)) -> PartPrediction:
+            tool_diameter: float = 0.0, cone_heights=(0.0,), dialect=None, work_offsets=None) -> PartPrediction:
     """Predict the part a program cuts: the deviation along its path and its features with the
     error sources that decide them.
 
@@ -154,6 +154,12 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
         the tool's axis (0: the cone the tool's axis sweeps).
     cone_heights : sequence of float, default (0,)
         A cone's sections: heights along its axis above the plane the tool's end cuts in [m].
+    dialect : str, optional
+        The programs' dialect (``"linuxcnc"``, ``"fanuc"``, ``"haas"``; default: told from the
+        program, else LinuxCNC's); a dialect the program or the caller chose is said in the notes.
+    work_offsets : dict of str to array_like, optional
+        The controller's work offsets [m, rad] by name, for a program with several set-ups
+        (:func:`volerr_pin.compensation.gcode.read_work_offsets`).
 
     Returns
     -------
@@ -173,7 +179,7 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
 
     if plane is not None:
         plane = _plane(plane)
-    batch = interpret(machine, program, source, start=start, origin=origin)
+    batch = interpret(machine, program, source, start=start, origin=origin, dialect=dialect, work_offsets=work_offsets)
     if batch.skipped and not np.any(batch.kind != POINT):
         unprogrammed = any("not yet programmed" in s.reason for s in batch.skipped)
         raise InputError(f"{source}: no cut can be predicted: " + "; ".join(
@@ -183,7 +189,7 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
             if unprogrammed else ""), parameters=("start",) if unprogrammed else ())
     moves = CuttingPath(machine, batch)
     defining = None if reference is None else interpret(machine, reference, reference_source, start=start,
-                                                         origin=origin)
+                                                         origin=origin, dialect=dialect, work_offsets=work_offsets)
     deviation = deviation_along(machine, moves, tolerance)
     found = measure(machine, moves, defining, plane=plane, tool_diameter=tool_diameter, cone_heights=cone_heights)
     # with a reference (a compensated program), what is left is the compensation's (its tolerance,
@@ -192,8 +198,15 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
     rankings = [feature_ranking(machine, f, cache=cache) if reference is None else []
                 for f in [*found.circles, *found.sides, *found.pairs, *found.cones]]
     return PartPrediction(machine, source, None if reference is None else reference_source, deviation, found.circles,
-                          found.sides, found.pairs, rankings, found.cones, batch.notes + found.notes, batch.skipped,
+                          found.sides, found.pairs, rankings, found.cones, _dialect_note(batch) + batch.notes + found.notes,
+                          batch.skipped,
                           len(batch) + sum(s.blocks for s in batch.skipped if not s.moved))
+
+
+def _dialect_note(batch) -> list[str]:
+    """The dialect the program was read in, when the program or the caller chose one."""
+    name, said = batch.dialect
+    return [] if said.startswith("the default") else [f"read as a {name} program ({said})"]
 
 
 def _plane(plane) -> tuple[int, int]:

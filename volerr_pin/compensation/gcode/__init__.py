@@ -41,6 +41,9 @@ from ._report import Report
 from ._segments import interpret
 from ._source import ProgramFile
 from ._macros import MOST_BLOCKS, may_need
+from ._dialect import NAMES as DIALECTS
+from ._offsets import read_work_offsets
 
-__all__ = ["Block", "compensate_program", "GcodeError", "interpret", "may_need",
-           "MOST_BLOCKS", "parse_block", "Program", "ProgramFile", "Report", "split_lines", "Word"]
+__all__ = ["Block", "compensate_program", "DIALECTS", "GcodeError", "interpret", "may_need",
+           "MOST_BLOCKS", "parse_block", "Program", "ProgramFile", "read_work_offsets", "Report", "split_lines",
+           "Word"]

@@ -379,7 +379,7 @@ def arc_errors(writer, start: np.ndarray, end: np.ndarray, center: np.ndarray, t
     rows = np.arange(count)
     i, j = plane_ij[:, 0], plane_ij[:, 1]
     inch = np.asarray(inch, dtype=bool)
-    origin = np.array([float(v) for v in reader.origin])
+    origin = writer.origin
     scale = np.where(inch[:, None], [[reader._scale[a, True] for a in axes]],
                      [[reader._scale[a, False] for a in axes]])
     digits = np.where(inch[:, None], [[writer.digits(a, True) for a in axes]],

@@ -10,12 +10,13 @@ the machine makes the position unknown.
 
 from __future__ import annotations
 
-from ._lexer import (CANNED, G_DIGITS, G_GROUPS, KEPT_MOTION, KEYWORD, LATHE_CYCLES, M_GROUPS, MACRO_G, NOT_MOVES,
+from ._lexer import (OFFSET_DATA, CANNED, G_DIGITS, G_GROUPS, KEPT_MOTION, KEYWORD, LATHE_CYCLES, M_GROUPS, MACRO_G, NOT_MOVES,
                     TOOL_CHANGE_M, USER_M, WORK_OFFSETS, Block,
                     GcodeError, macro_statement, mask_comments, parse_block, uncommented, word_values)
-from ._lexer import AXIS_LETTERS
+from ._lexer import AXIS_LETTERS, BLANKS
+from ._dialect import check_points, foreign
 from ._modal import Interpreter, ModalState
-from ._regions import follow, keyword_region, region_of
+from ._regions import follow, keyword_region, profile_region, region_of
 
 __all__ = ["Problem", "classify", "named", "offset_notes", "skip", "unsupported"]
 
@@ -149,7 +150,17 @@ def classify(reader: Interpreter, line: str, number: int, state: ModalState,
         problem = Problem(macro[0])
         problem.modes_unknown = macro[1]
         return None, problem
-    block = parse_block(line, number, reader.source, code)
+    dialect = reader.dialect
+    if dialect.tape_text and code.lstrip(BLANKS).startswith("%"):
+        return Block(number, line, [], code), None   # a tape's start or end, its leader's text not read
+    if dialect.colon_numbers and code.lstrip(BLANKS).startswith(":"):
+        at = code.index(":")
+        code = code[:at] + "O" + code[at + 1:]   # ':0097' is the program number O0097
+    try:
+        block = parse_block(line, number, reader.source, code)
+    except GcodeError as err:
+        raise (foreign(dialect, line, number, reader.source) or err) from None
+    check_points(dialect, block.words, reader.coordinate_letters, f"{reader.source}:{number}")
     return block, _problem(reader, block, state)
 
 def _in_region(reader: Interpreter, code: str, number: int, state: ModalState) -> Problem:
@@ -195,10 +206,29 @@ def _problem(reader: Interpreter, block: Block, state: ModalState) -> Problem | 
             return Problem("a move with block delete (/), whose execution depends on the operator's switch,")
         if any(w.letter == "G" for w in words):
             return Problem("G codes with block delete (/), whose effect depends on the operator's switch,")
+    dialect = reader.dialect
+    lathe_system_a = bool(dialect.lathe_cycles) and reader.lathe
     for w in words:
         letter = w.letter
         if letter == "G":
             g = w.value
+            if g in dialect.g_codes or (g != 10 and reader.is_offset(g)):
+                continue
+            if lathe_system_a and g in dialect.lathe_cycles:
+                what = f"{w.name} ({dialect.title} lathe {dialect.lathe_cycles[g]})"
+                state.canned = what
+                pq = {v.letter: v.value for v in words if v.letter in "PQ"}
+                if g in (71, 72, 73) and len(pq) == 2:   # its profile, blocks N(P) to N(Q), follows: the cycle cuts it
+                    state.regions = [profile_region(what, pq["P"], pq["Q"], block.number)]
+                return Problem(what)
+            if g == 7 and not dialect.linuxcnc_modes:
+                return _unknown(f"{w.name} (not LinuxCNC's diameter mode in the {dialect.name} dialect: a G code "
+                                "this reader does not know there)", w.start + 1)
+            if g == 10 and any(v.letter == "L" and v.value in OFFSET_DATA for v in words):
+                done = reader.set_offset([(v.letter, v.value) for v in words], block.number, state)
+                if done is not None:
+                    reader.tell(block.number, f"{w.name} sets {done}: followed")
+                    return None
             if g in CANNED:
                 state.canned = True
                 return Problem(f"{w.name} (canned cycle)")
@@ -219,10 +249,15 @@ def _problem(reader: Interpreter, block: Block, state: ModalState) -> Problem | 
                 return Problem(what)
             if g not in G_GROUPS:
                 return _unknown(f"{w.name} (a G code this reader does not know)", w.start + 1)
-        elif letter == "M" and w.value in (98, 99):
-            return Problem(f"{w.name} (subprogram call or return)")
-        elif letter == "M" and w.value == int(w.value) and w.value not in M_GROUPS and w.value not in USER_M:
-            return _unknown(f"{w.name} (an M code this reader does not know)", w.start + 1)
+        elif letter == "M" and (w.value in (98, 99) or w.value in dialect.call_m):
+            return Problem(f"{w.name} ({dialect.call_m.get(w.value, 'subprogram call or return')})")
+        elif letter == "M" and w.value == int(w.value):
+            problem = _m_code(reader, w, block.number)
+            if problem is not None:
+                return problem
+        elif letter in "UW" and lathe_system_a and letter not in reader.axes:
+            return Problem(f"{w.name} (an incremental {'X' if letter == 'U' else 'Z'} of {dialect.title} lathes, "
+                           "not yet compensated)")
         elif letter == "O":
             if state.programs:
                 return Problem(f"{w.name} (a second program number: the start of a subprogram)")
@@ -235,6 +270,23 @@ def _problem(reader: Interpreter, block: Block, state: ModalState) -> Problem | 
                 return Problem(f"a block of the {state.canned} still in force")
             return Problem("a canned-cycle position (the cycle is still active)")
     return None
+
+def _m_code(reader: Interpreter, w, number: int) -> Problem | None:
+    """The problem of an M code in the program's dialect, if any (a code it does not know)."""
+    dialect, m = reader.dialect, w.value
+    if dialect.linuxcnc_modes:
+        if m in M_GROUPS or m in USER_M:
+            return None
+        return _unknown(f"{w.name} (an M code this reader does not know)", w.start + 1)
+    elif dialect.motionless(m) or m in dialect.moving_m:
+        return None
+    elif dialect.builder_m:
+        reader.tell(number, f"{w.name}: an auxiliary function of the machine builder ({dialect.title} leaves M codes "
+                    "other than M0 - M9, M19, M29, M30, M98, M99 to the builder): kept as written, taken to move no "
+                    "axis (a code the builder made a macro call that moves axes would be misread)", key=("M", m))
+        return None
+    return _unknown(f"{w.name} (an M code this reader does not know in the {dialect.title} dialect)", w.start + 1)
+
 
 def skip(reader: Interpreter, line: str, state: ModalState, block: Block | None = None, number: int = 0) -> None:
     """Follow a block that is kept unchanged rather than interpreted.
@@ -269,6 +321,10 @@ def skip(reader: Interpreter, line: str, state: ModalState, block: Block | None 
     gs = [v for letter, v in words if letter == "G"]
     state.apply_g(gs)
     reader.tool_tip_codes(gs, state, number)
-    calls = {("M", TOOL_CHANGE_M), ("M", 98), ("M", 99)} | {("G", g) for g in MACRO_G}
+    dialect = reader.dialect
+    calls = ({("M", TOOL_CHANGE_M), ("M", 98), ("M", 99)} | {("M", m) for m in dialect.moving_m}
+             | {("M", m) for m in dialect.call_m} | {("G", g) for g in MACRO_G})
+    if ("G", 10) in words:   # data: nothing moves
+        words = [(letter, v) for letter, v in words if letter not in AXIS_LETTERS]
     if any(letter in reader.axes or letter in AXIS_LETTERS + "O" or (letter, v) in calls for letter, v in words):
         state.lose_position(f"line {number}")

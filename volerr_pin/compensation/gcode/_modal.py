@@ -23,6 +23,8 @@ from ._arcs import read_arc
 from ._letters import check_letters, full_circle
 from ._lexer import (AXIS_LETTERS, DIAMETER_AXIS, TOOL_CHANGE_M, TOOL_TIP_OFF, TOOL_TIP_ON, WORK_OFFSETS, Block, GcodeError,
                     Word, check_words)
+from ._dialect import dialect_of
+from ._offsets import offset_name
 from ._report import Warnings
 from ._state import ModalState
 
@@ -133,6 +135,13 @@ class Interpreter:
     programming : str, default "axes"
         The programming mode when the program starts: ``"axes"`` or ``"tool-tip"`` (tool
         centre point control on already); G43.4 / TRAORI and G49 / TRAFOOF change it.
+    dialect : str or Dialect, optional
+        The program's dialect (:mod:`._dialect`; default LinuxCNC).
+    work_offsets : dict of str to array_like, optional
+        The controller's work offsets [m, rad] by name (``"G54"``, ``"G54.1 P3"``, ``"EXT"``,
+        :func:`~volerr_pin.compensation.gcode._offsets.read_work_offsets`): a program that
+        switches between them is read with each one's values. Not with ``origin``: the
+        offset in force when the program starts is G54.
 
     Attributes
     ----------
@@ -142,16 +151,24 @@ class Interpreter:
         The axes whose start position ``start`` gave.
     notes : Warnings
         What the blocks read so far hold that is kept but not understood.
+    origin : numpy.ndarray, shape (n_axes,)
+        The program's zero in force [m, rad] (it changes with the work offset).
+    offsets : dict of str to numpy.ndarray
+        The work offsets known [m, rad]: given, set by the program's G10 blocks, or the
+        ``origin`` given, which stands for the first one the program selects.
+    lathe : bool
+        The machine has X and Z and no Y axis (its X may be programmed as a diameter).
 
     Raises
     ------
     GcodeError
         An axis name that is not an NC address letter, or a ``start`` or ``origin`` of the
-        wrong shape or not finite, or a ``programming`` the machine cannot take.
+        wrong shape or not finite, or a ``programming`` the machine cannot take, an unknown
+        ``dialect``, both ``origin`` and ``work_offsets``, or an offset's values not finite.
     """
 
     def __init__(self, machine: Machine, source: str = "<program>", start=None, origin=None,
-                 programming: str = "axes"):
+                 programming: str = "axes", dialect=None, work_offsets=None):
         check_axes(machine)
         self.machine = machine
         self.axes = list(machine.axes)
@@ -161,9 +178,25 @@ class Interpreter:
         self.start_known = np.isfinite(given)
         self.start_given = bool(self.start_known.any())
         self.start = np.where(self.start_known, given, machine.mid_travel)
+        self.dialect = dialect_of(dialect)
+        self.lathe = "X" in self.axes and "Z" in self.axes and "Y" not in self.axes
+        #: the letters whose words are coordinates (checked for a decimal point where the dialect
+        #: reads whole numbers as increments)
+        self.coordinate_letters = "".join(self.axes) + "IJKR" + ("UW" if self.lathe else "")
+        if origin is not None and work_offsets:
+            raise GcodeError("origin stands for the work offset in force when no table is given: give origin or "
+                             "work_offsets, not both", parameters=("origin", "work_offsets"))
         self.origin = np.zeros(len(self.axes)) if origin is None else axis_vector(origin, "origin", self.axes)
+        self.origin_given = origin is not None
+        self.offsets: dict[str, np.ndarray] = {
+            str(name): axis_vector(v, f"work_offsets[{name!r}]", self.axes) for name, v in (work_offsets or {}).items()}
+        self.table_given = bool(self.offsets)
+        self.external = self.offsets.pop("EXT", np.zeros(len(self.axes)))
+        if "G54" in self.offsets:   # the offset in force when a program starts
+            self.origin = self.offsets["G54"] + self.external
         self.notes = Warnings()
         self._noted: set = set()
+        self._told: list[tuple[int, str]] = []
         self._modes: dict[str, Programming] = {}
         if programming not in ("axes", "tool-tip"):
             raise GcodeError(f"programming must be 'axes' or 'tool-tip', got {programming!r}",
@@ -228,6 +261,36 @@ class Interpreter:
             self._noted.add(key)
         self.notes.add(number, text)
 
+    def tell(self, number: int, text: str, key=None) -> None:
+        """Keep a note on how a block was read (a work offset a G10 sets, a builder's M code)
+        for the caller to take (:meth:`told`): compensate's report and predict's notes say it.
+
+        Parameters
+        ----------
+        number : int
+            The line.
+        text : str
+            The note.
+        key : hashable, optional
+            Keep it only the first time this key is given.
+        """
+        if key is not None:
+            if key in self._noted:
+                return
+            self._noted.add(key)
+        self._told.append((number, text))
+
+    def told(self) -> list[tuple[int, str]]:
+        """The notes kept by :meth:`tell` since the last call, (line, text), and forget them.
+
+        Returns
+        -------
+        list of (int, str)
+            The notes.
+        """
+        told, self._told = self._told, []
+        return told
+
     def initial_state(self) -> ModalState:
         """The modal state at the start of a program.
 
@@ -239,7 +302,9 @@ class Interpreter:
         """
         tool_tip = self.programming == "tool-tip"
         position = self.mode(self.programming).to_words(self.start[None, :])[0].copy()
-        return ModalState(position=position, known=self.start_known.copy(), tool_tip=tool_tip)
+        return ModalState(position=position, known=self.start_known.copy(), tool_tip=tool_tip,
+                          linuxcnc=self.dialect.linuxcnc_modes, diameter=self.dialect.lathe_diameter and self.lathe,
+                          offset=("G54", 0) if "G54" in self.offsets else None)
 
     # units --------------------------------------------------------------------------
     def to_si(self, axis: str, value: float, inch: bool) -> float:
@@ -376,13 +441,19 @@ class Interpreter:
             state.apply_g(gs)
             self.tool_tip_codes(gs, state, block.number)
         coord_words = [w for w in block.words if w.letter in self._index]
+        if 10 in gs or (not coord_words and any(g in self.dialect.g_codes for g in gs)):
+            # work offset data a classification followed (set_offset), or a setting of the path
+            # control (G187 P1, G5.1 Q1) with its own P, Q, E words: nothing moves
+            return None
         dwell = 4 in gs and not any(g in (0, 1, 2, 3) for g in gs)   # with a motion code, the move follows
         check_letters(block, state, coord_words, self.axes, self.where, self.machine.name)
         move = None
         if (coord_words or full_circle(block, state)) and not dwell:
             move = self._move(block, state, coord_words, check_travel and not state.tool_tip)
-        if any(w.letter == "M" and w.value == TOOL_CHANGE_M for w in block.words):
-            state.lose_position(f"line {block.number}'s M{TOOL_CHANGE_M} tool change")
+        moving = self.dialect.moving_m or {TOOL_CHANGE_M: "tool change"}
+        for w in block.words:
+            if w.letter == "M" and w.value in moving:
+                state.lose_position(f"line {block.number}'s M{w.value:g} {moving[w.value]}")
         return move
 
     def _move(self, block: Block, state: ModalState, coord_words: list[Word], check_travel: bool) -> BlockMove:
@@ -445,9 +516,28 @@ class Interpreter:
         raise GcodeError(f"{what} {self.from_si(axis, q[j], False):.10g} {unit}, outside the travel "
                          f"[{lo:g}, {hi:g}] {unit}")
 
+    def is_offset(self, g: float) -> bool:
+        """Whether a G code selects a work offset in the program's dialect.
+
+        Parameters
+        ----------
+        g : float
+            The code.
+
+        Returns
+        -------
+        bool
+            G54 ... G59, G59.1 ... G59.3, G54.1; for Haas also G154 and G110 ... G129 (on a mill).
+        """
+        if g in WORK_OFFSETS:
+            return True
+        return self.dialect.extended_offset == "G154" and (g == 154 or (110 <= g <= 129 and g == int(g)
+                                                                        and not self.lathe))
+
     def work_offset(self, words: list[tuple[str, float]], number: int, state: ModalState) -> None:
-        """Follow the work offsets a block selects: one per program (kept blocks included),
-        since a program is compensated with one origin.
+        """Follow the work offsets a block selects: the program's zero becomes the offset's
+        (known from the table given, or set by the program's G10 blocks); the first one a
+        program selects without a table takes ``origin``.
 
         Parameters
         ----------
@@ -461,20 +551,107 @@ class Interpreter:
         Raises
         ------
         GcodeError
-            A second, different work offset.
+            A work offset whose values are not known (not in the table given, not set by a G10
+            block, or set for some axes only).
         """
         for letter, value in words:
-            if letter != "G" or value not in WORK_OFFSETS:
+            if letter != "G" or not self.is_offset(value):
                 continue
-            name = f"G{value:g}"
-            if value == 54.1:
-                p = [v for other, v in words if other == "P"]
-                name += f" P{p[0]:g}" if p else ""
-            if state.offset is not None and state.offset[0] != name:
-                raise GcodeError(f"{self.source}:{number}: {name} changes the work offset from {state.offset[0]} "
-                                 f"(line {state.offset[1]}); a program is compensated with one origin: compensate "
-                                 "the blocks of each work offset as a program of their own")
-            state.offset = (name, number)
+            name = offset_name(value, words, self.dialect.extended_offset)
+            if state.offset is not None and state.offset[0] == name:
+                continue
+            values = self.offsets.get(name)
+            if values is None and state.offset is None and not self.table_given:
+                # the origin given (or zero) stands for the first offset the program selects
+                self.offsets[name] = self.origin.copy()
+                state.offset = (name, number)
+                continue
+            if values is None:
+                was = f"from {state.offset[0]} (line {state.offset[1]})" if state.offset else "at the start"
+                given = "it is not in the work-offset table given" if self.table_given else "its values are not known"
+                raise GcodeError(f"{self.source}:{number}: {name} changes the work offset {was}, and {given}: give "
+                                 "the controller's work offsets (work_offsets: a CSV, LinuxCNC's parameter file or "
+                                 "a FANUC offset listing), or set it in the program with G10 L2",
+                                 parameters=("work_offsets",))
+            self._use(name, values, number, state)
+
+    def _use(self, name: str, values: np.ndarray, number: int, state: ModalState) -> None:
+        """Make a work offset the one in force."""
+        unknown = [a for a, v in zip(self.axes, values) if math.isnan(v)]
+        if unknown:
+            raise GcodeError(f"{self.source}:{number}: {name}'s axis {', '.join(unknown)} not known (the program's G10 "
+                             "blocks set the others): give the controller's work offsets (work_offsets) or set every "
+                             "axis with G10 L2", parameters=("work_offsets",))
+        self.origin = values + self.external
+        state.offset = (name, number)
+
+    def set_offset(self, words: list[tuple[str, float]], number: int, state: ModalState) -> str | None:
+        """Follow a G10 L2 / L20 block that sets a work offset.
+
+        Parameters
+        ----------
+        words : list of (str, float)
+            The block's words, (letter, value).
+        number : int
+            Its line number.
+        state : ModalState
+            The modal state (units, distance mode, positions; ``offset`` if it sets the one in
+            force).
+
+        Returns
+        -------
+        str or None
+            What it set (``"G55"``), or None if it cannot be followed (a P the dialect gives no
+            meaning, a rotation, a diameter-mode X, L20 from a position not known, inside
+            tool-tip programming): then the blocks after it are kept (:mod:`._regions`).
+        """
+        from ._offsets import g10_target
+
+        ls = [v for letter, v in words if letter == "L"]
+        ps = [v for letter, v in words if letter == "P"]
+        target = g10_target(ls[0], ps[0] if ps else None, self.dialect)
+        axis_words = [(letter, v) for letter, v in words if letter in self._index]
+        others = [letter for letter, v in words if letter not in self._index and letter not in "GLPN" and v]
+        if target is None or others or state.tool_tip or (state.diameter and any(a == DIAMETER_AXIS
+                                                                                  for a, _ in axis_words)):
+            return None
+        if target == "current":
+            target = "G54" if state.offset is None else state.offset[0]
+        if state.offset is None and target == "G54":
+            # G54 is in force when a program starts (LinuxCNC, FANUC, Haas); the origin given stands for it
+            state.offset = ("G54", 0)
+            self.offsets.setdefault("G54", self.origin - self.external)
+        relative = ls[0] == 20 and not self.dialect.l20_extended   # LinuxCNC: the position reads as the values
+        absolute = state.absolute
+        for letter, v in words:   # (G91 G10 ...: the block's own distance mode)
+            if letter == "G" and v in (90, 91):
+                absolute = v == 90
+        if relative and not all(state.known[self._index[a]] for a, _ in axis_words):
+            return None
+        old = self.external if target == "EXT" else self.offsets.get(target)
+        values = np.full(len(self.axes), np.nan) if old is None else old.copy()
+        for letter, v in axis_words:
+            j = self._index[letter]
+            amount = self.to_si(letter, v, state.inch)
+            if relative:
+                values[j] = state.position[j] - self.external[j] - amount   # the zero where the axis reads it
+            elif not absolute and self.dialect.offsets_incremental:
+                values[j] = (0.0 if math.isnan(values[j]) else values[j]) + amount
+            else:
+                values[j] = amount
+        if not self.table_given:   # the axes the program does not set: the origin stands for them
+            values = np.where(np.isnan(values), self.origin - self.external, values)
+        if target == "EXT":
+            if np.isnan(values).any():
+                return None
+            self.external = values
+            if state.offset is not None:
+                self.origin = self.offsets[state.offset[0]] + values
+            return "the external offset"
+        self.offsets[target] = values
+        if state.offset is not None and state.offset[0] == target:
+            self._use(target, values, number, state)
+        return target
 
     def arc(self, block: Block, start: np.ndarray, target: np.ndarray, clockwise: bool,
             state: ModalState) -> Arc:

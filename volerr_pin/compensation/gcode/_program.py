@@ -78,6 +78,13 @@ class Program(ChunkWriting):
         The most blocks a program whose parameters, loops and subroutine calls are expanded may
         run (every line run and every loop pass counts); a program that would run more is
         refused.
+    dialect : str, optional
+        ``"linuxcnc"``, ``"fanuc"`` or ``"haas"`` (:mod:`._dialect`); default: told from the
+        program's text where it says one (:meth:`decide`), else LinuxCNC's.
+    work_offsets : dict of str to array_like, optional
+        The controller's work offsets [m, rad] by name (``"G54"``, ``"G55"``, ``"G54.1 P2"``;
+        :func:`~volerr_pin.compensation.gcode.read_work_offsets`): a program with several
+        set-ups is read with each one's values. Not with ``origin``.
 
     Attributes
     ----------
@@ -103,7 +110,7 @@ class Program(ChunkWriting):
     def __init__(self, machine: Machine, tol_um: float = 1.0, pass_through: bool = False,
                  start=None, method: str = "newton", source: str = "<program>", tol_urad: float | None = None,
                  origin=None, *, strict: bool = False, programming: str = "axes", detail: bool = False,
-                 most_blocks: int = macros.MOST_BLOCKS):
+                 most_blocks: int = macros.MOST_BLOCKS, dialect=None, work_offsets=None):
         check_axes(machine)  # the machine is reported before the tolerance
         if not (math.isfinite(tol_um) and tol_um >= MIN_TOL_UM):
             raise GcodeError(f"tol_um must be finite and at least {MIN_TOL_UM:g} um (what the point compensation "
@@ -115,7 +122,10 @@ class Program(ChunkWriting):
                              parameters=("strict", "pass_through"))
         self.strict = bool(strict)
         self.keep_unknown = bool(pass_through)
-        self.reader = Interpreter(machine, source=source, start=start, origin=origin, programming=programming)
+        self.reader = Interpreter(machine, source=source, start=start, origin=origin, programming=programming,
+                                  dialect=dialect, work_offsets=work_offsets)
+        self._dialect = dialect
+        self._decided = False
         # the written numbers are rounded (0.05 um per linear axis at most, and the rotary
         # axes' 0.5e-5 deg times the tool's lever): the paths are compensated to the tolerance
         # less that margin, so the program as written meets it
@@ -175,8 +185,29 @@ class Program(ChunkWriting):
             A block that cannot be read or compensated, naming its line.
         """
         out: list[str] = []
-        self.run(self.expand(split_lines(text)), out.append, progress)
+        lines = split_lines(text)
+        self.decide(lines)
+        self.run(self.expand(lines), out.append, progress)
         return "".join(out)
+
+    def decide(self, lines: Iterable[tuple[str, str]] | None) -> None:
+        """Take the dialect given, or tell it from the program's lines (before :meth:`run`).
+
+        Parameters
+        ----------
+        lines : iterable of (str, str) or None
+            The program's lines (None: take the dialect given, or LinuxCNC's).
+
+        Raises
+        ------
+        GcodeError
+            A program of a dialect the reader does not read, naming the line that says it.
+        """
+        from ._dialect import choose
+
+        self.reader.dialect, said = choose(self._dialect, lines, self.source)
+        self.report.dialect, self.report.dialect_said = self.reader.dialect.name, said
+        self._decided = True
 
     def expand(self, lines: list[tuple[str, str]]) -> list[tuple[str, str]]:
         """The program as it runs, if its parameters, expressions and O-words can be followed.
@@ -226,6 +257,8 @@ class Program(ChunkWriting):
             A block that cannot be read or compensated, naming its line (lines before it may
             have been written already).
         """
+        if not self._decided:
+            self.decide(None)
         try:
             return self._run(lines, write, progress)
         except GcodeError as err:
@@ -273,12 +306,22 @@ class Program(ChunkWriting):
                 entries += self._close(run, state)
                 run = None
             if ended:
-                # after M2 / M30 the program has ended: a controller reads nothing more
-                reader.notes.add(number, f"after the program's end (line {ended}'s M2 / M30) kept unchanged: a "
-                                 "controller does not read it")
+                # after M2 / M30 the program has ended: a controller reads nothing more (the tape's
+                # closing '%' is no block)
+                if body.strip(" \t") != "%" and not (reader.dialect.tape_text and body.lstrip(" \t").startswith("%")):
+                    reader.notes.add(number, f"after the program's end (line {ended}'s M2 / M30) kept unchanged: a "
+                                     "controller does not read it")
                 entries.append(("raw", body + newline))
                 continue
+            origin = reader.origin
             entry = self._read(body, newline, number, state)
+            if reader.origin is not origin:
+                # another work offset: what was read before it is written from the zero it was read with
+                self._flush(entries, write)
+                entries, moves = [], 0
+                self.writer.set_origin(reader.origin)
+                if runs is not None:
+                    runs.set_origin(reader.origin)
             if entry[0] in ("plain", "move") and any(w.letter == "M" and w.value in PROGRAM_END
                                                       for w in entry[1].words):
                 ended, fast = number, False
@@ -335,11 +378,16 @@ class Program(ChunkWriting):
             self._profiles.raw.append(body + newline)
         if not state.regions and not state.canned and self.flow.body is None:
             words = plain_words(self._plain, body)
+            if words is not None and reader.dialect.decimal_point and any("." not in w.text for w in words):
+                words = None   # (FANUC: a whole number may be increments; the full reader checks it)
             if words is not None:  # the fast path (see runs.plain_words)
                 block = Block(number, body, words, body, False)
                 return self._entry(block, newline, number, state, state.lost,
                                    move_of(reader, block, state, words, not state.tool_tip))
             words = arc_words(self._arc, body, reader.axes)
+            if words is not None and reader.dialect.decimal_point and any("." not in w.text for w in words
+                                                                           if w.letter != "G"):
+                words = None
             if words is not None and (words[0].value if words[0].letter == "G" else state.motion) in (2, 3):
                 # the fast path for arcs (see runs.arc_words)
                 if words[0].letter == "G":
@@ -368,6 +416,8 @@ class Program(ChunkWriting):
             self.report.passed_through += 1   # a definition: its moves run where it is called
             return ("raw", body + newline)
         block, problem = kept.classify(reader, body, number, state, masked)
+        for at, text in reader.told():
+            reader.notes.add(at, text)
         done = self._profiles.done
         if problem and done and block is not None and any(w.letter == "G" and w.value in LATHE_CYCLES
                                                           for w in block.words):
@@ -494,7 +544,8 @@ def _levers(machine: Machine) -> list[float]:
 def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass_through: bool = False,
                        method: str = "newton", source: str = "<program>", tol_urad: float | None = None,
                        origin=None, strict: bool = False, programming: str = "axes",
-                       start=None, most_blocks: int = macros.MOST_BLOCKS) -> tuple[str, Report]:
+                       start=None, most_blocks: int = macros.MOST_BLOCKS, dialect=None,
+                       work_offsets=None) -> tuple[str, Report]:
     """Compensate an NC program.
 
     Parameters
@@ -527,6 +578,10 @@ def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass
     most_blocks : int
         The most blocks a program whose loops and subroutine calls are followed may run
         (see :mod:`~volerr_pin.compensation.gcode`).
+    dialect : str, optional
+        ``"linuxcnc"``, ``"fanuc"`` or ``"haas"`` (default: told from the program, else LinuxCNC's).
+    work_offsets : dict of str to array_like, optional
+        The controller's work offsets [m, rad] by name (see :class:`Program`).
 
     Returns
     -------
@@ -542,5 +597,5 @@ def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass
     """
     program = Program(machine, tol_um=tol_um, pass_through=pass_through, method=method, source=source,
                       tol_urad=tol_urad, origin=origin, strict=strict, programming=programming, start=start,
-                      most_blocks=most_blocks)
+                      most_blocks=most_blocks, dialect=dialect, work_offsets=work_offsets)
     return program.compensate(text), program.report

@@ -74,9 +74,32 @@ def keyword_region(keyword: str, number: int) -> tuple | None:
     return None
 
 
+def profile_region(cycle: str, p: float, q: float, number: int) -> tuple:
+    """The region of a FANUC lathe cycle's profile (G71 / G72 / G73 P Q): the blocks from the
+    cycle to the one numbered Q, which the cycle cuts (and the control runs no further).
+
+    Parameters
+    ----------
+    cycle : str
+        The cycle, for messages (``"G71 (FANUC lathe stock removal in turning)"``).
+    p, q : float
+        Its P and Q words: the sequence numbers of the profile's first and last block.
+    number : int
+        The cycle's line number.
+
+    Returns
+    -------
+    tuple
+        The region; it ends with the block numbered ``q``.
+    """
+    return (f"profile N{p:g} - N{q:g} of the {cycle}", number, "PROFILE", (q,))
+
+
 def _ends(region: tuple, words: list[tuple[str, float]], gs: list[float], keyword: str) -> tuple | None:
     """The region after a block inside it: None if the block ends it."""
     what, first, name, ends = region
+    if name == "PROFILE":
+        return None if any(letter == "N" and v == ends[0] for letter, v in words) else region
     if keyword:
         return None if keyword in ends else region
     if name == f"G{CYLINDRICAL:g}":  # G7.1 C0 ends it

@@ -186,6 +186,11 @@ class Report:
         :mod:`._macros`): ``blocks_run``, ``calls``, ``loop_passes``.
     programming : list of str
         Programming modes the moves were read in (``"axes"``, ``"tool-tip"``).
+    dialect : str
+        The dialect the program was read in (``"linuxcnc"``, ``"fanuc"``, ``"haas"``).
+    dialect_said : str
+        What decided it: ``"given"``, what in the program says it (``"detected: line 1: O1000,
+        a FANUC program number"``), or that nothing says another.
     warnings : list of str
         Messages, in line order (``"line N: ..."``, ``"lines N-M and K: ..."``).
     detail : Detail
@@ -206,6 +211,8 @@ class Report:
     moves_kept: int = 0
     expanded: dict | None = None
     programming: list[str] = field(default_factory=list)
+    dialect: str = "linuxcnc"
+    dialect_said: str = ""
     warnings: list[str] = field(default_factory=list)
     detail: Detail = field(default_factory=Detail, repr=False)
 
@@ -229,5 +236,5 @@ class Report:
                 "arcs_kept": self.arcs_kept, "arcs_as_lines": self.arcs_as_lines,
                 "passed_through": self.passed_through, "moves_kept": self.moves_kept,
                 "motion_compensated": self.motion_compensated, "expanded": self.expanded,
-                "programming": list(self.programming),
-                "warnings": list(self.warnings)}
+                "programming": list(self.programming), "dialect": self.dialect,
+                "dialect_said": self.dialect_said, "warnings": list(self.warnings)}

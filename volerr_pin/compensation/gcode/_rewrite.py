@@ -54,7 +54,20 @@ class Writer:
         self._digits = {(a, inch): (6 if inch else 4) if lin else 5
                         for a, lin in zip(reader.axes, reader.linear) for inch in (False, True)}
         self._zero = {d: "-0." + "0" * d for d in (4, 5, 6)}
-        self._origin = [float(v) for v in reader.origin]
+        self.set_origin(reader.origin)
+        self.arcs = ArcWords(self)
+
+    def set_origin(self, origin: np.ndarray) -> None:
+        """Write the pieces that follow from another program zero (a work offset the program
+        selects: the pieces before it are written already).
+
+        Parameters
+        ----------
+        origin : numpy.ndarray, shape (n_axes,)
+            The program's zero [m, rad].
+        """
+        reader = self.reader
+        self._origin = [float(v) for v in origin]
         self.origin = np.asarray(self._origin)   # [m, rad], for absolute arc centres (G90.1)
         # per output unit (inch or not) and diameter mode (G7: an X word is twice the radius): each
         # axis' letter, decimals, scale [m or rad per unit], origin [m, rad] and the text of a
@@ -63,7 +76,6 @@ class Writer:
             (a, self._digits[a, inch], reader._scale[a, inch] * (0.5 if diameter and a == DIAMETER_AXIS else 1.0), o,
              self._zero[self._digits[a, inch]]) for a, o in zip(reader.axes, self._origin)]
             for inch in (False, True) for diameter in (False, True)}
-        self.arcs = ArcWords(self)
 
     # numbers --------------------------------------------------------------------
     def digits(self, axis: str, inch: bool) -> int:

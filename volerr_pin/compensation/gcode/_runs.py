@@ -106,7 +106,7 @@ class PlainRuns:
         self._word = re.compile(rf"([NF{letters}])[ \t]*#")
         self._shapes: dict[str, _Shape | None] = {}
         n = len(reader.axes)
-        self._origin = np.array([float(v) for v in reader.origin])
+        self.set_origin(reader.origin)
         self._scale = {inch: np.array([reader._scale[a, inch] for a in reader.axes]) for inch in (False, True)}
         self._digits = {inch: [writer.digits(a, inch) for a in reader.axes] for inch in (False, True)}
         self._low = np.array(reader._low) - np.array(reader._slack)
@@ -114,6 +114,17 @@ class PlainRuns:
         self._n = n
 
     # reading -------------------------------------------------------------------------
+
+    def set_origin(self, origin: np.ndarray) -> None:
+        """Read and write the runs that follow from another program zero (a work offset the
+        program selects).
+
+        Parameters
+        ----------
+        origin : numpy.ndarray, shape (n_axes,)
+            The program's zero [m, rad].
+        """
+        self._origin = np.array([float(v) for v in origin])
     def takes(self, state: ModalState) -> bool:
         """Whether plain lines can be read as a run in this state: absolute G0 / G1 with every
         axis known, outside canned cycles, kept regions and lathe diameter mode.
@@ -220,6 +231,8 @@ class PlainRuns:
                 words[name] = text
             run.labels[run.count] = words
             numbers = [v for k, v in enumerate(numbers) if k not in shape.kept]
+        if self.reader.dialect.decimal_point and any("." not in v and float(v) for v in numbers):
+            return False   # a whole number of increments: the full reader names it
         run.bodies.append(body)
         run.newlines.append(newline)
         run.shapes.append(shape)

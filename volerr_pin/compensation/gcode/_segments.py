@@ -13,12 +13,13 @@ from ._lexer import PROGRAM_END, GcodeError, mask_comments, split_lines
 from ._modal import Interpreter
 from ._polar import has_polar, read_polar
 from ._source import ProgramFile
+from ._dialect import choose
 
 __all__ = ["interpret"]
 
 
 def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str, str]], source: str = "<program>",
-              start=None, origin=None, programming: str = "axes") -> MoveBatch:
+              start=None, origin=None, programming: str = "axes", dialect=None, work_offsets=None) -> MoveBatch:
     """The moves of a program as the controller interpolates them.
 
     Lines are straight in program coordinates, arcs turn about their centres. Moves before
@@ -43,6 +44,11 @@ def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str,
         Program coordinates [m, rad] of the program's zero (default zero).
     programming : str, default "axes"
         Programming mode when the program starts.
+    dialect : str, optional
+        ``"linuxcnc"``, ``"fanuc"`` or ``"haas"`` (default: told from the program, else
+        LinuxCNC's; the batch's ``dialect`` says which and why).
+    work_offsets : dict of str to array_like, optional
+        The controller's work offsets [m, rad] by name (``"G54"``, ``"G55"`` ...).
 
     Returns
     -------
@@ -60,21 +66,26 @@ def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str,
         A block that cannot be read, a value LinuxCNC refuses (naming line and column), or
         text after the ``%`` that ends the program.
     """
-    reader = Interpreter(machine, source=source, start=start, origin=origin, programming=programming)
+    reader = Interpreter(machine, source=source, start=start, origin=origin, programming=programming,
+                         work_offsets=work_offsets)
     if isinstance(program, str):
         lines = split_lines(program)
     else:
         lines = list(program.lines() if isinstance(program, ProgramFile) else program)
+    reader.dialect, said = choose(dialect, lines, source)
     try:
         expansion = macros.expand(lines, source)
     except macros.Unfollowable:
         expansion = None   # read as it is, macro blocks kept (as compensate_program reads it)
     if expansion is None:
-        return _moves(reader, lines, source, None)
-    try:
-        return _moves(reader, expansion.lines, source, expansion.origin)
-    except GcodeError as err:
-        raise macros.renamed(err, source, expansion.origin) from None
+        batch = _moves(reader, lines, source, None)
+    else:
+        try:
+            batch = _moves(reader, expansion.lines, source, expansion.origin)
+        except GcodeError as err:
+            raise macros.renamed(err, source, expansion.origin) from None
+    batch.dialect = (reader.dialect.name, said)
+    return batch
 
 
 def _moves(reader: Interpreter, lines, source: str, origin) -> MoveBatch:
@@ -106,6 +117,7 @@ def _moves(reader: Interpreter, lines, source: str, origin) -> MoveBatch:
             continue   # a subroutine body runs where it is called
         lost = state.lost
         block, problem = kept.classify(reader, body, number, state, masked)
+        notes += [f"line {at}: {text}" for _, text in reader.told()]
         if problem:
             kept.skip(reader, body, state, block, number)
             flow.called(code, state, f"{source}:{number}")

@@ -37,8 +37,8 @@ class ModalState:
     inch : bool
         Coordinates in inch (G20) rather than mm (G21).
     diameter : bool
-        X words are diameters (LinuxCNC's lathe diameter mode, G7) rather than radii (G8, the
-        initial state); I stays a radius.
+        X words are diameters (LinuxCNC's lathe diameter mode, G7; a FANUC or Haas lathe's
+        default) rather than radii (G8, LinuxCNC's initial state); I stays a radius.
     inverse_time : bool
         Inverse time feed (G93): each block's F is the reciprocal of its time [1/min].
     canned : bool
@@ -58,6 +58,8 @@ class ModalState:
     saved : tuple or None
         The modes M70 (or M73) saved (:meth:`modes`), and its line; None before any and after
         M71.
+    linuxcnc : bool
+        LinuxCNC's M70 - M73 and G7 / G8 hold (other dialects give these codes other meanings).
     """
 
     position: np.ndarray
@@ -76,6 +78,7 @@ class ModalState:
     tool_tip: bool = False
     regions: list = field(default_factory=list)
     saved: tuple | None = None
+    linuxcnc: bool = True
 
     def modes(self) -> tuple:
         """The modes LinuxCNC's M70 saves and M72 restores, as far as they change how blocks read:
@@ -103,6 +106,8 @@ class ModalState:
         GcodeError
             M72 with nothing saved (LinuxCNC refuses it too).
         """
+        if not self.linuxcnc:   # M70 - M73 are the machine builder's on other controls
+            return
         for m in codes:
             if m in (SAVE_MODES, AUTORESTORE_MODES):
                 self.saved = (self.modes(), where)
@@ -137,7 +142,7 @@ class ModalState:
                 self.absolute = False
             elif g in (90.1, 91.1):
                 self.centres_absolute = g == 90.1
-            elif g in (7, 8):
+            elif g in (7, 8) and self.linuxcnc:   # (FANUC: G7 a hypothetical axis, G8 look-ahead)
                 self.diameter = g == 7
             elif g == 20:
                 self.inch = True

@@ -1,0 +1,344 @@
+"""Programs as shops write them (issue 62): dialects, work offsets, several set-ups.
+
+Each dialect's defaults are checked against what its controller's manual says; work offsets
+against LinuxCNC's own interpreter (rs274) where it reads the program, and every compensated
+program by reading it back: its moves, with the same offsets, must end where the original's
+tool should be.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from volerr_pin.compensation import POINT
+from volerr_pin.compensation.gcode import GcodeError, compensate_program, interpret, read_work_offsets
+from volerr_pin.compensation.gcode._dialect import detect
+
+RS274 = shutil.which("rs274")
+MM = 1e-3
+
+#: two set-ups on one table: G54 and G55 [mm], set by the program's own G10 blocks
+TWO_SETUPS = """G21 G90 G17
+G10 L2 P1 X100 Y50 Z200
+G10 L2 P2 X300 Y200 Z150
+G54 G0 X0 Y0 Z50
+G1 Z-10 F300
+G1 X150 Y100
+G2 X100 Y50 I-25 J-25
+G0 Z50
+G55 G0 X0 Y0
+G1 Z-20
+G1 X120 Y150
+G0 Z50
+G54 G0 X10 Y10
+G1 Z-5
+M30
+"""
+OFFSETS = {"G54": np.array([100, 50, 200]) * MM, "G55": np.array([300, 200, 150]) * MM}
+
+
+def _ends(m, original: str, compensated: str, **kw) -> float:
+    """The largest distance [m] between where the tool is at the end of each original move
+    (nominal machine at the original's axis positions) and where the compensated program
+    takes it (the modelled machine at the compensated axis positions), both read with ``kw``."""
+    want, got = interpret(m, original, **kw), interpret(m, compensated, **kw)
+    _, desired = m.tool_poses(want.w1, nominal=True)
+    _, actual = m.tool_poses(got.w1, extrapolate=True)
+    worst, k = 0.0, 0
+    for p in actual:   # split moves end where their last piece does
+        if k < len(desired) and np.linalg.norm(p - desired[k]) < 5e-6:
+            worst = max(worst, float(np.linalg.norm(p - desired[k])))
+            k += 1
+    assert k == len(desired), f"the compensated program reaches {k} of the {len(desired)} ends"
+    return worst
+
+
+def test_two_set_ups_set_by_the_program_are_each_read_with_their_own_zero(machines):
+    m = machines["vmc500"]
+    batch = interpret(m, TWO_SETUPS)
+    ends = {int(line): w1 / MM for line, w1 in zip(batch.line, batch.w1)}
+    np.testing.assert_allclose(ends[6], [250, 150, 190])        # G54: (150, 100, -10) + (100, 50, 200)
+    np.testing.assert_allclose(ends[11], [420, 350, 130])       # G55: (120, 150, -20) + (300, 200, 150)
+    np.testing.assert_allclose(ends[14], [110, 60, 195])        # back on G54
+    assert not batch.skipped
+    assert any("G10 sets G55: followed" in n for n in batch.notes)
+    out, report = compensate_program(m, TWO_SETUPS)
+    assert report.passed_through == 0 and report.motion_compensated == 1.0
+    # the G10 lines are written as they are; every move's numbers are the original's near enough
+    assert out.splitlines()[1:3] == TWO_SETUPS.splitlines()[1:3]
+    assert _ends(m, TWO_SETUPS, out) <= 1e-6
+
+
+@pytest.mark.skipif(RS274 is None, reason="LinuxCNC's interpreter rs274 is not installed (Debian's linuxcnc-uspace)")
+def test_the_work_offsets_are_where_linuxcnc_puts_them(machines, tmp_path):
+    """rs274 gives each feed's end in program coordinates and the work offset apart
+    (SET_G5X_OFFSET): their sum is the axis position the product reads; G10 L20 included."""
+    program = TWO_SETUPS.replace("G10 L2 P2 X300 Y200 Z150", "G0 X300 Y200 Z150\nG10 L20 P2 X0 Y0 Z0")
+    source, canon = tmp_path / "p.ngc", tmp_path / "p.canon"
+    source.write_text("".join(f"N{k} {line}\n" for k, line in enumerate(program.splitlines(), start=1)))
+    run = subprocess.run([RS274, "-g", str(source), str(canon)], capture_output=True, text=True, timeout=60,
+                         stdin=subprocess.DEVNULL, cwd=tmp_path)
+    assert run.returncode == 0, run.stdout + run.stderr
+    offset, ends = np.zeros(3), []
+    for line in canon.read_text().splitlines():
+        shift = re.search(r"SET_G5X_OFFSET\(\d+, ([-\d.]+), ([-\d.]+), ([-\d.]+),", line)
+        if shift:
+            offset = np.array([float(v) for v in shift.groups()])
+        call = re.search(r"N\.*(\d+)\s+STRAIGHT_(?:FEED|TRAVERSE)\(([-\d.]+), ([-\d.]+), ([-\d.]+),", line)
+        if call:
+            ends.append((int(call.group(1)), np.array([float(v) for v in call.groups()[1:]]) + offset))
+    batch = interpret(machines["vmc500"], source.read_text(), dialect="linuxcnc")
+    mine = [(int(line), w1 / MM) for line, w1, kind in zip(batch.line, batch.w1, batch.kind)
+            if not (kind == POINT and line == 0)]
+    assert [line for line, _ in mine if line != 8] == [line for line, _ in ends if line != 8]
+    for (_, a), (_, b) in zip([e for e in mine if e[0] != 8], [e for e in ends if e[0] != 8]):
+        np.testing.assert_allclose(a, b, atol=1e-4)
+
+
+def test_a_set_up_whose_offset_is_not_known_is_refused_naming_the_line(machines):
+    m = machines["vmc500"]
+    text = "G21 G90\nG54 G0 X10 Y10 Z10\nG55 G0 X10 Y10 Z10\nM30\n"
+    with pytest.raises(GcodeError, match=r"p\.nc:3: G55 changes the work offset from G54 \(line 2\).*work_offsets"):
+        compensate_program(m, text, source="p.nc")
+    # a table gives both
+    out, report = compensate_program(m, text, work_offsets=OFFSETS)
+    assert report.moves == 2 and _ends(m, text, out, work_offsets=OFFSETS) <= 1e-6
+    ends = interpret(m, text, work_offsets=OFFSETS).w1 / MM
+    np.testing.assert_allclose(ends, [[110, 60, 210], [310, 210, 160]])
+    # G54 is in force when a program starts: a table's G54 holds for a program that selects none
+    np.testing.assert_allclose(interpret(m, "G0 X1 Y2 Z3\n", work_offsets=OFFSETS).w1[0] / MM, [101, 52, 203])
+    with pytest.raises(GcodeError, match="origin or work_offsets, not both"):
+        interpret(m, text, work_offsets=OFFSETS, origin=[0, 0, 0])
+    with pytest.raises(GcodeError, match=r"p\.nc:3: G56 .* not in the work-offset table"):
+        interpret(m, text.replace("G55", "G56"), "p.nc", work_offsets=OFFSETS)
+
+
+def test_g10_in_incremental_mode_adds_on_fanuc_and_sets_on_linuxcnc(machines):
+    m = machines["vmc500"]
+    body = "G21 G90\nG10 L2 P2 X300. Y200. Z150.\nG91 G10 L2 P2 X10.\nG90 G55 G0 X0 Y0 Z0\nM30\n"
+    assert interpret(m, body, dialect="fanuc").w1[0] / MM == pytest.approx([310, 200, 150])
+    assert interpret(m, body, dialect="linuxcnc").w1[0] / MM == pytest.approx([10, 200, 150])
+    # FANUC's G10 L20 Pn sets G54.1 Pn; P0 the external offset, which every work offset adds
+    fanuc = "O1\nG10 L20 P3 X200. Y100. Z100.\nG10 L2 P0 X1. Y2. Z3.\nG54.1 P3 G0 X0 Y0 Z0\nM30\n"
+    assert interpret(m, fanuc, dialect="fanuc").w1[0] / MM == pytest.approx([201, 102, 103])
+
+
+def test_the_three_table_forms_give_the_same_offsets(machines, tmp_path):
+    m = machines["vmc500"]
+    (tmp_path / "o.csv").write_text("offset,X_mm,Y_mm,Z_mm\nG54,100,50,200\nG55,300,200,150\n")
+    (tmp_path / "linuxcnc.var").write_text("5220\t1.000000\n" + "".join(
+        f"{5221 + 20 * k + j}\t{v / 25.4:.6f}\n" for k, name in enumerate(("G54", "G55"))
+        for j, v in enumerate(OFFSETS[name] / MM)) + "5230\t0.000000\n5250\t0.000000\n")
+    (tmp_path / "offsets.txt").write_text("%\nO0001\nG10 L2 P1 X100.000 Y50.000 Z200.000\n"
+                                          "G10 L2 P2 X300.000 Y200.000 Z150.000\n%\n")
+    tables = [read_work_offsets(tmp_path / "o.csv", list(m.axes), list(m.axis_kinds)),
+              read_work_offsets(tmp_path / "linuxcnc.var", list(m.axes), list(m.axis_kinds), unit="inch"),
+              read_work_offsets(tmp_path / "offsets.txt", list(m.axes), list(m.axis_kinds), unit="mm")]
+    for table in tables:
+        assert sorted(table) == ["G54", "G55"]
+        for name in ("G54", "G55"):
+            np.testing.assert_allclose(table[name], OFFSETS[name], atol=1e-9)
+
+
+@pytest.mark.parametrize("name, text, unit, message", [
+    ("o.csv", "offset,X_mm,Y_mm\nG54,1,2\n", None, r"o\.csv:1: no column for axis Z"),
+    ("o.csv", "offset,X_mm,Y_mm,Z_deg\nG54,1,2,3\n", None, r"o\.csv:1:4: axis Z is linear"),
+    ("o.csv", "offset,X_mm,Y_mm,Z_mm\nG54,1,2,abc\n", None, r"o\.csv:2:4: 'abc' is not a finite number"),
+    ("o.csv", "offset,X_mm,Y_mm,Z_mm\nG54,1,2,inf\n", None, r"o\.csv:2:4: 'inf' is not a finite number"),
+    ("o.csv", "offset,X_mm,Y_mm,Z_mm\nG54,1,2,3\nG54,1,2,3\n", None, r"o\.csv:3: G54 is given twice"),
+    ("o.csv", "offset,X_mm,Y_mm,Z_mm\nG60,1,2,3\n", None, r"o\.csv:2:1: 'G60' is not a work offset"),
+    ("o.csv", "offset,X_mm,Y_mm,Z_mm\nG54,1,2\n", None, r"o\.csv:2: 3 fields, the header has 4"),
+    ("v.var", "5221 1.0\n5222 2.0\n5223 3.0\n", None, r"v\.var: a LinuxCNC parameter file does not say its length unit"),
+    ("v.var", "5221 1.0\n5222 2.0\n", "mm", r"v\.var: G54's axis Z \(parameter 5223\) is not in the file"),
+    ("v.var", "5221 1.0\n5222 2.0\n5223 3.0\n5230 15\n", "mm", r"G54 is rotated by 15 deg"),
+    ("f.txt", "G10 L2 P1 X1. Y2.\n", "mm", r"f\.txt:1: G54 gives no value for axis Z"),
+    ("f.txt", "G10 L2 P1 X1. Y2. Z3. A4.\n", "mm", r"f\.txt:1: A is not an axis of the machine"),
+    ("f.txt", "G1 X1. Y2. Z3.\n", "mm", r"f\.txt:1: 'G1 X1. Y2. Z3.' is not a work offset"),
+    ("f.txt", "G10 L2 P1 X1000 Y2. Z3.\n", "mm", r"f\.txt:1:11: X1000 has no decimal point"),
+])
+def test_a_bad_table_is_refused_naming_file_and_line(machines, tmp_path, name, text, unit, message):
+    m = machines["vmc500"]
+    (tmp_path / name).write_text(text)
+    with pytest.raises(GcodeError, match=message):
+        read_work_offsets(tmp_path / name, list(m.axes), list(m.axis_kinds), unit=unit)
+
+
+def test_a_table_too_large_is_refused_before_it_is_read(machines, tmp_path):
+    m = machines["vmc500"]
+    big = tmp_path / "o.csv"
+    with open(big, "wb") as f:
+        f.truncate(2 << 20)
+    with pytest.raises(GcodeError, match="more than a work-offset table holds"):
+        read_work_offsets(big, list(m.axes), list(m.axis_kinds))
+
+
+# --- M codes, tapes and program numbers ------------------------------------------------------
+
+HAAS_MILL = """%
+O01000 (HAAS VF2 POST)
+G00 G17 G40 G49 G80 G90
+T1 M06
+G00 G90 G54 X10. Y10. S5000 M03
+G43 H01 Z50. M08
+G187 P1
+M10
+G01 Z-5. F300.
+X150. Y100.
+M11
+G00 Z50. M09
+M30
+%
+"""
+
+
+def test_machine_m_codes_that_move_no_axis_are_kept_in_fanuc_and_haas_programs(machines):
+    m = machines["vmc500"]
+    assert detect([(line, "\n") for line in HAAS_MILL.splitlines()])[0] == "haas"
+    out, report = compensate_program(m, HAAS_MILL, origin=[0.1, 0.05, 0.2])
+    assert report.dialect == "haas" and report.dialect_said.startswith("detected: line 7: G187 P1")
+    assert report.moves == 5 and report.motion_compensated == 1.0
+    for line in ("M10", "M11", "G187 P1", "%", "O01000 (HAAS VF2 POST)"):
+        assert line in out.splitlines()
+    # the same M10 in a LinuxCNC program is refused, as LinuxCNC refuses it
+    with pytest.raises(GcodeError, match=r":8:1: M10 \(an M code this reader does not know\)"):
+        compensate_program(m, HAAS_MILL.replace("G187 P1", "(G187)"), dialect="linuxcnc")
+    # a code Haas's manual does not list is refused in a Haas program, naming the dialect
+    with pytest.raises(GcodeError, match=r":8:1: M87 \(an M code this reader does not know in the Haas dialect\)"):
+        compensate_program(m, HAAS_MILL.replace("M10", "M87"))
+    # a FANUC builder's code is kept and named: FANUC leaves it to the builder
+    fanuc = HAAS_MILL.replace("G187 P1", "M41").replace("(HAAS VF2 POST)", "(FANUC)")
+    assert detect([(line, "\n") for line in fanuc.splitlines()]) is None   # (an O number LinuxCNC reads too)
+    out, report = compensate_program(m, fanuc, origin=[0.1, 0.05, 0.2], dialect="fanuc")
+    assert report.dialect == "fanuc" and report.moves == 5
+    named = [w for w in report.warnings if "auxiliary function of the machine builder" in w]
+    assert [w.split(":")[0] for w in named] == ["line 7", "line 8", "line 11"]
+
+
+def test_tape_leaders_with_text_and_colon_program_numbers_are_fanuc_s(machines):
+    m = machines["vmc500"]
+    text = "% vfd enable\n:0097\nG21 G90 G54\nG0 X10. Y10. Z10.\nG1 X20. F100\nM30\n%\n"
+    out, report = compensate_program(m, text)
+    assert report.dialect == "fanuc" and report.moves == 2
+    assert out.splitlines()[:2] == ["% vfd enable", ":0097"]
+    assert len(interpret(m, "%O1200(PART)\nG0 X10. Y10. Z10.\nG1 X20. F100\nM30\n")) == 2
+    with pytest.raises(GcodeError, match=r":1:3: text after '%'"):
+        compensate_program(m, text, dialect="linuxcnc")
+
+
+def test_a_whole_number_coordinate_of_a_fanuc_program_is_refused_not_read_as_millimetres(machines):
+    """FANUC's standard input reads X10 as 10 least increments (0.010 mm): read as 10 mm it
+    would be a thousand times off, so the reader asks for the decimal point."""
+    m = machines["vmc500"]
+    text = "O1\nG21 G90 G54\nG0 X0 Y0 Z10.\nG1 X10 F100\nM30\n"
+    with pytest.raises(GcodeError, match=r"p\.nc:4:4: X10 has no decimal point: a FANUC control reads it as 10 least "
+                                         r"input increments"):
+        compensate_program(m, text, source="p.nc", dialect="fanuc")
+    with pytest.raises(GcodeError, match=r"p\.nc:4:4: X10 has no decimal point"):
+        interpret(m, text, "p.nc", dialect="haas")
+    # zero is zero either way; feeds, sequence numbers and codes are whole numbers anyway
+    out, report = compensate_program(m, text.replace("X10 ", "X10. "), source="p.nc", dialect="fanuc")
+    assert report.moves == 2
+    # the same program as LinuxCNC reads it: millimetres
+    assert interpret(m, text, dialect="linuxcnc").w1[-1, 0] == pytest.approx(0.010)
+
+
+# --- lathes ----------------------------------------------------------------------------------
+
+LATHE = """%
+O1200 (FANUC LATHE)
+G18 G21 G40 G99
+T0101
+G50 S2000
+G96 S180 M03
+G00 X100. Z-5.
+G01 Z-30. F0.2
+X160. Z-60.
+G00 X205. Z-5.
+M30
+%
+"""
+
+
+def test_a_fanuc_lathe_programs_x_as_a_diameter(machines):
+    m = machines["lathe_2axis"]
+    batch = interpret(m, LATHE)
+    assert batch.dialect[0] == "fanuc"
+    x = list(m.axes).index("X")
+    np.testing.assert_allclose(batch.w1[:, x] / MM, [50, 50, 80, 102.5])
+    out, report = compensate_program(m, LATHE)
+    assert report.moves == 4
+    # as LinuxCNC's diameter mode (G7) reads and writes it, which its own tests check against rs274
+    as_g7, _ = compensate_program(m, LATHE.replace("G18 G21", "G7 G18 G21").replace("O1200 (FANUC LATHE)", ""),
+                                  dialect="linuxcnc")
+    assert [line for line in out.splitlines() if "X" in line and "FANUC" not in line] == [
+        line for line in as_g7.splitlines() if "X" in line]
+    # the written X words are diameters: twice the compensated radius
+    written = interpret(m, out, dialect="fanuc")
+    words = [float(v) for v in re.findall(r"X([-\d.]+)", out)]
+    assert words[-1] == pytest.approx(2 * written.w1[-1, x] / MM, abs=2e-4)
+    assert abs(words[-1] - 205) > 1e-3   # (compensated: the numbers moved)
+    # the same program as LinuxCNC reads it: X205 is a radius beyond the 200 mm travel
+    with pytest.raises(GcodeError, match="X205. takes axis X to 205 mm, outside the travel"):
+        compensate_program(m, LATHE, dialect="linuxcnc")
+
+
+def test_fanuc_lathe_cycles_and_incremental_words_are_kept_and_named(machines):
+    m = machines["lathe_2axis"]
+    text = ("O1\nG18 G21\nG0 X100. Z-5.\nG71 U2. R0.5\nG71 P10 Q20 U0.4 W0.1 F0.25\nN10 G0 X40.\nN20 G1 Z-30.\n"
+            "G70 P10 Q20\nG90 X80. Z-20. F0.2\nX70.\nG0 X100. Z-5.\nG1 U-10. W-5.\nM30\n")
+    out, report = compensate_program(m, text, dialect="fanuc")
+    kept = " ".join(report.warnings)
+    for what in ("lines 4-5: G71 (FANUC lathe stock removal in turning)",
+                 "lines 6-7: in the profile N10 - N20 of the G71 (FANUC lathe stock removal in turning) of line 5",
+                 "line 8: G70 (FANUC lathe finishing cycle)",
+                 "line 9: G90 (FANUC lathe outer diameter cutting cycle)", "line 10: a block of the G90",
+                 "line 12: U-10. (an incremental X of FANUC lathes"):
+        assert what in kept
+    # the profile, the cycles and the incremental words are as written; the moves after them compensated
+    written = out.splitlines()
+    assert written[3:10] + written[11:] == text.splitlines()[3:10] + text.splitlines()[11:]
+    assert written[10] != "G0 X100. Z-5." and report.moves == 2
+
+
+# --- other dialects: refused by name ----------------------------------------------------------
+
+@pytest.mark.parametrize("text, message", [
+    ("0 BEGIN PGM PART MM\n1 BLK FORM 0.1 Z X+0 Y+0 Z-20\n2 L X+10 Y+5 R0 FMAX\n3 END PGM PART MM\n",
+     r"p\.nc:1: 0 BEGIN PGM PART MM, BEGIN PGM \(a HEIDENHAIN Klartext program\); HEIDENHAIN programs are not read"),
+    ("; part\nG54\nDEF REAL DEPTH\nG0 X10 Y10 Z10\n",
+     r"p\.nc:3: DEF REAL DEPTH: DEF \(a SINUMERIK variable definition\); SINUMERIK's own language is not read"),
+    ("OPART\nVC1=10\nG0 X10\n", r"p\.nc:1: OPART, an OKUMA OSP construct; OKUMA OSP programs are not read"),
+])
+def test_programs_of_dialects_not_read_are_refused_naming_dialect_construct_and_line(machines, text, message):
+    with pytest.raises(GcodeError, match=message):
+        compensate_program(machines["vmc500"], text, source="p.nc")
+
+
+def test_a_sinumerik_construct_in_an_iso_program_is_refused_by_name(machines):
+    m = machines["vmc500"]
+    text = "%_N_PART_MPF\nG54 G0 X10 Y10 Z10\nG1 X20 F100\nR1=5\nM30\n"
+    with pytest.raises(GcodeError, match=r"p\.nc:4: R1=5: an R parameter assignment \(SINUMERIK\); SINUMERIK's own"):
+        compensate_program(m, text, source="p.nc")
+    out, report = compensate_program(m, text.replace("R1=5\n", ""))
+    assert report.dialect == "siemens" and report.moves == 2
+
+
+@pytest.mark.parametrize("lines, dialect", [
+    (["O1000", "G0 X1"], None), ([":0097", "G0 X1"], "fanuc"), (["% leader", "G0 X1"], "fanuc"),
+    (["G65 P9010 A1."], "fanuc"), (["G54.1 P2"], "fanuc"), (["IF [#1 GT 2] GOTO 10"], "fanuc"),
+    (["WHILE [#1 LT 3] DO1"], "fanuc"), (["G50 S2000"], "fanuc"), (["o100 if [#1 GT 2]"], "linuxcnc"),
+    (["%", "G0 X1", "%"], None),
+    (["O1000", "G187 P1"], "haas"), (["O1000", "G154 P3"], "haas"), (["G0 X1", "M97 P100"], "haas"),
+    (["o<sub> sub", "G0 X1"], "linuxcnc"), (["(debug, #1)"], "linuxcnc"), (["#<depth> = 3"], "linuxcnc"),
+    (["%_N_PART_MPF"], "siemens"), (["G0 X1 ; DEF REAL X"], None), (["G0 X1", "G1 X2"], None),
+    (["G65 P1", "o<sub> sub"], None), (["1 BEGIN PGM X MM"], "heidenhain"), (["(O1000)", "G0 X1"], None),
+    (["G112 X1 C0"], None),
+])
+def test_a_dialect_is_detected_only_where_the_program_says_it(lines, dialect):
+    found = detect([(line, "\n") for line in lines])
+    assert (found and found[0]) == dialect
