@@ -969,10 +969,12 @@ def test_a_subroutine_body_runs_where_it_is_called(machines):
     assert segments[-1].end[2] == pytest.approx(5 * 0.0254)
     out, report = compensate_program(m, SUB)
     lines = out.splitlines()
-    assert lines[0] == "G17 G21 G90" and lines[-4:-2] == ["G18", "G20"], lines
+    # the definition stays as written (a program of other files may call it), the call runs it
+    assert lines[:5] == ["o100 sub", "G18", "G20", "o100 endsub", "G17 G21 G90"], lines
+    assert lines[-4:-2] == ["G18", "G20"], lines
     assert re.fullmatch(r"G1 Z(4\.99|5\.00)\d{4} X\S+ Y\S+", lines[-2]), lines   # inch, 6 decimals
-    assert not any("o100" in line for line in lines) and report.expanded == {"blocks_run": 7, "calls": 1,
-                                                                              "loop_passes": 0, "profiles": 0}
+    assert "o100 call" not in lines and report.expanded == {"blocks_run": 11, "calls": 1, "loop_passes": 0,
+                                                             "profiles": 0}
     assert any(w.startswith("the program's parameters, expressions and O-words were followed") for w in report.warnings)
     # a body that saves the modes with M73 leaves none in force after its return
     restored = SUB.replace("o100 sub\n", "o100 sub\nM73\n")

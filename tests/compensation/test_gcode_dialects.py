@@ -342,3 +342,62 @@ def test_a_sinumerik_construct_in_an_iso_program_is_refused_by_name(machines):
 def test_a_dialect_is_detected_only_where_the_program_says_it(lines, dialect):
     found = detect([(line, "\n") for line in lines])
     assert (found and found[0]) == dialect
+
+
+# --- the numbers' resolution ------------------------------------------------------------------
+
+INCH_ARC = "G20 G90 G17\nG0 X6.0000 Y5.0000 Z3.0000\nG3 X5.7955 Y5.6061 I-1.0000 J0.0000 F10\nM2\n"
+
+
+def test_an_arc_rounded_to_its_program_s_digits_is_read_as_its_controller_reads_it(machines, tmp_path):
+    """A post rounding to four inch decimals leaves 2.25 um between the start and end radii
+    (up to 2 sqrt(2) units of the last digit, 7.2 um): it was refused at the 2 um limit."""
+    m = machines["vmc500"]
+    out, report = compensate_program(m, INCH_ARC)
+    assert report.arcs_kept == 1 and report.max_residual_um < 1.0
+    # what rounding cannot explain still is refused: 3 um to four millimetre decimals ...
+    with pytest.raises(GcodeError, match=r"differ by 3\.0 um, more than the 2\.00 um allowed"):
+        compensate_program(m, "G21 G90 G17\nG0 X100 Y100 Z50\nG3 X0 Y200.0030 I-100 J0 F100\nM2\n")
+    # ... and ten times the rounding in inch
+    with pytest.raises(GcodeError, match=r"more than the 7\.18 um allowed"):
+        compensate_program(m, INCH_ARC.replace("Y5.6061", "Y5.6071"))
+    if RS274 is not None:   # LinuxCNC reads the program and its compensation alike
+        for k, text in enumerate((INCH_ARC, out)):
+            (tmp_path / f"a{k}.ngc").write_text(text)
+            run = subprocess.run([RS274, "-g", str(tmp_path / f"a{k}.ngc"), str(tmp_path / f"a{k}.canon")],
+                                 capture_output=True, text=True, timeout=60, stdin=subprocess.DEVNULL, cwd=tmp_path)
+            assert run.returncode == 0 and "ARC_FEED" in (tmp_path / f"a{k}.canon").read_text(), run.stdout
+
+
+# --- LinuxCNC's own: definitions and messages ------------------------------------------------
+
+MYSUB = ("o<mysub> sub\n#<depth> = [#1 / 10]\n(debug, depth #<depth> at #1)\nG0 X#1 Y10 Z50\n"
+         "G1 Z[40 - #<depth>] F100\nG0 Z50\no<mysub> endsub\n#100 = 4712\n(debug, #100)\no<mysub> call [10]\nM2\n")
+
+
+def _rs274(path, tmp_path):
+    run = subprocess.run([RS274, "-g", str(path), str(tmp_path / "out.canon")], capture_output=True, text=True,
+                         timeout=60, stdin=subprocess.DEVNULL, cwd=path.parent)
+    assert run.returncode == 0, run.stdout + run.stderr
+    return (tmp_path / "out.canon").read_text()
+
+
+@pytest.mark.skipif(RS274 is None, reason="LinuxCNC's interpreter rs274 is not installed (Debian's linuxcnc-uspace)")
+def test_a_compensated_subroutine_file_keeps_its_definition_and_prints_what_it_printed(machines, tmp_path):
+    """A file that defines o<mysub> and calls it lost the definition in its output: a program
+    of another file calling o<mysub> (LinuxCNC looks it up in mysub.ngc) then failed; and its
+    debug messages printed 0 for the parameters whose settings the program as run leaves out."""
+    m = machines["vmc500"]
+    out, report = compensate_program(m, "G21 G90 G0 X0 Y10 Z50\n" + MYSUB)
+    assert report.moves >= 3
+    folder = tmp_path / "compensated"
+    folder.mkdir()
+    (folder / "mysub.ngc").write_text(out)
+    (tmp_path / "mysub.ngc").write_text("G21 G90 G0 X0 Y10 Z50\n" + MYSUB)
+    printed = [re.findall(r"MESSAGE\((.*)\)", _rs274(path, tmp_path)) for path in (tmp_path / "mysub.ngc",
+                                                                                    folder / "mysub.ngc")]
+    assert printed[0] == printed[1] == ['" 4712.000000"', '" depth 1.000000 at 10.000000"']
+    # another program calls it from its file, as LinuxCNC finds it
+    (folder / "caller.ngc").write_text("G21 G90\no<mysub> call [20]\nM2\n")
+    feeds = re.findall(r"STRAIGHT_FEED\(([-\d.]+), ([-\d.]+), ([-\d.]+)", _rs274(folder / "caller.ngc", tmp_path))
+    assert [tuple(map(float, f)) for f in feeds] == [(20, 10, 38)]

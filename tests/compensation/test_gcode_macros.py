@@ -69,7 +69,8 @@ def test_a_subroutine_runs_where_it_is_called_with_its_own_locals():
                "o10 call [20] [30]\nG0 X#1 Y#<_value> Z#<_g>\n"
                "o10 call [1]\nG0 X#<_value_returned> Y#<_value>\n")
     lines = [line for line in run(program) if line.strip()]
-    assert lines == ["#1 = 100", "#<_g> = 1", "#<_g> = 2", "G1 X50 Y0 F100", "G0 X100 Y100 Z2",
+    assert lines == ["#1 = 100", "#<_g> = 1", *program.splitlines()[2:8],   # the definition, as written
+                     "#<_g> = 2", "G1 X50 Y0 F100", "G0 X100 Y100 Z2",
                      "#<_g> = 3", "G1 X1 Y0 F100", "G0 X1 Y2"], lines
     with pytest.raises(Unfollowable, match=r"#<local> is read before it is set"):
         expand(split_lines("o10 sub\n#<local> = 1\no10 endsub\no10 call\nG0 X#<local>\n"))
@@ -200,22 +201,23 @@ def test_a_subroutine_no_call_runs_stays_defined_and_globals_stay_set(machines):
                "G71 Q100 X40 Z10 D0.5 I1 R0.3\no200 call [30]\nM30\n")
     lines = run(program)
     assert lines[2] == "#<_d> = 3"
-    assert lines[3:6] == ["o300 sub", "G1 X[#<_d>]", "o300 endsub"]
-    assert lines[6:10] == ["o301 sub", "G1 X13 Z0", "G1 Z-10", "o301 endsub"]
-    assert lines[10] == "G71 Q301 X40 Z10 D0.5 I1 R0.3"
-    assert "o100 sub" not in lines and "o200 sub" not in lines and "G1 X30 F100" in lines
+    # every definition stays as written; the cycle names its profile as run, the call runs its body
+    assert lines[3:13] == program.splitlines()[3:13]
+    assert lines[13:17] == ["o301 sub", "G1 X13 Z0", "G1 Z-10", "o301 endsub"]
+    assert lines[17] == "G71 Q301 X40 Z10 D0.5 I1 R0.3"
+    assert lines[18:] == ["G1 X30 F100", "M30"]
 
 
 def test_errors_name_the_line_a_block_comes_from(machines):
     program = START + "o1 sub\nG1 X#1 F100\no1 endsub\no1 call [120]\no1 call [9999]\nM30\n"
-    with pytest.raises(GcodeError, match=r"^p\.ngc:4: \(block 4 of the program as run\) X9999 takes axis X to "
+    with pytest.raises(GcodeError, match=r"^p\.ngc:4: \(block 7 of the program as run\) X9999 takes axis X to "
                                          r"9999 mm, outside the travel"):
         compensate_program(machines["vmc500"], program, source="p.ngc")
     out, report = compensate_program(machines["vmc500"], START + "o1 sub\nG1 X#1 F100\nG77\no1 endsub\n"
                                      "o1 call [120]\nM30\n", pass_through=True, source="p.ngc")
     # warnings name the line in the subroutine (5), not the block as run (4)
     assert any(w.startswith("line 5: G77 (a G code this reader does not know) kept") for w in report.warnings)
-    assert report.blocks_in == 8 and report.expanded == {"blocks_run": 5, "calls": 1, "loop_passes": 0, "profiles": 0}
+    assert report.blocks_in == 8 and report.expanded == {"blocks_run": 9, "calls": 1, "loop_passes": 0, "profiles": 0}
 
 
 def test_a_loop_is_compensated_pass_by_pass(machines):

@@ -63,7 +63,7 @@ def test_a_profile_is_compensated_as_the_path_the_cycle_follows(machines, head, 
     out, report = compensate_program(m, cycle_program(head, cycle, profile), tol_um=1.0)
     assert report.expanded["profiles"] == 1 and report.moves_kept == 0
     assert report.moves == 1 + 6   # the program's G0, and the profile's six moves
-    assert "o100 sub" not in out   # its profile stands where the cycle runs it
+    assert body_of(out, "100") == profile.splitlines()   # the definition stays as written; the cycle names o101
     lines = out.splitlines()
     assert re.sub(r"Q101", "Q100", lines[lines.index("o101 endsub") + 1]) == cycle
     plain = head.split("\n")[0] + "\n" + start + "\n" + profile.replace("G0", "G1") + "M30\n"
@@ -77,13 +77,13 @@ def test_a_profile_is_compensated_as_the_path_the_cycle_follows(machines, head, 
 
 def test_each_cycle_runs_its_profile_with_the_values_of_its_time(machines):
     """A profile reading a global is run at each cycle with the value then; the original
-    subroutine, which the cycles no longer name, is gone, and the modes after a profile are the
+    subroutine, which the cycles no longer name, stays as written, and the modes after a profile are the
     program's (the profile's G2 does not carry: the next block's Z move is a line)."""
     program = ("G18 G21 G90\nG0 X80 Z-5\n#<_d> = 0\no7 sub\nG1 X40 Z[-10 - #<_d>]\nG1 Z[-20 - #<_d>]\n"
                "G2 X60 Z[-30 - #<_d>] R15\no7 endsub\nG71 Q7 X80 Z-5 D0.5\n#<_d> = 10\n"
                "G71 Q7 X80 Z-5 D0.5\nG0 X80 Z-5\nZ-3\nM30\n")
     out, report = compensate_program(machines["lathe_2axis"], program, tol_um=1.0)
-    assert report.expanded["profiles"] == 2 and "o7 sub" not in out
+    assert report.expanded["profiles"] == 2 and body_of(out, "7") == program.splitlines()[4:7]
     z8 = [v for a, v in numbers(body_of(out, "8")) if a == "Z"]
     z9 = [v for a, v in numbers(body_of(out, "9")) if a == "Z"]
     assert z8[-1] == pytest.approx(-30, abs=0.05) and z9[-1] == pytest.approx(-40, abs=0.05)
@@ -137,9 +137,10 @@ def test_a_compensated_profile_linuxcnc_would_refuse_is_written_as_it_runs(tmp_p
 def test_the_expansion_writes_the_profile_before_its_cycle():
     expansion = expand(split_lines(cycle_program("G18 G21\nG0 X80 Z-5", "G71 Q100 X80 Z-5 (rough) D0.5")))
     bodies = [body for body, _ in expansion.lines]
-    assert bodies[2:11] == ["o101 sub", *PROFILE.splitlines(), "o101 endsub", "G71 Q101 X80 Z-5 (rough) D0.5"]
+    assert bodies[2:10] == ["o100 sub", *PROFILE.splitlines(), "o100 endsub"]   # as written
+    assert bodies[10:19] == ["o101 sub", *PROFILE.splitlines(), "o101 endsub", "G71 Q101 X80 Z-5 (rough) D0.5"]
     assert expansion.profiles == {"101": "G71 Q101 X80 Z-5 (rough) D0.5"}
-    assert list(expansion.origin[2:11]) == [11, 4, 5, 6, 7, 8, 9, 11, 11]
+    assert list(expansion.origin[10:19]) == [11, 4, 5, 6, 7, 8, 9, 11, 11]
 
 
 @pytest.mark.slow

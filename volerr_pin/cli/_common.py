@@ -343,10 +343,12 @@ def add_dialect_args(parser: argparse.ArgumentParser) -> None:
     """``--dialect``, ``--work-offsets`` and ``--work-offsets-unit`` of a command that reads an NC program."""
     from ..compensation.gcode import DIALECTS
 
-    parser.add_argument("--dialect", choices=[d for d in DIALECTS if d != "heidenhain"],
+    parser.add_argument("--dialect", choices=list(DIALECTS),
                         help="the program's dialect: what its controller sets by default (lathe diameters, machine M "
-                             "codes, work offsets, tape lines); default: told from the program where it says one "
-                             "(a FANUC program number, a Haas code, a LinuxCNC o-word ...), else linuxcnc")
+                             "codes, work offsets, tape lines, whole numbers as increments); default: told from the "
+                             "program where it says one (a FANUC ':' program number or G65, a Haas G187, a LinuxCNC "
+                             "o-word ...), else linuxcnc. siemens reads SINUMERIK's ISO subset; heidenhain (Klartext) "
+                             "programs are refused")
     parser.add_argument("--work-offsets", metavar="FILE",
                         help="the controller's work offsets, for a program with several set-ups (G54, G55 ...): a CSV "
                              "(offset,X_mm,Y_mm,...), LinuxCNC's parameter file (linuxcnc.var) or a FANUC offset "

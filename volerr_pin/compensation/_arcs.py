@@ -89,7 +89,7 @@ class Arc:
 
 
 def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plane: tuple[int, int, int],
-                    clockwise: bool, full_turns: int = 0) -> Arc:
+                    clockwise: bool, full_turns: int = 0, radius_slack: float = RADIUS_SLACK) -> Arc:
     """The desired arc from ``start`` to ``end`` about ``center`` (in the plane).
 
     Parameters
@@ -106,6 +106,9 @@ def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plan
         Sense of the move (G2 is clockwise).
     full_turns : int, default 0
         Additional full turns.
+    radius_slack : float, default RADIUS_SLACK
+        How far the start and end radii may differ [m] (an NC program's rounding may ask for
+        more: :func:`~volerr_pin.compensation.gcode._arcs.read_arc`).
 
     Returns
     -------
@@ -117,7 +120,7 @@ def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plan
     InputError
         If a position or the centre is not finite, ``full_turns`` is not a whole number >= 0
         or more turns than the free memory can compensate, the radius is zero, or the start
-        and end radii differ by more than 2 um (about what controllers accept).
+        and end radii differ by more than ``radius_slack``.
     """
     full_turns = _integer("full_turns", full_turns, 0)
     # an arc is compensated in quarter turns, each a few compensated points and pieces (asked only
@@ -140,9 +143,10 @@ def arc_from_center(start: np.ndarray, end: np.ndarray, center: np.ndarray, plan
     r1 = math.hypot(e[i] - c[0], e[j] - c[1])
     if r0 == 0.0:
         raise InputError("the arc starts at its centre: a radius of zero")
-    if abs(r0 - r1) > RADIUS_SLACK:
+    if abs(r0 - r1) > radius_slack:
         raise InputError(f"arc start radius {r0 * 1e3:.4f} mm and end radius {r1 * 1e3:.4f} mm differ "
-                         f"by {abs(r0 - r1) * 1e6:.1f} um")
+                         f"by {abs(r0 - r1) * 1e6:.1f} um, more than the {radius_slack * 1e6:.2f} um allowed (at least 2 "
+                         "um, or what rounding the numbers to their last digit may make)")
     return Arc(tuple(int(v) for v in plane), center.copy(), r0, a0, sweep, start.copy(), end.copy(), end_radius=r1)
 
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .._arcs import Arc, arc_from_center
+from .._arcs import RADIUS_SLACK, Arc, arc_from_center
 from ...base import INCH, MM, InputError
 from ._lexer import CENTRE, PLANES, Block, GcodeError
 
@@ -19,6 +19,36 @@ ARC_SLACK = 2e-6
 MAX_ARC = 100.0
 #: the most whole turns (P) of one arc block
 MAX_TURNS = 1000
+
+
+def radius_slack(block: Block, letters, scale: float) -> float:
+    """How far an arc's start and end radii may differ [m]: :data:`RADIUS_SLACK`, or what
+    the block's numbers, rounded to their last digit, may make of it, if more.
+
+    A post that rounds its numbers to ``d`` decimals moves each coordinate by up to half a unit
+    of the last digit, ``h / 2``: the start radius (the centre offsets) by up to ``h / sqrt(2)``,
+    the end radius (the end, the start and the offsets) by up to three times that, so the two
+    differ by up to ``2 sqrt(2) h``. An inch program to four decimals may so differ by 7.2 um,
+    as controllers accept; a millimetre one to three by 2.8 um. Whole numbers are taken as
+    exact.
+
+    Parameters
+    ----------
+    block : Block
+        The arc's block.
+    letters : sequence of str
+        The letters of its plane's coordinates, centre words and R.
+    scale : float
+        The program's unit [m] (mm or inch).
+
+    Returns
+    -------
+    float
+        The slack [m].
+    """
+    decimals = max((len(w.text) - w.text.index(".") - 1 for w in block.words if w.letter in letters and "." in w.text),
+                   default=0)
+    return max(RADIUS_SLACK, 2 * math.sqrt(2) * 10.0 ** -decimals * scale) if decimals else RADIUS_SLACK
 
 
 def centre_from_radius(start: np.ndarray, end: np.ndarray, radius: float, clockwise: bool) -> np.ndarray | None:
@@ -163,6 +193,7 @@ def read_arc(block: Block, where: str, axes: list[str], linear: list[bool], star
             raise GcodeError(f"{where}:{words['P'].start + 1}: {words['P'].name} on an arc must be a whole number "
                              f"of turns from 1 to {MAX_TURNS} (split a longer helix into blocks)")
     try:
-        return arc_from_center(start, target, centre, (i, j, k), clockwise, full_turns=int(turns) - 1)
+        return arc_from_center(start, target, centre, (i, j, k), clockwise, full_turns=int(turns) - 1,
+                               radius_slack=radius_slack(block, plane[:2] + tuple(offs) + ("R",), scale))
     except InputError as err:
         raise GcodeError(f"{where}: {err}") from None

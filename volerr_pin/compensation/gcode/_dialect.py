@@ -263,8 +263,9 @@ _SIGNS = [
      "a SINUMERIK statement with arguments"),
     (re.compile(r"\$[A-Z]{1,3}_[A-Z]"), "siemens", "a SINUMERIK system variable ($...)"),
     (re.compile(r"(?<![A-Z#])R\d+\s*="), "siemens", "an R parameter assignment (SINUMERIK)"),
-    (re.compile(r"^\s*(?:N\d+\s*)?G500\b|\b(?:TRANS|ATRANS|ROT|AROT|SUPA|CFC|CFTCP|SOFT|BRISK|FFWON|FFWOF|COMPCAD|"
-                r"COMPOF|CYCLE800|ORIWKS|ORIAXES|DIAMON|DIAMOF|DIAM90)\b"), "siemens", "a SINUMERIK statement"),
+    (re.compile(r"^\s*(?:N\d+\s*)?G500\b|(?<![\w.\-\[<])(?:TRANS|ATRANS|ROT|AROT|SUPA|CFC|CFTCP|SOFT|BRISK|FFWON|"
+                r"FFWOF|COMPCAD|COMPOF|CYCLE800|ORIWKS|ORIAXES|DIAMON|DIAMOF|DIAM90)(?![\w.\-\]>])"), "siemens",
+     "a SINUMERIK statement"),
     (re.compile(r"\b(?:VC\d+|VS\d+)\s*=|\bNLOOP\b|^\s*O[A-Z][A-Z0-9]*\s*$"), "okuma", "an OKUMA OSP construct"),
     (re.compile(r"\bO\s*<|\(\s*(?:DEBUG|PRINT|LOGOPEN|PROBEOPEN)\s*,|#\s*<|\bO\s*\d+\s+(?:SUB|CALL|IF|WHILE|DO|"
                 r"REPEAT|ENDSUB)\b|\bG64\s*P"), "linuxcnc", "a LinuxCNC construct"),

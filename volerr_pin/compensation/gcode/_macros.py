@@ -69,6 +69,10 @@ LETTERS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ@^")
 #: X and Z, arcs by I K or R, and F S N, which the cycle ignores (LinuxCNC reads nothing else of
 #: a profile: its other G codes, fillets A and chamfers C, U and W, keep the profile as written)
 PROFILE_WORDS = frozenset("GXZIKRFSN")
+#: a LinuxCNC message that prints parameters: the keyword and comma, then the text
+MESSAGE = re.compile(r"(\(\s*(?:debug|print|log|logappend)\s*,)([^)]*)\)", re.IGNORECASE)
+#: a parameter in a message: #<name> or #number
+MESSAGE_PARAMETER = re.compile(r"#(<[^>]*>)|#([0-9]+)")
 #: a lathe cycle's Q word, as run (a number)
 Q_WORD = re.compile(r"Q[ \t]*[-+]?[ \t]*[0-9.]+")
 
@@ -279,6 +283,13 @@ class _Expander(Values):
             i = j
         for key, v in settings:
             self._store(key, v)
+        if "#" in body and MESSAGE.search(body):
+            body, before = self._messages(body, line), body
+            if body != before:   # its numbers now stand where its parameters were
+                self.changed = True
+                if not spans:
+                    self._cycle_or_emit(body, newline, k)
+                    return ends
         if spans:
             self.changed = True
             parts, last = [], 0
@@ -293,6 +304,18 @@ class _Expander(Values):
         elif body.strip() or len(self.frames) == 1:   # blank lines of a body are not repeated at each call
             self._cycle_or_emit(body, newline, k)
         return ends
+
+    def _messages(self, body: str, line: Line) -> str:
+        """A line's messages (``(debug, ...)``, ``(print, ...)``, ``(log, ...)``) with the values of
+        their parameters written in, as LinuxCNC prints them (six decimals): the program as run
+        may lack the settings they read (a call's locals, a loop's counter)."""
+        def value(m: re.Match) -> str:
+            key = m.group(1) if m.group(1) else str(int(m.group(2)))
+            if not key.startswith("<") and not 1 <= int(key) <= 5602:
+                return m.group(0)
+            return f"{self._lookup(key.replace(' ', '').replace(chr(9), ''), line, 0):.6f}"
+
+        return MESSAGE.sub(lambda m: m.group(1) + MESSAGE_PARAMETER.sub(value, m.group(2)) + ")", body)
 
     def _cycle_or_emit(self, body: str, newline: str, k: int) -> None:
         if not (("7" in body and ("Q" in body or "q" in body)) and self.profile(body, newline, k)):
@@ -534,14 +557,15 @@ def expand(lines: list[tuple[str, str]], source: str = "<program>", most_blocks:
         raise Unfollowable(1, "blocks nested too deeply to follow") from None
     if not ex.changed:
         return None
-    # a subroutine no call ran stays defined where it was (a lathe cycle's Q names its profile);
-    # one that calls ran is gone: its blocks stand where they ran
+    # a subroutine stays defined where it was, as written (a lathe cycle's Q names its profile,
+    # and a program of other files may call it: LinuxCNC finds o<name> in name.ngc); the blocks
+    # of the calls that ran stand where they ran
     out, origin = [], array("q")
     for (body, newline), n in zip(ex.out, ex.origin):
         if body is not None:
             out.append((body, newline))
             origin.append(n)
-        elif newline not in ex.called or newline in ex.needed:
+        else:
             start, end = ex.subs[newline]
             out += lines[start:end + 1]
             origin.extend(range(start + 1, end + 2))
