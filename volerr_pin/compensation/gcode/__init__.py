@@ -3,7 +3,8 @@
 Understood: G0, G1, G2, G3 (I/J/K centres relative to the start, or R with a negative value
 for more than half a turn, or both if they agree; G17/G18/G19 planes; helical moves, P whole
 turns), G4, G17-G21, G40, G43/G44/G49 (with a warning), G43.4 and TRAORI (tool-tip
-programming) and G49 / TRAFOOF (its end), G54-G59 (one per program), G61/G64, G80, G90/G91,
+programming) and G49 / TRAFOOF (its end), G54-G59 and the G10 L2 / L20 blocks that set them
+(several set-ups, with a table of the controller's offsets: :func:`read_work_offsets`), G61/G64, G80, G90/G91,
 G93-G99, F, S, T, H, D, M words, comments ``( ... )`` and ``; ...``, sequence numbers ``N``,
 one program number ``O``, ``%`` lines, block delete ``/`` on blocks without moves or G codes,
 blank lines. Everything that is not a compensated coordinate is copied byte for byte: a
@@ -24,6 +25,10 @@ rotated, scaled, mirrored or shifted coordinates, up to the code that ends it) a
 unchanged and named in the report's warnings, or refused with ``strict``; G codes the reader
 does not know are refused unless ``pass_through``. A tool change (M6) and a kept block that
 names axes make the position unknown.
+
+Programs are read in a dialect (``dialect``: LinuxCNC's, FANUC's, Haas's, SINUMERIK's ISO
+subset; told from the program where it says one): what its controller sets by default, as a
+lathe's X as a diameter, machine M codes, ``%`` leaders, whole numbers as increments.
 
 Parts, private modules: programs as LinuxCNC runs them (parameters, expressions, O-words) and
 its polar words; the lexer (words, blocks, lines, code tables: :func:`parse_block`,

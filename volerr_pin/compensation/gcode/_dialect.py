@@ -119,6 +119,9 @@ class Dialect:
         G codes that are cycles on the dialect's lathes (FANUC and Haas: G70 - G76, and G90,
         G92, G94, which are absolute programming and a coordinate shift on mills): kept, with
         the blocks of their axis words that follow.
+    g_aliases : dict of float to float
+        G codes of the dialect that mean a code the reader follows (SINUMERIK's G70 / G71 and
+        G700 / G710: inch and mm, G20 / G21).
     decimal_point : bool
         A number without a decimal point is a count of least input increments (FANUC's and
         Haas's standard input: ``X10`` is 0.010 mm or 0.0010 inch) unless the control is set to
@@ -144,6 +147,7 @@ class Dialect:
     extended_offset: str = "G54.1"
     g_codes: dict = field(default_factory=dict)
     lathe_cycles: dict = field(default_factory=dict)
+    g_aliases: dict = field(default_factory=dict)
     decimal_point: bool = False
     reads: bool = True
 
@@ -187,7 +191,10 @@ DIALECTS = {
                     lathe_cycles=_LATHE_CYCLES, decimal_point=True),
     # its ISO G-code subset is read; its own language (DEF, R parameters, CR=, cycles ...) is refused by name
     "siemens": Dialect("siemens", "SINUMERIK", m_codes={**dict.fromkeys(range(40, 46), "gear stage")},
-                       call_m={17: "subprogram end"}, builder_m=True, lathe_diameter=True),
+                       call_m={17: "subprogram end"}, builder_m=True, lathe_diameter=True,
+                       g_aliases={70: 20, 71: 21, 700: 20, 710: 21},
+                       g_codes={60: "exact stop", 9: "exact stop, non-modal", 601: "exact stop window fine",
+                                602: "exact stop window coarse"}, extended_offset="G505"),
     "heidenhain": Dialect("heidenhain", "HEIDENHAIN", reads=False),
 }
 
@@ -282,10 +289,12 @@ _TITLES = {"okuma": "OKUMA OSP", **{k: d.title for k, d in DIALECTS.items()}}
 def detect(lines: Iterable[tuple[str, str]]) -> tuple[str, str] | None:
     """The dialect a program's text says, where it says one unambiguously.
 
-    Reads at most :data:`DETECT_LINES` lines. A FANUC program number or a tape leader with
-    text says FANUC unless a Haas code (G187, G154, G110-G129, M97) says Haas; a HEIDENHAIN
-    ``BEGIN PGM``, a SINUMERIK ``DEF``, R parameter or system variable, an OKUMA ``VC``
-    variable and a LinuxCNC ``o<name>``, named parameter or ``(debug, ...)`` each say theirs.
+    Reads at most :data:`DETECT_LINES` lines. A ``:0097`` program number, a tape leader with
+    text, G54.1, G65, G50, ``IF [...] GOTO`` or ``WHILE [...] DOn`` says FANUC unless a Haas
+    code (G187, G154, G110-G129, M97) says Haas; a HEIDENHAIN ``BEGIN PGM``, a SINUMERIK
+    ``DEF``, R parameter or system variable, an OKUMA ``VC`` variable and a LinuxCNC
+    ``o<name>``, named parameter or ``(debug, ...)`` each say theirs. A program number
+    ``O1000`` alone says nothing: LinuxCNC reads it too.
 
     Parameters
     ----------
@@ -295,8 +304,8 @@ def detect(lines: Iterable[tuple[str, str]]) -> tuple[str, str] | None:
     Returns
     -------
     (str, str) or None
-        The dialect (one of :data:`NAMES`, or ``"okuma"``) and what says it (``"line 1: O1000,
-        a FANUC program number"``); None when nothing says one, or two dialects are said (then
+        The dialect (one of :data:`NAMES`, or ``"okuma"``) and what says it (``"line 2: :0097,
+        FANUC's (...)"``); None when nothing says one, or two dialects are said (then
         the program is read as the caller's default).
     """
     said: dict[str, str] = {}
@@ -396,5 +405,5 @@ def choose(dialect: str | Dialect | None, lines: Iterable[tuple[str, str]] | Non
         else:
             chosen, said = DIALECTS[found[0]], f"detected: {found[1]}"
     if not chosen.reads:
-        raise GcodeError(f"{source}: {_refusal(chosen.name)}", parameters=("dialect",))
+        raise GcodeError(f"{source}: dialect {chosen.name}: {_refusal(chosen.name)}", parameters=("dialect",))
     return chosen, said

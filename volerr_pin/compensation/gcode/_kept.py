@@ -212,7 +212,7 @@ def _problem(reader: Interpreter, block: Block, state: ModalState) -> Problem | 
         letter = w.letter
         if letter == "G":
             g = w.value
-            if g in dialect.g_codes or (g != 10 and reader.is_offset(g)):
+            if g in dialect.g_codes or g in dialect.g_aliases or (g != 10 and reader.is_offset(g)):
                 continue
             if lathe_system_a and g in dialect.lathe_cycles:
                 what = f"{w.name} ({dialect.title} lathe {dialect.lathe_cycles[g]})"
@@ -318,7 +318,7 @@ def skip(reader: Interpreter, line: str, state: ModalState, block: Block | None 
             state.lose_position(f"line {number}")
     reader.work_offset(words, number, state)
     state.apply_m([v for letter, v in words if letter == "M"], f"{reader.source}:{number}")
-    gs = [v for letter, v in words if letter == "G"]
+    gs = [reader.dialect.g_aliases.get(v, v) for letter, v in words if letter == "G"]
     state.apply_g(gs)
     reader.tool_tip_codes(gs, state, number)
     dialect = reader.dialect

@@ -255,11 +255,17 @@ class Interpreter:
         key : hashable, optional
             Note it only the first time this key is given.
         """
-        if key is not None:
-            if key in self._noted:
-                return
-            self._noted.add(key)
-        self.notes.add(number, text)
+        if self._first(key):
+            self.notes.add(number, text)
+
+    def _first(self, key) -> bool:
+        """Whether a note's key (None: every note) comes for the first time; it is remembered."""
+        if key is None:
+            return True
+        if key in self._noted:
+            return False
+        self._noted.add(key)
+        return True
 
     def tell(self, number: int, text: str, key=None) -> None:
         """Keep a note on how a block was read (a work offset a G10 sets, a builder's M code)
@@ -274,11 +280,8 @@ class Interpreter:
         key : hashable, optional
             Keep it only the first time this key is given.
         """
-        if key is not None:
-            if key in self._noted:
-                return
-            self._noted.add(key)
-        self._told.append((number, text))
+        if self._first(key):
+            self._told.append((number, text))
 
     def told(self) -> list[tuple[int, str]]:
         """The notes kept by :meth:`tell` since the last call, (line, text), and forget them.
@@ -431,7 +434,8 @@ class Interpreter:
             self._switch(state, block.statement == "TRAORI", block.number, block.statement)
             return None
         check_words(block, self.source)
-        gs = [w.value for w in block.words if w.letter == "G"]
+        aliases = self.dialect.g_aliases
+        gs = [aliases.get(w.value, w.value) for w in block.words if w.letter == "G"]
         ms = [w.value for w in block.words if w.letter == "M"]
         if ms:
             # LinuxCNC saves and restores the modes before a block's G codes (G91 M72 is incremental)
@@ -531,6 +535,8 @@ class Interpreter:
         """
         if g in WORK_OFFSETS:
             return True
+        if self.dialect.extended_offset == "G505":   # SINUMERIK: G500 (none), G505 - G599
+            return g == 500 or (505 <= g <= 599 and g == int(g))
         return self.dialect.extended_offset == "G154" and (g == 154 or (110 <= g <= 129 and g == int(g)
                                                                         and not self.lathe))
 
@@ -561,6 +567,8 @@ class Interpreter:
             if state.offset is not None and state.offset[0] == name:
                 continue
             values = self.offsets.get(name)
+            if values is None and name == "G500":   # SINUMERIK: no settable offset, the base frame
+                values = self.offsets[name] = np.zeros(len(self.axes))
             if values is None and state.offset is None and not self.table_given:
                 # the origin given (or zero) stands for the first offset the program selects
                 self.offsets[name] = self.origin.copy()

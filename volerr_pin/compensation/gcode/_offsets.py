@@ -102,10 +102,10 @@ _UNITS = {"mm": MM, "in": INCH, "inch": INCH}
 
 def _canonical(name: str, where: str) -> str:
     text = " ".join(name.upper().split())
-    m = re.fullmatch(r"G(54|55|56|57|58|59|59\.[123])|G(54\.1|154) ?P([0-9]{1,3})|G(1[12][0-9])|EXT", text)
+    m = re.fullmatch(r"G(54|55|56|57|58|59|59\.[123]|5[0-9][0-9])|G(54\.1|154) ?P([0-9]{1,3})|G(1[12][0-9])|EXT", text)
     if not m:
         raise GcodeError(f"{where}: {name!r} is not a work offset (G54 ... G59, G59.1 ... G59.3, G54.1 Pn, G154 Pn, "
-                         "G110 ... G129, EXT)")
+                         "G110 ... G129, SINUMERIK's G500 - G599, EXT)")
     if m.group(4):
         return offset_name(float(m.group(4)), [])
     if m.group(2):
