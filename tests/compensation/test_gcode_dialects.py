@@ -401,3 +401,53 @@ def test_a_compensated_subroutine_file_keeps_its_definition_and_prints_what_it_p
     (folder / "caller.ngc").write_text("G21 G90\no<mysub> call [20]\nM2\n")
     feeds = re.findall(r"STRAIGHT_FEED\(([-\d.]+), ([-\d.]+), ([-\d.]+)", _rs274(folder / "caller.ngc", tmp_path))
     assert [tuple(map(float, f)) for f in feeds] == [(20, 10, 38)]
+
+
+ZIG = "o<zig> sub\nG1 X#1 Y10 F300\nG1 X#1 Y#2\nG1 X[#1 + 20] Y#2\no<zig> endsub\nM2\n"
+MAIN = "G21 G90 G17\nG0 X10 Y10 Z50\no<zig> call [100] [60]\no<zig> call [200] [80]\nG1 X10 Y10\nM2\n"
+
+
+def test_a_subroutine_in_a_file_beside_the_program_is_followed(machines, tmp_path):
+    """``o<zig> call`` of zig.ngc beside the program: LinuxCNC runs zig.ngc's blocks there; they
+    were passed uncompensated (LinuxCNC's rcone.ngc: 9,009 moves). They are now followed where
+    they run; rs274, reading the program in its folder, makes the same moves."""
+    m = machines["vmc500"]
+    (tmp_path / "zig.ngc").write_text(ZIG)
+    (tmp_path / "main.ngc").write_text(MAIN)
+    out, report = compensate_program(m, MAIN, source="main.ngc", subroutines=tmp_path)
+    assert report.moves == 1 + 6 + 1 and report.moves_kept == 0 and "call" not in out
+    batch = interpret(m, MAIN, "main.ngc", subroutines=tmp_path)
+    assert list(batch.line) == [2, 3, 3, 3, 4, 4, 4, 5]   # each block at the call it runs from
+    if RS274 is not None:
+        canon = _rs274(tmp_path / "main.ngc", tmp_path)
+        feeds = [tuple(map(float, f)) for f in re.findall(r"STRAIGHT_FEED\(([-\d.]+), ([-\d.]+), ([-\d.]+)", canon)]
+        np.testing.assert_allclose(batch.w1[1:] / MM, feeds)
+    # without the folder the calls are kept, and named
+    out, report = compensate_program(m, MAIN, source="main.ngc")
+    assert report.moves_kept == 2 and any("o<zig> is not defined in this program" in w for w in report.warnings)
+    # an error in the file names the file's line and the program's call
+    (tmp_path / "zig.ngc").write_text(ZIG.replace("G1 X#1 Y#2", "G1 X[#1 / 0] Y#2"))
+    with pytest.raises(GcodeError, match=r"main\.ngc:3:.*in o<zig> \(zig\.ngc:3\).*division by zero"):
+        compensate_program(m, MAIN, source="main.ngc", subroutines=tmp_path)
+
+
+@pytest.mark.parametrize("call, make, message", [
+    ("o<../zig> call", None, r"main\.ngc:3: o<\.\./zig> call: .* no plain file name"),
+    ("o<link> call", "link", r"main\.ngc:3: o<link> call: .* leads outside"),
+    ("o<big> call", "big", r"big\.ngc: .* more than a subroutine file"),
+    ("o<nosub> call", "nosub", r"nosub\.ngc: no o<nosub> sub \.\.\. o<nosub> endsub in it"),
+])
+def test_a_hostile_subroutine_file_is_refused_naming_it(machines, tmp_path, call, make, message):
+    folder = tmp_path / "programs"
+    folder.mkdir()
+    (tmp_path / "outside.ngc").write_text(ZIG.replace("zig", "link"))
+    if make == "link":
+        (folder / "link.ngc").symlink_to(tmp_path / "outside.ngc")
+    elif make == "big":
+        with open(folder / "big.ngc", "wb") as f:
+            f.truncate(17 << 20)
+    elif make == "nosub":
+        (folder / "nosub.ngc").write_text("G0 X1\nM2\n")
+    with pytest.raises(GcodeError, match=message):
+        compensate_program(machines["vmc500"], MAIN.replace("o<zig> call [100] [60]", call), source="main.ngc",
+                           subroutines=folder)

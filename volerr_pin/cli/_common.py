@@ -355,11 +355,15 @@ def add_dialect_args(parser: argparse.ArgumentParser) -> None:
                              "listing (G10 L2 Pn lines); not with --origin")
     parser.add_argument("--work-offsets-unit", choices=["mm", "inch"],
                         help="the length unit of a LinuxCNC parameter file or a FANUC listing (the controller's)")
+    parser.add_argument("--subroutines", metavar="DIR",
+                        help="where LinuxCNC finds the subroutine files the program calls (o<rcone> call runs "
+                             "rcone.ngc); default: the program's folder")
 
 
 def program_reading(machine: Machine, args) -> dict:
     """The keywords of the NC reader from :func:`add_program_position_args` and
-    :func:`add_dialect_args`: ``start``, ``origin``, ``dialect``, ``work_offsets``."""
+    :func:`add_dialect_args`: ``start``, ``origin``, ``dialect``, ``work_offsets``, ``subroutines``
+    (the program's folder unless ``--subroutines`` names another)."""
     from ..compensation.gcode import read_work_offsets
 
     start, origin = program_positions(machine, args)
@@ -373,7 +377,11 @@ def program_reading(machine: Machine, args) -> dict:
     if args.work_offsets:
         offsets = read_work_offsets(args.work_offsets, list(machine.axes), list(machine.axis_kinds),
                                     unit=args.work_offsets_unit)
-    return {"start": start, "origin": origin, "dialect": args.dialect, "work_offsets": offsets}
+    folder = Path(args.subroutines) if args.subroutines else Path(args.program).parent
+    if not folder.is_dir():
+        raise InputError(f"--subroutines: {folder} is not a folder", parameters=("--subroutines",))
+    return {"start": start, "origin": origin, "dialect": args.dialect, "work_offsets": offsets,
+            "subroutines": folder}
 
 
 def program_positions(machine: Machine, args) -> tuple[list[float] | None, list[float] | None]:

@@ -123,7 +123,8 @@ class PartPrediction:
 def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: str = "<program>", *,
             reference: str | Iterable[tuple[str, str]] | None = None, reference_source: str = "<reference>",
             tolerance: float = 0.01e-6, start=None, origin=None, plane: tuple[int, int] | None = None,
-            tool_diameter: float = 0.0, cone_heights=(0.0,), dialect=None, work_offsets=None) -> PartPrediction:
+            tool_diameter: float = 0.0, cone_heights=(0.0,), dialect=None, work_offsets=None,
+            subroutines=None) -> PartPrediction:
     """Predict the part a program cuts: the deviation along its path and its features with the
     error sources that decide them.
 
@@ -160,6 +161,9 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
     work_offsets : dict of str to array_like, optional
         The controller's work offsets [m, rad] by name, for a program with several set-ups
         (:func:`volerr_pin.compensation.gcode.read_work_offsets`).
+    subroutines : str or Path, optional
+        The folder of the subroutine files the program calls (``o<rcone> call`` runs
+        ``rcone.ngc``; default: not followed).
 
     Returns
     -------
@@ -179,7 +183,8 @@ def predict(machine: Machine, program: str | Iterable[tuple[str, str]], source: 
 
     if plane is not None:
         plane = _plane(plane)
-    batch = interpret(machine, program, source, start=start, origin=origin, dialect=dialect, work_offsets=work_offsets)
+    batch = interpret(machine, program, source, start=start, origin=origin, dialect=dialect, work_offsets=work_offsets,
+                      subroutines=subroutines)
     if batch.skipped and not np.any(batch.kind != POINT):
         unprogrammed = any("not yet programmed" in s.reason for s in batch.skipped)
         raise InputError(f"{source}: no cut can be predicted: " + "; ".join(

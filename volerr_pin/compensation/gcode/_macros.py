@@ -69,6 +69,14 @@ LETTERS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ@^")
 #: X and Z, arcs by I K or R, and F S N, which the cycle ignores (LinuxCNC reads nothing else of
 #: a profile: its other G codes, fillets A and chamfers C, U and W, keep the profile as written)
 PROFILE_WORDS = frozenset("GXZIKRFSN")
+#: the largest subroutine file read beside a program [bytes]
+MOST_SUBROUTINE_FILE = 16 << 20
+#: a call of a named subroutine, which LinuxCNC looks up in a file of its name when the program
+#: does not define it (``o<rcone> call`` runs rcone.ngc's ``o<rcone> sub``)
+NAMED_CALL = re.compile(r"^\s*(?:N[0-9.]+\s*)?O\s*<\s*([^>]*?)\s*>\s*CALL\b", re.IGNORECASE)
+NAMED_SUB = re.compile(r"^\s*(?:N[0-9.]+\s*)?O\s*<\s*([^>]*?)\s*>\s*(SUB|ENDSUB)\b", re.IGNORECASE)
+#: a subroutine file's name: what LinuxCNC's names hold (no folder, no '..')
+FILE_NAME = re.compile(r"[a-z0-9_][a-z0-9_.\-]*")
 #: a LinuxCNC message that prints parameters: the keyword and comma, then the text
 MESSAGE = re.compile(r"(\(\s*(?:debug|print|log|logappend)\s*,)([^)]*)\)", re.IGNORECASE)
 #: a parameter in a message: #<name> or #number
@@ -144,9 +152,15 @@ class _Signal(Exception):
 
 
 class _Expander(Values):
-    def __init__(self, lines: list[tuple[str, str]], source: str, most_blocks: int):
+    def __init__(self, lines: list[tuple[str, str]], source: str, most_blocks: int, n_main: int | None = None,
+                 where_of: dict[int, str] | None = None):
         super().__init__()
         self.raw = lines
+        # the program's lines, then (from n_main on) subroutines of files beside it, each line's
+        # place in its file by its number here (``"rcone.ngc:12"``)
+        self.n_main = len(lines) if n_main is None else n_main
+        self.where_of = where_of or {}
+        self.anchor = 0   # the program's line of the call running a subroutine file's blocks
         self.source = source
         self.most = most_blocks
         self.coded: list[Line] = []
@@ -372,7 +386,8 @@ class _Expander(Values):
 
     def _emit(self, body: str, newline: str, k: int) -> None:
         self.out.append((body, newline))
-        self.origin.append(k + 1)
+        # (a block of a subroutine file comes from the program's line that called it)
+        self.origin.append(k + 1 if k < self.n_main else self.anchor)
 
     def condition(self, k: int) -> float:
         name, kw, rest, col = self.control[k]
@@ -417,7 +432,7 @@ class _Expander(Values):
                 # LinuxCNC reads its endsub in passing, which clears the value a call returned
                 self.globals_named["_value"] = self.globals_named["_value_returned"] = 0.0
                 self.out.append((None, name))
-                self.origin.append(k + 1)
+                self.origin.append(k + 1 if k < self.n_main else self.anchor)
                 k = self.end_of[k] + 1
             elif kw == "CALL":
                 self.call(k, name, rest, col)
@@ -478,7 +493,7 @@ class _Expander(Values):
         line = self.coded[k]
         if name not in self.subs:
             raise self._error(line, 0, f"o{name.lower()} is not defined in this program (a subroutine file is "
-                                       "looked up by the running machine)")
+                                       "looked up by the running machine; give its folder, subroutines, to follow it)")
         if len(self.frames) >= MOST_DEPTH:
             raise self._error(line, 0, f"calls nested deeper than {MOST_DEPTH} (LinuxCNC's limit)")
         args, j = [], col
@@ -495,6 +510,9 @@ class _Expander(Values):
         self.frames.append(Frame(args, name, k + 1))
         self.running.append((f"o{name.lower()} call", k + 1))
         value = None
+        anchor = self.anchor
+        if k < self.n_main:
+            self.anchor = k + 1
         try:
             self.run(start + 1, end)
             _, _, tail, tcol = self.control[end]
@@ -505,15 +523,24 @@ class _Expander(Values):
             if sig.kind != "return":   # the program's end
                 raise
             value = sig.value
+        except Unfollowable as why:
+            if why.line <= self.n_main or k >= self.n_main:
+                raise
+            # a line of a subroutine file: named in its file, and at the program's call
+            error = type(why)(k + 1, f"in o{name.lower()} ({self.where_of.get(why.line, 'its file')}): {why}")
+            if hasattr(why, "column"):
+                error.column = 1   # (the call's line: the column is the file's, in the text)
+            raise error from None
         finally:
             self.frames.pop()
             self.running.pop()
+            self.anchor = anchor
         self.globals_named["_value"] = 0.0 if value is None else value
         self.globals_named["_value_returned"] = float(value is not None)
 
 
-def expand(lines: list[tuple[str, str]], source: str = "<program>", most_blocks: int = MOST_BLOCKS
-           ) -> Expansion | None:
+def expand(lines: list[tuple[str, str]], source: str = "<program>", most_blocks: int = MOST_BLOCKS,
+           subroutines=None) -> Expansion | None:
     """A program expanded as LinuxCNC runs it.
 
     Parameters
@@ -525,6 +552,10 @@ def expand(lines: list[tuple[str, str]], source: str = "<program>", most_blocks:
     most_blocks : int
         The most blocks the program may run (every line run counts, parameter settings and
         O-word lines too, and every loop pass: a loop that writes nothing cannot spin forever).
+    subroutines : str or Path, optional
+        The folder where LinuxCNC finds the subroutines a program calls and does not define
+        (``o<rcone> call`` runs ``rcone.ngc``'s ``o<rcone> sub``; see :func:`subroutine_files`).
+        None: such a call is not followed.
 
     Returns
     -------
@@ -542,7 +573,13 @@ def expand(lines: list[tuple[str, str]], source: str = "<program>", most_blocks:
         blocks, naming the loop or call.
     """
     check_tape(lines, source)
-    ex = _Expander(lines, source, most_blocks)
+    n_main = len(lines)
+    if subroutines is not None:
+        extra, where_of = subroutine_files(lines, source, subroutines)
+        lines = lines + extra
+        ex = _Expander(lines, source, most_blocks, n_main, where_of)
+    else:
+        ex = _Expander(lines, source, most_blocks)
     try:
         ex.run(0, len(lines))
     except Refused as why:
@@ -550,7 +587,7 @@ def expand(lines: list[tuple[str, str]], source: str = "<program>", most_blocks:
                          "refused") from None
     except _Signal:   # the program's end (a return outside a call is refused where it stands)
         last = ex.origin[-1]   # the M2 / M30: what follows is never read; it is kept as written
-        for k in range(last, len(lines)):
+        for k in range(last, n_main):
             ex.out.append(lines[k])
             ex.origin.append(k + 1)
     except RecursionError:
@@ -565,12 +602,90 @@ def expand(lines: list[tuple[str, str]], source: str = "<program>", most_blocks:
         if body is not None:
             out.append((body, newline))
             origin.append(n)
-        else:
+        elif ex.subs[newline][0] < n_main:   # (a subroutine file's stays in its file)
             start, end = ex.subs[newline]
             out += lines[start:end + 1]
             origin.extend(range(start + 1, end + 2))
     return Expansion(out, origin, ex.calls, ex.passes, ex.profiles)
 
+
+
+def subroutine_files(lines: list[tuple[str, str]], source: str, folder) -> tuple[list, dict[int, str]]:
+    """The subroutines a program calls and does not define, from the files LinuxCNC reads them
+    from: ``name.ngc`` in ``folder`` (the name in lower case), each from its ``o<name> sub`` to
+    its ``o<name> endsub``, and those they call in turn.
+
+    Hostile files are refused: a name that is no plain file name (a folder, ``..``), a file that
+    resolves outside ``folder`` (a link), one that is not a regular file, larger than
+    :data:`MOST_SUBROUTINE_FILE` or not UTF-8 text. A file not there leaves the call not
+    followed (the running machine may find it elsewhere).
+
+    Parameters
+    ----------
+    lines : list of (str, str)
+        The program's lines and their endings.
+    source : str
+        Its name, for messages.
+    folder : str or Path
+        Where the files are.
+
+    Returns
+    -------
+    list of (str, str)
+        The subroutines' lines, to follow the program's.
+    dict of int to str
+        Each of those lines' place in its file, by its 1-based number after the program's
+        (``"rcone.ngc:12"``).
+
+    Raises
+    ------
+    GcodeError
+        A hostile file (above), naming it and the call.
+    """
+    from pathlib import Path
+
+    from ._source import ProgramFile
+
+    folder = Path(folder)
+    root = folder.resolve()
+    defined = {m.group(1).lower() for body, _ in lines if (m := NAMED_SUB.match(body)) and m.group(2).upper() == "SUB"}
+    wanted = [(m.group(1).lower(), f"{source}:{k}") for k, (body, _) in enumerate(lines, start=1)
+              if (m := NAMED_CALL.match(body))]
+    extra: list[tuple[str, str]] = []
+    where_of: dict[int, str] = {}
+    while wanted:
+        name, caller = wanted.pop(0)
+        if name in defined:
+            continue
+        defined.add(name)
+        if not FILE_NAME.fullmatch(name) or name.strip(".") == "":
+            raise GcodeError(f"{caller}: o<{name}> call: a subroutine file is named by its o-word, and "
+                             f"{name!r} is no plain file name")
+        path = folder / f"{name}.ngc"
+        if not path.exists():
+            continue
+        if path.resolve().parent != root:
+            raise GcodeError(f"{caller}: o<{name}> call: {path} leads outside {folder} (a link): not read")
+        file = ProgramFile(path, "subroutine file")
+        if file.size > MOST_SUBROUTINE_FILE:
+            raise GcodeError(f"{path}: {file.size:,} bytes, more than a subroutine file read beside a program "
+                             f"({MOST_SUBROUTINE_FILE:,})")
+        body_lines = list(file.lines())
+        start = next((k for k, (body, _) in enumerate(body_lines)
+                      if (m := NAMED_SUB.match(body)) and m.group(1).lower() == name and m.group(2).upper() == "SUB"),
+                     None)
+        end = next((k for k, (body, _) in enumerate(body_lines) if start is not None and k > start
+                    and (m := NAMED_SUB.match(body)) and m.group(1).lower() == name
+                    and m.group(2).upper() == "ENDSUB"), None)
+        if start is None or end is None:
+            raise GcodeError(f"{path}: no o<{name}> sub ... o<{name}> endsub in it, which {caller} calls")
+        for k in range(start, end + 1):
+            where_of[len(lines) + len(extra) + 1] = f"{path.name}:{k + 1}"
+            extra.append(body_lines[k])
+            m = NAMED_CALL.match(body_lines[k][0])
+            if m:
+                wanted.append((m.group(1).lower(), f"{path}:{k + 1}"))
+    return extra, where_of
 
 
 def _plain_profile(profile: list[tuple[str, str]], source: str) -> bool:

@@ -85,6 +85,10 @@ class Program(ChunkWriting):
         The controller's work offsets [m, rad] by name (``"G54"``, ``"G55"``, ``"G54.1 P2"``;
         :func:`~volerr_pin.compensation.gcode.read_work_offsets`): a program with several
         set-ups is read with each one's values. Not with ``origin``.
+    subroutines : str or Path, optional
+        The folder where LinuxCNC finds the subroutine files the program calls
+        (``o<rcone> call`` runs ``rcone.ngc``): their blocks are followed where they run.
+        None: such a call is kept, and named.
 
     Attributes
     ----------
@@ -110,7 +114,7 @@ class Program(ChunkWriting):
     def __init__(self, machine: Machine, tol_um: float = 1.0, pass_through: bool = False,
                  start=None, method: str = "newton", source: str = "<program>", tol_urad: float | None = None,
                  origin=None, *, strict: bool = False, programming: str = "axes", detail: bool = False,
-                 most_blocks: int = macros.MOST_BLOCKS, dialect=None, work_offsets=None):
+                 most_blocks: int = macros.MOST_BLOCKS, dialect=None, work_offsets=None, subroutines=None):
         check_axes(machine)  # the machine is reported before the tolerance
         if not (math.isfinite(tol_um) and tol_um >= MIN_TOL_UM):
             raise GcodeError(f"tol_um must be finite and at least {MIN_TOL_UM:g} um (what the point compensation "
@@ -126,6 +130,7 @@ class Program(ChunkWriting):
                                   dialect=dialect, work_offsets=work_offsets)
         self._dialect = dialect
         self._decided = False
+        self.subroutines = subroutines
         # the written numbers are rounded (0.05 um per linear axis at most, and the rotary
         # axes' 0.5e-5 deg times the tool's lever): the paths are compensated to the tolerance
         # less that margin, so the program as written meets it
@@ -507,7 +512,7 @@ def _note_offsets(program: Program, block: Block) -> None:
 def _expanded(program: Program, lines: list[tuple[str, str]]) -> list[tuple[str, str]]:
     """:meth:`Program.expand`: the lines to run, with the program's report and warnings told."""
     try:
-        expansion = macros.expand(lines, program.source, program.most_blocks)
+        expansion = macros.expand(lines, program.source, program.most_blocks, program.subroutines)
     except macros.Unfollowable as why:
         program.reader.notes.note(f"the program's parameters, expressions and O-words are not followed (line "
                                   f"{why.line}: {why}): their blocks are kept unchanged")
@@ -545,7 +550,7 @@ def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass
                        method: str = "newton", source: str = "<program>", tol_urad: float | None = None,
                        origin=None, strict: bool = False, programming: str = "axes",
                        start=None, most_blocks: int = macros.MOST_BLOCKS, dialect=None,
-                       work_offsets=None) -> tuple[str, Report]:
+                       work_offsets=None, subroutines=None) -> tuple[str, Report]:
     """Compensate an NC program.
 
     Parameters
@@ -582,6 +587,8 @@ def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass
         ``"linuxcnc"``, ``"fanuc"`` or ``"haas"`` (default: told from the program, else LinuxCNC's).
     work_offsets : dict of str to array_like, optional
         The controller's work offsets [m, rad] by name (see :class:`Program`).
+    subroutines : str or Path, optional
+        The folder of the subroutine files the program calls (see :class:`Program`).
 
     Returns
     -------
@@ -597,5 +604,6 @@ def compensate_program(machine: Machine, text: str, *, tol_um: float = 1.0, pass
     """
     program = Program(machine, tol_um=tol_um, pass_through=pass_through, method=method, source=source,
                       tol_urad=tol_urad, origin=origin, strict=strict, programming=programming, start=start,
-                      most_blocks=most_blocks, dialect=dialect, work_offsets=work_offsets)
+                      most_blocks=most_blocks, dialect=dialect, work_offsets=work_offsets,
+                      subroutines=subroutines)
     return program.compensate(text), program.report

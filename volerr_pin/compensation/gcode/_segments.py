@@ -19,7 +19,8 @@ __all__ = ["interpret"]
 
 
 def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str, str]], source: str = "<program>",
-              start=None, origin=None, programming: str = "axes", dialect=None, work_offsets=None) -> MoveBatch:
+              start=None, origin=None, programming: str = "axes", dialect=None, work_offsets=None,
+              subroutines=None) -> MoveBatch:
     """The moves of a program as the controller interpolates them.
 
     Lines are straight in program coordinates, arcs turn about their centres. Moves before
@@ -49,6 +50,9 @@ def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str,
         LinuxCNC's; the batch's ``dialect`` says which and why).
     work_offsets : dict of str to array_like, optional
         The controller's work offsets [m, rad] by name (``"G54"``, ``"G55"`` ...).
+    subroutines : str or Path, optional
+        The folder of the subroutine files the program calls (``o<rcone> call`` runs
+        ``rcone.ngc``; default: not followed).
 
     Returns
     -------
@@ -74,7 +78,7 @@ def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str,
         lines = list(program.lines() if isinstance(program, ProgramFile) else program)
     reader.dialect, said = choose(dialect, lines, source)
     try:
-        expansion = macros.expand(lines, source)
+        expansion = macros.expand(lines, source, subroutines=subroutines)
     except macros.Unfollowable:
         expansion = None   # read as it is, macro blocks kept (as compensate_program reads it)
     if expansion is None:
