@@ -451,3 +451,21 @@ def test_a_hostile_subroutine_file_is_refused_naming_it(machines, tmp_path, call
     with pytest.raises(GcodeError, match=message):
         compensate_program(machines["vmc500"], MAIN.replace("o<zig> call [100] [60]", call), source="main.ngc",
                            subroutines=folder)
+
+
+def test_sinumerik_statements_that_move_nothing_stand_beside_the_words(machines):
+    m = machines["vmc500"]
+    text = ('%_N_P_MPF\nN10 G17 G90 G710 G500\nN20 T="MILL_10" M6\nN30 CYCLE832(0.01,_ORI_ROUGH,1)\n'
+            "N40 G54 G642 SOFT FFWON\nN50 G0 X10 Y10 Z50\nN60 G1 Z-2 F500 COMPCAD ; plunge\nN70 X100 Y50\nN80 M30\n")
+    out, report = compensate_program(m, text, origin=[0.1, 0.1, 0.3])
+    assert report.dialect == "siemens" and report.moves == 3 and report.passed_through == 0
+    lines = out.splitlines()
+    assert lines[:5] == text.splitlines()[:5]
+    assert re.fullmatch(r"N60 G1 Z-2\.00\d\d X9\.99\d\d Y10\.00\d\d F500 COMPCAD ; plunge", lines[6]), lines[6]
+    # G500 is no settable offset (zero); the first offset selected after it takes the origin given
+    batch = interpret(m, text, origin=[0.1, 0.1, 0.3])
+    np.testing.assert_allclose(batch.w1[-1] / MM, [200, 150, 298])
+    # what moves or changes frames is refused, naming it
+    with pytest.raises(GcodeError, match=r"p\.nc:4: N30 CYCLE800\(.*CYCLE800 \(SINUMERIK's swivel"):
+        compensate_program(m, text.replace("CYCLE832(0.01,_ORI_ROUGH,1)", "CYCLE800(1,\"TC1\",0,57,0,30,0)"),
+                           source="p.nc", origin=[0.1, 0.1, 0.3])

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 from ._lexer import GcodeError, shortened
 
-__all__ = ["DIALECTS", "Dialect", "NAMES", "choose", "detect", "dialect_of", "foreign"]
+__all__ = ["DIALECTS", "Dialect", "NAMES", "blank_statements", "choose", "detect", "dialect_of", "foreign"]
 
 #: the dialects a program may be read in
 NAMES = ("linuxcnc", "fanuc", "haas", "siemens", "heidenhain")
@@ -122,6 +122,10 @@ class Dialect:
     g_aliases : dict of float to float
         G codes of the dialect that mean a code the reader follows (SINUMERIK's G70 / G71 and
         G700 / G710: inch and mm, G20 / G21).
+    statements : bool
+        SINUMERIK's statements that move nothing (SOFT, FFWON, COMPCAD, ORIWKS, CYCLE832, MSG,
+        ``T="name"`` ...) stand in its blocks beside ISO words: they are kept as written and
+        the words around them read (:func:`blank_statements`).
     decimal_point : bool
         A number without a decimal point is a count of least input increments (FANUC's and
         Haas's standard input: ``X10`` is 0.010 mm or 0.0010 inch) unless the control is set to
@@ -148,6 +152,7 @@ class Dialect:
     g_codes: dict = field(default_factory=dict)
     lathe_cycles: dict = field(default_factory=dict)
     g_aliases: dict = field(default_factory=dict)
+    statements: bool = False
     decimal_point: bool = False
     reads: bool = True
 
@@ -194,9 +199,42 @@ DIALECTS = {
                        call_m={17: "subprogram end"}, builder_m=True, lathe_diameter=True,
                        g_aliases={70: 20, 71: 21, 700: 20, 710: 21},
                        g_codes={60: "exact stop", 9: "exact stop, non-modal", 601: "exact stop window fine",
-                                602: "exact stop window coarse"}, extended_offset="G505"),
+                                602: "exact stop window coarse", 603: "exact stop at interpolation end",
+                                641: "continuous path, rounding by distance", 642: "continuous path, rounding by "
+                                "tolerance", 643: "continuous path, block-internal rounding", 644: "continuous path, "
+                                "rounding with dynamics", 645: "continuous path, tangential rounding",
+                                450: "corner: arc", 451: "corner: intersection", 153: "machine coordinates, frames "
+                                "off (non-modal)"}, extended_offset="G505", statements=True),
     "heidenhain": Dialect("heidenhain", "HEIDENHAIN", reads=False),
 }
+
+
+#: SINUMERIK statements that move no axis and change nothing the reader follows (acceleration and
+#: path modes, compressors, orientation references, the high-speed settings cycle CYCLE832 and
+#: messages, whose arguments the comment mask has blanked, a tool selected by name or number)
+_STATEMENTS = re.compile(r"(?<![A-Z0-9_$])(?:SOFT|BRISK|BRISKA|SOFTA|DRIVE|FFWON|FFWOF|COMPCAD|COMPCURV|COMPSURF|"
+                         r"COMPOF|ORIWKS|ORIMKS|ORIAXES|ORIVECT|ORICONCW|ORICONCCW|UPATH|SPATH|STOPRE|CFTCP|CFC|CFIN|"
+                         r"CYCLE832|MSG|WORKPIECE)(?![A-Z0-9_])|(?<![A-Z0-9_$])T[ \t]*=[ \t]*(?:\"[^\"]*\"|[0-9]+)",
+                         re.IGNORECASE)
+
+
+def blank_statements(code: str) -> str:
+    """A SINUMERIK line's code with its motionless statements blanked (same length: the words
+    around them keep their columns).
+
+    Parameters
+    ----------
+    code : str
+        The line with its comments masked.
+
+    Returns
+    -------
+    str
+        The code, each statement replaced by blanks.
+    """
+    if not any(c.isalpha() for c in code):
+        return code
+    return _STATEMENTS.sub(lambda m: " " * len(m.group()), code)
 
 
 def check_points(dialect: Dialect, words, letters: str, where: str) -> None:
@@ -265,6 +303,9 @@ _SIGNS = [
                 r"\bDR[-+]|\bZ[-+]|\bX[-+]|\bY[-+])|^\s*\d*\s*(?:TOOL\s+CALL|CYCL\s+DEF|END\s+PGM|BLK\s+FORM)\b"),
      "heidenhain", "a HEIDENHAIN Klartext block"),
     (re.compile(r"^\s*%_N_"), "siemens", "a SINUMERIK program name (%_N_)"),
+    (re.compile(r"(?<![A-Z0-9_])CYCLE800\b"), "siemens", "CYCLE800 (SINUMERIK's swivel: a tilted working plane)"),
+    (re.compile(r"(?<![A-Z0-9_])(?:CR|AC|IC|AP|RP)\s*[=(]"), "siemens",
+     "a SINUMERIK address with '=' or '(' (CR= arc radius, AC / IC absolute / incremental, AP / RP polar)"),
     (re.compile(r"\bDEF\s+(?:REAL|INT|BOOL|STRING|AXIS|FRAME|CHAR)\b"), "siemens", "DEF (a SINUMERIK variable definition)"),
     (re.compile(r"\b(?:MSG|CYCLE\d+|POCKET\d+|SLOT\d+|HOLES\d+|CYCL\d+)\s*\("), "siemens",
      "a SINUMERIK statement with arguments"),

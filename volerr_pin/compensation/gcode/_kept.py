@@ -14,7 +14,7 @@ from ._lexer import (OFFSET_DATA, CANNED, G_DIGITS, G_GROUPS, KEPT_MOTION, KEYWO
                     TOOL_CHANGE_M, USER_M, WORK_OFFSETS, Block,
                     GcodeError, macro_statement, mask_comments, parse_block, uncommented, word_values)
 from ._lexer import AXIS_LETTERS, BLANKS
-from ._dialect import check_points, foreign
+from ._dialect import blank_statements, check_points, foreign
 from ._modal import Interpreter, ModalState
 from ._regions import follow, keyword_region, profile_region, region_of
 
@@ -153,6 +153,8 @@ def classify(reader: Interpreter, line: str, number: int, state: ModalState,
     dialect = reader.dialect
     if dialect.tape_text and code.lstrip(BLANKS).startswith("%"):
         return Block(number, line, [], code), None   # a tape's start or end, its leader's text not read
+    if dialect.statements:
+        code = blank_statements(code)   # (SOFT, CYCLE832(...), T="tool": kept as written)
     if dialect.colon_numbers and code.lstrip(BLANKS).startswith(":"):
         at = code.index(":")
         code = code[:at] + "O" + code[at + 1:]   # ':0097' is the program number O0097

@@ -188,6 +188,7 @@ class Interpreter:
                              "work_offsets, not both", parameters=("origin", "work_offsets"))
         self.origin = np.zeros(len(self.axes)) if origin is None else axis_vector(origin, "origin", self.axes)
         self.origin_given = origin is not None
+        self.given_origin = self.origin.copy()
         self.offsets: dict[str, np.ndarray] = {
             str(name): axis_vector(v, f"work_offsets[{name!r}]", self.axes) for name, v in (work_offsets or {}).items()}
         self.table_given = bool(self.offsets)
@@ -569,10 +570,11 @@ class Interpreter:
             values = self.offsets.get(name)
             if values is None and name == "G500":   # SINUMERIK: no settable offset, the base frame
                 values = self.offsets[name] = np.zeros(len(self.axes))
-            if values is None and state.offset is None and not self.table_given:
+            first = state.offset is None or (state.offset[0] == "G500" and set(self.offsets) == {"G500"})
+            if values is None and first and not self.table_given:
                 # the origin given (or zero) stands for the first offset the program selects
-                self.offsets[name] = self.origin.copy()
-                state.offset = (name, number)
+                self.offsets[name] = self.given_origin.copy()
+                self._use(name, self.offsets[name], number, state)
                 continue
             if values is None:
                 was = f"from {state.offset[0]} (line {state.offset[1]})" if state.offset else "at the start"

@@ -505,12 +505,15 @@ CALLS = re.compile(r"\bCALL\b|(?<![A-Z])M[ \t]*0*98(?![0-9])|(?<![A-Z])G[ \t]*0*
 
 def _note_offsets(program: Program, block: Block) -> None:
     """Warn (once) of work and tool offsets, which the model does not know."""
-    for text in kept.offset_notes(block, program.reader.origin.any(), program._noted):
+    reader = program.reader
+    for text in kept.offset_notes(block, reader.origin_given or reader.table_given, program._noted):
         program.reader.notes.add(block.number, text)
 
 
 def _expanded(program: Program, lines: list[tuple[str, str]]) -> list[tuple[str, str]]:
     """:meth:`Program.expand`: the lines to run, with the program's report and warnings told."""
+    if program.reader.dialect.name == "siemens":   # (its parameters are not LinuxCNC's)
+        return lines
     try:
         expansion = macros.expand(lines, program.source, program.most_blocks, program.subroutines)
     except macros.Unfollowable as why:

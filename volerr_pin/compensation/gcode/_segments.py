@@ -77,8 +77,8 @@ def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str,
     else:
         lines = list(program.lines() if isinstance(program, ProgramFile) else program)
     reader.dialect, said = choose(dialect, lines, source)
-    try:
-        expansion = macros.expand(lines, source, subroutines=subroutines)
+    try:   # (SINUMERIK's parameters are not LinuxCNC's)
+        expansion = None if reader.dialect.name == "siemens" else macros.expand(lines, source, subroutines=subroutines)
     except macros.Unfollowable:
         expansion = None   # read as it is, macro blocks kept (as compensate_program reads it)
     if expansion is None:
@@ -103,7 +103,7 @@ def _moves(reader: Interpreter, lines, source: str, origin) -> MoveBatch:
     skipped: list = []
     notes: list = []
     noted: set = set()
-    origin_given = bool(reader.origin.any())
+    origin_given = reader.origin_given or reader.table_given
     followed = 0        # moves followed when the last block was skipped
     lost_at = 0         # the program line after which the position was lost
     for number, (body, _) in enumerate(lines, start=1):
