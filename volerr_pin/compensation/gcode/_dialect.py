@@ -435,11 +435,11 @@ def choose(dialect: str | Dialect | None, lines: Iterable[tuple[str, str]] | Non
     if dialect is not None:
         chosen, said = dialect_of(dialect), "given"
     elif lines is None:
-        chosen, said = DIALECTS["linuxcnc"], "the default (the program was given as a stream, not read for its dialect)"
+        chosen, said = DIALECTS["linuxcnc"], "the default: the program was given as a stream, not read for its dialect"
     else:
         found = detect(lines)
         if found is None:
-            chosen, said = DIALECTS["linuxcnc"], "the default (nothing in the program says another dialect)"
+            chosen, said = DIALECTS["linuxcnc"], "the default: nothing in the program says another dialect"
         elif found[0] not in DIALECTS or not DIALECTS[found[0]].reads:
             raise GcodeError(f"{source}:{found[1].removeprefix('line ')}; {_refusal(found[0])}",
                              parameters=("dialect",))
