@@ -469,3 +469,64 @@ def test_sinumerik_statements_that_move_nothing_stand_beside_the_words(machines)
     with pytest.raises(GcodeError, match=r"p\.nc:4: N30 CYCLE800\(.*CYCLE800 \(SINUMERIK's swivel"):
         compensate_program(m, text.replace("CYCLE832(0.01,_ORI_ROUGH,1)", "CYCLE800(1,\"TC1\",0,57,0,30,0)"),
                            source="p.nc", origin=[0.1, 0.1, 0.3])
+
+
+# --- a review's findings ------------------------------------------------------------------------
+
+def test_what_a_review_found_in_the_offsets_is_read_as_the_controllers_read_it(machines, tmp_path):
+    m = machines["vmc500"]
+    # Haas's G154 Pn is selectable (its P was refused), from a G10 L20 or a FANUC table's G54.1 Pn
+    text = "G20 G90\nG10 L20 P3 X1. Y1. Z1.\nG154 P3\nG0 X0 Y0 Z0\nM30\n"
+    np.testing.assert_allclose(interpret(m, text, dialect="haas").w1[0] / MM, [25.4] * 3)
+    table = {"G54.1 P3": np.array([0.1, 0.1, 0.1])}
+    np.testing.assert_allclose(interpret(m, "G154 P3 G0 X0. Y0. Z0.\n", dialect="haas", work_offsets=table).w1[0]
+                               / MM, [100] * 3)
+    # M72 restores the work offset M70 saved, as rs274 does
+    restored = "G10 L2 P2 X100 Y100 Z100\nG54 G0 X1 Y1 Z1\nM70\nG55 G0 X2 Y2 Z2\nM72\nG1 X3 Y3 Z3 F100\nM2\n"
+    np.testing.assert_allclose(interpret(m, restored, dialect="linuxcnc").w1[-1] / MM, [3, 3, 3])
+    # FANUC's external offset moves every work offset, the one in force included
+    ext = "G21 G90\nG10 L2 P0 X10. Y10. Z10.\nG0 X0 Y0 Z0\nG54 G0 X0 Y0 Z0\nM30\n"
+    np.testing.assert_allclose(interpret(m, ext, dialect="fanuc").w1 / MM, [[10] * 3, [10] * 3])
+    # FANUC's G54.1 alone is G54.1 P1
+    bare = "G21 G90\nG10 L20 P1 X100. Y50. Z20.\nG54.1 G0 X0 Y0 Z0\nM30\n"
+    np.testing.assert_allclose(interpret(m, bare, dialect="fanuc").w1[0] / MM, [100, 50, 20])
+    # a G20 in the G10's own block sets its units
+    units = "G21 G90\nG20 G10 L2 P2 X1 Y1 Z1\nG55 G0 X0 Y0 Z0\nM2\n"
+    np.testing.assert_allclose(interpret(m, units, dialect="linuxcnc").w1[0] / MM, [25.4] * 3)
+
+
+def test_what_a_review_found_in_the_messages_and_the_decimal_points(machines):
+    m = machines["vmc500"]
+    # a message reading what only the machine knows leaves the program's parameters followed
+    text = "#1=2.5\nG0 X#1 Y1 Z1\n(debug, at X=#5420 and #<_zz>)\nG1 X[#1*2] F100\nM2\n"
+    out, report = compensate_program(m, text, dialect="linuxcnc")
+    assert report.expanded is not None and report.moves == 2
+    assert "(debug, at X=#5420 and #<_zz>)" in out
+    # FANUC: a variable's value is no count of increments; a cycle's K and a G73's R are counts
+    compensate_program(m, "G21 G90\n#100=50.\nG0 X#100 Y10. Z10.\nG1 X100. F100.\nM30\n", dialect="fanuc")
+    compensate_program(m, "G21 G90\nG0 X100. Y100. Z50.\nG91 G81 X10. Z-5. R-45. K3 F100.\nG80\nM30\n",
+                       dialect="fanuc")
+    # ... but a whole number in an arc's centre is refused as in its end
+    with pytest.raises(GcodeError, match=r":3:14: I5 has no decimal point"):
+        compensate_program(m, "G21 G90\nG0 X10. Y10. Z10.\nG2 X20. Y10. I5 J0\nM30\n", dialect="fanuc")
+    # an arc's radii may differ by its numbers' rounding, up to what four inch decimals make
+    with pytest.raises(GcodeError, match=r"differ by 200\.0 um, more than the 7\.18 um allowed"):
+        compensate_program(m, "G21 G90\nG0 X10. Y10. Z10.\nG2 X20.2 Y10. I5. J0.\nM2\n", dialect="linuxcnc")
+
+
+def test_what_a_review_found_in_the_tables(machines, tmp_path):
+    m = machines["vmc500"]
+    axes, kinds = list(m.axes), list(m.axis_kinds)
+    (tmp_path / "bom.csv").write_text("\ufeffoffset,X_mm,Y_mm,Z_mm\nG54,1,2,3\n", encoding="utf-8")
+    np.testing.assert_allclose(read_work_offsets(tmp_path / "bom.csv", axes, kinds)["G54"], [1e-3, 2e-3, 3e-3])
+    (tmp_path / "twice.txt").write_text("G10 L2 P1 X1. X2. Y1. Z1.\n")
+    with pytest.raises(GcodeError, match=r"twice\.txt:1:.*X appears twice"):
+        read_work_offsets(tmp_path / "twice.txt", axes, kinds, unit="mm")
+    (tmp_path / "inc.txt").write_text("G91 G10 L2 P1 X1. Y1. Z1.\n")
+    with pytest.raises(GcodeError, match=r"inc\.txt:1: G91"):
+        read_work_offsets(tmp_path / "inc.txt", axes, kinds, unit="mm")
+    with pytest.raises(GcodeError, match="not a regular file"):
+        read_work_offsets("/dev/zero", axes, kinds)
+    # a table without G54 says so
+    _, report = compensate_program(m, "G0 X1 Y2 Z3\n", work_offsets={"G55": np.zeros(3)})
+    assert any("gives no G54" in w for w in report.warnings)

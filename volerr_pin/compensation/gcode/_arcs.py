@@ -21,6 +21,10 @@ MAX_ARC = 100.0
 MAX_TURNS = 1000
 
 
+#: the most an arc's radii may differ by for its numbers' rounding: an inch program's four decimals [m]
+MOST_RADIUS_SLACK = 2 * math.sqrt(2) * 0.0001 * INCH
+
+
 def radius_slack(block: Block, letters, scale: float) -> float:
     """How far an arc's start and end radii may differ [m]: :data:`RADIUS_SLACK`, or what
     the block's numbers, rounded to their last digit, may make of it, if more.
@@ -30,7 +34,8 @@ def radius_slack(block: Block, letters, scale: float) -> float:
     the end radius (the end, the start and the offsets) by up to three times that, so the two
     differ by up to ``2 sqrt(2) h``. An inch program to four decimals may so differ by 7.2 um,
     as controllers accept; a millimetre one to three by 2.8 um. Whole numbers are taken as
-    exact.
+    exact, and programs of fewer digits get no more than :data:`MOST_RADIUS_SLACK` (LinuxCNC
+    refuses 0.2 mm, which one decimal would allow).
 
     Parameters
     ----------
@@ -48,7 +53,9 @@ def radius_slack(block: Block, letters, scale: float) -> float:
     """
     decimals = max((len(w.text) - w.text.index(".") - 1 for w in block.words if w.letter in letters and "." in w.text),
                    default=0)
-    return max(RADIUS_SLACK, 2 * math.sqrt(2) * 10.0 ** -decimals * scale) if decimals else RADIUS_SLACK
+    if not decimals:
+        return RADIUS_SLACK
+    return max(RADIUS_SLACK, min(2 * math.sqrt(2) * 10.0 ** -decimals * scale, MOST_RADIUS_SLACK))
 
 
 def centre_from_radius(start: np.ndarray, end: np.ndarray, radius: float, clockwise: bool) -> np.ndarray | None:

@@ -267,6 +267,42 @@ def check_points(dialect: Dialect, words, letters: str, where: str) -> None:
                              f"({w.letter}{w.value:g}. for {w.value:g} units)")
 
 
+_WHOLE_WORD = re.compile(r"(?<![A-Z#\]_$])([A-Z])[ \t]*([-+]?[0-9]+)(?![0-9.])", re.IGNORECASE)
+
+
+def check_lines_points(dialect: Dialect, lines, letters: str, source: str) -> None:
+    """:func:`check_points` on a program's lines as written, before its parameters are
+    followed (a value computed from them is no count of increments).
+
+    Parameters
+    ----------
+    dialect : Dialect
+        The program's dialect.
+    lines : iterable of (str, str)
+        Its lines.
+    letters : str
+        The coordinate letters (the machine's axes, a lathe's U W).
+    source : str
+        Its name, for messages.
+
+    Raises
+    ------
+    GcodeError
+        A coordinate other than zero without a decimal point, naming line and column.
+    """
+    from ._lexer import mask_comments, Word
+
+    if not dialect.decimal_point:
+        return
+    for k, (body, _) in enumerate(lines, start=1):
+        if not any(ch.isdigit() for ch in body):
+            continue
+        code = mask_comments(body, k, source)
+        words = [Word(m.group(1).upper(), float(m.group(2)), m.group(0), m.start(), m.end())
+                 for m in _WHOLE_WORD.finditer(code) if m.group(1).upper() in letters]
+        check_points(dialect, words, letters, f"{source}:{k}")
+
+
 def dialect_of(name: str | Dialect | None) -> Dialect:
     """The dialect of a name.
 

@@ -61,7 +61,7 @@ def named(problem: Problem, kept: str = "") -> str:
         "; what it changes is not followed, so the blocks after it may be misread" if problem.modes_unknown else "")
 
 
-def offset_notes(block: Block, origin_given: bool, noted: set) -> list[str]:
+def offset_notes(block: Block, origin_given: bool, noted: set, known=()) -> list[str]:
     """What to tell (once a program) of the work and tool offsets a block selects, which the
     model does not know: compensate's report and predict's notes say it alike.
 
@@ -73,6 +73,8 @@ def offset_notes(block: Block, origin_given: bool, noted: set) -> list[str]:
         A program origin was given (then a work offset is what it stands for).
     noted : set
         What was told already (``"offset"``, ``"tool"``); updated in place.
+    known : collection of str, optional
+        Work offsets whose values the program set (G10): nothing to tell of them.
 
     Returns
     -------
@@ -81,7 +83,8 @@ def offset_notes(block: Block, origin_given: bool, noted: set) -> list[str]:
     """
     out = []
     for w in block.words:
-        if w.letter == "G" and w.value in WORK_OFFSETS and "offset" not in noted and not origin_given:
+        if (w.letter == "G" and w.value in WORK_OFFSETS and "offset" not in noted and not origin_given
+                and f"G{w.value:g}" not in known):
             noted.add("offset")
             out.append(f"work offset G{w.value:g}: program coordinates are taken as axis positions (give the work "
                        "offset as the program origin, in mm / deg)")
@@ -162,7 +165,13 @@ def classify(reader: Interpreter, line: str, number: int, state: ModalState,
         block = parse_block(line, number, reader.source, code)
     except GcodeError as err:
         raise (foreign(dialect, line, number, reader.source) or err) from None
-    check_points(dialect, block.words, reader.coordinate_letters, f"{reader.source}:{number}")
+    if dialect.decimal_point and not reader.points_checked:
+        letters = reader.coordinate_letters
+        gs = [w.value for w in block.words if w.letter == "G"]
+        if any(g in (2, 3) for g in gs) or (state.motion in (2, 3) and not any(
+                g in CANNED or g in dialect.lathe_cycles or g in (0, 1, 10) for g in gs)):
+            letters += "IJKR"   # an arc's centre and radius (elsewhere K and R may be counts: G81 K3, G73 R3)
+        check_points(dialect, block.words, letters, f"{reader.source}:{number}")
     return block, _problem(reader, block, state)
 
 def _in_region(reader: Interpreter, code: str, number: int, state: ModalState) -> Problem:
@@ -319,7 +328,9 @@ def skip(reader: Interpreter, line: str, state: ModalState, block: Block | None 
         if macro and macro[1]:  # a jump, loop or variable word: where the machine goes is not known
             state.lose_position(f"line {number}")
     reader.work_offset(words, number, state)
-    state.apply_m([v for letter, v in words if letter == "M"], f"{reader.source}:{number}")
+    ms = [v for letter, v in words if letter == "M"]
+    state.apply_m(ms, f"{reader.source}:{number}")
+    reader.restored(ms, state)
     gs = [reader.dialect.g_aliases.get(v, v) for letter, v in words if letter == "G"]
     state.apply_g(gs)
     reader.tool_tip_codes(gs, state, number)

@@ -115,7 +115,7 @@ def check_letters(block: Block, state: ModalState, coord_words: list[Word], axes
             raise GcodeError(f"{here}: {why}")
         if has_m is None:
             has_m = any(v.letter == "M" for v in block.words)
-        if letter == "P" and (arc_move or has_m or any(g.value in (54.1, 4) for g in gs)):
+        if letter == "P" and (arc_move or has_m or any(g.value in (54.1, 154, 4) for g in gs)):
             continue
         if letter in "QL" and has_m:
             continue

@@ -69,8 +69,9 @@ LETTERS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ@^")
 #: X and Z, arcs by I K or R, and F S N, which the cycle ignores (LinuxCNC reads nothing else of
 #: a profile: its other G codes, fillets A and chamfers C, U and W, keep the profile as written)
 PROFILE_WORDS = frozenset("GXZIKRFSN")
-#: the largest subroutine file read beside a program [bytes]
-MOST_SUBROUTINE_FILE = 16 << 20
+#: the largest subroutine file read beside a program, and the most all of them may hold [bytes]
+MOST_SUBROUTINE_FILE = 4 << 20
+MOST_SUBROUTINE_BYTES = 8 << 20
 #: a call of a named subroutine, which LinuxCNC looks up in a file of its name when the program
 #: does not define it (``o<rcone> call`` runs rcone.ngc's ``o<rcone> sub``)
 NAMED_CALL = re.compile(r"^\s*(?:N[0-9.]+\s*)?O\s*<\s*([^>]*?)\s*>\s*CALL\b", re.IGNORECASE)
@@ -327,7 +328,10 @@ class _Expander(Values):
             key = m.group(1) if m.group(1) else str(int(m.group(2)))
             if not key.startswith("<") and not 1 <= int(key) <= 5602:
                 return m.group(0)
-            return f"{self._lookup(key.replace(' ', '').replace(chr(9), ''), line, 0):.6f}"
+            try:
+                return f"{self._lookup(key.replace(' ', '').replace(chr(9), ''), line, 0):.6f}"
+            except Unfollowable:   # known only to the machine, or never set: it prints it as it stands
+                return m.group(0)
 
         return MESSAGE.sub(lambda m: m.group(1) + MESSAGE_PARAMETER.sub(value, m.group(2)) + ")", body)
 
@@ -618,7 +622,8 @@ def subroutine_files(lines: list[tuple[str, str]], source: str, folder) -> tuple
     Hostile files are refused: a name that is no plain file name (a folder, ``..``), a file that
     resolves outside ``folder`` (a link), one that is not a regular file, larger than
     :data:`MOST_SUBROUTINE_FILE` or not UTF-8 text. A file not there leaves the call not
-    followed (the running machine may find it elsewhere).
+    followed (the running machine may find it elsewhere). All the files a program calls hold at
+    most :data:`MOST_SUBROUTINE_BYTES`.
 
     Parameters
     ----------
@@ -653,6 +658,7 @@ def subroutine_files(lines: list[tuple[str, str]], source: str, folder) -> tuple
               if (m := NAMED_CALL.match(body))]
     extra: list[tuple[str, str]] = []
     where_of: dict[int, str] = {}
+    total = 0
     while wanted:
         name, caller = wanted.pop(0)
         if name in defined:
@@ -667,9 +673,10 @@ def subroutine_files(lines: list[tuple[str, str]], source: str, folder) -> tuple
         if path.resolve().parent != root:
             raise GcodeError(f"{caller}: o<{name}> call: {path} leads outside {folder} (a link): not read")
         file = ProgramFile(path, "subroutine file")
-        if file.size > MOST_SUBROUTINE_FILE:
+        total += file.size
+        if file.size > MOST_SUBROUTINE_FILE or total > MOST_SUBROUTINE_BYTES:
             raise GcodeError(f"{path}: {file.size:,} bytes, more than a subroutine file read beside a program "
-                             f"({MOST_SUBROUTINE_FILE:,})")
+                             f"({MOST_SUBROUTINE_FILE:,}, and {MOST_SUBROUTINE_BYTES:,} for all a program calls)")
         body_lines = list(file.lines())
         start = next((k for k, (body, _) in enumerate(body_lines)
                       if (m := NAMED_SUB.match(body)) and m.group(1).lower() == name and m.group(2).upper() == "SUB"),

@@ -10,6 +10,7 @@ tool-tip programming, G43, G44, G49 and TRAFOOF end it; the position is carried 
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -182,7 +183,10 @@ class Interpreter:
         self.lathe = "X" in self.axes and "Z" in self.axes and "Y" not in self.axes
         #: the letters whose words are coordinates (checked for a decimal point where the dialect
         #: reads whole numbers as increments)
-        self.coordinate_letters = "".join(self.axes) + "IJKR" + ("UW" if self.lathe else "")
+        self.coordinate_letters = "".join(self.axes) + ("UW" if self.lathe else "")
+        #: whether the program's lines were checked so already (an expanded program: its blocks as
+        #: run hold the parameters' values, which are no increments)
+        self.points_checked = False
         if origin is not None and work_offsets:
             raise GcodeError("origin stands for the work offset in force when no table is given: give origin or "
                              "work_offsets, not both", parameters=("origin", "work_offsets"))
@@ -192,10 +196,19 @@ class Interpreter:
         self.offsets: dict[str, np.ndarray] = {
             str(name): axis_vector(v, f"work_offsets[{name!r}]", self.axes) for name, v in (work_offsets or {}).items()}
         self.table_given = bool(self.offsets)
+        self.programmed: set[str] = set()   # offsets the program's G10 blocks set
         self.external = self.offsets.pop("EXT", np.zeros(len(self.axes)))
+        for name in list(self.offsets):   # FANUC's additional offsets are Haas's G154 Pn (G110 - G129)
+            extended = re.fullmatch(r"G(54\.1|154) P([0-9]+)", name)
+            if extended:
+                other = "G154" if extended.group(1) == "54.1" else "G54.1"
+                self.offsets.setdefault(f"{other} P{extended.group(2)}", self.offsets[name])
         if "G54" in self.offsets:   # the offset in force when a program starts
             self.origin = self.offsets["G54"] + self.external
         self.notes = Warnings()
+        if self.table_given and "G54" not in self.offsets:
+            self.notes.note("the work-offset table gives no G54, which is in force when a program starts: the blocks "
+                            "before the program selects an offset are read with the program's zero at the axes' zero")
         self._noted: set = set()
         self._told: list[tuple[int, str]] = []
         self._modes: dict[str, Programming] = {}
@@ -441,6 +454,7 @@ class Interpreter:
         if ms:
             # LinuxCNC saves and restores the modes before a block's G codes (G91 M72 is incremental)
             state.apply_m(ms, self.where(block))
+            self.restored(ms, state)
         if gs:
             self.work_offset([(w.letter, w.value) for w in block.words], block.number, state)
             state.apply_g(gs)
@@ -577,7 +591,8 @@ class Interpreter:
                 self._use(name, self.offsets[name], number, state)
                 continue
             if values is None:
-                was = f"from {state.offset[0]} (line {state.offset[1]})" if state.offset else "at the start"
+                was = (f"from {state.offset[0]} (line {state.offset[1]})" if state.offset and state.offset[1] else
+                       f"from {state.offset[0]} (in force when the program starts)" if state.offset else "at the start")
                 given = "it is not in the work-offset table given" if self.table_given else "its values are not known"
                 raise GcodeError(f"{self.source}:{number}: {name} changes the work offset {was}, and {given}: give "
                                  "the controller's work offsets (work_offsets: a CSV, LinuxCNC's parameter file or "
@@ -594,6 +609,23 @@ class Interpreter:
                              "axis with G10 L2", parameters=("work_offsets",))
         self.origin = values + self.external
         state.offset = (name, number)
+
+    def restored(self, codes, state: ModalState) -> None:
+        """Take the zero of the work offset LinuxCNC's M72 restored (M70 saved it with the modes).
+
+        Parameters
+        ----------
+        codes : list of float
+            The block's M codes.
+        state : ModalState
+            The modal state after them.
+        """
+        if not (state.linuxcnc and 72 in codes):
+            return
+        if state.offset is None:
+            self.origin = self.given_origin + self.external
+        elif state.offset[0] in self.offsets:
+            self.origin = self.offsets[state.offset[0]] + self.external
 
     def set_offset(self, words: list[tuple[str, float]], number: int, state: ModalState) -> str | None:
         """Follow a G10 L2 / L20 block that sets a work offset.
@@ -632,17 +664,19 @@ class Interpreter:
             state.offset = ("G54", 0)
             self.offsets.setdefault("G54", self.origin - self.external)
         relative = ls[0] == 20 and not self.dialect.l20_extended   # LinuxCNC: the position reads as the values
-        absolute = state.absolute
-        for letter, v in words:   # (G91 G10 ...: the block's own distance mode)
+        absolute, inch = state.absolute, state.inch
+        for letter, v in words:   # (G91 G20 G10 ...: the block's own distance mode and units)
             if letter == "G" and v in (90, 91):
                 absolute = v == 90
+            elif letter == "G" and v in (20, 21):
+                inch = v == 20
         if relative and not all(state.known[self._index[a]] for a, _ in axis_words):
             return None
         old = self.external if target == "EXT" else self.offsets.get(target)
         values = np.full(len(self.axes), np.nan) if old is None else old.copy()
         for letter, v in axis_words:
             j = self._index[letter]
-            amount = self.to_si(letter, v, state.inch)
+            amount = self.to_si(letter, v, inch)
             if relative:
                 values[j] = state.position[j] - self.external[j] - amount   # the zero where the axis reads it
             elif not absolute and self.dialect.offsets_incremental:
@@ -654,11 +688,11 @@ class Interpreter:
         if target == "EXT":
             if np.isnan(values).any():
                 return None
+            self.origin = self.origin + values - self.external   # (every work offset adds it)
             self.external = values
-            if state.offset is not None:
-                self.origin = self.offsets[state.offset[0]] + values
             return "the external offset"
         self.offsets[target] = values
+        self.programmed.add(target)
         if state.offset is not None and state.offset[0] == target:
             self._use(target, values, number, state)
         return target

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import io
+import stat
 import math
 import re
 from pathlib import Path
@@ -27,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ...base import INCH, MM
-from ._lexer import GcodeError, mask_comments, parse_block
+from ._lexer import GcodeError, check_words, mask_comments, parse_block
 
 __all__ = ["LINUXCNC_P", "MOST_TABLE_BYTES", "offset_name", "read_work_offsets", "g10_target"]
 
@@ -62,7 +63,7 @@ def offset_name(g: float, words: list[tuple[str, float]], extended: str = "G54.1
         return f"G154 P{int(g) - 109}"
     if g in (54.1, 154):
         p = [v for letter, v in words if letter == "P"]
-        return f"G{g:g} P{p[0]:g}" if p else f"G{g:g}"
+        return f"G{g:g} P{p[0]:g}" if p else f"G{g:g} P1"   # (FANUC: G54.1 alone is G54.1 P1)
     return f"G{g:g}"
 
 
@@ -142,12 +143,20 @@ def read_work_offsets(path, axes: list[str], kinds: list[str], unit: str | None 
     """
     path = Path(path)
     where = str(path)
-    size = path.stat().st_size
+    try:
+        info = path.stat()
+    except OSError as err:
+        raise GcodeError(f"{where}: cannot read the work-offset table: {err.strerror}",
+                         parameters=("work_offsets",)) from None
+    if not stat.S_ISREG(info.st_mode):
+        raise GcodeError(f"{where}: not a regular file (a folder, device, pipe or socket); give a work-offset table",
+                         parameters=("work_offsets",))
+    size = info.st_size
     if size > MOST_TABLE_BYTES:
         raise GcodeError(f"{where}: {size:,} bytes, more than a work-offset table holds (at most "
                          f"{MOST_TABLE_BYTES:,})", parameters=("work_offsets",))
     try:
-        text = path.read_bytes().decode("utf-8")
+        text = path.read_bytes().decode("utf-8").removeprefix("\ufeff")   # (a byte order mark, as Excel writes)
     except UnicodeDecodeError as err:
         raise GcodeError(f"{where}: not UTF-8 text (byte {err.start})", parameters=("work_offsets",)) from None
     if unit is not None and unit not in ("mm", "inch"):
@@ -263,7 +272,11 @@ def _read_fanuc(lines, where: str, axes, kinds, length: float) -> dict[str, np.n
         if not stripped or stripped.startswith("%") or re.fullmatch(r"[O:][0-9]+", stripped):
             continue
         block = parse_block(ln, k, where, code)
+        check_words(block, where)
         check_points(fanuc, block.words, "".join(axes), f"{where}:{k}")
+        if any(w.letter == "G" and w.value == 91 for w in block.words):
+            raise GcodeError(f"{where}:{k}: G91: a listing's offsets are absolute values; an increment is not read",
+                             parameters=("work_offsets",))
         words = [(w.letter, w.value) for w in block.words if w.letter != "N"]
         ls = [v for letter, v in words if letter == "L"]
         ps = [v for letter, v in words if letter == "P"]

@@ -18,6 +18,7 @@ import numpy as np
 from .._moves import ARC, LINE, POINT
 from .._path import PathCompensator
 from ...model import Machine, axis_jacobian
+from ._dialect import check_lines_points
 from ._flow import Flow
 from . import _kept as kept, _macros as macros
 from ._lexer import LATHE_CYCLES, PROGRAM_END, Block, GcodeError, mask_comments, split_lines
@@ -506,7 +507,7 @@ CALLS = re.compile(r"\bCALL\b|(?<![A-Z])M[ \t]*0*98(?![0-9])|(?<![A-Z])G[ \t]*0*
 def _note_offsets(program: Program, block: Block) -> None:
     """Warn (once) of work and tool offsets, which the model does not know."""
     reader = program.reader
-    for text in kept.offset_notes(block, reader.origin_given or reader.table_given, program._noted):
+    for text in kept.offset_notes(block, reader.origin_given or reader.table_given, program._noted, reader.programmed):
         program.reader.notes.add(block.number, text)
 
 
@@ -522,6 +523,9 @@ def _expanded(program: Program, lines: list[tuple[str, str]]) -> list[tuple[str,
         return lines
     if expansion is None:
         return lines
+    reader = program.reader
+    check_lines_points(reader.dialect, lines, reader.coordinate_letters, program.source)
+    reader.points_checked = True
     program._origin = expansion.origin
     program._lines_in = len(lines)
     program.reader.notes.origin = expansion.origin

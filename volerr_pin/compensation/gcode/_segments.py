@@ -13,7 +13,7 @@ from ._lexer import PROGRAM_END, GcodeError, mask_comments, split_lines
 from ._modal import Interpreter
 from ._polar import has_polar, read_polar
 from ._source import ProgramFile
-from ._dialect import choose
+from ._dialect import check_lines_points, choose
 
 __all__ = ["interpret"]
 
@@ -84,6 +84,8 @@ def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str,
     if expansion is None:
         batch = _moves(reader, lines, source, None)
     else:
+        check_lines_points(reader.dialect, lines, reader.coordinate_letters, source)
+        reader.points_checked = True
         try:
             batch = _moves(reader, expansion.lines, source, expansion.origin)
         except GcodeError as err:
@@ -130,7 +132,7 @@ def _moves(reader: Interpreter, lines, source: str, origin) -> MoveBatch:
             lost_at = at if state.lost != lost else lost_at
             continue
         if block.words:
-            notes += [f"line {at}: {text}" for text in kept.offset_notes(block, origin_given, noted)]
+            notes += [f"line {at}: {text}" for text in kept.offset_notes(block, origin_given, noted, reader.programmed)]
         move = reader.advance(block, state, check_travel=False)
         if move is not None:
             # a rapid, or a move from an unknown position: only its end is meaningful

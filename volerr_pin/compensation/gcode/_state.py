@@ -82,14 +82,15 @@ class ModalState:
 
     def modes(self) -> tuple:
         """The modes LinuxCNC's M70 saves and M72 restores, as far as they change how blocks read:
-        plane, distance, arc centre distance, units, feed mode (the motion mode is not among them).
+        plane, distance, arc centre distance, units, feed mode, work offset (the motion mode is
+        not among them).
 
         Returns
         -------
         tuple
-            ``(plane, absolute, centres_absolute, inch, inverse_time)``.
+            ``(plane, absolute, centres_absolute, inch, inverse_time, offset)``.
         """
-        return self.plane, self.absolute, self.centres_absolute, self.inch, self.inverse_time
+        return self.plane, self.absolute, self.centres_absolute, self.inch, self.inverse_time, self.offset
 
     def apply_m(self, codes: Iterable[float], where: str) -> None:
         """Apply the M codes of a block that save and restore the modes (M70 - M73).
@@ -117,7 +118,8 @@ class ModalState:
                 if self.saved is None:
                     raise GcodeError(f"{where}: M72 restores the modes M70 saved, and none are saved (no M70 "
                                      "before it, or M71 since)")
-                self.plane, self.absolute, self.centres_absolute, self.inch, self.inverse_time = self.saved[0]
+                (self.plane, self.absolute, self.centres_absolute, self.inch, self.inverse_time,
+                 self.offset) = self.saved[0]   # (the reader takes the offset's zero: Interpreter.restored)
 
     def apply_g(self, codes: Iterable[float]) -> None:
         """Apply the modal G codes of a block (motion, plane, distance, arc centre distance and
