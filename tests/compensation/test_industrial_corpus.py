@@ -645,3 +645,43 @@ def test_the_fanuc_compatible_programs_are_read_by_rs274_with_the_same_moves(mac
         names.append(name)
     print(f"rs274 read {read} FANUC / Haas programs with the same moves: {', '.join(names)}")
     assert read >= 3, read
+
+
+@pytest.mark.parametrize("name", [n for n, (d, *_) in CORPUS.items() if d in ("fanuc", "haas")])
+def test_pygcode_reads_the_fanuc_and_haas_programs_and_their_compensation_alike(machines, name):
+    """pygcode (PyPI), a G-code reader of its own, for what rs274 does not read (builder M codes,
+    G54.1, G154, `%` leaders): every comment and every word but the coordinates (whose numbers
+    change) and the motion codes of added pieces is in the program and its compensation as
+    often, and every coordinate it reads in the compensation is the number the product wrote,
+    with its decimal point (a FANUC control reads a whole number as increments)."""
+    pygcode = pytest.importorskip("pygcode", reason="pygcode (PyPI) is not installed: pip install -e .[test]")
+    dialect, machine, table, text = CORPUS[name]
+    m = machines[machine]
+    out, report = compensate_program(m, text, source=f"{name}.nc", dialect=dialect, work_offsets=_offsets(m, table))
+    coordinates = set(m.axes) | set("IJKR")
+
+    def read(program: str):
+        comments, kept, numbers = [], [], []
+        for raw in program.splitlines():
+            if raw.startswith("%") or not raw.strip():
+                continue
+            line = pygcode.Line(raw)
+            if line.comment:
+                comments.append(str(line.comment))
+            for w in line.block.words:
+                if w.letter in coordinates:
+                    numbers.append((w.letter, float(w.value), raw))
+                elif not (w.letter == "G" and w.value in (0, 1, 2, 3)):
+                    kept.append(str(w))
+        return comments, sorted(kept), numbers
+
+    before, after = read(text), read(out)
+    assert before[:2] == after[:2], name
+    written = {(letter, raw): float(value) for raw in out.splitlines()
+               for letter, value in re.findall(r"(?<![A-Z])([A-Z])(-?[0-9]*\.[0-9]*)", raw)}
+    for letter, value, raw in after[2]:
+        if report.moves and (letter, raw) in written:
+            assert value == pytest.approx(written[letter, raw], abs=1e-9), (name, raw)
+    assert all("." in w for raw in out.splitlines() if not raw.startswith(("%", "O", "("))
+               for w in re.findall(r"(?<![A-Z])[XYZAB]-?[0-9][0-9.]*", re.sub(r"\(.*?\)", "", raw))
+               if float(w[1:]) != 0), name
