@@ -126,6 +126,9 @@ class Dialect:
         SINUMERIK's statements that move nothing (SOFT, FFWON, COMPCAD, ORIWKS, CYCLE832, MSG,
         ``T="name"`` ...) stand in its blocks beside ISO words: they are kept as written and
         the words around them read (:func:`blank_statements`).
+    expands : bool
+        Its parameters, expressions and O-words are followed as LinuxCNC runs them (not
+        SINUMERIK's, whose R parameters and statements are not LinuxCNC's).
     decimal_point : bool
         A number without a decimal point is a count of least input increments (FANUC's and
         Haas's standard input: ``X10`` is 0.010 mm or 0.0010 inch) unless the control is set to
@@ -153,6 +156,7 @@ class Dialect:
     lathe_cycles: dict = field(default_factory=dict)
     g_aliases: dict = field(default_factory=dict)
     statements: bool = False
+    expands: bool = True
     decimal_point: bool = False
     reads: bool = True
 
@@ -173,8 +177,9 @@ class Dialect:
 
 
 DIALECTS = {
-    "linuxcnc": Dialect("linuxcnc", "LinuxCNC", call_m={98: "subprogram call", 99: "subprogram return"},
-                        linuxcnc_modes=True, offset_p0="current"),
+    "linuxcnc": Dialect("linuxcnc", "LinuxCNC", moving_m={6: "tool change"},
+                        call_m={98: "subprogram call", 99: "subprogram return"}, linuxcnc_modes=True,
+                        offset_p0="current"),
     "fanuc": Dialect("fanuc", "FANUC", moving_m={6: "tool change", 60: "pallet change"},
                      call_m={98: "subprogram call", 99: "subprogram return", 198: "subprogram call from external "
                              "memory"},
@@ -196,7 +201,8 @@ DIALECTS = {
                     lathe_cycles=_LATHE_CYCLES, decimal_point=True),
     # its ISO G-code subset is read; its own language (DEF, R parameters, CR=, cycles ...) is refused by name
     "siemens": Dialect("siemens", "SINUMERIK", m_codes={**dict.fromkeys(range(40, 46), "gear stage")},
-                       call_m={17: "subprogram end"}, builder_m=True, lathe_diameter=True,
+                       moving_m={6: "tool change"}, call_m={17: "subprogram end"}, builder_m=True,
+                       lathe_diameter=True,
                        g_aliases={70: 20, 71: 21, 700: 20, 710: 21},
                        g_codes={60: "exact stop", 9: "exact stop, non-modal", 601: "exact stop window fine",
                                 602: "exact stop window coarse", 603: "exact stop at interpolation end",
@@ -204,7 +210,7 @@ DIALECTS = {
                                 "tolerance", 643: "continuous path, block-internal rounding", 644: "continuous path, "
                                 "rounding with dynamics", 645: "continuous path, tangential rounding",
                                 450: "corner: arc", 451: "corner: intersection", 153: "machine coordinates, frames "
-                                "off (non-modal)"}, extended_offset="G505", statements=True),
+                                "off (non-modal)"}, extended_offset="G505", statements=True, expands=False),
     "heidenhain": Dialect("heidenhain", "HEIDENHAIN", reads=False),
 }
 

@@ -22,7 +22,7 @@ from ...base import INCH, MM, InputError
 from ...model import Machine
 from ._arcs import read_arc
 from ._letters import check_letters, full_circle
-from ._lexer import (AXIS_LETTERS, DIAMETER_AXIS, TOOL_CHANGE_M, TOOL_TIP_OFF, TOOL_TIP_ON, WORK_OFFSETS, Block, GcodeError,
+from ._lexer import (AXIS_LETTERS, DIAMETER_AXIS, TOOL_TIP_OFF, TOOL_TIP_ON, WORK_OFFSETS, Block, GcodeError,
                     Word, check_words)
 from ._dialect import dialect_of
 from ._offsets import offset_name
@@ -469,7 +469,7 @@ class Interpreter:
         move = None
         if (coord_words or full_circle(block, state)) and not dwell:
             move = self._move(block, state, coord_words, check_travel and not state.tool_tip)
-        moving = self.dialect.moving_m or {TOOL_CHANGE_M: "tool change"}
+        moving = self.dialect.moving_m
         for w in block.words:
             if w.letter == "M" and w.value in moving:
                 state.lose_position(f"line {block.number}'s M{w.value:g} {moving[w.value]}")

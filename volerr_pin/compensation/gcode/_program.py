@@ -513,7 +513,7 @@ def _note_offsets(program: Program, block: Block) -> None:
 
 def _expanded(program: Program, lines: list[tuple[str, str]]) -> list[tuple[str, str]]:
     """:meth:`Program.expand`: the lines to run, with the program's report and warnings told."""
-    if program.reader.dialect.name == "siemens":   # (its parameters are not LinuxCNC's)
+    if not program.reader.dialect.expands:
         return lines
     try:
         expansion = macros.expand(lines, program.source, program.most_blocks, program.subroutines)

@@ -77,8 +77,8 @@ def interpret(machine: Machine, program: str | ProgramFile | Iterable[tuple[str,
     else:
         lines = list(program.lines() if isinstance(program, ProgramFile) else program)
     reader.dialect, said = choose(dialect, lines, source)
-    try:   # (SINUMERIK's parameters are not LinuxCNC's)
-        expansion = None if reader.dialect.name == "siemens" else macros.expand(lines, source, subroutines=subroutines)
+    try:
+        expansion = macros.expand(lines, source, subroutines=subroutines) if reader.dialect.expands else None
     except macros.Unfollowable:
         expansion = None   # read as it is, macro blocks kept (as compensate_program reads it)
     if expansion is None:
